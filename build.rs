@@ -1,0 +1,27 @@
+//! Finds Embree 4 and sets the link flags of every artifact of the crate.
+//!
+//! Search order: `EMBREE_DIR` (a directory holding `libembree4.so`), then the project's own
+//! `deps/embree4/lib` (written by `scripts/setup-embree.sh`), then the system linker path.
+//! Artifacts get an rpath to `$ORIGIN` (an installed `libimap.so` finds the Embree and TBB
+//! libraries installed beside it) and to the directory found here (so tests and examples run
+//! from the build tree). The cdylib gets the SONAME `libimap.so.<major>`.
+use std::env;
+use std::path::PathBuf;
+
+fn main() {
+    println!("cargo:rerun-if-env-changed=EMBREE_DIR");
+    let manifest = PathBuf::from(env::var("CARGO_MANIFEST_DIR").unwrap());
+    let local = manifest.join("deps/embree4/lib");
+    println!("cargo:rerun-if-changed={}", local.display());
+
+    let dir = env::var_os("EMBREE_DIR")
+        .map(PathBuf::from)
+        .or_else(|| local.join("libembree4.so").exists().then_some(local));
+    if let Some(dir) = dir {
+        println!("cargo:rustc-link-search=native={}", dir.display());
+        println!("cargo:rustc-link-arg=-Wl,-rpath,{}", dir.display());
+    }
+    println!("cargo:rustc-link-arg=-Wl,-rpath,$ORIGIN");
+    let major = env::var("CARGO_PKG_VERSION_MAJOR").unwrap();
+    println!("cargo:rustc-cdylib-link-arg=-Wl,-soname,libimap.so.{major}");
+}

@@ -1,0 +1,345 @@
+//! Every Embree call of the library: device, scene build, and `intersect`.
+//!
+//! `embree4-sys` 0.0.12 carries the Embree 4.2 headers, whose `RTCHit` lacks the
+//! `instPrimID` field that Embree 4.3+ (built with instance arrays, like the 4.4 library we
+//! provision) writes. Passing the crate's 80-byte `RTCRayHit` would let the library write 4
+//! bytes past it. We therefore hand Embree our own [`RayHit`] with the 4.3+ layout and
+//! spare room after it (checked by a test with a guard word), pass NULL for the optional
+//! intersect arguments, and check the library's version at start-up.
+
+use crate::error::{Error, ImapStatus, Result};
+use crate::scene::PreparedMesh;
+use embree4_sys as rtc;
+use glam::DVec3;
+use std::ffi::{c_char, c_void, CStr};
+use std::sync::Mutex;
+
+/// Embree's `RTCRay`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug)]
+struct Ray {
+    org: [f32; 3],
+    tnear: f32,
+    dir: [f32; 3],
+    time: f32,
+    tfar: f32,
+    mask: u32,
+    id: u32,
+    flags: u32,
+}
+
+/// Embree 4.3+'s `RTCHit` (with `instPrimID`, one instance level).
+#[repr(C)]
+#[derive(Clone, Copy, Debug)]
+struct HitRecord {
+    ng: [f32; 3],
+    u: f32,
+    v: f32,
+    prim_id: u32,
+    geom_id: u32,
+    inst_id: [u32; 1],
+    inst_prim_id: [u32; 1],
+}
+
+/// `RTCRayHit` with the 4.3+ layout, aligned to 16 and followed by a guard that a test
+/// checks is never written.
+#[repr(C, align(16))]
+#[derive(Clone, Copy, Debug)]
+struct RayHit {
+    ray: Ray,
+    hit: HitRecord,
+    guard: [u32; 3],
+}
+
+const INVALID_ID: u32 = u32::MAX;
+const GUARD: u32 = 0xDEAD_BEEF;
+
+/// A ray–triangle hit.
+#[derive(Clone, Copy, Debug)]
+pub struct Hit {
+    pub mesh: u32,
+    pub prim: u32,
+    pub u: f32,
+    pub v: f32,
+    pub t: f64,
+}
+
+struct ErrorSink {
+    last: Mutex<String>,
+}
+
+unsafe extern "C" fn on_error(user: *mut c_void, code: rtc::RTCError, msg: *const c_char) {
+    // SAFETY: `user` is the `ErrorSink` owned by the `Device`, alive as long as the device;
+    // `msg` is NULL or a NUL-terminated string valid during the callback.
+    let (sink, text) = unsafe {
+        let text = if msg.is_null() {
+            String::new()
+        } else {
+            CStr::from_ptr(msg).to_string_lossy().into_owned()
+        };
+        (&*(user as *const ErrorSink), text)
+    };
+    if let Ok(mut last) = sink.last.lock() {
+        *last = format!("{code:?}: {text}");
+    }
+}
+
+/// An Embree device and its error channel.
+pub struct Device {
+    raw: rtc::RTCDevice,
+    errors: Box<ErrorSink>,
+    version: i64,
+}
+
+// SAFETY: Embree devices may be used from any thread (Embree API: all functions are
+// thread-safe except where a scene or geometry is being modified, which we do only from
+// the thread that owns the context).
+unsafe impl Send for Device {}
+// SAFETY: as above; shared access only reads.
+unsafe impl Sync for Device {}
+
+impl Device {
+    pub fn new() -> Result<Self> {
+        // SAFETY: a NULL config selects Embree's defaults.
+        let raw = unsafe { rtc::rtcNewDevice(std::ptr::null()) };
+        if raw.is_null() {
+            // SAFETY: rtcGetDeviceError accepts NULL and reports the creation error.
+            let code = unsafe { rtc::rtcGetDeviceError(std::ptr::null_mut()) };
+            return Err(Error::new(
+                ImapStatus::ImapErrEmbree,
+                format!("rtcNewDevice failed: {code:?}"),
+            ));
+        }
+        let errors = Box::new(ErrorSink {
+            last: Mutex::new(String::new()),
+        });
+        // SAFETY: `raw` is a live device; the sink outlives it (released in Drop first).
+        let version = unsafe {
+            rtc::rtcSetDeviceErrorFunction(
+                raw,
+                Some(on_error),
+                &*errors as *const ErrorSink as *mut c_void,
+            );
+            rtc::rtcGetDeviceProperty(raw, rtc::RTCDeviceProperty::VERSION) as i64
+        };
+        let device = Device {
+            raw,
+            errors,
+            version,
+        };
+        if version < 40000 {
+            return Err(Error::new(
+                ImapStatus::ImapErrEmbree,
+                format!("Embree {version} is too old: libimap needs Embree 4"),
+            ));
+        }
+        Ok(device)
+    }
+
+    /// Embree's version as major·10000 + minor·100 + patch.
+    pub fn version(&self) -> i64 {
+        self.version
+    }
+
+    fn error(&self, what: &str) -> Error {
+        let msg = self
+            .errors
+            .last
+            .lock()
+            .map(|s| s.clone())
+            .unwrap_or_default();
+        Error::new(ImapStatus::ImapErrEmbree, format!("{what} failed: {msg}"))
+    }
+}
+
+impl Drop for Device {
+    fn drop(&mut self) {
+        // SAFETY: the device is live; after release no callback uses the sink.
+        unsafe { rtc::rtcReleaseDevice(self.raw) };
+    }
+}
+
+/// A committed Embree scene of triangle meshes; geometry id = mesh index.
+pub struct Accel {
+    scene: rtc::RTCScene,
+}
+
+// SAFETY: a committed Embree scene is immutable and `rtcIntersect1` may be called on it from
+// any number of threads at once.
+unsafe impl Send for Accel {}
+// SAFETY: as above.
+unsafe impl Sync for Accel {}
+
+impl Accel {
+    /// Builds the BVH over `meshes` (vertices already recentred).
+    pub fn build(device: &Device, meshes: &[PreparedMesh]) -> Result<Self> {
+        // SAFETY: all handles below come from the live `device`; buffers returned by
+        // rtcSetNewGeometryBuffer have exactly the requested element count and stride and
+        // are written before commit.
+        unsafe {
+            let scene = rtc::rtcNewScene(device.raw);
+            if scene.is_null() {
+                return Err(device.error("rtcNewScene"));
+            }
+            let accel = Accel { scene };
+            rtc::rtcSetSceneFlags(scene, rtc::RTCSceneFlags::ROBUST);
+            rtc::rtcSetSceneBuildQuality(scene, rtc::RTCBuildQuality::MEDIUM);
+            for (id, m) in meshes.iter().enumerate() {
+                let geom = rtc::rtcNewGeometry(device.raw, rtc::RTCGeometryType::TRIANGLE);
+                if geom.is_null() {
+                    return Err(device.error("rtcNewGeometry"));
+                }
+                let vb = rtc::rtcSetNewGeometryBuffer(
+                    geom,
+                    rtc::RTCBufferType::VERTEX,
+                    0,
+                    rtc::RTCFormat::FLOAT3,
+                    12,
+                    m.vertices.len(),
+                ) as *mut f32;
+                let ib = rtc::rtcSetNewGeometryBuffer(
+                    geom,
+                    rtc::RTCBufferType::INDEX,
+                    0,
+                    rtc::RTCFormat::UINT3,
+                    12,
+                    m.triangles.len(),
+                ) as *mut u32;
+                if vb.is_null() || ib.is_null() {
+                    rtc::rtcReleaseGeometry(geom);
+                    return Err(device.error("allocating geometry buffers"));
+                }
+                let vs = std::slice::from_raw_parts_mut(vb, 3 * m.vertices.len());
+                for (d, v) in vs.chunks_exact_mut(3).zip(&m.vertices) {
+                    d.copy_from_slice(&v.to_array());
+                }
+                let is = std::slice::from_raw_parts_mut(ib, 3 * m.triangles.len());
+                for (d, t) in is.chunks_exact_mut(3).zip(&m.triangles) {
+                    d.copy_from_slice(t);
+                }
+                rtc::rtcCommitGeometry(geom);
+                rtc::rtcAttachGeometryByID(scene, geom, id as u32);
+                rtc::rtcReleaseGeometry(geom);
+            }
+            rtc::rtcCommitScene(scene);
+            if rtc::rtcGetDeviceError(device.raw) != rtc::RTCError::NONE {
+                return Err(device.error("building the BVH (rtcCommitScene)"));
+            }
+            Ok(accel)
+        }
+    }
+
+    /// Traces one ray with Embree and returns the raw record.
+    #[inline]
+    fn trace(&self, org: DVec3, dir: DVec3) -> RayHit {
+        let mut rh = RayHit {
+            ray: Ray {
+                org: org.as_vec3().to_array(),
+                tnear: 0.0,
+                dir: dir.as_vec3().to_array(),
+                time: 0.0,
+                tfar: f32::INFINITY,
+                mask: u32::MAX,
+                id: 0,
+                flags: 0,
+            },
+            hit: HitRecord {
+                ng: [0.0; 3],
+                u: 0.0,
+                v: 0.0,
+                prim_id: INVALID_ID,
+                geom_id: INVALID_ID,
+                inst_id: [INVALID_ID],
+                inst_prim_id: [INVALID_ID],
+            },
+            guard: [GUARD; 3],
+        };
+        // SAFETY: the scene is committed; `rh` has the layout Embree 4.0–4.4 writes (with
+        // room to spare), is 16-byte aligned, and NULL arguments select the defaults.
+        unsafe {
+            rtc::rtcIntersect1(
+                self.scene,
+                &mut rh as *mut RayHit as *mut rtc::RTCRayHit,
+                std::ptr::null_mut(),
+            )
+        };
+        rh
+    }
+
+    /// The closest hit along `org + t·dir`, t in (0, ∞), in local scene units.
+    #[inline]
+    pub fn intersect(&self, org: DVec3, dir: DVec3) -> Option<Hit> {
+        let rh = self.trace(org, dir);
+        debug_assert_eq!(rh.guard, [GUARD; 3], "Embree wrote past the hit record");
+        (rh.hit.geom_id != INVALID_ID).then_some(Hit {
+            mesh: rh.hit.geom_id,
+            prim: rh.hit.prim_id,
+            u: rh.hit.u,
+            v: rh.hit.v,
+            t: rh.ray.tfar as f64,
+        })
+    }
+
+    /// Traces one ray and returns the guard words after the hit record (test support).
+    #[doc(hidden)]
+    pub fn guard_after_intersect(&self, org: DVec3, dir: DVec3) -> ([u32; 3], bool) {
+        let rh = self.trace(org, dir);
+        (rh.guard, rh.hit.geom_id != INVALID_ID)
+    }
+}
+
+impl Drop for Accel {
+    fn drop(&mut self) {
+        // SAFETY: the scene is live and no intersect call is running (runs borrow `self`).
+        unsafe { rtc::rtcReleaseScene(self.scene) };
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::{Bands, Light, Mesh, MeshDesc, PreparedScene, Scene};
+
+    #[test]
+    fn layout_matches_embree_4_3() {
+        assert_eq!(std::mem::size_of::<Ray>(), 48);
+        assert_eq!(std::mem::size_of::<HitRecord>(), 40 - 4);
+        assert_eq!(std::mem::offset_of!(RayHit, hit), 48);
+        assert_eq!(std::mem::align_of::<RayHit>(), 16);
+    }
+
+    #[test]
+    fn embree_never_writes_past_the_hit_record() {
+        let device = Device::new().unwrap();
+        assert!(device.version() >= 40000);
+        let mut scene = Scene::new(Bands::rgb(), 1.0);
+        scene
+            .materials
+            .push(crate::scene::Material::new(&Default::default(), &scene.bands).unwrap());
+        let desc = MeshDesc {
+            positions: &[-1., -1., 0., 1., -1., 0., 0., 1., 0.],
+            indices: &[0, 1, 2],
+            material: 0,
+            triangle_materials: None,
+            two_sided: false,
+            record: true,
+            exitance: None,
+        };
+        scene
+            .meshes
+            .push(Mesh::new(&desc, 1, &scene.bands).unwrap());
+        scene
+            .lights
+            .push(Light::point([0.0, 0.0, 1.0], &[1.0], &scene.bands).unwrap());
+        let prepared = PreparedScene::new(&scene);
+        let accel = Accel::build(&device, &prepared.meshes).unwrap();
+        let o = DVec3::new(0.0, 0.0, 1.0) - prepared.origin;
+        let (guard, hit) = accel.guard_after_intersect(o, DVec3::new(0.0, 0.0, -1.0));
+        assert!(hit);
+        assert_eq!(guard, [GUARD; 3]);
+        let h = accel.intersect(o, DVec3::new(0.0, 0.0, -1.0)).unwrap();
+        assert_eq!((h.mesh, h.prim), (0, 0));
+        assert!((h.t - 1.0).abs() < 1e-6);
+        assert!(accel.intersect(o, DVec3::new(0.0, 0.0, 1.0)).is_none());
+    }
+}

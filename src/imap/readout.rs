@@ -1,0 +1,95 @@
+//! From accumulators to physical values: irradiance in W/m² per band and the relative
+//! standard error per vertex, plus the global error figure.
+//!
+//! A photon carries Φ/N watts summed over bands (Φ: total emitted power, N: photons), so one
+//! unit of band value is Φ/(N·B) watts; a vertex's irradiance is its energy divided by its
+//! share of the adjacent triangles' area (a third of each), converted to m².
+//!
+//! Error: the scalar estimate of a slot is S = Σ w (its deposits of unit-energy photons),
+//! and its variance over N photons is estimated from the sum of squares Q = Σ w² as
+//! Q − S²/N, treating a photon's deposits on one vertex as one per path (exact on surfaces
+//! a photon reaches at most once; an underestimate where paths return often). The relative
+//! standard error is √(Q − S²/N) / S.
+
+use super::IMap;
+use crate::scene::{PreparedMesh, PreparedScene};
+
+/// Relative error reported for a vertex that received nothing or has no area: 1 (100 %).
+pub const NO_DATA_REL_ERROR: f64 = 1.0;
+
+/// What turns map values into physical ones.
+pub struct Readout<'a> {
+    pub map: &'a IMap,
+    pub scene: &'a PreparedScene,
+    pub photons: u64,
+    pub unit_m: f64,
+}
+
+impl Readout<'_> {
+    /// Watts per unit of band value.
+    fn watts_per_unit(&self) -> f64 {
+        if self.photons == 0 {
+            return 0.0;
+        }
+        self.scene.total_power / (self.photons as f64 * self.map.bands() as f64)
+    }
+
+    /// Irradiance (W/m²) in `band` at every vertex of `mesh` on `side`, into `out`.
+    /// Vertices with zero area (used by no triangle, or only by zero-area ones) get 0.
+    pub fn irradiance(&self, mesh: &PreparedMesh, side: usize, band: usize, out: &mut [f64]) {
+        let k = self.watts_per_unit() / (self.unit_m * self.unit_m);
+        for (v, o) in out.iter_mut().enumerate() {
+            let slot = mesh.slot(v as u32, side).expect("recording mesh");
+            let a = mesh.vertex_area[v];
+            *o = if a > 0.0 {
+                self.map.value(slot, band) * k / a
+            } else {
+                0.0
+            };
+        }
+    }
+
+    /// The standard error of a slot's scalar estimate, in photon units, and the estimate.
+    #[inline]
+    fn sigma(&self, slot: usize) -> (f64, f64) {
+        let (s, q) = self.map.scalar(slot);
+        let n = self.photons.max(1) as f64;
+        ((q - s * s / n).max(0.0).sqrt(), s)
+    }
+
+    /// Relative standard error of every vertex of `mesh` on `side`, into `out`.
+    pub fn rel_error(&self, mesh: &PreparedMesh, side: usize, out: &mut [f64]) {
+        for (v, o) in out.iter_mut().enumerate() {
+            let slot = mesh.slot(v as u32, side).expect("recording mesh");
+            let (sigma, s) = self.sigma(slot);
+            *o = if s > 0.0 && mesh.vertex_area[v] > 0.0 {
+                sigma / s
+            } else {
+                NO_DATA_REL_ERROR
+            };
+        }
+    }
+
+    /// The global error figure: the irradiance-weighted mean of the vertices' relative
+    /// standard errors, Σ σ(E_v) / Σ E_v over every recorded slot with area. `None` before
+    /// any deposit.
+    pub fn global_error(&self) -> Option<f64> {
+        let (mut num, mut den) = (0.0, 0.0);
+        for mesh in &self.scene.meshes {
+            if mesh.slot_base.is_none() {
+                continue;
+            }
+            for (v, &a) in mesh.vertex_area.iter().enumerate() {
+                if a <= 0.0 {
+                    continue;
+                }
+                for side in 0..mesh.sides() {
+                    let (sigma, s) = self.sigma(mesh.slot(v as u32, side).unwrap());
+                    num += sigma / a;
+                    den += s / a;
+                }
+            }
+        }
+        (den > 0.0).then_some(num / den)
+    }
+}

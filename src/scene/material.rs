@@ -1,0 +1,236 @@
+//! Materials: what happens to a photon at a surface.
+//!
+//! A non-dielectric surface has per-band probabilities of diffuse (Lambertian) reflection,
+//! specular (mirror) reflection and diffuse (Lambertian) transmission; the rest is absorbed.
+//! A dielectric surface is a smooth interface between air (outside, the side the normals
+//! point to) and a medium with a wavelength-dependent index of refraction (constant, Cauchy
+//! or Sellmeier) and Beer–Lambert absorption inside; it reflects or refracts by Fresnel.
+
+use super::bands::Bands;
+use crate::error::{bail, check_finite, Result};
+
+/// How the index of refraction depends on the wavelength λ.
+#[derive(Clone, Debug, PartialEq)]
+pub enum IorModel {
+    /// n(λ) = n.
+    Constant(f64),
+    /// n(λ) = A + B/λ² + C/λ⁴, λ in micrometres.
+    Cauchy { a: f64, b: f64, c: f64 },
+    /// n²(λ) = 1 + Σ Bᵢλ²/(λ² − Cᵢ), λ in micrometres, Cᵢ in µm² (Schott's form).
+    Sellmeier { b: [f64; 3], c: [f64; 3] },
+}
+
+impl IorModel {
+    /// The index at wavelength `nm` nanometres.
+    pub fn ior(&self, nm: f64) -> f64 {
+        let l = nm * 1e-3;
+        let l2 = l * l;
+        match *self {
+            IorModel::Constant(n) => n,
+            IorModel::Cauchy { a, b, c } => a + b / l2 + c / (l2 * l2),
+            IorModel::Sellmeier { b, c } => {
+                let s: f64 = (0..3).map(|i| b[i] * l2 / (l2 - c[i])).sum();
+                (1.0 + s).sqrt()
+            }
+        }
+    }
+}
+
+/// A dielectric medium bounded by the mesh's surface.
+#[derive(Clone, Debug)]
+pub struct Dielectric {
+    /// Index of refraction per band.
+    pub ior: Vec<f64>,
+    /// True when the index differs between bands: photons then collapse to one band.
+    pub dispersive: bool,
+    /// Beer–Lambert absorption coefficient per band, in 1/m. `None` when clear.
+    pub absorption_per_m: Option<Vec<f64>>,
+}
+
+/// A surface material, with per-band coefficients.
+#[derive(Clone, Debug)]
+pub struct Material {
+    pub diffuse_reflect: Vec<f64>,
+    pub specular_reflect: Vec<f64>,
+    pub diffuse_transmit: Vec<f64>,
+    pub dielectric: Option<Dielectric>,
+}
+
+/// What the caller describes; the per-band arrays hold 0 values (none), 1 (grey) or one per
+/// band.
+#[derive(Clone, Debug, Default)]
+pub struct MaterialDesc {
+    pub diffuse_reflect: Vec<f64>,
+    pub specular_reflect: Vec<f64>,
+    pub diffuse_transmit: Vec<f64>,
+    pub ior: Option<IorModel>,
+    pub absorption_per_m: Vec<f64>,
+}
+
+impl Material {
+    /// Validates a description against the band layout.
+    pub fn new(desc: &MaterialDesc, bands: &Bands) -> Result<Self> {
+        let per_band = |name: &str, v: &[f64]| -> Result<Vec<f64>> {
+            if v.is_empty() {
+                return Ok(vec![0.0; bands.count()]);
+            }
+            let v = bands.expand(name, v)?;
+            if let Some(i) = v.iter().position(|x| !(0.0..=1.0).contains(x)) {
+                bail!(
+                    ImapErrBadMaterial,
+                    "{name}[{i}] = {} is outside [0, 1]",
+                    v[i]
+                );
+            }
+            Ok(v)
+        };
+        let diffuse_reflect = per_band("diffuse_reflectance", &desc.diffuse_reflect)?;
+        let specular_reflect = per_band("specular_reflectance", &desc.specular_reflect)?;
+        let diffuse_transmit = per_band("diffuse_transmittance", &desc.diffuse_transmit)?;
+        for b in 0..bands.count() {
+            let sum = diffuse_reflect[b] + specular_reflect[b] + diffuse_transmit[b];
+            if sum > 1.0 + 1e-12 {
+                bail!(
+                    ImapErrBadMaterial,
+                    "band {b}: reflectances and transmittance sum to {sum} > 1 (energy would be created)"
+                );
+            }
+        }
+        let dielectric = match &desc.ior {
+            None => {
+                if !desc.absorption_per_m.is_empty() {
+                    bail!(ImapErrBadMaterial, "absorption is given but the material is not a dielectric (no index of refraction)");
+                }
+                None
+            }
+            Some(model) => {
+                if diffuse_reflect
+                    .iter()
+                    .chain(&specular_reflect)
+                    .chain(&diffuse_transmit)
+                    .any(|&x| x != 0.0)
+                {
+                    bail!(ImapErrBadMaterial, "a dielectric reflects and refracts by Fresnel: its diffuse/specular coefficients must be 0");
+                }
+                let params: Vec<f64> = match model {
+                    IorModel::Constant(n) => vec![*n],
+                    IorModel::Cauchy { a, b, c } => vec![*a, *b, *c],
+                    IorModel::Sellmeier { b, c } => b.iter().chain(c).copied().collect(),
+                };
+                check_finite("ior coefficients", &params)?;
+                let ior: Vec<f64> = bands.wavelengths_nm.iter().map(|&l| model.ior(l)).collect();
+                if let Some(i) = ior
+                    .iter()
+                    .position(|n| !(n.is_finite() && *n >= 1.0 && *n < 100.0))
+                {
+                    bail!(
+                        ImapErrBadMaterial,
+                        "index of refraction at {} nm is {} (must be finite, >= 1 and < 100)",
+                        bands.wavelengths_nm[i],
+                        ior[i]
+                    );
+                }
+                let dispersive = ior.iter().any(|&n| n != ior[0]);
+                let absorption_per_m = if desc.absorption_per_m.is_empty() {
+                    None
+                } else {
+                    let a = bands.expand("absorption", &desc.absorption_per_m)?;
+                    if let Some(i) = a.iter().position(|&x| x < 0.0) {
+                        bail!(ImapErrBadMaterial, "absorption[{i}] = {} is negative", a[i]);
+                    }
+                    a.iter().any(|&x| x > 0.0).then_some(a)
+                };
+                Some(Dielectric {
+                    ior,
+                    dispersive,
+                    absorption_per_m,
+                })
+            }
+        };
+        Ok(Material {
+            diffuse_reflect,
+            specular_reflect,
+            diffuse_transmit,
+            dielectric,
+        })
+    }
+}
+
+/// Unpolarised Fresnel reflectance for a ray going from index `n1` into `n2` with
+/// `cos_i` = cosine of the incidence angle (> 0). Returns 1 for total internal reflection.
+pub fn fresnel_dielectric(cos_i: f64, n1: f64, n2: f64) -> f64 {
+    let eta = n1 / n2;
+    let sin_t2 = eta * eta * (1.0 - cos_i * cos_i).max(0.0);
+    if sin_t2 >= 1.0 {
+        return 1.0;
+    }
+    let cos_t = (1.0 - sin_t2).sqrt();
+    let rs = (n1 * cos_i - n2 * cos_t) / (n1 * cos_i + n2 * cos_t);
+    let rp = (n2 * cos_i - n1 * cos_t) / (n2 * cos_i + n1 * cos_t);
+    0.5 * (rs * rs + rp * rp)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn fresnel_at_normal_incidence_and_brewster() {
+        let r = fresnel_dielectric(1.0, 1.0, 1.5);
+        assert!((r - 0.04).abs() < 1e-12);
+        // Brewster: tan θB = n2/n1, rp = 0, R = rs²/2.
+        let tb = 1.5f64.atan();
+        let r = fresnel_dielectric(tb.cos(), 1.0, 1.5);
+        let (ci, ct) = (tb.cos(), (std::f64::consts::FRAC_PI_2 - tb).cos());
+        let rs = (ci - 1.5 * ct) / (ci + 1.5 * ct);
+        assert!((r - 0.5 * rs * rs).abs() < 1e-12);
+        // Total internal reflection beyond the critical angle from glass to air.
+        assert_eq!(fresnel_dielectric(0.5, 1.5, 1.0), 1.0);
+    }
+
+    #[test]
+    fn sellmeier_nbk7_matches_schott_catalogue() {
+        // Schott N-BK7: nd = 1.5168 at 587.6 nm, nF = 1.5224 at 486.1 nm, nC = 1.5143 at 656.3 nm.
+        let bk7 = IorModel::Sellmeier {
+            b: [1.039_612_12, 0.231_792_344, 1.010_469_45],
+            c: [0.006_000_698_67, 0.020_017_914_4, 103.560_653],
+        };
+        assert!((bk7.ior(587.56) - 1.5168).abs() < 1e-4);
+        assert!((bk7.ior(486.13) - 1.5224).abs() < 1e-4);
+        assert!((bk7.ior(656.27) - 1.5143).abs() < 1e-4);
+    }
+
+    #[test]
+    fn material_validation() {
+        use crate::error::ImapStatus::*;
+        let bands = Bands::rgb();
+        let bad = MaterialDesc {
+            diffuse_reflect: vec![0.7],
+            specular_reflect: vec![0.5],
+            ..Default::default()
+        };
+        assert_eq!(
+            Material::new(&bad, &bands).unwrap_err().status,
+            ImapErrBadMaterial
+        );
+        let bad = MaterialDesc {
+            diffuse_reflect: vec![f64::NAN],
+            ..Default::default()
+        };
+        assert_eq!(
+            Material::new(&bad, &bands).unwrap_err().status,
+            ImapErrNonFinite
+        );
+        let glass = MaterialDesc {
+            ior: Some(IorModel::Cauchy {
+                a: 1.5046,
+                b: 0.00420,
+                c: 0.0,
+            }),
+            ..Default::default()
+        };
+        let m = Material::new(&glass, &bands).unwrap();
+        let d = m.dielectric.unwrap();
+        assert!(d.dispersive && d.ior[2] > d.ior[0]);
+    }
+}

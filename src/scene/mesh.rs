@@ -1,0 +1,159 @@
+//! Triangle meshes as the caller describes them, validated on entry.
+
+use super::bands::Bands;
+use crate::error::{bail, check_finite, Result};
+
+/// A validated mesh. Positions are kept in f64 as given; the prepared scene recentres them
+/// before handing f32 copies to Embree.
+#[derive(Clone, Debug)]
+pub struct Mesh {
+    pub positions: Vec<[f64; 3]>,
+    pub triangles: Vec<[u32; 3]>,
+    /// The material of every triangle without a per-triangle id.
+    pub material: u32,
+    /// Optional per-triangle material ids (the mesh's parts).
+    pub triangle_materials: Option<Vec<u32>>,
+    /// Both sides record (and emit) separately; otherwise only the front side, the one the
+    /// normal (v1 − v0) × (v2 − v0) points to.
+    pub two_sided: bool,
+    /// Whether the mesh's vertices accumulate irradiance. Lamps and glass usually do not.
+    pub record: bool,
+    /// Radiant exitance per band in W/m² of the emitting side(s); `None` when not emitting.
+    pub exitance: Option<Vec<f64>>,
+}
+
+/// What the caller passes to `add_mesh`.
+#[derive(Clone, Copy, Debug)]
+pub struct MeshDesc<'a> {
+    /// x, y, z of each vertex, in scene units.
+    pub positions: &'a [f64],
+    /// Three vertex indices per triangle.
+    pub indices: &'a [u32],
+    pub material: u32,
+    pub triangle_materials: Option<&'a [u32]>,
+    pub two_sided: bool,
+    pub record: bool,
+    pub exitance: Option<&'a [f64]>,
+}
+
+impl Mesh {
+    /// Validates a description. `material_count` is the number of materials defined so far.
+    pub fn new(desc: &MeshDesc, material_count: usize, bands: &Bands) -> Result<Self> {
+        if desc.positions.len() % 3 != 0 {
+            bail!(
+                ImapErrInvalidArgument,
+                "positions has {} values, not a multiple of 3",
+                desc.positions.len()
+            );
+        }
+        if desc.indices.len() % 3 != 0 {
+            bail!(
+                ImapErrInvalidArgument,
+                "indices has {} values, not a multiple of 3",
+                desc.indices.len()
+            );
+        }
+        let nv = desc.positions.len() / 3;
+        let nt = desc.indices.len() / 3;
+        if nv == 0 || nt == 0 {
+            bail!(
+                ImapErrEmptyMesh,
+                "mesh has {nv} vertices and {nt} triangles: a mesh needs at least one triangle"
+            );
+        }
+        if nv > u32::MAX as usize / 2 || nt > u32::MAX as usize / 2 {
+            bail!(
+                ImapErrInvalidArgument,
+                "mesh is too large ({nv} vertices, {nt} triangles; at most 2^31 each)"
+            );
+        }
+        check_finite("positions", desc.positions)?;
+        let positions: Vec<[f64; 3]> = desc
+            .positions
+            .chunks_exact(3)
+            .map(|p| [p[0], p[1], p[2]])
+            .collect();
+        let mut triangles = Vec::with_capacity(nt);
+        for (t, tri) in desc.indices.chunks_exact(3).enumerate() {
+            if let Some(&i) = tri.iter().find(|&&i| i as usize >= nv) {
+                bail!(
+                    ImapErrIndexOutOfRange,
+                    "triangle {t} uses vertex {i}, but the mesh has {nv} vertices"
+                );
+            }
+            if tri[0] == tri[1] || tri[1] == tri[2] || tri[0] == tri[2] {
+                bail!(
+                    ImapErrDegenerateTriangle,
+                    "triangle {t} uses a vertex twice ({}, {}, {})",
+                    tri[0],
+                    tri[1],
+                    tri[2]
+                );
+            }
+            triangles.push([tri[0], tri[1], tri[2]]);
+        }
+        let check_material = |what: &str, m: u32| -> Result<()> {
+            if m as usize >= material_count {
+                bail!(
+                    ImapErrUnknownMaterial,
+                    "{what} is material {m}, but only {material_count} materials are defined"
+                );
+            }
+            Ok(())
+        };
+        check_material("the mesh material", desc.material)?;
+        let triangle_materials = match desc.triangle_materials {
+            None => None,
+            Some(ids) => {
+                if ids.len() != nt {
+                    bail!(
+                        ImapErrInvalidArgument,
+                        "triangle_materials has {} ids for {nt} triangles",
+                        ids.len()
+                    );
+                }
+                for (t, &m) in ids.iter().enumerate() {
+                    check_material(&format!("triangle {t}'s material"), m)?;
+                }
+                Some(ids.to_vec())
+            }
+        };
+        let exitance = match desc.exitance {
+            None => None,
+            Some(e) => {
+                let e = bands.expand("exitance", e)?;
+                if let Some(i) = e.iter().position(|&x| x < 0.0) {
+                    bail!(
+                        ImapErrInvalidArgument,
+                        "exitance[{i}] = {} is negative",
+                        e[i]
+                    );
+                }
+                if e.iter().all(|&x| x == 0.0) {
+                    bail!(
+                        ImapErrNoLight,
+                        "the mesh is emitting but its exitance is 0 in every band"
+                    );
+                }
+                Some(e)
+            }
+        };
+        Ok(Mesh {
+            positions,
+            triangles,
+            material: desc.material,
+            triangle_materials,
+            two_sided: desc.two_sided,
+            record: desc.record,
+            exitance,
+        })
+    }
+
+    pub fn sides(&self) -> usize {
+        if self.two_sided {
+            2
+        } else {
+            1
+        }
+    }
+}

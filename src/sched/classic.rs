@@ -1,0 +1,232 @@
+//! The classic scheduler (the first paper, Fig. 1): calculating threads fill portions of
+//! intersection records and push them on a shared stack; the thread that called `imap_run`
+//! takes them off, computes each record's vertex contributions and accumulates them. Only
+//! that thread writes the map, so accumulation needs no locks; it is also the bottleneck the
+//! dynamic scheduler removes.
+//!
+//! Tuned as a fair baseline: portions come from a fixed pool (no allocation in the loop),
+//! each calculating thread sorts its portion by (mesh, triangle) before handing it over so
+//! the accumulator walks the map in memory order, photons collapsed to one band carry one
+//! value instead of a full colour, and the hand-over is a pointer move on a channel.
+
+use super::{Counters, Monitor, PhotonSource, RunContext, RunOutcome, RunParams};
+use crate::imap::IMap;
+use crate::scene::PreparedScene;
+use crate::transport::{Colour, HitSink, PathStats};
+use crossbeam::channel::{self, Receiver, RecvTimeoutError, Sender};
+use std::time::Instant;
+
+/// Records per portion.
+const PORTION_RECORDS: usize = 2048;
+/// Portions in the pool per calculating thread.
+const PORTIONS_PER_THREAD: usize = 4;
+/// `HitRec::band` value of a full-colour record.
+const FULL: u16 = u16::MAX;
+
+/// One ray–surface intersection as the paper's classic scheme stores it.
+#[derive(Clone, Copy, Debug)]
+struct HitRec {
+    /// mesh << 32 | triangle: the sort key.
+    key: u64,
+    u: f32,
+    v: f32,
+    /// Offset of the colour in the portion's colour arena.
+    colour_at: u32,
+    band: u16,
+    side: u8,
+}
+
+/// A portion of intersection records (the paper's IOP).
+struct Portion {
+    recs: Vec<HitRec>,
+    colours: Vec<f32>,
+}
+
+impl Portion {
+    fn new(bands: usize) -> Self {
+        Portion {
+            recs: Vec::with_capacity(PORTION_RECORDS),
+            colours: Vec::with_capacity(PORTION_RECORDS * bands),
+        }
+    }
+
+    fn clear(&mut self) {
+        self.recs.clear();
+        self.colours.clear();
+    }
+}
+
+/// The calculating thread's side: fills portions and hands them over.
+struct PortionSink {
+    current: Option<Portion>,
+    free: Receiver<Portion>,
+    full: Sender<Portion>,
+    wait_s: f64,
+}
+
+impl PortionSink {
+    fn send(&mut self) {
+        if let Some(mut p) = self.current.take() {
+            if p.recs.is_empty() {
+                self.current = Some(p);
+                return;
+            }
+            p.recs.sort_unstable_by_key(|r| r.key);
+            // The receiver only goes away when the driving thread unwinds; the run is
+            // lost then anyway.
+            let _ = self.full.send(p);
+        }
+    }
+}
+
+impl HitSink for PortionSink {
+    fn deposit(&mut self, mesh: u32, prim: u32, side: u8, u: f32, v: f32, colour: &Colour) {
+        if self.current.is_none() {
+            let t = Instant::now();
+            self.current = self.free.recv().ok();
+            self.wait_s += t.elapsed().as_secs_f64();
+        }
+        let Some(p) = self.current.as_mut() else {
+            return;
+        };
+        let colour_at = p.colours.len() as u32;
+        let band = match colour.band() {
+            Some(b) => {
+                p.colours.push(colour.values()[b] as f32);
+                b as u16
+            }
+            None => {
+                p.colours.extend(colour.values().iter().map(|&c| c as f32));
+                FULL
+            }
+        };
+        p.recs.push(HitRec {
+            key: (mesh as u64) << 32 | prim as u64,
+            u,
+            v,
+            colour_at,
+            band,
+            side,
+        });
+        if p.recs.len() == PORTION_RECORDS {
+            self.send();
+        }
+    }
+}
+
+/// Applies a sorted portion to the map: the accumulating thread's work.
+fn accumulate(map: &mut IMap, scene: &PreparedScene, p: &Portion) {
+    for r in &p.recs {
+        let mesh = &scene.meshes[(r.key >> 32) as usize];
+        let tri = mesh.triangles[(r.key & 0xFFFF_FFFF) as usize];
+        let (u, v) = (r.u as f64, r.v as f64);
+        let w = [1.0 - u - v, u, v];
+        let at = r.colour_at as usize;
+        for (&vertex, &w) in tri.iter().zip(&w) {
+            let slot = mesh
+                .slot(vertex, r.side as usize)
+                .expect("deposit on a recording mesh");
+            if r.band == FULL {
+                map.add_colour(slot, w, &p.colours[at..at + map.bands()]);
+            } else {
+                map.add_band(slot, w, r.band as usize, p.colours[at]);
+            }
+        }
+    }
+}
+
+/// Runs the classic scheduler until a stop criterion is met.
+pub fn run(rc: &RunContext, map: &mut IMap, params: &mut RunParams) -> RunOutcome {
+    let source = PhotonSource::new(rc.first_photon, params.photons);
+    let bands = map.bands();
+    let pool = PORTIONS_PER_THREAD * rc.threads + 2;
+    let (free_tx, free_rx) = channel::bounded::<Portion>(pool);
+    let (full_tx, full_rx) = channel::unbounded::<Portion>();
+    for _ in 0..pool {
+        free_tx
+            .send(Portion::new(bands))
+            .expect("pool fits its channel");
+    }
+
+    let mut monitor = Monitor::new(params, rc.elapsed_before_s);
+    let mut counters = Counters {
+        groups: 1,
+        ..Default::default()
+    };
+    let mut stats = PathStats::new(rc.scene.meshes.len());
+    let mut thread_lost = None;
+    let mut busy_s = 0.0;
+
+    std::thread::scope(|s| {
+        let mut handles = Vec::new();
+        for t in 0..rc.threads {
+            let (free, full, source, tracer) =
+                (free_rx.clone(), full_tx.clone(), &source, &rc.tracer);
+            let spawned = std::thread::Builder::new()
+                .name(format!("imap-calc-{t}"))
+                .spawn_scoped(s, move || {
+                    let mut sink = PortionSink {
+                        current: None,
+                        free,
+                        full,
+                        wait_s: 0.0,
+                    };
+                    let mut stats = PathStats::new(tracer.scene.meshes.len());
+                    let mut colour = Colour::new(tracer.bands);
+                    source.trace_all(tracer, &mut colour, &mut sink, &mut stats);
+                    sink.send();
+                    (stats, sink.wait_s)
+                });
+            match spawned {
+                Ok(h) => handles.push(h),
+                Err(e) => {
+                    thread_lost = Some(format!("could not start calculating thread {t}: {e}"));
+                    source.stop();
+                }
+            }
+        }
+        drop(full_tx);
+
+        // The accumulating (calling) thread: apply portions until every calculating thread
+        // has finished and the stack is empty; watch the clock in between.
+        loop {
+            match full_rx.recv_timeout(monitor.timeout()) {
+                Ok(mut p) => {
+                    counters.peak_queue = counters.peak_queue.max(full_rx.len() as u64 + 1);
+                    let t = Instant::now();
+                    accumulate(map, rc.scene, &p);
+                    busy_s += t.elapsed().as_secs_f64();
+                    counters.portions += 1;
+                    p.clear();
+                    let _ = free_tx.send(p);
+                }
+                Err(RecvTimeoutError::Timeout) => {}
+                Err(RecvTimeoutError::Disconnected) => break,
+            }
+            monitor.poll(&source, map, rc);
+        }
+        for (t, h) in handles.into_iter().enumerate() {
+            match h.join() {
+                Ok((st, wait)) => {
+                    stats.merge(&st);
+                    counters.calc_wait_s += wait;
+                }
+                Err(_) => thread_lost = Some(format!("calculating thread {t} panicked")),
+            }
+        }
+    });
+
+    let photons_traced = source.claimed() - rc.first_photon;
+    let wall_s = monitor.wall_s();
+    counters.accum_busy_fraction = if wall_s > 0.0 { busy_s / wall_s } else { 0.0 };
+    let stop = monitor.finish(source.claimed(), rc.hits_before + stats.hits, map, rc);
+    RunOutcome {
+        stats,
+        photons_traced,
+        wall_s,
+        stop,
+        counters,
+        history: monitor.history,
+        thread_lost,
+    }
+}

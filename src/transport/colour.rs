@@ -1,0 +1,161 @@
+//! A photon's colour vector: per-band weights with band mean exactly 1 (unit energy).
+//! After dispersion the photon is collapsed to one band and the vector is that band alone.
+
+/// The colour of a photon in flight.
+#[derive(Clone, Debug)]
+pub struct Colour {
+    c: Vec<f64>,
+    band: Option<usize>,
+}
+
+impl Colour {
+    pub fn new(bands: usize) -> Self {
+        Colour {
+            c: vec![1.0; bands],
+            band: None,
+        }
+    }
+
+    /// Starts a new photon with an emitter's colour.
+    pub fn reset(&mut self, emitted: &[f64]) {
+        self.c.copy_from_slice(emitted);
+        self.band = None;
+    }
+
+    /// Per-band values (all bands; after a collapse only `band()` is non-zero).
+    pub fn values(&self) -> &[f64] {
+        &self.c
+    }
+
+    /// The band the photon was collapsed to, if any.
+    pub fn band(&self) -> Option<usize> {
+        self.band
+    }
+
+    /// Band mean of the colour: the photon's energy in photon units (1 up to rounding).
+    pub fn mean(&self) -> f64 {
+        match self.band {
+            Some(b) => self.c[b] / self.c.len() as f64,
+            None => self.c.iter().sum::<f64>() / self.c.len() as f64,
+        }
+    }
+
+    /// Colour-weighted mean of per-band coefficients: Σ c·k / Σ c, the probability of the
+    /// event whose per-band probabilities are `k`.
+    #[inline]
+    pub fn weighted_mean(&self, k: &[f64]) -> f64 {
+        match self.band {
+            Some(b) => k[b],
+            None => {
+                let (mut ck, mut cs) = (0.0, 0.0);
+                for (c, k) in self.c.iter().zip(k) {
+                    ck += c * k;
+                    cs += c;
+                }
+                ck / cs
+            }
+        }
+    }
+
+    /// Re-weights the colour after an event of probability `p` with per-band probabilities
+    /// `k`: c ← c·k/p. Keeps the band mean unchanged when p = weighted_mean(k).
+    #[inline]
+    pub fn reweight(&mut self, k: &[f64], p: f64) {
+        match self.band {
+            Some(b) => self.c[b] *= k[b] / p,
+            None => {
+                for (c, k) in self.c.iter_mut().zip(k) {
+                    *c *= k / p;
+                }
+            }
+        }
+    }
+
+    /// Collapses to one band chosen with probability proportional to its weight, keeping
+    /// unit energy: the chosen band gets the whole mean times the band count.
+    pub fn collapse(&mut self, u: f64) {
+        if self.band.is_some() {
+            return;
+        }
+        let total: f64 = self.c.iter().sum();
+        let mut target = u * total;
+        let mut chosen = self.c.len() - 1;
+        for (i, &c) in self.c.iter().enumerate() {
+            if target < c {
+                chosen = i;
+                break;
+            }
+            target -= c;
+        }
+        // A zero-weight band can never be chosen, even at the rounding edge.
+        while self.c[chosen] == 0.0 && chosen > 0 {
+            chosen -= 1;
+        }
+        self.c.iter_mut().for_each(|c| *c = 0.0);
+        self.c[chosen] = total;
+        self.band = Some(chosen);
+    }
+
+    /// Beer–Lambert over `dist_m` metres with per-band coefficients `alpha` (1/m): survives
+    /// with the colour-weighted transmittance and is re-weighted; `None` when absorbed.
+    pub fn survive_absorption(&mut self, alpha: &[f64], dist_m: f64, u: f64) -> Option<f64> {
+        let t = |a: f64| if a == 0.0 { 1.0 } else { (-a * dist_m).exp() };
+        let p = match self.band {
+            Some(b) => t(alpha[b]),
+            None => {
+                let (mut ct, mut cs) = (0.0, 0.0);
+                for (c, &a) in self.c.iter().zip(alpha) {
+                    ct += c * t(a);
+                    cs += c;
+                }
+                ct / cs
+            }
+        };
+        if u >= p {
+            return None;
+        }
+        match self.band {
+            Some(_) => {}
+            None => {
+                for (c, &a) in self.c.iter_mut().zip(alpha) {
+                    *c *= t(a) / p;
+                }
+            }
+        }
+        Some(p)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn reweighting_keeps_unit_energy() {
+        let mut c = Colour::new(4);
+        c.reset(&[0.5, 1.5, 1.0, 1.0]);
+        let k = [0.9, 0.1, 0.5, 0.0];
+        let p = c.weighted_mean(&k);
+        c.reweight(&k, p);
+        assert!((c.mean() - 1.0).abs() < 1e-15);
+        assert_eq!(c.values()[3], 0.0);
+        c.survive_absorption(&[1.0, 2.0, 0.0, 5.0], 0.3, 0.0)
+            .unwrap();
+        assert!((c.mean() - 1.0).abs() < 1e-15);
+    }
+
+    #[test]
+    fn collapse_picks_bands_by_weight_and_keeps_energy() {
+        let mut counts = [0usize; 3];
+        let n = 30_000;
+        for i in 0..n {
+            let mut c = Colour::new(3);
+            c.reset(&[0.0, 1.0, 2.0]);
+            c.collapse((i as f64 + 0.5) / n as f64);
+            counts[c.band().unwrap()] += 1;
+            assert!((c.mean() - 1.0).abs() < 1e-15);
+        }
+        assert_eq!(counts[0], 0);
+        assert!((counts[1] as f64 / n as f64 - 1.0 / 3.0).abs() < 1e-3);
+    }
+}

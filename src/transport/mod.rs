@@ -1,0 +1,228 @@
+//! Forward light tracing with unit-energy photons (Khodulev & Kopylov 1996; the first paper,
+//! §1): every photon carries a colour vector whose band mean is exactly 1. At each event
+//! the probability of an outcome is the colour-weighted band average of its coefficient,
+//! and the colour is re-weighted by coefficient / probability, which keeps the mean at 1 and
+//! the estimate unbiased. Paths end by absorption (Russian roulette by the material's own
+//! albedo), never by a silent depth cut: the safety limit on events reports what it drops.
+
+mod colour;
+
+pub use colour::Colour;
+
+use crate::accel::Accel;
+use crate::sampling::{warp, PhotonRng};
+use crate::scene::material::fresnel_dielectric;
+use crate::scene::{Material, PreparedScene};
+use glam::DVec3;
+
+/// Where the tracer sends the photon's hits on recording surfaces.
+pub trait HitSink {
+    /// A photon of colour `colour` arrived on `side` (0 front, 1 back) of triangle `prim`
+    /// of mesh `mesh` at barycentric coordinates (u, v).
+    fn deposit(&mut self, mesh: u32, prim: u32, side: u8, u: f32, v: f32, colour: &Colour);
+}
+
+/// Per-thread tallies of a run; merged after the threads finish.
+#[derive(Clone, Debug, Default)]
+pub struct PathStats {
+    pub photons: u64,
+    pub hits: u64,
+    /// Photon energy (units of one photon) absorbed by each mesh, at its surface or inside
+    /// its medium.
+    pub absorbed: Vec<f64>,
+    pub escaped: f64,
+    /// Energy of photons stopped by the event safety limit.
+    pub dropped: f64,
+    pub dropped_photons: u64,
+}
+
+impl PathStats {
+    pub fn new(meshes: usize) -> Self {
+        PathStats {
+            absorbed: vec![0.0; meshes],
+            ..Default::default()
+        }
+    }
+
+    pub fn merge(&mut self, o: &PathStats) {
+        self.photons += o.photons;
+        self.hits += o.hits;
+        for (a, b) in self.absorbed.iter_mut().zip(&o.absorbed) {
+            *a += b;
+        }
+        self.escaped += o.escaped;
+        self.dropped += o.dropped;
+        self.dropped_photons += o.dropped_photons;
+    }
+}
+
+/// The read-only state every tracing thread shares.
+pub struct Tracer<'a> {
+    pub scene: &'a PreparedScene,
+    pub accel: &'a Accel,
+    pub materials: &'a [Material],
+    pub bands: usize,
+    pub seed: u64,
+    /// Metres per scene unit (Beer–Lambert coefficients are per metre).
+    pub unit_m: f64,
+    /// Safety limit on surface events per path.
+    pub max_events: u32,
+}
+
+/// The medium a photon travels in: air, or the inside of a dielectric mesh.
+#[derive(Clone, Copy)]
+struct Medium {
+    mesh: u32,
+    material: u32,
+}
+
+impl Tracer<'_> {
+    /// Traces photon `k` from its emission to its end. `colour` is scratch space reused
+    /// between photons.
+    pub fn trace(
+        &self,
+        k: u64,
+        colour: &mut Colour,
+        sink: &mut impl HitSink,
+        stats: &mut PathStats,
+    ) {
+        let mut rng = PhotonRng::new(self.seed, k);
+        // Emit: choose a light by power, then a point and a direction on it.
+        let (emitter, mut org, mut dir) = self.scene.emit(&mut rng);
+        colour.reset(&self.scene.emitters[emitter].colour);
+        stats.photons += 1;
+        let mut medium: Option<Medium> = None;
+
+        for _event in 0..self.max_events {
+            let hit = self.accel.intersect(org, dir);
+
+            // Beer–Lambert: survive the segment through an absorbing medium with the
+            // colour-weighted transmittance, re-weighting the colour by band.
+            if let Some(m) = medium {
+                if let Some(alpha) = self.materials[m.material as usize]
+                    .dielectric
+                    .as_ref()
+                    .and_then(|d| d.absorption_per_m.as_ref())
+                {
+                    let dist_m = hit.map_or(f64::INFINITY, |h| h.t) * self.unit_m;
+                    let p = colour.survive_absorption(alpha, dist_m, rng.uniform());
+                    if p.is_none() {
+                        stats.absorbed[m.mesh as usize] += colour.mean();
+                        return;
+                    }
+                }
+            }
+
+            let Some(hit) = hit else {
+                stats.escaped += colour.mean();
+                return;
+            };
+            stats.hits += 1;
+            let mesh = &self.scene.meshes[hit.mesh as usize];
+            let prim = hit.prim as usize;
+            let ng = mesh.normals[prim].as_dvec3();
+            let cos_in = dir.dot(ng);
+            let front = cos_in < 0.0;
+            // The normal on the side the photon came from.
+            let n_in = if front { ng } else { -ng };
+
+            // Deposit on the hit triangle's vertices (the sink applies barycentric weights).
+            if mesh.slot_base.is_some() && (front || mesh.two_sided) {
+                sink.deposit(hit.mesh, hit.prim, u8::from(!front), hit.u, hit.v, colour);
+            }
+
+            // The hit point, rebuilt from the barycentrics (more precise than org + t·dir).
+            let [a, b, c] = mesh.triangles[prim].map(|i| mesh.vertices[i as usize].as_dvec3());
+            let p = a + (b - a) * hit.u as f64 + (c - a) * hit.v as f64;
+            let eps = self.scene.offset_at(p);
+            let material_id = mesh.material(prim);
+            let material = &self.materials[material_id as usize];
+
+            if let Some(d) = &material.dielectric {
+                // Smooth dielectric interface: Fresnel reflection or Snell refraction.
+                if d.dispersive {
+                    colour.collapse(rng.uniform());
+                }
+                let n = d.ior[colour.band().unwrap_or(0)];
+                let (n1, n2) = if front { (1.0, n) } else { (n, 1.0) };
+                let cos_i = (-dir.dot(n_in)).clamp(0.0, 1.0);
+                let r = fresnel_dielectric(cos_i, n1, n2);
+                if rng.uniform() < r {
+                    dir = reflect(dir, n_in);
+                    org = p + n_in * eps;
+                } else {
+                    dir = refract(dir, n_in, cos_i, n1 / n2);
+                    org = p - n_in * eps;
+                    medium = front.then_some(Medium {
+                        mesh: hit.mesh,
+                        material: material_id,
+                    });
+                }
+                continue;
+            }
+
+            // Opaque or translucent surface: choose the event by colour-weighted albedos.
+            let u = rng.uniform();
+            let p_dr = colour.weighted_mean(&material.diffuse_reflect);
+            if u < p_dr {
+                colour.reweight(&material.diffuse_reflect, p_dr);
+                dir = warp::cosine_hemisphere(n_in, rng.uniform(), rng.uniform());
+                org = p + n_in * eps;
+                continue;
+            }
+            let p_sr = colour.weighted_mean(&material.specular_reflect);
+            if u < p_dr + p_sr {
+                colour.reweight(&material.specular_reflect, p_sr);
+                dir = reflect(dir, n_in);
+                org = p + n_in * eps;
+                continue;
+            }
+            let p_dt = colour.weighted_mean(&material.diffuse_transmit);
+            if u < p_dr + p_sr + p_dt {
+                colour.reweight(&material.diffuse_transmit, p_dt);
+                dir = warp::cosine_hemisphere(-n_in, rng.uniform(), rng.uniform());
+                org = p - n_in * eps;
+                continue;
+            }
+            // Absorbed: the path ends here.
+            stats.absorbed[hit.mesh as usize] += colour.mean();
+            return;
+        }
+        stats.dropped += colour.mean();
+        stats.dropped_photons += 1;
+    }
+}
+
+/// Mirror reflection of `d` about unit normal `n`.
+#[inline]
+fn reflect(d: DVec3, n: DVec3) -> DVec3 {
+    (d - n * (2.0 * d.dot(n))).normalize()
+}
+
+/// Refraction of `d` through a surface with unit normal `n` on the incident side, incidence
+/// cosine `cos_i` and relative index `eta` = n1/n2 (the caller handled total internal
+/// reflection: Fresnel is 1 there).
+#[inline]
+fn refract(d: DVec3, n: DVec3, cos_i: f64, eta: f64) -> DVec3 {
+    let sin_t2 = eta * eta * (1.0 - cos_i * cos_i);
+    let cos_t = (1.0 - sin_t2).max(0.0).sqrt();
+    (d * eta + n * (eta * cos_i - cos_t)).normalize()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn refraction_obeys_snell() {
+        let n = DVec3::Z;
+        let theta: f64 = 0.6;
+        let d = DVec3::new(theta.sin(), 0.0, -theta.cos());
+        let t = refract(d, n, theta.cos(), 1.0 / 1.5);
+        let sin_t = t.x;
+        assert!((sin_t * 1.5 - theta.sin()).abs() < 1e-12);
+        assert!(t.z < 0.0);
+        let r = reflect(d, n);
+        assert!((r - DVec3::new(theta.sin(), 0.0, theta.cos())).length() < 1e-12);
+    }
+}

@@ -1,0 +1,204 @@
+//! Scene builders shared by the integration tests.
+#![allow(dead_code)]
+
+use imap::{Config, Context, MaterialDesc, MeshDesc};
+
+/// A triangulated mesh: xyz positions and triangle indices.
+pub struct Geometry {
+    pub positions: Vec<f64>,
+    pub indices: Vec<u32>,
+}
+
+impl Geometry {
+    pub fn vertex_count(&self) -> usize {
+        self.positions.len() / 3
+    }
+
+    pub fn vertex(&self, i: usize) -> [f64; 3] {
+        [
+            self.positions[3 * i],
+            self.positions[3 * i + 1],
+            self.positions[3 * i + 2],
+        ]
+    }
+
+    pub fn translated(mut self, d: [f64; 3]) -> Self {
+        for p in self.positions.chunks_exact_mut(3) {
+            for k in 0..3 {
+                p[k] += d[k];
+            }
+        }
+        self
+    }
+
+    pub fn scaled(mut self, s: f64) -> Self {
+        self.positions.iter_mut().for_each(|x| *x *= s);
+        self
+    }
+
+    /// Reverses the winding (flips every normal).
+    pub fn flipped(mut self) -> Self {
+        for t in self.indices.chunks_exact_mut(3) {
+            t.swap(1, 2);
+        }
+        self
+    }
+
+    pub fn desc(&self, material: u32) -> MeshDesc<'_> {
+        MeshDesc {
+            positions: &self.positions,
+            indices: &self.indices,
+            material,
+            triangle_materials: None,
+            two_sided: false,
+            record: true,
+            exitance: None,
+        }
+    }
+}
+
+/// A planar grid z = `z` over [x0, x1] × [y0, y1] with n × n cells, normals +z.
+pub fn grid(n: usize, x0: f64, x1: f64, y0: f64, y1: f64, z: f64) -> Geometry {
+    let mut positions = Vec::new();
+    for j in 0..=n {
+        for i in 0..=n {
+            positions.extend([
+                x0 + (x1 - x0) * i as f64 / n as f64,
+                y0 + (y1 - y0) * j as f64 / n as f64,
+                z,
+            ]);
+        }
+    }
+    let mut indices = Vec::new();
+    let id = |i: usize, j: usize| (j * (n + 1) + i) as u32;
+    for j in 0..n {
+        for i in 0..n {
+            indices.extend([id(i, j), id(i + 1, j), id(i + 1, j + 1)]);
+            indices.extend([id(i, j), id(i + 1, j + 1), id(i, j + 1)]);
+        }
+    }
+    Geometry { positions, indices }
+}
+
+/// A closed sphere of radius `r` (subdivided octahedron, `level` subdivisions), normals
+/// pointing inward (the front side faces the centre).
+pub fn sphere_inward(r: f64, level: u32) -> Geometry {
+    let mut verts: Vec<[f64; 3]> = vec![
+        [1., 0., 0.],
+        [-1., 0., 0.],
+        [0., 1., 0.],
+        [0., -1., 0.],
+        [0., 0., 1.],
+        [0., 0., -1.],
+    ];
+    let mut tris: Vec<[u32; 3]> = vec![
+        [0, 2, 4],
+        [2, 1, 4],
+        [1, 3, 4],
+        [3, 0, 4],
+        [2, 0, 5],
+        [1, 2, 5],
+        [3, 1, 5],
+        [0, 3, 5],
+    ];
+    let mut cache = std::collections::HashMap::new();
+    for _ in 0..level {
+        let mut next = Vec::new();
+        for t in &tris {
+            let mut mid = |a: u32, b: u32| -> u32 {
+                *cache.entry((a.min(b), a.max(b))).or_insert_with(|| {
+                    let (pa, pb) = (verts[a as usize], verts[b as usize]);
+                    let m = [
+                        (pa[0] + pb[0]) / 2.,
+                        (pa[1] + pb[1]) / 2.,
+                        (pa[2] + pb[2]) / 2.,
+                    ];
+                    let l = (m[0] * m[0] + m[1] * m[1] + m[2] * m[2]).sqrt();
+                    verts.push([m[0] / l, m[1] / l, m[2] / l]);
+                    verts.len() as u32 - 1
+                })
+            };
+            let (ab, bc, ca) = (mid(t[0], t[1]), mid(t[1], t[2]), mid(t[2], t[0]));
+            next.extend([[t[0], ab, ca], [ab, t[1], bc], [ca, bc, t[2]], [ab, bc, ca]]);
+        }
+        tris = next;
+    }
+    // Outward winding above; flip to face inward.
+    Geometry {
+        positions: verts.iter().flat_map(|v| v.map(|x| x * r)).collect(),
+        indices: tris.iter().flat_map(|t| [t[0], t[2], t[1]]).collect(),
+    }
+}
+
+/// An axis-aligned box [lo, hi] with `n` × `n` cells per face; `inward` chooses normals
+/// pointing into the box (a room) or out of it (an object).
+pub fn cuboid(lo: [f64; 3], hi: [f64; 3], n: usize, inward: bool) -> Geometry {
+    let mut positions = Vec::new();
+    let mut indices = Vec::new();
+    // Each face: (axis, side) with the outward normal along ±axis.
+    for axis in 0..3 {
+        for &positive in &[false, true] {
+            let (u_ax, v_ax) = ((axis + 1) % 3, (axis + 2) % 3);
+            let base = (positions.len() / 3) as u32;
+            for j in 0..=n {
+                for i in 0..=n {
+                    let mut p = [0.0; 3];
+                    p[axis] = if positive { hi[axis] } else { lo[axis] };
+                    p[u_ax] = lo[u_ax] + (hi[u_ax] - lo[u_ax]) * i as f64 / n as f64;
+                    p[v_ax] = lo[v_ax] + (hi[v_ax] - lo[v_ax]) * j as f64 / n as f64;
+                    positions.extend(p);
+                }
+            }
+            let id = |i: usize, j: usize| base + (j * (n + 1) + i) as u32;
+            // (u × v) = +axis: winding (i,j),(i+1,j),(i+1,j+1) gives normal +axis.
+            let outward_is_ccw = positive;
+            for j in 0..n {
+                for i in 0..n {
+                    let (a, b, c, d) = (id(i, j), id(i + 1, j), id(i + 1, j + 1), id(i, j + 1));
+                    if outward_is_ccw != inward {
+                        indices.extend([a, b, c, a, c, d]);
+                    } else {
+                        indices.extend([a, c, b, a, d, c]);
+                    }
+                }
+            }
+        }
+    }
+    Geometry { positions, indices }
+}
+
+/// A context with the given config.
+pub fn context(config: Config) -> Context {
+    Context::new(config).expect("context")
+}
+
+/// A grey Lambertian material.
+pub fn lambert(ctx: &mut Context, rho: f64) -> u32 {
+    ctx.add_material(&MaterialDesc {
+        diffuse_reflect: vec![rho],
+        ..Default::default()
+    })
+    .unwrap()
+}
+
+/// Photons to trace in a test: `base`, scaled by IMAP_TEST_SCALE (default 1).
+pub fn photons(base: u64) -> u64 {
+    let s: f64 = std::env::var("IMAP_TEST_SCALE")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(1.0);
+    ((base as f64) * s).max(1000.0) as u64
+}
+
+/// Runs `n` photons with no callback.
+pub fn run_photons(ctx: &mut Context, n: u64) -> imap::Report {
+    let mut params = imap::RunParams {
+        photons: n,
+        time_budget_s: 0.0,
+        target_rel_error: 0.0,
+        progress_interval_s: 1.0,
+        max_path_events: 1 << 20,
+        progress: None,
+    };
+    ctx.run(&mut params).expect("run")
+}

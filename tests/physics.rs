@@ -1,0 +1,230 @@
+//! Physics against analytic answers.
+
+mod common;
+
+use common::*;
+use imap::{Config, IorModel, MaterialDesc};
+
+/// Exact expected vertex value of the estimator for an irradiance field `e`: the
+/// hat-function average ∫E·φ_v dA / ∫φ_v dA over the vertex's triangles (the map divides
+/// the barycentric-weighted deposits by a third of each adjacent triangle's area).
+fn hat_average(g: &Geometry, v: usize, e: impl Fn([f64; 3]) -> f64) -> f64 {
+    let m = 48;
+    let (mut num, mut den) = (0.0, 0.0);
+    for t in g.indices.chunks_exact(3) {
+        let Some(k) = t.iter().position(|&i| i as usize == v) else {
+            continue;
+        };
+        let p: Vec<[f64; 3]> = (0..3).map(|j| g.vertex(t[(k + j) % 3] as usize)).collect();
+        let area = {
+            let (a, b) = (sub(p[1], p[0]), sub(p[2], p[0]));
+            let c = [
+                a[1] * b[2] - a[2] * b[1],
+                a[2] * b[0] - a[0] * b[2],
+                a[0] * b[1] - a[1] * b[0],
+            ];
+            0.5 * (c[0] * c[0] + c[1] * c[1] + c[2] * c[2]).sqrt()
+        };
+        // Centroid rule on an m×m subdivision in barycentric coordinates.
+        let mut sum = 0.0;
+        let mut count = 0.0;
+        for i in 0..m {
+            for j in 0..m - i {
+                for up in [true, false] {
+                    if !up && i + j + 1 >= m {
+                        continue;
+                    }
+                    let (b1, b2) = if up {
+                        (
+                            (i as f64 + 1.0 / 3.0) / m as f64,
+                            (j as f64 + 1.0 / 3.0) / m as f64,
+                        )
+                    } else {
+                        (
+                            (i as f64 + 2.0 / 3.0) / m as f64,
+                            (j as f64 + 2.0 / 3.0) / m as f64,
+                        )
+                    };
+                    let w0 = 1.0 - b1 - b2;
+                    let x = [0, 1, 2].map(|c| w0 * p[0][c] + b1 * p[1][c] + b2 * p[2][c]);
+                    sum += e(x) * w0;
+                    count += 1.0;
+                }
+            }
+        }
+        num += sum / count * area;
+        den += area / 3.0;
+    }
+    num / den
+}
+
+fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+
+#[test]
+fn point_source_over_black_plane() {
+    // An isotropic point source of 4π W per band (I = 1 W/sr) at height d over a black
+    // plane: E = I cos θ / r² = I d / r³. A vertex's expected value is that field averaged
+    // with the vertex's hat function (`hat_average`); symmetric vertices around the foot
+    // of the source are averaged in rings to reduce the variance.
+    let d = 1.0;
+    let mut ctx = context(Config {
+        threads: 2,
+        seed: 1,
+        ..Default::default()
+    });
+    let black = lambert(&mut ctx, 0.0);
+    let n_cells = 16; // h = 0.25 d
+    let g = grid(n_cells, -2.0, 2.0, -2.0, 2.0, 0.0);
+    let mesh = ctx.add_mesh(&g.desc(black)).unwrap();
+    let power = 4.0 * std::f64::consts::PI;
+    ctx.add_point_light([0.0, 0.0, d], &[power]).unwrap();
+    let n = photons(12_000_000);
+    run_photons(&mut ctx, n);
+    let nv = g.vertex_count();
+    let (mut e, mut err) = (vec![0.0; nv], vec![0.0; nv]);
+    ctx.rel_error(mesh, 0, &mut err).unwrap();
+    let exact = |x: [f64; 3]| d / (x[0] * x[0] + x[1] * x[1] + d * d).powf(1.5);
+    let c = n_cells as i64 / 2;
+    let id = |i: i64, j: i64| ((c + j) * (n_cells as i64 + 1) + c + i) as usize;
+    // Under the source, beside it, diagonal, and farther out at 51° incidence.
+    let rings: [Vec<usize>; 4] = [
+        vec![id(0, 0)],
+        vec![id(2, 0), id(-2, 0), id(0, 2), id(0, -2)],
+        vec![id(2, 2), id(-2, 2), id(2, -2), id(-2, -2)],
+        vec![id(5, 0), id(-5, 0), id(0, 5), id(0, -5)],
+    ];
+    for band in 0..3 {
+        ctx.irradiance(mesh, 0, band, &mut e).unwrap();
+        for ring in &rings {
+            let k = ring.len() as f64;
+            let mean = ring.iter().map(|&v| e[v]).sum::<f64>() / k;
+            let sigma = ring
+                .iter()
+                .map(|&v| (err[v] * e[v]).powi(2))
+                .sum::<f64>()
+                .sqrt()
+                / k;
+            // The triangulation's diagonals make ring vertices' hat functions differ: average
+            // each one's own expectation.
+            let expected = ring.iter().map(|&v| hat_average(&g, v, exact)).sum::<f64>() / k;
+            let point = exact(g.vertex(ring[0]));
+            let dev = (mean - expected).abs();
+            eprintln!(
+                "band {band}, vertex {:?}: E = {mean:.5} expected {expected:.5} (point value {point:.5}), rel σ {:.4}, {:.2} σ",
+                g.vertex(ring[0]),
+                sigma / mean,
+                dev / sigma
+            );
+            assert!(
+                dev <= 3.0 * sigma,
+                "{:?}: {mean} vs {expected}, {:.2} σ",
+                g.vertex(ring[0]),
+                dev / sigma
+            );
+            assert!(
+                dev <= 0.01 * expected,
+                "{:?}: {mean} vs {expected}: more than 1%",
+                g.vertex(ring[0])
+            );
+        }
+    }
+}
+
+fn integrating_sphere(rho: f64, light: [f64; 3]) {
+    let r = 1.0;
+    let mut ctx = context(Config {
+        threads: 2,
+        seed: 7,
+        ..Default::default()
+    });
+    let wall = lambert(&mut ctx, rho);
+    let g = sphere_inward(r, 4);
+    let mesh = ctx.add_mesh(&g.desc(wall)).unwrap();
+    let power = 10.0;
+    ctx.add_point_light(light, &[power]).unwrap();
+    let n = photons(400_000);
+    let report = run_photons(&mut ctx, n);
+    assert_eq!(report.escaped_w, 0.0, "a closed sphere must not leak");
+    // Area of the polyhedron and the area-weighted mean irradiance.
+    let nv = g.vertex_count();
+    let mut e = vec![0.0; nv];
+    ctx.irradiance(mesh, 0, 1, &mut e).unwrap();
+    let mut area = vec![0.0; nv];
+    let mut total_area = 0.0;
+    for t in g.indices.chunks_exact(3) {
+        let p: Vec<[f64; 3]> = t.iter().map(|&i| g.vertex(i as usize)).collect();
+        let (a, b) = (sub(p[1], p[0]), sub(p[2], p[0]));
+        let c = [
+            a[1] * b[2] - a[2] * b[1],
+            a[2] * b[0] - a[0] * b[2],
+            a[0] * b[1] - a[1] * b[0],
+        ];
+        let ar = 0.5 * (c[0] * c[0] + c[1] * c[1] + c[2] * c[2]).sqrt();
+        total_area += ar;
+        for &i in t {
+            area[i as usize] += ar / 3.0;
+        }
+    }
+    let mean: f64 = e.iter().zip(&area).map(|(e, a)| e * a).sum::<f64>() / total_area;
+    let expected = power / (total_area * (1.0 - rho));
+    // Hits per photon are geometric with success 1 − ρ: the relative standard deviation of
+    // the mean over N photons is √(ρ/N).
+    let sigma = (rho / n as f64).sqrt();
+    let dev = mean / expected - 1.0;
+    eprintln!("ρ = {rho}, light at {light:?}: mean E = {mean:.5}, expected {expected:.5}, deviation {dev:.2e} ({:.2} σ)", dev / sigma);
+    assert!(
+        dev.abs() <= 4.0 * sigma,
+        "ρ = {rho}: mean {mean} vs {expected}"
+    );
+}
+
+#[test]
+fn integrating_sphere_rho_0_5() {
+    integrating_sphere(0.5, [0.0, 0.0, 0.0]);
+}
+
+#[test]
+fn integrating_sphere_rho_0_9_off_centre() {
+    integrating_sphere(0.9, [0.3, -0.2, 0.1]);
+}
+
+#[test]
+fn clear_slab_transmits_the_fresnel_fraction() {
+    // A narrow beam at normal incidence on a clear slab of index n over a black receiver.
+    // Incoherent multiple reflections: T = (1 − R)² / (1 − R²) = (1 − R)/(1 + R).
+    let n_glass = 1.5;
+    let mut ctx = context(Config {
+        threads: 2,
+        seed: 3,
+        ..Default::default()
+    });
+    let black = lambert(&mut ctx, 0.0);
+    let glass = ctx
+        .add_material(&MaterialDesc {
+            ior: Some(IorModel::Constant(n_glass)),
+            ..Default::default()
+        })
+        .unwrap();
+    let slab = cuboid([-1.0, -1.0, 0.0], [1.0, 1.0, 0.2], 2, false);
+    let mut sd = slab.desc(glass);
+    sd.record = false;
+    ctx.add_mesh(&sd).unwrap();
+    let receiver = grid(2, -1.0, 1.0, -1.0, 1.0, -0.5);
+    let rmesh = ctx.add_mesh(&receiver.desc(black)).unwrap();
+    ctx.add_spot_light([0.0, 0.0, 1.0], [0.0, 0.0, -1.0], 1e-3, &[1.0])
+        .unwrap();
+    let n = photons(1_000_000);
+    let report = run_photons(&mut ctx, n);
+    let r = ((n_glass - 1.0) / (n_glass + 1.0)).powi(2);
+    let t_expected = (1.0 - r) / (1.0 + r);
+    let t = ctx.absorbed_w(rmesh).unwrap() / report.emitted_w;
+    let sigma = (t_expected * (1.0 - t_expected) / n as f64).sqrt();
+    eprintln!(
+        "slab: T = {t:.5}, Fresnel {t_expected:.5}, {:.2} σ",
+        (t - t_expected) / sigma
+    );
+    assert!((t - t_expected).abs() <= 4.0 * sigma);
+    assert!((report.escaped_w / report.emitted_w - (1.0 - t_expected)).abs() <= 4.0 * sigma);
+}
