@@ -1,11 +1,14 @@
 #!/usr/bin/env bash
-# System packages libimap needs to build and test on Debian (run as root; idempotent).
+# System packages libimap needs to build and test on Debian (as root, or through sudo;
+# idempotent): libclang for bindgen, patchelf for the Embree libraries, cmake, unzip,
+# pkg-config, and pip (to fetch the pinned Embree wheel) when the machine has none.
 set -euo pipefail
-PKGS="libclang-dev patchelf cmake unzip pkg-config valgrind python3-pip"
+PKGS="libclang-dev patchelf cmake unzip pkg-config"
+command -v pip3 >/dev/null || PKGS="$PKGS python3-pip"
 missing=""
 for p in $PKGS; do dpkg -s "$p" >/dev/null 2>&1 || missing="$missing $p"; done
 if [ -n "$missing" ]; then
   SUDO=""; [ "$(id -u)" = 0 ] || SUDO=sudo
   $SUDO apt-get update -qq
-  DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq $missing
+  DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq $missing >/dev/null
 fi

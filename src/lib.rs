@@ -5,6 +5,8 @@
 //! photon path), `imap` (the map and its readout), `sched` (schedulers), `context` (the safe
 //! API) and `ffi` (the C ABI only).
 
+#![warn(clippy::undocumented_unsafe_blocks)]
+
 pub mod accel;
 pub mod context;
 pub mod error;

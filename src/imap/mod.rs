@@ -28,7 +28,7 @@ impl IMap {
         data.try_reserve_exact(len).map_err(|_| {
             Error::new(
                 ImapStatus::ImapErrOutOfMemory,
-                format!("could not allocate the map ({} MiB)", len * 8 >> 20),
+                format!("could not allocate the map ({} MiB)", (len * 8) >> 20),
             )
         })?;
         data.resize(len, 0.0);

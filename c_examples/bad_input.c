@@ -1,0 +1,180 @@
+/*
+ * Bad input through the C API: every mistake gets its own status and a message, and the
+ * context keeps working with nothing already accumulated lost. Also checks cancel and
+ * resume from the progress callback, and that the callback cannot re-enter the context.
+ */
+#include <imap.h>
+
+#include <math.h>
+#include <stdio.h>
+#include <string.h>
+
+static int failures = 0;
+
+/* Expects `status` to be `want` and a non-empty message on `ctx` (or the thread). */
+static void expect(const char *what, ImapStatus status, ImapStatus want, const ImapContext *ctx) {
+    const char *msg = imap_last_error(ctx);
+    if (status != want || (want != IMAP_OK && (msg == NULL || msg[0] == '\0'))) {
+        printf("FAIL %-44s got %s, want %s (message: \"%s\")\n", what, imap_status_name(status), imap_status_name(want),
+               msg ? msg : "(null)");
+        failures++;
+    } else {
+        printf("ok   %-44s %s%s%s\n", what, imap_status_name(status), want != IMAP_OK ? ": " : "",
+               want != IMAP_OK ? msg : "");
+    }
+}
+
+/* A unit square (two triangles) at height z, facing up. */
+static double square[12] = {0, 0, 0, 1, 0, 0, 1, 1, 0, 0, 1, 0};
+static uint32_t square_idx[6] = {0, 1, 2, 0, 2, 3};
+
+static ImapMesh square_mesh(uint32_t material) {
+    ImapMesh m;
+    memset(&m, 0, sizeof m);
+    m.positions = square, m.vertex_count = 4, m.indices = square_idx, m.triangle_count = 2;
+    m.material = material, m.flags = IMAP_MESH_RECORD;
+    return m;
+}
+
+static ImapContext *busy_ctx;
+static ImapStatus status_inside_callback;
+static int cancel_after;
+
+static int callback(const ImapProgress *p, void *user) {
+    (void)p;
+    int *calls = user;
+    double x[4];
+    status_inside_callback = imap_get_vertex_energy(busy_ctx, 0, 0, 0, x, 4);
+    return ++*calls >= cancel_after;
+}
+
+int main(void) {
+    ImapContext *ctx = NULL;
+    ImapConfig cfg;
+    uint32_t id;
+
+    /* Creation errors are reported on the calling thread. */
+    expect("imap_create(out = NULL)", imap_create(NULL, NULL), IMAP_ERR_NULL_POINTER, NULL);
+    imap_config_default(&cfg);
+    cfg.band_mode = IMAP_BANDS_SPECTRAL, cfg.band_count = 0;
+    expect("spectral config with 0 bands", imap_create(&cfg, &ctx), IMAP_ERR_BAD_BANDS, NULL);
+    imap_config_default(&cfg);
+    cfg.band_count = 4;
+    expect("RGB config with 4 bands", imap_create(&cfg, &ctx), IMAP_ERR_BAD_BANDS, NULL);
+    imap_config_default(&cfg);
+    cfg.unit_m = NAN;
+    expect("unit_m = NaN", imap_create(&cfg, &ctx), IMAP_ERR_NON_FINITE, NULL);
+    if (ctx != NULL) printf("FAIL out-parameter written on failure\n"), failures++;
+
+    imap_config_default(&cfg);
+    cfg.threads = 2, cfg.seed = 5;
+    expect("imap_create(valid)", imap_create(&cfg, &ctx), IMAP_OK, ctx);
+    busy_ctx = ctx;
+
+    /* Run before any mesh. */
+    ImapRunParams run;
+    imap_run_params_default(&run);
+    run.photons = 20000;
+    expect("run before any mesh", imap_run(ctx, &run, NULL), IMAP_ERR_NO_GEOMETRY, ctx);
+
+    /* Materials. */
+    double grey = 0.5, too_much = 1.5, two[2] = {0.1, 0.2};
+    ImapMaterial mat;
+    memset(&mat, 0, sizeof mat);
+    mat.diffuse_reflectance = &too_much, mat.diffuse_reflectance_count = 1;
+    expect("reflectance 1.5", imap_add_material(ctx, &mat, &id), IMAP_ERR_BAD_MATERIAL, ctx);
+    mat.diffuse_reflectance = two, mat.diffuse_reflectance_count = 2;
+    expect("2 reflectances for 3 bands", imap_add_material(ctx, &mat, &id), IMAP_ERR_INVALID_ARGUMENT, ctx);
+    mat.diffuse_reflectance = NULL, mat.diffuse_reflectance_count = 1;
+    expect("reflectance NULL with count 1", imap_add_material(ctx, &mat, &id), IMAP_ERR_NULL_POINTER, ctx);
+    mat.diffuse_reflectance = &grey;
+    expect("imap_add_material(NULL ctx)", imap_add_material(NULL, &mat, &id), IMAP_ERR_NULL_POINTER, NULL);
+    uint32_t m_grey = 99;
+    expect("imap_add_material(valid)", imap_add_material(ctx, &mat, &m_grey), IMAP_OK, ctx);
+
+    /* Meshes. */
+    ImapMesh mesh = square_mesh(m_grey);
+    expect("imap_add_mesh(mesh = NULL)", imap_add_mesh(ctx, NULL, &id), IMAP_ERR_NULL_POINTER, ctx);
+    mesh.positions = NULL;
+    expect("positions NULL", imap_add_mesh(ctx, &mesh, &id), IMAP_ERR_NULL_POINTER, ctx);
+    mesh = square_mesh(m_grey);
+    square[4] = NAN;
+    expect("NaN coordinate", imap_add_mesh(ctx, &mesh, &id), IMAP_ERR_NON_FINITE, ctx);
+    square[4] = INFINITY;
+    expect("Inf coordinate", imap_add_mesh(ctx, &mesh, &id), IMAP_ERR_NON_FINITE, ctx);
+    square[4] = 0;
+    square_idx[5] = 4;
+    expect("vertex index out of range", imap_add_mesh(ctx, &mesh, &id), IMAP_ERR_INDEX_OUT_OF_RANGE, ctx);
+    square_idx[5] = 0;
+    expect("triangle repeating a vertex", imap_add_mesh(ctx, &mesh, &id), IMAP_ERR_DEGENERATE_TRIANGLE, ctx);
+    square_idx[5] = 3;
+    mesh.triangle_count = 0;
+    expect("mesh with zero triangles", imap_add_mesh(ctx, &mesh, &id), IMAP_ERR_EMPTY_MESH, ctx);
+    mesh = square_mesh(7);
+    expect("unknown material id", imap_add_mesh(ctx, &mesh, &id), IMAP_ERR_UNKNOWN_MATERIAL, ctx);
+    mesh = square_mesh(m_grey);
+    uint32_t floor_id = 99;
+    expect("imap_add_mesh(valid)", imap_add_mesh(ctx, &mesh, &floor_id), IMAP_OK, ctx);
+
+    /* Lights. */
+    double pos[3] = {0.5, 0.5, 1}, zero = 0, watts = 10, nan_pos[3] = {0, NAN, 1};
+    expect("run with no light", imap_run(ctx, &run, NULL), IMAP_ERR_NO_LIGHT, ctx);
+    expect("zero-power light", imap_add_point_light(ctx, pos, &zero, 1, &id), IMAP_ERR_NO_LIGHT, ctx);
+    expect("light at NaN", imap_add_point_light(ctx, nan_pos, &watts, 1, &id), IMAP_ERR_NON_FINITE, ctx);
+    expect("light out_id = NULL", imap_add_point_light(ctx, pos, &watts, 1, NULL), IMAP_ERR_NULL_POINTER, ctx);
+    expect("imap_add_point_light(valid)", imap_add_point_light(ctx, pos, &watts, 1, &id), IMAP_OK, ctx);
+
+    /* Run parameters. */
+    ImapRunParams none;
+    imap_run_params_default(&none);
+    expect("run without a stop criterion", imap_run(ctx, &none, NULL), IMAP_ERR_INVALID_ARGUMENT, ctx);
+    none.photons = 1000, none.time_budget_s = -1;
+    expect("negative time budget", imap_run(ctx, &none, NULL), IMAP_ERR_INVALID_ARGUMENT, ctx);
+
+    /* A real run, then read-backs with bad arguments. */
+    ImapReport rep;
+    expect("imap_run(valid)", imap_run(ctx, &run, &rep), IMAP_OK, ctx);
+    double before[4], after[4], err[4];
+    expect("read back", imap_get_vertex_energy(ctx, floor_id, IMAP_SIDE_FRONT, 1, before, 4), IMAP_OK, ctx);
+    expect("band 3 of 3", imap_get_vertex_energy(ctx, floor_id, 0, 3, after, 4), IMAP_ERR_INDEX_OUT_OF_RANGE, ctx);
+    expect("back side of a one-sided mesh", imap_get_vertex_energy(ctx, floor_id, IMAP_SIDE_BACK, 0, after, 4),
+           IMAP_ERR_INDEX_OUT_OF_RANGE, ctx);
+    expect("mesh id 5", imap_get_vertex_energy(ctx, 5, 0, 0, after, 4), IMAP_ERR_INDEX_OUT_OF_RANGE, ctx);
+    expect("output of 3 for 4 vertices", imap_get_vertex_energy(ctx, floor_id, 0, 0, after, 3), IMAP_ERR_BUFFER_TOO_SMALL, ctx);
+    expect("output NULL", imap_get_vertex_error(ctx, floor_id, 0, NULL, 4), IMAP_ERR_NULL_POINTER, ctx);
+    mesh = square_mesh(m_grey);
+    expect("mesh added after a run", imap_add_mesh(ctx, &mesh, &id), IMAP_ERR_OUT_OF_ORDER, ctx);
+    expect("light added after a run", imap_add_point_light(ctx, pos, &watts, 1, &id), IMAP_ERR_OUT_OF_ORDER, ctx);
+
+    /* Nothing accumulated was lost through all those errors. */
+    imap_get_vertex_energy(ctx, floor_id, IMAP_SIDE_FRONT, 1, after, 4);
+    if (memcmp(before, after, sizeof before) != 0 || !(before[0] > 0)) printf("FAIL map changed by failing calls\n"), failures++;
+
+    /* Cancel from the callback on its 2nd call, then resume: the photon count adds up and
+     * the callback could not re-enter the context. */
+    int calls = 0;
+    cancel_after = 2;
+    ImapRunParams cb;
+    imap_run_params_default(&cb);
+    cb.progress = callback, cb.user_data = &calls, cb.progress_interval_s = 0.05;
+    ImapReport r1, r2;
+    expect("run cancelled from the callback", imap_run(ctx, &cb, &r1), IMAP_OK, ctx);
+    if (r1.stop_reason != IMAP_STOP_CANCELLED) printf("FAIL stop_reason %u, want CANCELLED\n", r1.stop_reason), failures++;
+    expect("callback re-entering the context", status_inside_callback, IMAP_ERR_BUSY, ctx);
+    run.photons = 30000;
+    expect("resumed run", imap_run(ctx, &run, &r2), IMAP_OK, ctx);
+    if (r2.photons != r1.photons + 30000 || r1.photons != rep.photons + r1.run_photons)
+        printf("FAIL photons do not add up: %llu, %llu, %llu\n", (unsigned long long)rep.photons,
+               (unsigned long long)r1.photons, (unsigned long long)r2.photons), failures++;
+    expect("errors after all that", imap_get_vertex_error(ctx, floor_id, 0, err, 4), IMAP_OK, ctx);
+    for (int i = 0; i < 4; i++)
+        if (!(err[i] > 0 && err[i] < 0.2)) printf("FAIL vertex %d relative error %g\n", i, err[i]), failures++;
+
+    /* Reset unlocks the scene. */
+    expect("imap_reset", imap_reset(ctx), IMAP_OK, ctx);
+    expect("mesh added after reset", imap_add_mesh(ctx, &mesh, &id), IMAP_OK, ctx);
+    imap_destroy(ctx);
+    imap_destroy(NULL);
+    printf("%d failure%s\n", failures, failures == 1 ? "" : "s");
+    return failures ? 1 : 0;
+}

@@ -1,0 +1,34 @@
+#!/usr/bin/env bash
+# Runs every test of libimap (after scripts/setup-system.sh has installed the system
+# packages): the Rust unit and integration tests (physics against analytic answers,
+# determinism, the header drift check), the CMake build with the C and C++ examples under
+# ctest, and the package as a user gets it: installed into a prefix that is then moved,
+# with c_examples configured on their own against it (CMake config) and one example built
+# with pkg-config.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+EMBREE_DIR=$(scripts/setup-embree.sh)
+export EMBREE_DIR
+JOBS=$(nproc)
+
+echo "== cargo test (release: shares the build with CMake)"
+cargo test --release --all-targets
+
+echo "== CMake build tree: C and C++ examples under ctest"
+cmake -S . -B build -DCMAKE_BUILD_TYPE=Release -DIMAP_EMBREE_DIR="$EMBREE_DIR" >/dev/null
+cmake --build build -j "$JOBS"
+ctest --test-dir build --output-on-failure
+
+echo "== installed package, relocated: find_package(imap) and pkg-config"
+TMP=$(mktemp -d)
+trap 'rm -rf "$TMP"' EXIT
+cmake --install build --prefix "$TMP/first" >/dev/null
+mv "$TMP/first" "$TMP/prefix"
+cmake -S c_examples -B "$TMP/examples" -DCMAKE_PREFIX_PATH="$TMP/prefix" >/dev/null
+cmake --build "$TMP/examples" -j "$JOBS"
+PKG_CONFIG_PATH="$TMP/prefix/lib/pkgconfig" cc -std=c11 -Wall -Wextra -Wpedantic -Werror \
+  c_examples/bad_input.c $(PKG_CONFIG_PATH="$TMP/prefix/lib/pkgconfig" pkg-config --cflags --libs imap) -lm \
+  -o "$TMP/examples/bad_input_pkgconfig"
+"$TMP/examples/bad_input_pkgconfig" >/dev/null
+echo "pkg-config build of bad_input: ok"
+ctest --test-dir "$TMP/examples" --output-on-failure

@@ -1,0 +1,335 @@
+//! Runs: determinism across thread counts, resumption, energy bookkeeping, the memory
+//! budget, stop criteria.
+
+mod common;
+
+use common::*;
+use imap::{Config, Context, ImapStatus, IorModel, MaterialDesc, RunParams, StopReason};
+
+/// A closed room with mixed materials: coloured Lambertian walls, a mirror, translucent
+/// and absorbing glass, a spot and a point light and an emitting panel. Returns the context
+/// and the recording meshes' ids.
+fn mixed_room(config: Config) -> (Context, Vec<u32>) {
+    let mut ctx = context(config);
+    let bands = ctx.scene().bands.count();
+    let ramp = |a: f64, b: f64| -> Vec<f64> {
+        (0..bands)
+            .map(|i| a + (b - a) * i as f64 / (bands - 1).max(1) as f64)
+            .collect()
+    };
+    let walls = ctx
+        .add_material(&MaterialDesc {
+            diffuse_reflect: ramp(0.8, 0.3),
+            ..Default::default()
+        })
+        .unwrap();
+    let mirror = ctx
+        .add_material(&MaterialDesc {
+            specular_reflect: vec![0.95],
+            diffuse_reflect: vec![0.02],
+            ..Default::default()
+        })
+        .unwrap();
+    let paper = ctx
+        .add_material(&MaterialDesc {
+            diffuse_reflect: vec![0.4],
+            diffuse_transmit: ramp(0.2, 0.5),
+            ..Default::default()
+        })
+        .unwrap();
+    let glass = ctx
+        .add_material(&MaterialDesc {
+            ior: Some(IorModel::Sellmeier {
+                b: [1.039_612_12, 0.231_792_344, 1.010_469_45],
+                c: [0.006_000_698_67, 0.020_017_914_4, 103.560_653],
+            }),
+            absorption_per_m: ramp(0.5, 3.0),
+            ..Default::default()
+        })
+        .unwrap();
+    let mut ids = Vec::new();
+    let room = cuboid([-2.0, -2.0, 0.0], [2.0, 2.0, 3.0], 6, true);
+    ids.push(ctx.add_mesh(&room.desc(walls)).unwrap());
+    let mirror_g = grid(3, -1.9, -0.5, -1.9, -0.5, 0.01);
+    ids.push(ctx.add_mesh(&mirror_g.desc(mirror)).unwrap());
+    let sheet = grid(4, -1.0, 1.0, -0.5, 0.5, 1.5);
+    let mut sd = sheet.desc(paper);
+    sd.two_sided = true;
+    ids.push(ctx.add_mesh(&sd).unwrap());
+    let prism = cuboid([0.5, 0.5, 0.2], [1.2, 1.5, 0.9], 2, false);
+    let mut pd = prism.desc(glass);
+    pd.record = false;
+    ctx.add_mesh(&pd).unwrap();
+    let panel = grid(1, -0.3, 0.3, -0.3, 0.3, 2.95).flipped();
+    let mut lamp = panel.desc(walls);
+    lamp.record = false;
+    let exitance = ramp(50.0, 20.0);
+    lamp.exitance = Some(&exitance);
+    ctx.add_mesh(&lamp).unwrap();
+    ctx.add_point_light([1.0, -1.0, 2.0], &ramp(5.0, 9.0))
+        .unwrap();
+    ctx.add_spot_light([-1.0, 1.0, 2.5], [0.2, 0.1, -1.0], 0.4, &[3.0])
+        .unwrap();
+    (ctx, ids)
+}
+
+/// Every band and side of every recording mesh, in one vector.
+fn whole_map(ctx: &Context, ids: &[u32]) -> Vec<f64> {
+    let mut all = Vec::new();
+    for &m in ids {
+        let n = ctx.vertex_count(m).unwrap();
+        let sides = if ctx.scene().meshes[m as usize].two_sided {
+            2
+        } else {
+            1
+        };
+        for side in 0..sides {
+            for band in 0..ctx.scene().bands.count() as u32 {
+                let mut e = vec![0.0; n];
+                ctx.irradiance(m, side, band, &mut e).unwrap();
+                all.extend(e);
+            }
+            let mut err = vec![0.0; n];
+            ctx.rel_error(m, side, &mut err).unwrap();
+            all.extend(err);
+        }
+    }
+    all
+}
+
+fn assert_maps_agree(a: &[f64], b: &[f64], what: &str) {
+    assert_eq!(a.len(), b.len());
+    let mut worst: f64 = 0.0;
+    for (x, y) in a.iter().zip(b) {
+        let scale = x.abs().max(y.abs());
+        if scale > 0.0 {
+            worst = worst.max((x - y).abs() / scale);
+        }
+    }
+    eprintln!(
+        "{what}: largest relative difference {worst:.2e} over {} values",
+        a.len()
+    );
+    assert!(worst <= 1e-12, "{what}: maps differ by {worst:e}");
+    assert!(a.iter().any(|&x| x > 0.0), "{what}: the map is empty");
+}
+
+fn spectral(bands: u32) -> imap::Bands {
+    imap::Bands::spectral(bands, 380.0, 780.0).unwrap()
+}
+
+#[test]
+fn same_seed_same_map_for_1_and_2_threads() {
+    for bands in [imap::Bands::rgb(), spectral(41)] {
+        let n = photons(60_000);
+        let maps: Vec<Vec<f64>> = [1, 2]
+            .iter()
+            .map(|&threads| {
+                let (mut ctx, ids) = mixed_room(Config {
+                    threads,
+                    seed: 42,
+                    bands: bands.clone(),
+                    ..Default::default()
+                });
+                run_photons(&mut ctx, n);
+                whole_map(&ctx, &ids)
+            })
+            .collect();
+        assert_maps_agree(
+            &maps[0],
+            &maps[1],
+            &format!("{} bands, 1 vs 2 threads", bands.count()),
+        );
+        // A different seed gives a different map (the comparison above can fail).
+        let (mut ctx, ids) = mixed_room(Config {
+            threads: 2,
+            seed: 43,
+            bands: bands.clone(),
+            ..Default::default()
+        });
+        run_photons(&mut ctx, n);
+        let other = whole_map(&ctx, &ids);
+        assert!(maps[0]
+            .iter()
+            .zip(&other)
+            .any(|(a, b)| (a - b).abs() > 1e-6 * a.abs().max(1e-300)));
+    }
+}
+
+#[test]
+fn resumed_runs_equal_one_long_run() {
+    let n = photons(40_000);
+    let (mut one, ids) = mixed_room(Config {
+        threads: 2,
+        seed: 9,
+        ..Default::default()
+    });
+    run_photons(&mut one, 3 * n);
+    let (mut parts, _) = mixed_room(Config {
+        threads: 2,
+        seed: 9,
+        ..Default::default()
+    });
+    for _ in 0..3 {
+        run_photons(&mut parts, n);
+    }
+    assert_eq!(parts.report().photons, 3 * n);
+    assert_maps_agree(
+        &whole_map(&one, &ids),
+        &whole_map(&parts, &ids),
+        "3 runs vs 1",
+    );
+}
+
+#[test]
+fn energy_is_conserved_to_rounding() {
+    for bands in [imap::Bands::rgb(), spectral(81)] {
+        let (mut ctx, _) = mixed_room(Config {
+            threads: 2,
+            seed: 5,
+            bands: bands.clone(),
+            ..Default::default()
+        });
+        let r = run_photons(&mut ctx, photons(100_000));
+        let balance = r.absorbed_w + r.escaped_w + r.dropped_w;
+        eprintln!(
+            "{} bands: emitted {} W, absorbed {} + escaped {} + dropped {} = {balance} (relative {:.1e})",
+            bands.count(),
+            r.emitted_w,
+            r.absorbed_w,
+            r.escaped_w,
+            r.dropped_w,
+            (balance - r.emitted_w).abs() / r.emitted_w
+        );
+        assert!((balance - r.emitted_w).abs() <= 1e-9 * r.emitted_w);
+        assert_eq!(r.escaped_w, 0.0, "the room is closed");
+        assert_eq!(r.dropped_photons, 0);
+        // The emitted power is what the lights were given.
+        let nb = bands.count() as f64;
+        let ramp_sum = |a: f64, b: f64| (a + b) / 2.0 * nb;
+        let expected = 0.36 * ramp_sum(50.0, 20.0) + ramp_sum(5.0, 9.0) + 3.0 * nb;
+        assert!(
+            (r.emitted_w - expected).abs() < 1e-9 * expected,
+            "{} vs {expected}",
+            r.emitted_w
+        );
+    }
+}
+
+#[test]
+fn the_event_limit_reports_what_it_drops() {
+    // Two facing perfect mirrors: a photon between them never ends by itself.
+    let mut ctx = context(Config {
+        threads: 2,
+        seed: 1,
+        ..Default::default()
+    });
+    let mirror = ctx
+        .add_material(&MaterialDesc {
+            specular_reflect: vec![1.0],
+            ..Default::default()
+        })
+        .unwrap();
+    let low = grid(1, -100.0, 100.0, -100.0, 100.0, 0.0);
+    let high = grid(1, -100.0, 100.0, -100.0, 100.0, 1.0).flipped();
+    ctx.add_mesh(&low.desc(mirror)).unwrap();
+    ctx.add_mesh(&high.desc(mirror)).unwrap();
+    ctx.add_spot_light([0.0, 0.0, 0.5], [0.0, 0.0, 1.0], 1e-4, &[1.0])
+        .unwrap();
+    let mut params = RunParams {
+        photons: 100,
+        time_budget_s: 0.0,
+        target_rel_error: 0.0,
+        progress_interval_s: 1.0,
+        max_path_events: 1000,
+        progress: None,
+    };
+    let r = ctx.run(&mut params).unwrap();
+    assert_eq!(r.dropped_photons, 100);
+    assert!((r.dropped_w - r.emitted_w).abs() < 1e-12 * r.emitted_w);
+}
+
+#[test]
+fn memory_budget_refuses_before_allocating() {
+    let g = grid(100, 0.0, 1.0, 0.0, 1.0, 0.0); // 10 201 vertices
+    let mut ctx = context(Config {
+        bands: spectral(81),
+        memory_budget: 4 << 20,
+        ..Default::default()
+    });
+    let m = lambert(&mut ctx, 0.5);
+    // 10 201 × 82 × 8 = 6.7 MB > 4 MiB.
+    let err = ctx.add_mesh(&g.desc(m)).unwrap_err();
+    assert_eq!(err.status, ImapStatus::ImapErrMemoryBudget);
+    assert!(err.message.contains("6691856"), "{}", err.message);
+    // A mesh that records nothing costs no map memory and is accepted.
+    let mut d = g.desc(m);
+    d.record = false;
+    ctx.add_mesh(&d).unwrap();
+    // RGB needs 10 201 × 4 × 8 = 326 kB: accepted under the same budget.
+    let mut rgb = context(Config {
+        memory_budget: 4 << 20,
+        ..Default::default()
+    });
+    let m = lambert(&mut rgb, 0.5);
+    rgb.add_mesh(&g.desc(m)).unwrap();
+    rgb.add_point_light([0.5, 0.5, 1.0], &[1.0]).unwrap();
+    let r = run_photons(&mut rgb, 1000);
+    assert_eq!(r.map_bytes, 10_201 * 4 * 8);
+}
+
+#[test]
+fn time_budget_and_target_error_stop_the_run() {
+    let (mut ctx, _) = mixed_room(Config {
+        threads: 2,
+        seed: 3,
+        ..Default::default()
+    });
+    let mut reports = Vec::new();
+    let mut cb = |p: &imap::Progress| {
+        reports.push(*p);
+        true
+    };
+    let mut params = RunParams {
+        photons: 0,
+        time_budget_s: 0.6,
+        target_rel_error: 0.0,
+        progress_interval_s: 0.1,
+        max_path_events: 1 << 20,
+        progress: Some(&mut cb),
+    };
+    let r = ctx.run(&mut params).unwrap();
+    assert_eq!(r.stop, Some(StopReason::TimeBudget));
+    assert!(
+        r.run_wall_s >= 0.6 && r.run_wall_s < 1.5,
+        "{}",
+        r.run_wall_s
+    );
+    assert!(reports.len() >= 4, "{} progress reports", reports.len());
+    // The error falls as the photons grow.
+    assert!(reports.last().unwrap().rel_error < reports[0].rel_error);
+    assert!(reports
+        .windows(2)
+        .all(|w| w[1].photons >= w[0].photons && w[1].elapsed_s >= w[0].elapsed_s));
+
+    let target = 0.6 * r.rel_error;
+    let mut params = RunParams {
+        photons: 0,
+        time_budget_s: 30.0,
+        target_rel_error: target,
+        progress_interval_s: 0.1,
+        max_path_events: 1 << 20,
+        progress: None,
+    };
+    let r2 = ctx.run(&mut params).unwrap();
+    assert_eq!(r2.stop, Some(StopReason::TargetError));
+    assert!(
+        r2.rel_error <= target * 1.05,
+        "{} vs {target}",
+        r2.rel_error
+    );
+    // The history keeps both runs, with time accumulated across them.
+    let h = ctx.history();
+    assert!(h.len() > reports.len());
+    assert!((h.last().unwrap().elapsed_s - (r.run_wall_s + r2.run_wall_s)).abs() < 0.05);
+}
