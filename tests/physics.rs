@@ -190,20 +190,20 @@ fn integrating_sphere_rho_0_9_off_centre() {
     integrating_sphere(0.9, [0.3, -0.2, 0.1]);
 }
 
-#[test]
-fn clear_slab_transmits_the_fresnel_fraction() {
-    // A narrow beam at normal incidence on a clear slab of index n over a black receiver.
-    // Incoherent multiple reflections: T = (1 − R)² / (1 − R²) = (1 − R)/(1 + R).
-    let n_glass = 1.5;
+/// A narrow beam at normal incidence on a slab (index n, thickness 0.2 m, absorption α in
+/// 1/m) over a black receiver; returns (transmitted fraction, its standard error, report).
+fn slab_transmission(n_glass: f64, alpha: f64, photons_n: u64) -> (f64, f64, imap::Report) {
     let mut ctx = context(Config {
         threads: 2,
         seed: 3,
         ..Default::default()
     });
     let black = lambert(&mut ctx, 0.0);
+    let absorption = if alpha > 0.0 { vec![alpha] } else { vec![] };
     let glass = ctx
         .add_material(&MaterialDesc {
             ior: Some(IorModel::Constant(n_glass)),
+            absorption_per_m: absorption,
             ..Default::default()
         })
         .unwrap();
@@ -215,16 +215,94 @@ fn clear_slab_transmits_the_fresnel_fraction() {
     let rmesh = ctx.add_mesh(&receiver.desc(black)).unwrap();
     ctx.add_spot_light([0.0, 0.0, 1.0], [0.0, 0.0, -1.0], 1e-3, &[1.0])
         .unwrap();
+    let report = run_photons(&mut ctx, photons_n);
+    let t = ctx.absorbed_w(rmesh).unwrap() / report.emitted_w;
+    (t, (t * (1.0 - t) / photons_n as f64).sqrt(), report)
+}
+
+#[test]
+fn clear_slab_transmits_the_fresnel_fraction() {
+    // Incoherent multiple reflections: T = (1 − R)² / (1 − R²) = (1 − R)/(1 + R).
+    let n_glass = 1.5;
     let n = photons(1_000_000);
-    let report = run_photons(&mut ctx, n);
+    let (t, sigma, report) = slab_transmission(n_glass, 0.0, n);
     let r = ((n_glass - 1.0) / (n_glass + 1.0)).powi(2);
     let t_expected = (1.0 - r) / (1.0 + r);
-    let t = ctx.absorbed_w(rmesh).unwrap() / report.emitted_w;
-    let sigma = (t_expected * (1.0 - t_expected) / n as f64).sqrt();
     eprintln!(
-        "slab: T = {t:.5}, Fresnel {t_expected:.5}, {:.2} σ",
+        "clear slab: T = {t:.5}, Fresnel {t_expected:.5}, {:.2} σ",
         (t - t_expected) / sigma
     );
     assert!((t - t_expected).abs() <= 4.0 * sigma);
     assert!((report.escaped_w / report.emitted_w - (1.0 - t_expected)).abs() <= 4.0 * sigma);
+}
+
+#[test]
+fn absorbing_slab_follows_beer_lambert() {
+    // Internal transmittance τ = exp(−α d): T = (1 − R)² τ / (1 − R² τ²).
+    let (n_glass, alpha, d) = (1.7, 2.0, 0.2);
+    let n = photons(1_000_000);
+    let (t, sigma, _) = slab_transmission(n_glass, alpha, n);
+    let r = ((n_glass - 1.0) / (n_glass + 1.0)).powi(2);
+    let tau = (-alpha * d).exp();
+    let t_expected = (1.0 - r).powi(2) * tau / (1.0 - r * r * tau * tau);
+    eprintln!(
+        "absorbing slab: T = {t:.5}, expected {t_expected:.5}, {:.2} σ",
+        (t - t_expected) / sigma
+    );
+    assert!((t - t_expected).abs() <= 4.0 * sigma);
+}
+
+#[test]
+fn answer_does_not_depend_on_scene_scale_or_position() {
+    // A closed 2 m box (normals in, ρ = 0.8) with an off-centre point light, described at
+    // 1e-4, 1 and 1e4 scene units per metre-sized feature and translated far from the
+    // origin: the mean irradiance is Φ/(A(1 − ρ)) in W/m² every time and nothing leaks
+    // through the seams and corners.
+    let rho = 0.8;
+    let power = 12.0;
+    let n = photons(300_000);
+    for (scale, shift) in [(1e-4, 0.0), (1.0, 1e5), (1e4, 1e5)] {
+        let mut ctx = context(Config {
+            threads: 2,
+            seed: 17,
+            unit_m: 1.0 / scale,
+            ..Default::default()
+        });
+        let wall = lambert(&mut ctx, rho);
+        let g = cuboid([-1.0, -1.0, -1.0], [1.0, 1.0, 1.0], 8, true)
+            .scaled(scale)
+            .translated([shift * scale, -shift * scale, shift * scale]);
+        let mesh = ctx.add_mesh(&g.desc(wall)).unwrap();
+        let light = [
+            (0.3 + shift) * scale,
+            (-0.6 - shift) * scale,
+            (0.2 + shift) * scale,
+        ];
+        ctx.add_point_light(light, &[power]).unwrap();
+        let report = run_photons(&mut ctx, n);
+        assert_eq!(report.escaped_w, 0.0, "scale {scale}: photons leaked");
+        let mut e = vec![0.0; g.vertex_count()];
+        ctx.irradiance(mesh, 0, 0, &mut e).unwrap();
+        // Each face is an 8×8 grid of equal squares: a vertex's area share is
+        // (adjacent triangles)·(cell²/2)/3, counted from the indices.
+        let cell = 2.0 / 8.0;
+        let mut share = vec![0.0; g.vertex_count()];
+        for t in g.indices.chunks_exact(3) {
+            for &i in t {
+                share[i as usize] += cell * cell / 6.0;
+            }
+        }
+        let area = 24.0;
+        let mean = e.iter().zip(&share).map(|(e, a)| e * a).sum::<f64>() / area;
+        let expected = power / (area * (1.0 - rho));
+        let sigma = (rho / n as f64).sqrt();
+        eprintln!(
+            "scale {scale}, shift {shift}: mean {mean:.5} W/m², expected {expected:.5} ({:.2} σ)",
+            (mean / expected - 1.0) / sigma
+        );
+        assert!(
+            (mean / expected - 1.0).abs() <= 4.0 * sigma,
+            "scale {scale}: {mean} vs {expected}"
+        );
+    }
 }
