@@ -54,6 +54,9 @@ pub struct Material {
     pub specular_reflect: Vec<f64>,
     pub diffuse_transmit: Vec<f64>,
     pub dielectric: Option<Dielectric>,
+    /// Which of the three non-dielectric events can happen (some band above 0): the tracer
+    /// spends no per-band work on the others.
+    pub events: [bool; 3],
 }
 
 /// What the caller describes; the per-band arrays hold 0 values (none), 1 (grey) or one per
@@ -147,11 +150,18 @@ impl Material {
                 })
             }
         };
+        let any = |v: &[f64]| v.iter().any(|&x| x > 0.0);
+        let events = [
+            any(&diffuse_reflect),
+            any(&specular_reflect),
+            any(&diffuse_transmit),
+        ];
         Ok(Material {
             diffuse_reflect,
             specular_reflect,
             diffuse_transmit,
             dielectric,
+            events,
         })
     }
 }

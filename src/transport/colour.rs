@@ -61,11 +61,12 @@ impl Colour {
     /// `k`: c ← c·k/p. Keeps the band mean unchanged when p = weighted_mean(k).
     #[inline]
     pub fn reweight(&mut self, k: &[f64], p: f64) {
+        let inv = 1.0 / p;
         match self.band {
-            Some(b) => self.c[b] *= k[b] / p,
+            Some(b) => self.c[b] *= k[b] * inv,
             None => {
                 for (c, k) in self.c.iter_mut().zip(k) {
-                    *c *= k / p;
+                    *c *= k * inv;
                 }
             }
         }

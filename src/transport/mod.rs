@@ -133,8 +133,8 @@ impl Tracer<'_> {
 
             // The hit point, rebuilt from the barycentrics (more precise than org + t·dir).
             let [a, b, c] = mesh.triangles[prim].map(|i| mesh.vertices[i as usize].as_dvec3());
-            let p = a + (b - a) * hit.u as f64 + (c - a) * hit.v as f64;
-            let eps = self.scene.offset_at(p);
+            let p_hit = a + (b - a) * hit.u as f64 + (c - a) * hit.v as f64;
+            let eps = self.scene.offset_at(p_hit);
             let material_id = mesh.material(prim);
             let material = &self.materials[material_id as usize];
 
@@ -149,10 +149,10 @@ impl Tracer<'_> {
                 let r = fresnel_dielectric(cos_i, n1, n2);
                 if rng.uniform() < r {
                     dir = reflect(dir, n_in);
-                    org = p + n_in * eps;
+                    org = p_hit + n_in * eps;
                 } else {
                     dir = refract(dir, n_in, cos_i, n1 / n2);
-                    org = p - n_in * eps;
+                    org = p_hit - n_in * eps;
                     medium = front.then_some(Medium {
                         mesh: hit.mesh,
                         material: material_id,
@@ -161,28 +161,39 @@ impl Tracer<'_> {
                 continue;
             }
 
-            // Opaque or translucent surface: choose the event by colour-weighted albedos.
+            // Opaque or translucent surface: choose the event by colour-weighted albedos,
+            // spending no per-band work on events this material cannot have.
             let u = rng.uniform();
-            let p_dr = colour.weighted_mean(&material.diffuse_reflect);
-            if u < p_dr {
-                colour.reweight(&material.diffuse_reflect, p_dr);
-                dir = warp::cosine_hemisphere(n_in, rng.uniform(), rng.uniform());
-                org = p + n_in * eps;
-                continue;
+            let mut cumulative = 0.0;
+            if material.events[0] {
+                let p = colour.weighted_mean(&material.diffuse_reflect);
+                cumulative += p;
+                if u < cumulative {
+                    colour.reweight(&material.diffuse_reflect, p);
+                    dir = warp::cosine_hemisphere(n_in, rng.uniform(), rng.uniform());
+                    org = p_hit + n_in * eps;
+                    continue;
+                }
             }
-            let p_sr = colour.weighted_mean(&material.specular_reflect);
-            if u < p_dr + p_sr {
-                colour.reweight(&material.specular_reflect, p_sr);
-                dir = reflect(dir, n_in);
-                org = p + n_in * eps;
-                continue;
+            if material.events[1] {
+                let p = colour.weighted_mean(&material.specular_reflect);
+                cumulative += p;
+                if u < cumulative {
+                    colour.reweight(&material.specular_reflect, p);
+                    dir = reflect(dir, n_in);
+                    org = p_hit + n_in * eps;
+                    continue;
+                }
             }
-            let p_dt = colour.weighted_mean(&material.diffuse_transmit);
-            if u < p_dr + p_sr + p_dt {
-                colour.reweight(&material.diffuse_transmit, p_dt);
-                dir = warp::cosine_hemisphere(-n_in, rng.uniform(), rng.uniform());
-                org = p - n_in * eps;
-                continue;
+            if material.events[2] {
+                let p = colour.weighted_mean(&material.diffuse_transmit);
+                cumulative += p;
+                if u < cumulative {
+                    colour.reweight(&material.diffuse_transmit, p);
+                    dir = warp::cosine_hemisphere(-n_in, rng.uniform(), rng.uniform());
+                    org = p_hit - n_in * eps;
+                    continue;
+                }
             }
             // Absorbed: the path ends here.
             stats.absorbed[hit.mesh as usize] += colour.mean();
