@@ -151,22 +151,8 @@ fn integrating_sphere(rho: f64, light: [f64; 3]) {
     let nv = g.vertex_count();
     let mut e = vec![0.0; nv];
     ctx.irradiance(mesh, 0, 1, &mut e).unwrap();
-    let mut area = vec![0.0; nv];
-    let mut total_area = 0.0;
-    for t in g.indices.chunks_exact(3) {
-        let p: Vec<[f64; 3]> = t.iter().map(|&i| g.vertex(i as usize)).collect();
-        let (a, b) = (sub(p[1], p[0]), sub(p[2], p[0]));
-        let c = [
-            a[1] * b[2] - a[2] * b[1],
-            a[2] * b[0] - a[0] * b[2],
-            a[0] * b[1] - a[1] * b[0],
-        ];
-        let ar = 0.5 * (c[0] * c[0] + c[1] * c[1] + c[2] * c[2]).sqrt();
-        total_area += ar;
-        for &i in t {
-            area[i as usize] += ar / 3.0;
-        }
-    }
+    let area = vertex_areas(&g);
+    let total_area: f64 = area.iter().sum();
     let mean: f64 = e.iter().zip(&area).map(|(e, a)| e * a).sum::<f64>() / total_area;
     let expected = power / (total_area * (1.0 - rho));
     // Hits per photon are geometric with success 1 − ρ: the relative standard deviation of
@@ -283,15 +269,8 @@ fn answer_does_not_depend_on_scene_scale_or_position() {
         assert_eq!(report.escaped_w, 0.0, "scale {scale}: photons leaked");
         let mut e = vec![0.0; g.vertex_count()];
         ctx.irradiance(mesh, 0, 0, &mut e).unwrap();
-        // Each face is an 8×8 grid of equal squares: a vertex's area share is
-        // (adjacent triangles)·(cell²/2)/3, counted from the indices.
-        let cell = 2.0 / 8.0;
-        let mut share = vec![0.0; g.vertex_count()];
-        for t in g.indices.chunks_exact(3) {
-            for &i in t {
-                share[i as usize] += cell * cell / 6.0;
-            }
-        }
+        // Shares in the box's own metres (the geometry before scaling).
+        let share = vertex_areas(&cuboid([-1.0, -1.0, -1.0], [1.0, 1.0, 1.0], 8, true));
         let area = 24.0;
         let mean = e.iter().zip(&share).map(|(e, a)| e * a).sum::<f64>() / area;
         let expected = power / (area * (1.0 - rho));
@@ -305,4 +284,88 @@ fn answer_does_not_depend_on_scene_scale_or_position() {
             "scale {scale}: {mean} vs {expected}"
         );
     }
+}
+
+#[test]
+fn dispersive_slab_separates_bands_by_snell() {
+    // A collimated two-band beam at 60° onto a 1 m slab of dispersive glass (Cauchy, n =
+    // 1.5 at 650 nm and 1.7 at 450 nm) over a black receiver 0.5 m below it. Each photon
+    // collapses to one band at the first surface; its band's transmitted beams exit at
+    // x = t·tan θt + 2k·t·tan θt (k internal round trips, weights R^2k) and travel on at
+    // 60°. Barycentric deposits preserve first moments, so each band's irradiance
+    // centroid on the receiver is the mean arrival position of its photons.
+    let bands = imap::Bands::spectral(2, 450.0, 650.0).unwrap();
+    let mut ctx = context(Config {
+        threads: 2,
+        seed: 8,
+        bands,
+        ..Default::default()
+    });
+    let black = lambert(&mut ctx, 0.0);
+    let (b_coef, a_coef) = {
+        let (x_r, x_b) = (1.0 / 0.65f64.powi(2), 1.0 / 0.45f64.powi(2));
+        let b = 0.2 / (x_b - x_r);
+        (b, 1.5 - b * x_r)
+    };
+    let glass = ctx
+        .add_material(&MaterialDesc {
+            ior: Some(IorModel::Cauchy {
+                a: a_coef,
+                b: b_coef,
+                c: 0.0,
+            }),
+            ..Default::default()
+        })
+        .unwrap();
+    let (t, depth, theta) = (1.0, 0.5, 60f64.to_radians());
+    let slab = cuboid([-4.0, -3.0, -t], [9.0, 3.0, 0.0], 2, false);
+    let mut sd = slab.desc(glass);
+    sd.record = false;
+    ctx.add_mesh(&sd).unwrap();
+    let receiver = grid(60, -2.0, 8.0, -1.0, 1.0, -t - depth);
+    let rmesh = ctx.add_mesh(&receiver.desc(black)).unwrap();
+    let start = [-theta.tan(), 0.0, 1.0];
+    ctx.add_spot_light(start, [theta.sin(), 0.0, -theta.cos()], 1e-5, &[1.0])
+        .unwrap();
+    let n = photons(400_000);
+    run_photons(&mut ctx, n);
+
+    let share = vertex_areas(&receiver);
+    let mut e = vec![0.0; receiver.vertex_count()];
+    let mut centroids = Vec::new();
+    for (band, n_glass) in [(0u32, 1.7f64), (1, 1.5)] {
+        ctx.irradiance(rmesh, 0, band, &mut e).unwrap();
+        let (mut sx, mut sw) = (0.0, 0.0);
+        for v in 0..e.len() {
+            sx += receiver.vertex(v)[0] * e[v] * share[v];
+            sw += e[v] * share[v];
+        }
+        let got = sx / sw;
+        // Fresnel at the internal incidence angle θt (the same on every internal bounce).
+        let sin_t = theta.sin() / n_glass;
+        let cos_t = (1.0 - sin_t * sin_t).sqrt();
+        let r = {
+            let (ci, n1, n2) = (cos_t, n_glass, 1.0f64);
+            let ct = theta.cos();
+            let rs = (n1 * ci - n2 * ct) / (n1 * ci + n2 * ct);
+            let rp = (n2 * ci - n1 * ct) / (n2 * ci + n1 * ct);
+            0.5 * (rs * rs + rp * rp)
+        };
+        let step = 2.0 * t * sin_t / cos_t;
+        let expected = t * sin_t / cos_t + step * r * r / (1.0 - r * r) + depth * theta.tan();
+        // Spread of arrival positions: the internal round trips (step, weights R^2k).
+        let var = step * step * r * r / (1.0 - r * r).powi(2);
+        let sigma = (var / (n as f64 / 2.0)).sqrt() + 1e-4;
+        eprintln!(
+            "band {band} (n = {n_glass}): centroid x = {got:.5} m, Snell {expected:.5} m ({:.2} σ)",
+            (got - expected) / sigma
+        );
+        assert!(
+            (got - expected).abs() <= 5.0 * sigma,
+            "band {band}: {got} vs {expected}"
+        );
+        centroids.push(got);
+    }
+    // The bands land 0.11 m apart: blue (higher index) bends more.
+    assert!(centroids[1] - centroids[0] > 0.1);
 }

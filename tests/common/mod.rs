@@ -202,3 +202,25 @@ pub fn run_photons(ctx: &mut Context, n: u64) -> imap::Report {
     };
     ctx.run(&mut params).expect("run")
 }
+
+/// Each vertex's share of the adjacent triangles' area (a third of each).
+pub fn vertex_areas(g: &Geometry) -> Vec<f64> {
+    let mut share = vec![0.0; g.vertex_count()];
+    for t in g.indices.chunks_exact(3) {
+        let [a, b, c] = [0, 1, 2].map(|k| g.vertex(t[k] as usize));
+        let (u, v) = (
+            [b[0] - a[0], b[1] - a[1], b[2] - a[2]],
+            [c[0] - a[0], c[1] - a[1], c[2] - a[2]],
+        );
+        let n = [
+            u[1] * v[2] - u[2] * v[1],
+            u[2] * v[0] - u[0] * v[2],
+            u[0] * v[1] - u[1] * v[0],
+        ];
+        let area = 0.5 * (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
+        for &i in t {
+            share[i as usize] += area / 3.0;
+        }
+    }
+    share
+}
