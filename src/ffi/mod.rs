@@ -90,6 +90,17 @@ pub(crate) fn with_context(
     })
 }
 
+/// Refuses counts whose byte size cannot be a Rust slice.
+fn check_count<T>(name: &str, count: usize) -> Result<()> {
+    if count > isize::MAX as usize / std::mem::size_of::<T>().max(1) {
+        return Err(Error::new(
+            ImapStatus::ImapErrInvalidArgument,
+            format!("{name}'s count {count} is too large"),
+        ));
+    }
+    Ok(())
+}
+
 /// A slice from a C pointer + count; NULL is allowed only with count 0.
 pub(crate) fn slice<'a, T>(name: &str, ptr: *const T, count: usize) -> Result<&'a [T]> {
     if count == 0 {
@@ -101,12 +112,7 @@ pub(crate) fn slice<'a, T>(name: &str, ptr: *const T, count: usize) -> Result<&'
             format!("{name} is NULL but its count is {count}"),
         ));
     }
-    if count > isize::MAX as usize / std::mem::size_of::<T>().max(1) {
-        return Err(Error::new(
-            ImapStatus::ImapErrInvalidArgument,
-            format!("{name}'s count {count} is too large"),
-        ));
-    }
+    check_count::<T>(name, count)?;
     // SAFETY: the caller guarantees `ptr` points to `count` readable elements (the
     // documented contract of every pointer + count pair).
     Ok(unsafe { std::slice::from_raw_parts(ptr, count) })
@@ -120,12 +126,7 @@ pub(crate) fn slice_mut<'a, T>(name: &str, ptr: *mut T, count: usize) -> Result<
             format!("{name} is NULL"),
         ));
     }
-    if count > isize::MAX as usize / std::mem::size_of::<T>().max(1) {
-        return Err(Error::new(
-            ImapStatus::ImapErrInvalidArgument,
-            format!("{name}'s count {count} is too large"),
-        ));
-    }
+    check_count::<T>(name, count)?;
     // SAFETY: the caller guarantees `ptr` points to `count` writable elements.
     Ok(unsafe { std::slice::from_raw_parts_mut(ptr, count) })
 }

@@ -76,6 +76,24 @@ impl Bands {
     }
 }
 
+impl Bands {
+    /// Expands a per-band emission (power or exitance) and checks it is non-negative and
+    /// not zero in every band.
+    pub fn expand_emission(&self, name: &str, values: &[f64]) -> Result<Vec<f64>> {
+        let v = self.expand(name, values)?;
+        if let Some(i) = v.iter().position(|&x| x < 0.0) {
+            bail!(ImapErrInvalidArgument, "{name}[{i}] = {} is negative", v[i]);
+        }
+        if v.iter().all(|&x| x == 0.0) {
+            bail!(
+                ImapErrNoLight,
+                "{name} is 0 in every band: the light emits nothing"
+            );
+        }
+        Ok(v)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -23,7 +23,7 @@ pub struct Light {
 impl Light {
     pub fn point(position: [f64; 3], power: &[f64], bands: &Bands) -> Result<Self> {
         check_finite("position", &position)?;
-        let power = check_power(power, bands)?;
+        let power = bands.expand_emission("power", power)?;
         Ok(Light {
             position: DVec3::from(position),
             shape: LightShape::Point,
@@ -51,7 +51,7 @@ impl Light {
                 "spot half angle {half_angle_rad} rad is not in (0, π]"
             );
         }
-        let power = check_power(power, bands)?;
+        let power = bands.expand_emission("power", power)?;
         Ok(Light {
             position: DVec3::from(position),
             shape: LightShape::Spot {
@@ -61,19 +61,4 @@ impl Light {
             power,
         })
     }
-}
-
-fn check_power(power: &[f64], bands: &Bands) -> Result<Vec<f64>> {
-    let p = bands.expand("power", power)?;
-    if let Some(i) = p.iter().position(|&x| x < 0.0) {
-        bail!(
-            ImapErrInvalidArgument,
-            "power[{i}] = {} W is negative",
-            p[i]
-        );
-    }
-    if p.iter().all(|&x| x == 0.0) {
-        bail!(ImapErrNoLight, "the light's power is 0 W in every band");
-    }
-    Ok(p)
 }

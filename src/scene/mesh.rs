@@ -120,23 +120,7 @@ impl Mesh {
         };
         let exitance = match desc.exitance {
             None => None,
-            Some(e) => {
-                let e = bands.expand("exitance", e)?;
-                if let Some(i) = e.iter().position(|&x| x < 0.0) {
-                    bail!(
-                        ImapErrInvalidArgument,
-                        "exitance[{i}] = {} is negative",
-                        e[i]
-                    );
-                }
-                if e.iter().all(|&x| x == 0.0) {
-                    bail!(
-                        ImapErrNoLight,
-                        "the mesh is emitting but its exitance is 0 in every band"
-                    );
-                }
-                Some(e)
-            }
+            Some(e) => Some(bands.expand_emission("exitance", e)?),
         };
         Ok(Mesh {
             positions,
