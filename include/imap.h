@@ -79,6 +79,12 @@
 #define IMAP_SCHEDULER_CLASSIC 0
 
 /**
+ * `ImapConfig::scheduler`: vertex groups with one processing thread each, split into
+ * `subd` subgroups under load (the default).
+ */
+#define IMAP_SCHEDULER_DYNAMIC 1
+
+/**
  * `ImapMaterial::ior_model`: not a dielectric.
  */
 #define IMAP_IOR_NONE 0
@@ -297,6 +303,32 @@ typedef struct {
    * Metres per scene unit (irradiance is reported in W/m²).
    */
   double unit_m;
+  /**
+   * Dynamic scheduler: vertex groups at the start; 0 = one per calculating thread.
+   */
+  uint32_t initial_groups;
+  /**
+   * Dynamic scheduler: most groups ever (preallocated); 0 = 64 per calculating thread.
+   */
+  uint32_t max_groups;
+  /**
+   * Dynamic scheduler: subgroups per split, 2..=64 (the paper's 4).
+   */
+  uint32_t subd;
+  /**
+   * Dynamic scheduler: consider splitting while fewer free portions than this wait in
+   * the input stack; 0 = the number of calculating threads.
+   */
+  uint32_t split_low_threshold;
+  /**
+   * Dynamic scheduler: split only a group with at least this many queued portions;
+   * 0 = 3.
+   */
+  uint32_t split_high_threshold;
+  /**
+   * Dynamic scheduler: smallest subgroup a split may create, in vertex sides; 0 = 256.
+   */
+  uint32_t min_group_slots;
 } ImapConfig;
 
 /**
@@ -541,8 +573,9 @@ extern "C" {
 #endif // __cplusplus
 
 /**
- * Fills `out` with the defaults: RGB, all cores, seed 0, classic scheduler, no memory
- * limit, 1 m per scene unit (spectral range preset to 380–780 nm).
+ * Fills `out` with the defaults: RGB, all cores, seed 0, dynamic scheduler with subd 4 and
+ * automatic group counts and thresholds, no memory limit, 1 m per scene unit (spectral
+ * range preset to 380–780 nm).
  *
  * Returns IMAP_ERR_NULL_POINTER when `out` is NULL. Thread-safe.
  */

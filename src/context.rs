@@ -5,13 +5,17 @@ use crate::accel::{Accel, Device};
 use crate::error::{bail, check_finite, Result};
 use crate::imap::{IMap, Readout};
 use crate::scene::{Bands, Light, Material, MaterialDesc, Mesh, MeshDesc, PreparedScene, Scene};
+use crate::sched::dynamic::DynamicParams;
 use crate::sched::{self, Counters, Progress, RunContext, RunParams, StopReason};
 use crate::transport::{PathStats, Tracer};
 
 /// Which scheduler runs the photons.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum SchedulerKind {
+    /// Calculating threads, one accumulating thread (the paper's baseline).
     Classic,
+    /// Vertex groups with one processing thread each, split under load (the paper's method).
+    Dynamic,
 }
 
 /// Context settings fixed at creation.
@@ -22,6 +26,8 @@ pub struct Config {
     pub threads: usize,
     pub seed: u64,
     pub scheduler: SchedulerKind,
+    /// Settings of the dynamic scheduler.
+    pub dynamic: DynamicParams,
     /// Largest map, in bytes, the context may allocate; 0 for no limit.
     pub memory_budget: u64,
     /// Metres per scene unit.
@@ -34,7 +40,8 @@ impl Default for Config {
             bands: Bands::rgb(),
             threads: 0,
             seed: 0,
-            scheduler: SchedulerKind::Classic,
+            scheduler: SchedulerKind::Dynamic,
+            dynamic: DynamicParams::default(),
             memory_budget: 0,
             unit_m: 1.0,
         }
@@ -90,6 +97,28 @@ impl Context {
                 ImapErrInvalidArgument,
                 "unit_m = {} must be positive (metres per scene unit)",
                 config.unit_m
+            );
+        }
+        let d = &config.dynamic;
+        if !(2..=64).contains(&d.subd) {
+            bail!(
+                ImapErrInvalidArgument,
+                "subd = {} must be between 2 and 64",
+                d.subd
+            );
+        }
+        if d.max_groups > 1 << 20 || d.initial_groups > 1 << 20 {
+            bail!(
+                ImapErrInvalidArgument,
+                "initial_groups and max_groups must be at most 2^20"
+            );
+        }
+        if d.max_groups != 0 && d.initial_groups > d.max_groups {
+            bail!(
+                ImapErrInvalidArgument,
+                "initial_groups {} exceeds max_groups {}",
+                d.initial_groups,
+                d.max_groups
             );
         }
         if config.threads > 4096 {
@@ -313,6 +342,7 @@ impl Context {
         };
         let outcome = match self.config.scheduler {
             SchedulerKind::Classic => sched::classic::run(&rc, map, params),
+            SchedulerKind::Dynamic => sched::dynamic::run(&rc, map, params, &self.config.dynamic),
         };
         debug_assert_eq!(outcome.photons_traced, outcome.stats.photons);
         self.stats.merge(&outcome.stats);

@@ -7,12 +7,14 @@ use super::{
 use crate::context::{Config, Context, Report, SchedulerKind};
 use crate::error::{bail, ImapStatus, Result};
 use crate::scene::{Bands, IorModel, MaterialDesc, MeshDesc};
+use crate::sched::dynamic::DynamicParams;
 use crate::sched::{Progress, RunParams, StopReason};
 use std::ffi::{c_char, CStr};
 use std::sync::Mutex;
 
-/// Fills `out` with the defaults: RGB, all cores, seed 0, classic scheduler, no memory
-/// limit, 1 m per scene unit (spectral range preset to 380–780 nm).
+/// Fills `out` with the defaults: RGB, all cores, seed 0, dynamic scheduler with subd 4 and
+/// automatic group counts and thresholds, no memory limit, 1 m per scene unit (spectral
+/// range preset to 380–780 nm).
 ///
 /// Returns IMAP_ERR_NULL_POINTER when `out` is NULL. Thread-safe.
 #[no_mangle]
@@ -27,10 +29,16 @@ pub extern "C" fn imap_config_default(out: *mut ImapConfig) -> ImapStatus {
                 wavelength_min_nm: 380.0,
                 wavelength_max_nm: 780.0,
                 threads: 0,
-                scheduler: IMAP_SCHEDULER_CLASSIC,
+                scheduler: IMAP_SCHEDULER_DYNAMIC,
                 seed: 0,
                 memory_budget_bytes: 0,
                 unit_m: 1.0,
+                initial_groups: 0,
+                max_groups: 0,
+                subd: 4,
+                split_low_threshold: 0,
+                split_high_threshold: 0,
+                min_group_slots: 0,
             },
         )
     })
@@ -58,13 +66,26 @@ fn config_from_c(c: &ImapConfig) -> Result<Config> {
     };
     let scheduler = match c.scheduler {
         IMAP_SCHEDULER_CLASSIC => SchedulerKind::Classic,
+        IMAP_SCHEDULER_DYNAMIC => SchedulerKind::Dynamic,
         s => bail!(ImapErrInvalidArgument, "scheduler {s} is unknown"),
+    };
+    let defaults = DynamicParams::default();
+    let or = |v: u32, d: usize| if v == 0 { d } else { v as usize };
+    let dynamic = DynamicParams {
+        initial_groups: c.initial_groups as usize,
+        max_groups: c.max_groups as usize,
+        subd: or(c.subd, defaults.subd),
+        low_threshold: c.split_low_threshold as usize,
+        high_threshold: or(c.split_high_threshold, defaults.high_threshold),
+        min_group_slots: or(c.min_group_slots, defaults.min_group_slots),
+        split_interval: defaults.split_interval,
     };
     Ok(Config {
         bands,
         threads: c.threads as usize,
         seed: c.seed,
         scheduler,
+        dynamic,
         memory_budget: c.memory_budget_bytes,
         unit_m: c.unit_m,
     })

@@ -18,6 +18,9 @@ pub const IMAP_BANDS_SPECTRAL: u32 = 1;
 
 /// `ImapConfig::scheduler`: the classic scheme (calculating threads, one accumulating thread).
 pub const IMAP_SCHEDULER_CLASSIC: u32 = 0;
+/// `ImapConfig::scheduler`: vertex groups with one processing thread each, split into
+/// `subd` subgroups under load (the default).
+pub const IMAP_SCHEDULER_DYNAMIC: u32 = 1;
 
 /// `ImapMaterial::ior_model`: not a dielectric.
 pub const IMAP_IOR_NONE: u32 = 0;
@@ -72,6 +75,20 @@ pub struct ImapConfig {
     pub memory_budget_bytes: u64,
     /// Metres per scene unit (irradiance is reported in W/m²).
     pub unit_m: f64,
+    /// Dynamic scheduler: vertex groups at the start; 0 = one per calculating thread.
+    pub initial_groups: u32,
+    /// Dynamic scheduler: most groups ever (preallocated); 0 = 64 per calculating thread.
+    pub max_groups: u32,
+    /// Dynamic scheduler: subgroups per split, 2..=64 (the paper's 4).
+    pub subd: u32,
+    /// Dynamic scheduler: consider splitting while fewer free portions than this wait in
+    /// the input stack; 0 = the number of calculating threads.
+    pub split_low_threshold: u32,
+    /// Dynamic scheduler: split only a group with at least this many queued portions;
+    /// 0 = 3.
+    pub split_high_threshold: u32,
+    /// Dynamic scheduler: smallest subgroup a split may create, in vertex sides; 0 = 256.
+    pub min_group_slots: u32,
 }
 
 /// A material. Per-band arrays hold 1 value (the same in every band) or one per band;

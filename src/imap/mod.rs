@@ -2,19 +2,34 @@
 //! plus the sum of squared scalar deposits (the paper's fourth value) for the Monte Carlo
 //! error. Slots exist only for recording meshes and only for their recorded sides; a slot's
 //! values are contiguous so one deposit touches one cache line or a few.
+//!
+//! The values are f64 bit patterns in `AtomicU64`s, updated with a relaxed load and a
+//! relaxed store (plain moves on x86, no locked instruction). Schedulers guarantee one
+//! writer per slot at a time (the accumulating thread, or a vertex group's processing
+//! thread); the atomics make concurrent *reading* (progress reports during a run) and
+//! sharing the map between processing threads safe Rust, and turn a broken single-writer
+//! invariant into lost updates that the determinism tests see, instead of undefined
+//! behaviour.
 
 mod readout;
 
 pub use readout::{Readout, NO_DATA_REL_ERROR};
 
 use crate::error::{Error, ImapStatus, Result};
+use std::sync::atomic::{AtomicU64, Ordering::Relaxed};
 
 /// The accumulators.
 #[derive(Debug)]
 pub struct IMap {
     bands: usize,
     stride: usize,
-    data: Vec<f64>,
+    data: Vec<AtomicU64>,
+}
+
+/// Adds `x` to the f64 in `a`; the caller is the slot's only writer.
+#[inline(always)]
+fn add(a: &AtomicU64, x: f64) {
+    a.store((f64::from_bits(a.load(Relaxed)) + x).to_bits(), Relaxed);
 }
 
 impl IMap {
@@ -31,7 +46,7 @@ impl IMap {
                 format!("could not allocate the map ({} MiB)", (len * 8) >> 20),
             )
         })?;
-        data.resize(len, 0.0);
+        data.resize_with(len, || AtomicU64::new(0));
         Ok(IMap {
             bands,
             stride,
@@ -47,11 +62,23 @@ impl IMap {
         self.data.len() / self.stride
     }
 
-    /// Adds a deposit of barycentric weight `w` of a full-colour photon.
+    /// The values as plain f64s, for a thread that holds the map exclusively (the classic
+    /// scheduler's accumulator): no atomics, so the band loop vectorises.
+    #[inline]
+    fn plain(&mut self) -> &mut [f64] {
+        // SAFETY: AtomicU64 has the size and alignment of u64, and so of f64; the exclusive
+        // borrow rules out any other access while the slice lives.
+        unsafe {
+            std::slice::from_raw_parts_mut(self.data.as_mut_ptr() as *mut f64, self.data.len())
+        }
+    }
+
+    /// Adds a deposit of barycentric weight `w` of a full-colour photon (exclusive access).
     #[inline]
     pub fn add_colour(&mut self, slot: usize, w: f64, colour: &[f32]) {
-        let s = &mut self.data[slot * self.stride..(slot + 1) * self.stride];
-        let (values, sq) = s.split_at_mut(self.bands);
+        let (bands, stride) = (self.bands, self.stride);
+        let s = &mut self.plain()[slot * stride..(slot + 1) * stride];
+        let (values, sq) = s.split_at_mut(bands);
         for (a, &c) in values.iter_mut().zip(colour) {
             *a += w * c as f64;
         }
@@ -60,29 +87,51 @@ impl IMap {
         sq[0] += w * w;
     }
 
-    /// Adds a deposit of weight `w` of a photon collapsed to `band` with value `value`.
+    /// Adds a deposit of weight `w` of a photon collapsed to `band` (exclusive access).
     #[inline]
     pub fn add_band(&mut self, slot: usize, w: f64, band: usize, value: f32) {
+        let (bands, base) = (self.bands, slot * self.stride);
+        let m = self.plain();
+        m[base + band] += w * value as f64;
+        m[base + bands] += w * w;
+    }
+
+    /// `add_colour` through a shared map: the caller must be the slot's only writer (a
+    /// vertex group's processing thread); readers may run concurrently.
+    #[inline]
+    pub fn add_colour_shared(&self, slot: usize, w: f64, colour: &[f32]) {
+        let s = &self.data[slot * self.stride..(slot + 1) * self.stride];
+        let (values, sq) = s.split_at(self.bands);
+        for (a, &c) in values.iter().zip(colour) {
+            add(a, w * c as f64);
+        }
+        add(&sq[0], w * w);
+    }
+
+    /// `add_band` through a shared map, under the same rule as `add_colour_shared`.
+    #[inline]
+    pub fn add_band_shared(&self, slot: usize, w: f64, band: usize, value: f32) {
         let base = slot * self.stride;
-        self.data[base + band] += w * value as f64;
-        self.data[base + self.bands] += w * w;
+        add(&self.data[base + band], w * value as f64);
+        add(&self.data[base + self.bands], w * w);
     }
 
     /// Accumulated band value (photon units) of a slot.
     #[inline]
     pub fn value(&self, slot: usize, band: usize) -> f64 {
-        self.data[slot * self.stride + band]
+        f64::from_bits(self.data[slot * self.stride + band].load(Relaxed))
     }
 
     /// (Σ deposits of the scalar energy, Σ squares) of a slot.
     #[inline]
     pub fn scalar(&self, slot: usize) -> (f64, f64) {
         let s = &self.data[slot * self.stride..(slot + 1) * self.stride];
-        let sum: f64 = s[..self.bands].iter().sum();
-        (sum / self.bands as f64, s[self.bands])
+        let get = |a: &AtomicU64| f64::from_bits(a.load(Relaxed));
+        let sum: f64 = s[..self.bands].iter().map(get).sum();
+        (sum / self.bands as f64, get(&s[self.bands]))
     }
 
     pub fn clear(&mut self) {
-        self.data.iter_mut().for_each(|x| *x = 0.0);
+        self.data.iter_mut().for_each(|x| *x.get_mut() = 0);
     }
 }

@@ -4,6 +4,8 @@
 //! or the thread count.
 
 pub mod classic;
+pub mod dynamic;
+pub mod groups;
 
 use crate::imap::{IMap, Readout};
 use crate::scene::PreparedScene;
@@ -142,6 +144,7 @@ impl PhotonSource {
                 tracer.trace(k, colour, sink, stats);
             }
             self.hits.fetch_add(stats.hits - before, Ordering::Relaxed);
+            sink.batch_done();
         }
     }
 

@@ -20,6 +20,9 @@ pub trait HitSink {
     /// A photon of colour `colour` arrived on `side` (0 front, 1 back) of triangle `prim`
     /// of mesh `mesh` at barycentric coordinates (u, v).
     fn deposit(&mut self, mesh: u32, prim: u32, side: u8, u: f32, v: f32, colour: &Colour);
+
+    /// Called after each batch of photons.
+    fn batch_done(&mut self) {}
 }
 
 /// Per-thread tallies of a run; merged after the threads finish.

@@ -1,7 +1,7 @@
 //! Scene builders shared by the integration tests.
 #![allow(dead_code)]
 
-use imap::{Config, Context, MaterialDesc, MeshDesc};
+use imap::{Config, Context, IorModel, MaterialDesc, MeshDesc};
 
 /// A triangulated mesh: xyz positions and triangle indices.
 pub struct Geometry {
@@ -223,4 +223,112 @@ pub fn vertex_areas(g: &Geometry) -> Vec<f64> {
         }
     }
     share
+}
+
+/// A closed room with mixed materials: coloured Lambertian walls, a mirror, translucent
+/// and absorbing glass, a spot and a point light and an emitting panel. Returns the context
+/// and the recording meshes' ids.
+pub fn mixed_room(config: Config) -> (Context, Vec<u32>) {
+    let mut ctx = context(config);
+    let bands = ctx.scene().bands.count();
+    let ramp = |a: f64, b: f64| -> Vec<f64> {
+        (0..bands)
+            .map(|i| a + (b - a) * i as f64 / (bands - 1).max(1) as f64)
+            .collect()
+    };
+    let walls = ctx
+        .add_material(&MaterialDesc {
+            diffuse_reflect: ramp(0.8, 0.3),
+            ..Default::default()
+        })
+        .unwrap();
+    let mirror = ctx
+        .add_material(&MaterialDesc {
+            specular_reflect: vec![0.95],
+            diffuse_reflect: vec![0.02],
+            ..Default::default()
+        })
+        .unwrap();
+    let paper = ctx
+        .add_material(&MaterialDesc {
+            diffuse_reflect: vec![0.4],
+            diffuse_transmit: ramp(0.2, 0.5),
+            ..Default::default()
+        })
+        .unwrap();
+    let glass = ctx
+        .add_material(&MaterialDesc {
+            ior: Some(IorModel::Sellmeier {
+                b: [1.039_612_12, 0.231_792_344, 1.010_469_45],
+                c: [0.006_000_698_67, 0.020_017_914_4, 103.560_653],
+            }),
+            absorption_per_m: ramp(0.5, 3.0),
+            ..Default::default()
+        })
+        .unwrap();
+    let mut ids = Vec::new();
+    let room = cuboid([-2.0, -2.0, 0.0], [2.0, 2.0, 3.0], 6, true);
+    ids.push(ctx.add_mesh(&room.desc(walls)).unwrap());
+    let mirror_g = grid(3, -1.9, -0.5, -1.9, -0.5, 0.01);
+    ids.push(ctx.add_mesh(&mirror_g.desc(mirror)).unwrap());
+    let sheet = grid(4, -1.0, 1.0, -0.5, 0.5, 1.5);
+    let mut sd = sheet.desc(paper);
+    sd.two_sided = true;
+    ids.push(ctx.add_mesh(&sd).unwrap());
+    let prism = cuboid([0.5, 0.5, 0.2], [1.2, 1.5, 0.9], 2, false);
+    let mut pd = prism.desc(glass);
+    pd.record = false;
+    ctx.add_mesh(&pd).unwrap();
+    let panel = grid(1, -0.3, 0.3, -0.3, 0.3, 2.95).flipped();
+    let mut lamp = panel.desc(walls);
+    lamp.record = false;
+    let exitance = ramp(50.0, 20.0);
+    lamp.exitance = Some(&exitance);
+    ctx.add_mesh(&lamp).unwrap();
+    ctx.add_point_light([1.0, -1.0, 2.0], &ramp(5.0, 9.0))
+        .unwrap();
+    ctx.add_spot_light([-1.0, 1.0, 2.5], [0.2, 0.1, -1.0], 0.4, &[3.0])
+        .unwrap();
+    (ctx, ids)
+}
+
+/// Every band and side of every recording mesh, in one vector.
+pub fn whole_map(ctx: &Context, ids: &[u32]) -> Vec<f64> {
+    let mut all = Vec::new();
+    for &m in ids {
+        let n = ctx.vertex_count(m).unwrap();
+        let sides = if ctx.scene().meshes[m as usize].two_sided {
+            2
+        } else {
+            1
+        };
+        for side in 0..sides {
+            for band in 0..ctx.scene().bands.count() as u32 {
+                let mut e = vec![0.0; n];
+                ctx.irradiance(m, side, band, &mut e).unwrap();
+                all.extend(e);
+            }
+            let mut err = vec![0.0; n];
+            ctx.rel_error(m, side, &mut err).unwrap();
+            all.extend(err);
+        }
+    }
+    all
+}
+
+pub fn assert_maps_agree(a: &[f64], b: &[f64], what: &str) {
+    assert_eq!(a.len(), b.len());
+    let mut worst: f64 = 0.0;
+    for (x, y) in a.iter().zip(b) {
+        let scale = x.abs().max(y.abs());
+        if scale > 0.0 {
+            worst = worst.max((x - y).abs() / scale);
+        }
+    }
+    eprintln!(
+        "{what}: largest relative difference {worst:.2e} over {} values",
+        a.len()
+    );
+    assert!(worst <= 1e-12, "{what}: maps differ by {worst:e}");
+    assert!(a.iter().any(|&x| x > 0.0), "{what}: the map is empty");
 }

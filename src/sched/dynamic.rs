@@ -1,0 +1,497 @@
+//! The dynamic scheduler (the first paper, §2–3, Fig. 3): calculating threads turn hits
+//! into per-vertex contributions themselves and sort them into portions by vertex group; a
+//! fixed pool of free portions is the input stack; each group has an output stack and one
+//! processing thread that alone writes the group's slots. The thread that called
+//! `imap_run` is the monitor: when the input stack runs low (calculating threads are about
+//! to wait) it splits the group with the longest output stack into `subd` subgroups with
+//! new processing threads, while the calculating threads keep running. The protocol that
+//! keeps one writer per slot through a split is in `groups.rs`.
+
+use super::groups::GroupTable;
+use super::{Counters, Monitor, PhotonSource, RunContext, RunOutcome, RunParams};
+use crate::imap::IMap;
+use crate::scene::PreparedScene;
+use crate::transport::{Colour, HitSink, PathStats};
+use crossbeam::channel::{self, Receiver, RecvTimeoutError, Sender, TryRecvError};
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+use std::time::{Duration, Instant};
+
+/// Settings of the dynamic scheduler.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DynamicParams {
+    /// Groups at the start; 0 = one per calculating thread.
+    pub initial_groups: usize,
+    /// Most groups ever (the table is preallocated to this); 0 = 64 per calculating thread.
+    pub max_groups: usize,
+    /// Subgroups per split (the paper's `subd`).
+    pub subd: usize,
+    /// Split only while fewer free portions than this wait in the input stack; 0 = the
+    /// number of calculating threads.
+    pub low_threshold: usize,
+    /// Split only a group with at least this many queued portions (0: split at every
+    /// check, for tests).
+    pub high_threshold: usize,
+    /// Smallest subgroup a split may create, in slots.
+    pub min_group_slots: usize,
+    /// Least time between two splits, so that a split can take effect before the next.
+    pub split_interval: Duration,
+}
+
+impl Default for DynamicParams {
+    fn default() -> Self {
+        DynamicParams {
+            initial_groups: 0,
+            max_groups: 0,
+            subd: 4,
+            low_threshold: 0,
+            high_threshold: 3,
+            min_group_slots: 256,
+            split_interval: Duration::from_millis(1),
+        }
+    }
+}
+
+/// Bytes a portion aims at: small enough to stay in cache while it is applied.
+const PORTION_BYTES: usize = 32 << 10;
+/// Most bytes all portions together may take.
+const POOL_BYTES: usize = 256 << 20;
+
+/// Contributions per portion for `bands` bands (a hit's colour is shared by the up to three
+/// contributions it makes to one group).
+fn portion_capacity(bands: usize) -> usize {
+    (PORTION_BYTES / (std::mem::size_of::<Contribution>() + 4 * bands / 3 + 1)).clamp(64, 2048)
+}
+/// `Contribution::band` of a full-colour contribution.
+const FULL: u16 = u16::MAX;
+
+/// One vertex's share of one hit.
+#[derive(Clone, Copy, Debug)]
+struct Contribution {
+    w: f64,
+    slot: u32,
+    colour_at: u32,
+    band: u16,
+}
+
+/// A portion of contributions for one group.
+struct Portion {
+    group: usize,
+    items: Vec<Contribution>,
+    colours: Vec<f32>,
+    /// The hit whose colour was stored last (contributions of one hit share it), and where.
+    stamp: u64,
+    stamp_at: u32,
+}
+
+impl Portion {
+    fn new(capacity: usize, bands: usize) -> Self {
+        Portion {
+            group: 0,
+            items: Vec::with_capacity(capacity),
+            colours: Vec::with_capacity(capacity * bands / 3),
+            stamp: u64::MAX,
+            stamp_at: 0,
+        }
+    }
+
+    fn clear(&mut self) {
+        self.items.clear();
+        self.colours.clear();
+        self.stamp = u64::MAX;
+    }
+}
+
+/// What a calculating thread shares with the others.
+struct Shared<'a> {
+    table: &'a GroupTable,
+    scene: &'a PreparedScene,
+    free: Receiver<Portion>,
+    recycle: Sender<Portion>,
+    outputs: &'a [Sender<Portion>],
+    capacity: usize,
+}
+
+/// A calculating thread's side: one open portion per group it has touched.
+struct GroupSink<'a> {
+    shared: &'a Shared<'a>,
+    open: Vec<Option<Portion>>,
+    open_list: Vec<usize>,
+    spare: Option<Portion>,
+    hit: u64,
+    wait_s: f64,
+}
+
+impl<'a> GroupSink<'a> {
+    fn new(shared: &'a Shared<'a>) -> Self {
+        GroupSink {
+            shared,
+            open: (0..shared.table.capacity()).map(|_| None).collect(),
+            open_list: Vec::new(),
+            spare: None,
+            hit: 0,
+            wait_s: 0.0,
+        }
+    }
+
+    /// Hands group `g`'s open portion to its processing thread.
+    fn send(&mut self, g: usize) {
+        if let Some(mut p) = self.open[g].take() {
+            self.open_list.retain(|&x| x != g);
+            p.items.sort_unstable_by_key(|c| c.slot);
+            if let Err(e) = self.shared.outputs[g].send(p) {
+                // Only when the run is being torn down after a panic.
+                let _ = e;
+                self.shared.table.close(g);
+            }
+        }
+    }
+
+    fn send_all(&mut self) {
+        while let Some(&g) = self.open_list.last() {
+            self.send(g);
+        }
+    }
+
+    /// A free portion from the input stack. While none is free, the partly filled open
+    /// portions are handed over so that their groups can return portions (without this,
+    /// threads holding open portions could all wait for each other).
+    fn free_portion(&mut self) -> Option<Portion> {
+        if let Some(p) = self.spare.take() {
+            return Some(p);
+        }
+        match self.shared.free.try_recv() {
+            Ok(p) => return Some(p),
+            Err(TryRecvError::Disconnected) => return None,
+            Err(TryRecvError::Empty) => {}
+        }
+        let t = Instant::now();
+        let p = loop {
+            match self.shared.free.recv_timeout(Duration::from_micros(500)) {
+                Ok(p) => break Some(p),
+                Err(RecvTimeoutError::Disconnected) => break None,
+                Err(RecvTimeoutError::Timeout) => self.send_all(),
+            }
+        };
+        self.wait_s += t.elapsed().as_secs_f64();
+        p
+    }
+
+    /// The open portion for `slot`'s group, opening one when needed.
+    fn portion_for(&mut self, slot: usize) -> Option<usize> {
+        loop {
+            let g = self.shared.table.lookup(slot);
+            if self.open[g].is_some() {
+                return Some(g);
+            }
+            let p = self.free_portion()?;
+            // The group may have split while we waited: look again before opening.
+            let g = self.shared.table.lookup(slot);
+            if self.open[g].is_some() {
+                self.spare = Some(p);
+                return Some(g);
+            }
+            if self.shared.table.try_open(g) {
+                let mut p = p;
+                p.group = g;
+                self.open[g] = Some(p);
+                self.open_list.push(g);
+                return Some(g);
+            }
+            self.spare = Some(p);
+        }
+    }
+}
+
+impl HitSink for GroupSink<'_> {
+    fn deposit(&mut self, mesh: u32, prim: u32, side: u8, u: f32, v: f32, colour: &Colour) {
+        self.hit += 1;
+        let m = &self.shared.scene.meshes[mesh as usize];
+        let tri = m.triangles[prim as usize];
+        let (u, v) = (u as f64, v as f64);
+        let w = [1.0 - u - v, u, v];
+        for (&vertex, &w) in tri.iter().zip(&w) {
+            let slot = m
+                .slot(vertex, side as usize)
+                .expect("deposit on a recording mesh");
+            let Some(g) = self.portion_for(slot) else {
+                return;
+            };
+            let p = self.open[g].as_mut().expect("opened above");
+            if p.stamp != self.hit {
+                p.stamp = self.hit;
+                p.stamp_at = p.colours.len() as u32;
+                match colour.band() {
+                    Some(b) => p.colours.push(colour.values()[b] as f32),
+                    None => p.colours.extend(colour.values().iter().map(|&c| c as f32)),
+                }
+            }
+            let band = colour.band().map_or(FULL, |b| b as u16);
+            p.items.push(Contribution {
+                w,
+                slot: slot as u32,
+                colour_at: p.stamp_at,
+                band,
+            });
+            if p.items.len() == self.shared.capacity {
+                self.send(g);
+            }
+        }
+    }
+
+    fn batch_done(&mut self) {
+        // Portions of groups that split must reach their owner, or the subgroups would
+        // wait for them.
+        let table = self.shared.table;
+        let split: Vec<usize> = self
+            .open_list
+            .iter()
+            .copied()
+            .filter(|&g| table.is_split(g))
+            .collect();
+        for g in split {
+            self.send(g);
+        }
+    }
+}
+
+/// Applies a portion to its group's slots: the processing thread's work.
+fn apply(map: &IMap, p: &Portion) {
+    let bands = map.bands();
+    for c in &p.items {
+        let at = c.colour_at as usize;
+        if c.band == FULL {
+            map.add_colour_shared(c.slot as usize, c.w, &p.colours[at..at + bands]);
+        } else {
+            map.add_band_shared(c.slot as usize, c.w, c.band as usize, p.colours[at]);
+        }
+    }
+}
+
+/// A processing thread: waits until no ancestor of its group has work left, then applies
+/// its group's portions until its group is split and drained, or the run ends.
+fn process(
+    g: usize,
+    rx: Receiver<Portion>,
+    table: &GroupTable,
+    map: &IMap,
+    recycle: &Sender<Portion>,
+    finished: &AtomicBool,
+) -> (f64, f64, u64) {
+    let born = Instant::now();
+    while !table.ancestors_done(g) {
+        std::thread::sleep(Duration::from_micros(50));
+    }
+    let (mut busy, mut applied) = (0.0, 0);
+    loop {
+        match rx.recv_timeout(Duration::from_millis(2)) {
+            Ok(mut p) => {
+                let t = Instant::now();
+                apply(map, &p);
+                busy += t.elapsed().as_secs_f64();
+                applied += 1;
+                table.close(g);
+                p.clear();
+                let _ = recycle.send(p);
+            }
+            Err(RecvTimeoutError::Timeout) => {}
+            Err(RecvTimeoutError::Disconnected) => break,
+        }
+        // Done when split and drained, or when the calculating threads have all finished
+        // (after which no portion can arrive) and the queue is empty.
+        if rx.is_empty()
+            && ((table.is_split(g) && table.pending(g) == 0) || finished.load(Ordering::Acquire))
+        {
+            break;
+        }
+    }
+    (busy, born.elapsed().as_secs_f64(), applied)
+}
+
+/// Runs the dynamic scheduler until a stop criterion is met.
+pub fn run(
+    rc: &RunContext,
+    map: &mut IMap,
+    params: &mut RunParams,
+    dp: &DynamicParams,
+) -> RunOutcome {
+    let threads = rc.threads;
+    let source = PhotonSource::new(rc.first_photon, params.photons);
+    let bands = map.bands();
+    let initial = if dp.initial_groups == 0 {
+        threads
+    } else {
+        dp.initial_groups
+    };
+    let max_groups = if dp.max_groups == 0 {
+        64 * threads
+    } else {
+        dp.max_groups
+    }
+    .max(initial);
+    let low = if dp.low_threshold == 0 {
+        threads
+    } else {
+        dp.low_threshold
+    };
+    let table = GroupTable::new(map.slots(), initial, max_groups, dp.subd.max(2));
+
+    // The input stack: two portions per calculating thread and group to begin with, more
+    // with every split, within a memory cap.
+    let capacity = portion_capacity(bands);
+    let portion_bytes = capacity * (std::mem::size_of::<Contribution>() + 4 * bands / 3 + 1);
+    let pool_cap = (POOL_BYTES / portion_bytes).clamp(8 * threads, 2 * threads * (max_groups + 2));
+    let (free_tx, free_rx) = channel::bounded::<Portion>(pool_cap);
+    let mut pool = 0;
+    let grow_pool = |n: usize, pool: &mut usize| {
+        for _ in 0..n.min(pool_cap - *pool) {
+            let _ = free_tx.send(Portion::new(capacity, bands));
+            *pool += 1;
+        }
+    };
+    grow_pool(2 * threads * (table.count() + 1), &mut pool);
+    let (out_tx, out_rx): (Vec<Sender<Portion>>, Vec<Receiver<Portion>>) =
+        (0..max_groups).map(|_| channel::unbounded()).unzip();
+    let mut out_rx: Vec<Option<Receiver<Portion>>> = out_rx.into_iter().map(Some).collect();
+
+    let mut monitor = Monitor::new(params, rc.elapsed_before_s);
+    let mut counters = Counters::default();
+    let mut stats = PathStats::new(rc.scene.meshes.len());
+    let mut thread_lost = None;
+    let live = AtomicUsize::new(threads);
+    let finished = AtomicBool::new(false);
+    let shared_map: &IMap = map;
+    let shared = Shared {
+        table: &table,
+        scene: rc.scene,
+        free: free_rx.clone(),
+        recycle: free_tx.clone(),
+        outputs: &out_tx,
+        capacity,
+    };
+    let (mut busy_s, mut alive_s) = (0.0, 0.0);
+
+    std::thread::scope(|s| {
+        let mut calc = Vec::new();
+        for t in 0..threads {
+            let (shared, source, tracer, live) = (&shared, &source, &rc.tracer, &live);
+            let spawned = std::thread::Builder::new()
+                .name(format!("imap-calc-{t}"))
+                .spawn_scoped(s, move || {
+                    let mut sink = GroupSink::new(shared);
+                    let mut stats = PathStats::new(tracer.scene.meshes.len());
+                    let mut colour = Colour::new(tracer.bands);
+                    source.trace_all(tracer, &mut colour, &mut sink, &mut stats);
+                    sink.send_all();
+                    if let Some(p) = sink.spare.take() {
+                        let _ = shared.recycle.send(p);
+                    }
+                    live.fetch_sub(1, Ordering::Release);
+                    (stats, sink.wait_s)
+                });
+            match spawned {
+                Ok(h) => calc.push(h),
+                Err(e) => {
+                    thread_lost = Some(format!("could not start calculating thread {t}: {e}"));
+                    live.fetch_sub(1, Ordering::Release);
+                    source.stop();
+                }
+            }
+        }
+        let mut processors = Vec::new();
+        let (table, finished) = (&table, &finished);
+        let spawn_processor = |g: usize, out_rx: &mut Vec<Option<Receiver<Portion>>>| {
+            let rx = out_rx[g].take().expect("one processing thread per group");
+            let recycle = free_tx.clone();
+            std::thread::Builder::new()
+                .name(format!("imap-group-{g}"))
+                .spawn_scoped(s, move || {
+                    process(g, rx, table, shared_map, &recycle, finished)
+                })
+                .map_err(|e| format!("could not start the processing thread of group {g}: {e}"))
+        };
+        let mut start =
+            |g: usize, out_rx: &mut Vec<Option<Receiver<Portion>>>, processors: &mut Vec<_>| {
+                match spawn_processor(g, out_rx) {
+                    Ok(h) => processors.push(h),
+                    Err(e) => {
+                        // Without an owner the group's portions never come back: stop the run.
+                        thread_lost = Some(e);
+                        source.stop();
+                    }
+                }
+            };
+        for g in 0..table.count() {
+            start(g, &mut out_rx, &mut processors);
+        }
+
+        // The monitor: watch the stacks, split overloaded groups, report progress.
+        let mut last_split = Instant::now() - Duration::from_secs(1);
+        while live.load(Ordering::Acquire) > 0 {
+            std::thread::sleep(Duration::from_micros(250).min(monitor.timeout()));
+            monitor.poll(&source, shared_map, rc);
+            let free = free_rx.len();
+            let mut hottest: Option<(usize, usize)> = None;
+            for (g, out) in out_tx.iter().enumerate().take(table.count()) {
+                if !table.is_split(g) {
+                    let q = out.len();
+                    counters.peak_queue = counters.peak_queue.max(q as u64);
+                    if hottest.is_none_or(|(_, best)| q > best)
+                        && table.can_split(g, dp.min_group_slots)
+                    {
+                        hottest = Some((g, q));
+                    }
+                }
+            }
+            let hottest = hottest.unwrap_or((0, 0));
+            if free < low
+                && hottest.1 >= dp.high_threshold
+                && last_split.elapsed() >= dp.split_interval
+                && table.can_split(hottest.0, dp.min_group_slots)
+            {
+                for child in table.split(hottest.0) {
+                    start(child, &mut out_rx, &mut processors);
+                }
+                grow_pool(threads * dp.subd.max(2), &mut pool);
+                counters.splits += 1;
+                last_split = Instant::now();
+            }
+        }
+        for (t, h) in calc.into_iter().enumerate() {
+            match h.join() {
+                Ok((st, wait)) => {
+                    stats.merge(&st);
+                    counters.calc_wait_s += wait;
+                }
+                Err(_) => thread_lost = Some(format!("calculating thread {t} panicked")),
+            }
+        }
+        // Every calculating thread has handed over all its portions: the processing
+        // threads drain their queues and finish.
+        finished.store(true, Ordering::Release);
+        for h in processors {
+            match h.join() {
+                Ok((b, a, n)) => {
+                    busy_s += b;
+                    alive_s += a;
+                    counters.portions += n;
+                }
+                Err(_) => thread_lost = Some("a processing thread panicked".into()),
+            }
+        }
+    });
+
+    counters.groups = (0..table.count()).filter(|&g| !table.is_split(g)).count() as u64;
+    counters.accum_busy_fraction = if alive_s > 0.0 { busy_s / alive_s } else { 0.0 };
+    let photons_traced = source.claimed() - rc.first_photon;
+    let wall_s = monitor.wall_s();
+    let stop = monitor.finish(source.claimed(), rc.hits_before + stats.hits, map, rc);
+    RunOutcome {
+        stats,
+        photons_traced,
+        wall_s,
+        stop,
+        counters,
+        history: monitor.history,
+        thread_lost,
+    }
+}
