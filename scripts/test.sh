@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Runs every test of libimap (after scripts/setup-system.sh has installed the system
 # packages): the Rust unit and integration tests (physics against analytic answers,
-# determinism, the header drift check), the CMake build with the C and C++ examples under
+# determinism across schedulers and thread counts, the header drift check), the loom model
+# of the dynamic scheduler's split protocol, the CMake build with the C and C++ examples under
 # ctest, and the package as a user gets it: installed into a prefix that is then moved,
 # with c_examples configured on their own against it (CMake config) and one example built
 # with pkg-config.
@@ -13,6 +14,9 @@ JOBS=$(nproc)
 
 echo "== cargo test (release: shares the build with CMake)"
 cargo test --release --all-targets
+
+echo "== loom: every interleaving of the vertex-group split protocol"
+RUSTFLAGS="--cfg loom" CARGO_TARGET_DIR=target/loom cargo test --release --test loom_groups
 
 echo "== CMake build tree: C and C++ examples under ctest"
 cmake -S . -B build -DCMAKE_BUILD_TYPE=Release -DIMAP_EMBREE_DIR="$EMBREE_DIR" >/dev/null

@@ -7,9 +7,13 @@
 //!    `subd_state` with release; `lookup` reads `subd_state` with acquire before it reads
 //!    the children's fields.
 //! 2. No portion opened for a group after its split: a calculating thread that wants a new
-//!    portion for group g increments g's `pending` and then re-reads `subd_state` (both
-//!    SeqCst); `split` sets `subd_state` (SeqCst) before anyone waits for `pending`. So
-//!    either the thread sees the split (and backs off) or the wait sees its increment.
+//!    portion for group g increments g's `pending` and then re-reads `subd_state`; `split`
+//!    sets `subd_state` before anyone reads `pending`. All four accesses are SeqCst
+//!    read-modify-writes (a read is `fetch_add(0)`), which always see the latest value in
+//!    their location's modification order: either the thread sees the split (and backs off)
+//!    or the reader sees its increment (Dekker). Plain SeqCst loads would be enough in C11,
+//!    but loom models them like acquire loads; RMWs are exact in both, and this path runs
+//!    once per portion, not per hit.
 //! 3. Hand-over: `pending` counts portions of a group that are open, queued or being
 //!    applied; the owner decrements it (release) after applying. A group's processing
 //!    thread writes only once every ancestor's `pending` is 0 (acquire): the last portion
@@ -150,7 +154,7 @@ impl GroupTable {
             .store(first, Ordering::Relaxed);
         self.count.store(first + self.subd, Ordering::Release);
         // Publishes every store above to whoever acquires subd_state == 1.
-        self.groups[g].subd_state.store(1, Ordering::SeqCst);
+        self.groups[g].subd_state.swap(1, Ordering::SeqCst);
         first..first + self.subd
     }
 
@@ -160,7 +164,7 @@ impl GroupTable {
     pub fn try_open(&self, g: usize) -> bool {
         let e = &self.groups[g];
         e.pending.fetch_add(1, Ordering::SeqCst);
-        if e.subd_state.load(Ordering::SeqCst) != 0 {
+        if e.subd_state.fetch_add(0, Ordering::SeqCst) != 0 {
             e.pending.fetch_sub(1, Ordering::SeqCst);
             return false;
         }
@@ -181,7 +185,7 @@ impl GroupTable {
     pub fn ancestors_done(&self, g: usize) -> bool {
         let mut a = self.groups[g].parent.load(Ordering::Relaxed);
         while a != NONE {
-            if self.groups[a].pending.load(Ordering::SeqCst) != 0 {
+            if self.groups[a].pending.fetch_add(0, Ordering::SeqCst) != 0 {
                 return false;
             }
             a = self.groups[a].parent.load(Ordering::Relaxed);
