@@ -16,6 +16,9 @@ pub enum SchedulerKind {
     Classic,
     /// Vertex groups with one processing thread each, split under load (the paper's method).
     Dynamic,
+    /// Benchmark limit: the same photons traced with every deposit discarded; the map and
+    /// the photon count stay as they were (the run is not accumulated).
+    TraceOnly,
 }
 
 /// Context settings fixed at creation.
@@ -149,6 +152,18 @@ impl Context {
 
     pub fn scene(&self) -> &Scene {
         &self.scene
+    }
+
+    /// Changes the scheduler (and its settings) for the next runs. Any scheduler continues
+    /// the same map: the photons, and so the result, do not depend on it.
+    pub fn set_scheduler(&mut self, scheduler: SchedulerKind, dynamic: DynamicParams) {
+        self.config.scheduler = scheduler;
+        self.config.dynamic = dynamic;
+    }
+
+    /// Changes the number of calculating threads for the next runs (0 = one per core).
+    pub fn set_threads(&mut self, threads: usize) {
+        self.config.threads = threads;
     }
 
     /// Embree's version (major·10000 + minor·100 + patch).
@@ -343,6 +358,21 @@ impl Context {
         let outcome = match self.config.scheduler {
             SchedulerKind::Classic => sched::classic::run(&rc, map, params),
             SchedulerKind::Dynamic => sched::dynamic::run(&rc, map, params, &self.config.dynamic),
+            SchedulerKind::TraceOnly => {
+                let outcome = sched::trace_only::run(&rc, map, params);
+                let counters = outcome.counters;
+                self.last_run = Some((
+                    outcome.stats.photons,
+                    outcome.stats.hits,
+                    outcome.wall_s,
+                    outcome.stop,
+                    counters,
+                    threads,
+                ));
+                let mut report = self.report();
+                report.run_photons = outcome.stats.photons;
+                return Ok(report);
+            }
         };
         debug_assert_eq!(outcome.photons_traced, outcome.stats.photons);
         self.stats.merge(&outcome.stats);

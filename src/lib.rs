@@ -14,6 +14,7 @@ pub mod ffi;
 pub mod imap;
 pub mod sampling;
 pub mod scene;
+pub mod scenes;
 pub mod sched;
 pub mod transport;
 

@@ -6,6 +6,7 @@
 pub mod classic;
 pub mod dynamic;
 pub mod groups;
+pub mod trace_only;
 
 use crate::imap::{IMap, Readout};
 use crate::scene::PreparedScene;

@@ -1,0 +1,606 @@
+//! Benchmark scenes generated in code with the statistics of the first paper's five test
+//! scenes (§4): objects, triangles, parts (materials), vertices and lights. `scale`
+//! multiplies the triangle (and so vertex) counts: 1 gives the paper's sizes, tests use
+//! 0.001–0.01. Geometry is made of tessellated boxes, grids and spheres; what matters for
+//! the schedulers is the number of vertices, how photons spread over them, the number of
+//! lights and (for "dispersion") a dispersive prism that concentrates photons on a small
+//! part of the map.
+
+use crate::context::Context;
+use crate::error::Result;
+use crate::scene::{IorModel, MaterialDesc, MeshDesc};
+
+/// The five scenes of the paper.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SceneKind {
+    Dispersion,
+    Room,
+    Vehicle,
+    Hall,
+    Atrium,
+}
+
+impl SceneKind {
+    pub const ALL: [SceneKind; 5] = [
+        SceneKind::Dispersion,
+        SceneKind::Room,
+        SceneKind::Vehicle,
+        SceneKind::Hall,
+        SceneKind::Atrium,
+    ];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            SceneKind::Dispersion => "dispersion",
+            SceneKind::Room => "room",
+            SceneKind::Vehicle => "vehicle",
+            SceneKind::Hall => "hall",
+            SceneKind::Atrium => "atrium",
+        }
+    }
+
+    pub fn from_name(name: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|k| k.name() == name)
+    }
+
+    /// The paper's statistics: (objects, triangles, parts, vertices, lights).
+    pub fn paper(self) -> (usize, usize, usize, usize, usize) {
+        match self {
+            SceneKind::Dispersion => (16, 3_988_110, 16, 2_002_795, 2),
+            SceneKind::Room => (1, 5_645_608, 20, 2_925_375, 9),
+            SceneKind::Vehicle => (205, 12_533_973, 213, 6_709_308, 7),
+            SceneKind::Hall => (18_207, 387_975, 18_207, 423_419, 361),
+            SceneKind::Atrium => (1, 4_543_887, 32, 2_380_261, 108),
+        }
+    }
+}
+
+/// What was built.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Built {
+    pub meshes: Vec<u32>,
+    pub objects: usize,
+    pub triangles: usize,
+    pub vertices: usize,
+    pub parts: usize,
+    pub lights: usize,
+}
+
+/// A mesh under construction, with a part (material slot) per triangle.
+#[derive(Default)]
+struct Tess {
+    positions: Vec<f64>,
+    indices: Vec<u32>,
+    parts: Vec<u32>,
+}
+
+impl Tess {
+    /// The quad o + s·u + t·v (s, t ∈ [0, 1]) as an n×m grid; normal u × v.
+    fn quad(&mut self, o: [f64; 3], u: [f64; 3], v: [f64; 3], n: usize, m: usize, part: u32) {
+        let base = (self.positions.len() / 3) as u32;
+        for j in 0..=m {
+            for i in 0..=n {
+                let (s, t) = (i as f64 / n as f64, j as f64 / m as f64);
+                self.positions
+                    .extend((0..3).map(|k| o[k] + s * u[k] + t * v[k]));
+            }
+        }
+        let id = |i: usize, j: usize| base + (j * (n + 1) + i) as u32;
+        for j in 0..m {
+            for i in 0..n {
+                self.indices.extend([
+                    id(i, j),
+                    id(i + 1, j),
+                    id(i + 1, j + 1),
+                    id(i, j),
+                    id(i + 1, j + 1),
+                    id(i, j + 1),
+                ]);
+                self.parts.extend([part, part]);
+            }
+        }
+    }
+
+    /// An axis-aligned box, n×n cells per face, normals out (or in); part + face index
+    /// when `part_per_face`.
+    fn cuboid(
+        &mut self,
+        lo: [f64; 3],
+        hi: [f64; 3],
+        n: usize,
+        inward: bool,
+        part: u32,
+        part_per_face: bool,
+    ) {
+        let d = [hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]];
+        for axis in 0..3 {
+            let (a, b) = ((axis + 1) % 3, (axis + 2) % 3);
+            for (k, positive) in [false, true].into_iter().enumerate() {
+                let mut o = lo;
+                if positive {
+                    o[axis] = hi[axis];
+                }
+                let mut u = [0.0; 3];
+                let mut v = [0.0; 3];
+                u[a] = d[a];
+                v[b] = d[b];
+                // u × v points along +axis; flip for the faces that must point the other way.
+                let (u, v) = if positive != inward { (u, v) } else { (v, u) };
+                let p = if part_per_face {
+                    part + (2 * axis + k) as u32
+                } else {
+                    part
+                };
+                self.quad(o, u, v, n, n, p);
+            }
+        }
+    }
+
+    /// A closed box with shared corners (8 vertices, 12 triangles), normals out.
+    fn solid_box(&mut self, lo: [f64; 3], hi: [f64; 3], part: u32) {
+        let base = (self.positions.len() / 3) as u32;
+        for k in 0..8 {
+            self.positions.extend([
+                if k & 1 == 0 { lo[0] } else { hi[0] },
+                if k & 2 == 0 { lo[1] } else { hi[1] },
+                if k & 4 == 0 { lo[2] } else { hi[2] },
+            ]);
+        }
+        // Faces as (corner bits) quads, counter-clockwise seen from outside.
+        for q in [
+            [0, 2, 3, 1],
+            [4, 5, 7, 6],
+            [0, 1, 5, 4],
+            [2, 6, 7, 3],
+            [0, 4, 6, 2],
+            [1, 3, 7, 5],
+        ] {
+            self.indices
+                .extend([q[0], q[1], q[2], q[0], q[2], q[3]].map(|i| base + i));
+            self.parts.extend([part, part]);
+        }
+    }
+
+    /// A UV sphere with `rings` rings and 2·rings segments, normals out.
+    fn sphere(&mut self, c: [f64; 3], r: f64, rings: usize, part: u32) {
+        let segs = 2 * rings;
+        let base = (self.positions.len() / 3) as u32;
+        self.positions.extend([c[0], c[1], c[2] + r]);
+        for i in 1..rings {
+            let th = std::f64::consts::PI * i as f64 / rings as f64;
+            for j in 0..segs {
+                let ph = 2.0 * std::f64::consts::PI * j as f64 / segs as f64;
+                self.positions.extend([
+                    c[0] + r * th.sin() * ph.cos(),
+                    c[1] + r * th.sin() * ph.sin(),
+                    c[2] + r * th.cos(),
+                ]);
+            }
+        }
+        self.positions.extend([c[0], c[1], c[2] - r]);
+        let ring = |i: usize, j: usize| base + 1 + ((i - 1) * segs + j % segs) as u32;
+        let south = base + 1 + ((rings - 1) * segs) as u32;
+        for j in 0..segs {
+            self.indices.extend([base, ring(1, j), ring(1, j + 1)]);
+            self.indices
+                .extend([south, ring(rings - 1, j + 1), ring(rings - 1, j)]);
+            self.parts.extend([part, part]);
+        }
+        for i in 1..rings - 1 {
+            for j in 0..segs {
+                self.indices.extend([
+                    ring(i, j),
+                    ring(i + 1, j),
+                    ring(i + 1, j + 1),
+                    ring(i, j),
+                    ring(i + 1, j + 1),
+                    ring(i, j + 1),
+                ]);
+                self.parts.extend([part, part]);
+            }
+        }
+    }
+
+    fn triangles(&self) -> usize {
+        self.indices.len() / 3
+    }
+
+    /// Adds the mesh; `materials[part]` maps parts to material ids.
+    fn add(
+        &self,
+        ctx: &mut Context,
+        materials: &[u32],
+        record: bool,
+        exitance: Option<&[f64]>,
+        built: &mut Built,
+    ) -> Result<u32> {
+        let tm: Vec<u32> = self.parts.iter().map(|&p| materials[p as usize]).collect();
+        let uniform = tm.iter().all(|&m| m == tm[0]);
+        let desc = MeshDesc {
+            positions: &self.positions,
+            indices: &self.indices,
+            material: tm[0],
+            triangle_materials: (!uniform).then_some(&tm[..]),
+            two_sided: false,
+            record,
+            exitance,
+        };
+        let id = ctx.add_mesh(&desc)?;
+        built.meshes.push(id);
+        built.objects += 1;
+        built.triangles += self.triangles();
+        built.vertices += self.positions.len() / 3;
+        Ok(id)
+    }
+}
+
+/// Cells per side of an n×n face that give about `tris` triangles over `faces` faces.
+fn cells(tris: f64, faces: f64) -> usize {
+    ((tris / (2.0 * faces)).sqrt().round() as usize).max(1)
+}
+
+/// `count` Lambertian materials with reflectances between 0.2 and 0.8 and a tint that
+/// varies with the band (so spectral runs carry real spectra).
+fn palette(ctx: &mut Context, count: usize) -> Result<Vec<u32>> {
+    let bands = ctx.scene().bands.count();
+    (0..count)
+        .map(|i| {
+            let base = 0.2 + 0.6 * ((i * 7919) % 101) as f64 / 100.0;
+            let tilt = ((i * 104_729) % 13) as f64 / 13.0 - 0.5;
+            let rho: Vec<f64> = (0..bands)
+                .map(|b| {
+                    (base + 0.3 * tilt * (b as f64 / (bands.max(2) - 1) as f64 - 0.5))
+                        .clamp(0.05, 0.9)
+                })
+                .collect();
+            ctx.add_material(&MaterialDesc {
+                diffuse_reflect: rho,
+                ..Default::default()
+            })
+        })
+        .collect()
+}
+
+/// Builds scene `kind` at `scale` into `ctx` (which must have no meshes yet).
+pub fn build(ctx: &mut Context, kind: SceneKind, scale: f64) -> Result<Built> {
+    let (objects, triangles, parts, _, lights) = kind.paper();
+    let t = (triangles as f64 * scale).max(200.0);
+    let mut built = Built {
+        parts,
+        lights,
+        ..Default::default()
+    };
+    match kind {
+        SceneKind::Room => {
+            // One object: the room (80 % of the triangles) and 8 pieces of furniture.
+            let mats = palette(ctx, 20)?;
+            let mut m = Tess::default();
+            m.cuboid(
+                [0.0, 0.0, 0.0],
+                [10.0, 8.0, 3.0],
+                cells(0.8 * t, 6.0),
+                true,
+                0,
+                true,
+            );
+            // Each room face split into two parts by the part of its first half.
+            let per_face = m.parts.len() / 6;
+            for (i, p) in m.parts.iter_mut().enumerate() {
+                *p = 2 * (i / per_face) as u32 + ((i % per_face) * 2 / per_face) as u32;
+            }
+            for k in 0..8 {
+                let (x, y) = (1.0 + 2.2 * (k % 4) as f64, 1.5 + 4.0 * (k / 4) as f64);
+                m.cuboid(
+                    [x, y, 0.0],
+                    [x + 1.2, y + 0.8, 0.5 + 0.2 * k as f64],
+                    cells(0.2 * t / 8.0, 6.0),
+                    false,
+                    12 + k as u32,
+                    false,
+                );
+            }
+            m.add(ctx, &mats, true, None, &mut built)?;
+            for i in 0..9 {
+                ctx.add_point_light(
+                    [2.0 + 3.0 * (i % 3) as f64, 1.5 + 2.5 * (i / 3) as f64, 2.8],
+                    &[60.0],
+                )?;
+            }
+        }
+        SceneKind::Atrium => {
+            // One object: a tall hall, three balcony floors (4 slabs each), 8 columns.
+            let mats = palette(ctx, 32)?;
+            let mut m = Tess::default();
+            m.cuboid(
+                [0.0, 0.0, 0.0],
+                [30.0, 30.0, 20.0],
+                cells(0.6 * t, 6.0),
+                true,
+                0,
+                true,
+            );
+            let per_face = m.parts.len() / 6;
+            for (i, p) in m.parts.iter_mut().enumerate() {
+                *p = 2 * (i / per_face) as u32 + ((i % per_face) * 2 / per_face) as u32;
+            }
+            let slab = cells(0.3 * t / 12.0, 6.0);
+            for floor in 0..3 {
+                let z = 5.0 + 5.0 * floor as f64;
+                let part = 12 + 4 * floor as u32;
+                m.cuboid(
+                    [0.0, 0.0, z],
+                    [30.0, 6.0, z + 0.4],
+                    slab,
+                    false,
+                    part,
+                    false,
+                );
+                m.cuboid(
+                    [0.0, 24.0, z],
+                    [30.0, 30.0, z + 0.4],
+                    slab,
+                    false,
+                    part + 1,
+                    false,
+                );
+                m.cuboid(
+                    [0.0, 6.0, z],
+                    [6.0, 24.0, z + 0.4],
+                    slab,
+                    false,
+                    part + 2,
+                    false,
+                );
+                m.cuboid(
+                    [24.0, 6.0, z],
+                    [30.0, 24.0, z + 0.4],
+                    slab,
+                    false,
+                    part + 3,
+                    false,
+                );
+            }
+            for c in 0..8 {
+                let (x, y) = (7.0 + 5.0 * (c % 4) as f64, if c < 4 { 7.0 } else { 22.0 });
+                m.cuboid(
+                    [x, y, 0.0],
+                    [x + 0.8, y + 0.8, 20.0],
+                    cells(0.1 * t / 8.0, 6.0),
+                    false,
+                    24 + c as u32,
+                    false,
+                );
+            }
+            m.add(ctx, &mats, true, None, &mut built)?;
+            for i in 0..108 {
+                let (gx, gy, gz) = (i % 6, (i / 6) % 6, i / 36);
+                ctx.add_point_light(
+                    [
+                        2.5 + 5.0 * gx as f64,
+                        2.5 + 5.0 * gy as f64,
+                        4.0 + 6.0 * gz as f64,
+                    ],
+                    &[8.0],
+                )?;
+            }
+        }
+        SceneKind::Hall => {
+            // Many small objects, each its own mesh and part: a quarter subdivided boxes of
+            // 48 triangles, the rest plain boxes of 12 with shared corners (21 triangles and
+            // about 20 vertices per object on average; the paper has 21 and 23).
+            let count = objects.min((t / 21.0).ceil() as usize).max(4);
+            built.parts = count;
+            let mats = palette(ctx, count)?;
+            let side = ((count - 1) as f64).sqrt().ceil() as usize;
+            let spacing = 2.0;
+            let extent = side as f64 * spacing;
+            // Object 0 is the hall itself, a closed room around the others.
+            let mut hall = Tess::default();
+            hall.cuboid(
+                [-1.0, -1.0, -0.01],
+                [extent + 1.0, extent + 1.0, 8.0],
+                4,
+                true,
+                0,
+                false,
+            );
+            hall.add(ctx, &[mats[0]], true, None, &mut built)?;
+            for k in 1..count {
+                let (x, y) = (
+                    ((k - 1) % side) as f64 * spacing,
+                    ((k - 1) / side) as f64 * spacing,
+                );
+                let h = 0.3 + ((k * 37) % 17) as f64 / 10.0;
+                let mut m = Tess::default();
+                if k % 4 == 0 {
+                    m.cuboid([x, y, 0.0], [x + 1.2, y + 1.2, h], 2, false, 0, false);
+                } else {
+                    m.solid_box([x, y, 0.0], [x + 1.2, y + 1.2, h], 0);
+                }
+                m.add(ctx, &[mats[k]], true, None, &mut built)?;
+            }
+            for i in 0..361 {
+                ctx.add_point_light(
+                    [
+                        extent * ((i % 19) as f64 + 0.5) / 19.0,
+                        extent * ((i / 19) as f64 + 0.5) / 19.0,
+                        6.0,
+                    ],
+                    &[5.0],
+                )?;
+            }
+        }
+        SceneKind::Vehicle => {
+            // A ground plane, a body and wheels made of 197 spheres and boxes, and 7 small
+            // emitting spheres (lamps); 8 objects carry a second part.
+            let mats = palette(ctx, 213)?;
+            let mut ground = Tess::default();
+            ground.quad(
+                [-20.0, -20.0, 0.0],
+                [40.0, 0.0, 0.0],
+                [0.0, 40.0, 0.0],
+                cells(0.1 * t, 1.0),
+                cells(0.1 * t, 1.0),
+                0,
+            );
+            ground.add(ctx, &mats, true, None, &mut built)?;
+            let per_object = 0.9 * t / 197.0;
+            let rings = (((per_object / 4.0).sqrt()).round() as usize).max(3);
+            for k in 0..197 {
+                let mut m = Tess::default();
+                let (x, y) = (
+                    -4.0 + 8.0 * (k % 20) as f64 / 19.0,
+                    -1.8 + 3.6 * ((k / 20) % 10) as f64 / 9.0,
+                );
+                let z = 0.6 + 0.5 * ((k * 13) % 7) as f64 / 7.0;
+                if k % 3 == 0 {
+                    m.cuboid(
+                        [x - 0.2, y - 0.2, z - 0.2],
+                        [x + 0.2, y + 0.2, z + 0.2],
+                        cells(per_object, 6.0),
+                        false,
+                        0,
+                        false,
+                    );
+                } else {
+                    m.sphere([x, y, z], 0.25, rings, 0);
+                }
+                // Objects 0..8 have a second part on their second half.
+                if k < 8 {
+                    let half = m.parts.len() / 2;
+                    m.parts[half..].iter_mut().for_each(|p| *p = 1);
+                }
+                let own = [mats[1 + k], mats[205 + k.min(7)]];
+                m.add(ctx, &own, true, None, &mut built)?;
+            }
+            let bands = ctx.scene().bands.count();
+            let warm: Vec<f64> = (0..bands)
+                .map(|b| 2000.0 * (0.6 + 0.8 * b as f64 / (bands.max(2) - 1) as f64))
+                .collect();
+            for k in 0..7 {
+                let mut lamp = Tess::default();
+                lamp.sphere([-6.0 + 2.0 * k as f64, 3.5, 3.0], 0.1, 4, 0);
+                lamp.add(ctx, &[mats[198 + k]], false, Some(&warm), &mut built)?;
+            }
+        }
+        SceneKind::Dispersion => {
+            // A dark room; two small lamps shine into a large dense-flint prism that throws
+            // a spectrum on a finely tessellated screen, which holds most vertices and gets
+            // most photons: a strongly non-uniform photon distribution. 16 objects.
+            let mut mats = palette(ctx, 14)?;
+            let flint = ctx.add_material(&MaterialDesc {
+                // Schott N-SF11 (Sellmeier).
+                ior: Some(IorModel::Sellmeier {
+                    b: [1.737_596_95, 0.313_747_346, 1.898_781_01],
+                    c: [0.013_188_707, 0.062_306_814_2, 155.236_290],
+                }),
+                ..Default::default()
+            })?;
+            let dark = ctx.add_material(&MaterialDesc {
+                diffuse_reflect: vec![0.1],
+                ..Default::default()
+            })?;
+            mats.push(flint);
+            mats.push(dark);
+            let (flint_part, dark_part) = (14u32, 15u32);
+            // The screen first: its vertices come first in the map.
+            let mut screen = Tess::default();
+            let n = cells(0.55 * t, 1.0);
+            screen.quad([6.0, -3.0, 0.0], [0.0, 6.0, 0.0], [0.0, 0.0, 4.0], n, n, 0);
+            // The screen faces −x (towards the prism).
+            let flipped: Vec<u32> = screen
+                .indices
+                .chunks_exact(3)
+                .flat_map(|c| [c[0], c[2], c[1]])
+                .collect();
+            screen.indices = flipped;
+            screen.add(ctx, &mats, true, None, &mut built)?;
+            // Six walls of a dark room, each an object.
+            let wall = cells(0.35 * t / 6.0, 1.0);
+            let (lo, hi) = ([-8.0, -8.0, -0.01], [8.0, 8.0, 6.0]);
+            let mut room = Tess::default();
+            room.cuboid(lo, hi, wall, true, dark_part, false);
+            let per = room.indices.len() / 6;
+            let per_v = room.positions.len() / 6;
+            for f in 0..6 {
+                let mut face = Tess::default();
+                face.positions = room.positions[f * per_v..(f + 1) * per_v].to_vec();
+                let base = (f * per_v / 3) as u32;
+                face.indices = room.indices[f * per..(f + 1) * per]
+                    .iter()
+                    .map(|i| i - base)
+                    .collect();
+                face.parts = vec![if f == 4 { 1 } else { dark_part }; per / 3];
+                face.add(ctx, &mats, true, None, &mut built)?;
+            }
+            // The prism: a triangular glass bar standing on the floor, closed, normals out,
+            // with a 30° angle at `a` between the entry face a–b (facing the lamps) and the
+            // exit face a–c: a beam entering a–b straight meets a–c at 30°, below N-SF11's
+            // critical angle (34°), and leaves deviated by about 33°.
+            let mut prism = Tess::default();
+            let (a, c, b) = ([0.0, -1.0], [1.15, 0.99], [0.0, 1.0]);
+            let k = cells(0.02 * t, 3.0).max(1);
+            // Counter-clockwise a → c → b: (q − p) × z points out of every side.
+            for (p, q) in [(a, c), (c, b), (b, a)] {
+                prism.quad(
+                    [p[0], p[1], 0.0],
+                    [q[0] - p[0], q[1] - p[1], 0.0],
+                    [0.0, 0.0, 3.0],
+                    k,
+                    k,
+                    flint_part,
+                );
+            }
+            let cap = (prism.positions.len() / 3) as u32;
+            for z in [3.0, 0.0] {
+                prism
+                    .positions
+                    .extend([a[0], a[1], z, c[0], c[1], z, b[0], b[1], z]);
+            }
+            // Top counter-clockwise seen from above (normal +z), bottom reversed (−z).
+            prism
+                .indices
+                .extend([cap, cap + 1, cap + 2, cap + 3, cap + 5, cap + 4]);
+            prism.parts.extend([flint_part, flint_part]);
+            prism.add(ctx, &mats, false, None, &mut built)?;
+            // Six small boxes in the corners.
+            for q in 0..6 {
+                let mut bx = Tess::default();
+                let (x, y) = (-7.0 + 2.5 * q as f64, if q % 2 == 0 { -7.0 } else { 6.5 });
+                bx.cuboid(
+                    [x, y, 0.0],
+                    [x + 0.5, y + 0.5, 0.5],
+                    cells(0.08 * t / 36.0, 6.0),
+                    false,
+                    2 + q as u32,
+                    false,
+                );
+                bx.add(ctx, &mats, true, None, &mut built)?;
+            }
+            // Two small lamps facing the prism's first face.
+            let bands = ctx.scene().bands.count();
+            let white = vec![40_000.0; bands];
+            for (i, y) in [-0.4, 0.3].into_iter().enumerate() {
+                let mut lamp = Tess::default();
+                lamp.quad(
+                    [-0.9, y, 1.3],
+                    [0.0, 0.0, 0.3],
+                    [0.0, 0.3, 0.0],
+                    1,
+                    1,
+                    8 + i as u32,
+                );
+                // Normal (0,0,.3)×(0,.3,0) = −x: turn it to +x, towards the prism.
+                let flipped: Vec<u32> = lamp
+                    .indices
+                    .chunks_exact(3)
+                    .flat_map(|c| [c[0], c[2], c[1]])
+                    .collect();
+                lamp.indices = flipped;
+                lamp.add(ctx, &mats, false, Some(&white), &mut built)?;
+            }
+            built.parts = 16;
+        }
+    }
+    Ok(built)
+}

@@ -1,0 +1,56 @@
+//! The limit for benchmarks: the same photons traced by the same threads with every deposit
+//! discarded (Embree tracing and surface events alone, no portions, no map).
+
+use super::{Counters, Monitor, PhotonSource, RunContext, RunOutcome, RunParams};
+use crate::imap::IMap;
+use crate::transport::{Colour, HitSink, PathStats};
+
+struct Discard;
+
+impl HitSink for Discard {
+    #[inline]
+    fn deposit(&mut self, _: u32, _: u32, _: u8, _: f32, _: f32, _: &Colour) {}
+}
+
+/// Traces until a stop criterion is met; the map is not touched.
+pub fn run(rc: &RunContext, map: &IMap, params: &mut RunParams) -> RunOutcome {
+    let source = PhotonSource::new(rc.first_photon, params.photons);
+    let mut monitor = Monitor::new(params, rc.elapsed_before_s);
+    let mut stats = PathStats::new(rc.scene.meshes.len());
+    let mut thread_lost = None;
+    std::thread::scope(|s| {
+        let handles: Vec<_> = (0..rc.threads)
+            .map(|_| {
+                let (source, tracer) = (&source, &rc.tracer);
+                s.spawn(move || {
+                    let mut stats = PathStats::new(tracer.scene.meshes.len());
+                    let mut colour = Colour::new(tracer.bands);
+                    source.trace_all(tracer, &mut colour, &mut Discard, &mut stats);
+                    stats
+                })
+            })
+            .collect();
+        while !handles.iter().all(|h| h.is_finished()) {
+            std::thread::sleep(monitor.timeout().min(std::time::Duration::from_millis(1)));
+            monitor.poll(&source, map, rc);
+        }
+        for h in handles {
+            match h.join() {
+                Ok(st) => stats.merge(&st),
+                Err(_) => thread_lost = Some("a tracing thread panicked".to_string()),
+            }
+        }
+    });
+    let photons_traced = source.claimed() - rc.first_photon;
+    let wall_s = monitor.wall_s();
+    let stop = monitor.finish(source.claimed(), rc.hits_before + stats.hits, map, rc);
+    RunOutcome {
+        stats,
+        photons_traced,
+        wall_s,
+        stop,
+        counters: Counters::default(),
+        history: monitor.history,
+        thread_lost,
+    }
+}
