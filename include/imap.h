@@ -85,6 +85,22 @@
 #define IMAP_SCHEDULER_DYNAMIC 1
 
 /**
+ * `ImapConfig::inline_apply`: a calculating thread applies a full portion itself when
+ * the group's processing thread is idle, if the calculating threads alone fill the cores.
+ */
+#define IMAP_INLINE_AUTO 0
+
+/**
+ * Always apply full portions on the spot when the group is idle.
+ */
+#define IMAP_INLINE_ALWAYS 1
+
+/**
+ * Always hand portions to the processing threads (the paper's scheme as published).
+ */
+#define IMAP_INLINE_NEVER 2
+
+/**
  * `ImapMaterial::ior_model`: not a dielectric.
  */
 #define IMAP_IOR_NONE 0
@@ -263,6 +279,11 @@ typedef enum {
 typedef struct ImapContext ImapContext;
 
 /**
+ * The five scenes of the paper.
+ */
+typedef struct SceneKind SceneKind;
+
+/**
  * Context settings, fixed at creation. Initialise with `imap_config_default`.
  */
 typedef struct {
@@ -329,6 +350,10 @@ typedef struct {
    * Dynamic scheduler: smallest subgroup a split may create, in vertex sides; 0 = 256.
    */
   uint32_t min_group_slots;
+  /**
+   * Dynamic scheduler: `IMAP_INLINE_*`.
+   */
+  uint32_t inline_apply;
 } ImapConfig;
 
 /**
@@ -567,6 +592,8 @@ typedef struct {
  * wavelength-dependent indices of refraction in RGB mode.
  */
 #define RGB_WAVELENGTHS_NM { 612.0, 549.0, 465.0, }
+
+
 
 #ifdef __cplusplus
 extern "C" {

@@ -80,3 +80,57 @@ fn lookups_during_nested_splits_find_a_published_group() {
         reader.join().unwrap();
     });
 }
+
+#[test]
+fn a_reader_holding_the_chain_never_overlaps_a_writer() {
+    loom::model(|| {
+        let table = table();
+        let value = Arc::new(UnsafeCell::new(0u64));
+        // A portion of group 0 was opened before the split and is still to be applied.
+        assert!(table.try_open(0));
+        table.split(0);
+
+        // The parent's writer applies it under group 0's lock.
+        let parent = {
+            let (table, value) = (table.clone(), value.clone());
+            thread::spawn(move || {
+                while !table.try_lock(0) {
+                    thread::yield_now();
+                }
+                // SAFETY (model): loom checks every access to the cell.
+                value.with_mut(|v| unsafe { *v += 1 });
+                table.close(0);
+                table.unlock(0);
+            })
+        };
+        // The subgroup's writer (a calculating thread applying inline, or its processing
+        // thread) writes once the parent is done, under the subgroup's lock.
+        let child = {
+            let (table, value) = (table.clone(), value.clone());
+            thread::spawn(move || {
+                while !table.ancestors_done(1) {
+                    thread::yield_now();
+                }
+                while !table.try_lock(1) {
+                    thread::yield_now();
+                }
+                // SAFETY (model): as above.
+                value.with_mut(|v| unsafe { *v += 10 });
+                table.unlock(1);
+            })
+        };
+        // The monitor reads the subgroup's slot for a progress report.
+        let mut chain = Vec::new();
+        table.lock_chain(1, &mut chain);
+        // SAFETY (model): as above.
+        let seen = value.with(|v| unsafe { *v });
+        table.unlock_chain(&chain);
+        assert!(
+            matches!(seen, 0 | 1 | 11),
+            "read {seen}: a write was torn or reordered"
+        );
+        parent.join().unwrap();
+        child.join().unwrap();
+        assert_eq!(value.with(|v| unsafe { *v }), 11);
+    });
+}

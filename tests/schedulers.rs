@@ -26,8 +26,9 @@ fn config(
     }
 }
 
-/// Thresholds that split at every chance: hundreds of splits in a short run.
-fn split_happy() -> DynamicParams {
+/// Thresholds that split at every chance: hundreds of splits in a short run. Portions go
+/// through the processing threads (`inline_apply` false) unless `inline` is set.
+fn split_happy(inline: bool) -> DynamicParams {
     DynamicParams {
         initial_groups: 1,
         max_groups: 4096,
@@ -35,6 +36,7 @@ fn split_happy() -> DynamicParams {
         high_threshold: 0,
         min_group_slots: 1,
         split_interval: Duration::ZERO,
+        inline_apply: Some(inline),
         ..Default::default()
     }
 }
@@ -76,9 +78,24 @@ fn classic_dynamic_and_thread_counts_agree() {
             ),
             (
                 SchedulerKind::Dynamic,
+                2,
+                DynamicParams {
+                    inline_apply: Some(true),
+                    ..Default::default()
+                },
+                "dynamic, 2 threads, inline",
+            ),
+            (
+                SchedulerKind::Dynamic,
                 3,
-                split_happy(),
+                split_happy(false),
                 "dynamic, 3 threads, forced splits",
+            ),
+            (
+                SchedulerKind::Dynamic,
+                3,
+                split_happy(true),
+                "dynamic, 3 threads, forced splits, inline",
             ),
         ] {
             let (mut ctx, ids) = mixed_room(config(kind, threads, dp, bands.clone()));
@@ -119,10 +136,10 @@ fn lit_grid(kind: SchedulerKind, dp: DynamicParams) -> (Context, Vec<u32>) {
 
 #[test]
 fn hundreds_of_splits_lose_nothing() {
-    let n = photons(300_000);
+    let n = photons(600_000);
     let (mut ctx, ids) = lit_grid(SchedulerKind::Classic, DynamicParams::default());
     let (reference, _) = run_map(&mut ctx, &ids, n);
-    let (mut ctx, ids) = lit_grid(SchedulerKind::Dynamic, split_happy());
+    let (mut ctx, ids) = lit_grid(SchedulerKind::Dynamic, split_happy(false));
     // Two runs, each starting from fresh groups and splitting under way; the second
     // continues the first's photons.
     let first = run_photons(&mut ctx, n / 2);
@@ -165,11 +182,8 @@ fn one_hot_group() {
     let dp = DynamicParams {
         initial_groups: 8,
         max_groups: 512,
-        low_threshold: usize::MAX,
-        high_threshold: 0,
         min_group_slots: 16,
-        split_interval: Duration::ZERO,
-        ..Default::default()
+        ..split_happy(true)
     };
     let (mut dynamic, ids) = build(SchedulerKind::Dynamic, dp);
     let (map, r) = run_map(&mut dynamic, &ids, n);

@@ -39,6 +39,7 @@ pub extern "C" fn imap_config_default(out: *mut ImapConfig) -> ImapStatus {
                 split_low_threshold: 0,
                 split_high_threshold: 0,
                 min_group_slots: 0,
+                inline_apply: IMAP_INLINE_AUTO,
             },
         )
     })
@@ -79,6 +80,15 @@ fn config_from_c(c: &ImapConfig) -> Result<Config> {
         high_threshold: or(c.split_high_threshold, defaults.high_threshold),
         min_group_slots: or(c.min_group_slots, defaults.min_group_slots),
         split_interval: defaults.split_interval,
+        inline_apply: match c.inline_apply {
+            IMAP_INLINE_AUTO => None,
+            IMAP_INLINE_ALWAYS => Some(true),
+            IMAP_INLINE_NEVER => Some(false),
+            v => bail!(
+                ImapErrInvalidArgument,
+                "inline_apply {v} is not IMAP_INLINE_AUTO, _ALWAYS or _NEVER"
+            ),
+        },
     };
     Ok(Config {
         bands,

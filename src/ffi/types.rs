@@ -22,6 +22,14 @@ pub const IMAP_SCHEDULER_CLASSIC: u32 = 0;
 /// `subd` subgroups under load (the default).
 pub const IMAP_SCHEDULER_DYNAMIC: u32 = 1;
 
+/// `ImapConfig::inline_apply`: a calculating thread applies a full portion itself when
+/// the group's processing thread is idle, if the calculating threads alone fill the cores.
+pub const IMAP_INLINE_AUTO: u32 = 0;
+/// Always apply full portions on the spot when the group is idle.
+pub const IMAP_INLINE_ALWAYS: u32 = 1;
+/// Always hand portions to the processing threads (the paper's scheme as published).
+pub const IMAP_INLINE_NEVER: u32 = 2;
+
 /// `ImapMaterial::ior_model`: not a dielectric.
 pub const IMAP_IOR_NONE: u32 = 0;
 /// n = ior[0].
@@ -89,6 +97,8 @@ pub struct ImapConfig {
     pub split_high_threshold: u32,
     /// Dynamic scheduler: smallest subgroup a split may create, in vertex sides; 0 = 256.
     pub min_group_slots: u32,
+    /// Dynamic scheduler: `IMAP_INLINE_*`.
+    pub inline_apply: u32,
 }
 
 /// A material. Per-band arrays hold 1 value (the same in every band) or one per band;

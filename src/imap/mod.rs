@@ -3,13 +3,11 @@
 //! error. Slots exist only for recording meshes and only for their recorded sides; a slot's
 //! values are contiguous so one deposit touches one cache line or a few.
 //!
-//! The values are f64 bit patterns in `AtomicU64`s, updated with a relaxed load and a
-//! relaxed store (plain moves on x86, no locked instruction). Schedulers guarantee one
-//! writer per slot at a time (the accumulating thread, or a vertex group's processing
-//! thread); the atomics make concurrent *reading* (progress reports during a run) and
-//! sharing the map between processing threads safe Rust, and turn a broken single-writer
-//! invariant into lost updates that the determinism tests see, instead of undefined
-//! behaviour.
+//! The values are f64 bit patterns in `AtomicU64`s (same layout as f64). Writers use plain
+//! f64 arithmetic: the classic accumulator through its exclusive `&mut`, the dynamic
+//! scheduler's writers through `*_exclusive` while holding their vertex group's lock; the
+//! progress readout during a dynamic run takes the same locks, and reads with relaxed
+//! atomic loads. No access to a slot is ever concurrent with a write to it.
 
 mod readout;
 
@@ -24,12 +22,6 @@ pub struct IMap {
     bands: usize,
     stride: usize,
     data: Vec<AtomicU64>,
-}
-
-/// Adds `x` to the f64 in `a`; the caller is the slot's only writer.
-#[inline(always)]
-fn add(a: &AtomicU64, x: f64) {
-    a.store((f64::from_bits(a.load(Relaxed)) + x).to_bits(), Relaxed);
 }
 
 impl IMap {
@@ -96,24 +88,39 @@ impl IMap {
         m[base + bands] += w * w;
     }
 
-    /// `add_colour` through a shared map: the caller must be the slot's only writer (a
-    /// vertex group's processing thread); readers may run concurrently.
+    /// `add_colour` through a shared map, with plain (vectorised) arithmetic.
+    ///
+    /// # Safety
+    /// No other thread may access `slot` during the call: the caller holds the lock of the
+    /// slot's vertex group and every ancestor of that group is done (`sched::groups`), and
+    /// readers take the same locks.
     #[inline]
-    pub fn add_colour_shared(&self, slot: usize, w: f64, colour: &[f32]) {
+    pub unsafe fn add_colour_exclusive(&self, slot: usize, w: f64, colour: &[f32]) {
         let s = &self.data[slot * self.stride..(slot + 1) * self.stride];
-        let (values, sq) = s.split_at(self.bands);
-        for (a, &c) in values.iter().zip(colour) {
-            add(a, w * c as f64);
+        // SAFETY: AtomicU64 has the layout of f64; the caller guarantees exclusive access
+        // to this slot's values for the duration of the call.
+        let values = unsafe { std::slice::from_raw_parts_mut(s.as_ptr() as *mut f64, self.stride) };
+        let (values, sq) = values.split_at_mut(self.bands);
+        for (a, &c) in values.iter_mut().zip(colour) {
+            *a += w * c as f64;
         }
-        add(&sq[0], w * w);
+        sq[0] += w * w;
     }
 
-    /// `add_band` through a shared map, under the same rule as `add_colour_shared`.
+    /// `add_band` under the rule of `add_colour_exclusive`.
+    ///
+    /// # Safety
+    /// As `add_colour_exclusive`.
     #[inline]
-    pub fn add_band_shared(&self, slot: usize, w: f64, band: usize, value: f32) {
+    pub unsafe fn add_band_exclusive(&self, slot: usize, w: f64, band: usize, value: f32) {
         let base = slot * self.stride;
-        add(&self.data[base + band], w * value as f64);
-        add(&self.data[base + self.bands], w * w);
+        // SAFETY: as in add_colour_exclusive; both indices are inside the slot.
+        unsafe {
+            *self.data[base + band].as_ptr() =
+                (f64::from_bits(*self.data[base + band].as_ptr()) + w * value as f64).to_bits();
+            *self.data[base + self.bands].as_ptr() =
+                (f64::from_bits(*self.data[base + self.bands].as_ptr()) + w * w).to_bits();
+        }
     }
 
     /// Accumulated band value (photon units) of a slot.

@@ -70,26 +70,31 @@ impl Readout<'_> {
         }
     }
 
-    /// The global error figure: the irradiance-weighted mean of the vertices' relative
-    /// standard errors, Σ σ(E_v) / Σ E_v over every recorded slot with area. `None` before
-    /// any deposit.
-    pub fn global_error(&self) -> Option<f64> {
+    /// Σ σ(E_v) and Σ E_v (in photon units per scene unit²) over the slots in `slots`
+    /// that have area: the two sums of the global error figure, for part of the map.
+    pub fn error_sums(&self, slots: std::ops::Range<usize>) -> (f64, f64) {
         let (mut num, mut den) = (0.0, 0.0);
         for mesh in &self.scene.meshes {
-            if mesh.slot_base.is_none() {
-                continue;
-            }
-            for (v, &a) in mesh.vertex_area.iter().enumerate() {
-                if a <= 0.0 {
-                    continue;
-                }
-                for side in 0..mesh.sides() {
-                    let (sigma, s) = self.sigma(mesh.slot(v as u32, side).unwrap());
+            let Some(base) = mesh.slot_base else { continue };
+            let sides = mesh.sides();
+            let end = base + mesh.vertex_area.len() * sides;
+            for slot in slots.start.max(base)..slots.end.min(end) {
+                let a = mesh.vertex_area[(slot - base) / sides];
+                if a > 0.0 {
+                    let (sigma, s) = self.sigma(slot);
                     num += sigma / a;
                     den += s / a;
                 }
             }
         }
+        (num, den)
+    }
+
+    /// The global error figure: the irradiance-weighted mean of the vertices' relative
+    /// standard errors, Σ σ(E_v) / Σ E_v over every recorded slot with area. `None` before
+    /// any deposit.
+    pub fn global_error(&self) -> Option<f64> {
+        let (num, den) = self.error_sums(0..usize::MAX);
         (den > 0.0).then_some(num / den)
     }
 }

@@ -203,7 +203,7 @@ pub fn run(rc: &RunContext, map: &mut IMap, params: &mut RunParams) -> RunOutcom
                 Err(RecvTimeoutError::Timeout) => {}
                 Err(RecvTimeoutError::Disconnected) => break,
             }
-            monitor.poll(&source, map, rc);
+            monitor.poll(&source, rc, &|n| super::global_error(map, rc, n));
         }
         for (t, h) in handles.into_iter().enumerate() {
             match h.join() {

@@ -9,7 +9,7 @@
 
 use super::groups::GroupTable;
 use super::{Counters, Monitor, PhotonSource, RunContext, RunOutcome, RunParams};
-use crate::imap::IMap;
+use crate::imap::{IMap, Readout};
 use crate::scene::PreparedScene;
 use crate::transport::{Colour, HitSink, PathStats};
 use crossbeam::channel::{self, Receiver, RecvTimeoutError, Sender, TryRecvError};
@@ -35,6 +35,11 @@ pub struct DynamicParams {
     pub min_group_slots: usize,
     /// Least time between two splits, so that a split can take effect before the next.
     pub split_interval: Duration,
+    /// Whether a calculating thread applies a full portion itself when the group's owner is
+    /// idle. `None` (automatic): when the calculating threads alone fill the cores, so that
+    /// handing over would only add a context switch; otherwise the processing threads use
+    /// the spare cores.
+    pub inline_apply: Option<bool>,
 }
 
 impl Default for DynamicParams {
@@ -47,6 +52,7 @@ impl Default for DynamicParams {
             high_threshold: 3,
             min_group_slots: 256,
             split_interval: Duration::from_millis(1),
+            inline_apply: None,
         }
     }
 }
@@ -104,11 +110,13 @@ impl Portion {
 /// What a calculating thread shares with the others.
 struct Shared<'a> {
     table: &'a GroupTable,
+    map: &'a IMap,
     scene: &'a PreparedScene,
     free: Receiver<Portion>,
     recycle: Sender<Portion>,
     outputs: &'a [Sender<Portion>],
     capacity: usize,
+    inline_apply: bool,
 }
 
 /// A calculating thread's side: one open portion per group it has touched.
@@ -119,6 +127,11 @@ struct GroupSink<'a> {
     spare: Option<Portion>,
     hit: u64,
     wait_s: f64,
+    /// The leaf group found last and its slots: most lookups hit it again.
+    last: (usize, usize, usize),
+    /// Portions this thread applied itself (their group's owner was idle).
+    applied: u64,
+    apply_s: f64,
 }
 
 impl<'a> GroupSink<'a> {
@@ -130,13 +143,37 @@ impl<'a> GroupSink<'a> {
             spare: None,
             hit: 0,
             wait_s: 0.0,
+            last: (0, 0, 0),
+            applied: 0,
+            apply_s: 0.0,
         }
     }
 
-    /// Hands group `g`'s open portion to its processing thread.
+    /// Applies group `g`'s open portion on the spot when the group may be written and
+    /// nobody is writing it; otherwise hands it to the group's processing thread.
     fn send(&mut self, g: usize) {
         if let Some(mut p) = self.open[g].take() {
             self.open_list.retain(|&x| x != g);
+            let table = self.shared.table;
+            if self.shared.inline_apply && table.try_lock(g) {
+                if table.ancestors_done(g) {
+                    let t = Instant::now();
+                    // SAFETY: we hold g's lock and its ancestors are done.
+                    unsafe { apply(self.shared.map, &p) };
+                    self.apply_s += t.elapsed().as_secs_f64();
+                    self.applied += 1;
+                    table.close(g);
+                    table.unlock(g);
+                    p.clear();
+                    if self.spare.is_none() {
+                        self.spare = Some(p);
+                    } else {
+                        let _ = self.shared.recycle.send(p);
+                    }
+                    return;
+                }
+                table.unlock(g);
+            }
             p.items.sort_unstable_by_key(|c| c.slot);
             if let Err(e) = self.shared.outputs[g].send(p) {
                 // Only when the run is being torn down after a panic.
@@ -176,16 +213,30 @@ impl<'a> GroupSink<'a> {
         p
     }
 
+    /// The leaf group of `slot`: the last one found when it still holds the slot.
+    #[inline]
+    fn group_of(&mut self, slot: usize) -> usize {
+        let (g, start, end) = self.last;
+        let table = self.shared.table;
+        if slot >= start && slot < end && !table.is_split(g) {
+            return g;
+        }
+        let g = table.lookup(slot);
+        let r = table.range(g);
+        self.last = (g, r.start, r.end);
+        g
+    }
+
     /// The open portion for `slot`'s group, opening one when needed.
     fn portion_for(&mut self, slot: usize) -> Option<usize> {
         loop {
-            let g = self.shared.table.lookup(slot);
+            let g = self.group_of(slot);
             if self.open[g].is_some() {
                 return Some(g);
             }
             let p = self.free_portion()?;
             // The group may have split while we waited: look again before opening.
-            let g = self.shared.table.lookup(slot);
+            let g = self.group_of(slot);
             if self.open[g].is_some() {
                 self.spare = Some(p);
                 return Some(g);
@@ -254,17 +305,47 @@ impl HitSink for GroupSink<'_> {
     }
 }
 
-/// Applies a portion to its group's slots: the processing thread's work.
-fn apply(map: &IMap, p: &Portion) {
+/// Applies a portion to its group's slots.
+///
+/// # Safety
+/// The caller holds the lock of the portion's group and every ancestor of the group is
+/// done (`GroupTable::ancestors_done`).
+unsafe fn apply(map: &IMap, p: &Portion) {
     let bands = map.bands();
     for c in &p.items {
         let at = c.colour_at as usize;
-        if c.band == FULL {
-            map.add_colour_shared(c.slot as usize, c.w, &p.colours[at..at + bands]);
-        } else {
-            map.add_band_shared(c.slot as usize, c.w, c.band as usize, p.colours[at]);
+        // SAFETY: the portion's slots belong to its group, which the caller alone may write
+        // now; readers take the group's lock too.
+        unsafe {
+            if c.band == FULL {
+                map.add_colour_exclusive(c.slot as usize, c.w, &p.colours[at..at + bands]);
+            } else {
+                map.add_band_exclusive(c.slot as usize, c.w, c.band as usize, p.colours[at]);
+            }
         }
     }
+}
+
+/// The global error while writers run: each leaf group's slots are read under the locks
+/// of the group and its ancestors. Only the monitor calls it (it is also the only thread
+/// that splits, so the leaves do not change meanwhile).
+fn locked_error(table: &GroupTable, map: &IMap, rc: &RunContext, photons: u64) -> Option<f64> {
+    let readout = Readout {
+        map,
+        scene: rc.scene,
+        photons,
+        unit_m: rc.unit_m,
+    };
+    let (mut num, mut den) = (0.0, 0.0);
+    let mut chain = Vec::new();
+    for g in (0..table.count()).filter(|&g| !table.is_split(g)) {
+        table.lock_chain(g, &mut chain);
+        let (n, d) = readout.error_sums(table.range(g));
+        table.unlock_chain(&chain);
+        num += n;
+        den += d;
+    }
+    (den > 0.0).then_some(num / den)
 }
 
 /// A processing thread: waits until no ancestor of its group has work left, then applies
@@ -285,11 +366,17 @@ fn process(
     loop {
         match rx.recv_timeout(Duration::from_millis(2)) {
             Ok(mut p) => {
+                // A calculating thread may be applying a portion of this group right now.
+                while !table.try_lock(g) {
+                    std::thread::yield_now();
+                }
                 let t = Instant::now();
-                apply(map, &p);
+                // SAFETY: we hold g's lock and waited for its ancestors above.
+                unsafe { apply(map, &p) };
                 busy += t.elapsed().as_secs_f64();
                 applied += 1;
                 table.close(g);
+                table.unlock(g);
                 p.clear();
                 let _ = recycle.send(p);
             }
@@ -362,11 +449,15 @@ pub fn run(
     let shared_map: &IMap = map;
     let shared = Shared {
         table: &table,
+        map: shared_map,
         scene: rc.scene,
         free: free_rx.clone(),
         recycle: free_tx.clone(),
         outputs: &out_tx,
         capacity,
+        inline_apply: dp.inline_apply.unwrap_or_else(|| {
+            threads >= std::thread::available_parallelism().map_or(1, |n| n.get())
+        }),
     };
     let (mut busy_s, mut alive_s) = (0.0, 0.0);
 
@@ -386,7 +477,7 @@ pub fn run(
                         let _ = shared.recycle.send(p);
                     }
                     live.fetch_sub(1, Ordering::Release);
-                    (stats, sink.wait_s)
+                    (stats, sink.wait_s, sink.applied, sink.apply_s)
                 });
             match spawned {
                 Ok(h) => calc.push(h),
@@ -428,7 +519,7 @@ pub fn run(
         let mut last_split = Instant::now() - Duration::from_secs(1);
         while live.load(Ordering::Acquire) > 0 {
             std::thread::sleep(Duration::from_micros(250).min(monitor.timeout()));
-            monitor.poll(&source, shared_map, rc);
+            monitor.poll(&source, rc, &|n| locked_error(&table, shared_map, rc, n));
             let free = free_rx.len();
             let mut hottest: Option<(usize, usize)> = None;
             for (g, out) in out_tx.iter().enumerate().take(table.count()) {
@@ -458,9 +549,12 @@ pub fn run(
         }
         for (t, h) in calc.into_iter().enumerate() {
             match h.join() {
-                Ok((st, wait)) => {
+                Ok((st, wait, applied, apply_s)) => {
                     stats.merge(&st);
                     counters.calc_wait_s += wait;
+                    counters.portions += applied;
+                    counters.inline_portions += applied;
+                    busy_s += apply_s;
                 }
                 Err(_) => thread_lost = Some(format!("calculating thread {t} panicked")),
             }

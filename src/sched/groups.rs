@@ -15,14 +15,17 @@
 //!    but loom models them like acquire loads; RMWs are exact in both, and this path runs
 //!    once per portion, not per hit.
 //! 3. Hand-over: `pending` counts portions of a group that are open, queued or being
-//!    applied; the owner decrements it (release) after applying. A group's processing
-//!    thread writes only once every ancestor's `pending` is 0 (acquire): the last portion
-//!    of each ancestor has been applied before the first of the child.
+//!    applied; the writer decrements it (release) after applying. A group's slots are
+//!    written only once every ancestor's `pending` is 0 (acquire): the last portion of each
+//!    ancestor has been applied before the first of the child.
+//! 4. One writer at a time: whoever applies a portion of group g — g's processing thread, or
+//!    a calculating thread that finds g idle and applies its own portion on the spot —
+//!    holds g's `busy` flag (acquire on taking, release on leaving).
 
 #[cfg(loom)]
-use loom::sync::atomic::{AtomicU32, AtomicUsize, Ordering};
+use loom::sync::atomic::{AtomicBool, AtomicU32, AtomicUsize, Ordering};
 #[cfg(not(loom))]
-use std::sync::atomic::{AtomicU32, AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU32, AtomicUsize, Ordering};
 
 use crossbeam::utils::CachePadded;
 use std::ops::Range;
@@ -43,6 +46,8 @@ pub struct VertexLevelSubd {
     parent: AtomicUsize,
     /// Portions of this group open in calculating threads, queued, or being applied.
     pending: AtomicUsize,
+    /// Held by the thread applying a portion of this group.
+    busy: AtomicBool,
 }
 
 impl VertexLevelSubd {
@@ -54,6 +59,7 @@ impl VertexLevelSubd {
             first_thread_indx: AtomicUsize::new(NONE),
             parent: AtomicUsize::new(NONE),
             pending: AtomicUsize::new(0),
+            busy: AtomicBool::new(false),
         }
     }
 }
@@ -177,8 +183,57 @@ impl GroupTable {
         self.groups[g].pending.fetch_sub(1, Ordering::Release);
     }
 
+    /// Takes the right to write `g`'s slots if nobody holds it.
+    #[inline]
+    pub fn try_lock(&self, g: usize) -> bool {
+        let b = &self.groups[g].busy;
+        !b.load(Ordering::Relaxed)
+            && b.compare_exchange(false, true, Ordering::Acquire, Ordering::Relaxed)
+                .is_ok()
+    }
+
+    /// Gives the right to write `g`'s slots back.
+    #[inline]
+    pub fn unlock(&self, g: usize) {
+        self.groups[g].busy.store(false, Ordering::Release);
+    }
+
     pub fn pending(&self, g: usize) -> usize {
         self.groups[g].pending.load(Ordering::Acquire)
+    }
+
+    /// The group `g` was split from, if any.
+    pub fn parent(&self, g: usize) -> Option<usize> {
+        let p = self.groups[g].parent.load(Ordering::Relaxed);
+        (p != NONE).then_some(p)
+    }
+
+    /// Takes the locks of `g` and all its ancestors, root first, for reading `g`'s slots
+    /// while writers may run: every possible writer of those slots holds one of them.
+    /// Writers hold at most one lock and never wait while holding it, so this cannot
+    /// deadlock. `chain` is scratch space; pass it to `unlock_chain`.
+    pub fn lock_chain(&self, g: usize, chain: &mut Vec<usize>) {
+        chain.clear();
+        let mut a = Some(g);
+        while let Some(x) = a {
+            chain.push(x);
+            a = self.parent(x);
+        }
+        for &x in chain.iter().rev() {
+            while !self.try_lock(x) {
+                #[cfg(loom)]
+                loom::thread::yield_now();
+                #[cfg(not(loom))]
+                std::thread::yield_now();
+            }
+        }
+    }
+
+    /// Releases what `lock_chain` took.
+    pub fn unlock_chain(&self, chain: &[usize]) {
+        for &x in chain {
+            self.unlock(x);
+        }
     }
 
     /// True when no ancestor of `g` has a portion left: `g`'s owner may write.

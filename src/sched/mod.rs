@@ -65,6 +65,9 @@ pub struct Counters {
     pub peak_queue: u64,
     /// Portions applied.
     pub portions: u64,
+    /// Of those, portions a calculating thread applied itself because the group's owner was
+    /// idle (dynamic scheduler).
+    pub inline_portions: u64,
     /// Vertex-group splits (dynamic scheduler).
     pub splits: u64,
     /// Vertex groups at the end (dynamic scheduler); 1 for the classic scheduler's map.
@@ -164,6 +167,17 @@ impl PhotonSource {
     }
 }
 
+/// The global error of `map` after `photons` photons (the caller excludes writers).
+pub fn global_error(map: &IMap, rc: &RunContext, photons: u64) -> Option<f64> {
+    Readout {
+        map,
+        scene: rc.scene,
+        photons,
+        unit_m: rc.unit_m,
+    }
+    .global_error()
+}
+
 /// The clock, stop criteria and progress reports of a run, driven by the thread that
 /// calls `imap_run`.
 pub struct Monitor<'p, 'a> {
@@ -202,9 +216,14 @@ impl<'p, 'a> Monitor<'p, 'a> {
         self.start.elapsed().as_secs_f64()
     }
 
-    /// Checks the clock; at a progress tick evaluates the error and calls the callback.
-    /// Returns true when the run must stop.
-    pub fn poll(&mut self, source: &PhotonSource, map: &IMap, rc: &RunContext) -> bool {
+    /// Checks the clock; at a progress tick evaluates the error (`error` gets the photon
+    /// count) and calls the callback. Returns true when the run must stop.
+    pub fn poll(
+        &mut self,
+        source: &PhotonSource,
+        rc: &RunContext,
+        error: &dyn Fn(u64) -> Option<f64>,
+    ) -> bool {
         let hits = rc.hits_before + source.hits();
         let now = Instant::now();
         if self.stop.is_none()
@@ -217,7 +236,8 @@ impl<'p, 'a> Monitor<'p, 'a> {
             while self.next_tick <= now {
                 self.next_tick += Duration::from_secs_f64(self.params.progress_interval_s);
             }
-            let p = self.report(source.claimed(), hits, map, rc);
+            let photons = source.claimed();
+            let p = self.record(photons, hits, error(photons));
             if self.params.target_rel_error > 0.0 && p.rel_error <= self.params.target_rel_error {
                 self.stop = Some(StopReason::TargetError);
             } else if let Some(cb) = self.params.progress.as_mut() {
@@ -233,20 +253,12 @@ impl<'p, 'a> Monitor<'p, 'a> {
     }
 
     /// Records a history point.
-    pub fn report(&mut self, photons: u64, hits: u64, map: &IMap, rc: &RunContext) -> Progress {
-        let readout = Readout {
-            map,
-            scene: rc.scene,
-            photons,
-            unit_m: rc.unit_m,
-        };
+    fn record(&mut self, photons: u64, hits: u64, rel_error: Option<f64>) -> Progress {
         let p = Progress {
             elapsed_s: self.elapsed_before_s + self.wall_s(),
             photons,
             hits,
-            rel_error: readout
-                .global_error()
-                .unwrap_or(crate::imap::NO_DATA_REL_ERROR),
+            rel_error: rel_error.unwrap_or(crate::imap::NO_DATA_REL_ERROR),
         };
         self.history.push(p);
         p
@@ -254,7 +266,7 @@ impl<'p, 'a> Monitor<'p, 'a> {
 
     /// The final report of the run; the callback sees it too (its answer no longer matters).
     pub fn finish(&mut self, photons: u64, hits: u64, map: &IMap, rc: &RunContext) -> StopReason {
-        let p = self.report(photons, hits, map, rc);
+        let p = self.record(photons, hits, global_error(map, rc, photons));
         if let Some(cb) = self.params.progress.as_mut() {
             cb(&p);
         }
