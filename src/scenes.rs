@@ -405,7 +405,7 @@ pub fn build(ctx: &mut Context, kind: SceneKind, scale: f64) -> Result<Built> {
                 false,
             );
             hall.add(ctx, &[mats[0]], true, None, &mut built)?;
-            for k in 1..count {
+            for (k, &material) in mats.iter().enumerate().skip(1) {
                 let (x, y) = (
                     ((k - 1) % side) as f64 * spacing,
                     ((k - 1) / side) as f64 * spacing,
@@ -417,7 +417,7 @@ pub fn build(ctx: &mut Context, kind: SceneKind, scale: f64) -> Result<Built> {
                 } else {
                     m.solid_box([x, y, 0.0], [x + 1.2, y + 1.2, h], 0);
                 }
-                m.add(ctx, &[mats[k]], true, None, &mut built)?;
+                m.add(ctx, &[material], true, None, &mut built)?;
             }
             for i in 0..361 {
                 ctx.add_point_light(
@@ -523,14 +523,15 @@ pub fn build(ctx: &mut Context, kind: SceneKind, scale: f64) -> Result<Built> {
             let per = room.indices.len() / 6;
             let per_v = room.positions.len() / 6;
             for f in 0..6 {
-                let mut face = Tess::default();
-                face.positions = room.positions[f * per_v..(f + 1) * per_v].to_vec();
                 let base = (f * per_v / 3) as u32;
-                face.indices = room.indices[f * per..(f + 1) * per]
-                    .iter()
-                    .map(|i| i - base)
-                    .collect();
-                face.parts = vec![if f == 4 { 1 } else { dark_part }; per / 3];
+                let face = Tess {
+                    positions: room.positions[f * per_v..(f + 1) * per_v].to_vec(),
+                    indices: room.indices[f * per..(f + 1) * per]
+                        .iter()
+                        .map(|i| i - base)
+                        .collect(),
+                    parts: vec![if f == 4 { 1 } else { dark_part }; per / 3],
+                };
                 face.add(ctx, &mats, true, None, &mut built)?;
             }
             // The prism: a triangular glass bar standing on the floor, closed, normals out,
