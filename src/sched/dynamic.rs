@@ -519,7 +519,7 @@ pub fn run(
         let mut last_split = Instant::now() - Duration::from_secs(1);
         while live.load(Ordering::Acquire) > 0 {
             std::thread::sleep(Duration::from_micros(250).min(monitor.timeout()));
-            monitor.poll(&source, rc, &|n| locked_error(&table, shared_map, rc, n));
+            monitor.poll(&source, rc, &|n| locked_error(table, shared_map, rc, n));
             let free = free_rx.len();
             let mut hottest: Option<(usize, usize)> = None;
             for (g, out) in out_tx.iter().enumerate().take(table.count()) {
