@@ -6,6 +6,7 @@
 //!
 //!     cargo run --release --example bench -- [--scale 0.05] [--seconds 2]
 //!         [--scenes dispersion,room,vehicle,hall,atrium] [--bands 3,41,81] [--threads 1,2]
+//!         [--reps 3]   (rounds alternating the schedulers; medians are printed)
 //!         [--only classic|dynamic|trace]   (one scheduler alone, for profiling)
 
 use imap::context::SchedulerKind;
@@ -21,6 +22,9 @@ struct Args {
     threads: Vec<usize>,
     /// Run only this scheduler for `seconds` per cell (for profiling), printing its rate.
     only: Option<SchedulerKind>,
+    /// Rounds per cell: trace-only, classic and dynamic alternate in each round and the
+    /// medians are reported (the machine's speed drifts by tens of percent).
+    reps: usize,
 }
 
 fn parse() -> Args {
@@ -34,6 +38,7 @@ fn parse() -> Args {
             std::thread::available_parallelism().map_or(1, |n| n.get()),
         ],
         only: None,
+        reps: 3,
     };
     let argv: Vec<String> = std::env::args().skip(1).collect();
     let list = |s: &str| s.split(',').map(str::to_owned).collect::<Vec<_>>();
@@ -63,6 +68,7 @@ fn parse() -> Args {
                     .map(|t| t.parse().expect("--threads"))
                     .collect()
             }
+            "--reps" => a.reps = v.parse::<usize>().expect("--reps").max(1),
             "--only" => {
                 a.only = Some(match v.as_str() {
                     "classic" => SchedulerKind::Classic,
@@ -96,6 +102,12 @@ fn measure(ctx: &mut Context, kind: SchedulerKind, threads: usize, seconds: f64)
 
 fn rate(r: &Report) -> f64 {
     r.run_hits as f64 / r.run_wall_s
+}
+
+/// The report with the median rate.
+fn median(mut v: Vec<Report>) -> Report {
+    v.sort_by(|a, b| rate(a).total_cmp(&rate(b)));
+    v.swap_remove(v.len() / 2)
 }
 
 fn main() {
@@ -138,15 +150,25 @@ fn main() {
             measure(&mut ctx, SchedulerKind::TraceOnly, 1, 0.2);
             // Single-thread costs per hit: tracing alone, and the accumulator of the classic
             // scheduler with one calculating thread (its busy time over the run's hits).
-            let trace1 = measure(&mut ctx, SchedulerKind::TraceOnly, 1, args.seconds);
-            let trace_cost = 1.0 / rate(&trace1);
-            let classic1 = measure(&mut ctx, SchedulerKind::Classic, 1, args.seconds);
-            let accum_cost = classic1.counters.accum_busy_fraction * classic1.run_wall_s
-                / classic1.run_hits as f64;
+            let mut costs: Vec<(f64, f64)> = (0..args.reps)
+                .map(|_| {
+                    let trace1 = measure(&mut ctx, SchedulerKind::TraceOnly, 1, args.seconds);
+                    let classic1 = measure(&mut ctx, SchedulerKind::Classic, 1, args.seconds);
+                    let accum = classic1.counters.accum_busy_fraction * classic1.run_wall_s
+                        / classic1.run_hits as f64;
+                    (1.0 / rate(&trace1), accum)
+                })
+                .collect();
+            costs.sort_by(|a, b| (a.0 + a.1).total_cmp(&(b.0 + b.1)));
+            let (trace_cost, accum_cost) = costs[costs.len() / 2];
             for &t in &args.threads {
-                let trace = measure(&mut ctx, SchedulerKind::TraceOnly, t, args.seconds);
-                let classic = measure(&mut ctx, SchedulerKind::Classic, t, args.seconds);
-                let dynamic = measure(&mut ctx, SchedulerKind::Dynamic, t, args.seconds);
+                let (mut tr, mut cl, mut dy) = (Vec::new(), Vec::new(), Vec::new());
+                for _ in 0..args.reps {
+                    tr.push(measure(&mut ctx, SchedulerKind::TraceOnly, t, args.seconds));
+                    cl.push(measure(&mut ctx, SchedulerKind::Classic, t, args.seconds));
+                    dy.push(measure(&mut ctx, SchedulerKind::Dynamic, t, args.seconds));
+                }
+                let (trace, classic, dynamic) = (median(tr), median(cl), median(dy));
                 let ideal = t as f64 / (trace_cost + accum_cost);
                 println!(
                     "{:10} {:>5} {:>8} {:>8.3} {:>8.3} {:>3} {:>8.3} {:>8.3} {:>8.3} {:>7.2} {:>6.3} {:>6.2} {:>6.2} {:>7} {:>6} {:>7.2}",

@@ -558,7 +558,8 @@ typedef struct {
    */
   double calc_wait_s;
   /**
-   * Fraction of the last run the accumulating thread spent applying portions.
+   * Classic: fraction of the last run the accumulating thread spent applying portions.
+   * Dynamic: time spent applying portions over the processing threads' lifetime.
    */
   double accum_busy_fraction;
   /**
@@ -569,6 +570,11 @@ typedef struct {
    * Portions applied (last run).
    */
   uint64_t portions;
+  /**
+   * Of those, portions a calculating thread applied itself because the group was idle
+   * (dynamic scheduler, last run).
+   */
+  uint64_t inline_portions;
   /**
    * Vertex-group splits (dynamic scheduler; 0 for classic).
    */

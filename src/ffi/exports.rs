@@ -460,6 +460,7 @@ fn report_to_c(r: &Report, history_len: usize) -> ImapReport {
         accum_busy_fraction: r.counters.accum_busy_fraction,
         peak_queue: r.counters.peak_queue,
         portions: r.counters.portions,
+        inline_portions: r.counters.inline_portions,
         splits: r.counters.splits,
         groups: r.counters.groups,
         map_bytes: r.map_bytes,

@@ -227,12 +227,16 @@ pub struct ImapReport {
     pub dropped_photons: u64,
     /// Seconds the calculating threads together waited for a free portion (last run).
     pub calc_wait_s: f64,
-    /// Fraction of the last run the accumulating thread spent applying portions.
+    /// Classic: fraction of the last run the accumulating thread spent applying portions.
+    /// Dynamic: time spent applying portions over the processing threads' lifetime.
     pub accum_busy_fraction: f64,
     /// Largest number of filled portions waiting to be applied (last run).
     pub peak_queue: u64,
     /// Portions applied (last run).
     pub portions: u64,
+    /// Of those, portions a calculating thread applied itself because the group was idle
+    /// (dynamic scheduler, last run).
+    pub inline_portions: u64,
     /// Vertex-group splits (dynamic scheduler; 0 for classic).
     pub splits: u64,
     /// Vertex groups at the end of the last run (1 for classic).

@@ -158,6 +158,7 @@ impl<'a> GroupSink<'a> {
             if self.shared.inline_apply && table.try_lock(g) {
                 if table.ancestors_done(g) {
                     let t = Instant::now();
+                    p.items.sort_unstable_by_key(|c| c.slot);
                     // SAFETY: we hold g's lock and its ancestors are done.
                     unsafe { apply(self.shared.map, &p) };
                     self.apply_s += t.elapsed().as_secs_f64();
