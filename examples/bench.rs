@@ -113,8 +113,11 @@ fn median(mut v: Vec<Report>) -> Report {
 fn main() {
     let args = parse();
     println!(
-        "# libimap scheduler benchmark: scale {}, {} s per measurement, threads {:?}",
-        args.scale, args.seconds, args.threads
+        "# libimap scheduler benchmark: scale {}, {} s per measurement, medians of {} alternating rounds, threads {:?}",
+        args.scale,
+        args.seconds,
+        args.reps,
+        args.threads
     );
     println!("# hits/s in millions; ideal = T / (trace + accumulate cost, each measured on 1 thread); eff = rate / ideal");
     println!(
