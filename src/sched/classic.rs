@@ -216,17 +216,7 @@ pub fn run(rc: &RunContext, map: &mut IMap, params: &mut RunParams) -> RunOutcom
         }
     });
 
-    let photons_traced = source.claimed() - rc.first_photon;
     let wall_s = monitor.wall_s();
     counters.accum_busy_fraction = if wall_s > 0.0 { busy_s / wall_s } else { 0.0 };
-    let stop = monitor.finish(source.claimed(), rc.hits_before + stats.hits, map, rc);
-    RunOutcome {
-        stats,
-        photons_traced,
-        wall_s,
-        stop,
-        counters,
-        history: monitor.history,
-        thread_lost,
-    }
+    monitor.outcome(&source, map, rc, stats, counters, thread_lost)
 }

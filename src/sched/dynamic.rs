@@ -577,16 +577,5 @@ pub fn run(
 
     counters.groups = (0..table.count()).filter(|&g| !table.is_split(g)).count() as u64;
     counters.accum_busy_fraction = if alive_s > 0.0 { busy_s / alive_s } else { 0.0 };
-    let photons_traced = source.claimed() - rc.first_photon;
-    let wall_s = monitor.wall_s();
-    let stop = monitor.finish(source.claimed(), rc.hits_before + stats.hits, map, rc);
-    RunOutcome {
-        stats,
-        photons_traced,
-        wall_s,
-        stop,
-        counters,
-        history: monitor.history,
-        thread_lost,
-    }
+    monitor.outcome(&source, map, rc, stats, counters, thread_lost)
 }

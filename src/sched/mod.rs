@@ -264,8 +264,32 @@ impl<'p, 'a> Monitor<'p, 'a> {
         p
     }
 
+    /// Ends the run: the final report (the callback sees it too), and the outcome.
+    pub fn outcome(
+        mut self,
+        source: &PhotonSource,
+        map: &IMap,
+        rc: &RunContext,
+        stats: PathStats,
+        counters: Counters,
+        thread_lost: Option<String>,
+    ) -> RunOutcome {
+        let photons_traced = source.claimed() - rc.first_photon;
+        let wall_s = self.wall_s();
+        let stop = self.finish(source.claimed(), rc.hits_before + stats.hits, map, rc);
+        RunOutcome {
+            stats,
+            photons_traced,
+            wall_s,
+            stop,
+            counters,
+            history: self.history,
+            thread_lost,
+        }
+    }
+
     /// The final report of the run; the callback sees it too (its answer no longer matters).
-    pub fn finish(&mut self, photons: u64, hits: u64, map: &IMap, rc: &RunContext) -> StopReason {
+    fn finish(&mut self, photons: u64, hits: u64, map: &IMap, rc: &RunContext) -> StopReason {
         let p = self.record(photons, hits, global_error(map, rc, photons));
         if let Some(cb) = self.params.progress.as_mut() {
             cb(&p);

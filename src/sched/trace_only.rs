@@ -41,16 +41,5 @@ pub fn run(rc: &RunContext, map: &IMap, params: &mut RunParams) -> RunOutcome {
             }
         }
     });
-    let photons_traced = source.claimed() - rc.first_photon;
-    let wall_s = monitor.wall_s();
-    let stop = monitor.finish(source.claimed(), rc.hits_before + stats.hits, map, rc);
-    RunOutcome {
-        stats,
-        photons_traced,
-        wall_s,
-        stop,
-        counters: Counters::default(),
-        history: monitor.history,
-        thread_lost,
-    }
+    monitor.outcome(&source, map, rc, stats, Counters::default(), thread_lost)
 }
