@@ -64,6 +64,18 @@ int main(void) {
     imap_config_default(&cfg);
     cfg.unit_m = NAN;
     expect("unit_m = NaN", imap_create(&cfg, &ctx), IMAP_ERR_NON_FINITE, NULL);
+    imap_config_default(&cfg);
+    cfg.scheduler = 7;
+    expect("unknown scheduler", imap_create(&cfg, &ctx), IMAP_ERR_INVALID_ARGUMENT, NULL);
+    imap_config_default(&cfg);
+    cfg.inline_apply = 9;
+    expect("unknown inline_apply", imap_create(&cfg, &ctx), IMAP_ERR_INVALID_ARGUMENT, NULL);
+    imap_config_default(&cfg);
+    cfg.subd = 1;
+    expect("subd = 1", imap_create(&cfg, &ctx), IMAP_ERR_INVALID_ARGUMENT, NULL);
+    imap_config_default(&cfg);
+    cfg.initial_groups = 64, cfg.max_groups = 8;
+    expect("initial_groups > max_groups", imap_create(&cfg, &ctx), IMAP_ERR_INVALID_ARGUMENT, NULL);
     if (ctx != NULL) printf("FAIL out-parameter written on failure\n"), failures++;
 
     imap_config_default(&cfg);
