@@ -2,7 +2,7 @@
  * The Cornell box through libimap's C API: builds the box with imap_add_mesh, runs to a
  * target error while printing the error-against-time table, and prints vertex values.
  *
- *   cornell_box [target_rel_error=0.02] [time_budget_s=60] [band_count=3]
+ *   cornell_box [target_rel_error=0.02] [time_budget_s=60] [band_count=3] [classic|dynamic]
  *
  * band_count 3 runs in RGB; any other count runs that many spectral bands over 400–700 nm
  * (wall spectra approximated by smooth curves through the RGB reflectances).
@@ -131,6 +131,7 @@ int main(int argc, char **argv) {
     double target = argc > 1 ? atof(argv[1]) : 0.02;
     double budget = argc > 2 ? atof(argv[2]) : 60.0;
     int bands = argc > 3 ? atoi(argv[3]) : 3;
+    int classic = argc > 4 && strcmp(argv[4], "classic") == 0;
     ImapContext *ctx = NULL;
 
     /* One context: RGB or spectral, millimetre scene units, a fixed seed. */
@@ -144,6 +145,7 @@ int main(int argc, char **argv) {
     }
     cfg.unit_m = 0.001;
     cfg.seed = 2026;
+    cfg.scheduler = classic ? IMAP_SCHEDULER_CLASSIC : IMAP_SCHEDULER_DYNAMIC;
     CHECK(imap_create(&cfg, &ctx));
 
     /* Materials: the classic box's white, red and green walls, and a black lamp. */
@@ -219,8 +221,15 @@ int main(int argc, char **argv) {
     printf("stopped by %s after %.2f s: %llu photons (%.3f M/s), %llu hits (%.3f M/s), error %.4f\n",
            why[rep.stop_reason], rep.run_wall_s, (unsigned long long)rep.photons, rep.run_photons / rep.run_wall_s / 1e6,
            (unsigned long long)rep.hits, rep.run_hits / rep.run_wall_s / 1e6, rep.rel_error);
-    printf("classic scheduler, %u threads: accumulator busy %.0f %%, calculating threads waited %.2f s, peak queue %llu\n",
-           rep.threads, 100 * rep.accum_busy_fraction, rep.calc_wait_s, (unsigned long long)rep.peak_queue);
+    if (cfg.scheduler == IMAP_SCHEDULER_DYNAMIC)
+        printf("dynamic scheduler, %u threads: %llu splits, %llu vertex groups, %llu of %llu portions applied by the "
+               "calculating threads, processing threads busy %.0f %%, waited for portions %.2f s, peak queue %llu\n",
+               rep.threads, (unsigned long long)rep.splits, (unsigned long long)rep.groups,
+               (unsigned long long)rep.inline_portions, (unsigned long long)rep.portions, 100 * rep.accum_busy_fraction,
+               rep.calc_wait_s, (unsigned long long)rep.peak_queue);
+    else
+        printf("classic scheduler, %u threads: accumulator busy %.0f %%, calculating threads waited %.2f s, peak queue %llu\n",
+               rep.threads, 100 * rep.accum_busy_fraction, rep.calc_wait_s, (unsigned long long)rep.peak_queue);
     printf("energy: emitted %.4f W = absorbed %.4f + escaped %.4f + dropped %.4f\n", rep.emitted_w, rep.absorbed_w,
            rep.escaped_w, rep.dropped_w);
 
