@@ -106,17 +106,17 @@
 #define IMAP_IOR_NONE 0
 
 /**
- * n = ior[0].
+ * `n = ior[0]`.
  */
 #define IMAP_IOR_CONSTANT 1
 
 /**
- * n = ior[0] + ior[1]/λ² + ior[2]/λ⁴, λ in µm.
+ * `n = ior[0] + ior[1]/λ² + ior[2]/λ⁴`, λ in µm.
  */
 #define IMAP_IOR_CAUCHY 2
 
 /**
- * n² = 1 + Σ ior[i]·λ²/(λ² − ior[i+3]), i = 0..2, λ in µm (Schott's B1..B3, C1..C3).
+ * `n² = 1 + Σ ior[i]·λ²/(λ² − ior[i+3])`, i = 0..2, λ in µm (Schott's B1..B3, C1..C3).
  */
 #define IMAP_IOR_SELLMEIER 3
 
@@ -791,7 +791,8 @@ ImapStatus imap_get_vertex_energy(const ImapContext *ctx, uint32_t mesh, uint32_
 
 /**
  * Relative standard error (σ/E, dimensionless) of the band-mean irradiance at every vertex
- * of `mesh` on `side`, from the per-vertex sum of squares. 1 where nothing has arrived or
+ * of `mesh` on `side`, from the per-vertex sum over photons of each photon's squared
+ * total contribution (calibrated against independent runs). 1 where nothing has arrived or
  * the vertex has no area. Statuses as `imap_get_vertex_energy`.
  *
  * # Safety

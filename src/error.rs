@@ -1,6 +1,6 @@
 //! Status codes and the library's error type.
 //!
-//! Every fallible operation returns [`Error`], which carries a [`Status`] (what the C ABI
+//! Every fallible operation returns [`Error`], which carries an [`ImapStatus`] (what the C ABI
 //! returns) and a human-readable message (what `imap_last_error` gives back).
 
 use std::fmt;

@@ -3,7 +3,7 @@
 //! `embree4-sys` 0.0.12 carries the Embree 4.2 headers, whose `RTCHit` lacks the
 //! `instPrimID` field that Embree 4.3+ (built with instance arrays, like the 4.4 library we
 //! provision) writes. Passing the crate's 80-byte `RTCRayHit` would let the library write 4
-//! bytes past it. We therefore hand Embree our own [`RayHit`] with the 4.3+ layout and
+//! bytes past it. We therefore hand Embree our own `RayHit` with the 4.3+ layout and
 //! spare room after it (checked by a test with a guard word), pass NULL for the optional
 //! intersect arguments, and check the library's version at start-up.
 

@@ -591,7 +591,8 @@ pub unsafe extern "C" fn imap_get_vertex_energy(
 }
 
 /// Relative standard error (σ/E, dimensionless) of the band-mean irradiance at every vertex
-/// of `mesh` on `side`, from the per-vertex sum of squares. 1 where nothing has arrived or
+/// of `mesh` on `side`, from the per-vertex sum over photons of each photon's squared
+/// total contribution (calibrated against independent runs). 1 where nothing has arrived or
 /// the vertex has no area. Statuses as `imap_get_vertex_energy`.
 ///
 /// # Safety

@@ -1,5 +1,5 @@
 //! The C ABI. Only conversions and calls into the safe API live here; every export goes
-//! through [`boundary`]: panics are caught, pointers checked, statuses returned and the
+//! through `boundary`: panics are caught, pointers checked, statuses returned and the
 //! message kept for `imap_last_error`.
 
 mod exports;

@@ -32,11 +32,11 @@ pub const IMAP_INLINE_NEVER: u32 = 2;
 
 /// `ImapMaterial::ior_model`: not a dielectric.
 pub const IMAP_IOR_NONE: u32 = 0;
-/// n = ior[0].
+/// `n = ior[0]`.
 pub const IMAP_IOR_CONSTANT: u32 = 1;
-/// n = ior[0] + ior[1]/λ² + ior[2]/λ⁴, λ in µm.
+/// `n = ior[0] + ior[1]/λ² + ior[2]/λ⁴`, λ in µm.
 pub const IMAP_IOR_CAUCHY: u32 = 2;
-/// n² = 1 + Σ ior[i]·λ²/(λ² − ior[i+3]), i = 0..2, λ in µm (Schott's B1..B3, C1..C3).
+/// `n² = 1 + Σ ior[i]·λ²/(λ² − ior[i+3])`, i = 0..2, λ in µm (Schott's B1..B3, C1..C3).
 pub const IMAP_IOR_SELLMEIER: u32 = 3;
 
 /// `ImapMesh::flags`: both sides record (and emit) separately.

@@ -5,11 +5,11 @@
 //! unit of band value is Φ/(N·B) watts; a vertex's irradiance is its energy divided by its
 //! share of the adjacent triangles' area (a third of each), converted to m².
 //!
-//! Error: the scalar estimate of a slot is S = Σ w (its deposits of unit-energy photons),
-//! and its variance over N photons is estimated from the sum of squares Q = Σ w² as
-//! Q − S²/N, treating a photon's deposits on one vertex as one per path (exact on surfaces
-//! a photon reaches at most once; an underestimate where paths return often). The relative
-//! standard error is √(Q − S²/N) / S.
+//! Error: the scalar estimate of a slot is S = Σ_k X_k, where X_k is photon k's total
+//! contribution to the slot over its whole path (deposits of unit-energy photons). With
+//! Q = Σ_k X_k² (summed per photon before squaring), N·Var(X) is estimated by Q − S²/N and
+//! the relative standard error is √(Q − S²/N) / S. `tests/calibration.rs` checks it against
+//! the spread over independent seeds, up to ρ = 0.99 in a closed sphere.
 
 use super::IMap;
 use crate::scene::{PreparedMesh, PreparedScene};

@@ -10,7 +10,7 @@
 //! value instead of a full colour, and the hand-over is a pointer move on a channel.
 
 use super::{Counters, Monitor, PhotonSource, RunContext, RunOutcome, RunParams};
-use crate::imap::IMap;
+use crate::imap::{IMap, PhotonSquares};
 use crate::scene::PreparedScene;
 use crate::transport::{Colour, HitSink, PathStats};
 use crossbeam::channel::{self, Receiver, RecvTimeoutError, Sender};
@@ -40,6 +40,8 @@ struct HitRec {
 struct Portion {
     recs: Vec<HitRec>,
     colours: Vec<f32>,
+    /// (slot, a photon's squared contribution to it), for the error estimate.
+    squares: Vec<(u32, f64)>,
 }
 
 impl Portion {
@@ -47,27 +49,45 @@ impl Portion {
         Portion {
             recs: Vec::with_capacity(PORTION_RECORDS),
             colours: Vec::with_capacity(PORTION_RECORDS * bands),
+            squares: Vec::new(),
         }
     }
 
     fn clear(&mut self) {
         self.recs.clear();
         self.colours.clear();
+        self.squares.clear();
+    }
+
+    fn full(&self) -> bool {
+        self.recs.len() >= PORTION_RECORDS || self.squares.len() >= PORTION_RECORDS
     }
 }
 
 /// The calculating thread's side: fills portions and hands them over.
-struct PortionSink {
+struct PortionSink<'a> {
+    scene: &'a PreparedScene,
+    squares: PhotonSquares,
     current: Option<Portion>,
     free: Receiver<Portion>,
     full: Sender<Portion>,
     wait_s: f64,
 }
 
-impl PortionSink {
+impl PortionSink<'_> {
+    /// The open portion, taking a free one when needed (the wait is counted).
+    fn portion(&mut self) -> Option<&mut Portion> {
+        if self.current.is_none() {
+            let t = Instant::now();
+            self.current = self.free.recv().ok();
+            self.wait_s += t.elapsed().as_secs_f64();
+        }
+        self.current.as_mut()
+    }
+
     fn send(&mut self) {
         if let Some(mut p) = self.current.take() {
-            if p.recs.is_empty() {
+            if p.recs.is_empty() && p.squares.is_empty() {
                 self.current = Some(p);
                 return;
             }
@@ -79,14 +99,22 @@ impl PortionSink {
     }
 }
 
-impl HitSink for PortionSink {
+impl HitSink for PortionSink<'_> {
     fn deposit(&mut self, mesh: u32, prim: u32, side: u8, u: f32, v: f32, colour: &Colour) {
-        if self.current.is_none() {
-            let t = Instant::now();
-            self.current = self.free.recv().ok();
-            self.wait_s += t.elapsed().as_secs_f64();
+        // The photon's scalar contribution per vertex, for its squares at the path's end.
+        let m = &self.scene.meshes[mesh as usize];
+        let (uf, vf) = (u as f64, v as f64);
+        for (&vertex, w) in m.triangles[prim as usize]
+            .iter()
+            .zip([1.0 - uf - vf, uf, vf])
+        {
+            self.squares.add(
+                m.slot(vertex, side as usize)
+                    .expect("deposit on a recording mesh"),
+                w,
+            );
         }
-        let Some(p) = self.current.as_mut() else {
+        let Some(p) = self.portion() else {
             return;
         };
         let colour_at = p.colours.len() as u32;
@@ -108,9 +136,20 @@ impl HitSink for PortionSink {
             band,
             side,
         });
-        if p.recs.len() == PORTION_RECORDS {
+        if p.full() {
             self.send();
         }
+    }
+
+    fn end_photon(&mut self) {
+        let mut squares = std::mem::take(&mut self.squares);
+        if let Some(p) = self.portion() {
+            squares.drain(|slot, s2| p.squares.push((slot as u32, s2)));
+            if p.full() {
+                self.send();
+            }
+        }
+        self.squares = squares;
     }
 }
 
@@ -132,6 +171,9 @@ fn accumulate(map: &mut IMap, scene: &PreparedScene, p: &Portion) {
                 map.add_band(slot, w, r.band as usize, p.colours[at]);
             }
         }
+    }
+    for &(slot, s2) in &p.squares {
+        map.add_square(slot as usize, s2);
     }
 }
 
@@ -166,6 +208,8 @@ pub fn run(rc: &RunContext, map: &mut IMap, params: &mut RunParams) -> RunOutcom
                 .name(format!("imap-calc-{t}"))
                 .spawn_scoped(s, move || {
                     let mut sink = PortionSink {
+                        scene: tracer.scene,
+                        squares: PhotonSquares::default(),
                         current: None,
                         free,
                         full,

@@ -9,7 +9,7 @@
 
 use super::groups::GroupTable;
 use super::{Counters, Monitor, PhotonSource, RunContext, RunOutcome, RunParams};
-use crate::imap::{IMap, Readout};
+use crate::imap::{IMap, PhotonSquares, Readout};
 use crate::scene::PreparedScene;
 use crate::transport::{Colour, HitSink, PathStats};
 use crossbeam::channel::{self, Receiver, RecvTimeoutError, Sender, TryRecvError};
@@ -69,6 +69,8 @@ fn portion_capacity(bands: usize) -> usize {
 }
 /// `Contribution::band` of a full-colour contribution.
 const FULL: u16 = u16::MAX;
+/// `Contribution::band` of a photon's squared scalar contribution (in `w`).
+const SQUARE: u16 = u16::MAX - 1;
 
 /// One vertex's share of one hit.
 #[derive(Clone, Copy, Debug)]
@@ -131,6 +133,8 @@ struct GroupSink<'a> {
     last: (usize, usize, usize),
     /// Portions this thread applied itself (their group's owner was idle).
     applied: u64,
+    /// The current photon's contributions per slot, squared at its end.
+    squares: PhotonSquares,
     apply_s: f64,
 }
 
@@ -146,6 +150,7 @@ impl<'a> GroupSink<'a> {
             last: (0, 0, 0),
             applied: 0,
             apply_s: 0.0,
+            squares: PhotonSquares::default(),
         }
     }
 
@@ -214,6 +219,18 @@ impl<'a> GroupSink<'a> {
         p
     }
 
+    /// Adds a contribution without a colour (a square) to `slot`'s group.
+    fn push(&mut self, slot: usize, c: Contribution) {
+        let Some(g) = self.portion_for(slot) else {
+            return;
+        };
+        let p = self.open[g].as_mut().expect("opened by portion_for");
+        p.items.push(c);
+        if p.items.len() == self.shared.capacity {
+            self.send(g);
+        }
+    }
+
     /// The leaf group of `slot`: the last one found when it still holds the slot.
     #[inline]
     fn group_of(&mut self, slot: usize) -> usize {
@@ -265,6 +282,7 @@ impl HitSink for GroupSink<'_> {
             let slot = m
                 .slot(vertex, side as usize)
                 .expect("deposit on a recording mesh");
+            self.squares.add(slot, w);
             let Some(g) = self.portion_for(slot) else {
                 return;
             };
@@ -288,6 +306,22 @@ impl HitSink for GroupSink<'_> {
                 self.send(g);
             }
         }
+    }
+
+    fn end_photon(&mut self) {
+        let mut squares = std::mem::take(&mut self.squares);
+        squares.drain(|slot, s2| {
+            self.push(
+                slot,
+                Contribution {
+                    w: s2,
+                    slot: slot as u32,
+                    colour_at: 0,
+                    band: SQUARE,
+                },
+            )
+        });
+        self.squares = squares;
     }
 
     fn batch_done(&mut self) {
@@ -320,6 +354,8 @@ unsafe fn apply(map: &IMap, p: &Portion) {
         unsafe {
             if c.band == FULL {
                 map.add_colour_exclusive(c.slot as usize, c.w, &p.colours[at..at + bands]);
+            } else if c.band == SQUARE {
+                map.add_square_exclusive(c.slot as usize, c.w);
             } else {
                 map.add_band_exclusive(c.slot as usize, c.w, c.band as usize, p.colours[at]);
             }

@@ -21,6 +21,9 @@ pub trait HitSink {
     /// of mesh `mesh` at barycentric coordinates (u, v).
     fn deposit(&mut self, mesh: u32, prim: u32, side: u8, u: f32, v: f32, colour: &Colour);
 
+    /// Called when a photon's path has ended (absorbed, escaped or dropped).
+    fn end_photon(&mut self) {}
+
     /// Called after each batch of photons.
     fn batch_done(&mut self) {}
 }
@@ -83,6 +86,17 @@ impl Tracer<'_> {
     /// Traces photon `k` from its emission to its end. `colour` is scratch space reused
     /// between photons.
     pub fn trace(
+        &self,
+        k: u64,
+        colour: &mut Colour,
+        sink: &mut impl HitSink,
+        stats: &mut PathStats,
+    ) {
+        self.trace_path(k, colour, sink, stats);
+        sink.end_photon();
+    }
+
+    fn trace_path(
         &self,
         k: u64,
         colour: &mut Colour,
