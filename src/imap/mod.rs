@@ -1,9 +1,11 @@
 //! The illumination map: per (vertex, recorded side) slot, one f64 accumulator per band
 //! plus the sum over photons of the square of each photon's scalar contribution to the
-//! slot (the paper's fourth value) for the Monte Carlo error. A photon's contributions to
-//! one slot along its whole path are summed before squaring (`PhotonSquares`): in a closed,
-//! highly reflective scene a photon returns to a vertex many times, and squaring single
-//! deposits would underestimate the variance (at ρ = 0.99 it even gave 0 for some vertices).
+//! slot (the paper's fourth value) for the Monte Carlo error. A photon that reaches a slot
+//! several times along its path contributes (Σ w)², not Σ w²: each deposit adds its w², and
+//! at the path's end the cross terms (Σ w)² − Σ w² of slots reached more than once are
+//! added (`PhotonSquares`). In a closed, highly reflective scene photons return to a vertex
+//! many times; squaring single deposits alone underestimated the variance (at ρ = 0.99 it
+//! gave 0 for some vertices), and the cross terms cost nothing where paths do not return.
 //! Slots exist only for recording meshes and only for their recorded sides; a slot's
 //! values are contiguous so one deposit touches one cache line or a few.
 //!
@@ -73,20 +75,25 @@ impl IMap {
     #[inline]
     pub fn add_colour(&mut self, slot: usize, w: f64, colour: &[f32]) {
         let (bands, stride) = (self.bands, self.stride);
-        let values = &mut self.plain()[slot * stride..slot * stride + bands];
+        let (values, sq) = self.plain()[slot * stride..(slot + 1) * stride].split_at_mut(bands);
         for (a, &c) in values.iter_mut().zip(colour) {
             *a += w * c as f64;
         }
+        // The photon's scalar energy is its band mean, 1 by construction: this deposit's
+        // share of the photon's squared contribution is w² (cross terms: `PhotonSquares`).
+        sq[0] += w * w;
     }
 
     /// Adds a deposit of weight `w` of a photon collapsed to `band` (exclusive access).
     #[inline]
     pub fn add_band(&mut self, slot: usize, w: f64, band: usize, value: f32) {
-        let at = slot * self.stride + band;
-        self.plain()[at] += w * value as f64;
+        let (bands, base) = (self.bands, slot * self.stride);
+        let m = self.plain();
+        m[base + band] += w * value as f64;
+        m[base + bands] += w * w;
     }
 
-    /// Adds one photon's squared scalar contribution to a slot (exclusive access).
+    /// Adds to a slot's sum of squares (a photon's cross terms; exclusive access).
     #[inline]
     pub fn add_square(&mut self, slot: usize, s2: f64) {
         let at = slot * self.stride + self.bands;
@@ -105,9 +112,11 @@ impl IMap {
         // SAFETY: AtomicU64 has the layout of f64; the caller guarantees exclusive access
         // to this slot's values for the duration of the call.
         let values = unsafe { std::slice::from_raw_parts_mut(s.as_ptr() as *mut f64, self.stride) };
-        for (a, &c) in values[..self.bands].iter_mut().zip(colour) {
+        let (values, sq) = values.split_at_mut(self.bands);
+        for (a, &c) in values.iter_mut().zip(colour) {
             *a += w * c as f64;
         }
+        sq[0] += w * w;
     }
 
     /// `add_band` under the rule of `add_colour_exclusive`.
@@ -116,8 +125,12 @@ impl IMap {
     /// As `add_colour_exclusive`.
     #[inline]
     pub unsafe fn add_band_exclusive(&self, slot: usize, w: f64, band: usize, value: f32) {
-        // SAFETY: as in add_colour_exclusive; the index is inside the slot.
-        unsafe { Self::add_raw(&self.data[slot * self.stride + band], w * value as f64) };
+        let base = slot * self.stride;
+        // SAFETY: as in add_colour_exclusive; both indices are inside the slot.
+        unsafe {
+            Self::add_raw(&self.data[base + band], w * value as f64);
+            Self::add_raw(&self.data[base + self.bands], w * w);
+        }
     }
 
     /// `add_square` under the rule of `add_colour_exclusive`.
@@ -161,32 +174,47 @@ impl IMap {
     }
 }
 
-/// One photon's scalar contributions per slot, summed along its path and squared at its end.
+/// One photon's deposits along its path, for the cross terms of its squared total
+/// contribution per slot. A photon with fewer than two deposits has none (a triangle's three
+/// vertices are distinct), so most paths in open scenes cost one push per deposit.
 #[derive(Debug, Default)]
 pub struct PhotonSquares {
+    deposits: Vec<([u32; 3], [f64; 3])>,
     pairs: Vec<(u32, f64)>,
 }
 
 impl PhotonSquares {
-    /// Records weight `w` of the photon on `slot`.
+    /// Records a deposit of weights `w` on the three slots `slots`.
     #[inline]
-    pub fn add(&mut self, slot: usize, w: f64) {
-        self.pairs.push((slot as u32, w));
+    pub fn add(&mut self, slots: [usize; 3], w: [f64; 3]) {
+        self.deposits.push((slots.map(|s| s as u32), w));
     }
 
-    /// Hands out (slot, (Σ w)²) for every slot the photon reached, and forgets them.
-    pub fn drain(&mut self, mut out: impl FnMut(usize, f64)) {
+    /// Hands out (slot, (Σ w)² − Σ w²) for every slot the photon reached more than once,
+    /// and forgets the photon.
+    pub fn drain_cross_terms(&mut self, mut out: impl FnMut(usize, f64)) {
+        if self.deposits.len() < 2 {
+            self.deposits.clear();
+            return;
+        }
+        self.pairs.clear();
+        for (slots, w) in self.deposits.drain(..) {
+            self.pairs.extend(slots.into_iter().zip(w));
+        }
         self.pairs.sort_unstable_by_key(|p| p.0);
         let mut i = 0;
         while i < self.pairs.len() {
-            let slot = self.pairs[i].0;
-            let mut sum = 0.0;
+            let (slot, start) = (self.pairs[i].0, i);
+            let (mut sum, mut squares) = (0.0, 0.0);
             while i < self.pairs.len() && self.pairs[i].0 == slot {
-                sum += self.pairs[i].1;
+                let w = self.pairs[i].1;
+                sum += w;
+                squares += w * w;
                 i += 1;
             }
-            out(slot as usize, sum * sum);
+            if i - start > 1 {
+                out(slot as usize, sum * sum - squares);
+            }
         }
-        self.pairs.clear();
     }
 }

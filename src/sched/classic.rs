@@ -101,19 +101,15 @@ impl PortionSink<'_> {
 
 impl HitSink for PortionSink<'_> {
     fn deposit(&mut self, mesh: u32, prim: u32, side: u8, u: f32, v: f32, colour: &Colour) {
-        // The photon's scalar contribution per vertex, for its squares at the path's end.
+        // The photon's deposits, for its cross terms at the path's end.
         let m = &self.scene.meshes[mesh as usize];
         let (uf, vf) = (u as f64, v as f64);
-        for (&vertex, w) in m.triangles[prim as usize]
-            .iter()
-            .zip([1.0 - uf - vf, uf, vf])
-        {
-            self.squares.add(
-                m.slot(vertex, side as usize)
-                    .expect("deposit on a recording mesh"),
-                w,
-            );
-        }
+        let slot = |k: usize| {
+            m.slot(m.triangles[prim as usize][k], side as usize)
+                .expect("deposit on a recording mesh")
+        };
+        self.squares
+            .add([slot(0), slot(1), slot(2)], [1.0 - uf - vf, uf, vf]);
         let Some(p) = self.portion() else {
             return;
         };
@@ -144,7 +140,7 @@ impl HitSink for PortionSink<'_> {
     fn end_photon(&mut self) {
         let mut squares = std::mem::take(&mut self.squares);
         if let Some(p) = self.portion() {
-            squares.drain(|slot, s2| p.squares.push((slot as u32, s2)));
+            squares.drain_cross_terms(|slot, s2| p.squares.push((slot as u32, s2)));
             if p.full() {
                 self.send();
             }

@@ -278,11 +278,15 @@ impl HitSink for GroupSink<'_> {
         let tri = m.triangles[prim as usize];
         let (u, v) = (u as f64, v as f64);
         let w = [1.0 - u - v, u, v];
+        let slot_of = |k: usize| {
+            m.slot(tri[k], side as usize)
+                .expect("deposit on a recording mesh")
+        };
+        self.squares.add([slot_of(0), slot_of(1), slot_of(2)], w);
         for (&vertex, &w) in tri.iter().zip(&w) {
             let slot = m
                 .slot(vertex, side as usize)
                 .expect("deposit on a recording mesh");
-            self.squares.add(slot, w);
             let Some(g) = self.portion_for(slot) else {
                 return;
             };
@@ -310,7 +314,7 @@ impl HitSink for GroupSink<'_> {
 
     fn end_photon(&mut self) {
         let mut squares = std::mem::take(&mut self.squares);
-        squares.drain(|slot, s2| {
+        squares.drain_cross_terms(|slot, s2| {
             self.push(
                 slot,
                 Contribution {
