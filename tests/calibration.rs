@@ -61,3 +61,40 @@ fn error_estimate_matches_the_spread_over_seeds() {
         );
     }
 }
+
+#[test]
+fn global_error_falls_as_one_over_root_photons() {
+    // The history of a run records (photons, estimated global error) at each progress
+    // interval; at a constant photon rate, error ∝ t^-1/2 means slope −1/2 in log–log.
+    let mut ctx = context(Config {
+        threads: 2,
+        seed: 21,
+        ..Default::default()
+    });
+    let wall = lambert(&mut ctx, 0.5);
+    let g = sphere_inward(1.0, 3);
+    ctx.add_mesh(&g.desc(wall)).unwrap();
+    ctx.add_point_light([0.1, 0.0, 0.2], &[1.0]).unwrap();
+    // Ten runs of growing length give points over two decades of photons, independent of
+    // how fast this machine is.
+    let mut points = Vec::new();
+    let mut total = 0;
+    for k in 0..10 {
+        let n = photons(4_000) * (1 << (k * 7 / 10));
+        let r = run_photons(&mut ctx, n);
+        total += n;
+        assert_eq!(r.photons, total);
+        points.push(((r.photons as f64).ln(), r.rel_error.ln()));
+    }
+    let m = points.len() as f64;
+    let (mx, my) = (
+        points.iter().map(|p| p.0).sum::<f64>() / m,
+        points.iter().map(|p| p.1).sum::<f64>() / m,
+    );
+    let slope = points.iter().map(|p| (p.0 - mx) * (p.1 - my)).sum::<f64>()
+        / points.iter().map(|p| (p.0 - mx).powi(2)).sum::<f64>();
+    let span = (points.last().unwrap().0 - points[0].0) / std::f64::consts::LN_10;
+    eprintln!("error vs photons over {span:.1} decades: slope {slope:.3}");
+    assert!(span > 1.5);
+    assert!((slope + 0.5).abs() < 0.05, "slope {slope}");
+}
