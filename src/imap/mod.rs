@@ -60,6 +60,13 @@ impl IMap {
         self.data.len() / self.stride
     }
 
+    /// Whether sorting a portion by vertex before applying it pays: only when the map does
+    /// not fit in cache (measured: up to 20 % cheaper accumulation on maps of 90+ MB, pure
+    /// overhead on the Cornell box's 128 kB).
+    pub fn worth_sorting(&self) -> bool {
+        self.data.len() * 8 > 4 << 20
+    }
+
     /// The values as plain f64s, for a thread that holds the map exclusively (the classic
     /// scheduler's accumulator): no atomics, so the band loop vectorises.
     #[inline]
@@ -200,6 +207,31 @@ impl PhotonSquares {
         self.pairs.clear();
         for (slots, w) in self.deposits.drain(..) {
             self.pairs.extend(slots.into_iter().zip(w));
+        }
+        if self.pairs.len() <= 48 {
+            // A few deposits (the usual case): a quadratic scan beats a sort.
+            let n = self.pairs.len();
+            for i in 0..n {
+                let slot = self.pairs[i].0;
+                if slot == u32::MAX {
+                    continue;
+                }
+                let (mut sum, mut squares, mut count) =
+                    (self.pairs[i].1, self.pairs[i].1 * self.pairs[i].1, 1);
+                for j in i + 1..n {
+                    if self.pairs[j].0 == slot {
+                        let w = self.pairs[j].1;
+                        sum += w;
+                        squares += w * w;
+                        count += 1;
+                        self.pairs[j].0 = u32::MAX;
+                    }
+                }
+                if count > 1 {
+                    out(slot as usize, sum * sum - squares);
+                }
+            }
+            return;
         }
         self.pairs.sort_unstable_by_key(|p| p.0);
         let mut i = 0;

@@ -67,6 +67,8 @@ impl Portion {
 /// The calculating thread's side: fills portions and hands them over.
 struct PortionSink<'a> {
     scene: &'a PreparedScene,
+    /// Sort portions by triangle before handing them over (`IMap::worth_sorting`).
+    sort: bool,
     squares: PhotonSquares,
     current: Option<Portion>,
     free: Receiver<Portion>,
@@ -91,7 +93,9 @@ impl PortionSink<'_> {
                 self.current = Some(p);
                 return;
             }
-            p.recs.sort_unstable_by_key(|r| r.key);
+            if self.sort {
+                p.recs.sort_unstable_by_key(|r| r.key);
+            }
             // The receiver only goes away when the driving thread unwinds; the run is
             // lost then anyway.
             let _ = self.full.send(p);
@@ -186,6 +190,7 @@ pub fn run(rc: &RunContext, map: &mut IMap, params: &mut RunParams) -> RunOutcom
             .expect("pool fits its channel");
     }
 
+    let sort = map.worth_sorting();
     let mut monitor = Monitor::new(params, rc.elapsed_before_s);
     let mut counters = Counters {
         groups: 1,
@@ -205,6 +210,7 @@ pub fn run(rc: &RunContext, map: &mut IMap, params: &mut RunParams) -> RunOutcom
                 .spawn_scoped(s, move || {
                     let mut sink = PortionSink {
                         scene: tracer.scene,
+                        sort,
                         squares: PhotonSquares::default(),
                         current: None,
                         free,

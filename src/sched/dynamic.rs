@@ -163,7 +163,9 @@ impl<'a> GroupSink<'a> {
             if self.shared.inline_apply && table.try_lock(g) {
                 if table.ancestors_done(g) {
                     let t = Instant::now();
-                    p.items.sort_unstable_by_key(|c| c.slot);
+                    if self.shared.map.worth_sorting() {
+                        p.items.sort_unstable_by_key(|c| c.slot);
+                    }
                     // SAFETY: we hold g's lock and its ancestors are done.
                     unsafe { apply(self.shared.map, &p) };
                     self.apply_s += t.elapsed().as_secs_f64();
@@ -180,7 +182,9 @@ impl<'a> GroupSink<'a> {
                 }
                 table.unlock(g);
             }
-            p.items.sort_unstable_by_key(|c| c.slot);
+            if self.shared.map.worth_sorting() {
+                p.items.sort_unstable_by_key(|c| c.slot);
+            }
             if let Err(e) = self.shared.outputs[g].send(p) {
                 // Only when the run is being torn down after a panic.
                 let _ = e;
