@@ -87,8 +87,9 @@ fn parse() -> Args {
 /// Runs `seconds` with the given scheduler and threads on a cleared map.
 fn measure(ctx: &mut Context, kind: SchedulerKind, threads: usize, seconds: f64) -> Report {
     ctx.reset();
-    ctx.set_scheduler(kind, DynamicParams::default());
-    ctx.set_threads(threads);
+    ctx.set_scheduler(kind, DynamicParams::default())
+        .expect("scheduler");
+    ctx.set_threads(threads).expect("threads");
     let mut p = RunParams {
         photons: 0,
         time_budget_s: seconds,

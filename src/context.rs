@@ -79,6 +79,16 @@ struct Prepared {
     accel: Accel,
 }
 
+fn check_threads(threads: usize) -> Result<()> {
+    if threads > 4096 {
+        bail!(
+            ImapErrInvalidArgument,
+            "threads = {threads} is more than 4096"
+        );
+    }
+    Ok(())
+}
+
 /// An illumination-map context.
 pub struct Context {
     config: Config,
@@ -102,35 +112,8 @@ impl Context {
                 config.unit_m
             );
         }
-        let d = &config.dynamic;
-        if !(2..=64).contains(&d.subd) {
-            bail!(
-                ImapErrInvalidArgument,
-                "subd = {} must be between 2 and 64",
-                d.subd
-            );
-        }
-        if d.max_groups > 1 << 20 || d.initial_groups > 1 << 20 {
-            bail!(
-                ImapErrInvalidArgument,
-                "initial_groups and max_groups must be at most 2^20"
-            );
-        }
-        if d.max_groups != 0 && d.initial_groups > d.max_groups {
-            bail!(
-                ImapErrInvalidArgument,
-                "initial_groups {} exceeds max_groups {}",
-                d.initial_groups,
-                d.max_groups
-            );
-        }
-        if config.threads > 4096 {
-            bail!(
-                ImapErrInvalidArgument,
-                "threads = {} is more than 4096",
-                config.threads
-            );
-        }
+        config.dynamic.validate()?;
+        check_threads(config.threads)?;
         let device = Device::new()?;
         let scene = Scene::new(config.bands.clone(), config.unit_m);
         Ok(Context {
@@ -156,14 +139,22 @@ impl Context {
 
     /// Changes the scheduler (and its settings) for the next runs. Any scheduler continues
     /// the same map: the photons, and so the result, do not depend on it.
-    pub fn set_scheduler(&mut self, scheduler: SchedulerKind, dynamic: DynamicParams) {
+    pub fn set_scheduler(
+        &mut self,
+        scheduler: SchedulerKind,
+        dynamic: DynamicParams,
+    ) -> Result<()> {
+        dynamic.validate()?;
         self.config.scheduler = scheduler;
         self.config.dynamic = dynamic;
+        Ok(())
     }
 
     /// Changes the number of calculating threads for the next runs (0 = one per core).
-    pub fn set_threads(&mut self, threads: usize) {
+    pub fn set_threads(&mut self, threads: usize) -> Result<()> {
+        check_threads(threads)?;
         self.config.threads = threads;
+        Ok(())
     }
 
     /// Embree's version (major·10000 + minor·100 + patch).
@@ -358,26 +349,8 @@ impl Context {
         let outcome = match self.config.scheduler {
             SchedulerKind::Classic => sched::classic::run(&rc, map, params),
             SchedulerKind::Dynamic => sched::dynamic::run(&rc, map, params, &self.config.dynamic),
-            SchedulerKind::TraceOnly => {
-                let outcome = sched::trace_only::run(&rc, map, params);
-                let counters = outcome.counters;
-                self.last_run = Some((
-                    outcome.stats.photons,
-                    outcome.stats.hits,
-                    outcome.wall_s,
-                    outcome.stop,
-                    counters,
-                    threads,
-                ));
-                let mut report = self.report();
-                report.run_photons = outcome.stats.photons;
-                return Ok(report);
-            }
+            SchedulerKind::TraceOnly => sched::trace_only::run(&rc, map, params),
         };
-        debug_assert_eq!(outcome.photons_traced, outcome.stats.photons);
-        self.stats.merge(&outcome.stats);
-        self.elapsed_s += outcome.wall_s;
-        self.history.extend_from_slice(&outcome.history);
         self.last_run = Some((
             outcome.stats.photons,
             outcome.stats.hits,
@@ -386,6 +359,13 @@ impl Context {
             outcome.counters,
             threads,
         ));
+        if self.config.scheduler == SchedulerKind::TraceOnly {
+            // Nothing was accumulated: the totals and the history stay as they were.
+            return Ok(self.report());
+        }
+        self.stats.merge(&outcome.stats);
+        self.elapsed_s += outcome.wall_s;
+        self.history.extend_from_slice(&outcome.history);
         if let Some(why) = outcome.thread_lost {
             bail!(
                 ImapErrThreadLost,

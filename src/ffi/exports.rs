@@ -219,6 +219,26 @@ pub unsafe extern "C" fn imap_embree_version(ctx: *const ImapContext, out: *mut 
     with_context(ctx, |c| write_out("out", out, c.embree_version()))
 }
 
+/// The frame of every `imap_add_*`: `out_id` is checked before anything is added, `add`
+/// runs on the context, and its id is written only on success.
+fn add_with(
+    ctx: *mut ImapContext,
+    out_id: *mut u32,
+    add: impl FnOnce(&mut Context) -> Result<u32>,
+) -> ImapStatus {
+    with_context(ctx, |c| {
+        check_out("out_id", out_id)?;
+        let id = add(c)?;
+        write_out("out_id", out_id, id)
+    })
+}
+
+/// Three doubles from C.
+fn vec3(name: &str, ptr: *const f64) -> Result<[f64; 3]> {
+    let v = slice(name, ptr, 3)?;
+    Ok([v[0], v[1], v[2]])
+}
+
 fn per_band(name: &str, ptr: *const f64, count: usize) -> Result<Vec<f64>> {
     Ok(slice(name, ptr, count)?.to_vec())
 }
@@ -239,8 +259,7 @@ pub unsafe extern "C" fn imap_add_material(
     material: *const ImapMaterial,
     out_id: *mut u32,
 ) -> ImapStatus {
-    with_context(ctx, |c| {
-        check_out("out_id", out_id)?;
+    add_with(ctx, out_id, |c| {
         let m = reference("material", material)?;
         let i = m.ior;
         let ior = match m.ior_model {
@@ -276,8 +295,7 @@ pub unsafe extern "C" fn imap_add_material(
             ior,
             absorption_per_m: per_band("absorption_per_m", m.absorption_per_m, m.absorption_count)?,
         };
-        let id = c.add_material(&desc)?;
-        write_out("out_id", out_id, id)
+        c.add_material(&desc)
     })
 }
 
@@ -300,8 +318,7 @@ pub unsafe extern "C" fn imap_add_mesh(
     mesh: *const ImapMesh,
     out_id: *mut u32,
 ) -> ImapStatus {
-    with_context(ctx, |c| {
-        check_out("out_id", out_id)?;
+    add_with(ctx, out_id, |c| {
         let m = reference("mesh", mesh)?;
         if m.vertex_count == 0 || m.triangle_count == 0 {
             bail!(
@@ -339,8 +356,7 @@ pub unsafe extern "C" fn imap_add_mesh(
             record: m.flags & IMAP_MESH_RECORD != 0,
             exitance,
         };
-        let id = c.add_mesh(&desc)?;
-        write_out("out_id", out_id, id)
+        c.add_mesh(&desc)
     })
 }
 
@@ -362,11 +378,11 @@ pub unsafe extern "C" fn imap_add_point_light(
     power_count: usize,
     out_id: *mut u32,
 ) -> ImapStatus {
-    with_context(ctx, |c| {
-        check_out("out_id", out_id)?;
-        let p = slice("position", position, 3)?;
-        let id = c.add_point_light([p[0], p[1], p[2]], slice("power", power, power_count)?)?;
-        write_out("out_id", out_id, id)
+    add_with(ctx, out_id, |c| {
+        c.add_point_light(
+            vec3("position", position)?,
+            slice("power", power, power_count)?,
+        )
     })
 }
 
@@ -388,17 +404,14 @@ pub unsafe extern "C" fn imap_add_spot_light(
     power_count: usize,
     out_id: *mut u32,
 ) -> ImapStatus {
-    with_context(ctx, |c| {
-        check_out("out_id", out_id)?;
-        let p = slice("position", position, 3)?;
-        let d = slice("direction", direction, 3)?;
-        let id = c.add_spot_light(
-            [p[0], p[1], p[2]],
-            [d[0], d[1], d[2]],
+    add_with(ctx, out_id, |c| {
+        let power = slice("power", power, power_count)?;
+        c.add_spot_light(
+            vec3("position", position)?,
+            vec3("direction", direction)?,
             half_angle_rad,
-            slice("power", power, power_count)?,
-        )?;
-        write_out("out_id", out_id, id)
+            power,
+        )
     })
 }
 

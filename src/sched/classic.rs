@@ -108,12 +108,11 @@ impl HitSink for PortionSink<'_> {
         // The photon's deposits, for its cross terms at the path's end.
         let m = &self.scene.meshes[mesh as usize];
         let (uf, vf) = (u as f64, v as f64);
-        let slot = |k: usize| {
-            m.slot(m.triangles[prim as usize][k], side as usize)
+        let slots = m.triangles[prim as usize].map(|v| {
+            m.slot(v, side as usize)
                 .expect("deposit on a recording mesh")
-        };
-        self.squares
-            .add([slot(0), slot(1), slot(2)], [1.0 - uf - vf, uf, vf]);
+        });
+        self.squares.add(slots, [1.0 - uf - vf, uf, vf]);
         let Some(p) = self.portion() else {
             return;
         };

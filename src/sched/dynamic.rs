@@ -9,6 +9,7 @@
 
 use super::groups::GroupTable;
 use super::{Counters, Monitor, PhotonSource, RunContext, RunOutcome, RunParams};
+use crate::error::{bail, Result};
 use crate::imap::{IMap, PhotonSquares, Readout};
 use crate::scene::PreparedScene;
 use crate::transport::{Colour, HitSink, PathStats};
@@ -57,15 +58,48 @@ impl Default for DynamicParams {
     }
 }
 
+impl DynamicParams {
+    /// Checks the settings (also when they are changed between runs).
+    pub fn validate(&self) -> Result<()> {
+        if !(2..=64).contains(&self.subd) {
+            bail!(
+                ImapErrInvalidArgument,
+                "subd = {} must be between 2 and 64",
+                self.subd
+            );
+        }
+        if self.max_groups > 1 << 20 || self.initial_groups > 1 << 20 {
+            bail!(
+                ImapErrInvalidArgument,
+                "initial_groups and max_groups must be at most 2^20"
+            );
+        }
+        if self.max_groups != 0 && self.initial_groups > self.max_groups {
+            bail!(
+                ImapErrInvalidArgument,
+                "initial_groups {} exceeds max_groups {}",
+                self.initial_groups,
+                self.max_groups
+            );
+        }
+        Ok(())
+    }
+}
+
 /// Bytes a portion aims at: small enough to stay in cache while it is applied.
 const PORTION_BYTES: usize = 32 << 10;
 /// Most bytes all portions together may take.
 const POOL_BYTES: usize = 256 << 20;
 
-/// Contributions per portion for `bands` bands (a hit's colour is shared by the up to three
+/// Bytes per contribution for `bands` bands (a hit's colour is shared by the up to three
 /// contributions it makes to one group).
+fn contribution_bytes(bands: usize) -> usize {
+    std::mem::size_of::<Contribution>() + 4 * bands / 3 + 1
+}
+
+/// Contributions per portion for `bands` bands.
 fn portion_capacity(bands: usize) -> usize {
-    (PORTION_BYTES / (std::mem::size_of::<Contribution>() + 4 * bands / 3 + 1)).clamp(64, 2048)
+    (PORTION_BYTES / contribution_bytes(bands)).clamp(64, 2048)
 }
 /// `Contribution::band` of a full-colour contribution.
 const FULL: u16 = u16::MAX;
@@ -83,7 +117,6 @@ struct Contribution {
 
 /// A portion of contributions for one group.
 struct Portion {
-    group: usize,
     items: Vec<Contribution>,
     colours: Vec<f32>,
     /// The hit whose colour was stored last (contributions of one hit share it), and where.
@@ -94,7 +127,6 @@ struct Portion {
 impl Portion {
     fn new(capacity: usize, bands: usize) -> Self {
         Portion {
-            group: 0,
             items: Vec::with_capacity(capacity),
             colours: Vec::with_capacity(capacity * bands / 3),
             stamp: u64::MAX,
@@ -119,6 +151,8 @@ struct Shared<'a> {
     outputs: &'a [Sender<Portion>],
     capacity: usize,
     inline_apply: bool,
+    /// Sort portions by slot before applying them (`IMap::worth_sorting`).
+    sort: bool,
 }
 
 /// A calculating thread's side: one open portion per group it has touched.
@@ -133,9 +167,8 @@ struct GroupSink<'a> {
     last: (usize, usize, usize),
     /// Portions this thread applied itself (their group's owner was idle).
     applied: u64,
-    /// The current photon's contributions per slot, squared at its end.
+    /// The current photon's deposits, for its cross terms at its end.
     squares: PhotonSquares,
-    apply_s: f64,
 }
 
 impl<'a> GroupSink<'a> {
@@ -149,7 +182,6 @@ impl<'a> GroupSink<'a> {
             wait_s: 0.0,
             last: (0, 0, 0),
             applied: 0,
-            apply_s: 0.0,
             squares: PhotonSquares::default(),
         }
     }
@@ -157,39 +189,34 @@ impl<'a> GroupSink<'a> {
     /// Applies group `g`'s open portion on the spot when the group may be written and
     /// nobody is writing it; otherwise hands it to the group's processing thread.
     fn send(&mut self, g: usize) {
-        if let Some(mut p) = self.open[g].take() {
-            self.open_list.retain(|&x| x != g);
-            let table = self.shared.table;
-            if self.shared.inline_apply && table.try_lock(g) {
-                if table.ancestors_done(g) {
-                    let t = Instant::now();
-                    if self.shared.map.worth_sorting() {
-                        p.items.sort_unstable_by_key(|c| c.slot);
-                    }
-                    // SAFETY: we hold g's lock and its ancestors are done.
-                    unsafe { apply(self.shared.map, &p) };
-                    self.apply_s += t.elapsed().as_secs_f64();
-                    self.applied += 1;
-                    table.close(g);
-                    table.unlock(g);
-                    p.clear();
-                    if self.spare.is_none() {
-                        self.spare = Some(p);
-                    } else {
-                        let _ = self.shared.recycle.send(p);
-                    }
-                    return;
-                }
+        let Some(mut p) = self.open[g].take() else {
+            return;
+        };
+        self.open_list.retain(|&x| x != g);
+        if self.shared.sort {
+            p.items.sort_unstable_by_key(|c| c.slot);
+        }
+        let table = self.shared.table;
+        if self.shared.inline_apply && table.try_lock(g) {
+            if table.ancestors_done(g) {
+                // SAFETY: we hold g's lock and its ancestors are done.
+                unsafe { apply(self.shared.map, &p) };
+                self.applied += 1;
+                table.close(g);
                 table.unlock(g);
+                p.clear();
+                if self.spare.is_none() {
+                    self.spare = Some(p);
+                } else {
+                    let _ = self.shared.recycle.send(p);
+                }
+                return;
             }
-            if self.shared.map.worth_sorting() {
-                p.items.sort_unstable_by_key(|c| c.slot);
-            }
-            if let Err(e) = self.shared.outputs[g].send(p) {
-                // Only when the run is being torn down after a panic.
-                let _ = e;
-                self.shared.table.close(g);
-            }
+            table.unlock(g);
+        }
+        // The receiver is gone only when the run is being torn down after a panic.
+        if self.shared.outputs[g].send(p).is_err() {
+            table.close(g);
         }
     }
 
@@ -264,8 +291,6 @@ impl<'a> GroupSink<'a> {
                 return Some(g);
             }
             if self.shared.table.try_open(g) {
-                let mut p = p;
-                p.group = g;
                 self.open[g] = Some(p);
                 self.open_list.push(g);
                 return Some(g);
@@ -282,15 +307,12 @@ impl HitSink for GroupSink<'_> {
         let tri = m.triangles[prim as usize];
         let (u, v) = (u as f64, v as f64);
         let w = [1.0 - u - v, u, v];
-        let slot_of = |k: usize| {
-            m.slot(tri[k], side as usize)
+        let slots = tri.map(|v| {
+            m.slot(v, side as usize)
                 .expect("deposit on a recording mesh")
-        };
-        self.squares.add([slot_of(0), slot_of(1), slot_of(2)], w);
-        for (&vertex, &w) in tri.iter().zip(&w) {
-            let slot = m
-                .slot(vertex, side as usize)
-                .expect("deposit on a recording mesh");
+        });
+        self.squares.add(slots, w);
+        for (slot, w) in slots.into_iter().zip(w) {
             let Some(g) = self.portion_for(slot) else {
                 return;
             };
@@ -465,12 +487,12 @@ pub fn run(
     } else {
         dp.low_threshold
     };
-    let table = GroupTable::new(map.slots(), initial, max_groups, dp.subd.max(2));
+    let table = GroupTable::new(map.slots(), initial, max_groups, dp.subd);
 
     // The input stack: two portions per calculating thread and group to begin with, more
     // with every split, within a memory cap.
     let capacity = portion_capacity(bands);
-    let portion_bytes = capacity * (std::mem::size_of::<Contribution>() + 4 * bands / 3 + 1);
+    let portion_bytes = capacity * contribution_bytes(bands);
     let pool_cap = (POOL_BYTES / portion_bytes).clamp(8 * threads, 2 * threads * (max_groups + 2));
     let (free_tx, free_rx) = channel::bounded::<Portion>(pool_cap);
     let mut pool = 0;
@@ -500,6 +522,7 @@ pub fn run(
         recycle: free_tx.clone(),
         outputs: &out_tx,
         capacity,
+        sort: shared_map.worth_sorting(),
         inline_apply: dp.inline_apply.unwrap_or_else(|| {
             threads >= std::thread::available_parallelism().map_or(1, |n| n.get())
         }),
@@ -522,7 +545,7 @@ pub fn run(
                         let _ = shared.recycle.send(p);
                     }
                     live.fetch_sub(1, Ordering::Release);
-                    (stats, sink.wait_s, sink.applied, sink.apply_s)
+                    (stats, sink.wait_s, sink.applied)
                 });
             match spawned {
                 Ok(h) => calc.push(h),
@@ -578,28 +601,25 @@ pub fn run(
                     }
                 }
             }
-            let hottest = hottest.unwrap_or((0, 0));
-            if free < low
-                && hottest.1 >= dp.high_threshold
-                && last_split.elapsed() >= dp.split_interval
-                && table.can_split(hottest.0, dp.min_group_slots)
-            {
-                for child in table.split(hottest.0) {
+            let split = hottest.filter(|&(_, q)| {
+                free < low && q >= dp.high_threshold && last_split.elapsed() >= dp.split_interval
+            });
+            if let Some((g, _)) = split {
+                for child in table.split(g) {
                     start(child, &mut out_rx, &mut processors);
                 }
-                grow_pool(threads * dp.subd.max(2), &mut pool);
+                grow_pool(threads * dp.subd, &mut pool);
                 counters.splits += 1;
                 last_split = Instant::now();
             }
         }
         for (t, h) in calc.into_iter().enumerate() {
             match h.join() {
-                Ok((st, wait, applied, apply_s)) => {
+                Ok((st, wait, applied)) => {
                     stats.merge(&st);
                     counters.calc_wait_s += wait;
                     counters.portions += applied;
                     counters.inline_portions += applied;
-                    busy_s += apply_s;
                 }
                 Err(_) => thread_lost = Some(format!("calculating thread {t} panicked")),
             }

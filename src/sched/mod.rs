@@ -77,7 +77,6 @@ pub struct Counters {
 /// What a scheduler hands back.
 pub struct RunOutcome {
     pub stats: PathStats,
-    pub photons_traced: u64,
     pub wall_s: f64,
     pub stop: StopReason,
     pub counters: Counters,
@@ -274,12 +273,10 @@ impl<'p, 'a> Monitor<'p, 'a> {
         counters: Counters,
         thread_lost: Option<String>,
     ) -> RunOutcome {
-        let photons_traced = source.claimed() - rc.first_photon;
         let wall_s = self.wall_s();
         let stop = self.finish(source.claimed(), rc.hits_before + stats.hits, map, rc);
         RunOutcome {
             stats,
-            photons_traced,
             wall_s,
             stop,
             counters,
