@@ -171,6 +171,11 @@
 #define NO_DATA_REL_ERROR 1.0
 
 /**
+ * Share of photons spread evenly over the emitters, whatever their power.
+ */
+#define EMITTER_FLOOR 0.1
+
+/**
  * Photons per claim: small enough to stop quickly, large enough that the counter is cold.
  */
 #define BATCH 64
@@ -317,7 +322,8 @@ typedef struct {
    */
   uint64_t seed;
   /**
-   * Largest map in bytes; 0 = no limit. Checked before anything is allocated.
+   * Largest map in bytes; 0 = the default, 3/4 of physical memory. Checked when a mesh
+   * is added and before a run allocates anything (IMAP_ERR_MEMORY_BUDGET).
    */
   uint64_t memory_budget_bytes;
   /**
@@ -534,7 +540,8 @@ typedef struct {
    */
   uint32_t threads;
   /**
-   * Total emitted power, W (summed over bands).
+   * Power the traced photons carried from the lights, W (summed over bands); its
+   * expectation is the lights' total power, which it equals exactly with one light.
    */
   double emitted_w;
   /**

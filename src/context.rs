@@ -31,7 +31,9 @@ pub struct Config {
     pub scheduler: SchedulerKind,
     /// Settings of the dynamic scheduler.
     pub dynamic: DynamicParams,
-    /// Largest map, in bytes, the context may allocate; 0 for no limit.
+    /// Largest map, in bytes, the context may allocate; 0 for the default: three quarters
+    /// of the machine's physical memory (so a map that cannot fit is refused with
+    /// IMAP_ERR_MEMORY_BUDGET instead of driving the machine into swap or the OOM killer).
     pub memory_budget: u64,
     /// Metres per scene unit.
     pub unit_m: f64,
@@ -65,6 +67,8 @@ pub struct Report {
     pub threads: usize,
     pub scheduler: SchedulerKind,
     /// Energy balance in watts: emitted = absorbed + escaped + dropped (up to rounding).
+    /// `emitted_w` is what the traced photons carried; its expectation is the lights' total
+    /// power (equal to it exactly with a single light).
     pub emitted_w: f64,
     pub absorbed_w: f64,
     pub escaped_w: f64,
@@ -176,14 +180,28 @@ impl Context {
         Ok(())
     }
 
+    /// The map size limit in force: the configured budget, or by default three quarters of
+    /// physical memory.
+    pub fn memory_budget(&self) -> u64 {
+        if self.config.memory_budget > 0 {
+            return self.config.memory_budget;
+        }
+        physical_memory().map_or(u64::MAX, |m| m / 4 * 3)
+    }
+
     fn check_budget(&self, slots: usize) -> Result<()> {
         let bytes = self.scene.map_bytes(slots);
-        if self.config.memory_budget > 0 && bytes > self.config.memory_budget as u128 {
+        let budget = self.memory_budget();
+        if bytes > budget as u128 {
+            let why = if self.config.memory_budget > 0 {
+                "the configured memory budget"
+            } else {
+                "the default budget, 3/4 of physical memory"
+            };
             bail!(
                 ImapErrMemoryBudget,
-                "the map needs {bytes} bytes ({slots} vertex sides × {} bands + 1 × 8 bytes), over the memory budget of {} bytes",
+                "the map needs {bytes} bytes ({slots} vertex sides × ({} bands + 1) × 8 bytes), over {why} of {budget} bytes",
                 self.scene.bands.count(),
-                self.config.memory_budget
             );
         }
         Ok(())
@@ -398,7 +416,7 @@ impl Context {
             stop: self.last_run.map(|_| stop),
             threads,
             scheduler: self.config.scheduler,
-            emitted_w: if n > 0 { total_power } else { 0.0 },
+            emitted_w: self.stats.emitted * w,
             absorbed_w: self.stats.absorbed.iter().sum::<f64>() * w,
             escaped_w: self.stats.escaped * w,
             dropped_w: self.stats.dropped * w,
@@ -516,4 +534,16 @@ impl Context {
         }
         Ok(())
     }
+}
+
+/// Physical memory in bytes, if the system says.
+fn physical_memory() -> Option<u64> {
+    // SAFETY: sysconf only reads system configuration.
+    let (pages, size) = unsafe {
+        (
+            libc::sysconf(libc::_SC_PHYS_PAGES),
+            libc::sysconf(libc::_SC_PAGESIZE),
+        )
+    };
+    (pages > 0 && size > 0).then(|| (pages as u64).saturating_mul(size as u64))
 }

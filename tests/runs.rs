@@ -96,12 +96,14 @@ fn energy_is_conserved_to_rounding() {
         assert!((balance - r.emitted_w).abs() <= 1e-9 * r.emitted_w);
         assert_eq!(r.escaped_w, 0.0, "the room is closed");
         assert_eq!(r.dropped_photons, 0);
-        // The emitted power is what the lights were given.
         let nb = bands.count() as f64;
         let ramp_sum = |a: f64, b: f64| (a + b) / 2.0 * nb;
         let expected = 0.36 * ramp_sum(50.0, 20.0) + ramp_sum(5.0, 9.0) + 3.0 * nb;
+        // Lights are chosen by power mixed with a uniform share and the photons carry the
+        // ratio, so the launched power matches the lights' within its sampling spread
+        // (about 1e-4 relative here).
         assert!(
-            (r.emitted_w - expected).abs() < 1e-9 * expected,
+            (r.emitted_w - expected).abs() < 1e-3 * expected,
             "{} vs {expected}",
             r.emitted_w
         );

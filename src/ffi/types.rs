@@ -79,7 +79,8 @@ pub struct ImapConfig {
     /// Seed of the photons' random streams: the same seed gives the same map with any
     /// scheduler and thread count.
     pub seed: u64,
-    /// Largest map in bytes; 0 = no limit. Checked before anything is allocated.
+    /// Largest map in bytes; 0 = the default, 3/4 of physical memory. Checked when a mesh
+    /// is added and before a run allocates anything (IMAP_ERR_MEMORY_BUDGET).
     pub memory_budget_bytes: u64,
     /// Metres per scene unit (irradiance is reported in W/m²).
     pub unit_m: f64,
@@ -215,7 +216,8 @@ pub struct ImapReport {
     pub stop_reason: u32,
     /// Calculating threads of the last run.
     pub threads: u32,
-    /// Total emitted power, W (summed over bands).
+    /// Power the traced photons carried from the lights, W (summed over bands); its
+    /// expectation is the lights' total power, which it equals exactly with one light.
     pub emitted_w: f64,
     /// Power absorbed by all surfaces and media, W (estimate from the photons traced).
     pub absorbed_w: f64,

@@ -62,13 +62,17 @@ pub enum EmitterKind {
     },
 }
 
+/// Share of photons spread evenly over the emitters, whatever their power.
+pub const EMITTER_FLOOR: f64 = 0.1;
+
 /// One light source as the tracer sees it.
 #[derive(Debug)]
 pub struct Emitter {
     pub kind: EmitterKind,
     /// Position (scene units, recentred) for point-like emitters.
     pub position: DVec3,
-    /// Colour of an emitted photon: per-band power share times the band count (mean 1).
+    /// Colour of an emitted photon: per-band power share times the band count, scaled by
+    /// the emitter's power share over its selection probability (mean 1 with one emitter).
     pub colour: Vec<f64>,
 }
 
@@ -161,8 +165,22 @@ impl PreparedScene {
             });
             powers.push(total);
         }
-        let total_power = powers.iter().sum();
-        let emitter_table = AliasTable::new(&powers);
+        let total_power: f64 = powers.iter().sum();
+        // Emitters are chosen in proportion to power mixed with a uniform share, so a light
+        // 1e12 times dimmer than another still gets photons (at least EMITTER_FLOOR / L of
+        // them) instead of reading zero for ever. Each photon's colour carries the ratio of
+        // its emitter's power share to its selection probability, which keeps the estimate
+        // unbiased and costs at most 1/(1 − EMITTER_FLOOR) in weight spread elsewhere.
+        let l = powers.len() as f64;
+        let select: Vec<f64> = powers
+            .iter()
+            .map(|&p| (1.0 - EMITTER_FLOOR) * p / total_power + EMITTER_FLOOR / l)
+            .collect();
+        for ((em, &p), &s) in emitters.iter_mut().zip(&powers).zip(&select) {
+            let scale = p / total_power / s;
+            em.colour.iter_mut().for_each(|c| *c *= scale);
+        }
+        let emitter_table = AliasTable::new(&select);
         PreparedScene {
             origin,
             radius,

@@ -33,6 +33,9 @@ pub trait HitSink {
 pub struct PathStats {
     pub photons: u64,
     pub hits: u64,
+    /// Energy the photons left their emitters with (units of one photon; one per photon on
+    /// average).
+    pub emitted: f64,
     /// Photon energy (units of one photon) absorbed by each mesh, at its surface or inside
     /// its medium.
     pub absorbed: Vec<f64>,
@@ -53,6 +56,7 @@ impl PathStats {
     pub fn merge(&mut self, o: &PathStats) {
         self.photons += o.photons;
         self.hits += o.hits;
+        self.emitted += o.emitted;
         for (a, b) in self.absorbed.iter_mut().zip(&o.absorbed) {
             *a += b;
         }
@@ -108,6 +112,7 @@ impl Tracer<'_> {
         let (emitter, mut org, mut dir) = self.scene.emit(&mut rng);
         colour.reset(&self.scene.emitters[emitter].colour);
         stats.photons += 1;
+        stats.emitted += colour.mean();
         let mut medium: Option<Medium> = None;
 
         for _event in 0..self.max_events {
