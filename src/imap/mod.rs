@@ -83,12 +83,15 @@ impl IMap {
     pub fn add_colour(&mut self, slot: usize, w: f64, colour: &[f32]) {
         let (bands, stride) = (self.bands, self.stride);
         let (values, sq) = self.plain()[slot * stride..(slot + 1) * stride].split_at_mut(bands);
+        let mut energy = 0.0;
         for (a, &c) in values.iter_mut().zip(colour) {
             *a += w * c as f64;
+            energy += c as f64;
         }
-        // The photon's scalar energy is its band mean, 1 by construction: this deposit's
-        // share of the photon's squared contribution is w² (cross terms: `PhotonSquares`).
-        sq[0] += w * w;
+        // The photon's scalar energy is its band mean: this deposit's share of the photon's
+        // squared contribution is (w·energy)² (cross terms: `PhotonSquares`).
+        let x = w * energy / bands as f64;
+        sq[0] += x * x;
     }
 
     /// Adds a deposit of weight `w` of a photon collapsed to `band` (exclusive access).
@@ -97,7 +100,9 @@ impl IMap {
         let (bands, base) = (self.bands, slot * self.stride);
         let m = self.plain();
         m[base + band] += w * value as f64;
-        m[base + bands] += w * w;
+        // A collapsed photon's energy is its one band's value over the band count.
+        let x = w * value as f64 / bands as f64;
+        m[base + bands] += x * x;
     }
 
     /// Adds to a slot's sum of squares (a photon's cross terms; exclusive access).
@@ -120,10 +125,13 @@ impl IMap {
         // to this slot's values for the duration of the call.
         let values = unsafe { std::slice::from_raw_parts_mut(s.as_ptr() as *mut f64, self.stride) };
         let (values, sq) = values.split_at_mut(self.bands);
+        let mut energy = 0.0;
         for (a, &c) in values.iter_mut().zip(colour) {
             *a += w * c as f64;
+            energy += c as f64;
         }
-        sq[0] += w * w;
+        let x = w * energy / self.bands as f64;
+        sq[0] += x * x;
     }
 
     /// `add_band` under the rule of `add_colour_exclusive`.
@@ -136,7 +144,8 @@ impl IMap {
         // SAFETY: as in add_colour_exclusive; both indices are inside the slot.
         unsafe {
             Self::add_raw(&self.data[base + band], w * value as f64);
-            Self::add_raw(&self.data[base + self.bands], w * w);
+            let x = w * value as f64 / self.bands as f64;
+            Self::add_raw(&self.data[base + self.bands], x * x);
         }
     }
 
@@ -191,7 +200,8 @@ pub struct PhotonSquares {
 }
 
 impl PhotonSquares {
-    /// Records a deposit of weights `w` on the three slots `slots`.
+    /// Records a deposit of weights `w` (barycentric weight times the photon's energy) on
+    /// the three slots `slots`.
     #[inline]
     pub fn add(&mut self, slots: [usize; 3], w: [f64; 3]) {
         self.deposits.push((slots.map(|s| s as u32), w));

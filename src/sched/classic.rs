@@ -112,7 +112,9 @@ impl HitSink for PortionSink<'_> {
             m.slot(v, side as usize)
                 .expect("deposit on a recording mesh")
         });
-        self.squares.add(slots, [1.0 - uf - vf, uf, vf]);
+        let e = colour.energy();
+        self.squares
+            .add(slots, [(1.0 - uf - vf) * e, uf * e, vf * e]);
         let Some(p) = self.portion() else {
             return;
         };

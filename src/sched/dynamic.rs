@@ -311,7 +311,8 @@ impl HitSink for GroupSink<'_> {
             m.slot(v, side as usize)
                 .expect("deposit on a recording mesh")
         });
-        self.squares.add(slots, w);
+        let e = colour.energy();
+        self.squares.add(slots, w.map(|w| w * e));
         for (slot, w) in slots.into_iter().zip(w) {
             let Some(g) = self.portion_for(slot) else {
                 return;

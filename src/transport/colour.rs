@@ -6,6 +6,7 @@
 pub struct Colour {
     c: Vec<f64>,
     band: Option<usize>,
+    energy: f64,
 }
 
 impl Colour {
@@ -13,6 +14,7 @@ impl Colour {
         Colour {
             c: vec![1.0; bands],
             band: None,
+            energy: 1.0,
         }
     }
 
@@ -20,6 +22,15 @@ impl Colour {
     pub fn reset(&mut self, emitted: &[f64]) {
         self.c.copy_from_slice(emitted);
         self.band = None;
+        self.energy = self.mean();
+    }
+
+    /// The photon's energy in photon units as it left its emitter: the band mean, which
+    /// every event keeps (1 with a single light; the emitter's power share over its
+    /// selection probability in general).
+    #[inline]
+    pub fn energy(&self) -> f64 {
+        self.energy
     }
 
     /// Per-band values (all bands; after a collapse only `band()` is non-zero).
