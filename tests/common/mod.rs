@@ -332,3 +332,85 @@ pub fn assert_maps_agree(a: &[f64], b: &[f64], what: &str) {
     assert!(worst <= 1e-12, "{what}: maps differ by {worst:e}");
     assert!(a.iter().any(|&x| x > 0.0), "{what}: the map is empty");
 }
+
+/// Exact expected vertex value of the estimator for an irradiance field `e`: the
+/// hat-function average ∫E·φ_v dA / ∫φ_v dA over the vertex's triangles (the map divides
+/// the barycentric-weighted deposits by a third of each adjacent triangle's area).
+pub fn hat_average(g: &Geometry, v: usize, e: impl Fn([f64; 3]) -> f64) -> f64 {
+    hat_average_faces(g, v, |x, _| e(x))
+}
+
+/// `hat_average` of a field that depends on the point and the unit normal of the face it
+/// lies on (e.g. I·cosθ/r² on a polyhedron).
+pub fn hat_average_faces(g: &Geometry, v: usize, e: impl Fn([f64; 3], [f64; 3]) -> f64) -> f64 {
+    let m = 48;
+    let (mut num, mut den) = (0.0, 0.0);
+    for t in g.indices.chunks_exact(3) {
+        let Some(k) = t.iter().position(|&i| i as usize == v) else {
+            continue;
+        };
+        let p: Vec<[f64; 3]> = (0..3).map(|j| g.vertex(t[(k + j) % 3] as usize)).collect();
+        let area = {
+            let (a, b) = (sub(p[1], p[0]), sub(p[2], p[0]));
+            let c = [
+                a[1] * b[2] - a[2] * b[1],
+                a[2] * b[0] - a[0] * b[2],
+                a[0] * b[1] - a[1] * b[0],
+            ];
+            let l = (c[0] * c[0] + c[1] * c[1] + c[2] * c[2]).sqrt();
+            (0.5 * l, [c[0] / l, c[1] / l, c[2] / l])
+        };
+        let (area, normal) = area;
+        // Centroid rule on an m×m subdivision in barycentric coordinates.
+        let mut sum = 0.0;
+        let mut count = 0.0;
+        for i in 0..m {
+            for j in 0..m - i {
+                for up in [true, false] {
+                    if !up && i + j + 1 >= m {
+                        continue;
+                    }
+                    let (b1, b2) = if up {
+                        (
+                            (i as f64 + 1.0 / 3.0) / m as f64,
+                            (j as f64 + 1.0 / 3.0) / m as f64,
+                        )
+                    } else {
+                        (
+                            (i as f64 + 2.0 / 3.0) / m as f64,
+                            (j as f64 + 2.0 / 3.0) / m as f64,
+                        )
+                    };
+                    let w0 = 1.0 - b1 - b2;
+                    let x = [0, 1, 2].map(|c| w0 * p[0][c] + b1 * p[1][c] + b2 * p[2][c]);
+                    sum += e(x, normal) * w0;
+                    count += 1.0;
+                }
+            }
+        }
+        num += sum / count * area;
+        den += area / 3.0;
+    }
+    num / den
+}
+
+pub fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+
+/// One row of docs/accuracy.md, printed so a `--nocapture` run of the suite regenerates the
+/// table: case, analytic value, ours, estimated and actual relative error, run time.
+pub fn accuracy_row(case: &str, analytic: f64, ours: f64, estimated: f64, actual: f64, secs: f64) {
+    let pct = |x: f64| {
+        if x.is_nan() {
+            "—".to_string()
+        } else {
+            format!("{:.2} %", 100.0 * x)
+        }
+    };
+    eprintln!(
+        "ACCURACY | {case} | {analytic:.6e} | {ours:.6e} | {} | {} | {secs:.1} s |",
+        pct(estimated),
+        pct(actual)
+    );
+}
