@@ -215,13 +215,14 @@ impl Context {
 
     pub fn add_mesh(&mut self, desc: &MeshDesc) -> Result<u32> {
         self.check_unlocked("add a mesh")?;
-        let mesh = Mesh::new(desc, self.scene.materials.len(), &self.scene.bands)?;
-        let new_slots = if mesh.record {
-            mesh.positions.len() * mesh.sides()
+        // The map's size follows from the counts alone: refuse before copying anything.
+        let new_slots = if desc.record {
+            desc.positions.len() / 3 * if desc.two_sided { 2 } else { 1 }
         } else {
             0
         };
         self.check_budget(self.scene.slot_count() + new_slots)?;
+        let mesh = Mesh::new(desc, self.scene.materials.len(), &self.scene.bands)?;
         self.scene.meshes.push(mesh);
         self.invalidate();
         Ok(self.scene.meshes.len() as u32 - 1)

@@ -60,31 +60,6 @@ fn flux(ctx: &Context, mesh: u32, band: u32, share: &[f64]) -> f64 {
     e.iter().zip(share).map(|(e, a)| e * a).sum()
 }
 
-fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ]
-}
-
-fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-
-fn norm(a: [f64; 3]) -> f64 {
-    dot(a, a).sqrt()
-}
-
-/// Solid angle of triangle (a, b, c) seen from p (Van Oosterom and Strackee).
-fn solid_angle(p: [f64; 3], tri: [[f64; 3]; 3]) -> f64 {
-    let [a, b, c] = tri.map(|x| sub(x, p));
-    let num = dot(a, cross(b, c)).abs();
-    let (la, lb, lc) = (norm(a), norm(b), norm(c));
-    let den = la * lb * lc + dot(a, b) * lc + dot(a, c) * lb + dot(b, c) * la;
-    2.0 * num.atan2(den)
-}
-
 fn triangles(g: &Geometry) -> impl Iterator<Item = [[f64; 3]; 3]> + '_ {
     g.indices
         .chunks_exact(3)

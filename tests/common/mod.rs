@@ -414,3 +414,28 @@ pub fn accuracy_row(case: &str, analytic: f64, ours: f64, estimated: f64, actual
         pct(actual)
     );
 }
+
+pub fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ]
+}
+
+pub fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+pub fn norm(a: [f64; 3]) -> f64 {
+    dot(a, a).sqrt()
+}
+
+/// Solid angle of triangle (a, b, c) seen from p (Van Oosterom and Strackee).
+pub fn solid_angle(p: [f64; 3], tri: [[f64; 3]; 3]) -> f64 {
+    let [a, b, c] = tri.map(|x| sub(x, p));
+    let num = dot(a, cross(b, c)).abs();
+    let (la, lb, lc) = (norm(a), norm(b), norm(c));
+    let den = la * lb * lc + dot(a, b) * lc + dot(a, c) * lb + dot(b, c) * la;
+    2.0 * num.atan2(den)
+}
