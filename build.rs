@@ -2,6 +2,7 @@
 //!
 //! Search order: `EMBREE_DIR` (a directory holding `libembree4.so`), then the project's own
 //! `deps/embree4/lib` (written by `scripts/setup-embree.sh`), then the system linker path.
+//! The directory found is also handed to dependents' build scripts (`links = "imap"`).
 //! Artifacts get an rpath to `$ORIGIN` (an installed `libimap.so` finds the Embree and TBB
 //! libraries installed beside it) and to the directory found here (so tests and examples run
 //! from the build tree). The cdylib gets the SONAME `libimap.so.<major>`.
@@ -20,6 +21,8 @@ fn main() {
     if let Some(dir) = dir {
         println!("cargo:rustc-link-search=native={}", dir.display());
         println!("cargo:rustc-link-arg=-Wl,-rpath,{}", dir.display());
+        // For dependents' build scripts (the `imap` command): DEP_IMAP_EMBREE_DIR.
+        println!("cargo:embree_dir={}", dir.display());
     }
     println!("cargo:rustc-link-arg=-Wl,-rpath,$ORIGIN");
     let major = env::var("CARGO_PKG_VERSION_MAJOR").unwrap();

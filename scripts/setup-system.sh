@@ -3,7 +3,7 @@
 # idempotent): libclang for bindgen, patchelf for the Embree libraries, cmake, unzip,
 # pkg-config, and pip (to fetch the pinned Embree wheel) when the machine has none.
 set -euo pipefail
-PKGS="libclang-dev patchelf cmake unzip pkg-config"
+PKGS="libclang-dev patchelf cmake unzip pkg-config fonts-dejavu-core"
 command -v pip3 >/dev/null || PKGS="$PKGS python3-pip"
 missing=""
 for p in $PKGS; do dpkg -s "$p" >/dev/null 2>&1 || missing="$missing $p"; done

@@ -13,7 +13,7 @@ export EMBREE_DIR
 JOBS=$(nproc)
 
 echo "== cargo test (release: shares the build with CMake)"
-cargo test --release --all-targets
+cargo test --release --workspace --all-targets
 
 echo "== loom: every interleaving of the vertex-group split protocol"
 RUSTFLAGS="--cfg loom" CARGO_TARGET_DIR=target/loom cargo test --release --test loom_groups

@@ -1,0 +1,465 @@
+//! Outputs: per-vertex irradiance and error (CSV, PLY), the convergence plot and the
+//! rendered view.
+
+use crate::scene::{fail, CameraSettings, CliError, LoadedScene, Result};
+use imap::{Context, Progress};
+use std::io::Write;
+use std::path::Path;
+
+/// Per-vertex results of one recorded mesh, front side.
+pub struct MeshMap {
+    /// Irradiance, W/m², per band: `e[band][vertex]`.
+    pub e: Vec<Vec<f64>>,
+    pub rel_error: Vec<f64>,
+}
+
+/// Reads the map of every recorded mesh.
+pub fn read_maps(ctx: &Context, scene: &LoadedScene) -> Result<Vec<Option<MeshMap>>> {
+    let nb = scene.band_nm.len();
+    scene
+        .meshes
+        .iter()
+        .map(|m| {
+            let Some(id) = m.id else { return Ok(None) };
+            let nv = m.positions.len() / 3;
+            let mut e = vec![vec![0.0; nv]; nb];
+            for (b, e) in e.iter_mut().enumerate() {
+                ctx.irradiance(id, 0, b as u32, e)?;
+            }
+            let mut rel_error = vec![0.0; nv];
+            ctx.rel_error(id, 0, &mut rel_error)?;
+            Ok(Some(MeshMap { e, rel_error }))
+        })
+        .collect()
+}
+
+fn create(path: &Path) -> Result<std::io::BufWriter<std::fs::File>> {
+    std::fs::File::create(path)
+        .map(std::io::BufWriter::new)
+        .map_err(|e| CliError(format!("{}: {e}", path.display())))
+}
+
+fn io(path: &Path) -> impl Fn(std::io::Error) -> CliError + '_ {
+    move |e| CliError(format!("{}: {e}", path.display()))
+}
+
+pub fn write_csv(path: &Path, scene: &LoadedScene, maps: &[Option<MeshMap>]) -> Result<()> {
+    let mut f = create(path)?;
+    let err = io(path);
+    let bands: Vec<String> = scene
+        .band_nm
+        .iter()
+        .enumerate()
+        .map(|(i, nm)| {
+            if scene.rgb {
+                format!("E_{}", ["r", "g", "b"][i])
+            } else {
+                format!("E_{nm}nm")
+            }
+        })
+        .collect();
+    writeln!(f, "mesh,vertex,x,y,z,{},rel_error", bands.join(",")).map_err(&err)?;
+    for (m, map) in scene.meshes.iter().zip(maps) {
+        let Some(map) = map else { continue };
+        for (v, p) in m.positions.chunks_exact(3).enumerate() {
+            write!(f, "{},{v},{},{},{}", m.name, p[0], p[1], p[2]).map_err(&err)?;
+            for e in &map.e {
+                write!(f, ",{}", e[v]).map_err(&err)?;
+            }
+            writeln!(f, ",{}", map.rel_error[v]).map_err(&err)?;
+        }
+    }
+    f.flush().map_err(&err)
+}
+
+/// Band values → linear RGB: RGB runs as they are, spectral runs averaged over the
+/// wavelength ranges the loader uses for RGB materials.
+pub fn to_rgb(values: &[f64], band_nm: &[f64], rgb: bool) -> [f64; 3] {
+    if rgb {
+        return [values[0], values[1], values[2]];
+    }
+    let mut sum = [0.0; 3];
+    let mut n = [0usize; 3];
+    for (&v, &nm) in values.iter().zip(band_nm) {
+        let c = if nm < 490.0 {
+            2
+        } else if nm < 580.0 {
+            1
+        } else {
+            0
+        };
+        sum[c] += v;
+        n[c] += 1;
+    }
+    let mean: f64 = values.iter().sum::<f64>() / values.len() as f64;
+    [0, 1, 2].map(|c| if n[c] > 0 { sum[c] / n[c] as f64 } else { mean })
+}
+
+/// A tone map from the scene's values: exposure puts the 97th percentile of luminance at
+/// 0.8 on a 1.6·x/(1 + x) shoulder (white from 1.67× that percentile); sRGB encoding.
+pub struct ToneMap {
+    scale: f64,
+}
+
+impl ToneMap {
+    pub fn new(luminances: impl Iterator<Item = f64>) -> Self {
+        let mut l: Vec<f64> = luminances.filter(|x| *x > 0.0 && x.is_finite()).collect();
+        if l.is_empty() {
+            return ToneMap { scale: 1.0 };
+        }
+        l.sort_by(f64::total_cmp);
+        let p = l[(l.len() as f64 * 0.97) as usize % l.len()];
+        ToneMap { scale: 1.0 / p }
+    }
+
+    pub fn apply(&self, c: [f64; 3]) -> [u8; 3] {
+        c.map(|x| {
+            let x = (x * self.scale).max(0.0);
+            let y = (1.6 * x / (1.0 + x)).min(1.0);
+            let s = if y <= 0.0031308 {
+                12.92 * y
+            } else {
+                1.055 * y.powf(1.0 / 2.4) - 0.055
+            };
+            (s * 255.0 + 0.5) as u8
+        })
+    }
+}
+
+fn luminance(c: [f64; 3]) -> f64 {
+    0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2]
+}
+
+/// The colour a vertex shows in the view and the PLY: what a viewer sees of a Lambertian
+/// surface, ρ·E (per band), plus the exitance of emitting surfaces.
+fn vertex_colours(scene: &LoadedScene, maps: &[Option<MeshMap>]) -> Vec<Vec<[f64; 3]>> {
+    scene
+        .meshes
+        .iter()
+        .zip(maps)
+        .map(|(m, map)| {
+            let nv = m.positions.len() / 3;
+            (0..nv)
+                .map(|v| {
+                    let nb = scene.band_nm.len();
+                    let vals: Vec<f64> = (0..nb)
+                        .map(|b| {
+                            let e = map.as_ref().map_or(0.0, |mm| mm.e[b][v]);
+                            let emit = m.emission.as_ref().map_or(0.0, |x| x[b]);
+                            m.diffuse[b] * e + emit
+                        })
+                        .collect();
+                    to_rgb(&vals, &scene.band_nm, scene.rgb)
+                })
+                .collect()
+        })
+        .collect()
+}
+
+pub fn write_ply(path: &Path, scene: &LoadedScene, maps: &[Option<MeshMap>]) -> Result<()> {
+    let colours = vertex_colours(scene, maps);
+    let tone = ToneMap::new(colours.iter().flatten().map(|&c| luminance(c)));
+    let recorded: Vec<usize> = (0..scene.meshes.len())
+        .filter(|&i| maps[i].is_some())
+        .collect();
+    let nv: usize = recorded
+        .iter()
+        .map(|&i| scene.meshes[i].positions.len() / 3)
+        .sum();
+    let nf: usize = recorded
+        .iter()
+        .map(|&i| scene.meshes[i].indices.len() / 3)
+        .sum();
+    let mut f = create(path)?;
+    let err = io(path);
+    write!(
+        f,
+        "ply\nformat ascii 1.0\ncomment libimap illumination map: irradiance = band-mean E in W/m2, colour = tone-mapped reflected light\nelement vertex {nv}\nproperty float x\nproperty float y\nproperty float z\nproperty uchar red\nproperty uchar green\nproperty uchar blue\nproperty float irradiance\nproperty float rel_error\nelement face {nf}\nproperty list uchar int vertex_indices\nend_header\n"
+    )
+    .map_err(&err)?;
+    for &i in &recorded {
+        let (m, map) = (&scene.meshes[i], maps[i].as_ref().unwrap());
+        for (v, p) in m.positions.chunks_exact(3).enumerate() {
+            let c = tone.apply(colours[i][v]);
+            let mean = map.e.iter().map(|e| e[v]).sum::<f64>() / map.e.len() as f64;
+            writeln!(
+                f,
+                "{} {} {} {} {} {} {} {}",
+                p[0] as f32,
+                p[1] as f32,
+                p[2] as f32,
+                c[0],
+                c[1],
+                c[2],
+                mean as f32,
+                map.rel_error[v] as f32
+            )
+            .map_err(&err)?;
+        }
+    }
+    let mut base = 0;
+    for &i in &recorded {
+        let m = &scene.meshes[i];
+        for t in m.indices.chunks_exact(3) {
+            writeln!(
+                f,
+                "3 {} {} {}",
+                base + t[0] as usize,
+                base + t[1] as usize,
+                base + t[2] as usize
+            )
+            .map_err(&err)?;
+        }
+        base += m.positions.len() / 3;
+    }
+    f.flush().map_err(&err)
+}
+
+pub fn write_png(path: &Path, w: u32, h: u32, rgb: &[u8]) -> Result<()> {
+    let f = create(path)?;
+    let mut enc = png::Encoder::new(f, w, h);
+    enc.set_color(png::ColorType::Rgb);
+    enc.set_depth(png::BitDepth::Eight);
+    let mut wr = enc
+        .write_header()
+        .map_err(|e| CliError(format!("{}: {e}", path.display())))?;
+    wr.write_image_data(rgb)
+        .map_err(|e| CliError(format!("{}: {e}", path.display())))
+}
+
+/// A camera framing the scene's bounding box from the front-left, slightly above.
+pub fn default_camera(scene: &LoadedScene) -> CameraSettings {
+    let (lo, hi) = scene.bounds();
+    let c = [0, 1, 2].map(|k| 0.5 * (lo[k] + hi[k]));
+    let r = 0.5 * (0..3).map(|k| (hi[k] - lo[k]).powi(2)).sum::<f64>().sqrt();
+    let fov: f64 = 40.0;
+    let dist = r / (fov.to_radians() / 2.0).sin();
+    let dir = [0.3, 0.35, -1.0];
+    let l = dot(dir, dir).sqrt();
+    CameraSettings {
+        position: [0, 1, 2].map(|k| c[k] + dir[k] / l * dist),
+        look_at: c,
+        up: [0.0, 1.0, 0.0],
+        fov_deg: fov,
+        width: 640,
+        height: 640,
+    }
+}
+
+fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ]
+}
+fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+fn unit(a: [f64; 3]) -> [f64; 3] {
+    let l = dot(a, a).sqrt();
+    a.map(|x| x / l)
+}
+
+/// Renders every mesh with a z-buffer, colours interpolated from the vertices (2×2
+/// supersampled), and returns RGB bytes.
+pub fn render_view(
+    scene: &LoadedScene,
+    maps: &[Option<MeshMap>],
+    cam: &CameraSettings,
+) -> Result<Vec<u8>> {
+    let (w, h) = (cam.width as usize, cam.height as usize);
+    if w == 0 || h == 0 || w > 8192 || h > 8192 {
+        fail!("camera: image size {w}×{h} is not in 1..=8192");
+    }
+    let fwd = unit(sub(cam.look_at, cam.position));
+    let right = cross(fwd, cam.up);
+    if dot(right, right) < 1e-24 {
+        fail!("camera: up is parallel to the view direction");
+    }
+    let right = unit(right);
+    let up = cross(right, fwd);
+    let f = 1.0 / (cam.fov_deg.to_radians() / 2.0).tan();
+    let aspect = w as f64 / h as f64;
+    let (sw, sh) = (2 * w, 2 * h);
+    let colours = vertex_colours(scene, maps);
+    let tone = ToneMap::new(colours.iter().flatten().map(|&c| luminance(c)));
+    let mut z = vec![f64::INFINITY; sw * sh];
+    let mut img = vec![[0.0f64; 3]; sw * sh];
+    let project = |p: [f64; 3]| -> Option<[f64; 3]> {
+        let d = sub(p, cam.position);
+        let depth = dot(d, fwd);
+        if depth <= 1e-9 {
+            return None;
+        }
+        let x = dot(d, right) * f / (depth * aspect);
+        let y = dot(d, up) * f / depth;
+        Some([
+            (x + 1.0) * 0.5 * sw as f64,
+            (1.0 - y) * 0.5 * sh as f64,
+            depth,
+        ])
+    };
+    for (mi, m) in scene.meshes.iter().enumerate() {
+        let pts: Vec<Option<[f64; 3]>> = m
+            .positions
+            .chunks_exact(3)
+            .map(|p| project([p[0], p[1], p[2]]))
+            .collect();
+        for t in m.indices.chunks_exact(3) {
+            let (Some(a), Some(b), Some(c)) =
+                (pts[t[0] as usize], pts[t[1] as usize], pts[t[2] as usize])
+            else {
+                continue;
+            };
+            let area = (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0]);
+            if area.abs() < 1e-12 {
+                continue;
+            }
+            let cols = [0, 1, 2].map(|k| colours[mi][t[k] as usize]);
+            let x0 = a[0].min(b[0]).min(c[0]).floor().max(0.0) as usize;
+            let x1 = (a[0].max(b[0]).max(c[0]).ceil() as usize).min(sw);
+            let y0 = a[1].min(b[1]).min(c[1]).floor().max(0.0) as usize;
+            let y1 = (a[1].max(b[1]).max(c[1]).ceil() as usize).min(sh);
+            for y in y0..y1 {
+                for x in x0..x1 {
+                    let (px, py) = (x as f64 + 0.5, y as f64 + 0.5);
+                    let w0 = ((b[0] - px) * (c[1] - py) - (b[1] - py) * (c[0] - px)) / area;
+                    let w1 = ((c[0] - px) * (a[1] - py) - (c[1] - py) * (a[0] - px)) / area;
+                    let w2 = 1.0 - w0 - w1;
+                    if w0 < 0.0 || w1 < 0.0 || w2 < 0.0 {
+                        continue;
+                    }
+                    // Perspective-correct interpolation.
+                    let iz = w0 / a[2] + w1 / b[2] + w2 / c[2];
+                    let depth = 1.0 / iz;
+                    let i = y * sw + x;
+                    if depth >= z[i] {
+                        continue;
+                    }
+                    z[i] = depth;
+                    let (p0, p1, p2) = (w0 / a[2] * depth, w1 / b[2] * depth, w2 / c[2] * depth);
+                    img[i] = [0, 1, 2].map(|k| p0 * cols[0][k] + p1 * cols[1][k] + p2 * cols[2][k]);
+                }
+            }
+        }
+    }
+    let mut out = Vec::with_capacity(w * h * 3);
+    for y in 0..h {
+        for x in 0..w {
+            let mut c = [0.0; 3];
+            for (dx, dy) in [(0, 0), (1, 0), (0, 1), (1, 1)] {
+                let p = img[(2 * y + dy) * sw + 2 * x + dx];
+                for k in 0..3 {
+                    c[k] += 0.25 * p[k];
+                }
+            }
+            out.extend(tone.apply(c));
+        }
+    }
+    Ok(out)
+}
+
+/// convergence.png: the estimated global error against run time, log–log, with the
+/// t^-1/2 reference through the last point.
+pub fn plot_convergence(path: &Path, history: &[Progress]) -> Result<()> {
+    use plotters::prelude::*;
+    let pts: Vec<(f64, f64)> = history
+        .iter()
+        .filter(|p| p.elapsed_s > 0.0 && p.rel_error > 0.0 && p.rel_error < 1.0)
+        .map(|p| (p.elapsed_s, p.rel_error))
+        .collect();
+    if pts.is_empty() {
+        fail!("no error history to plot (the run was shorter than one progress interval)");
+    }
+    let font = register_font();
+    let (t0, t1) = (pts[0].0 * 0.8, pts.last().unwrap().0 * 1.25);
+    let emin = pts.iter().map(|p| p.1).fold(f64::INFINITY, f64::min) * 0.7;
+    let emax = pts.iter().map(|p| p.1).fold(0.0, f64::max) * 1.4;
+    let draw = || -> std::result::Result<(), Box<dyn std::error::Error>> {
+        let root = BitMapBackend::new(path, (800, 560)).into_drawing_area();
+        root.fill(&WHITE)?;
+        let mut builder = ChartBuilder::on(&root);
+        builder.margin(20);
+        if font {
+            builder
+                .caption(
+                    "estimated global error against run time",
+                    ("sans-serif", 22),
+                )
+                .x_label_area_size(45)
+                .y_label_area_size(70);
+        }
+        let mut chart =
+            builder.build_cartesian_2d((t0..t1).log_scale(), (emin..emax).log_scale())?;
+        let mut mesh = chart.configure_mesh();
+        if font {
+            mesh.x_desc("run time (s)")
+                .y_desc("relative error")
+                .y_label_formatter(&|y| format!("{:.1}%", y * 100.0));
+        } else {
+            mesh.disable_x_mesh().disable_y_mesh();
+        }
+        mesh.draw()?;
+        let (tl, el) = *pts.last().unwrap();
+        let reference = [t0, t1].map(|t| (t, el * (tl / t).sqrt()));
+        let s = chart.draw_series(LineSeries::new(
+            reference,
+            ShapeStyle::from(&RGBColor(150, 150, 150)).stroke_width(2),
+        ))?;
+        if font {
+            s.label("t^-1/2 reference")
+                .legend(|(x, y)| PathElement::new([(x, y), (x + 20, y)], RGBColor(150, 150, 150)));
+        }
+        let s = chart.draw_series(LineSeries::new(
+            pts.iter().copied(),
+            ShapeStyle::from(&BLUE).stroke_width(2),
+        ))?;
+        if font {
+            s.label("estimated error")
+                .legend(|(x, y)| PathElement::new([(x, y), (x + 20, y)], BLUE));
+        }
+        chart.draw_series(pts.iter().map(|&p| Circle::new(p, 3, BLUE.filled())))?;
+        if font {
+            chart
+                .configure_series_labels()
+                .background_style(WHITE.mix(0.8))
+                .border_style(BLACK)
+                .draw()?;
+        }
+        root.present()?;
+        Ok(())
+    };
+    draw().map_err(|e| CliError(format!("{}: {e}", path.display())))
+}
+
+/// Registers a system sans-serif font with plotters (DejaVu on Debian); false when none
+/// is found, and the plot goes without text.
+fn register_font() -> bool {
+    use std::sync::OnceLock;
+    static DONE: OnceLock<bool> = OnceLock::new();
+    *DONE.get_or_init(|| {
+        for p in [
+            "/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf",
+            "/usr/share/fonts/dejavu/DejaVuSans.ttf",
+            "/usr/share/fonts/truetype/liberation/LiberationSans-Regular.ttf",
+        ] {
+            if let Ok(bytes) = std::fs::read(p) {
+                let bytes: &'static [u8] = Box::leak(bytes.into_boxed_slice());
+                if plotters::style::register_font(
+                    "sans-serif",
+                    plotters::style::FontStyle::Normal,
+                    bytes,
+                )
+                .is_ok()
+                {
+                    return true;
+                }
+            }
+        }
+        false
+    })
+}

@@ -1,0 +1,443 @@
+//! The `imap` command end to end: argument and input errors, outputs that exist and
+//! parse, the PLY's values against libimap's own map, validate and demo.
+
+use std::path::Path;
+use std::process::{Command, Output};
+
+fn imap(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_imap"))
+        .args(args)
+        .output()
+        .expect("run imap")
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+/// Runs imap expecting failure; returns its one-line message.
+fn fails(args: &[&str]) -> String {
+    let o = imap(args);
+    assert_eq!(o.status.code(), Some(2), "{args:?}: {}", stderr(&o));
+    let e = stderr(&o);
+    assert_eq!(e.trim_end().lines().count(), 1, "not one line: {e}");
+    e
+}
+
+const MTL: &str = "newmtl grey\nKd 0.5 0.5 0.5\nnewmtl lamp\nKd 0 0 0\nKe 10 10 10\n";
+
+/// A 4×4-cell floor and a small lamp above it facing down (coordinates exact in f32, as
+/// OBJ loaders hold them).
+/// Vertex positions and triangle indices of one object.
+type Part = (Vec<[f64; 3]>, Vec<u32>);
+
+fn scene_obj() -> (String, Part, Part) {
+    let mut floor = Vec::new();
+    let mut fi = Vec::new();
+    let n = 4;
+    for j in 0..=n {
+        for i in 0..=n {
+            floor.push([i as f64 * 0.5, j as f64 * 0.5, 0.0]);
+        }
+    }
+    for j in 0..n {
+        for i in 0..n {
+            let a = (j * (n + 1) + i) as u32;
+            fi.extend([
+                a,
+                a + 1,
+                a + n as u32 + 2,
+                a,
+                a + n as u32 + 2,
+                a + n as u32 + 1,
+            ]);
+        }
+    }
+    let lamp = vec![
+        [0.75, 0.75, 1.5],
+        [1.25, 0.75, 1.5],
+        [1.25, 1.25, 1.5],
+        [0.75, 1.25, 1.5],
+    ];
+    let li = vec![0, 2, 1, 0, 3, 2];
+    let mut obj = String::from("mtllib scene.mtl\no floor\nusemtl grey\n");
+    for p in &floor {
+        obj += &format!("v {} {} {}\n", p[0], p[1], p[2]);
+    }
+    for t in fi.chunks(3) {
+        obj += &format!("f {} {} {}\n", t[0] + 1, t[1] + 1, t[2] + 1);
+    }
+    obj += "o lamp\nusemtl lamp\n";
+    for p in &lamp {
+        obj += &format!("v {} {} {}\n", p[0], p[1], p[2]);
+    }
+    for t in li.chunks(3) {
+        let b = floor.len() as u32 + 1;
+        obj += &format!("f {} {} {}\n", t[0] + b, t[1] + b, t[2] + b);
+    }
+    (obj, (floor, fi), (lamp, li))
+}
+
+fn write(dir: &Path, name: &str, text: &str) -> String {
+    let p = dir.join(name);
+    std::fs::write(&p, text).unwrap();
+    p.to_str().unwrap().to_string()
+}
+
+#[test]
+fn bad_input_is_one_line_naming_file_and_line() {
+    let d = tempfile::tempdir().unwrap();
+    let e = fails(&["run", "/no/such/scene.obj", "--photons", "10"]);
+    assert!(e.contains("/no/such/scene.obj"), "{e}");
+
+    write(d.path(), "scene.mtl", MTL);
+    let bad = write(d.path(), "bad.obj", "mtllib scene.mtl\nv 0 0 0\nv 1 x 0\n");
+    let e = fails(&["run", &bad, "--photons", "10"]);
+    assert!(e.contains("bad.obj:3") && e.contains("'x'"), "{e}");
+
+    let nan = write(
+        d.path(),
+        "nan.obj",
+        "v 0 0 0\nv 1 0 0\nv 0 NaN 0\nf 1 2 3\n",
+    );
+    let e = fails(&["run", &nan, "--photons", "10"]);
+    assert!(e.contains("nan.obj:3"), "{e}");
+
+    let idx = write(d.path(), "idx.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 4\n");
+    let e = fails(&["run", &idx, "--photons", "10"]);
+    assert!(e.contains("idx.obj:4") && e.contains("out of range"), "{e}");
+
+    let unknown = write(
+        d.path(),
+        "unknown.obj",
+        "mtllib scene.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl marble\nf 1 2 3\n",
+    );
+    let e = fails(&["run", &unknown, "--photons", "10"]);
+    assert!(e.contains("unknown.obj:5") && e.contains("marble"), "{e}");
+
+    write(d.path(), "badmtl.mtl", "newmtl a\nKd 0.5 inf 0.5\n");
+    let m = write(d.path(), "m.obj", "mtllib badmtl.mtl\nv 0 0 0\n");
+    let e = fails(&["run", &m, "--photons", "10"]);
+    assert!(e.contains("badmtl.mtl:2"), "{e}");
+
+    let (obj, ..) = scene_obj();
+    let good = write(d.path(), "good.obj", &obj);
+    let toml = write(d.path(), "s.toml", "[run]\nphotons = 10\nphtons = 3\n");
+    let e = fails(&["run", &good, "--config", &toml]);
+    assert!(e.contains("s.toml:3") && e.contains("phtons"), "{e}");
+    let toml = write(
+        d.path(),
+        "l.toml",
+        "[[light]]\nkind = \"laser\"\nposition = [0, 0, 1]\npower = 1\n",
+    );
+    let e = fails(&["run", &good, "--config", &toml, "--photons", "10"]);
+    assert!(e.contains("laser"), "{e}");
+    let e = fails(&[
+        "run",
+        &good,
+        "--photons",
+        "0",
+        "--time",
+        "0",
+        "--target-error",
+        "0",
+    ]);
+    assert!(e.contains("no stop criterion"), "{e}");
+    let e = fails(&["run", &good, "--photons", "10", "--scheduler", "fast"]);
+    assert!(e.contains("fast"), "{e}");
+    // Clap's own usage errors exit non-zero too.
+    assert_ne!(imap(&["run"]).status.code(), Some(0));
+    assert_ne!(imap(&["frobnicate"]).status.code(), Some(0));
+}
+
+#[test]
+fn outputs_exist_parse_and_the_ply_holds_libimap_s_map() {
+    let d = tempfile::tempdir().unwrap();
+    write(d.path(), "scene.mtl", MTL);
+    let (obj, (floor, fi), (lamp, li)) = scene_obj();
+    let path = write(d.path(), "scene.obj", &obj);
+    let out = d.path().join("out");
+    let photons = 200_000u64;
+    let o = imap(&[
+        "run",
+        &path,
+        "--out",
+        out.to_str().unwrap(),
+        "--photons",
+        &photons.to_string(),
+        "--time",
+        "0",
+        "--target-error",
+        "0",
+        "--seed",
+        "5",
+        "--threads",
+        "2",
+        "--quiet",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+
+    // report.json
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap()).unwrap();
+    assert_eq!(report["photons"], photons);
+    assert_eq!(report["meshes"].as_array().unwrap().len(), 2);
+    assert_eq!(report["meshes"][1]["emitting"], true);
+    assert!(!report["history"].as_array().unwrap().is_empty());
+    let e = &report["energy_w"];
+    let balance = e["absorbed"].as_f64().unwrap() + e["escaped"].as_f64().unwrap();
+    assert!((balance - e["emitted"].as_f64().unwrap()).abs() < 1e-9 * balance);
+    // The lamp: Ke 10 W/m² per band over 0.25 m², one side.
+    assert!((e["emitted"].as_f64().unwrap() - 3.0 * 10.0 * 0.25).abs() < 1e-12);
+
+    // The same scene through libimap directly, same seed and photon count.
+    let mut ctx = imap::Context::new(imap::Config {
+        seed: 5,
+        threads: 1,
+        ..Default::default()
+    })
+    .unwrap();
+    let grey = ctx
+        .add_material(&imap::MaterialDesc {
+            diffuse_reflect: vec![0.5],
+            ..Default::default()
+        })
+        .unwrap();
+    let black = ctx
+        .add_material(&imap::MaterialDesc {
+            diffuse_reflect: vec![0.0],
+            ..Default::default()
+        })
+        .unwrap();
+    let fp: Vec<f64> = floor.iter().flatten().copied().collect();
+    let lp: Vec<f64> = lamp.iter().flatten().copied().collect();
+    let fid = ctx
+        .add_mesh(&imap::MeshDesc {
+            positions: &fp,
+            indices: &fi,
+            material: grey,
+            triangle_materials: None,
+            two_sided: false,
+            record: true,
+            exitance: None,
+        })
+        .unwrap();
+    ctx.add_mesh(&imap::MeshDesc {
+        positions: &lp,
+        indices: &li,
+        material: black,
+        triangle_materials: None,
+        two_sided: false,
+        record: true,
+        exitance: Some(&[10.0]),
+    })
+    .unwrap();
+    ctx.run(&mut imap::RunParams {
+        photons,
+        time_budget_s: 0.0,
+        target_rel_error: 0.0,
+        progress_interval_s: 1.0,
+        max_path_events: 1 << 20,
+        progress: None,
+    })
+    .unwrap();
+    let mut mean = vec![0.0; floor.len()];
+    let mut e = vec![0.0; floor.len()];
+    for b in 0..3 {
+        ctx.irradiance(fid, 0, b, &mut e).unwrap();
+        for v in 0..floor.len() {
+            mean[v] += e[v] / 3.0;
+        }
+    }
+    let mut rel = vec![0.0; floor.len()];
+    ctx.rel_error(fid, 0, &mut rel).unwrap();
+
+    // PLY: header, then vertices matched by position.
+    let ply = std::fs::read_to_string(out.join("irradiance.ply")).unwrap();
+    let (header, body) = ply.split_once("end_header\n").unwrap();
+    assert!(header.starts_with("ply\nformat ascii 1.0\n"));
+    let nv = floor.len() + lamp.len();
+    assert!(
+        header.contains(&format!("element vertex {nv}\n")),
+        "{header}"
+    );
+    assert!(header.contains("element face 34\n"), "{header}");
+    let mut matched = 0;
+    for line in body.lines().take(nv) {
+        let f: Vec<f64> = line.split(' ').map(|x| x.parse().unwrap()).collect();
+        assert_eq!(f.len(), 8, "{line}");
+        if let Some(v) = floor
+            .iter()
+            .position(|p| (0..3).all(|k| (p[k] - f[k]).abs() < 1e-6))
+        {
+            assert_eq!(f[6] as f32, mean[v] as f32, "vertex {v}: PLY vs libimap");
+            assert_eq!(f[7] as f32, rel[v] as f32, "vertex {v}: error");
+            matched += 1;
+        }
+    }
+    assert_eq!(matched, floor.len());
+    // The floor is lit: every vertex got light.
+    assert!(mean.iter().all(|&x| x > 0.0));
+
+    // CSV: header and one row per recorded vertex.
+    let csv = std::fs::read_to_string(out.join("irradiance.csv")).unwrap();
+    let mut lines = csv.lines();
+    assert_eq!(
+        lines.next().unwrap(),
+        "mesh,vertex,x,y,z,E_r,E_g,E_b,rel_error"
+    );
+    let rows: Vec<&str> = lines.collect();
+    assert_eq!(rows.len(), nv);
+    for r in &rows {
+        let f: Vec<&str> = r.split(',').collect();
+        assert_eq!(f.len(), 9);
+        assert!(f[5..].iter().all(|x| x.parse::<f64>().unwrap().is_finite()));
+    }
+
+    // The pictures decode.
+    for (name, w, h) in [("view.png", 640, 640), ("convergence.png", 800, 560)] {
+        let dec = png::Decoder::new(std::fs::File::open(out.join(name)).unwrap());
+        let reader = dec.read_info().unwrap();
+        let info = reader.info();
+        assert_eq!((info.width, info.height), (w, h), "{name}");
+    }
+}
+
+#[test]
+fn mtl_materials_map_to_libimap_materials() {
+    // Kd → diffuse, Ke → emission, Ni with d < 1 → dielectric (a glass block between the
+    // lamp and the floor lets light through: the floor under it is lit).
+    let d = tempfile::tempdir().unwrap();
+    write(
+        d.path(),
+        "scene.mtl",
+        "newmtl grey\nKd 0.5 0.5 0.5\nnewmtl lamp\nKd 0 0 0\nKe 10 10 10\nnewmtl glass\nKd 0.5 0.5 0.5\nNi 1.5\nd 0.1\n",
+    );
+    let (mut obj, (floor, _), _) = scene_obj();
+    // A glass slab 0.1 m thick at z = 0.5–0.6 covering the whole floor.
+    obj += "o glass\nusemtl glass\n";
+    let b = floor.len() + 4 + 1;
+    for z in [0.5, 0.6] {
+        for (x, y) in [(-1.0, -1.0), (3.0, -1.0), (3.0, 3.0), (-1.0, 3.0)] {
+            obj += &format!("v {x} {y} {z}\n");
+        }
+    }
+    for f in [
+        [0, 2, 1],
+        [0, 3, 2],
+        [4, 5, 6],
+        [4, 6, 7],
+        [0, 1, 5],
+        [0, 5, 4],
+        [1, 2, 6],
+        [1, 6, 5],
+        [2, 3, 7],
+        [2, 7, 6],
+        [3, 0, 4],
+        [3, 4, 7],
+    ] {
+        obj += &format!("f {} {} {}\n", f[0] + b, f[1] + b, f[2] + b);
+    }
+    let path = write(d.path(), "scene.obj", &obj);
+    let toml = write(d.path(), "s.toml", "record = [\"floor\"]\n");
+    let out = d.path().join("out");
+    let o = imap(&[
+        "run",
+        &path,
+        "--config",
+        &toml,
+        "--out",
+        out.to_str().unwrap(),
+        "--photons",
+        "100000",
+        "--time",
+        "0",
+        "--target-error",
+        "0",
+        "--quiet",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap()).unwrap();
+    let meshes = report["meshes"].as_array().unwrap();
+    assert_eq!(meshes.len(), 3);
+    assert_eq!(meshes[0]["recorded"], true);
+    assert_eq!(meshes[2]["recorded"], false);
+    // Read as Lambertian (Kd 0.5) the slab would be opaque and the floor dark; as a clear
+    // dielectric it passes ~92 % at normal incidence and the floor is lit everywhere.
+    let csv = std::fs::read_to_string(out.join("irradiance.csv")).unwrap();
+    let lit: Vec<f64> = csv
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').nth(5).unwrap().parse::<f64>().unwrap())
+        .collect();
+    assert_eq!(lit.len(), 25, "only the floor is recorded");
+    assert!(
+        lit.iter().all(|&e| e > 0.0),
+        "the floor is dark under the glass: {lit:?}"
+    );
+    let e = &report["energy_w"];
+    let (em, ab, esc) = (
+        e["emitted"].as_f64().unwrap(),
+        e["absorbed"].as_f64().unwrap(),
+        e["escaped"].as_f64().unwrap(),
+    );
+    assert!((ab + esc - em).abs() < 1e-9 * em);
+}
+
+#[test]
+fn validate_passes_every_analytic_case() {
+    let o = imap(&["validate", "--photons", "300000"]);
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success(), "{text}{}", stderr(&o));
+    assert_eq!(text.matches(" pass").count(), 4, "{text}");
+}
+
+#[test]
+fn demo_writes_a_cornell_box_with_colour_bleeding() {
+    let d = tempfile::tempdir().unwrap();
+    let out = d.path().join("demo");
+    let o = imap(&[
+        "demo",
+        "--out",
+        out.to_str().unwrap(),
+        "--target-error",
+        "0.04",
+        "--quiet",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    for f in [
+        "irradiance.csv",
+        "irradiance.ply",
+        "report.json",
+        "convergence.png",
+        "view.png",
+        "cornell_box.obj",
+        "cornell_box.mtl",
+    ] {
+        assert!(out.join(f).exists(), "{f} missing");
+    }
+    // The floor's irradiance is redder near the red wall (x = 550 mm) than near the green
+    // one (x = 0), and greener near the green one.
+    let csv = std::fs::read_to_string(out.join("irradiance.csv")).unwrap();
+    let (mut near_red, mut near_green) = ([0.0; 3], [0.0; 3]);
+    for l in csv.lines().skip(1).filter(|l| l.starts_with("floor,")) {
+        let f: Vec<f64> = l.split(',').skip(2).map(|x| x.parse().unwrap()).collect();
+        let (x, z) = (f[0], f[2]);
+        if z > 100.0 && z < 500.0 {
+            let e = [f[3], f[4], f[5]];
+            if x > 500.0 {
+                (0..3).for_each(|k| near_red[k] += e[k]);
+            } else if x < 50.0 {
+                (0..3).for_each(|k| near_green[k] += e[k]);
+            }
+        }
+    }
+    let rg = |c: [f64; 3]| c[0] / c[1];
+    assert!(
+        rg(near_red) > 1.1 * rg(near_green),
+        "red/green near the red wall {:.3}, near the green wall {:.3}",
+        rg(near_red),
+        rg(near_green)
+    );
+}
