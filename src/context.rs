@@ -216,12 +216,7 @@ impl Context {
     pub fn add_mesh(&mut self, desc: &MeshDesc) -> Result<u32> {
         self.check_unlocked("add a mesh")?;
         // The map's size follows from the counts alone: refuse before copying anything.
-        let new_slots = if desc.record {
-            desc.positions.len() / 3 * if desc.two_sided { 2 } else { 1 }
-        } else {
-            0
-        };
-        self.check_budget(self.scene.slot_count() + new_slots)?;
+        self.check_budget(self.scene.slot_count() + desc.map_slots())?;
         let mesh = Mesh::new(desc, self.scene.materials.len(), &self.scene.bands)?;
         self.scene.meshes.push(mesh);
         self.invalidate();

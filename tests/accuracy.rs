@@ -79,14 +79,32 @@ fn actual_global_error(e: &[f64], truth: &[f64], share: &[f64]) -> f64 {
     (std::f64::consts::PI / 2.0).sqrt() * num / den
 }
 
+/// Per-vertex irradiance in a closed sphere with a point light of `power` W at `light`:
+/// the direct part I·cosθ/r² averaged over each vertex's hat function, plus the indirect
+/// part ρΦ/((1 − ρ)A), uniform on a sphere (a close approximation on the polyhedron).
+fn sphere_truths(g: &Geometry, share: &[f64], light: [f64; 3], power: f64, rho: f64) -> Vec<f64> {
+    let indirect = rho * power / ((1.0 - rho) * share.iter().sum::<f64>());
+    let intensity = power / (4.0 * std::f64::consts::PI);
+    (0..g.vertex_count())
+        .map(|v| {
+            indirect
+                + hat_average_faces(g, v, |x, normal| {
+                    let d = sub(x, light);
+                    let r2 = dot(d, d);
+                    intensity * dot(d, normal).abs() / (r2 * r2.sqrt())
+                })
+        })
+        .collect()
+}
+
 /// Closed sphere, light inside: the mean irradiance is Φ/(A(1−ρ)) exactly for any
 /// polyhedron (every photon hits K times, K geometric with mean 1/(1−ρ)); the direct part
 /// per vertex is I·cosθ/r² averaged over the vertex's hat function and the indirect part is
 /// uniform for a sphere, which gives per-vertex truths for the actual error.
-fn stiff_sphere(rho: f64, light: [f64; 3], n: u64) {
+fn stiff_sphere(seed: u64, rho: f64, light: [f64; 3], n: u64) {
     let mut ctx = context(Config {
         threads: 2,
-        seed: 40 + (rho * 1000.0) as u64 + (light[0] * 100.0).abs() as u64,
+        seed,
         ..Default::default()
     });
     let wall = lambert(&mut ctx, rho);
@@ -124,18 +142,7 @@ fn stiff_sphere(rho: f64, light: [f64; 3], n: u64) {
         "ρ = {rho}, light {light:?}: mean {mean} vs {expected} ({:.2} σ)",
         dev / sigma
     );
-    let indirect = rho * power / ((1.0 - rho) * total_area);
-    let intensity = power / (4.0 * std::f64::consts::PI);
-    let truth: Vec<f64> = (0..g.vertex_count())
-        .map(|v| {
-            indirect
-                + hat_average_faces(&g, v, |x, normal| {
-                    let d = sub(x, light);
-                    let r2 = dot(d, d);
-                    intensity * dot(d, normal).abs() / (r2 * r2.sqrt())
-                })
-        })
-        .collect();
+    let truth = sphere_truths(&g, &share, light, power, rho);
     let actual = actual_global_error(&e, &truth, &share);
     accuracy_row(
         &format!(
@@ -151,18 +158,18 @@ fn stiff_sphere(rho: f64, light: [f64; 3], n: u64) {
 
 #[test]
 fn stiff_sphere_rho_0_99_centre() {
-    stiff_sphere(0.99, [0.0; 3], photons(40_000));
+    stiff_sphere(1030, 0.99, [0.0; 3], photons(40_000));
 }
 
 #[test]
 fn stiff_sphere_rho_0_99_off_centre() {
-    stiff_sphere(0.99, [0.35, -0.2, 0.25], photons(40_000));
+    stiff_sphere(1065, 0.99, [0.35, -0.2, 0.25], photons(40_000));
 }
 
 #[test]
 fn stiff_sphere_rho_0_999_off_centre() {
     // A thousand hits per photon on average, tens of thousands for some.
-    stiff_sphere(0.999, [-0.3, 0.1, -0.4], photons(12_000));
+    stiff_sphere(1069, 0.999, [-0.3, 0.1, -0.4], photons(12_000));
 }
 
 #[test]
@@ -574,27 +581,7 @@ fn nbk7_prism_spreads_81_bands_where_snell_and_sellmeier_say() {
     let screen_z = -0.5;
     let (x0, x1, nx, ny) = (0.6, 1.8, 800usize, 2usize);
     let h = (x1 - x0) / nx as f64;
-    let screen = {
-        let mut pos = Vec::new();
-        for j in 0..=ny {
-            for i in 0..=nx {
-                let y = -0.01 + 0.02 * j as f64 / ny as f64;
-                pos.extend([x0 + h * i as f64, y, screen_z]);
-            }
-        }
-        let mut idx = Vec::new();
-        let at = |i: usize, j: usize| (j * (nx + 1) + i) as u32;
-        for j in 0..ny {
-            for i in 0..nx {
-                idx.extend([at(i, j), at(i + 1, j), at(i + 1, j + 1)]);
-                idx.extend([at(i, j), at(i + 1, j + 1), at(i, j + 1)]);
-            }
-        }
-        Geometry {
-            positions: pos,
-            indices: idx,
-        }
-    };
+    let screen = grid_rect(nx, ny, [x0, x1], [-0.01, 0.01], screen_z);
     let sid = ctx.add_mesh(&screen.desc(black)).unwrap();
     let t0 = Instant::now();
     run_photons(&mut ctx, photons(300_000));
@@ -713,20 +700,39 @@ fn global_calibration_sphere(rho: f64, seed: u64, n: u64) -> (f64, f64) {
     ctx.add_point_light(light, &[power]).unwrap();
     let report = run_photons(&mut ctx, n);
     let share = vertex_areas(&g);
-    let area: f64 = share.iter().sum();
-    let truth: Vec<f64> = (0..g.vertex_count())
-        .map(|v| {
-            rho * power / ((1.0 - rho) * area)
-                + hat_average_faces(&g, v, |x, normal| {
-                    let d = sub(x, light);
-                    let r2 = dot(d, d);
-                    dot(d, normal).abs() / (r2 * r2.sqrt())
-                })
-        })
-        .collect();
+    let truth = sphere_truths(&g, &share, light, power, rho);
     let mut e = vec![0.0; g.vertex_count()];
     ctx.irradiance(mesh, 0, 0, &mut e).unwrap();
     (report.rel_error, actual_global_error(&e, &truth, &share))
+}
+
+/// Averages (estimated, actual) global error over `seeds` runs of `run(seed)` and checks
+/// they agree within a factor 1.5 (the bar).
+fn assert_calibrated(case: &str, seeds: u64, run: impl Fn(u64) -> (f64, f64)) {
+    let t0 = Instant::now();
+    let (mut est, mut act) = (0.0, 0.0);
+    for seed in 0..seeds {
+        let (e, a) = run(seed);
+        est += e / seeds as f64;
+        act += a / seeds as f64;
+    }
+    let secs = t0.elapsed().as_secs_f64() / seeds as f64;
+    eprintln!(
+        "{case}: estimated {est:.4}, actual {act:.4}, ratio {:.3}",
+        est / act
+    );
+    assert!(
+        (1.0 / 1.5..1.5).contains(&(est / act)),
+        "{case}: estimated {est} vs actual {act}"
+    );
+    accuracy_row(
+        &format!("{case}: global error (mean of {seeds} seeds)"),
+        act,
+        est,
+        est,
+        act,
+        secs,
+    );
 }
 
 #[test]
@@ -734,27 +740,10 @@ fn global_error_estimate_matches_the_actual_error_in_closed_spheres() {
     // In a stiff sphere a long path raises every vertex at once, so one run's actual error
     // is nearly one sample of a common mode: average over seeds.
     for (rho, n) in [(0.9, photons(20_000)), (0.99, photons(6_000))] {
-        let t0 = Instant::now();
-        let seeds = 8;
-        let (mut est, mut act) = (0.0, 0.0);
-        for seed in 0..seeds {
-            let (e, a) = global_calibration_sphere(rho, 200 + seed, n);
-            est += e / seeds as f64;
-            act += a / seeds as f64;
-        }
-        let secs = t0.elapsed().as_secs_f64() / seeds as f64;
-        eprintln!("closed sphere ρ = {rho}, {n} photons: estimated {est:.4}, actual {act:.4}, ratio {:.3}", est / act);
-        assert!(
-            (1.0 / 1.5..1.5).contains(&(est / act)),
-            "ρ = {rho}: estimated {est} vs actual {act}"
-        );
-        accuracy_row(
-            &format!("closed sphere ρ = {rho}, {n} photons: global error (mean of {seeds} seeds)"),
-            act,
-            est,
-            est,
-            act,
-            secs,
+        assert_calibrated(
+            &format!("closed sphere ρ = {rho}, {n} photons"),
+            8,
+            |seed| global_calibration_sphere(rho, 200 + seed, n),
         );
     }
 }
@@ -762,30 +751,12 @@ fn global_error_estimate_matches_the_actual_error_in_closed_spheres() {
 #[test]
 fn global_error_estimate_matches_the_actual_error() {
     // The global figure Σσ_v/ΣE_v against √(π/2)·Σ|E_v − T_v|/ΣT_v with analytic truths
-    // T_v, averaged over seeds: within a factor 1.5 (the bar), in practice ~10 %.
+    // T_v, averaged over seeds: within a factor 1.5, in practice within a few per cent.
     for (n, label) in [(photons(20_000), "20 k"), (photons(200_000), "200 k")] {
-        let t0 = Instant::now();
-        let (mut est, mut act) = (0.0, 0.0);
-        for seed in 0..6 {
-            let (e, a) = global_calibration_plane(100 + seed, n);
-            est += e / 6.0;
-            act += a / 6.0;
-        }
-        let secs = t0.elapsed().as_secs_f64() / 6.0;
-        eprintln!("point source over a plane, {label} photons: estimated {est:.4}, actual {act:.4}, ratio {:.3}", est / act);
-        assert!(
-            (1.0 / 1.5..1.5).contains(&(est / act)),
-            "estimated {est} vs actual {act}"
-        );
-        accuracy_row(
-            &format!(
-                "point source over a black plane, {label} photons: global error (mean of 6 seeds)"
-            ),
-            act,
-            est,
-            est,
-            act,
-            secs,
+        assert_calibrated(
+            &format!("point source over a black plane, {label} photons"),
+            6,
+            |seed| global_calibration_plane(100 + seed, n),
         );
     }
 }

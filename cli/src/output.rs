@@ -2,6 +2,7 @@
 //! rendered view.
 
 use crate::scene::{fail, CameraSettings, CliError, LoadedScene, Result};
+use glam::DVec3;
 use imap::{Context, Progress};
 use std::io::Write;
 use std::path::Path;
@@ -81,13 +82,7 @@ pub fn to_rgb(values: &[f64], band_nm: &[f64], rgb: bool) -> [f64; 3] {
     let mut sum = [0.0; 3];
     let mut n = [0usize; 3];
     for (&v, &nm) in values.iter().zip(band_nm) {
-        let c = if nm < 490.0 {
-            2
-        } else if nm < 580.0 {
-            1
-        } else {
-            0
-        };
+        let c = crate::scene::channel(nm);
         sum[c] += v;
         n[c] += 1;
     }
@@ -230,38 +225,19 @@ pub fn write_png(path: &Path, w: u32, h: u32, rgb: &[u8]) -> Result<()> {
 /// A camera framing the scene's bounding box from the front-left, slightly above.
 pub fn default_camera(scene: &LoadedScene) -> CameraSettings {
     let (lo, hi) = scene.bounds();
-    let c = [0, 1, 2].map(|k| 0.5 * (lo[k] + hi[k]));
-    let r = 0.5 * (0..3).map(|k| (hi[k] - lo[k]).powi(2)).sum::<f64>().sqrt();
+    let (lo, hi) = (DVec3::from(lo), DVec3::from(hi));
+    let c = 0.5 * (lo + hi);
     let fov: f64 = 40.0;
-    let dist = r / (fov.to_radians() / 2.0).sin();
-    let dir = [0.3, 0.35, -1.0];
-    let l = dot(dir, dir).sqrt();
+    let dist = 0.5 * (hi - lo).length() / (fov.to_radians() / 2.0).sin();
+    let dir = DVec3::new(0.3, 0.35, -1.0).normalize();
     CameraSettings {
-        position: [0, 1, 2].map(|k| c[k] + dir[k] / l * dist),
-        look_at: c,
+        position: (c + dir * dist).to_array(),
+        look_at: c.to_array(),
         up: [0.0, 1.0, 0.0],
         fov_deg: fov,
         width: 640,
         height: 640,
     }
-}
-
-fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ]
-}
-fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-fn unit(a: [f64; 3]) -> [f64; 3] {
-    let l = dot(a, a).sqrt();
-    a.map(|x| x / l)
 }
 
 /// Renders every mesh with a z-buffer, colours interpolated from the vertices (2×2
@@ -275,13 +251,14 @@ pub fn render_view(
     if w == 0 || h == 0 || w > 8192 || h > 8192 {
         fail!("camera: image size {w}×{h} is not in 1..=8192");
     }
-    let fwd = unit(sub(cam.look_at, cam.position));
-    let right = cross(fwd, cam.up);
-    if dot(right, right) < 1e-24 {
+    let eye = DVec3::from(cam.position);
+    let Some(fwd) = (DVec3::from(cam.look_at) - eye).try_normalize() else {
+        fail!("camera: look_at must differ from position (and both be finite)");
+    };
+    let Some(right) = fwd.cross(DVec3::from(cam.up)).try_normalize() else {
         fail!("camera: up is parallel to the view direction");
-    }
-    let right = unit(right);
-    let up = cross(right, fwd);
+    };
+    let up = right.cross(fwd);
     let f = 1.0 / (cam.fov_deg.to_radians() / 2.0).tan();
     let aspect = w as f64 / h as f64;
     let (sw, sh) = (2 * w, 2 * h);
@@ -290,13 +267,13 @@ pub fn render_view(
     let mut z = vec![f64::INFINITY; sw * sh];
     let mut img = vec![[0.0f64; 3]; sw * sh];
     let project = |p: [f64; 3]| -> Option<[f64; 3]> {
-        let d = sub(p, cam.position);
-        let depth = dot(d, fwd);
+        let d = DVec3::from(p) - eye;
+        let depth = d.dot(fwd);
         if depth <= 1e-9 {
             return None;
         }
-        let x = dot(d, right) * f / (depth * aspect);
-        let y = dot(d, up) * f / depth;
+        let x = d.dot(right) * f / (depth * aspect);
+        let y = d.dot(up) * f / depth;
         Some([
             (x + 1.0) * 0.5 * sw as f64,
             (1.0 - y) * 0.5 * sh as f64,

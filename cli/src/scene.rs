@@ -345,23 +345,24 @@ fn check_mtl(path: &Path, text: &str) -> Result<Vec<String>> {
     Ok(names)
 }
 
+/// The RGB channel (0 red, 1 green, 2 blue) that stands for a wavelength: below 490 nm
+/// blue, 490–580 nm green, above red.
+pub fn channel(nm: f64) -> usize {
+    if nm < 490.0 {
+        2
+    } else if nm < 580.0 {
+        1
+    } else {
+        0
+    }
+}
+
 /// RGB → per-band values (the band's colour channel by wavelength).
 fn expand_rgb(rgb: [f64; 3], band_nm: &[f64], is_rgb: bool) -> Vec<f64> {
     if is_rgb {
         return rgb.to_vec();
     }
-    band_nm
-        .iter()
-        .map(|&nm| {
-            if nm < 490.0 {
-                rgb[2]
-            } else if nm < 580.0 {
-                rgb[1]
-            } else {
-                rgb[0]
-            }
-        })
-        .collect()
+    band_nm.iter().map(|&nm| rgb[channel(nm)]).collect()
 }
 
 fn per_band(s: &Spectrum, nb: usize, what: &str) -> Result<Vec<f64>> {
@@ -420,20 +421,8 @@ pub fn load(obj: &Path, settings: &Settings) -> Result<(Context, LoadedScene)> {
     }
 
     let bands = settings.bands()?;
-    let band_nm = match &settings.spectral {
-        None => vec![610.0, 550.0, 465.0],
-        Some(s) => {
-            let n = s.bands as usize;
-            if n == 1 {
-                vec![0.5 * (s.min_nm + s.max_nm)]
-            } else {
-                (0..n)
-                    .map(|i| s.min_nm + (s.max_nm - s.min_nm) * i as f64 / (n - 1) as f64)
-                    .collect()
-            }
-        }
-    };
-    let rgb = settings.spectral.is_none();
+    let band_nm = bands.wavelengths_nm.clone();
+    let rgb = bands.rgb;
     let nb = band_nm.len();
     let mut ctx = Context::new(Config {
         bands,

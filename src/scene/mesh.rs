@@ -140,4 +140,24 @@ impl Mesh {
             1
         }
     }
+
+    /// Map slots the mesh needs: one per vertex and recorded side; 0 when not recorded.
+    pub fn map_slots(&self) -> usize {
+        map_slots(self.positions.len(), self.two_sided, self.record)
+    }
+}
+
+impl MeshDesc<'_> {
+    /// `Mesh::map_slots` from the description alone, before anything is copied.
+    pub fn map_slots(&self) -> usize {
+        map_slots(self.positions.len() / 3, self.two_sided, self.record)
+    }
+}
+
+fn map_slots(vertices: usize, two_sided: bool, record: bool) -> usize {
+    if record {
+        vertices * if two_sided { 2 } else { 1 }
+    } else {
+        0
+    }
 }

@@ -37,11 +37,7 @@ impl Scene {
 
     /// Number of (vertex, side) slots the map needs: recorded sides of recording meshes.
     pub fn slot_count(&self) -> usize {
-        self.meshes
-            .iter()
-            .filter(|m| m.record)
-            .map(|m| m.positions.len() * m.sides())
-            .sum()
+        self.meshes.iter().map(Mesh::map_slots).sum()
     }
 
     /// Bytes the map needs for `slots` slots: one f64 per band plus the sum of squares.

@@ -103,9 +103,7 @@ impl PreparedScene {
             .iter()
             .map(|m| {
                 let p = prepare_mesh(m, origin, m.record.then_some(slots));
-                if m.record {
-                    slots += m.positions.len() * m.sides();
-                }
+                slots += m.map_slots();
                 p
             })
             .collect();

@@ -112,7 +112,7 @@ impl Tracer<'_> {
         let (emitter, mut org, mut dir) = self.scene.emit(&mut rng);
         colour.reset(&self.scene.emitters[emitter].colour);
         stats.photons += 1;
-        stats.emitted += colour.mean();
+        stats.emitted += colour.energy();
         let mut medium: Option<Medium> = None;
 
         for _event in 0..self.max_events {

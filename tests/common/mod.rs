@@ -59,20 +59,25 @@ impl Geometry {
 
 /// A planar grid z = `z` over [x0, x1] × [y0, y1] with n × n cells, normals +z.
 pub fn grid(n: usize, x0: f64, x1: f64, y0: f64, y1: f64, z: f64) -> Geometry {
+    grid_rect(n, n, [x0, x1], [y0, y1], z)
+}
+
+/// A planar grid z = `z` over x × y with nx × ny cells, normals +z.
+pub fn grid_rect(nx: usize, ny: usize, x: [f64; 2], y: [f64; 2], z: f64) -> Geometry {
     let mut positions = Vec::new();
-    for j in 0..=n {
-        for i in 0..=n {
+    for j in 0..=ny {
+        for i in 0..=nx {
             positions.extend([
-                x0 + (x1 - x0) * i as f64 / n as f64,
-                y0 + (y1 - y0) * j as f64 / n as f64,
+                x[0] + (x[1] - x[0]) * i as f64 / nx as f64,
+                y[0] + (y[1] - y[0]) * j as f64 / ny as f64,
                 z,
             ]);
         }
     }
     let mut indices = Vec::new();
-    let id = |i: usize, j: usize| (j * (n + 1) + i) as u32;
-    for j in 0..n {
-        for i in 0..n {
+    let id = |i: usize, j: usize| (j * (nx + 1) + i) as u32;
+    for j in 0..ny {
+        for i in 0..nx {
             indices.extend([id(i, j), id(i + 1, j), id(i + 1, j + 1)]);
             indices.extend([id(i, j), id(i + 1, j + 1), id(i, j + 1)]);
         }
