@@ -4,6 +4,9 @@
 use crate::accel::{Accel, Device};
 use crate::error::{bail, check_finite, Result};
 use crate::imap::{IMap, Readout};
+use crate::render::{
+    self, Camera, CameraDesc, EyeTracer, Image, RenderMethod, RenderParams, RenderReport,
+};
 use crate::scene::{Bands, Light, Material, MaterialDesc, Mesh, MeshDesc, PreparedScene, Scene};
 use crate::sched::dynamic::DynamicParams;
 use crate::sched::{self, Counters, Progress, RunContext, RunParams, StopReason};
@@ -268,7 +271,8 @@ impl Context {
         self.last_run = None;
     }
 
-    fn prepare(&mut self) -> Result<()> {
+    /// The prepared scene and its BVH (built on first use after a change).
+    fn prepare_scene(&mut self) -> Result<()> {
         if self.scene.meshes.is_empty() {
             bail!(
                 ImapErrNoGeometry,
@@ -295,6 +299,11 @@ impl Context {
             let accel = Accel::build(&self.device, &scene.meshes)?;
             self.prepared = Some(Prepared { scene, accel });
         }
+        Ok(())
+    }
+
+    fn prepare(&mut self) -> Result<()> {
+        self.prepare_scene()?;
         if self.map.is_none() {
             let slots = self.scene.slot_count();
             self.check_budget(slots)?;
@@ -388,6 +397,99 @@ impl Context {
             );
         }
         Ok(self.report())
+    }
+
+    /// Renders the camera's view (camera luminance by backward photon maps). Independent of
+    /// the illumination map: neither reads nor changes it, and allocates none.
+    pub fn render(
+        &mut self,
+        camera: &CameraDesc,
+        params: &mut RenderParams,
+    ) -> Result<(Image, RenderReport)> {
+        check_finite(
+            "render parameters",
+            &[
+                params.time_budget_s,
+                params.target_rel_error,
+                params.progress_interval_s,
+                params.initial_radius,
+                params.alpha,
+            ],
+        )?;
+        if params.time_budget_s < 0.0
+            || params.target_rel_error < 0.0
+            || params.progress_interval_s <= 0.0
+            || params.initial_radius < 0.0
+        {
+            bail!(
+                ImapErrInvalidArgument,
+                "time_budget_s, target_rel_error and initial_radius must be >= 0 and progress_interval_s > 0"
+            );
+        }
+        if !(params.alpha == 0.0 || (params.alpha > 0.0 && params.alpha < 1.0)) {
+            bail!(
+                ImapErrInvalidArgument,
+                "alpha = {} must be in (0, 1) (or 0 for the default 2/3)",
+                params.alpha
+            );
+        }
+        if params.max_path_events == 0 {
+            bail!(ImapErrInvalidArgument, "max_path_events must be at least 1");
+        }
+        check_threads(params.group_threads)?;
+        if params.passes == 0
+            && params.time_budget_s == 0.0
+            && params.target_rel_error == 0.0
+            && params.progress.is_none()
+        {
+            bail!(ImapErrInvalidArgument, "no stop criterion: set passes, time_budget_s, target_rel_error or a progress callback");
+        }
+        self.prepare_scene()?;
+        let prepared = self.prepared.as_ref().expect("prepared above");
+        let cam = Camera::new(camera, prepared.scene.origin)?;
+        let threads = match self.config.threads {
+            0 => std::thread::available_parallelism().map_or(1, |n| n.get()),
+            t => t,
+        };
+        // Memory: pixel stores (one per thread for the asynchronous method) and maps.
+        let nb = self.scene.bands.count();
+        let pixels = cam.pixels() as u128;
+        let stores = match params.method {
+            RenderMethod::Asynchronous => threads as u128,
+            _ => 1,
+        };
+        let map_per_pixel = 80 + 8 * nb as u128 * 4;
+        let need = stores * render::bmap::PixelStore::bytes(1, nb) as u128 * pixels
+            + stores.max(1) * pixels * map_per_pixel;
+        let budget = self.memory_budget();
+        if need > budget as u128 {
+            bail!(
+                ImapErrMemoryBudget,
+                "the render needs about {need} bytes ({pixels} pixels × {nb} bands, {stores} pixel store(s)), over the memory budget of {budget} bytes"
+            );
+        }
+        let eye = EyeTracer::new(
+            &self.scene,
+            &prepared.scene,
+            &prepared.accel,
+            &cam,
+            params.max_path_events,
+            params.initial_radius,
+        );
+        let fwd = Tracer {
+            scene: &prepared.scene,
+            accel: &prepared.accel,
+            materials: &self.scene.materials,
+            bands: nb,
+            seed: self.config.seed,
+            unit_m: self.config.unit_m,
+            max_events: params.max_path_events,
+        };
+        let (image, report, lost) = render::render(&eye, fwd, params, threads, self.config.seed);
+        if let Some(why) = lost {
+            bail!(ImapErrThreadLost, "{why}; the render was stopped");
+        }
+        Ok((image, report))
     }
 
     /// Totals since the last reset and the last run's figures.

@@ -12,6 +12,7 @@ pub mod context;
 pub mod error;
 pub mod ffi;
 pub mod imap;
+pub mod render;
 pub mod sampling;
 pub mod scene;
 pub mod scenes;
@@ -20,5 +21,6 @@ pub mod transport;
 
 pub use context::{Config, Context, Report, SchedulerKind};
 pub use error::{Error, ImapStatus, Result};
+pub use render::{CameraDesc, Image, RenderMethod, RenderParams, RenderReport};
 pub use scene::{Bands, IorModel, MaterialDesc, MeshDesc};
 pub use sched::{Progress, RunParams, StopReason};

@@ -280,6 +280,34 @@ impl Accel {
         })
     }
 
+    /// Whether anything blocks the segment `org + t·dir`, t in (0, `t_max`) (shadow rays).
+    #[inline]
+    pub fn occluded(&self, org: DVec3, dir: DVec3, t_max: f64) -> bool {
+        #[repr(C, align(16))]
+        struct AlignedRay(Ray);
+        let mut r = AlignedRay(Ray {
+            org: org.as_vec3().to_array(),
+            tnear: 0.0,
+            dir: dir.as_vec3().to_array(),
+            time: 0.0,
+            tfar: t_max as f32,
+            mask: u32::MAX,
+            id: 0,
+            flags: 0,
+        });
+        // SAFETY: the scene is committed; `Ray` has the layout of `RTCRay` (checked by
+        // `layout_matches_embree_4_3`), is 16-byte aligned, and a NULL argument selects the
+        // defaults. Embree sets tfar to -inf when it finds a hit.
+        unsafe {
+            rtc::rtcOccluded1(
+                self.scene,
+                &mut r.0 as *mut Ray as *mut rtc::RTCRay,
+                std::ptr::null_mut(),
+            )
+        };
+        r.0.tfar < 0.0
+    }
+
     /// Traces one ray and returns the guard words after the hit record (test support).
     #[doc(hidden)]
     pub fn guard_after_intersect(&self, org: DVec3, dir: DVec3) -> ([u32; 3], bool) {
@@ -341,5 +369,9 @@ mod tests {
         assert_eq!((h.mesh, h.prim), (0, 0));
         assert!((h.t - 1.0).abs() < 1e-6);
         assert!(accel.intersect(o, DVec3::new(0.0, 0.0, 1.0)).is_none());
+        let down = DVec3::new(0.0, 0.0, -1.0);
+        assert!(accel.occluded(o, down, 1.5));
+        assert!(!accel.occluded(o, down, 0.9));
+        assert!(!accel.occluded(o, DVec3::new(0.0, 0.0, 1.0), 10.0));
     }
 }

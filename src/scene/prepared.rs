@@ -31,6 +31,19 @@ impl PreparedMesh {
         }
     }
 
+    /// The point at barycentric (u, v) of triangle `prim` (more precise than org + t·dir).
+    #[inline]
+    pub fn point(&self, prim: usize, u: f32, v: f32) -> DVec3 {
+        let [a, b, c] = self.triangles[prim].map(|i| self.vertices[i as usize].as_dvec3());
+        a + (b - a) * u as f64 + (c - a) * v as f64
+    }
+
+    /// Area of triangle `prim`, scene units².
+    pub fn area(&self, prim: usize) -> f64 {
+        let [a, b, c] = self.triangles[prim].map(|i| self.vertices[i as usize].as_dvec3());
+        0.5 * (b - a).cross(c - a).length()
+    }
+
     /// The map slot of `vertex` on `side` (0 = front, 1 = back).
     #[inline]
     pub fn slot(&self, vertex: u32, side: usize) -> Option<usize> {

@@ -21,11 +21,29 @@ pub trait HitSink {
     /// of mesh `mesh` at barycentric coordinates (u, v).
     fn deposit(&mut self, mesh: u32, prim: u32, side: u8, u: f32, v: f32, colour: &Colour);
 
+    /// Whether the sink wants `surface` calls (renders do; i-map sinks compile them out).
+    const SURFACES: bool = false;
+
+    /// Every surface the photon reaches, before it scatters there, with its colour on
+    /// arrival.
+    fn surface(&mut self, _event: &SurfaceEvent, _colour: &Colour) {}
+
     /// Called when a photon's path has ended (absorbed, escaped or dropped).
     fn end_photon(&mut self) {}
 
     /// Called after each batch of photons.
     fn batch_done(&mut self) {}
+}
+
+/// A photon arriving at a surface (for `HitSink::surface`).
+pub struct SurfaceEvent<'m> {
+    /// Hit point, local scene units.
+    pub point: DVec3,
+    /// Unit geometric normal on the side the photon came from.
+    pub n_in: DVec3,
+    pub material: &'m Material,
+    /// Surface events before this one: 0 for the first hit after emission (direct light).
+    pub bounce: u32,
 }
 
 /// Per-thread tallies of a run; merged after the threads finish.
@@ -40,6 +58,8 @@ pub struct PathStats {
     /// its medium.
     pub absorbed: Vec<f64>,
     pub escaped: f64,
+    /// Photons that left the scene (each ends with one ray that hits nothing).
+    pub escaped_photons: u64,
     /// Energy of photons stopped by the event safety limit.
     pub dropped: f64,
     pub dropped_photons: u64,
@@ -61,6 +81,7 @@ impl PathStats {
             *a += b;
         }
         self.escaped += o.escaped;
+        self.escaped_photons += o.escaped_photons;
         self.dropped += o.dropped;
         self.dropped_photons += o.dropped_photons;
     }
@@ -100,11 +121,11 @@ impl Tracer<'_> {
         sink.end_photon();
     }
 
-    fn trace_path(
+    fn trace_path<S: HitSink>(
         &self,
         k: u64,
         colour: &mut Colour,
-        sink: &mut impl HitSink,
+        sink: &mut S,
         stats: &mut PathStats,
     ) {
         let mut rng = PhotonRng::new(self.seed, k);
@@ -115,7 +136,7 @@ impl Tracer<'_> {
         stats.emitted += colour.energy();
         let mut medium: Option<Medium> = None;
 
-        for _event in 0..self.max_events {
+        for event in 0..self.max_events {
             let hit = self.accel.intersect(org, dir);
 
             // Beer–Lambert: survive the segment through an absorbing medium with the
@@ -137,6 +158,7 @@ impl Tracer<'_> {
 
             let Some(hit) = hit else {
                 stats.escaped += colour.mean();
+                stats.escaped_photons += 1;
                 return;
             };
             stats.hits += 1;
@@ -153,12 +175,21 @@ impl Tracer<'_> {
                 sink.deposit(hit.mesh, hit.prim, u8::from(!front), hit.u, hit.v, colour);
             }
 
-            // The hit point, rebuilt from the barycentrics (more precise than org + t·dir).
-            let [a, b, c] = mesh.triangles[prim].map(|i| mesh.vertices[i as usize].as_dvec3());
-            let p_hit = a + (b - a) * hit.u as f64 + (c - a) * hit.v as f64;
+            let p_hit = mesh.point(prim, hit.u, hit.v);
             let eps = self.scene.offset_at(p_hit);
             let material_id = mesh.material(prim);
             let material = &self.materials[material_id as usize];
+            if S::SURFACES {
+                sink.surface(
+                    &SurfaceEvent {
+                        point: p_hit,
+                        n_in,
+                        material,
+                        bounce: event,
+                    },
+                    colour,
+                );
+            }
 
             if let Some(d) = &material.dielectric {
                 // Smooth dielectric interface: Fresnel reflection or Snell refraction.
@@ -228,7 +259,7 @@ impl Tracer<'_> {
 
 /// Mirror reflection of `d` about unit normal `n`.
 #[inline]
-fn reflect(d: DVec3, n: DVec3) -> DVec3 {
+pub fn reflect(d: DVec3, n: DVec3) -> DVec3 {
     (d - n * (2.0 * d.dot(n))).normalize()
 }
 
@@ -236,7 +267,7 @@ fn reflect(d: DVec3, n: DVec3) -> DVec3 {
 /// cosine `cos_i` and relative index `eta` = n1/n2 (the caller handled total internal
 /// reflection: Fresnel is 1 there).
 #[inline]
-fn refract(d: DVec3, n: DVec3, cos_i: f64, eta: f64) -> DVec3 {
+pub fn refract(d: DVec3, n: DVec3, cos_i: f64, eta: f64) -> DVec3 {
     let sin_t2 = eta * eta * (1.0 - cos_i * cos_i);
     let cos_t = (1.0 - sin_t2).max(0.0).sqrt();
     (d * eta + n * (eta * cos_i - cos_t)).normalize()

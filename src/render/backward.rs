@@ -1,0 +1,441 @@
+//! Backward paths: from the camera through specular and refracting surfaces to the first
+//! diffuse surface, where the direct light is computed (light sampling and BSDF sampling,
+//! combined by multiple importance sampling with the power heuristic) and a backward photon
+//! is left for the forward photons to find (indirect and caustic light).
+//!
+//! Units: luminance is radiance per band, W/(m²·sr) (a band's share of the power, as the
+//! i-map's irradiance is W/m² per band). Emitting meshes are Lambertian: radiance M/π.
+
+use super::bmap::{BackwardPhoton, SampleBuf};
+use super::camera::Camera;
+use crate::accel::Accel;
+use crate::sampling::{warp, PhotonRng};
+use crate::scene::material::fresnel_dielectric;
+use crate::scene::{EmitterKind, LightShape, Material, PreparedScene, Scene};
+use crate::transport::{reflect, refract};
+use glam::DVec3;
+use std::f64::consts::PI;
+
+/// What a light gives in the render's units, per band.
+#[derive(Debug)]
+enum LightValue {
+    /// Radiant intensity, W/sr (point and spot lights).
+    Intensity(Vec<f64>),
+    /// Radiance of an emitting mesh, W/(m²·sr), and its emitting area (scene units²).
+    Radiance { radiance: Vec<f64>, area: f64 },
+}
+
+/// Gathering radius of a pixel's first sample: this many pixel footprints.
+pub const INITIAL_RADIUS_FOOTPRINTS: f64 = 4.0;
+
+/// Read-only state of the backward pass.
+pub struct EyeTracer<'a> {
+    pub scene: &'a PreparedScene,
+    pub accel: &'a Accel,
+    pub materials: &'a [Material],
+    pub camera: &'a Camera,
+    pub bands: usize,
+    pub unit_m: f64,
+    pub max_events: u32,
+    /// Fixed first radius (scene units), or 0 for a few pixel footprints.
+    pub initial_radius: f64,
+    /// Whether any material transmits diffusely (only then are BTDF weights kept).
+    pub transmit: bool,
+    lights: Vec<LightValue>,
+    /// Emitter index of each mesh that emits.
+    emitter_of_mesh: Vec<Option<u32>>,
+    has_mesh_emitters: bool,
+}
+
+/// Tallies of the backward pass.
+#[derive(Clone, Debug, Default)]
+pub struct EyeStats {
+    pub paths: u64,
+    pub rays: u64,
+    /// Paths stopped by the event safety limit.
+    pub dropped: u64,
+}
+
+impl<'a> EyeTracer<'a> {
+    #[allow(clippy::too_many_arguments)]
+    pub fn new(
+        source: &'a Scene,
+        scene: &'a PreparedScene,
+        accel: &'a Accel,
+        camera: &'a Camera,
+        max_events: u32,
+        initial_radius: f64,
+    ) -> Self {
+        let mut emitter_of_mesh = vec![None; scene.meshes.len()];
+        let lights = scene
+            .emitters
+            .iter()
+            .enumerate()
+            .map(|(e, em)| match &em.kind {
+                EmitterKind::Point | EmitterKind::Spot { .. } => {
+                    let l = &source.lights[e];
+                    let solid_angle = match l.shape {
+                        LightShape::Point => 4.0 * PI,
+                        LightShape::Spot { cos_half_angle, .. } => {
+                            2.0 * PI * (1.0 - cos_half_angle)
+                        }
+                    };
+                    LightValue::Intensity(l.power.iter().map(|p| p / solid_angle).collect())
+                }
+                EmitterKind::Mesh { mesh, .. } => {
+                    emitter_of_mesh[*mesh] = Some(e as u32);
+                    let m = &scene.meshes[*mesh];
+                    let area = (0..m.triangles.len()).map(|t| m.area(t)).sum();
+                    let exitance = source.meshes[*mesh].exitance.as_ref().expect("emits");
+                    LightValue::Radiance {
+                        radiance: exitance.iter().map(|x| x / PI).collect(),
+                        area,
+                    }
+                }
+            })
+            .collect::<Vec<_>>();
+        EyeTracer {
+            scene,
+            accel,
+            materials: &source.materials,
+            camera,
+            bands: source.bands.count(),
+            unit_m: source.unit_m,
+            max_events,
+            initial_radius,
+            transmit: source.materials.iter().any(|m| m.events[2]),
+            has_mesh_emitters: emitter_of_mesh.iter().any(Option::is_some),
+            lights,
+            emitter_of_mesh,
+        }
+    }
+
+    /// Radiance of mesh `mesh`'s emitting side seen along `dir` on triangle normal `ng`,
+    /// with the emitter's index, area and the cosine at the emitter.
+    #[inline]
+    fn emission(&self, mesh: u32, ng: DVec3, dir: DVec3) -> Option<(usize, &[f64], f64, f64)> {
+        let e = self.emitter_of_mesh[mesh as usize]? as usize;
+        let EmitterKind::Mesh { two_sided, .. } = self.scene.emitters[e].kind else {
+            return None;
+        };
+        let cos = -dir.dot(ng);
+        if cos <= 0.0 && !two_sided {
+            return None;
+        }
+        match &self.lights[e] {
+            LightValue::Radiance { radiance, area } => Some((e, radiance, *area, cos.abs())),
+            LightValue::Intensity(_) => None,
+        }
+    }
+
+    /// Traces one backward path through pixel `pixel` and appends its sample to `buf`:
+    /// the direct luminance, and a backward photon if the path found a diffuse surface.
+    /// `r2_pixel` is the pixel's current gathering radius² (0 before its first photon).
+    pub fn trace(
+        &self,
+        pixel: u32,
+        rng: &mut PhotonRng,
+        r2_pixel: f64,
+        buf: &mut SampleBuf,
+        beta: &mut Vec<f64>,
+        stats: &mut EyeStats,
+    ) {
+        let nb = self.bands;
+        let entry = buf.pixels.len() as u32;
+        buf.pixels.push(pixel);
+        let d0 = buf.direct.len();
+        buf.direct.resize(d0 + nb, 0.0);
+        beta.clear();
+        beta.resize(nb, 1.0);
+        let mut band: Option<usize> = None;
+        let w = self.camera.desc.width;
+        let mut org = self.camera.origin;
+        let mut dir = self
+            .camera
+            .ray(pixel % w, pixel / w, rng.uniform(), rng.uniform());
+        let mut path_len = 0.0;
+        let mut medium: Option<u32> = None;
+        stats.paths += 1;
+
+        for _ in 0..self.max_events {
+            stats.rays += 1;
+            let Some(hit) = self.accel.intersect(org, dir) else {
+                return;
+            };
+            path_len += hit.t;
+            if let Some(m) = medium {
+                if let Some(alpha) = self.materials[m as usize]
+                    .dielectric
+                    .as_ref()
+                    .and_then(|d| d.absorption_per_m.as_ref())
+                {
+                    let dist_m = hit.t * self.unit_m;
+                    for (b, a) in beta.iter_mut().zip(alpha) {
+                        *b *= (-a * dist_m).exp();
+                    }
+                }
+            }
+            let mesh = &self.scene.meshes[hit.mesh as usize];
+            let prim = hit.prim as usize;
+            let ng = mesh.normals[prim].as_dvec3();
+            let front = dir.dot(ng) < 0.0;
+            let n_in = if front { ng } else { -ng };
+            // Emission seen directly or through specular surfaces.
+            if let Some((_, radiance, _, _)) = self.emission(hit.mesh, ng, dir) {
+                for ((d, b), l) in buf.direct[d0..].iter_mut().zip(beta.iter()).zip(radiance) {
+                    *d += b * l;
+                }
+            }
+            let p_hit = mesh.point(prim, hit.u, hit.v);
+            let eps = self.scene.offset_at(p_hit);
+            let material_id = mesh.material(prim);
+            let material = &self.materials[material_id as usize];
+
+            if let Some(d) = &material.dielectric {
+                if d.dispersive && band.is_none() {
+                    band = Some(collapse(beta, rng.uniform()));
+                }
+                let n = d.ior[band.unwrap_or(0)];
+                let (n1, n2) = if front { (1.0, n) } else { (n, 1.0) };
+                let cos_i = (-dir.dot(n_in)).clamp(0.0, 1.0);
+                if rng.uniform() < fresnel_dielectric(cos_i, n1, n2) {
+                    dir = reflect(dir, n_in);
+                    org = p_hit + n_in * eps;
+                } else {
+                    dir = refract(dir, n_in, cos_i, n1 / n2);
+                    org = p_hit - n_in * eps;
+                    medium = front.then_some(material_id);
+                }
+                continue;
+            }
+
+            // Diffuse (reflection and transmission) or specular, chosen by weighted albedo.
+            let wd: f64 = (0..nb)
+                .map(|b| beta[b] * (material.diffuse_reflect[b] + material.diffuse_transmit[b]))
+                .sum();
+            let ws: f64 = if material.events[1] {
+                (0..nb)
+                    .map(|b| beta[b] * material.specular_reflect[b])
+                    .sum()
+            } else {
+                0.0
+            };
+            if wd + ws <= 0.0 {
+                return;
+            }
+            let pd = wd / (wd + ws);
+            if rng.uniform() >= pd {
+                let ps = 1.0 - pd;
+                for (b, k) in beta.iter_mut().zip(&material.specular_reflect) {
+                    *b *= k / ps;
+                }
+                dir = reflect(dir, n_in);
+                org = p_hit + n_in * eps;
+                continue;
+            }
+            // The first diffuse vertex: direct light here, and a backward photon.
+            let p0 = buf.w_reflect.len();
+            buf.w_reflect.extend(
+                beta.iter()
+                    .zip(&material.diffuse_reflect)
+                    .map(|(b, k)| b * k / (pd * PI)),
+            );
+            if self.transmit {
+                buf.w_transmit.extend(
+                    beta.iter()
+                        .zip(&material.diffuse_transmit)
+                        .map(|(b, k)| b * k / (pd * PI)),
+                );
+            }
+            let wt = self.transmit.then(|| &buf.w_transmit[p0..p0 + nb]);
+            self.direct_light(
+                p_hit,
+                n_in,
+                eps,
+                &buf.w_reflect[p0..p0 + nb],
+                wt,
+                rng,
+                &mut buf.direct[d0..d0 + nb],
+                stats,
+            );
+            let r2 = if r2_pixel > 0.0 {
+                r2_pixel
+            } else if self.initial_radius > 0.0 {
+                self.initial_radius * self.initial_radius
+            } else {
+                let r = INITIAL_RADIUS_FOOTPRINTS * path_len * self.camera.pixel_angle();
+                (r * r).max(eps * eps * 100.0)
+            };
+            buf.photons.push(BackwardPhoton {
+                pos: p_hit.as_vec3(),
+                r2: r2 as f32,
+                n: n_in.as_vec3(),
+                entry,
+            });
+            return;
+        }
+        stats.dropped += 1;
+    }
+
+    /// Direct light at a diffuse point: one light sample and (with emitting meshes) one
+    /// BSDF sample, weighted by the power heuristic. `w_r`/`w_t`: path weight × BRDF/BTDF.
+    #[allow(clippy::too_many_arguments)]
+    fn direct_light(
+        &self,
+        p: DVec3,
+        n_in: DVec3,
+        eps: f64,
+        w_r: &[f64],
+        w_t: Option<&[f64]>,
+        rng: &mut PhotonRng,
+        out: &mut [f64],
+        stats: &mut EyeStats,
+    ) {
+        let sr: f64 = w_r.iter().sum();
+        let st: f64 = w_t.map_or(0.0, |w| w.iter().sum());
+        if sr + st <= 0.0 {
+            return;
+        }
+        let p_reflect = sr / (sr + st);
+        // The weights and hemisphere probability on the side of direction `wi`.
+        let side = |cos: f64| -> Option<(&[f64], f64)> {
+            if cos > 0.0 && sr > 0.0 {
+                Some((w_r, p_reflect))
+            } else if cos < 0.0 && st > 0.0 {
+                Some((w_t.expect("st > 0"), 1.0 - p_reflect))
+            } else {
+                None
+            }
+        };
+        let table = &self.scene.emitter_table;
+
+        // Light sampling.
+        let e = table.sample(rng.uniform());
+        let pe = table.pdf(e);
+        let em = &self.scene.emitters[e];
+        let (u1, u2, u3) = (rng.uniform(), rng.uniform(), rng.uniform());
+        match (&em.kind, &self.lights[e]) {
+            (EmitterKind::Point | EmitterKind::Spot { .. }, LightValue::Intensity(intensity)) => {
+                let to = em.position - p;
+                let d2 = to.length_squared();
+                let wi = to / d2.sqrt();
+                if let EmitterKind::Spot { axis, cos_max } = em.kind {
+                    if -wi.dot(axis) < cos_max {
+                        return self.bsdf_sample(p, n_in, eps, p_reflect, &side, rng, out, stats);
+                    }
+                }
+                let cos = wi.dot(n_in);
+                if let Some((w, _)) = side(cos) {
+                    let org = p + n_in * (eps * cos.signum());
+                    stats.rays += 1;
+                    if !self.accel.occluded(org, wi, (em.position - org).length()) {
+                        let k = cos.abs() / (d2 * self.unit_m * self.unit_m * pe);
+                        for ((o, w), i) in out.iter_mut().zip(w).zip(intensity) {
+                            *o += w * i * k;
+                        }
+                    }
+                }
+            }
+            (
+                EmitterKind::Mesh {
+                    mesh, triangles, ..
+                },
+                LightValue::Radiance { radiance, area },
+            ) => {
+                let m = &self.scene.meshes[*mesh];
+                let t = triangles.sample(u1);
+                let (b1, b2) = warp::uniform_triangle(u2, u3);
+                let q = m.point(t, b1 as f32, b2 as f32);
+                let ng = m.normals[t].as_dvec3();
+                let to = q - p;
+                let d2 = to.length_squared();
+                let d = d2.sqrt();
+                let wi = to / d;
+                let cos = wi.dot(n_in);
+                if let (Some((w, ps)), Some(_)) = (side(cos), self.emission(*mesh as u32, ng, wi)) {
+                    let cos_l = wi.dot(ng).abs();
+                    let org = p + n_in * (eps * cos.signum());
+                    let t_max = (q - org).length() - 2.0 * self.scene.offset_at(q);
+                    stats.rays += 1;
+                    if cos_l > 0.0 && t_max > 0.0 && !self.accel.occluded(org, wi, t_max) {
+                        let pl = pe * d2 / (area * cos_l);
+                        let pb = ps * cos.abs() / PI;
+                        let k = cos.abs() / pl * pl * pl / (pl * pl + pb * pb);
+                        for ((o, w), l) in out.iter_mut().zip(w).zip(radiance) {
+                            *o += w * l * k;
+                        }
+                    }
+                }
+            }
+            _ => unreachable!("lights are built from the emitters"),
+        }
+        self.bsdf_sample(p, n_in, eps, p_reflect, &side, rng, out, stats);
+    }
+
+    /// The BSDF-sampling half of the direct light: a cosine-distributed direction on the
+    /// reflecting or transmitting side; counts only when it reaches an emitting mesh.
+    #[allow(clippy::too_many_arguments)]
+    fn bsdf_sample<'w>(
+        &self,
+        p: DVec3,
+        n_in: DVec3,
+        eps: f64,
+        p_reflect: f64,
+        side: &dyn Fn(f64) -> Option<(&'w [f64], f64)>,
+        rng: &mut PhotonRng,
+        out: &mut [f64],
+        stats: &mut EyeStats,
+    ) {
+        if !self.has_mesh_emitters {
+            return;
+        }
+        let n = if rng.uniform() < p_reflect {
+            n_in
+        } else {
+            -n_in
+        };
+        let wi = warp::cosine_hemisphere(n, rng.uniform(), rng.uniform());
+        let cos = wi.dot(n_in);
+        let Some((w, ps)) = side(cos) else {
+            return;
+        };
+        stats.rays += 1;
+        let Some(hit) = self.accel.intersect(p + n * eps, wi) else {
+            return;
+        };
+        let ng = self.scene.meshes[hit.mesh as usize].normals[hit.prim as usize].as_dvec3();
+        let Some((e, radiance, area, cos_l)) = self.emission(hit.mesh, ng, wi) else {
+            return;
+        };
+        if cos_l <= 0.0 {
+            return;
+        }
+        let pl = self.scene.emitter_table.pdf(e) * hit.t * hit.t / (area * cos_l);
+        let pb = ps * cos.abs() / PI;
+        let k = cos.abs() / pb * pb * pb / (pb * pb + pl * pl);
+        for ((o, w), l) in out.iter_mut().zip(w).zip(radiance) {
+            *o += w * l * k;
+        }
+    }
+}
+
+/// Collapses a path weight to one band chosen in proportion to its weight, keeping every
+/// band's expectation: the chosen band gets the total weight.
+fn collapse(beta: &mut [f64], u: f64) -> usize {
+    let total: f64 = beta.iter().sum();
+    let mut target = u * total;
+    let mut chosen = beta.len() - 1;
+    for (i, &b) in beta.iter().enumerate() {
+        if target < b {
+            chosen = i;
+            break;
+        }
+        target -= b;
+    }
+    while beta[chosen] == 0.0 && chosen > 0 {
+        chosen -= 1;
+    }
+    beta.iter_mut().for_each(|b| *b = 0.0);
+    beta[chosen] = total;
+    chosen
+}

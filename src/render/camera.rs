@@ -1,0 +1,152 @@
+//! The pinhole camera of a render.
+
+use crate::error::{bail, check_finite, Result};
+use glam::DVec3;
+
+/// Largest image side accepted.
+pub const MAX_IMAGE_SIDE: u32 = 16384;
+
+/// What the caller describes, in scene units.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CameraDesc {
+    pub position: [f64; 3],
+    /// Viewing direction (need not be unit length).
+    pub direction: [f64; 3],
+    /// Up vector; only its component across `direction` is used.
+    pub up: [f64; 3],
+    /// Full vertical field of view in degrees, in (0, 180).
+    pub fov_y_deg: f64,
+    pub width: u32,
+    pub height: u32,
+}
+
+/// A validated camera with its orthonormal frame (local, recentred coordinates).
+#[derive(Clone, Debug)]
+pub struct Camera {
+    pub desc: CameraDesc,
+    pub origin: DVec3,
+    forward: DVec3,
+    right: DVec3,
+    up: DVec3,
+    tan_half: f64,
+    aspect: f64,
+}
+
+impl Camera {
+    /// Validates `desc`; `scene_origin` is the point the prepared scene was recentred on.
+    pub fn new(desc: &CameraDesc, scene_origin: DVec3) -> Result<Self> {
+        check_finite("camera position", &desc.position)?;
+        check_finite("camera direction", &desc.direction)?;
+        check_finite("camera up", &desc.up)?;
+        check_finite("camera fov_y_deg", &[desc.fov_y_deg])?;
+        if !(desc.fov_y_deg > 0.0 && desc.fov_y_deg < 180.0) {
+            bail!(
+                ImapErrInvalidArgument,
+                "camera fov_y_deg = {} is not in (0, 180)",
+                desc.fov_y_deg
+            );
+        }
+        for (name, v) in [("width", desc.width), ("height", desc.height)] {
+            if v == 0 || v > MAX_IMAGE_SIDE {
+                bail!(
+                    ImapErrInvalidArgument,
+                    "camera {name} = {v} is not in 1..={MAX_IMAGE_SIDE}"
+                );
+            }
+        }
+        let d = DVec3::from(desc.direction);
+        if d.length() < 1e-300 {
+            bail!(
+                ImapErrInvalidArgument,
+                "camera direction is the zero vector"
+            );
+        }
+        let forward = d.normalize();
+        let up_in = DVec3::from(desc.up);
+        let right = forward.cross(up_in);
+        if up_in.length() < 1e-300 || right.length() < 1e-9 * up_in.length() {
+            bail!(
+                ImapErrInvalidArgument,
+                "camera up vector is zero or parallel to the viewing direction"
+            );
+        }
+        let right = right.normalize();
+        let up = right.cross(forward);
+        Ok(Camera {
+            desc: *desc,
+            origin: DVec3::from(desc.position) - scene_origin,
+            forward,
+            right,
+            up,
+            tan_half: (desc.fov_y_deg.to_radians() * 0.5).tan(),
+            aspect: desc.width as f64 / desc.height as f64,
+        })
+    }
+
+    pub fn pixels(&self) -> usize {
+        self.desc.width as usize * self.desc.height as usize
+    }
+
+    /// Unit direction through the point (x + jx, y + jy) of the image, pixel (0, 0) at the
+    /// top left, jx and jy in [0, 1).
+    #[inline]
+    pub fn ray(&self, x: u32, y: u32, jx: f64, jy: f64) -> DVec3 {
+        let sx =
+            (2.0 * (x as f64 + jx) / self.desc.width as f64 - 1.0) * self.tan_half * self.aspect;
+        let sy = (1.0 - 2.0 * (y as f64 + jy) / self.desc.height as f64) * self.tan_half;
+        (self.forward + self.right * sx + self.up * sy).normalize()
+    }
+
+    /// Angular size of a pixel at the image centre (radians): a surface at distance d shows
+    /// a pixel footprint of about d times this.
+    pub fn pixel_angle(&self) -> f64 {
+        2.0 * self.tan_half / self.desc.height as f64
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn desc() -> CameraDesc {
+        CameraDesc {
+            position: [0.0, 0.0, 5.0],
+            direction: [0.0, 0.0, -1.0],
+            up: [0.0, 1.0, 0.0],
+            fov_y_deg: 90.0,
+            width: 200,
+            height: 100,
+        }
+    }
+
+    #[test]
+    fn rays_span_the_field_of_view() {
+        let c = Camera::new(&desc(), DVec3::ZERO).unwrap();
+        let centre = c.ray(100, 50, 0.0, 0.0);
+        assert!((centre - DVec3::new(0.0, 0.0, -1.0)).length() < 1e-12);
+        // Top edge: 45° up; left edge: atan(2) to the left (aspect 2).
+        let top = c.ray(100, 0, 0.0, 0.0);
+        assert!((top.y / -top.z - 1.0).abs() < 1e-12);
+        let left = c.ray(0, 50, 0.0, 0.0);
+        assert!((left.x / left.z - 2.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn bad_cameras_are_refused() {
+        let mut d = desc();
+        d.up = [0.0, 0.0, 3.0];
+        assert!(Camera::new(&d, DVec3::ZERO).is_err());
+        let mut d = desc();
+        d.fov_y_deg = 180.0;
+        assert!(Camera::new(&d, DVec3::ZERO).is_err());
+        let mut d = desc();
+        d.width = 0;
+        assert!(Camera::new(&d, DVec3::ZERO).is_err());
+        let mut d = desc();
+        d.position[1] = f64::NAN;
+        assert_eq!(
+            Camera::new(&d, DVec3::ZERO).unwrap_err().status,
+            crate::error::ImapStatus::ImapErrNonFinite
+        );
+    }
+}
