@@ -158,6 +158,53 @@ int main(void) {
     expect("mesh added after a run", imap_add_mesh(ctx, &mesh, &id), IMAP_ERR_OUT_OF_ORDER, ctx);
     expect("light added after a run", imap_add_point_light(ctx, pos, &watts, 1, &id), IMAP_ERR_OUT_OF_ORDER, ctx);
 
+    /* Render: bad cameras and parameters refused before any work, then a real render,
+     * which leaves the illumination map as it was. */
+    ImapRenderReport rr;
+    expect("render report before any render", imap_get_render_report(ctx, &rr), IMAP_ERR_OUT_OF_ORDER, ctx);
+    ImapCamera cam;
+    memset(&cam, 0, sizeof cam);
+    cam.position[0] = 0.5, cam.position[1] = 0.5, cam.position[2] = 0.9;
+    cam.direction[2] = -1, cam.up[1] = 1, cam.fov_y_deg = 60, cam.width = 8, cam.height = 8;
+    ImapRenderParams rp;
+    expect("imap_render_params_default", imap_render_params_default(&rp), IMAP_OK, NULL);
+    rp.passes = 4;
+    double img[8 * 8 * 3], img_err[8 * 8];
+    expect("camera NULL", imap_render(ctx, NULL, &rp, img, 192, NULL, 0, NULL), IMAP_ERR_NULL_POINTER, ctx);
+    expect("params NULL", imap_render(ctx, &cam, NULL, img, 192, NULL, 0, NULL), IMAP_ERR_NULL_POINTER, ctx);
+    expect("radiance buffer NULL", imap_render(ctx, &cam, &rp, NULL, 192, NULL, 0, NULL), IMAP_ERR_NULL_POINTER, ctx);
+    expect("radiance buffer of 191 for 8 × 8 × 3", imap_render(ctx, &cam, &rp, img, 191, NULL, 0, NULL),
+           IMAP_ERR_BUFFER_TOO_SMALL, ctx);
+    expect("error buffer of 63 for 8 × 8", imap_render(ctx, &cam, &rp, img, 192, img_err, 63, NULL),
+           IMAP_ERR_BUFFER_TOO_SMALL, ctx);
+    rp.method = 7;
+    expect("render method 7", imap_render(ctx, &cam, &rp, img, 192, NULL, 0, NULL), IMAP_ERR_INVALID_ARGUMENT, ctx);
+    rp.method = IMAP_RENDER_SEMI_SYNC, rp.alpha = 1.5;
+    expect("alpha 1.5", imap_render(ctx, &cam, &rp, img, 192, NULL, 0, NULL), IMAP_ERR_INVALID_ARGUMENT, ctx);
+    rp.alpha = 0, rp.passes = 0;
+    expect("render without a stop criterion", imap_render(ctx, &cam, &rp, img, 192, NULL, 0, NULL),
+           IMAP_ERR_INVALID_ARGUMENT, ctx);
+    rp.passes = 4;
+    cam.fov_y_deg = 180;
+    expect("field of view 180°", imap_render(ctx, &cam, &rp, img, 192, NULL, 0, NULL), IMAP_ERR_INVALID_ARGUMENT, ctx);
+    cam.fov_y_deg = 60, cam.up[1] = 0, cam.up[2] = 1;
+    expect("up parallel to the view", imap_render(ctx, &cam, &rp, img, 192, NULL, 0, NULL), IMAP_ERR_INVALID_ARGUMENT,
+           ctx);
+    cam.up[1] = 1, cam.up[2] = 0, cam.position[0] = NAN;
+    expect("camera at NaN", imap_render(ctx, &cam, &rp, img, 192, NULL, 0, NULL), IMAP_ERR_NON_FINITE, ctx);
+    cam.position[0] = 0.5, cam.width = 0;
+    expect("image width 0", imap_render(ctx, &cam, &rp, img, 192, NULL, 0, NULL), IMAP_ERR_INVALID_ARGUMENT, ctx);
+    cam.width = 8;
+    expect("imap_render(valid)", imap_render(ctx, &cam, &rp, img, 192, img_err, 64, &rr), IMAP_OK, ctx);
+    /* The pixel looking straight down at the floor under the light: ρE/π, E = I/h². */
+    double centre = 0.5 * 10 / (4 * 3.14159265358979) / 3.14159265358979;
+    if (!(rr.passes >= 4 && rr.gate_violations == 0 && fabs(img[(4 * 8 + 4) * 3] / centre - 1) < 0.1))
+        printf("FAIL render: %.1f passes, %llu violations, centre pixel %g want about %g\n", rr.passes,
+               (unsigned long long)rr.gate_violations, img[(4 * 8 + 4) * 3], centre), failures++;
+    size_t hist_len = 0;
+    expect("render history length", imap_get_render_history(ctx, NULL, 0, &hist_len), IMAP_OK, ctx);
+    if (hist_len == 0 || hist_len != rr.history_len) printf("FAIL render history of %zu points\n", hist_len), failures++;
+
     /* Nothing accumulated was lost through all those errors. */
     imap_get_vertex_energy(ctx, floor_id, IMAP_SIDE_FRONT, 1, after, 4);
     if (memcmp(before, after, sizeof before) != 0 || !(before[0] > 0)) printf("FAIL map changed by failing calls\n"), failures++;

@@ -166,6 +166,26 @@
 #define IMAP_STOP_CANCELLED 4
 
 /**
+ * `ImapRenderParams::method`: all threads share one set of backward photon maps, phase
+ * by phase (paper §2.2, synchronous).
+ */
+#define IMAP_RENDER_SYNC 0
+
+/**
+ * Each thread renders the whole image with private maps and pixel store; the stores are
+ * merged at the end (memory grows with the thread count).
+ */
+#define IMAP_RENDER_ASYNC 1
+
+/**
+ * Two-level semi-synchronous method (paper §2.3, the default): groups of
+ * `group_threads` threads, each with its own random mask of 32×32-pixel tiles and its own
+ * maps, and lock-free access to the other groups' maps through their active-thread
+ * counters.
+ */
+#define IMAP_RENDER_SEMI_SYNC 2
+
+/**
  * Relative error reported for a vertex that received nothing or has no area: 1 (100 %).
  */
 #define NO_DATA_REL_ERROR 1.0
@@ -601,6 +621,186 @@ typedef struct {
 } ImapReport;
 
 /**
+ * What `imap_render` does. Initialise with `imap_render_params_default`; at least one
+ * stop criterion (passes, time budget, target error) or a callback is required.
+ */
+typedef struct {
+  /**
+   * `IMAP_RENDER_*`.
+   */
+  uint32_t method;
+  /**
+   * Semi-synchronous: threads per group (0 = 1; groups = threads / group_threads).
+   */
+  uint32_t group_threads;
+  /**
+   * Semi-synchronous: phases between re-randomised tile masks (0 = 4).
+   */
+  uint32_t remask_phases;
+  /**
+   * Safety limit on surface events per path (≥ 1); longer paths are dropped and counted
+   * in `ImapRenderReport::dropped_paths`.
+   */
+  uint32_t max_path_events;
+  /**
+   * Forward photons per pass over the image (0 = one per pixel).
+   */
+  uint64_t forward_per_pass;
+  /**
+   * Stop after this many samples per pixel, on average (0 = no limit).
+   */
+  uint64_t passes;
+  /**
+   * First gathering radius, scene units (0 = four pixel footprints at the first
+   * diffuse vertex).
+   */
+  double initial_radius;
+  /**
+   * Progressive radius reduction α in (0, 1) (0 = 2/3).
+   */
+  double alpha;
+  /**
+   * Wall-clock seconds the render may take; 0 = no limit.
+   */
+  double time_budget_s;
+  /**
+   * Stop when the estimated global relative error of the image is at or below this;
+   * 0 = none.
+   */
+  double target_rel_error;
+  /**
+   * Seconds between progress reports and stop checks (> 0).
+   */
+  double progress_interval_s;
+  /**
+   * Called as for `imap_run`; in the `ImapProgress` it receives, `photons` counts
+   * forward photons, `hits` backward paths (one per pixel sample) and `rel_error` is
+   * the image's estimated global relative error.
+   */
+  ImapProgressFn progress;
+  /**
+   * Passed to `progress` unchanged.
+   */
+  void *user_data;
+} ImapRenderParams;
+
+/**
+ * A pinhole camera, in scene units. Pixel rows run from the top of the image down.
+ */
+typedef struct {
+  /**
+   * Eye point.
+   */
+  double position[3];
+  /**
+   * Viewing direction (any non-zero length).
+   */
+  double direction[3];
+  /**
+   * Up vector; only its part across `direction` counts, and it must not be parallel.
+   */
+  double up[3];
+  /**
+   * Full vertical field of view, degrees, in (0, 180).
+   */
+  double fov_y_deg;
+  /**
+   * Image size in pixels, each side in 1..=16384.
+   */
+  uint32_t width;
+  uint32_t height;
+} ImapCamera;
+
+/**
+ * Figures of the last render.
+ */
+typedef struct {
+  /**
+   * Worker threads, groups of them, threads per group.
+   */
+  uint32_t threads;
+  uint32_t groups;
+  uint32_t threads_per_group;
+  /**
+   * `IMAP_STOP_*`: why the render stopped (`IMAP_STOP_PHOTONS` = the passes limit).
+   */
+  uint32_t stop_reason;
+  /**
+   * Group phases completed; each adds one sample to the pixels of its group's mask.
+   */
+  uint64_t phases;
+  /**
+   * Samples per pixel, averaged over the image.
+   */
+  double passes;
+  /**
+   * Backward paths (pixel samples) and the rays they traced (shadow rays included).
+   */
+  uint64_t backward_paths;
+  uint64_t backward_rays;
+  /**
+   * Forward photons from the lights and the rays they traced.
+   */
+  uint64_t forward_photons;
+  uint64_t forward_rays;
+  /**
+   * Forward photon hits that fell within a backward photon's radius.
+   */
+  uint64_t gathers;
+  /**
+   * Backward paths dropped at `max_path_events`.
+   */
+  uint64_t dropped_paths;
+  /**
+   * Wall time, s.
+   */
+  double wall_s;
+  /**
+   * Estimated global relative error of the image: RMS of the pixels' standard errors
+   * over their mean luminance.
+   */
+  double rel_error;
+  /**
+   * Seconds summed over groups (each measured by its leader thread): backward paths,
+   * building the maps, forward photons, closing the maps (tracing on while other groups
+   * still read them), finalizing the phase's samples.
+   */
+  double time_backward_s;
+  double time_build_s;
+  double time_forward_s;
+  double time_close_s;
+  double time_finalize_s;
+  /**
+   * Semi-synchronous: batches of forward photons traced into another group's maps.
+   */
+  uint64_t joins;
+  /**
+   * Extra forward batches owners traced while others still used their maps.
+   */
+  uint64_t close_retries;
+  /**
+   * Joins that found maps being rebuilt; the counter protocol keeps this 0.
+   */
+  uint64_t gate_violations;
+  /**
+   * Largest backward-photon-map memory of one group, bytes.
+   */
+  uint64_t map_bytes_per_group;
+  /**
+   * Pixel stores, bytes (one per thread for the asynchronous method).
+   */
+  uint64_t pixel_bytes;
+  /**
+   * All maps and pixel stores, bytes.
+   */
+  uint64_t total_bytes;
+  /**
+   * Points in the accuracy history (`imap_get_render_history`).
+   */
+  uint64_t history_len;
+} ImapRenderReport;
+
+/**
  * Representative wavelengths (nm) of the R, G and B bands, used by dispersion and by
  * wavelength-dependent indices of refraction in RGB mode.
  */
@@ -824,6 +1024,64 @@ ImapStatus imap_get_mesh_absorbed(const ImapContext *ctx, uint32_t mesh, double 
  * `ctx` is a live handle.
  */
 ImapStatus imap_reset(ImapContext *ctx);
+
+/**
+ * Fills `out` with render defaults: semi-synchronous, one thread per group, masks
+ * re-randomised every 4 phases, one forward photon per pixel per pass, radius of four
+ * pixel footprints reduced with α = 2/3, no stop criterion set (set at least one),
+ * progress every 0.5 s, at most 2^20 events per path, no callback.
+ *
+ * Returns IMAP_ERR_NULL_POINTER when `out` is NULL. Thread-safe.
+ */
+ImapStatus imap_render_params_default(ImapRenderParams *out);
+
+/**
+ * Renders what `camera` sees: radiance (luminance per band) in W/(m²·sr) — the lights'
+ * power unit per m² (`ImapConfig::unit_m`) per steradian — by stochastic progressive
+ * backward photon mapping, until a stop criterion of `params` is met. Blocks the calling
+ * thread, which runs the progress callback. Uses the context's scene, thread count and
+ * seed; neither reads nor changes the illumination map. Every call starts a new image.
+ *
+ * `out_radiance` receives `width × height × bands` doubles, pixel by pixel from the top
+ * left, row by row, the bands of a pixel together (`radiance_count` must be at least
+ * that). `out_rel_error` (may be NULL) receives `width × height` relative standard
+ * errors of each pixel's band-mean radiance (1 where nothing was seen). `report` (may be
+ * NULL) receives the report, which `imap_get_render_report` also keeps.
+ *
+ * Returns IMAP_ERR_NULL_POINTER, IMAP_ERR_INVALID_ARGUMENT (camera, method, no stop
+ * criterion, negative values), IMAP_ERR_NON_FINITE, IMAP_ERR_BUFFER_TOO_SMALL (checked
+ * before any work), IMAP_ERR_NO_GEOMETRY, IMAP_ERR_NO_LIGHT, IMAP_ERR_MEMORY_BUDGET,
+ * IMAP_ERR_EMBREE, IMAP_ERR_BUSY, IMAP_ERR_THREAD_LOST (a worker thread panicked: the
+ * render stopped, the buffers and the report still hold what was rendered until then).
+ *
+ * # Safety
+ * `ctx` is a live handle; `camera` and `params` point to initialised structs;
+ * `out_radiance` holds `radiance_count` writable doubles; `out_rel_error` is NULL or
+ * holds `rel_error_count` writable doubles; `report` is NULL or writable; the callback,
+ * if any, is callable with `user_data`.
+ */
+ImapStatus imap_render(ImapContext *ctx, const ImapCamera *camera, const ImapRenderParams *params, double *out_radiance, size_t radiance_count, double *out_rel_error, size_t rel_error_count, ImapRenderReport *report);
+
+/**
+ * The report of the last render (since the last reset) into `*out`.
+ *
+ * Returns IMAP_ERR_NULL_POINTER, IMAP_ERR_OUT_OF_ORDER (no render yet), IMAP_ERR_BUSY.
+ *
+ * # Safety
+ * `ctx` is a live handle; `out` points to writable storage.
+ */
+ImapStatus imap_get_render_report(const ImapContext *ctx, ImapRenderReport *out);
+
+/**
+ * Copies up to `capacity` points of the last render's accuracy-against-time history
+ * (oldest first; `photons` = forward photons, `hits` = backward paths, `rel_error` = the
+ * image's estimated global relative error) into `out` (may be NULL when `capacity` is 0)
+ * and writes the total number of points to `*out_count` (0 before any render).
+ *
+ * # Safety
+ * `ctx` is a live handle; `out` holds `capacity` writable points; `out_count` is writable.
+ */
+ImapStatus imap_get_render_history(const ImapContext *ctx, ImapProgress *out, size_t capacity, size_t *out_count);
 
 #ifdef __cplusplus
 }  // extern "C"

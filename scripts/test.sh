@@ -15,8 +15,8 @@ JOBS=$(nproc)
 echo "== cargo test (release: shares the build with CMake)"
 cargo test --release --workspace --all-targets
 
-echo "== loom: every interleaving of the vertex-group split protocol"
-RUSTFLAGS="--cfg loom" CARGO_TARGET_DIR=target/loom cargo test --release --test loom_groups
+echo "== loom: the vertex-group split protocol and the photon maps' active-thread counter"
+RUSTFLAGS="--cfg loom" CARGO_TARGET_DIR=target/loom cargo test --release --test loom_groups --test loom_gate
 
 echo "== CMake build tree: C and C++ examples under ctest"
 cmake -S . -B build -DCMAKE_BUILD_TYPE=Release -DIMAP_EMBREE_DIR="$EMBREE_DIR" >/dev/null

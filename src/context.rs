@@ -2,7 +2,7 @@
 //! history. The C ABI in `ffi/` is a thin layer over this.
 
 use crate::accel::{Accel, Device};
-use crate::error::{bail, check_finite, Result};
+use crate::error::{bail, check_finite, Error, ImapStatus, Result};
 use crate::imap::{IMap, Readout};
 use crate::render::{
     self, Camera, CameraDesc, EyeTracer, Image, RenderMethod, RenderParams, RenderReport,
@@ -107,6 +107,8 @@ pub struct Context {
     elapsed_s: f64,
     history: Vec<Progress>,
     last_run: Option<(u64, u64, f64, StopReason, Counters, usize)>,
+    /// The last render's report (with its accuracy history); `None` before the first.
+    last_render: Option<RenderReport>,
 }
 
 impl Context {
@@ -133,6 +135,7 @@ impl Context {
             elapsed_s: 0.0,
             history: Vec::new(),
             last_run: None,
+            last_render: None,
         })
     }
 
@@ -269,6 +272,7 @@ impl Context {
         self.elapsed_s = 0.0;
         self.history.clear();
         self.last_run = None;
+        self.last_render = None;
     }
 
     /// The prepared scene and its BVH (built on first use after a change).
@@ -400,12 +404,38 @@ impl Context {
     }
 
     /// Renders the camera's view (camera luminance by backward photon maps). Independent of
-    /// the illumination map: neither reads nor changes it, and allocates none.
+    /// the illumination map: neither reads nor changes it, and allocates none. The report is
+    /// also kept (`render_report`). When a worker thread is lost the render stops and this
+    /// returns `ImapErrThreadLost`; `render_partial` gives the image rendered until then.
     pub fn render(
         &mut self,
         camera: &CameraDesc,
         params: &mut RenderParams,
     ) -> Result<(Image, RenderReport)> {
+        let (image, report, lost) = self.render_partial(camera, params)?;
+        match lost {
+            Some(e) => Err(e),
+            None => Ok((image, report)),
+        }
+    }
+
+    /// The report of the last render since the last reset.
+    pub fn render_report(&self) -> Option<&RenderReport> {
+        self.last_render.as_ref()
+    }
+
+    /// Bands of the scene (the image has this many values per pixel).
+    pub fn bands(&self) -> usize {
+        self.scene.bands.count()
+    }
+
+    /// As `render`, but a lost worker thread still yields the image rendered until the
+    /// render stopped, with the error beside it.
+    pub fn render_partial(
+        &mut self,
+        camera: &CameraDesc,
+        params: &mut RenderParams,
+    ) -> Result<(Image, RenderReport, Option<Error>)> {
         check_finite(
             "render parameters",
             &[
@@ -486,10 +516,14 @@ impl Context {
             max_events: params.max_path_events,
         };
         let (image, report, lost) = render::render(&eye, fwd, params, threads, self.config.seed);
-        if let Some(why) = lost {
-            bail!(ImapErrThreadLost, "{why}; the render was stopped");
-        }
-        Ok((image, report))
+        self.last_render = Some(report.clone());
+        let lost = lost.map(|why| {
+            Error::new(
+                ImapStatus::ImapErrThreadLost,
+                format!("{why}; the render was stopped and its image holds what was rendered until then"),
+            )
+        });
+        Ok((image, report, lost))
     }
 
     /// Totals since the last reset and the last run's figures.

@@ -605,3 +605,127 @@ pub fn build(ctx: &mut Context, kind: SceneKind, scale: f64) -> Result<Built> {
     }
     Ok(built)
 }
+
+/// Side of the Cornell box, mm.
+const CORNELL_SIDE_MM: f64 = 555.0;
+
+/// Reflectance of a wall given at the R, G and B wavelengths (650, 550, 450 nm) in the
+/// context's bands: RGB as is, spectral bands piecewise linear between them and constant
+/// beyond (as `c_examples/cornell_scene.h` does).
+fn rgb_in_bands(bands: &crate::scene::Bands, rgb: [f64; 3]) -> Vec<f64> {
+    if bands.rgb {
+        return rgb.to_vec();
+    }
+    let [r, g, b] = rgb;
+    let at = |nm: f64| match nm {
+        nm if nm <= 450.0 => b,
+        nm if nm <= 550.0 => b + (g - b) * (nm - 450.0) / 100.0,
+        nm if nm <= 650.0 => g + (r - g) * (nm - 550.0) / 100.0,
+        _ => r,
+    };
+    bands.wavelengths_nm.iter().map(|&nm| at(nm)).collect()
+}
+
+/// The Cornell box of the C examples (`c_examples/cornell_scene.h`), in millimetres (use
+/// `unit_m = 0.001`): the 555 mm room with white floor, ceiling and back wall, the red wall
+/// at x = 555 and the green one at x = 0, two white blocks, and a 130 × 105 mm lamp under
+/// the ceiling emitting 17 W per band. Walls are n × n cells. With `open_front` the wall at
+/// z = 0 is left out so that `cornell_camera` can look in; nothing records then (a render
+/// needs no illumination map), otherwise every wall records.
+pub fn cornell_box(ctx: &mut Context, open_front: bool, n: usize) -> Result<Built> {
+    let n = n.max(1);
+    let bands = ctx.scene().bands.clone();
+    let mut material = |rgb: [f64; 3]| {
+        ctx.add_material(&MaterialDesc {
+            diffuse_reflect: rgb_in_bands(&bands, rgb),
+            ..Default::default()
+        })
+    };
+    let white = material([0.73, 0.73, 0.73])?;
+    let red = material([0.63, 0.065, 0.05])?;
+    let green = material([0.14, 0.45, 0.091])?;
+    let black = ctx.add_material(&MaterialDesc::default())?;
+    let l = CORNELL_SIDE_MM;
+    let mut room = Tess::default();
+    room.quad([0.0; 3], [0.0, 0.0, l], [l, 0.0, 0.0], n, n, 0); // floor, +y
+    room.quad([0.0, l, 0.0], [l, 0.0, 0.0], [0.0, 0.0, l], n, n, 0); // ceiling, −y
+    room.quad([0.0, 0.0, l], [0.0, l, 0.0], [l, 0.0, 0.0], n, n, 0); // back, −z
+    if !open_front {
+        room.quad([0.0; 3], [l, 0.0, 0.0], [0.0, l, 0.0], n, n, 0); // front, +z
+    }
+    room.quad([l, 0.0, 0.0], [0.0, 0.0, l], [0.0, l, 0.0], n, n, 1); // red, −x
+    room.quad([0.0; 3], [0.0, l, 0.0], [0.0, 0.0, l], n, n, 2); // green, +x
+                                                                // Blocks: centre (x, z), half side, height, rotation about y; faces out.
+    for (cx, cz, h, angle, cells) in [
+        (185.0, 169.0, 165.0, -0.29_f64, (n / 4).max(1)),
+        (368.0, 351.0, 330.0, 0.29, (n / 3).max(1)),
+    ] {
+        let (c, s) = (angle.cos(), angle.sin());
+        let hx = 82.5;
+        let ex = [2.0 * hx * c, 0.0, -2.0 * hx * s];
+        let ez = [2.0 * hx * s, 0.0, 2.0 * hx * c];
+        let ey = [0.0, h, 0.0];
+        let corner = [cx - hx * c - hx * s, 0.0, cz + hx * s - hx * c];
+        let add = |a: [f64; 3], b: [f64; 3]| [a[0] + b[0], a[1] + b[1], a[2] + b[2]];
+        let neg = |a: [f64; 3]| [-a[0], -a[1], -a[2]];
+        let far_x = add(corner, ex);
+        let far_xz = add(far_x, ez);
+        let far_z = add(corner, ez);
+        room.quad(add(corner, ey), ez, ex, cells, cells, 0); // top
+        room.quad(corner, ey, ex, cells, cells, 0);
+        room.quad(far_x, ey, ez, cells, cells, 0);
+        room.quad(far_xz, ey, neg(ex), cells, cells, 0);
+        room.quad(far_z, ey, neg(ez), cells, cells, 0);
+    }
+    let mats = [white, red, green];
+    let triangle_materials: Vec<u32> = room.parts.iter().map(|&p| mats[p as usize]).collect();
+    let walls = ctx.add_mesh(&MeshDesc {
+        positions: &room.positions,
+        indices: &room.indices,
+        material: white,
+        triangle_materials: Some(&triangle_materials),
+        two_sided: false,
+        record: !open_front,
+        exitance: None,
+    })?;
+    let mut lamp = Tess::default();
+    lamp.quad(
+        [213.0, l - 0.5, 227.0],
+        [130.0, 0.0, 0.0],
+        [0.0, 0.0, 105.0],
+        1,
+        1,
+        0,
+    );
+    let exitance = [17.0 / (0.130 * 0.105)];
+    let lamp_id = ctx.add_mesh(&MeshDesc {
+        positions: &lamp.positions,
+        indices: &lamp.indices,
+        material: black,
+        triangle_materials: None,
+        two_sided: false,
+        record: false,
+        exitance: Some(&exitance),
+    })?;
+    Ok(Built {
+        meshes: vec![walls, lamp_id],
+        objects: 3,
+        triangles: (room.indices.len() + lamp.indices.len()) / 3,
+        vertices: (room.positions.len() + lamp.positions.len()) / 3,
+        parts: 4,
+        lights: 1,
+    })
+}
+
+/// The classic view into the open Cornell box: from (278, 273, −800) mm along +z, 39.3°
+/// vertical field of view.
+pub fn cornell_camera(width: u32, height: u32) -> crate::render::CameraDesc {
+    crate::render::CameraDesc {
+        position: [278.0, 273.0, -800.0],
+        direction: [0.0, 0.0, 1.0],
+        up: [0.0, 1.0, 0.0],
+        fov_y_deg: 39.3,
+        width,
+        height,
+    }
+}

@@ -103,3 +103,301 @@ fn integrating_sphere_radiance_is_rho_e_over_pi() {
         assert_eq!(rep.gate_violations, 0);
     }
 }
+
+/// The unit vectors of a camera's frame, as `Camera` builds them.
+fn frame(cam: &CameraDesc) -> ([f64; 3], [f64; 3], [f64; 3]) {
+    let f = cam.direction;
+    let f = [f[0] / norm(f), f[1] / norm(f), f[2] / norm(f)];
+    let r = cross(f, cam.up);
+    let r = [r[0] / norm(r), r[1] / norm(r), r[2] / norm(r)];
+    (f, r, cross(r, f))
+}
+
+/// The unit ray through the centre of pixel (x, y).
+fn pixel_ray(cam: &CameraDesc, x: u32, y: u32) -> [f64; 3] {
+    let (f, r, u) = frame(cam);
+    let t = (cam.fov_y_deg.to_radians() / 2.0).tan();
+    let a = cam.width as f64 / cam.height as f64;
+    let sx = (2.0 * (x as f64 + 0.5) / cam.width as f64 - 1.0) * t * a;
+    let sy = (1.0 - 2.0 * (y as f64 + 0.5) / cam.height as f64) * t;
+    let d = [0, 1, 2].map(|k| f[k] + r[k] * sx + u[k] * sy);
+    d.map(|c| c / norm(d))
+}
+
+/// Where the ray through pixel (x, y) meets the plane z = 0, if in front of the camera.
+fn floor_point(cam: &CameraDesc, x: u32, y: u32) -> Option<[f64; 3]> {
+    let d = pixel_ray(cam, x, y);
+    let t = -cam.position[2] / d[2];
+    (t > 0.0).then(|| [0, 1, 2].map(|k| cam.position[k] + t * d[k]))
+}
+
+/// A point light over a Lambertian floor: direct light only (nothing to interreflect), by
+/// light sampling: L = ρ/π · I·h/d³ per pixel.
+#[test]
+fn floor_under_a_point_light() {
+    let mut ctx = context(Config {
+        threads: 2,
+        ..Default::default()
+    });
+    let rho = 0.5;
+    let m = lambert(&mut ctx, rho);
+    let g = grid(8, -4.0, 4.0, -4.0, 4.0, 0.0);
+    ctx.add_mesh(&g.desc(m)).unwrap();
+    let h = 1.0;
+    ctx.add_point_light([0.0, 0.0, h], &[4.0 * PI]).unwrap();
+    let cam = CameraDesc {
+        position: [0.0, 0.0, 3.0],
+        direction: [0.0, 0.0, -1.0],
+        up: [0.0, 1.0, 0.0],
+        fov_y_deg: 60.0,
+        width: 48,
+        height: 48,
+    };
+    let (img, _) = render(&mut ctx, &cam, &mut params(RenderMethod::Synchronous, 16));
+    let mut truths = Vec::new();
+    for y in 0..48 {
+        for x in 0..48 {
+            let p = floor_point(&cam, x, y).unwrap();
+            let d2 = p[0] * p[0] + p[1] * p[1] + h * h;
+            truths.push(((y * 48 + x) as usize, rho / PI * h / (d2 * d2.sqrt())));
+        }
+    }
+    let (dev, est) = compare(&img, &truths, false);
+    eprintln!("point light on a floor: rms deviation {dev:.2e}, estimated {est:.2e}");
+    // The only noise is where in its pixel a ray lands; the estimate must see it.
+    assert!(est < 0.02, "estimated error {est}");
+    assert!(
+        dev < 1.5 * est + 1e-3,
+        "rms relative deviation {dev} against the estimate {est}"
+    );
+}
+
+/// Irradiance at `x` (normal +z) from a Lambertian polygon of radiance `l`: the polygon
+/// form of Lambert's formula, E = L/2 · |Σ θᵢ n·(aᵢ×bᵢ)/|aᵢ×bᵢ||.
+fn polygon_irradiance(x: [f64; 3], poly: &[[f64; 3]], l: f64) -> f64 {
+    let mut s = 0.0;
+    for i in 0..poly.len() {
+        let a = sub(poly[i], x);
+        let b = sub(poly[(i + 1) % poly.len()], x);
+        let c = cross(a, b);
+        let theta = (dot(a, b) / (norm(a) * norm(b))).clamp(-1.0, 1.0).acos();
+        s += theta * c[2] / norm(c);
+    }
+    l / 2.0 * s.abs()
+}
+
+/// A square emitting mesh over a floor, seen from the side: direct light from an area
+/// light by light sampling and BSDF sampling combined (MIS), against Lambert's polygon
+/// formula. The emitter is black, so there is no indirect light; RGB bands with different
+/// exitance check the per-band bookkeeping.
+#[test]
+fn floor_under_an_area_light_with_mis() {
+    let rho = 0.7;
+    let floor = grid(8, -4.0, 4.0, -4.0, 4.0, 0.0);
+    let lamp = grid(2, -0.5, 0.5, -0.5, 0.5, 1.0).flipped();
+    let exitance = [PI, 2.0 * PI, 0.5 * PI];
+    let mut ctx = context(Config {
+        threads: 2,
+        ..Default::default()
+    });
+    let m = lambert(&mut ctx, rho);
+    let black = lambert(&mut ctx, 0.0);
+    ctx.add_mesh(&floor.desc(m)).unwrap();
+    let mut d = lamp.desc(black);
+    d.exitance = Some(&exitance);
+    ctx.add_mesh(&d).unwrap();
+    let cam = CameraDesc {
+        position: [3.0, -1.0, 2.0],
+        direction: [-3.0, 1.0, -2.0],
+        up: [0.0, 0.0, 1.0],
+        fov_y_deg: 50.0,
+        width: 48,
+        height: 40,
+    };
+    let (img, rep) = render(
+        &mut ctx,
+        &cam,
+        &mut params(RenderMethod::SemiSynchronous, 64),
+    );
+    let square = [
+        [-0.5, -0.5, 1.0],
+        [0.5, -0.5, 1.0],
+        [0.5, 0.5, 1.0],
+        [-0.5, 0.5, 1.0],
+    ];
+    for (band, &m) in exitance.iter().enumerate() {
+        let mut truths = Vec::new();
+        let mut vals = Vec::new();
+        let mut est = 0.0;
+        for y in 0..40 {
+            for x in 0..48 {
+                let Some(p) = floor_point(&cam, x, y) else {
+                    continue;
+                };
+                // Skip pixels that see the lamp or whose ray passes near its edge.
+                let d = pixel_ray(&cam, x, y);
+                let t = (1.0 - cam.position[2]) / d[2];
+                let q = [0, 1].map(|k| cam.position[k] + t * d[k]);
+                if q[0].abs() < 0.6 && q[1].abs() < 0.6 || p[0].abs() > 3.9 || p[1].abs() > 3.9 {
+                    continue;
+                }
+                let pix = (y * 48 + x) as usize;
+                let e = polygon_irradiance(p, &square, m / PI);
+                truths.push(rho * e / PI);
+                vals.push(img.radiance[pix * 3 + band]);
+                est += img.rel_error[pix].powi(2);
+            }
+        }
+        let dev = (truths
+            .iter()
+            .zip(&vals)
+            .map(|(t, v)| ((v - t) / t).powi(2))
+            .sum::<f64>()
+            / truths.len() as f64)
+            .sqrt();
+        let est = (est / truths.len() as f64).sqrt();
+        let mean_t: f64 = truths.iter().sum::<f64>();
+        let mean_v: f64 = vals.iter().sum::<f64>();
+        eprintln!(
+            "area light, band {band}: {} pixels, sum ratio {:.4}, rms deviation {dev:.4}, estimated {est:.4} (global {:.4})",
+            truths.len(),
+            mean_v / mean_t,
+            rep.rel_error
+        );
+        assert!((mean_v / mean_t - 1.0).abs() < 0.01, "band {band}");
+        assert!(
+            dev < 1.3 * est && dev > 0.5 * est,
+            "band {band}: rms relative deviation {dev} against the estimate {est}"
+        );
+    }
+}
+
+/// The three methods render the same closed room (direct and indirect light) to the same
+/// image within their error estimates.
+#[test]
+fn the_three_methods_converge_to_the_same_image() {
+    let build = || {
+        let mut ctx = context(Config {
+            threads: 2,
+            seed: 9,
+            ..Default::default()
+        });
+        let white = lambert(&mut ctx, 0.7);
+        let red = ctx
+            .add_material(&imap::MaterialDesc {
+                diffuse_reflect: vec![0.6, 0.1, 0.1],
+                ..Default::default()
+            })
+            .unwrap();
+        let black = lambert(&mut ctx, 0.0);
+        let room = cuboid([-1.0, -1.0, 0.0], [1.0, 1.0, 2.0], 4, true);
+        ctx.add_mesh(&room.desc(white)).unwrap();
+        let block = cuboid([-0.6, -0.3, 0.0], [0.0, 0.3, 0.8], 2, false);
+        ctx.add_mesh(&block.desc(red)).unwrap();
+        let lamp = grid(1, -0.3, 0.3, -0.3, 0.3, 1.98).flipped();
+        let mut d = lamp.desc(black);
+        d.exitance = Some(&[20.0]);
+        ctx.add_mesh(&d).unwrap();
+        ctx
+    };
+    let cam = CameraDesc {
+        position: [0.0, -0.95, 1.0],
+        direction: [0.0, 1.0, -0.1],
+        up: [0.0, 0.0, 1.0],
+        fov_y_deg: 70.0,
+        width: 64,
+        height: 64,
+    };
+    let mut images = Vec::new();
+    for method in [
+        RenderMethod::Synchronous,
+        RenderMethod::Asynchronous,
+        RenderMethod::SemiSynchronous,
+    ] {
+        let mut ctx = build();
+        let (img, rep) = render(&mut ctx, &cam, &mut params(method, 32));
+        assert_eq!(rep.gate_violations, 0);
+        images.push((method, img, rep));
+    }
+    let mean = |img: &Image| img.radiance.iter().sum::<f64>() / img.radiance.len() as f64;
+    for i in 0..3 {
+        for j in i + 1..3 {
+            let (a, b) = (&images[i], &images[j]);
+            let (mut d2, mut s2) = (0.0, 0.0);
+            for p in 0..64 * 64 {
+                let va = a.1.radiance[p * 3..][..3].iter().sum::<f64>() / 3.0;
+                let vb = b.1.radiance[p * 3..][..3].iter().sum::<f64>() / 3.0;
+                d2 += (va - vb).powi(2);
+                s2 += (a.1.rel_error[p] * va).powi(2) + (b.1.rel_error[p] * vb).powi(2);
+            }
+            let ratio = (d2 / s2).sqrt();
+            let (ma, mb) = (mean(&a.1), mean(&b.1));
+            eprintln!(
+                "{:?} vs {:?}: means {ma:.5} / {mb:.5}, rms difference / estimated = {ratio:.3}",
+                a.0, b.0
+            );
+            // Each image's own error estimate (sample variance over phases) also holds the
+            // drift of the shrinking radius, so it is an upper bound here.
+            assert!(
+                ratio < 1.5,
+                "{:?} vs {:?}: pixel differences are {ratio} × their estimated errors",
+                a.0,
+                b.0
+            );
+            assert!((ma / mb - 1.0).abs() < 0.03, "image means {ma} and {mb}");
+        }
+    }
+}
+
+/// Many groups and tiny phases on few cores: maps open and close thousands of times while
+/// other groups join them. The counter protocol must never let a joiner see maps that are
+/// not open (each join checks the owner's epoch before and after), forward photons must
+/// really be shared, and the image must still be right.
+#[test]
+fn the_counter_protocol_holds_under_many_groups_and_tiny_phases() {
+    for (threads, group_threads) in [(12, 1), (9, 3)] {
+        let mut ctx = context(Config {
+            threads,
+            seed: 21,
+            ..Default::default()
+        });
+        let rho = 0.5;
+        let wall = lambert(&mut ctx, rho);
+        let g = sphere_inward(1.0, 4);
+        ctx.add_mesh(&g.desc(wall)).unwrap();
+        ctx.add_point_light([0.0; 3], &[10.0]).unwrap();
+        let area: f64 = vertex_areas(&g).iter().sum();
+        let truth = rho / PI * (10.0 / (4.0 * PI) + rho * 10.0 / ((1.0 - rho) * area));
+        let cam = CameraDesc {
+            position: [0.0, 0.0, 0.0],
+            direction: [1.0, 0.3, 0.1],
+            up: [0.0, 0.0, 1.0],
+            fov_y_deg: 90.0,
+            width: 128,
+            height: 128,
+        };
+        let mut p = params(RenderMethod::SemiSynchronous, 24);
+        p.group_threads = group_threads;
+        p.remask_phases = 2;
+        p.forward_per_pass = 4 * 128 * 128;
+        let (img, rep) = render(&mut ctx, &cam, &mut p);
+        let mean = img.radiance.iter().step_by(3).sum::<f64>() / (128.0 * 128.0);
+        eprintln!(
+            "{} groups × {}: {} phases, {} joins, {} close retries, mean {:+.2} %",
+            rep.groups,
+            rep.threads_per_group,
+            rep.phases,
+            rep.joins,
+            rep.close_retries,
+            (mean / truth - 1.0) * 100.0
+        );
+        assert_eq!(rep.groups, threads / group_threads);
+        assert_eq!(rep.gate_violations, 0);
+        assert!(rep.joins > 100, "only {} joins", rep.joins);
+        assert!(
+            (mean / truth - 1.0).abs() < 0.015,
+            "mean {mean}, truth {truth}"
+        );
+        assert!((rep.passes - 24.0).abs() < 1.5, "{} passes", rep.passes);
+    }
+}

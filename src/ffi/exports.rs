@@ -6,6 +6,7 @@ use super::{
 };
 use crate::context::{Config, Context, Report, SchedulerKind};
 use crate::error::{bail, ImapStatus, Result};
+use crate::render::{CameraDesc, RenderMethod, RenderParams, RenderReport};
 use crate::scene::{Bands, IorModel, MaterialDesc, MeshDesc};
 use crate::sched::dynamic::DynamicParams;
 use crate::sched::{Progress, RunParams, StopReason};
@@ -447,6 +448,16 @@ fn progress_to_c(p: &Progress) -> ImapProgress {
     }
 }
 
+fn stop_to_c(stop: Option<StopReason>) -> u32 {
+    match stop {
+        None => IMAP_STOP_NONE,
+        Some(StopReason::PhotonCount) => IMAP_STOP_PHOTONS,
+        Some(StopReason::TimeBudget) => IMAP_STOP_TIME,
+        Some(StopReason::TargetError) => IMAP_STOP_TARGET_ERROR,
+        Some(StopReason::Cancelled) => IMAP_STOP_CANCELLED,
+    }
+}
+
 fn report_to_c(r: &Report, history_len: usize) -> ImapReport {
     ImapReport {
         photons: r.photons,
@@ -456,13 +467,7 @@ fn report_to_c(r: &Report, history_len: usize) -> ImapReport {
         run_photons: r.run_photons,
         run_hits: r.run_hits,
         run_wall_s: r.run_wall_s,
-        stop_reason: match r.stop {
-            None => IMAP_STOP_NONE,
-            Some(StopReason::PhotonCount) => IMAP_STOP_PHOTONS,
-            Some(StopReason::TimeBudget) => IMAP_STOP_TIME,
-            Some(StopReason::TargetError) => IMAP_STOP_TARGET_ERROR,
-            Some(StopReason::Cancelled) => IMAP_STOP_CANCELLED,
-        },
+        stop_reason: stop_to_c(r.stop),
         threads: r.threads as u32,
         emitted_w: r.emitted_w,
         absorbed_w: r.absorbed_w,
@@ -647,5 +652,223 @@ pub unsafe extern "C" fn imap_reset(ctx: *mut ImapContext) -> ImapStatus {
     with_context(ctx, |c| {
         c.reset();
         Ok(())
+    })
+}
+
+/// Fills `out` with render defaults: semi-synchronous, one thread per group, masks
+/// re-randomised every 4 phases, one forward photon per pixel per pass, radius of four
+/// pixel footprints reduced with α = 2/3, no stop criterion set (set at least one),
+/// progress every 0.5 s, at most 2^20 events per path, no callback.
+///
+/// Returns IMAP_ERR_NULL_POINTER when `out` is NULL. Thread-safe.
+#[no_mangle]
+pub extern "C" fn imap_render_params_default(out: *mut ImapRenderParams) -> ImapStatus {
+    boundary(None, || {
+        write_out(
+            "out",
+            out,
+            ImapRenderParams {
+                method: IMAP_RENDER_SEMI_SYNC,
+                group_threads: 1,
+                remask_phases: 4,
+                max_path_events: 1 << 20,
+                forward_per_pass: 0,
+                passes: 0,
+                initial_radius: 0.0,
+                alpha: 2.0 / 3.0,
+                time_budget_s: 0.0,
+                target_rel_error: 0.0,
+                progress_interval_s: 0.5,
+                progress: None,
+                user_data: std::ptr::null_mut(),
+            },
+        )
+    })
+}
+
+fn render_report_to_c(r: &RenderReport) -> ImapRenderReport {
+    ImapRenderReport {
+        threads: r.threads as u32,
+        groups: r.groups as u32,
+        threads_per_group: r.threads_per_group as u32,
+        stop_reason: stop_to_c(r.stop),
+        phases: r.phases,
+        passes: r.passes,
+        backward_paths: r.backward_paths,
+        backward_rays: r.backward_rays,
+        forward_photons: r.forward_photons,
+        forward_rays: r.forward_rays,
+        gathers: r.gathers,
+        dropped_paths: r.dropped_paths,
+        wall_s: r.wall_s,
+        rel_error: r.rel_error,
+        time_backward_s: r.time_backward_s,
+        time_build_s: r.time_build_s,
+        time_forward_s: r.time_forward_s,
+        time_close_s: r.time_close_s,
+        time_finalize_s: r.time_finalize_s,
+        joins: r.joins,
+        close_retries: r.close_retries,
+        gate_violations: r.gate_violations,
+        map_bytes_per_group: r.map_bytes_per_group,
+        pixel_bytes: r.pixel_bytes,
+        total_bytes: r.total_bytes,
+        history_len: r.history.len() as u64,
+    }
+}
+
+/// Renders what `camera` sees: radiance (luminance per band) in W/(m²·sr) — the lights'
+/// power unit per m² (`ImapConfig::unit_m`) per steradian — by stochastic progressive
+/// backward photon mapping, until a stop criterion of `params` is met. Blocks the calling
+/// thread, which runs the progress callback. Uses the context's scene, thread count and
+/// seed; neither reads nor changes the illumination map. Every call starts a new image.
+///
+/// `out_radiance` receives `width × height × bands` doubles, pixel by pixel from the top
+/// left, row by row, the bands of a pixel together (`radiance_count` must be at least
+/// that). `out_rel_error` (may be NULL) receives `width × height` relative standard
+/// errors of each pixel's band-mean radiance (1 where nothing was seen). `report` (may be
+/// NULL) receives the report, which `imap_get_render_report` also keeps.
+///
+/// Returns IMAP_ERR_NULL_POINTER, IMAP_ERR_INVALID_ARGUMENT (camera, method, no stop
+/// criterion, negative values), IMAP_ERR_NON_FINITE, IMAP_ERR_BUFFER_TOO_SMALL (checked
+/// before any work), IMAP_ERR_NO_GEOMETRY, IMAP_ERR_NO_LIGHT, IMAP_ERR_MEMORY_BUDGET,
+/// IMAP_ERR_EMBREE, IMAP_ERR_BUSY, IMAP_ERR_THREAD_LOST (a worker thread panicked: the
+/// render stopped, the buffers and the report still hold what was rendered until then).
+///
+/// # Safety
+/// `ctx` is a live handle; `camera` and `params` point to initialised structs;
+/// `out_radiance` holds `radiance_count` writable doubles; `out_rel_error` is NULL or
+/// holds `rel_error_count` writable doubles; `report` is NULL or writable; the callback,
+/// if any, is callable with `user_data`.
+#[no_mangle]
+pub unsafe extern "C" fn imap_render(
+    ctx: *mut ImapContext,
+    camera: *const ImapCamera,
+    params: *const ImapRenderParams,
+    out_radiance: *mut f64,
+    radiance_count: usize,
+    out_rel_error: *mut f64,
+    rel_error_count: usize,
+    report: *mut ImapRenderReport,
+) -> ImapStatus {
+    with_context(ctx, |c| {
+        let cam = reference("camera", camera)?;
+        let p = reference("params", params)?;
+        let method = match p.method {
+            IMAP_RENDER_SYNC => RenderMethod::Synchronous,
+            IMAP_RENDER_ASYNC => RenderMethod::Asynchronous,
+            IMAP_RENDER_SEMI_SYNC => RenderMethod::SemiSynchronous,
+            m => bail!(
+                ImapErrInvalidArgument,
+                "render method {m} is not IMAP_RENDER_SYNC, _ASYNC or _SEMI_SYNC"
+            ),
+        };
+        let pixels = cam.width as usize * cam.height as usize;
+        let want = pixels * c.bands();
+        if radiance_count < want {
+            bail!(
+                ImapErrBufferTooSmall,
+                "radiance_count {radiance_count} < {want} (width {} × height {} × {} bands)",
+                cam.width,
+                cam.height,
+                c.bands()
+            );
+        }
+        let radiance = slice_mut("out_radiance", out_radiance, radiance_count)?;
+        let rel_error = if out_rel_error.is_null() {
+            None
+        } else {
+            if rel_error_count < pixels {
+                bail!(
+                    ImapErrBufferTooSmall,
+                    "rel_error_count {rel_error_count} < {pixels} (width × height)"
+                );
+            }
+            Some(slice_mut("out_rel_error", out_rel_error, rel_error_count)?)
+        };
+        let (cb, user) = (p.progress, p.user_data);
+        let mut call = move |pr: &Progress| -> bool {
+            let cp = progress_to_c(pr);
+            // SAFETY: the caller supplied a callable function pointer and its user data.
+            cb.is_none_or(|f| unsafe { f(&cp, user) } == 0)
+        };
+        let mut rp = RenderParams {
+            method,
+            group_threads: p.group_threads as usize,
+            remask_phases: p.remask_phases,
+            forward_per_pass: p.forward_per_pass,
+            initial_radius: p.initial_radius,
+            alpha: p.alpha,
+            passes: p.passes,
+            time_budget_s: p.time_budget_s,
+            target_rel_error: p.target_rel_error,
+            progress_interval_s: p.progress_interval_s,
+            max_path_events: p.max_path_events,
+            progress: if cb.is_some() { Some(&mut call) } else { None },
+        };
+        let desc = CameraDesc {
+            position: cam.position,
+            direction: cam.direction,
+            up: cam.up,
+            fov_y_deg: cam.fov_y_deg,
+            width: cam.width,
+            height: cam.height,
+        };
+        let (image, r, lost) = c.render_partial(&desc, &mut rp)?;
+        radiance[..want].copy_from_slice(&image.radiance);
+        if let Some(dst) = rel_error {
+            dst[..pixels].copy_from_slice(&image.rel_error);
+        }
+        if !report.is_null() {
+            write_out("report", report, render_report_to_c(&r))?;
+        }
+        lost.map_or(Ok(()), Err)
+    })
+}
+
+/// The report of the last render (since the last reset) into `*out`.
+///
+/// Returns IMAP_ERR_NULL_POINTER, IMAP_ERR_OUT_OF_ORDER (no render yet), IMAP_ERR_BUSY.
+///
+/// # Safety
+/// `ctx` is a live handle; `out` points to writable storage.
+#[no_mangle]
+pub unsafe extern "C" fn imap_get_render_report(
+    ctx: *const ImapContext,
+    out: *mut ImapRenderReport,
+) -> ImapStatus {
+    with_context(ctx, |c| match c.render_report() {
+        Some(r) => write_out("out", out, render_report_to_c(r)),
+        None => bail!(
+            ImapErrOutOfOrder,
+            "no render since the context was created or reset"
+        ),
+    })
+}
+
+/// Copies up to `capacity` points of the last render's accuracy-against-time history
+/// (oldest first; `photons` = forward photons, `hits` = backward paths, `rel_error` = the
+/// image's estimated global relative error) into `out` (may be NULL when `capacity` is 0)
+/// and writes the total number of points to `*out_count` (0 before any render).
+///
+/// # Safety
+/// `ctx` is a live handle; `out` holds `capacity` writable points; `out_count` is writable.
+#[no_mangle]
+pub unsafe extern "C" fn imap_get_render_history(
+    ctx: *const ImapContext,
+    out: *mut ImapProgress,
+    capacity: usize,
+    out_count: *mut usize,
+) -> ImapStatus {
+    with_context(ctx, |c| {
+        check_out("out_count", out_count)?;
+        let h = c.render_report().map_or(&[][..], |r| &r.history[..]);
+        if capacity > 0 {
+            let dst = slice_mut("out", out, capacity)?;
+            for (d, p) in dst.iter_mut().zip(h) {
+                *d = progress_to_c(p);
+            }
+        }
+        write_out("out_count", out_count, h.len())
     })
 }

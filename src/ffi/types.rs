@@ -248,3 +248,123 @@ pub struct ImapReport {
     /// Points in the error-against-time history (`imap_get_history`).
     pub history_len: u64,
 }
+
+/// `ImapRenderParams::method`: all threads share one set of backward photon maps, phase
+/// by phase (paper §2.2, synchronous).
+pub const IMAP_RENDER_SYNC: u32 = 0;
+/// Each thread renders the whole image with private maps and pixel store; the stores are
+/// merged at the end (memory grows with the thread count).
+pub const IMAP_RENDER_ASYNC: u32 = 1;
+/// Two-level semi-synchronous method (paper §2.3, the default): groups of
+/// `group_threads` threads, each with its own random mask of 32×32-pixel tiles and its own
+/// maps, and lock-free access to the other groups' maps through their active-thread
+/// counters.
+pub const IMAP_RENDER_SEMI_SYNC: u32 = 2;
+
+/// A pinhole camera, in scene units. Pixel rows run from the top of the image down.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default)]
+pub struct ImapCamera {
+    /// Eye point.
+    pub position: [f64; 3],
+    /// Viewing direction (any non-zero length).
+    pub direction: [f64; 3],
+    /// Up vector; only its part across `direction` counts, and it must not be parallel.
+    pub up: [f64; 3],
+    /// Full vertical field of view, degrees, in (0, 180).
+    pub fov_y_deg: f64,
+    /// Image size in pixels, each side in 1..=16384.
+    pub width: u32,
+    pub height: u32,
+}
+
+/// What `imap_render` does. Initialise with `imap_render_params_default`; at least one
+/// stop criterion (passes, time budget, target error) or a callback is required.
+#[repr(C)]
+#[derive(Clone, Copy, Debug)]
+pub struct ImapRenderParams {
+    /// `IMAP_RENDER_*`.
+    pub method: u32,
+    /// Semi-synchronous: threads per group (0 = 1; groups = threads / group_threads).
+    pub group_threads: u32,
+    /// Semi-synchronous: phases between re-randomised tile masks (0 = 4).
+    pub remask_phases: u32,
+    /// Safety limit on surface events per path (≥ 1); longer paths are dropped and counted
+    /// in `ImapRenderReport::dropped_paths`.
+    pub max_path_events: u32,
+    /// Forward photons per pass over the image (0 = one per pixel).
+    pub forward_per_pass: u64,
+    /// Stop after this many samples per pixel, on average (0 = no limit).
+    pub passes: u64,
+    /// First gathering radius, scene units (0 = four pixel footprints at the first
+    /// diffuse vertex).
+    pub initial_radius: f64,
+    /// Progressive radius reduction α in (0, 1) (0 = 2/3).
+    pub alpha: f64,
+    /// Wall-clock seconds the render may take; 0 = no limit.
+    pub time_budget_s: f64,
+    /// Stop when the estimated global relative error of the image is at or below this;
+    /// 0 = none.
+    pub target_rel_error: f64,
+    /// Seconds between progress reports and stop checks (> 0).
+    pub progress_interval_s: f64,
+    /// Called as for `imap_run`; in the `ImapProgress` it receives, `photons` counts
+    /// forward photons, `hits` backward paths (one per pixel sample) and `rel_error` is
+    /// the image's estimated global relative error.
+    pub progress: ImapProgressFn,
+    /// Passed to `progress` unchanged.
+    pub user_data: *mut c_void,
+}
+
+/// Figures of the last render.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default)]
+pub struct ImapRenderReport {
+    /// Worker threads, groups of them, threads per group.
+    pub threads: u32,
+    pub groups: u32,
+    pub threads_per_group: u32,
+    /// `IMAP_STOP_*`: why the render stopped (`IMAP_STOP_PHOTONS` = the passes limit).
+    pub stop_reason: u32,
+    /// Group phases completed; each adds one sample to the pixels of its group's mask.
+    pub phases: u64,
+    /// Samples per pixel, averaged over the image.
+    pub passes: f64,
+    /// Backward paths (pixel samples) and the rays they traced (shadow rays included).
+    pub backward_paths: u64,
+    pub backward_rays: u64,
+    /// Forward photons from the lights and the rays they traced.
+    pub forward_photons: u64,
+    pub forward_rays: u64,
+    /// Forward photon hits that fell within a backward photon's radius.
+    pub gathers: u64,
+    /// Backward paths dropped at `max_path_events`.
+    pub dropped_paths: u64,
+    /// Wall time, s.
+    pub wall_s: f64,
+    /// Estimated global relative error of the image: RMS of the pixels' standard errors
+    /// over their mean luminance.
+    pub rel_error: f64,
+    /// Seconds summed over groups (each measured by its leader thread): backward paths,
+    /// building the maps, forward photons, closing the maps (tracing on while other groups
+    /// still read them), finalizing the phase's samples.
+    pub time_backward_s: f64,
+    pub time_build_s: f64,
+    pub time_forward_s: f64,
+    pub time_close_s: f64,
+    pub time_finalize_s: f64,
+    /// Semi-synchronous: batches of forward photons traced into another group's maps.
+    pub joins: u64,
+    /// Extra forward batches owners traced while others still used their maps.
+    pub close_retries: u64,
+    /// Joins that found maps being rebuilt; the counter protocol keeps this 0.
+    pub gate_violations: u64,
+    /// Largest backward-photon-map memory of one group, bytes.
+    pub map_bytes_per_group: u64,
+    /// Pixel stores, bytes (one per thread for the asynchronous method).
+    pub pixel_bytes: u64,
+    /// All maps and pixel stores, bytes.
+    pub total_bytes: u64,
+    /// Points in the accuracy history (`imap_get_render_history`).
+    pub history_len: u64,
+}

@@ -26,7 +26,7 @@ enum LightValue {
 }
 
 /// Gathering radius of a pixel's first sample: this many pixel footprints.
-pub const INITIAL_RADIUS_FOOTPRINTS: f64 = 4.0;
+pub(crate) const INITIAL_RADIUS_FOOTPRINTS: f64 = 4.0;
 
 /// Read-only state of the backward pass.
 pub struct EyeTracer<'a> {
@@ -328,7 +328,9 @@ impl<'a> EyeTracer<'a> {
                 if let Some((w, _)) = side(cos) {
                     let org = p + n_in * (eps * cos.signum());
                     stats.rays += 1;
-                    if !self.accel.occluded(org, wi, (em.position - org).length()) {
+                    let to_light = em.position - org;
+                    let dist = to_light.length();
+                    if !self.accel.occluded(org, to_light / dist, dist) {
                         let k = cos.abs() / (d2 * self.unit_m * self.unit_m * pe);
                         for ((o, w), i) in out.iter_mut().zip(w).zip(intensity) {
                             *o += w * i * k;
@@ -354,10 +356,15 @@ impl<'a> EyeTracer<'a> {
                 let cos = wi.dot(n_in);
                 if let (Some((w, ps)), Some(_)) = (side(cos), self.emission(*mesh as u32, ng, wi)) {
                     let cos_l = wi.dot(ng).abs();
+                    // The shadow ray leaves from the offset origin and aims at q itself.
                     let org = p + n_in * (eps * cos.signum());
-                    let t_max = (q - org).length() - 2.0 * self.scene.offset_at(q);
+                    let dist = (q - org).length();
+                    let t_max = dist - 2.0 * self.scene.offset_at(q);
                     stats.rays += 1;
-                    if cos_l > 0.0 && t_max > 0.0 && !self.accel.occluded(org, wi, t_max) {
+                    if cos_l > 0.0
+                        && t_max > 0.0
+                        && !self.accel.occluded(org, (q - org) / dist, t_max)
+                    {
                         let pl = pe * d2 / (area * cos_l);
                         let pb = ps * cos.abs() / PI;
                         let k = cos.abs() / pl * pl * pl / (pl * pl + pb * pb);

@@ -4,7 +4,7 @@ use crate::error::{bail, check_finite, Result};
 use glam::DVec3;
 
 /// Largest image side accepted.
-pub const MAX_IMAGE_SIDE: u32 = 16384;
+pub(crate) const MAX_IMAGE_SIDE: u32 = 16384;
 
 /// What the caller describes, in scene units.
 #[derive(Clone, Copy, Debug, PartialEq)]

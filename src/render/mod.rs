@@ -38,9 +38,9 @@ use std::sync::{Condvar, Mutex, RwLock};
 use std::time::{Duration, Instant};
 
 /// Side of a mask tile, pixels.
-pub const TILE: u32 = 32;
+pub(crate) const TILE: u32 = 32;
 /// Forward photons per claim (and per acquisition of the other groups' maps).
-pub const FORWARD_BATCH: u64 = 32;
+pub(crate) const FORWARD_BATCH: u64 = 32;
 /// Random streams of the backward paths and of the forward photons.
 const EYE_DOMAIN: u64 = 0xB4C1_0000_0000_0001;
 const FORWARD_DOMAIN: u64 = 0xF0A2_0000_0000_0002;
