@@ -215,6 +215,15 @@ fn main() {
                 m, r.groups, fwd, photons, paths, speedup, spp, memory, err, est,
             ));
         }
+        let err_of = |want: RenderMethod| rows.iter().find(|r| r.0 == want).map(|r| r.8);
+        let summary = (
+            err_of(RenderMethod::SemiSynchronous),
+            err_of(RenderMethod::Synchronous),
+            err_of(RenderMethod::Asynchronous),
+            rows.iter()
+                .find(|r| r.0 == RenderMethod::SemiSynchronous)
+                .map(|r| r.2),
+        );
         for (m, groups, fwd, photons, paths, speedup, spp, (per_group, total, joins), err, est) in
             rows
         {
@@ -228,6 +237,17 @@ fn main() {
                 per_group as f64 / 1e6,
                 total as f64 / 1e6,
                 joins
+            );
+        }
+        if let (Some(semi), Some(sync), Some(asy), Some(rate)) = summary {
+            // Errors with the reference's own estimated error taken out (in quadrature).
+            let own = |e: f64| (e * e - rr.rel_error * rr.rel_error).max(0.0).sqrt();
+            println!(
+                "{t:>3} semi/sync error {:.2} (reference's error removed: {:.2}), semi/async error {:.2}, semi/async forward rays/s {:.2}",
+                semi / sync,
+                own(semi) / own(sync),
+                semi / asy,
+                rate / async_rate.unwrap_or(f64::NAN)
             );
         }
     }

@@ -16,8 +16,10 @@
 //!   through the active-thread counter (`gate`).
 //!
 //! The calling thread is the monitor: it reports progress, merges the estimate and decides
-//! when to stop. Nothing here is bitwise reproducible across thread counts (which maps a
-//! forward photon reaches depends on timing); every method converges to the same image.
+//! when to stop. The synchronous method, and any method on one thread, gives the same image
+//! for the same seed whatever the thread count (up to the order of additions); with several
+//! groups, which maps a forward photon reaches depends on timing, and the methods agree
+//! statistically.
 
 pub mod backward;
 pub mod bmap;
