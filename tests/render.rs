@@ -442,3 +442,70 @@ fn the_counter_protocol_holds_under_many_groups_and_tiny_phases() {
         assert!((rep.passes - 24.0).abs() < 1.5, "{} passes", rep.passes);
     }
 }
+
+/// Memory is reported per group and in all: asynchronous stores and maps grow with the
+/// thread count, semi-synchronous groups each map only their mask; a render over the memory
+/// budget is refused before anything is allocated, and the context renders afterwards.
+#[test]
+fn render_memory_is_reported_and_budgeted() {
+    let cam = room_camera();
+    let run = |threads, method| {
+        let mut ctx = small_room(threads);
+        render(&mut ctx, &cam, &mut params(method, 4)).1
+    };
+    let sync = run(4, RenderMethod::Synchronous);
+    let asyn = run(4, RenderMethod::Asynchronous);
+    let semi = run(4, RenderMethod::SemiSynchronous);
+    let one = run(1, RenderMethod::Asynchronous);
+    eprintln!(
+        "bytes (per group / pixel stores / total): sync {} / {} / {}, async×4 {} / {} / {}, semi×4 {} / {} / {}, async×1 total {}",
+        sync.map_bytes_per_group,
+        sync.pixel_bytes,
+        sync.total_bytes,
+        asyn.map_bytes_per_group,
+        asyn.pixel_bytes,
+        asyn.total_bytes,
+        semi.map_bytes_per_group,
+        semi.pixel_bytes,
+        semi.total_bytes,
+        one.total_bytes
+    );
+    assert_eq!(asyn.pixel_bytes, 4 * sync.pixel_bytes);
+    // Each of the 4 threads holds a whole-image map (their sizes vary with the backward
+    // photons found and the radii) and its own pixel store.
+    assert!(asyn.total_bytes as f64 > 2.5 * one.total_bytes as f64);
+    assert!(
+        semi.map_bytes_per_group < sync.map_bytes_per_group / 2,
+        "a group's map covers a quarter of the image"
+    );
+    assert_eq!(semi.pixel_bytes, sync.pixel_bytes);
+
+    let mut ctx = context(Config {
+        threads: 2,
+        memory_budget: 4 << 20,
+        ..Default::default()
+    });
+    let wall = lambert(&mut ctx, 0.5);
+    ctx.add_mesh(&grid(2, -1.0, 1.0, -1.0, 1.0, 0.0).desc(wall))
+        .unwrap();
+    ctx.add_point_light([0.0, 0.0, 1.0], &[10.0]).unwrap();
+    let mut big = room_camera();
+    big.width = 2048;
+    big.height = 2048;
+    let e = ctx
+        .render(&big, &mut params(RenderMethod::Asynchronous, 1))
+        .unwrap_err();
+    assert_eq!(
+        e.status,
+        imap::ImapStatus::ImapErrMemoryBudget,
+        "{}",
+        e.message
+    );
+    assert!(ctx.render_report().is_none(), "nothing ran");
+    let (img, _) = render(
+        &mut ctx,
+        &room_camera(),
+        &mut params(RenderMethod::Asynchronous, 1),
+    );
+    assert!(img.radiance.iter().all(|v| v.is_finite()));
+}
