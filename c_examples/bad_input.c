@@ -205,6 +205,19 @@ int main(void) {
     expect("render history length", imap_get_render_history(ctx, NULL, 0, &hist_len), IMAP_OK, ctx);
     if (hist_len == 0 || hist_len != rr.history_len) printf("FAIL render history of %zu points\n", hist_len), failures++;
 
+    /* A render cancelled from its callback on the 2nd call: it stops, says why, keeps
+     * its image, and the callback could not re-enter the context. */
+    int render_calls = 0;
+    cancel_after = 2;
+    status_inside_callback = IMAP_OK;
+    ImapRenderParams rc;
+    imap_render_params_default(&rc);
+    rc.progress = callback, rc.user_data = &render_calls, rc.progress_interval_s = 0.02;
+    expect("render cancelled from the callback", imap_render(ctx, &cam, &rc, img, 192, NULL, 0, &rr), IMAP_OK, ctx);
+    if (rr.stop_reason != IMAP_STOP_CANCELLED || !(rr.passes > 0))
+        printf("FAIL render stop_reason %u after %.1f passes, want CANCELLED\n", rr.stop_reason, rr.passes), failures++;
+    expect("callback re-entering the context during a render", status_inside_callback, IMAP_ERR_BUSY, ctx);
+
     /* Nothing accumulated was lost through all those errors. */
     imap_get_vertex_energy(ctx, floor_id, IMAP_SIDE_FRONT, 1, after, 4);
     if (memcmp(before, after, sizeof before) != 0 || !(before[0] > 0)) printf("FAIL map changed by failing calls\n"), failures++;

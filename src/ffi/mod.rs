@@ -79,7 +79,7 @@ pub(crate) fn with_context(
             Err(TryLockError::WouldBlock) => {
                 return Err(Error::new(
                     ImapStatus::ImapErrBusy,
-                    "the context is in use by another call (imap_run in progress, or a call from its progress callback)",
+                    "the context is in use by another call (imap_run or imap_render in progress, or a call from its progress callback)",
                 ))
             }
             // A panic inside an earlier call was caught; the context's data stayed valid
