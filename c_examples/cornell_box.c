@@ -44,15 +44,7 @@ int main(int argc, char **argv) {
 
     /* One context: RGB or spectral, millimetre scene units, a fixed seed. */
     ImapConfig cfg;
-    imap_config_default(&cfg);
-    if (bands != 3) {
-        cfg.band_mode = IMAP_BANDS_SPECTRAL;
-        cfg.band_count = (uint32_t)bands;
-        cfg.wavelength_min_nm = 400;
-        cfg.wavelength_max_nm = 700;
-    }
-    cfg.unit_m = 0.001;
-    cfg.seed = 2026;
+    cornell_config(&cfg, bands);
     cfg.scheduler = classic ? IMAP_SCHEDULER_CLASSIC : IMAP_SCHEDULER_DYNAMIC;
     CHECK(imap_create(&cfg, &ctx));
 

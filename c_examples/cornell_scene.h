@@ -117,6 +117,20 @@ static void spectrum(const double rgb[3], int bands, double *out) {
     }
 }
 
+/* The box's context settings: RGB for 3 bands, otherwise `bands` spectral bands over
+ * 400–700 nm; millimetre scene units; seed 2026. */
+static void cornell_config(ImapConfig *cfg, int bands) {
+    imap_config_default(cfg);
+    if (bands != 3) {
+        cfg->band_mode = IMAP_BANDS_SPECTRAL;
+        cfg->band_count = (uint32_t)bands;
+        cfg->wavelength_min_nm = 400;
+        cfg->wavelength_max_nm = 700;
+    }
+    cfg->unit_m = 0.001;
+    cfg->seed = 2026;
+}
+
 /* Adds the box to `ctx` (`bands` bands; the walls record when `record` is set), walls
  * subdivided n × n. */
 static void cornell_build(ImapContext *ctx, Cornell *box, int bands, int closed, int record, int n) {

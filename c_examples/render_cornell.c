@@ -70,15 +70,7 @@ int main(int argc, char **argv) {
     ImapContext *ctx = NULL;
 
     ImapConfig cfg;
-    imap_config_default(&cfg);
-    if (bands != 3) {
-        cfg.band_mode = IMAP_BANDS_SPECTRAL;
-        cfg.band_count = (uint32_t)bands;
-        cfg.wavelength_min_nm = 400;
-        cfg.wavelength_max_nm = 700;
-    }
-    cfg.unit_m = 0.001;
-    cfg.seed = 2026;
+    cornell_config(&cfg, bands);
     CHECK(imap_create(&cfg, &ctx));
 
     /* The box open at the front; nothing records (a render needs no illumination map). */

@@ -183,15 +183,13 @@ fn main() {
         let mut async_rate = None;
         let mut rows = Vec::new();
         for (mi, &m) in a.methods.iter().enumerate() {
-            let mut ctx = scene(t, 2026);
-            let mut runs = Vec::new();
-            for rep in 0..a.reps {
-                // Each repetition its own seed: independent images, independent errors.
-                if rep > 0 {
-                    ctx = scene(t, 2026 + rep as u64);
-                }
-                runs.push(render(&mut ctx, m, a.group_threads, a.size, a.seconds));
-            }
+            // Each repetition its own seed: independent images, independent errors.
+            let runs: Vec<_> = (0..a.reps as u64)
+                .map(|rep| {
+                    let mut ctx = scene(t, 2026 + rep);
+                    render(&mut ctx, m, a.group_threads, a.size, a.seconds)
+                })
+                .collect();
             let rate = |f: &dyn Fn(&RenderReport) -> u64| {
                 median(runs.iter().map(|(_, r)| f(r) as f64 / r.wall_s).collect())
             };

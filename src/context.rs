@@ -4,9 +4,7 @@
 use crate::accel::{Accel, Device};
 use crate::error::{bail, check_finite, Error, ImapStatus, Result};
 use crate::imap::{IMap, Readout};
-use crate::render::{
-    self, Camera, CameraDesc, EyeTracer, Image, RenderMethod, RenderParams, RenderReport,
-};
+use crate::render::{self, Camera, CameraDesc, EyeTracer, Image, RenderParams, RenderReport};
 use crate::scene::{Bands, Light, Material, MaterialDesc, Mesh, MeshDesc, PreparedScene, Scene};
 use crate::sched::dynamic::DynamicParams;
 use crate::sched::{self, Counters, Progress, RunContext, RunParams, StopReason};
@@ -350,10 +348,7 @@ impl Context {
             bail!(ImapErrInvalidArgument, "no stop criterion: set photons, time_budget_s, target_rel_error or a progress callback");
         }
         self.prepare()?;
-        let threads = match self.config.threads {
-            0 => std::thread::available_parallelism().map_or(1, |n| n.get()),
-            t => t,
-        };
+        let threads = self.worker_threads();
         let prepared = self.prepared.as_ref().expect("prepared above");
         let map = self.map.as_mut().expect("allocated above");
         let rc = RunContext {
@@ -419,14 +414,17 @@ impl Context {
         }
     }
 
+    /// Worker threads of a run or render: the configured count, or one per core.
+    fn worker_threads(&self) -> usize {
+        match self.config.threads {
+            0 => std::thread::available_parallelism().map_or(1, |n| n.get()),
+            t => t,
+        }
+    }
+
     /// The report of the last render since the last reset.
     pub fn render_report(&self) -> Option<&RenderReport> {
         self.last_render.as_ref()
-    }
-
-    /// Bands of the scene (the image has this many values per pixel).
-    pub fn bands(&self) -> usize {
-        self.scene.bands.count()
     }
 
     /// As `render`, but a lost worker thread still yields the image rendered until the
@@ -477,25 +475,16 @@ impl Context {
         self.prepare_scene()?;
         let prepared = self.prepared.as_ref().expect("prepared above");
         let cam = Camera::new(camera, prepared.scene.origin)?;
-        let threads = match self.config.threads {
-            0 => std::thread::available_parallelism().map_or(1, |n| n.get()),
-            t => t,
-        };
-        // Memory: pixel stores (one per thread for the asynchronous method) and maps.
+        let threads = self.worker_threads();
         let nb = self.scene.bands.count();
-        let pixels = cam.pixels() as u128;
-        let stores = match params.method {
-            RenderMethod::Asynchronous => threads as u128,
-            _ => 1,
-        };
-        let map_per_pixel = 80 + 8 * nb as u128 * 4;
-        let need = stores * render::bmap::PixelStore::bytes(1, nb) as u128 * pixels
-            + stores.max(1) * pixels * map_per_pixel;
+        let pixels = cam.pixels();
+        let need = render::bytes_needed(params.method, params.group_threads, threads, pixels, nb);
         let budget = self.memory_budget();
         if need > budget as u128 {
             bail!(
                 ImapErrMemoryBudget,
-                "the render needs about {need} bytes ({pixels} pixels × {nb} bands, {stores} pixel store(s)), over the memory budget of {budget} bytes"
+                "the render ({:?}, {threads} threads) needs up to {need} bytes for {pixels} pixels × {nb} bands, over the memory budget of {budget} bytes",
+                params.method
             );
         }
         let eye = EyeTracer::new(

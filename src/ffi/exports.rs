@@ -531,6 +531,23 @@ pub unsafe extern "C" fn imap_run(
     })
 }
 
+/// Copies up to `capacity` points of `h` into `out` and the total count into `*out_count`.
+fn copy_history(
+    h: &[Progress],
+    out: *mut ImapProgress,
+    capacity: usize,
+    out_count: *mut usize,
+) -> Result<()> {
+    check_out("out_count", out_count)?;
+    if capacity > 0 {
+        let dst = slice_mut("out", out, capacity)?;
+        for (d, p) in dst.iter_mut().zip(h) {
+            *d = progress_to_c(p);
+        }
+    }
+    write_out("out_count", out_count, h.len())
+}
+
 /// The report of the context: totals since the last reset and the last run's figures.
 ///
 /// # Safety
@@ -558,17 +575,7 @@ pub unsafe extern "C" fn imap_get_history(
     capacity: usize,
     out_count: *mut usize,
 ) -> ImapStatus {
-    with_context(ctx, |c| {
-        check_out("out_count", out_count)?;
-        let h = c.history();
-        if capacity > 0 {
-            let dst = slice_mut("out", out, capacity)?;
-            for (d, p) in dst.iter_mut().zip(h) {
-                *d = progress_to_c(p);
-            }
-        }
-        write_out("out_count", out_count, h.len())
-    })
+    with_context(ctx, |c| copy_history(c.history(), out, capacity, out_count))
 }
 
 /// The number of vertices of mesh `mesh` into `*out`.
@@ -764,14 +771,15 @@ pub unsafe extern "C" fn imap_render(
             ),
         };
         let pixels = cam.width as usize * cam.height as usize;
-        let want = pixels * c.bands();
+        let bands = c.scene().bands.count();
+        let want = pixels * bands;
         if radiance_count < want {
             bail!(
                 ImapErrBufferTooSmall,
                 "radiance_count {radiance_count} < {want} (width {} × height {} × {} bands)",
                 cam.width,
                 cam.height,
-                c.bands()
+                bands
             );
         }
         let radiance = slice_mut("out_radiance", out_radiance, radiance_count)?;
@@ -861,14 +869,7 @@ pub unsafe extern "C" fn imap_get_render_history(
     out_count: *mut usize,
 ) -> ImapStatus {
     with_context(ctx, |c| {
-        check_out("out_count", out_count)?;
         let h = c.render_report().map_or(&[][..], |r| &r.history[..]);
-        if capacity > 0 {
-            let dst = slice_mut("out", out, capacity)?;
-            for (d, p) in dst.iter_mut().zip(h) {
-                *d = progress_to_c(p);
-            }
-        }
-        write_out("out_count", out_count, h.len())
+        copy_history(h, out, capacity, out_count)
     })
 }

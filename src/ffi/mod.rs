@@ -42,11 +42,7 @@ fn record(ctx: Option<&ImapContext>, e: &Error) {
 /// on the context (when there is one) and on the calling thread.
 pub(crate) fn boundary(ctx: Option<&ImapContext>, f: impl FnOnce() -> Result<()>) -> ImapStatus {
     let result = catch_unwind(AssertUnwindSafe(f)).unwrap_or_else(|panic| {
-        let what = panic
-            .downcast_ref::<&str>()
-            .map(|s| s.to_string())
-            .or_else(|| panic.downcast_ref::<String>().cloned())
-            .unwrap_or_else(|| "unknown panic".into());
+        let what = crate::error::panic_message(&*panic);
         Err(Error::new(
             ImapStatus::ImapErrInternal,
             format!("internal error (please report): {what}"),

@@ -12,7 +12,7 @@ use crate::accel::Accel;
 use crate::sampling::{warp, PhotonRng};
 use crate::scene::material::fresnel_dielectric;
 use crate::scene::{EmitterKind, LightShape, Material, PreparedScene, Scene};
-use crate::transport::{reflect, refract};
+use crate::transport::{collapse_weights, reflect, refract};
 use glam::DVec3;
 use std::f64::consts::PI;
 
@@ -57,7 +57,6 @@ pub struct EyeStats {
 }
 
 impl<'a> EyeTracer<'a> {
-    #[allow(clippy::too_many_arguments)]
     pub fn new(
         source: &'a Scene,
         scene: &'a PreparedScene,
@@ -193,7 +192,7 @@ impl<'a> EyeTracer<'a> {
 
             if let Some(d) = &material.dielectric {
                 if d.dispersive && band.is_none() {
-                    band = Some(collapse(beta, rng.uniform()));
+                    band = Some(collapse_weights(beta, rng.uniform()));
                 }
                 let n = d.ior[band.unwrap_or(0)];
                 let (n1, n2) = if front { (1.0, n) } else { (n, 1.0) };
@@ -424,25 +423,4 @@ impl<'a> EyeTracer<'a> {
             *o += w * l * k;
         }
     }
-}
-
-/// Collapses a path weight to one band chosen in proportion to its weight, keeping every
-/// band's expectation: the chosen band gets the total weight.
-fn collapse(beta: &mut [f64], u: f64) -> usize {
-    let total: f64 = beta.iter().sum();
-    let mut target = u * total;
-    let mut chosen = beta.len() - 1;
-    for (i, &b) in beta.iter().enumerate() {
-        if target < b {
-            chosen = i;
-            break;
-        }
-        target -= b;
-    }
-    while beta[chosen] == 0.0 && chosen > 0 {
-        chosen -= 1;
-    }
-    beta.iter_mut().for_each(|b| *b = 0.0);
-    beta[chosen] = total;
-    chosen
 }

@@ -137,6 +137,13 @@ impl BackwardMap {
         self.samples.pixels.len()
     }
 
+    /// Bytes an entry (pixel sample) takes at most, for the memory budget: pixel and photon
+    /// index, the photon, direct, reflected, transmitted and accumulated values per band,
+    /// and the grid (a photon is listed in up to 8 cells, two buckets per photon).
+    pub fn bytes_per_entry(bands: usize) -> usize {
+        4 + 4 + std::mem::size_of::<BackwardPhoton>() + 4 * 8 * bands + 8 * 4 + 2 * 4
+    }
+
     /// Bytes held (capacity), for the memory report.
     pub fn bytes(&self) -> usize {
         self.samples.bytes()

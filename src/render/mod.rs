@@ -213,7 +213,6 @@ unsafe impl Sync for Group {}
 impl Group {
     /// # Safety
     /// No `map_mut` borrow may be alive: see the `Sync` impl.
-    #[allow(clippy::mut_from_ref)]
     unsafe fn map(&self) -> &BackwardMap {
         &*self.map.get()
     }
@@ -228,7 +227,7 @@ impl Group {
 
 /// A forward photon's path gathering into a set of maps.
 struct ForwardSink<'m> {
-    maps: Vec<&'m BackwardMap>,
+    maps: &'m [&'m BackwardMap],
     gathers: u64,
 }
 
@@ -246,7 +245,7 @@ impl HitSink for ForwardSink<'_> {
             return;
         }
         let (y, n) = (ev.point.as_vec3(), ev.n_in.as_vec3());
-        for map in &self.maps {
+        for map in self.maps {
             self.gathers += map.gather(y, n, colour.values(), colour.band()) as u64;
         }
     }
@@ -394,7 +393,7 @@ impl Engine<'_> {
         &self,
         start: u64,
         n: u64,
-        maps: Vec<&BackwardMap>,
+        maps: &[&BackwardMap],
         colour: &mut Colour,
         stats: &mut PathStats,
     ) {
@@ -403,7 +402,7 @@ impl Engine<'_> {
         for k in start..start + n {
             self.fwd.trace(k, colour, &mut sink, stats);
         }
-        for m in &sink.maps {
+        for m in maps {
             m.forward.fetch_add(n, Ordering::Relaxed);
         }
         let t = &self.totals;
@@ -430,7 +429,6 @@ impl Engine<'_> {
             self.seed ^ EYE_DOMAIN ^ (grp.store as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15);
         loop {
             // --- Start: the leader decides; everyone learns it at the barrier.
-            let t0 = Instant::now();
             if leader {
                 let go = self.phase_start(g, &mut since_remask);
                 grp.go.store(go, Ordering::Relaxed);
@@ -510,6 +508,7 @@ impl Engine<'_> {
             let own = unsafe { grp.map() };
             let quota = grp.quota.load(Ordering::Relaxed);
             let mut joined: Vec<usize> = Vec::with_capacity(self.groups.len());
+            let mut maps: Vec<&BackwardMap> = Vec::with_capacity(self.groups.len());
             loop {
                 let q = grp.next_photon.fetch_add(FORWARD_BATCH, Ordering::Relaxed);
                 if q >= quota || self.stop.load(Ordering::Relaxed) {
@@ -518,7 +517,7 @@ impl Engine<'_> {
                 let n = FORWARD_BATCH.min(quota - q);
                 let start = self.photon_next.fetch_add(n, Ordering::Relaxed);
                 joined.clear();
-                let mut maps = vec![own];
+                maps.push(own);
                 if self.share {
                     for (h, other) in self.groups.iter().enumerate() {
                         if h != g && other.gate.try_join() {
@@ -535,7 +534,7 @@ impl Engine<'_> {
                     groups: &self.groups,
                     joined: &joined,
                 };
-                self.trace_forward(start, n, maps, &mut colour, &mut pstats);
+                self.trace_forward(start, n, &maps, &mut colour, &mut pstats);
                 for &h in &joined {
                     if self.groups[h].epoch.load(Ordering::Relaxed) % 2 == 0 {
                         self.totals.violations.fetch_add(1, Ordering::Relaxed);
@@ -544,6 +543,8 @@ impl Engine<'_> {
                 self.totals
                     .joins
                     .fetch_add(joined.len() as u64, Ordering::Relaxed);
+                // No reference to another group's maps outlives the join.
+                maps.clear();
                 drop(guard);
             }
             // The owner closes its maps: while others are inside, it keeps tracing forward
@@ -560,13 +561,7 @@ impl Engine<'_> {
                             continue;
                         }
                         let start = self.photon_next.fetch_add(FORWARD_BATCH, Ordering::Relaxed);
-                        self.trace_forward(
-                            start,
-                            FORWARD_BATCH,
-                            vec![own],
-                            &mut colour,
-                            &mut pstats,
-                        );
+                        self.trace_forward(start, FORWARD_BATCH, &[own], &mut colour, &mut pstats);
                         self.totals.close_retries.fetch_add(1, Ordering::Relaxed);
                     }
                 }
@@ -601,18 +596,16 @@ impl Engine<'_> {
                 t.t_forward += (t_forward - t_build).as_secs_f64();
                 t.t_close += (t_closed - t_forward).as_secs_f64();
                 t.t_finalize += t_closed.elapsed().as_secs_f64();
-                let _ = t0;
             }
         }
     }
 
     /// The merged estimate: global relative error and, if asked, the image.
-    fn estimate(&self, image: Option<&mut Image>) -> f64 {
+    fn estimate(&self, mut image: Option<&mut Image>) -> f64 {
         let nb = self.eye.bands;
         let pixels = self.pixels();
         let mut sum = vec![0.0; nb];
         let (mut var_sum, mut mean_sum, mut covered) = (0.0, 0.0, true);
-        let mut image = image;
         for p in 0..pixels {
             let (mut n, mut q) = (0u64, 0.0);
             sum.iter_mut().for_each(|s| *s = 0.0);
@@ -661,6 +654,40 @@ impl Drop for LeaveOnDrop<'_> {
     }
 }
 
+/// How `method` arranges `threads` workers: (threads per group, groups, whether groups
+/// read each other's maps, pixel stores).
+fn layout(
+    method: RenderMethod,
+    group_threads: usize,
+    threads: usize,
+) -> (usize, usize, bool, usize) {
+    let threads = threads.max(1);
+    match method {
+        RenderMethod::Synchronous => (threads, 1, false, 1),
+        RenderMethod::Asynchronous => (1, threads, false, threads),
+        RenderMethod::SemiSynchronous => {
+            let k = group_threads.clamp(1, threads);
+            let g = (threads / k).max(1);
+            (k, g, g > 1, 1)
+        }
+    }
+}
+
+/// The most memory a render of `pixels` pixels can take: its pixel stores and its maps
+/// (one whole-image map per store; semi-synchronous groups split the image between them).
+pub fn bytes_needed(
+    method: RenderMethod,
+    group_threads: usize,
+    threads: usize,
+    pixels: usize,
+    bands: usize,
+) -> u128 {
+    let (_, _, _, stores) = layout(method, group_threads, threads);
+    stores as u128
+        * pixels as u128
+        * (PixelStore::bytes(1, bands) + BackwardMap::bytes_per_entry(bands)) as u128
+}
+
 /// Renders the camera's image. `threads` worker threads plus the calling thread (monitor).
 /// Returns the image, the report, and a message if a worker thread was lost.
 pub fn render(
@@ -670,17 +697,8 @@ pub fn render(
     threads: usize,
     seed: u64,
 ) -> (Image, RenderReport, Option<String>) {
-    let threads = threads.max(1);
     let nb = eye.bands;
-    let (k, g, share, stores) = match params.method {
-        RenderMethod::Synchronous => (threads, 1, false, 1),
-        RenderMethod::Asynchronous => (1, threads, false, threads),
-        RenderMethod::SemiSynchronous => {
-            let k = params.group_threads.clamp(1, threads);
-            let g = (threads / k).max(1);
-            (k, g, g > 1, 1)
-        }
-    };
+    let (k, g, share, stores) = layout(params.method, params.group_threads, threads);
     let pixels = eye.camera.pixels();
     let desc = &eye.camera.desc;
     let tiles_x = desc.width.div_ceil(TILE);
@@ -756,7 +774,6 @@ pub fn render(
     let mut stop = None;
     let interval = Duration::from_secs_f64(params.progress_interval_s);
     std::thread::scope(|s| {
-        let workers = g * k;
         let mut spawned = 0;
         for gi in 0..g {
             for tid in 0..k {
@@ -768,11 +785,7 @@ pub fn render(
                             engine.worker(gi, tid)
                         }));
                         if let Err(e) = r {
-                            let msg = e
-                                .downcast_ref::<&str>()
-                                .map(|s| s.to_string())
-                                .or_else(|| e.downcast_ref::<String>().cloned())
-                                .unwrap_or_else(|| "unknown panic".into());
+                            let msg = crate::error::panic_message(&*e);
                             *lost.lock().unwrap_or_else(|e| e.into_inner()) =
                                 Some(format!("render thread {gi}.{tid} panicked: {msg}"));
                             engine.poison.store(true, Ordering::Relaxed);
@@ -791,7 +804,6 @@ pub fn render(
                 }
             }
         }
-        let _ = workers;
         // The monitor.
         let mut next = start + interval;
         while finished.load(Ordering::Acquire) < spawned {

@@ -89,23 +89,7 @@ impl Colour {
         if self.band.is_some() {
             return;
         }
-        let total: f64 = self.c.iter().sum();
-        let mut target = u * total;
-        let mut chosen = self.c.len() - 1;
-        for (i, &c) in self.c.iter().enumerate() {
-            if target < c {
-                chosen = i;
-                break;
-            }
-            target -= c;
-        }
-        // A zero-weight band can never be chosen, even at the rounding edge.
-        while self.c[chosen] == 0.0 && chosen > 0 {
-            chosen -= 1;
-        }
-        self.c.iter_mut().for_each(|c| *c = 0.0);
-        self.c[chosen] = total;
-        self.band = Some(chosen);
+        self.band = Some(collapse_weights(&mut self.c, u));
     }
 
     /// Beer–Lambert over `dist_m` metres with per-band coefficients `alpha` (1/m): survives
@@ -136,6 +120,29 @@ impl Colour {
         }
         Some(p)
     }
+}
+
+/// Collapses per-band weights `w` to one band chosen with probability proportional to its
+/// weight (`u` uniform in [0, 1)), which gets the total: every band keeps its expectation.
+/// Returns the band.
+pub fn collapse_weights(w: &mut [f64], u: f64) -> usize {
+    let total: f64 = w.iter().sum();
+    let mut target = u * total;
+    let mut chosen = w.len() - 1;
+    for (i, &c) in w.iter().enumerate() {
+        if target < c {
+            chosen = i;
+            break;
+        }
+        target -= c;
+    }
+    // A zero-weight band can never be chosen, even at the rounding edge.
+    while w[chosen] == 0.0 && chosen > 0 {
+        chosen -= 1;
+    }
+    w.iter_mut().for_each(|c| *c = 0.0);
+    w[chosen] = total;
+    chosen
 }
 
 #[cfg(test)]

@@ -7,7 +7,7 @@
 
 mod colour;
 
-pub use colour::Colour;
+pub use colour::{collapse_weights, Colour};
 
 use crate::accel::Accel;
 use crate::sampling::{warp, PhotonRng};
