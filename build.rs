@@ -5,7 +5,10 @@
 //! The directory found is also handed to dependents' build scripts (`links = "imap"`).
 //! Artifacts get an rpath to `$ORIGIN` (an installed `libimap.so` finds the Embree and TBB
 //! libraries installed beside it) and to the directory found here (so tests and examples run
-//! from the build tree). The cdylib gets the SONAME `libimap.so.<major>`.
+//! from the build tree). The cdylib gets the SONAME of the ABI policy (README): while the
+//! major version is 0, `libimap.so.0.<minor>` (each 0.x minor is an ABI epoch); from 1.0 on,
+//! `libimap.so.<major>`. An installed `libimap.so` finds Embree and TBB in `$ORIGIN/imap`,
+//! a private directory (so the bundled TBB never shadows the system's).
 use std::env;
 use std::path::PathBuf;
 
@@ -24,7 +27,13 @@ fn main() {
         // For dependents' build scripts (the `imap` command): DEP_IMAP_EMBREE_DIR.
         println!("cargo:embree_dir={}", dir.display());
     }
-    println!("cargo:rustc-link-arg=-Wl,-rpath,$ORIGIN");
+    println!("cargo:rustc-link-arg=-Wl,-rpath,$ORIGIN/imap:$ORIGIN");
     let major = env::var("CARGO_PKG_VERSION_MAJOR").unwrap();
-    println!("cargo:rustc-cdylib-link-arg=-Wl,-soname,libimap.so.{major}");
+    let minor = env::var("CARGO_PKG_VERSION_MINOR").unwrap();
+    let soname = if major == "0" {
+        format!("libimap.so.0.{minor}")
+    } else {
+        format!("libimap.so.{major}")
+    };
+    println!("cargo:rustc-cdylib-link-arg=-Wl,-soname,{soname}");
 }

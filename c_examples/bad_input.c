@@ -30,7 +30,7 @@ static uint32_t square_idx[6] = {0, 1, 2, 0, 2, 3};
 
 static ImapMesh square_mesh(uint32_t material) {
     ImapMesh m;
-    memset(&m, 0, sizeof m);
+    imap_mesh_default(&m, sizeof m);
     m.positions = square, m.vertex_count = 4, m.indices = square_idx, m.triangle_count = 2;
     m.material = material, m.flags = IMAP_MESH_RECORD;
     return m;
@@ -55,44 +55,44 @@ int main(void) {
 
     /* Creation errors are reported on the calling thread. */
     expect("imap_create(out = NULL)", imap_create(NULL, NULL), IMAP_ERR_NULL_POINTER, NULL);
-    imap_config_default(&cfg);
+    imap_config_default(&cfg, sizeof cfg);
     cfg.band_mode = IMAP_BANDS_SPECTRAL, cfg.band_count = 0;
     expect("spectral config with 0 bands", imap_create(&cfg, &ctx), IMAP_ERR_BAD_BANDS, NULL);
-    imap_config_default(&cfg);
+    imap_config_default(&cfg, sizeof cfg);
     cfg.band_count = 4;
     expect("RGB config with 4 bands", imap_create(&cfg, &ctx), IMAP_ERR_BAD_BANDS, NULL);
-    imap_config_default(&cfg);
+    imap_config_default(&cfg, sizeof cfg);
     cfg.unit_m = NAN;
     expect("unit_m = NaN", imap_create(&cfg, &ctx), IMAP_ERR_NON_FINITE, NULL);
-    imap_config_default(&cfg);
+    imap_config_default(&cfg, sizeof cfg);
     cfg.scheduler = 7;
     expect("unknown scheduler", imap_create(&cfg, &ctx), IMAP_ERR_INVALID_ARGUMENT, NULL);
-    imap_config_default(&cfg);
+    imap_config_default(&cfg, sizeof cfg);
     cfg.inline_apply = 9;
     expect("unknown inline_apply", imap_create(&cfg, &ctx), IMAP_ERR_INVALID_ARGUMENT, NULL);
-    imap_config_default(&cfg);
+    imap_config_default(&cfg, sizeof cfg);
     cfg.subd = 1;
     expect("subd = 1", imap_create(&cfg, &ctx), IMAP_ERR_INVALID_ARGUMENT, NULL);
-    imap_config_default(&cfg);
+    imap_config_default(&cfg, sizeof cfg);
     cfg.initial_groups = 64, cfg.max_groups = 8;
     expect("initial_groups > max_groups", imap_create(&cfg, &ctx), IMAP_ERR_INVALID_ARGUMENT, NULL);
     if (ctx != NULL) printf("FAIL out-parameter written on failure\n"), failures++;
 
-    imap_config_default(&cfg);
+    imap_config_default(&cfg, sizeof cfg);
     cfg.threads = 2, cfg.seed = 5;
     expect("imap_create(valid)", imap_create(&cfg, &ctx), IMAP_OK, ctx);
     busy_ctx = ctx;
 
     /* Run before any mesh. */
     ImapRunParams run;
-    imap_run_params_default(&run);
+    imap_run_params_default(&run, sizeof run);
     run.photons = 20000;
-    expect("run before any mesh", imap_run(ctx, &run, NULL), IMAP_ERR_NO_GEOMETRY, ctx);
+    expect("run before any mesh", imap_run(ctx, &run, NULL, 0), IMAP_ERR_NO_GEOMETRY, ctx);
 
     /* Materials. */
     double grey = 0.5, too_much = 1.5, two[2] = {0.1, 0.2};
     ImapMaterial mat;
-    memset(&mat, 0, sizeof mat);
+    imap_material_default(&mat, sizeof mat);
     mat.diffuse_reflectance = &too_much, mat.diffuse_reflectance_count = 1;
     expect("reflectance 1.5", imap_add_material(ctx, &mat, &id), IMAP_ERR_BAD_MATERIAL, ctx);
     mat.diffuse_reflectance = two, mat.diffuse_reflectance_count = 2;
@@ -130,7 +130,7 @@ int main(void) {
 
     /* Lights. */
     double pos[3] = {0.5, 0.5, 1}, zero = 0, watts = 10, nan_pos[3] = {0, NAN, 1};
-    expect("run with no light", imap_run(ctx, &run, NULL), IMAP_ERR_NO_LIGHT, ctx);
+    expect("run with no light", imap_run(ctx, &run, NULL, 0), IMAP_ERR_NO_LIGHT, ctx);
     expect("zero-power light", imap_add_point_light(ctx, pos, &zero, 1, &id), IMAP_ERR_NO_LIGHT, ctx);
     expect("light at NaN", imap_add_point_light(ctx, nan_pos, &watts, 1, &id), IMAP_ERR_NON_FINITE, ctx);
     expect("light out_id = NULL", imap_add_point_light(ctx, pos, &watts, 1, NULL), IMAP_ERR_NULL_POINTER, ctx);
@@ -138,14 +138,14 @@ int main(void) {
 
     /* Run parameters. */
     ImapRunParams none;
-    imap_run_params_default(&none);
-    expect("run without a stop criterion", imap_run(ctx, &none, NULL), IMAP_ERR_INVALID_ARGUMENT, ctx);
+    imap_run_params_default(&none, sizeof none);
+    expect("run without a stop criterion", imap_run(ctx, &none, NULL, 0), IMAP_ERR_INVALID_ARGUMENT, ctx);
     none.photons = 1000, none.time_budget_s = -1;
-    expect("negative time budget", imap_run(ctx, &none, NULL), IMAP_ERR_INVALID_ARGUMENT, ctx);
+    expect("negative time budget", imap_run(ctx, &none, NULL, 0), IMAP_ERR_INVALID_ARGUMENT, ctx);
 
     /* A real run, then read-backs with bad arguments. */
     ImapReport rep;
-    expect("imap_run(valid)", imap_run(ctx, &run, &rep), IMAP_OK, ctx);
+    expect("imap_run(valid)", imap_run(ctx, &run, &rep, sizeof rep), IMAP_OK, ctx);
     double before[4], after[4], err[4];
     expect("read back", imap_get_vertex_energy(ctx, floor_id, IMAP_SIDE_FRONT, 1, before, 4), IMAP_OK, ctx);
     expect("band 3 of 3", imap_get_vertex_energy(ctx, floor_id, 0, 3, after, 4), IMAP_ERR_INDEX_OUT_OF_RANGE, ctx);
@@ -161,48 +161,48 @@ int main(void) {
     /* Render: bad cameras and parameters refused before any work, then a real render,
      * which leaves the illumination map as it was. */
     ImapRenderReport rr;
-    expect("render report before any render", imap_get_render_report(ctx, &rr), IMAP_ERR_OUT_OF_ORDER, ctx);
+    expect("render report before any render", imap_get_render_report(ctx, &rr, sizeof rr), IMAP_ERR_OUT_OF_ORDER, ctx);
     ImapCamera cam;
-    memset(&cam, 0, sizeof cam);
+    imap_camera_default(&cam, sizeof cam);
     cam.position[0] = 0.5, cam.position[1] = 0.5, cam.position[2] = 0.9;
     cam.direction[2] = -1, cam.up[1] = 1, cam.fov_y_deg = 60, cam.width = 8, cam.height = 8;
     ImapRenderParams rp;
-    expect("imap_render_params_default", imap_render_params_default(&rp), IMAP_OK, NULL);
+    expect("imap_render_params_default", imap_render_params_default(&rp, sizeof rp), IMAP_OK, NULL);
     rp.passes = 4;
     double img[8 * 8 * 3], img_err[8 * 8];
-    expect("camera NULL", imap_render(ctx, NULL, &rp, img, 192, NULL, 0, NULL), IMAP_ERR_NULL_POINTER, ctx);
-    expect("params NULL", imap_render(ctx, &cam, NULL, img, 192, NULL, 0, NULL), IMAP_ERR_NULL_POINTER, ctx);
-    expect("radiance buffer NULL", imap_render(ctx, &cam, &rp, NULL, 192, NULL, 0, NULL), IMAP_ERR_NULL_POINTER, ctx);
-    expect("radiance buffer of 191 for 8 × 8 × 3", imap_render(ctx, &cam, &rp, img, 191, NULL, 0, NULL),
+    expect("camera NULL", imap_render(ctx, NULL, &rp, img, 192, NULL, 0, NULL, 0), IMAP_ERR_NULL_POINTER, ctx);
+    expect("params NULL", imap_render(ctx, &cam, NULL, img, 192, NULL, 0, NULL, 0), IMAP_ERR_NULL_POINTER, ctx);
+    expect("radiance buffer NULL", imap_render(ctx, &cam, &rp, NULL, 192, NULL, 0, NULL, 0), IMAP_ERR_NULL_POINTER, ctx);
+    expect("radiance buffer of 191 for 8 × 8 × 3", imap_render(ctx, &cam, &rp, img, 191, NULL, 0, NULL, 0),
            IMAP_ERR_BUFFER_TOO_SMALL, ctx);
-    expect("error buffer of 63 for 8 × 8", imap_render(ctx, &cam, &rp, img, 192, img_err, 63, NULL),
+    expect("error buffer of 63 for 8 × 8", imap_render(ctx, &cam, &rp, img, 192, img_err, 63, NULL, 0),
            IMAP_ERR_BUFFER_TOO_SMALL, ctx);
     rp.method = 7;
-    expect("render method 7", imap_render(ctx, &cam, &rp, img, 192, NULL, 0, NULL), IMAP_ERR_INVALID_ARGUMENT, ctx);
+    expect("render method 7", imap_render(ctx, &cam, &rp, img, 192, NULL, 0, NULL, 0), IMAP_ERR_INVALID_ARGUMENT, ctx);
     rp.method = IMAP_RENDER_SEMI_SYNC, rp.alpha = 1.5;
-    expect("alpha 1.5", imap_render(ctx, &cam, &rp, img, 192, NULL, 0, NULL), IMAP_ERR_INVALID_ARGUMENT, ctx);
+    expect("alpha 1.5", imap_render(ctx, &cam, &rp, img, 192, NULL, 0, NULL, 0), IMAP_ERR_INVALID_ARGUMENT, ctx);
     rp.alpha = 0, rp.passes = 0;
-    expect("render without a stop criterion", imap_render(ctx, &cam, &rp, img, 192, NULL, 0, NULL),
+    expect("render without a stop criterion", imap_render(ctx, &cam, &rp, img, 192, NULL, 0, NULL, 0),
            IMAP_ERR_INVALID_ARGUMENT, ctx);
     rp.passes = 4;
     cam.fov_y_deg = 180;
-    expect("field of view 180°", imap_render(ctx, &cam, &rp, img, 192, NULL, 0, NULL), IMAP_ERR_INVALID_ARGUMENT, ctx);
+    expect("field of view 180°", imap_render(ctx, &cam, &rp, img, 192, NULL, 0, NULL, 0), IMAP_ERR_INVALID_ARGUMENT, ctx);
     cam.fov_y_deg = 60, cam.up[1] = 0, cam.up[2] = 1;
-    expect("up parallel to the view", imap_render(ctx, &cam, &rp, img, 192, NULL, 0, NULL), IMAP_ERR_INVALID_ARGUMENT,
+    expect("up parallel to the view", imap_render(ctx, &cam, &rp, img, 192, NULL, 0, NULL, 0), IMAP_ERR_INVALID_ARGUMENT,
            ctx);
     cam.up[1] = 1, cam.up[2] = 0, cam.position[0] = NAN;
-    expect("camera at NaN", imap_render(ctx, &cam, &rp, img, 192, NULL, 0, NULL), IMAP_ERR_NON_FINITE, ctx);
+    expect("camera at NaN", imap_render(ctx, &cam, &rp, img, 192, NULL, 0, NULL, 0), IMAP_ERR_NON_FINITE, ctx);
     cam.position[0] = 0.5, cam.width = 0;
-    expect("image width 0", imap_render(ctx, &cam, &rp, img, 192, NULL, 0, NULL), IMAP_ERR_INVALID_ARGUMENT, ctx);
+    expect("image width 0", imap_render(ctx, &cam, &rp, img, 192, NULL, 0, NULL, 0), IMAP_ERR_INVALID_ARGUMENT, ctx);
     cam.width = 8;
-    expect("imap_render(valid)", imap_render(ctx, &cam, &rp, img, 192, img_err, 64, &rr), IMAP_OK, ctx);
+    expect("imap_render(valid)", imap_render(ctx, &cam, &rp, img, 192, img_err, 64, &rr, sizeof rr), IMAP_OK, ctx);
     /* The pixel looking straight down at the floor under the light: ρE/π, E = I/h². */
     double centre = 0.5 * 10 / (4 * 3.14159265358979) / 3.14159265358979;
     if (!(rr.passes >= 4 && rr.gate_violations == 0 && fabs(img[(4 * 8 + 4) * 3] / centre - 1) < 0.1))
         printf("FAIL render: %.1f passes, %llu violations, centre pixel %g want about %g\n", rr.passes,
                (unsigned long long)rr.gate_violations, img[(4 * 8 + 4) * 3], centre), failures++;
     size_t hist_len = 0;
-    expect("render history length", imap_get_render_history(ctx, NULL, 0, &hist_len), IMAP_OK, ctx);
+    expect("render history length", imap_get_render_history(ctx, NULL, 0, sizeof(ImapProgress), &hist_len), IMAP_OK, ctx);
     if (hist_len == 0 || hist_len != rr.history_len) printf("FAIL render history of %zu points\n", hist_len), failures++;
 
     /* A render cancelled from its callback on the 2nd call: it stops, says why, keeps
@@ -211,9 +211,9 @@ int main(void) {
     cancel_after = 2;
     status_inside_callback = IMAP_OK;
     ImapRenderParams rc;
-    imap_render_params_default(&rc);
+    imap_render_params_default(&rc, sizeof rc);
     rc.progress = callback, rc.user_data = &render_calls, rc.progress_interval_s = 0.02;
-    expect("render cancelled from the callback", imap_render(ctx, &cam, &rc, img, 192, NULL, 0, &rr), IMAP_OK, ctx);
+    expect("render cancelled from the callback", imap_render(ctx, &cam, &rc, img, 192, NULL, 0, &rr, sizeof rr), IMAP_OK, ctx);
     if (rr.stop_reason != IMAP_STOP_CANCELLED || !(rr.passes > 0))
         printf("FAIL render stop_reason %u after %.1f passes, want CANCELLED\n", rr.stop_reason, rr.passes), failures++;
     expect("callback re-entering the context during a render", status_inside_callback, IMAP_ERR_BUSY, ctx);
@@ -227,14 +227,14 @@ int main(void) {
     int calls = 0;
     cancel_after = 2;
     ImapRunParams cb;
-    imap_run_params_default(&cb);
+    imap_run_params_default(&cb, sizeof cb);
     cb.progress = callback, cb.user_data = &calls, cb.progress_interval_s = 0.05;
     ImapReport r1, r2;
-    expect("run cancelled from the callback", imap_run(ctx, &cb, &r1), IMAP_OK, ctx);
+    expect("run cancelled from the callback", imap_run(ctx, &cb, &r1, sizeof r1), IMAP_OK, ctx);
     if (r1.stop_reason != IMAP_STOP_CANCELLED) printf("FAIL stop_reason %u, want CANCELLED\n", r1.stop_reason), failures++;
     expect("callback re-entering the context", status_inside_callback, IMAP_ERR_BUSY, ctx);
     run.photons = 30000;
-    expect("resumed run", imap_run(ctx, &run, &r2), IMAP_OK, ctx);
+    expect("resumed run", imap_run(ctx, &run, &r2, sizeof r2), IMAP_OK, ctx);
     if (r2.photons != r1.photons + 30000 || r1.photons != rep.photons + r1.run_photons)
         printf("FAIL photons do not add up: %llu, %llu, %llu\n", (unsigned long long)rep.photons,
                (unsigned long long)r1.photons, (unsigned long long)r2.photons), failures++;

@@ -57,7 +57,7 @@ int main(int argc, char **argv) {
 
     /* Run to the target error, reporting error against time every half second. */
     ImapRunParams run;
-    imap_run_params_default(&run);
+    imap_run_params_default(&run, sizeof run);
     run.target_rel_error = target;
     run.time_budget_s = budget;
     run.progress_interval_s = 0.5;
@@ -65,7 +65,7 @@ int main(int argc, char **argv) {
     printf("Cornell box, %d band%s, target error %.3g, budget %.0f s\n", bands, bands == 1 ? "" : "s", target, budget);
     printf("%10s %14s %14s %12s %12s\n", "time [s]", "photons", "hits", "Mphotons/s", "rel. error");
     ImapReport rep;
-    CHECK(imap_run(ctx, &run, &rep));
+    CHECK(imap_run(ctx, &run, &rep, sizeof rep));
     static const char *why[] = {"none", "photon count", "time budget", "target error", "cancelled"};
     printf("stopped by %s after %.2f s: %llu photons (%.3f M/s), %llu hits (%.3f M/s), error %.4f\n",
            why[rep.stop_reason], rep.run_wall_s, (unsigned long long)rep.photons, rep.run_photons / rep.run_wall_s / 1e6,

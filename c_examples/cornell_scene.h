@@ -120,7 +120,7 @@ static void spectrum(const double rgb[3], int bands, double *out) {
 /* The box's context settings: RGB for 3 bands, otherwise `bands` spectral bands over
  * 400–700 nm; millimetre scene units; seed 2026. */
 static void cornell_config(ImapConfig *cfg, int bands) {
-    imap_config_default(cfg);
+    imap_config_default(cfg, sizeof *cfg);
     if (bands != 3) {
         cfg->band_mode = IMAP_BANDS_SPECTRAL;
         cfg->band_count = (uint32_t)bands;
@@ -141,7 +141,7 @@ static void cornell_build(ImapContext *ctx, Cornell *box, int bands, int closed,
     double *buf = malloc((size_t)bands * sizeof(double));
     uint32_t m_white, m_red, m_green, m_lamp;
     ImapMaterial mat;
-    memset(&mat, 0, sizeof mat);
+    imap_material_default(&mat, sizeof mat);
     mat.diffuse_reflectance = buf;
     mat.diffuse_reflectance_count = (size_t)bands;
     spectrum(white, bands, buf);
@@ -150,7 +150,7 @@ static void cornell_build(ImapContext *ctx, Cornell *box, int bands, int closed,
     CHECK(imap_add_material(ctx, &mat, &m_red));
     spectrum(green, bands, buf);
     CHECK(imap_add_material(ctx, &mat, &m_green));
-    memset(&mat, 0, sizeof mat);
+    imap_material_default(&mat, sizeof mat);
     CHECK(imap_add_material(ctx, &mat, &m_lamp));
     free(buf);
 
@@ -172,7 +172,7 @@ static void cornell_build(ImapContext *ctx, Cornell *box, int bands, int closed,
     for (int i = 0; i < CB_LAMP; i++) {
         if (i == CB_FRONT && !closed) continue;
         ImapMesh d;
-        memset(&d, 0, sizeof d);
+        imap_mesh_default(&d, sizeof d);
         d.positions = p[i].xyz, d.vertex_count = p[i].nv;
         d.indices = p[i].idx, d.triangle_count = p[i].nt;
         d.material = i == CB_LEFT ? m_red : i == CB_RIGHT ? m_green : m_white;
@@ -182,7 +182,7 @@ static void cornell_build(ImapContext *ctx, Cornell *box, int bands, int closed,
     /* The lamp emits 17 W per band (its exitance over 0.01365 m²); it does not record. */
     double exitance = CORNELL_LAMP_W_PER_BAND / CORNELL_LAMP_AREA_M2;
     ImapMesh d;
-    memset(&d, 0, sizeof d);
+    imap_mesh_default(&d, sizeof d);
     d.positions = p[CB_LAMP].xyz, d.vertex_count = p[CB_LAMP].nv;
     d.indices = p[CB_LAMP].idx, d.triangle_count = p[CB_LAMP].nt;
     d.material = m_lamp, d.exitance = &exitance, d.exitance_count = 1;

@@ -78,7 +78,7 @@ int main(int argc, char **argv) {
     cornell_build(ctx, &box, bands, 0, 0, 8);
 
     ImapCamera cam;
-    memset(&cam, 0, sizeof cam);
+    imap_camera_default(&cam, sizeof cam);
     const double eye[3] = {278, 273, -800};
     memcpy(cam.position, eye, sizeof eye);
     cam.direction[2] = 1;
@@ -87,7 +87,7 @@ int main(int argc, char **argv) {
     cam.width = w, cam.height = h;
 
     ImapRenderParams rp;
-    CHECK(imap_render_params_default(&rp));
+    CHECK(imap_render_params_default(&rp, sizeof rp));
     rp.method = strcmp(method, "sync") == 0    ? IMAP_RENDER_SYNC
                 : strcmp(method, "async") == 0 ? IMAP_RENDER_ASYNC
                                                : IMAP_RENDER_SEMI_SYNC;
@@ -102,7 +102,7 @@ int main(int argc, char **argv) {
            method, seconds);
     printf("%10s %14s %14s %12s\n", "time [s]", "fwd photons", "bwd paths", "rel. error");
     ImapRenderReport rep;
-    CHECK(imap_render(ctx, &cam, &rp, rad, pixels * (size_t)bands, err, pixels, &rep));
+    CHECK(imap_render(ctx, &cam, &rp, rad, pixels * (size_t)bands, err, pixels, &rep, sizeof rep));
     static const char *why[] = {"none", "passes", "time budget", "target error", "cancelled"};
     printf("stopped by %s after %.2f s: %.1f samples per pixel, %u threads in %u group(s)\n", why[rep.stop_reason],
            rep.wall_s, rep.passes, rep.threads, rep.groups);
@@ -162,9 +162,9 @@ int main(int argc, char **argv) {
 
     /* The error estimate falls over the render; the counter protocol held. */
     size_t n_hist = 0;
-    CHECK(imap_get_render_history(ctx, NULL, 0, &n_hist));
+    CHECK(imap_get_render_history(ctx, NULL, 0, sizeof(ImapProgress), &n_hist));
     ImapProgress *hist = malloc((n_hist ? n_hist : 1) * sizeof *hist);
-    CHECK(imap_get_render_history(ctx, hist, n_hist, &n_hist));
+    CHECK(imap_get_render_history(ctx, hist, n_hist, sizeof(ImapProgress), &n_hist));
     if (n_hist < 2 || !(hist[n_hist - 1].rel_error < hist[0].rel_error)) {
         fprintf(stderr, "FAIL: the error estimate did not fall (%zu history points)\n", n_hist);
         ok = 0;

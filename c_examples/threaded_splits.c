@@ -29,18 +29,18 @@ static double *run(const ImapConfig *cfg, uint64_t photons, ImapReport *rep) {
     double grey = 0.6, pos[3] = {0.3 * N, 0.6 * N, 4}, below[3] = {0.7 * N, 0.4 * N, -4}, watts = 100;
     uint32_t mat, mesh, light;
     ImapMaterial m;
-    memset(&m, 0, sizeof m);
+    imap_material_default(&m, sizeof m);
     m.diffuse_reflectance = &grey, m.diffuse_reflectance_count = 1;
     ImapMesh d;
-    memset(&d, 0, sizeof d);
+    imap_mesh_default(&d, sizeof d);
     d.positions = xyz, d.vertex_count = (N + 1) * (N + 1), d.indices = idx, d.triangle_count = 2 * N * N;
     d.flags = IMAP_MESH_RECORD | IMAP_MESH_TWO_SIDED;
     ImapRunParams p;
-    imap_run_params_default(&p);
+    imap_run_params_default(&p, sizeof p);
     p.photons = photons;
     if (imap_add_material(ctx, &m, &mat) || (d.material = mat, imap_add_mesh(ctx, &d, &mesh)) ||
         imap_add_point_light(ctx, pos, &watts, 1, &light) || imap_add_point_light(ctx, below, &watts, 1, &light) ||
-        imap_run(ctx, &p, rep)) {
+        imap_run(ctx, &p, rep, sizeof *rep)) {
         fprintf(stderr, "setup or run failed: %s\n", imap_last_error(ctx));
         exit(1);
     }
@@ -67,7 +67,7 @@ int main(int argc, char **argv) {
         }
 
     ImapConfig cfg;
-    imap_config_default(&cfg);
+    imap_config_default(&cfg, sizeof cfg);
     cfg.threads = 2, cfg.seed = 99, cfg.band_mode = IMAP_BANDS_SPECTRAL, cfg.band_count = 16;
     cfg.scheduler = IMAP_SCHEDULER_CLASSIC;
     ImapReport rc, rd;

@@ -6,34 +6,47 @@
  *
  * Usage:
  *
- *     ImapConfig cfg;  imap_config_default(&cfg);          // RGB, all cores
+ *     ImapConfig cfg;  imap_config_default(&cfg, sizeof cfg);      // RGB, all cores
  *     ImapContext *ctx;
  *     if (imap_create(&cfg, &ctx) != IMAP_OK) { puts(imap_last_error(NULL)); return 1; }
  *     double grey = 0.5;  uint32_t mat, mesh, light;
- *     ImapMaterial m = {0};  m.diffuse_reflectance = &grey;  m.diffuse_reflectance_count = 1;
+ *     ImapMaterial m;  imap_material_default(&m, sizeof m);
+ *     m.diffuse_reflectance = &grey;  m.diffuse_reflectance_count = 1;
  *     imap_add_material(ctx, &m, &mat);
- *     ImapMesh desc = {0};  desc.positions = xyz;  desc.vertex_count = nv;
- *     desc.indices = idx;  desc.triangle_count = nt;  desc.material = mat;
- *     desc.flags = IMAP_MESH_RECORD;
+ *     ImapMesh desc;  imap_mesh_default(&desc, sizeof desc);
+ *     desc.positions = xyz;  desc.vertex_count = nv;  desc.indices = idx;
+ *     desc.triangle_count = nt;  desc.material = mat;  desc.flags = IMAP_MESH_RECORD;
  *     imap_add_mesh(ctx, &desc, &mesh);
  *     double pos[3] = {0, 0, 2}, watts = 100;
  *     imap_add_point_light(ctx, pos, &watts, 1, &light);
- *     ImapRunParams run;  imap_run_params_default(&run);  run.target_rel_error = 0.01;
- *     if (imap_run(ctx, &run, NULL) != IMAP_OK) puts(imap_last_error(ctx));
+ *     ImapRunParams run;  imap_run_params_default(&run, sizeof run);
+ *     run.target_rel_error = 0.01;
+ *     if (imap_run(ctx, &run, NULL, 0) != IMAP_OK) puts(imap_last_error(ctx));
  *     imap_get_vertex_energy(ctx, mesh, IMAP_SIDE_FRONT, 0, out, nv);   // W/m², band 0
  *     imap_destroy(ctx);
  *
  * Conventions:
  * - Every call returns an ImapStatus; IMAP_OK is 0. On failure imap_last_error(ctx) (or
- *   imap_last_error(NULL) for calls without a context) says which argument and why; the
- *   context stays usable and nothing already accumulated is lost. Out-parameters are
- *   written only on success. No call lets a panic or exception escape.
+ *   imap_last_error(NULL) for calls without a context) says which argument and why, in
+ *   one line; the context stays usable and nothing already accumulated is lost.
+ *   Out-parameters are written only on success. No call lets a panic or exception
+ *   escape, aborts the program, or prints anything.
+ * - Error messages: imap_last_error(ctx) is the calling thread's own last failure on ctx,
+ *   valid until that thread's next failing call on ctx, imap_destroy(ctx) or the thread's
+ *   exit; other threads never free it (see imap_last_error).
+ * - Versioned structs: every struct starts with `struct_size`. Initialise input structs
+ *   with their imap_*_default(&s, sizeof s) function, then set fields; pass sizeof for
+ *   output structs. Fields are only ever appended (0 meaning "default"), so a program keeps
+ *   working with newer libraries of the same ABI (README, "ABI policy").
  * - Ownership: handles are created by imap_create and freed by imap_destroy
  *   (imap_destroy(NULL) is a no-op). Arrays are passed as pointer + count and copied; a
  *   count of 0 allows a NULL pointer. `const` pointers are never written.
  * - Threads: functions without a context are thread-safe. A context may be used from any
  *   thread but by one call at a time; a concurrent call (or one from the progress
  *   callback) returns IMAP_ERR_BUSY. imap_run uses its own worker threads.
+ * - Memory: a context never holds more than its budget (ImapConfig::memory_budget_bytes,
+ *   default 3/4 of physical memory) and reports IMAP_ERR_MEMORY_BUDGET before allocating,
+ *   or IMAP_ERR_OUT_OF_MEMORY when the system refuses an allocation.
  * - Units: positions in scene units (ImapConfig::unit_m metres each); power in W per band;
  *   exitance and irradiance in W/m² per band; angles in radians; times in seconds;
  *   wavelengths in nm; absorption in 1/m.
@@ -53,9 +66,10 @@
 #define IMAP_VERSION_MAJOR 0
 
 /**
- * Library version, minor.
+ * Library version, minor. While the major version is 0, the minor version is the ABI
+ * epoch: `libimap.so.0.<minor>` (see README, "ABI policy").
  */
-#define IMAP_VERSION_MINOR 1
+#define IMAP_VERSION_MINOR 2
 
 /**
  * Library version, patch.
@@ -101,6 +115,61 @@
 #define IMAP_INLINE_NEVER 2
 
 /**
+ * `ImapRenderParams::method`: all threads share one set of backward photon maps, phase
+ * by phase (paper §2.2, synchronous).
+ */
+#define IMAP_RENDER_SYNC 0
+
+/**
+ * Each thread renders the whole image with private maps and pixel store; the stores are
+ * merged at the end (memory grows with the thread count).
+ */
+#define IMAP_RENDER_ASYNC 1
+
+/**
+ * Two-level semi-synchronous method (paper §2.3, the default): groups of
+ * `group_threads` threads, each with its own random mask of 32×32-pixel tiles and its own
+ * maps, and lock-free access to the other groups' maps through their active-thread
+ * counters.
+ */
+#define IMAP_RENDER_SEMI_SYNC 2
+
+/**
+ * Side index of `imap_get_vertex_energy`: the side the normal (v1−v0)×(v2−v0) points to.
+ */
+#define IMAP_SIDE_FRONT 0
+
+/**
+ * The other side (two-sided meshes only).
+ */
+#define IMAP_SIDE_BACK 1
+
+/**
+ * `ImapReport::stop_reason` values: no run yet.
+ */
+#define IMAP_STOP_NONE 0
+
+/**
+ * The run traced its photon count.
+ */
+#define IMAP_STOP_PHOTONS 1
+
+/**
+ * The run used its time budget.
+ */
+#define IMAP_STOP_TIME 2
+
+/**
+ * The estimated error reached the target.
+ */
+#define IMAP_STOP_TARGET_ERROR 3
+
+/**
+ * The progress callback asked to stop.
+ */
+#define IMAP_STOP_CANCELLED 4
+
+/**
  * `ImapMaterial::ior_model`: not a dielectric.
  */
 #define IMAP_IOR_NONE 0
@@ -131,80 +200,10 @@
 #define IMAP_MESH_RECORD 2
 
 /**
- * Side index of `imap_get_vertex_energy`: the side the normal (v1−v0)×(v2−v0) points to.
- */
-#define IMAP_SIDE_FRONT 0
-
-/**
- * The other side (two-sided meshes only).
- */
-#define IMAP_SIDE_BACK 1
-
-/**
- * `ImapReport::stop_reason` values.
- */
-#define IMAP_STOP_NONE 0
-
-/**
- * The run traced its photon count.
- */
-#define IMAP_STOP_PHOTONS 1
-
-/**
- * The run used its time budget.
- */
-#define IMAP_STOP_TIME 2
-
-/**
- * The estimated error reached the target.
- */
-#define IMAP_STOP_TARGET_ERROR 3
-
-/**
- * The progress callback asked to stop.
- */
-#define IMAP_STOP_CANCELLED 4
-
-/**
- * `ImapRenderParams::method`: all threads share one set of backward photon maps, phase
- * by phase (paper §2.2, synchronous).
- */
-#define IMAP_RENDER_SYNC 0
-
-/**
- * Each thread renders the whole image with private maps and pixel store; the stores are
- * merged at the end (memory grows with the thread count).
- */
-#define IMAP_RENDER_ASYNC 1
-
-/**
- * Two-level semi-synchronous method (paper §2.3, the default): groups of
- * `group_threads` threads, each with its own random mask of 32×32-pixel tiles and its own
- * maps, and lock-free access to the other groups' maps through their active-thread
- * counters.
- */
-#define IMAP_RENDER_SEMI_SYNC 2
-
-/**
- * Relative error reported for a vertex that received nothing or has no area: 1 (100 %).
- */
-#define NO_DATA_REL_ERROR 1.0
-
-/**
- * Share of photons spread evenly over the emitters, whatever their power.
- */
-#define EMITTER_FLOOR 0.1
-
-/**
- * Photons per claim: small enough to stop quickly, large enough that the counter is cold.
- */
-#define BATCH 64
-
-/**
  * Status returned by every `imap_*` call. `IMAP_OK` (0) is success; every other value names
  * one kind of failure, and the last-error message says which argument and why.
  */
-typedef enum {
+typedef enum ImapStatus {
   /**
    * Success.
    */
@@ -296,6 +295,12 @@ typedef enum {
    * The output buffer is too small for the requested data.
    */
   IMAP_ERR_BUFFER_TOO_SMALL = 20,
+  /**
+   * The scene cannot be traced faithfully: a mesh's triangles are too small for the f32
+   * precision that ray tracing has at their distance from the scene's centre, or a
+   * coordinate is beyond ±1e30. The message names the mesh.
+   */
+  IMAP_ERR_PRECISION = 21,
 } ImapStatus;
 
 /**
@@ -304,22 +309,26 @@ typedef enum {
 typedef struct ImapContext ImapContext;
 
 /**
- * The five scenes of the paper.
+ * Context settings, fixed at creation (threads and scheduler settings can be changed
+ * later). Initialise with `imap_config_default(&cfg, sizeof cfg)`.
  */
-typedef struct SceneKind SceneKind;
-
-/**
- * Context settings, fixed at creation. Initialise with `imap_config_default`.
- */
-typedef struct {
+typedef struct ImapConfig {
+  /**
+   * `sizeof(ImapConfig)` as the program was compiled; set by `imap_config_default`.
+   */
+  uint32_t struct_size;
   /**
    * `IMAP_BANDS_RGB` or `IMAP_BANDS_SPECTRAL`.
    */
   uint32_t band_mode;
   /**
-   * Number of spectral bands (≥ 1); must be 3 in RGB mode.
+   * Number of bands: 3 in RGB mode, 1..=4096 spectral.
    */
   uint32_t band_count;
+  /**
+   * Calculating threads, 0..=1024; 0 = one per core.
+   */
+  uint32_t threads;
   /**
    * Wavelength of the first spectral band, nm.
    */
@@ -329,33 +338,31 @@ typedef struct {
    */
   double wavelength_max_nm;
   /**
-   * Calculating threads; 0 = one per core.
-   */
-  uint32_t threads;
-  /**
-   * `IMAP_SCHEDULER_*`.
-   */
-  uint32_t scheduler;
-  /**
    * Seed of the photons' random streams: the same seed gives the same map with any
    * scheduler and thread count.
    */
   uint64_t seed;
   /**
-   * Largest map in bytes; 0 = the default, 3/4 of physical memory. Checked when a mesh
-   * is added and before a run allocates anything (IMAP_ERR_MEMORY_BUDGET).
+   * Most bytes the context may hold (meshes, prepared scene, BVH estimate, map, render
+   * buffers); 0 = the default, 3/4 of physical memory. Checked before every allocation
+   * that depends on the input (IMAP_ERR_MEMORY_BUDGET).
    */
   uint64_t memory_budget_bytes;
   /**
-   * Metres per scene unit (irradiance is reported in W/m²).
+   * Metres per scene unit, in [1e-9, 1e9] (irradiance is reported in W/m²).
    */
   double unit_m;
+  /**
+   * `IMAP_SCHEDULER_*`.
+   */
+  uint32_t scheduler;
   /**
    * Dynamic scheduler: vertex groups at the start; 0 = one per calculating thread.
    */
   uint32_t initial_groups;
   /**
-   * Dynamic scheduler: most groups ever (preallocated); 0 = 64 per calculating thread.
+   * Dynamic scheduler: most groups ever (preallocated); 0 = 64 per calculating thread,
+   * at most 4096. 1 means one group that never splits.
    */
   uint32_t max_groups;
   /**
@@ -383,81 +390,46 @@ typedef struct {
 } ImapConfig;
 
 /**
- * A material. Per-band arrays hold 1 value (the same in every band) or one per band;
- * a count of 0 (pointer may be NULL) means 0 in every band. The library copies them.
+ * A pinhole camera, in scene units. Pixel rows run from the top of the image down.
+ * Initialise with `imap_camera_default(&c, sizeof c)`.
  */
-typedef struct {
+typedef struct ImapCamera {
   /**
-   * Probability of Lambertian reflection, [0, 1].
+   * `sizeof(ImapCamera)` as the program was compiled; set by `imap_camera_default`.
    */
-  const double *diffuse_reflectance;
-  size_t diffuse_reflectance_count;
+  uint32_t struct_size;
   /**
-   * Probability of mirror reflection, [0, 1].
+   * Image size in pixels, each side in 1..=16384.
    */
-  const double *specular_reflectance;
-  size_t specular_reflectance_count;
+  uint32_t width;
+  uint32_t height;
   /**
-   * Probability of Lambertian transmission to the other side, [0, 1].
+   * Eye point.
    */
-  const double *diffuse_transmittance;
-  size_t diffuse_transmittance_count;
+  double position[3];
   /**
-   * `IMAP_IOR_*`. Anything but NONE makes a smooth dielectric (Fresnel reflection and
-   * Snell refraction; the three coefficients above must then be 0). Its mesh should be
-   * closed with normals pointing out; the outside is air (n = 1).
+   * Viewing direction (any non-zero finite length).
    */
-  uint32_t ior_model;
+  double direction[3];
   /**
-   * Coefficients of the index model (see `IMAP_IOR_*`).
+   * Up vector; only its part across `direction` counts, and it must not be parallel.
    */
-  double ior[6];
+  double up[3];
   /**
-   * Beer–Lambert absorption coefficient inside a dielectric, 1/m, per band.
+   * Full vertical field of view, degrees, in (0, 180).
    */
-  const double *absorption_per_m;
-  size_t absorption_count;
-} ImapMaterial;
+  double fov_y_deg;
+} ImapCamera;
 
 /**
- * A triangle mesh. The library copies every array.
+ * One point of the error-against-time history. Filled by the library (`struct_size` says
+ * how many bytes of it are valid).
  */
-typedef struct {
+typedef struct ImapProgress {
   /**
-   * x, y, z of each vertex (3·vertex_count doubles), scene units.
+   * Bytes of this struct the library filled.
    */
-  const double *positions;
-  size_t vertex_count;
-  /**
-   * Three vertex indices per triangle (3·triangle_count).
-   */
-  const uint32_t *indices;
-  size_t triangle_count;
-  /**
-   * Material id (from `imap_add_material`) of every triangle.
-   */
-  uint32_t material;
-  /**
-   * Optional per-triangle material ids (the mesh's parts), triangle_count of them;
-   * NULL = all triangles use `material`.
-   */
-  const uint32_t *triangle_materials;
-  /**
-   * `IMAP_MESH_TWO_SIDED` | `IMAP_MESH_RECORD`.
-   */
-  uint32_t flags;
-  /**
-   * Radiant exitance of a self-emitting mesh (a lamp), W/m² per band, Lambertian, from
-   * the front side (both sides if two-sided); NULL/0 = not emitting.
-   */
-  const double *exitance;
-  size_t exitance_count;
-} ImapMesh;
-
-/**
- * One point of the error-against-time history.
- */
-typedef struct {
+  uint32_t struct_size;
   /**
    * Run time, s, summed over the runs since the last reset.
    */
@@ -481,150 +453,22 @@ typedef struct {
 /**
  * Progress callback: called from the thread inside `imap_run` at each progress interval
  * and once at the end. Return 0 to continue, non-zero to stop the run (the map keeps
- * everything traced; a later `imap_run` continues). It must not call the same context
- * (that returns IMAP_ERR_BUSY) and must not throw C++ exceptions.
+ * every photon traced to its end; a later `imap_run` continues). It must not call the same
+ * context (that returns IMAP_ERR_BUSY) and must not throw C++ exceptions.
  */
-typedef int32_t (*ImapProgressFn)(const ImapProgress *progress, void *user_data);
+typedef int32_t (*ImapProgressFn)(const struct ImapProgress *progress, void *user_data);
 
 /**
- * What `imap_run` does. Initialise with `imap_run_params_default`; at least one stop
- * criterion (photons, time budget, target error) or a callback is required.
+ * What `imap_render` does. Initialise with `imap_render_params_default(&p, sizeof p)`;
+ * at least one stop criterion (passes, time budget, target error) or a callback is
+ * required.
  */
-typedef struct {
+typedef struct ImapRenderParams {
   /**
-   * Photons to trace in this run; 0 = no limit.
+   * `sizeof(ImapRenderParams)` as the program was compiled; set by
+   * `imap_render_params_default`.
    */
-  uint64_t photons;
-  /**
-   * Wall-clock seconds this run may take; 0 = no limit.
-   */
-  double time_budget_s;
-  /**
-   * Stop when the estimated global relative error is at or below this; 0 = none.
-   */
-  double target_rel_error;
-  /**
-   * Seconds between progress reports and target checks (> 0).
-   */
-  double progress_interval_s;
-  /**
-   * Safety limit on surface events per photon path; photons reaching it are counted
-   * in `ImapReport::dropped_w` (never silently).
-   */
-  uint32_t max_path_events;
-  ImapProgressFn progress;
-  /**
-   * Passed to `progress` unchanged.
-   */
-  void *user_data;
-} ImapRunParams;
-
-/**
- * Totals since the last reset, the last run's own figures and the scheduler's counters.
- */
-typedef struct {
-  /**
-   * Photons traced since the last reset.
-   */
-  uint64_t photons;
-  /**
-   * Ray–surface intersections since the last reset.
-   */
-  uint64_t hits;
-  /**
-   * Run time since the last reset, s.
-   */
-  double elapsed_s;
-  /**
-   * Estimated global relative error (see `ImapProgress::rel_error`).
-   */
-  double rel_error;
-  /**
-   * Photons of the last run.
-   */
-  uint64_t run_photons;
-  /**
-   * Intersections of the last run.
-   */
-  uint64_t run_hits;
-  /**
-   * Wall time of the last run, s.
-   */
-  double run_wall_s;
-  /**
-   * `IMAP_STOP_*`: why the last run stopped.
-   */
-  uint32_t stop_reason;
-  /**
-   * Calculating threads of the last run.
-   */
-  uint32_t threads;
-  /**
-   * Power the traced photons carried from the lights, W (summed over bands); its
-   * expectation is the lights' total power, which it equals exactly with one light.
-   */
-  double emitted_w;
-  /**
-   * Power absorbed by all surfaces and media, W (estimate from the photons traced).
-   */
-  double absorbed_w;
-  /**
-   * Power leaving the scene, W.
-   */
-  double escaped_w;
-  /**
-   * Power of photons stopped by `max_path_events`, W.
-   */
-  double dropped_w;
-  /**
-   * Photons stopped by `max_path_events`.
-   */
-  uint64_t dropped_photons;
-  /**
-   * Seconds the calculating threads together waited for a free portion (last run).
-   */
-  double calc_wait_s;
-  /**
-   * Classic: fraction of the last run the accumulating thread spent applying portions.
-   * Dynamic: time spent applying portions over the processing threads' lifetime.
-   */
-  double accum_busy_fraction;
-  /**
-   * Largest number of filled portions waiting to be applied (last run).
-   */
-  uint64_t peak_queue;
-  /**
-   * Portions applied (last run).
-   */
-  uint64_t portions;
-  /**
-   * Of those, portions a calculating thread applied itself because the group was idle
-   * (dynamic scheduler, last run).
-   */
-  uint64_t inline_portions;
-  /**
-   * Vertex-group splits (dynamic scheduler; 0 for classic).
-   */
-  uint64_t splits;
-  /**
-   * Vertex groups at the end of the last run (1 for classic).
-   */
-  uint64_t groups;
-  /**
-   * Bytes held by the map.
-   */
-  uint64_t map_bytes;
-  /**
-   * Points in the error-against-time history (`imap_get_history`).
-   */
-  uint64_t history_len;
-} ImapReport;
-
-/**
- * What `imap_render` does. Initialise with `imap_render_params_default`; at least one
- * stop criterion (passes, time budget, target error) or a callback is required.
- */
-typedef struct {
+  uint32_t struct_size;
   /**
    * `IMAP_RENDER_*`.
    */
@@ -652,7 +496,7 @@ typedef struct {
   uint64_t passes;
   /**
    * First gathering radius, scene units (0 = four pixel footprints at the first
-   * diffuse vertex).
+   * diffuse vertex); otherwise between 1e-6 and 2 times the scene's bounding radius.
    */
   double initial_radius;
   /**
@@ -669,7 +513,9 @@ typedef struct {
    */
   double target_rel_error;
   /**
-   * Seconds between progress reports and stop checks (> 0).
+   * Seconds between progress reports and stop checks (> 0; raised to at least 0.001 s
+   * and lengthened while the estimate would take more than 5 % of the render; the
+   * history keeps at most 4096 points).
    */
   double progress_interval_s;
   /**
@@ -685,46 +531,23 @@ typedef struct {
 } ImapRenderParams;
 
 /**
- * A pinhole camera, in scene units. Pixel rows run from the top of the image down.
- */
-typedef struct {
-  /**
-   * Eye point.
-   */
-  double position[3];
-  /**
-   * Viewing direction (any non-zero length).
-   */
-  double direction[3];
-  /**
-   * Up vector; only its part across `direction` counts, and it must not be parallel.
-   */
-  double up[3];
-  /**
-   * Full vertical field of view, degrees, in (0, 180).
-   */
-  double fov_y_deg;
-  /**
-   * Image size in pixels, each side in 1..=16384.
-   */
-  uint32_t width;
-  uint32_t height;
-} ImapCamera;
-
-/**
  * Figures of the last render.
  */
-typedef struct {
+typedef struct ImapRenderReport {
+  /**
+   * Bytes of this struct the library filled.
+   */
+  uint32_t struct_size;
+  /**
+   * `IMAP_STOP_*`: why the render stopped (`IMAP_STOP_PHOTONS` = the passes limit).
+   */
+  uint32_t stop_reason;
   /**
    * Worker threads, groups of them, threads per group.
    */
   uint32_t threads;
   uint32_t groups;
   uint32_t threads_per_group;
-  /**
-   * `IMAP_STOP_*`: why the render stopped (`IMAP_STOP_PHOTONS` = the passes limit).
-   */
-  uint32_t stop_reason;
   /**
    * Group phases completed; each adds one sample to the pixels of its group's mask.
    */
@@ -801,25 +624,250 @@ typedef struct {
 } ImapRenderReport;
 
 /**
- * Representative wavelengths (nm) of the R, G and B bands, used by dispersion and by
- * wavelength-dependent indices of refraction in RGB mode.
+ * What `imap_run` does. Initialise with `imap_run_params_default(&p, sizeof p)`; at least
+ * one stop criterion (photons, time budget, target error) or a callback is required.
  */
-#define RGB_WAVELENGTHS_NM { 612.0, 549.0, 465.0, }
+typedef struct ImapRunParams {
+  /**
+   * `sizeof(ImapRunParams)` as the program was compiled; set by `imap_run_params_default`.
+   */
+  uint32_t struct_size;
+  /**
+   * Safety limit on surface events per photon path (≥ 1); photons reaching it are
+   * counted in `ImapReport::dropped_w` (never silently).
+   */
+  uint32_t max_path_events;
+  /**
+   * Photons to trace in this run; 0 = no limit.
+   */
+  uint64_t photons;
+  /**
+   * Wall-clock seconds this run may take, ≥ 0; 0 = no limit. Any finite value works
+   * (1e300 is "no limit" too).
+   */
+  double time_budget_s;
+  /**
+   * Stop when the estimated global relative error is at or below this; 0 = none.
+   */
+  double target_rel_error;
+  /**
+   * Seconds between progress reports and stop checks, > 0. Values below 0.001 s are
+   * raised to 0.001 s, and the interval is lengthened while evaluating the error would
+   * take more than 5 % of the run; the history keeps at most 4096 points (older ones
+   * are thinned out evenly).
+   */
+  double progress_interval_s;
+  ImapProgressFn progress;
+  /**
+   * Passed to `progress` unchanged.
+   */
+  void *user_data;
+} ImapRunParams;
 
+/**
+ * Totals since the last reset, the last run's own figures and the scheduler's counters.
+ */
+typedef struct ImapReport {
+  /**
+   * Bytes of this struct the library filled.
+   */
+  uint32_t struct_size;
+  /**
+   * `IMAP_STOP_*`: why the last run stopped.
+   */
+  uint32_t stop_reason;
+  /**
+   * Calculating threads of the last run.
+   */
+  uint32_t threads;
+  /**
+   * Photons traced since the last reset.
+   */
+  uint64_t photons;
+  /**
+   * Ray–surface intersections since the last reset.
+   */
+  uint64_t hits;
+  /**
+   * Run time since the last reset, s.
+   */
+  double elapsed_s;
+  /**
+   * Estimated global relative error (see `ImapProgress::rel_error`).
+   */
+  double rel_error;
+  /**
+   * Photons of the last run.
+   */
+  uint64_t run_photons;
+  /**
+   * Intersections of the last run.
+   */
+  uint64_t run_hits;
+  /**
+   * Wall time of the last run, s.
+   */
+  double run_wall_s;
+  /**
+   * Power the traced photons carried from the lights, W (summed over bands); its
+   * expectation is the lights' total power, which it equals exactly with one light.
+   */
+  double emitted_w;
+  /**
+   * Power absorbed by all surfaces and media, W (estimate from the photons traced).
+   */
+  double absorbed_w;
+  /**
+   * Power leaving the scene, W.
+   */
+  double escaped_w;
+  /**
+   * Power of photons stopped by `max_path_events`, W.
+   */
+  double dropped_w;
+  /**
+   * Photons stopped by `max_path_events`.
+   */
+  uint64_t dropped_photons;
+  /**
+   * Seconds the calculating threads together waited for a free portion (last run).
+   */
+  double calc_wait_s;
+  /**
+   * Classic: fraction of the last run the accumulating thread spent applying portions.
+   * Dynamic: time spent applying portions over the processing threads' lifetime.
+   */
+  double accum_busy_fraction;
+  /**
+   * Largest number of filled portions waiting to be applied (last run).
+   */
+  uint64_t peak_queue;
+  /**
+   * Portions applied (last run).
+   */
+  uint64_t portions;
+  /**
+   * Of those, portions a calculating thread applied itself because the group was idle
+   * (dynamic scheduler, last run).
+   */
+  uint64_t inline_portions;
+  /**
+   * Vertex-group splits (dynamic scheduler; 0 for classic).
+   */
+  uint64_t splits;
+  /**
+   * Vertex groups at the end of the last run (1 for classic).
+   */
+  uint64_t groups;
+  /**
+   * Bytes held by the map.
+   */
+  uint64_t map_bytes;
+  /**
+   * Points in the error-against-time history (`imap_get_history`).
+   */
+  uint64_t history_len;
+} ImapReport;
 
+/**
+ * A material. Initialise with `imap_material_default(&m, sizeof m)` (no reflection, no
+ * transmission: black). Per-band arrays hold 1 value (the same in every band) or one per
+ * band; a count of 0 (pointer may be NULL) means 0 in every band. The library copies them.
+ */
+typedef struct ImapMaterial {
+  /**
+   * `sizeof(ImapMaterial)` as the program was compiled; set by `imap_material_default`.
+   */
+  uint32_t struct_size;
+  /**
+   * `IMAP_IOR_*`. Anything but NONE makes a smooth dielectric (Fresnel reflection and
+   * Snell refraction; the three coefficients below must then be 0). Its mesh should be
+   * closed with normals pointing out; the outside is air (n = 1).
+   */
+  uint32_t ior_model;
+  /**
+   * Probability of Lambertian reflection, [0, 1].
+   */
+  const double *diffuse_reflectance;
+  size_t diffuse_reflectance_count;
+  /**
+   * Probability of mirror reflection, [0, 1].
+   */
+  const double *specular_reflectance;
+  size_t specular_reflectance_count;
+  /**
+   * Probability of Lambertian transmission to the other side, [0, 1].
+   */
+  const double *diffuse_transmittance;
+  size_t diffuse_transmittance_count;
+  /**
+   * Coefficients of the index model (see `IMAP_IOR_*`).
+   */
+  double ior[6];
+  /**
+   * Beer–Lambert absorption coefficient inside a dielectric, 1/m, per band.
+   */
+  const double *absorption_per_m;
+  size_t absorption_count;
+} ImapMaterial;
+
+/**
+ * A triangle mesh. Initialise with `imap_mesh_default(&m, sizeof m)`. The library
+ * copies every array.
+ */
+typedef struct ImapMesh {
+  /**
+   * `sizeof(ImapMesh)` as the program was compiled; set by `imap_mesh_default`.
+   */
+  uint32_t struct_size;
+  /**
+   * `IMAP_MESH_TWO_SIDED` | `IMAP_MESH_RECORD`.
+   */
+  uint32_t flags;
+  /**
+   * x, y, z of each vertex (3·vertex_count doubles), scene units, |x| ≤ 1e30.
+   */
+  const double *positions;
+  size_t vertex_count;
+  /**
+   * Three vertex indices per triangle (3·triangle_count).
+   */
+  const uint32_t *indices;
+  size_t triangle_count;
+  /**
+   * Optional per-triangle material ids (the mesh's parts), triangle_count of them;
+   * NULL = all triangles use `material`.
+   */
+  const uint32_t *triangle_materials;
+  /**
+   * Radiant exitance of a self-emitting mesh (a lamp), W/m² per band, Lambertian, from
+   * the front side (both sides if two-sided); NULL/0 = not emitting.
+   */
+  const double *exitance;
+  size_t exitance_count;
+  /**
+   * Material id (from `imap_add_material`) of every triangle.
+   */
+  uint32_t material;
+} ImapMesh;
 
 #ifdef __cplusplus
 extern "C" {
 #endif // __cplusplus
 
 /**
- * Fills `out` with the defaults: RGB, all cores, seed 0, dynamic scheduler with subd 4 and
- * automatic group counts and thresholds, no memory limit, 1 m per scene unit (spectral
- * range preset to 380–780 nm).
+ * Fills the `size` bytes at `out` with the defaults and sets `struct_size = size`: RGB,
+ * all cores, seed 0, dynamic scheduler with subd 4 and automatic group counts and
+ * thresholds, the default memory budget, 1 m per scene unit (spectral range preset to
+ * 380–780 nm). Pass `sizeof *out`.
  *
- * Returns IMAP_ERR_NULL_POINTER when `out` is NULL. Thread-safe.
+ * Returns IMAP_ERR_NULL_POINTER, IMAP_ERR_INVALID_ARGUMENT (a size smaller than the
+ * struct). Thread-safe.
+ *
+ * # Safety
+ * `out` is NULL or points to `size` writable bytes.
  */
-ImapStatus imap_config_default(ImapConfig *out);
+enum ImapStatus imap_config_default(struct ImapConfig *out, size_t size);
 
 /**
  * Creates a context. `config` is copied (NULL = defaults). On success `*out` receives a
@@ -830,34 +878,43 @@ ImapStatus imap_config_default(ImapConfig *out);
  * IMAP_ERR_NON_FINITE or IMAP_ERR_EMBREE. Thread-safe.
  *
  * # Safety
- * `config` is NULL or points to an `ImapConfig`; `out` points to writable storage.
+ * `config` is NULL or points to an `ImapConfig` of `config->struct_size` bytes; `out`
+ * points to writable storage.
  */
-ImapStatus imap_create(const ImapConfig *config, ImapContext **out);
+enum ImapStatus imap_create(const struct ImapConfig *config, struct ImapContext **out);
 
 /**
- * Destroys a context and everything it owns. NULL is a no-op. The context must not be in
- * use by another thread.
+ * Destroys a context and everything it owns, including its error messages. NULL is a
+ * no-op. No other call may be using the context.
  *
  * # Safety
  * `ctx` is NULL or a handle from `imap_create` not yet destroyed.
  */
-void imap_destroy(ImapContext *ctx);
+void imap_destroy(struct ImapContext *ctx);
 
 /**
- * The message of the most recent failing call on `ctx`, or, with `ctx` NULL, of the most
- * recent failing call on the calling thread (the only way to learn why `imap_create`
- * failed). Never NULL; "" when nothing failed. The string is owned by the library and
- * valid until the next failing call on the same context (or thread).
+ * The message of the calling thread's most recent failing call on `ctx`, or, with `ctx`
+ * NULL, of the calling thread's most recent failing call on any context or none (the
+ * only way to learn why `imap_create` failed). Never NULL; "" when nothing failed. One
+ * line of plain text.
+ *
+ * Lifetime: the string is owned by the library and stays valid until the calling thread
+ * makes its next failing call on `ctx` (with NULL: its next failing call of any kind),
+ * `ctx` is destroyed, or the thread exits. Other threads' calls never free it: the
+ * IMAP_ERR_BUSY that a second thread gets while a run holds the context is that thread's
+ * message, not the running thread's.
  *
  * # Safety
  * `ctx` is NULL or a live handle.
  */
-const char *imap_last_error(const ImapContext *ctx);
+const char *imap_last_error(const struct ImapContext *ctx);
 
 /**
- * A static name for a status ("IMAP_OK", "IMAP_ERR_NULL_POINTER", ...). Thread-safe.
+ * A static name for a status ("IMAP_OK", "IMAP_ERR_NULL_POINTER", ...), or
+ * "IMAP_ERR_UNKNOWN_STATUS" for a value that is no status. Any int is accepted.
+ * Thread-safe.
  */
-const char *imap_status_name(ImapStatus status);
+const char *imap_status_name(int32_t status);
 
 /**
  * The library version as "major.minor.patch", static. Thread-safe.
@@ -870,151 +927,7 @@ const char *imap_version(void);
  * # Safety
  * `ctx` is a live handle; `out` points to writable storage.
  */
-ImapStatus imap_embree_version(const ImapContext *ctx, int64_t *out);
-
-/**
- * Adds a material; `*out_id` receives its id (0, 1, ... in order of addition). Materials
- * may be added at any time. The arrays are copied.
- *
- * Returns IMAP_ERR_NULL_POINTER, IMAP_ERR_NON_FINITE, IMAP_ERR_INVALID_ARGUMENT (an array
- * count other than 0, 1 or the band count; unknown ior_model), IMAP_ERR_BAD_MATERIAL
- * (coefficients outside [0, 1], sum over 1, index below 1), IMAP_ERR_BUSY.
- *
- * # Safety
- * `ctx` is a live handle; `material` points to an `ImapMaterial` whose arrays hold their
- * counts of values; `out_id` points to writable storage.
- */
-ImapStatus imap_add_material(ImapContext *ctx, const ImapMaterial *material, uint32_t *out_id);
-
-/**
- * Adds a triangle mesh; `*out_id` receives its id (0, 1, ... in order). The arrays are
- * copied. Memory for the map of a recording mesh is checked against the budget here.
- *
- * Returns IMAP_ERR_NULL_POINTER, IMAP_ERR_EMPTY_MESH (no vertex or no triangle),
- * IMAP_ERR_NON_FINITE (a NaN/Inf coordinate or exitance), IMAP_ERR_INDEX_OUT_OF_RANGE
- * (a vertex index ≥ vertex_count), IMAP_ERR_DEGENERATE_TRIANGLE (a triangle repeating a
- * vertex), IMAP_ERR_UNKNOWN_MATERIAL, IMAP_ERR_INVALID_ARGUMENT, IMAP_ERR_NO_LIGHT (an
- * emitting mesh with zero exitance), IMAP_ERR_MEMORY_BUDGET, IMAP_ERR_OUT_OF_ORDER (after a
- * run: call `imap_reset` first), IMAP_ERR_BUSY. Nothing is added on failure.
- *
- * # Safety
- * `ctx` is a live handle; `mesh` points to an `ImapMesh` whose arrays hold their counts of
- * values; `out_id` points to writable storage.
- */
-ImapStatus imap_add_mesh(ImapContext *ctx, const ImapMesh *mesh, uint32_t *out_id);
-
-/**
- * Adds an isotropic point light at `position` (scene units) with radiant flux `power` in
- * W per band (1 value = the same in every band, or one per band); `*out_id` receives its
- * id. Lights are chosen by power during the run.
- *
- * Returns IMAP_ERR_NULL_POINTER, IMAP_ERR_NON_FINITE, IMAP_ERR_INVALID_ARGUMENT,
- * IMAP_ERR_NO_LIGHT (zero power), IMAP_ERR_OUT_OF_ORDER, IMAP_ERR_BUSY.
- *
- * # Safety
- * `ctx` is a live handle; `position` points to 3 doubles; `power` to `power_count`;
- * `out_id` to writable storage.
- */
-ImapStatus imap_add_point_light(ImapContext *ctx, const double *position, const double *power, size_t power_count, uint32_t *out_id);
-
-/**
- * Adds a spot light: uniform intensity inside the cone of `half_angle_rad` (0, π] around
- * `direction`, total flux `power` W per band.
- *
- * Returns as `imap_add_point_light`, plus IMAP_ERR_INVALID_ARGUMENT for a zero direction
- * or an angle out of range.
- *
- * # Safety
- * As `imap_add_point_light`; `direction` points to 3 doubles.
- */
-ImapStatus imap_add_spot_light(ImapContext *ctx, const double *position, const double *direction, double half_angle_rad, const double *power, size_t power_count, uint32_t *out_id);
-
-/**
- * Fills `out` with run defaults: no stop criterion set (set at least one), progress every
- * 0.5 s, at most 2^20 events per path, no callback.
- *
- * Returns IMAP_ERR_NULL_POINTER when `out` is NULL. Thread-safe.
- */
-ImapStatus imap_run_params_default(ImapRunParams *out);
-
-/**
- * Traces photons into the map until a stop criterion of `params` is met; blocks the
- * calling thread, which also runs the progress callback. The first run builds the BVH and
- * allocates the map. A later run continues the photon sequence and adds to the same map
- * (a run stopped by the callback can be resumed). `report` (may be NULL) receives the
- * report on success.
- *
- * Returns IMAP_ERR_NULL_POINTER, IMAP_ERR_INVALID_ARGUMENT (no stop criterion, negative
- * values), IMAP_ERR_NON_FINITE, IMAP_ERR_NO_GEOMETRY, IMAP_ERR_NO_LIGHT,
- * IMAP_ERR_MEMORY_BUDGET, IMAP_ERR_OUT_OF_MEMORY, IMAP_ERR_EMBREE, IMAP_ERR_BUSY,
- * IMAP_ERR_THREAD_LOST (a worker thread panicked; the photons of its unfinished batch are
- * missing from the map; the message says how many at most).
- *
- * # Safety
- * `ctx` is a live handle; `params` points to an `ImapRunParams`; `report` is NULL or
- * points to writable storage; the callback, if any, is callable with `user_data`.
- */
-ImapStatus imap_run(ImapContext *ctx, const ImapRunParams *params, ImapReport *report);
-
-/**
- * The report of the context: totals since the last reset and the last run's figures.
- *
- * # Safety
- * `ctx` is a live handle; `out` points to writable storage.
- */
-ImapStatus imap_get_report(const ImapContext *ctx, ImapReport *out);
-
-/**
- * Copies up to `capacity` points of the error-against-time history (oldest first) into
- * `out` (may be NULL when `capacity` is 0) and writes the total number of points to
- * `*out_count`.
- *
- * # Safety
- * `ctx` is a live handle; `out` holds `capacity` writable points; `out_count` is writable.
- */
-ImapStatus imap_get_history(const ImapContext *ctx, ImapProgress *out, size_t capacity, size_t *out_count);
-
-/**
- * The number of vertices of mesh `mesh` into `*out`.
- *
- * # Safety
- * `ctx` is a live handle; `out` is writable.
- */
-ImapStatus imap_get_vertex_count(const ImapContext *ctx, uint32_t mesh, size_t *out);
-
-/**
- * Irradiance in W/m² in band `band` at every vertex of mesh `mesh` on `side`
- * (`IMAP_SIDE_FRONT`, or `IMAP_SIDE_BACK` on two-sided meshes), written to `out[0 ..
- * vertex_count)`. Before the first run: zeros. Vertices used by no triangle of non-zero
- * area get 0.
- *
- * Returns IMAP_ERR_NULL_POINTER, IMAP_ERR_INDEX_OUT_OF_RANGE (mesh, side or band),
- * IMAP_ERR_NOT_RECORDED, IMAP_ERR_BUFFER_TOO_SMALL (`count` < vertex count), IMAP_ERR_BUSY.
- *
- * # Safety
- * `ctx` is a live handle; `out` holds `count` writable doubles.
- */
-ImapStatus imap_get_vertex_energy(const ImapContext *ctx, uint32_t mesh, uint32_t side, uint32_t band, double *out, size_t count);
-
-/**
- * Relative standard error (σ/E, dimensionless) of the band-mean irradiance at every vertex
- * of `mesh` on `side`, from the per-vertex sum over photons of each photon's squared
- * total contribution (calibrated against independent runs). 1 where nothing has arrived or
- * the vertex has no area. Statuses as `imap_get_vertex_energy`.
- *
- * # Safety
- * `ctx` is a live handle; `out` holds `count` writable doubles.
- */
-ImapStatus imap_get_vertex_error(const ImapContext *ctx, uint32_t mesh, uint32_t side, double *out, size_t count);
-
-/**
- * Power absorbed by mesh `mesh` (at its surface, or inside it for an absorbing
- * dielectric), W summed over bands, into `*out_w`.
- *
- * # Safety
- * `ctx` is a live handle; `out_w` is writable.
- */
-ImapStatus imap_get_mesh_absorbed(const ImapContext *ctx, uint32_t mesh, double *out_w);
+enum ImapStatus imap_embree_version(const struct ImapContext *ctx, int64_t *out);
 
 /**
  * Clears the map, the totals and the history. The scene stays and may be changed again
@@ -1023,17 +936,29 @@ ImapStatus imap_get_mesh_absorbed(const ImapContext *ctx, uint32_t mesh, double 
  * # Safety
  * `ctx` is a live handle.
  */
-ImapStatus imap_reset(ImapContext *ctx);
+enum ImapStatus imap_reset(struct ImapContext *ctx);
 
 /**
- * Fills `out` with render defaults: semi-synchronous, one thread per group, masks
- * re-randomised every 4 phases, one forward photon per pixel per pass, radius of four
- * pixel footprints reduced with α = 2/3, no stop criterion set (set at least one),
- * progress every 0.5 s, at most 2^20 events per path, no callback.
+ * Fills the `size` bytes at `out` with a camera at the origin looking down −z, up +y,
+ * 60° vertical field of view, 512 × 512 pixels, and sets `struct_size = size`. Pass
+ * `sizeof *out`. Thread-safe.
  *
- * Returns IMAP_ERR_NULL_POINTER when `out` is NULL. Thread-safe.
+ * # Safety
+ * `out` is NULL or points to `size` writable bytes.
  */
-ImapStatus imap_render_params_default(ImapRenderParams *out);
+enum ImapStatus imap_camera_default(struct ImapCamera *out, size_t size);
+
+/**
+ * Fills the `size` bytes at `out` with render defaults and sets `struct_size = size`:
+ * semi-synchronous, one thread per group, masks re-randomised every 4 phases, one
+ * forward photon per pixel per pass, radius of four pixel footprints reduced with
+ * α = 2/3, no stop criterion set (set at least one), progress every 0.5 s, at most 2^20
+ * events per path, no callback. Pass `sizeof *out`. Thread-safe.
+ *
+ * # Safety
+ * `out` is NULL or points to `size` writable bytes.
+ */
+enum ImapStatus imap_render_params_default(struct ImapRenderParams *out, size_t size);
 
 /**
  * Renders what `camera` sees: radiance (luminance per band) in W/(m²·sr) — the lights'
@@ -1046,42 +971,231 @@ ImapStatus imap_render_params_default(ImapRenderParams *out);
  * left, row by row, the bands of a pixel together (`radiance_count` must be at least
  * that). `out_rel_error` (may be NULL) receives `width × height` relative standard
  * errors of each pixel's band-mean radiance (1 where nothing was seen). `report` (may be
- * NULL) receives the report, which `imap_get_render_report` also keeps.
+ * NULL) receives the report (`report_size` = `sizeof(ImapRenderReport)`), which
+ * `imap_get_render_report` also keeps.
  *
  * Returns IMAP_ERR_NULL_POINTER, IMAP_ERR_INVALID_ARGUMENT (camera, method, no stop
- * criterion, negative values), IMAP_ERR_NON_FINITE, IMAP_ERR_BUFFER_TOO_SMALL (checked
- * before any work), IMAP_ERR_NO_GEOMETRY, IMAP_ERR_NO_LIGHT, IMAP_ERR_MEMORY_BUDGET,
+ * criterion, negative values; the message names the field), IMAP_ERR_NON_FINITE,
+ * IMAP_ERR_BUFFER_TOO_SMALL (checked before any work), IMAP_ERR_NO_GEOMETRY,
+ * IMAP_ERR_NO_LIGHT, IMAP_ERR_PRECISION, IMAP_ERR_MEMORY_BUDGET, IMAP_ERR_OUT_OF_MEMORY,
  * IMAP_ERR_EMBREE, IMAP_ERR_BUSY, IMAP_ERR_THREAD_LOST (a worker thread panicked: the
  * render stopped, the buffers and the report still hold what was rendered until then).
  *
  * # Safety
  * `ctx` is a live handle; `camera` and `params` point to initialised structs;
  * `out_radiance` holds `radiance_count` writable doubles; `out_rel_error` is NULL or
- * holds `rel_error_count` writable doubles; `report` is NULL or writable; the callback,
- * if any, is callable with `user_data`.
+ * holds `rel_error_count` writable doubles; `report` is NULL or holds `report_size`
+ * writable bytes; the callback, if any, is callable with `user_data`.
  */
-ImapStatus imap_render(ImapContext *ctx, const ImapCamera *camera, const ImapRenderParams *params, double *out_radiance, size_t radiance_count, double *out_rel_error, size_t rel_error_count, ImapRenderReport *report);
+enum ImapStatus imap_render(struct ImapContext *ctx, const struct ImapCamera *camera, const struct ImapRenderParams *params, double *out_radiance, size_t radiance_count, double *out_rel_error, size_t rel_error_count, struct ImapRenderReport *report, size_t report_size);
 
 /**
- * The report of the last render (since the last reset) into `*out`.
+ * The report of the last render (since the last reset) into `*out`; `size` =
+ * `sizeof(ImapRenderReport)`.
  *
- * Returns IMAP_ERR_NULL_POINTER, IMAP_ERR_OUT_OF_ORDER (no render yet), IMAP_ERR_BUSY.
+ * Returns IMAP_ERR_NULL_POINTER, IMAP_ERR_INVALID_ARGUMENT (size), IMAP_ERR_OUT_OF_ORDER
+ * (no render yet), IMAP_ERR_BUSY.
  *
  * # Safety
- * `ctx` is a live handle; `out` points to writable storage.
+ * `ctx` is a live handle; `out` points to `size` writable bytes.
  */
-ImapStatus imap_get_render_report(const ImapContext *ctx, ImapRenderReport *out);
+enum ImapStatus imap_get_render_report(const struct ImapContext *ctx, struct ImapRenderReport *out, size_t size);
 
 /**
  * Copies up to `capacity` points of the last render's accuracy-against-time history
  * (oldest first; `photons` = forward photons, `hits` = backward paths, `rel_error` = the
- * image's estimated global relative error) into `out` (may be NULL when `capacity` is 0)
- * and writes the total number of points to `*out_count` (0 before any render).
+ * image's estimated global relative error) into `out` (elements of `element_size` =
+ * `sizeof(ImapProgress)` bytes; may be NULL when `capacity` is 0) and writes the total
+ * number of points to `*out_count` (0 before any render).
  *
  * # Safety
- * `ctx` is a live handle; `out` holds `capacity` writable points; `out_count` is writable.
+ * `ctx` is a live handle; `out` holds `capacity` writable elements; `out_count` is
+ * writable.
  */
-ImapStatus imap_get_render_history(const ImapContext *ctx, ImapProgress *out, size_t capacity, size_t *out_count);
+enum ImapStatus imap_get_render_history(const struct ImapContext *ctx, struct ImapProgress *out, size_t capacity, size_t element_size, size_t *out_count);
+
+/**
+ * Fills the `size` bytes at `out` with run defaults and sets `struct_size = size`: no stop
+ * criterion set (set at least one), progress every 0.5 s, at most 2^20 events per path,
+ * no callback. Pass `sizeof *out`.
+ *
+ * Returns IMAP_ERR_NULL_POINTER, IMAP_ERR_INVALID_ARGUMENT (size too small). Thread-safe.
+ *
+ * # Safety
+ * `out` is NULL or points to `size` writable bytes.
+ */
+enum ImapStatus imap_run_params_default(struct ImapRunParams *out, size_t size);
+
+/**
+ * Traces photons into the map until a stop criterion of `params` is met; blocks the
+ * calling thread, which also runs the progress callback. The first run builds the BVH and
+ * allocates the map. A later run continues the photon sequence and adds to the same map
+ * (a run stopped by the callback or the clock can be resumed: photons cut short by the
+ * stop are traced again from their start by the next run, so the map is always a sum of
+ * whole photons). `report` (may be NULL) receives the report on success, `report_size` =
+ * `sizeof(ImapReport)`.
+ *
+ * The run stops within about two progress intervals of its time budget or of a cancel,
+ * whatever the path length.
+ *
+ * Returns IMAP_ERR_NULL_POINTER, IMAP_ERR_INVALID_ARGUMENT (no stop criterion, negative
+ * values, struct sizes; the message names the field), IMAP_ERR_NON_FINITE,
+ * IMAP_ERR_NO_GEOMETRY, IMAP_ERR_NO_LIGHT, IMAP_ERR_PRECISION, IMAP_ERR_MEMORY_BUDGET,
+ * IMAP_ERR_OUT_OF_MEMORY, IMAP_ERR_EMBREE, IMAP_ERR_BUSY, IMAP_ERR_THREAD_LOST (a worker
+ * thread panicked; the photons of its unfinished batch are missing from the map; the
+ * message says how many at most).
+ *
+ * # Safety
+ * `ctx` is a live handle; `params` points to an `ImapRunParams`; `report` is NULL or
+ * points to `report_size` writable bytes; the callback, if any, is callable with
+ * `user_data`.
+ */
+enum ImapStatus imap_run(struct ImapContext *ctx, const struct ImapRunParams *params, struct ImapReport *report, size_t report_size);
+
+/**
+ * The report of the context: totals since the last reset and the last run's figures.
+ * `size` = `sizeof(ImapReport)`.
+ *
+ * # Safety
+ * `ctx` is a live handle; `out` points to `size` writable bytes.
+ */
+enum ImapStatus imap_get_report(const struct ImapContext *ctx, struct ImapReport *out, size_t size);
+
+/**
+ * Copies up to `capacity` points of the error-against-time history (oldest first) into
+ * `out` (elements of `element_size` = `sizeof(ImapProgress)` bytes; `out` may be NULL
+ * when `capacity` is 0) and writes the total number of points to `*out_count`.
+ *
+ * # Safety
+ * `ctx` is a live handle; `out` holds `capacity` writable elements; `out_count` is
+ * writable.
+ */
+enum ImapStatus imap_get_history(const struct ImapContext *ctx, struct ImapProgress *out, size_t capacity, size_t element_size, size_t *out_count);
+
+/**
+ * The number of vertices of mesh `mesh` into `*out`.
+ *
+ * # Safety
+ * `ctx` is a live handle; `out` is writable.
+ */
+enum ImapStatus imap_get_vertex_count(const struct ImapContext *ctx, uint32_t mesh, size_t *out);
+
+/**
+ * Irradiance in W/m² in band `band` at every vertex of mesh `mesh` on `side`
+ * (`IMAP_SIDE_FRONT`, or `IMAP_SIDE_BACK` on two-sided meshes), written to `out[0 ..
+ * vertex_count)`; `count` may be larger (the rest of `out` is left as it was). Before the
+ * first run: zeros. Vertices used by no triangle of non-zero area get 0.
+ *
+ * Returns IMAP_ERR_NULL_POINTER, IMAP_ERR_INDEX_OUT_OF_RANGE (mesh, side or band),
+ * IMAP_ERR_NOT_RECORDED, IMAP_ERR_BUFFER_TOO_SMALL (`count` < vertex count), IMAP_ERR_BUSY;
+ * nothing is written then.
+ *
+ * # Safety
+ * `ctx` is a live handle; `out` holds `count` writable doubles.
+ */
+enum ImapStatus imap_get_vertex_energy(const struct ImapContext *ctx, uint32_t mesh, uint32_t side, uint32_t band, double *out, size_t count);
+
+/**
+ * Relative standard error (σ/E, dimensionless) of the band-mean irradiance at every vertex
+ * of `mesh` on `side`, from the per-vertex sum over photons of each photon's squared
+ * total contribution (calibrated against independent runs). 1 where nothing has arrived or
+ * the vertex has no area. Buffer and statuses as `imap_get_vertex_energy`.
+ *
+ * # Safety
+ * `ctx` is a live handle; `out` holds `count` writable doubles.
+ */
+enum ImapStatus imap_get_vertex_error(const struct ImapContext *ctx, uint32_t mesh, uint32_t side, double *out, size_t count);
+
+/**
+ * Power absorbed by mesh `mesh` (at its surface, or inside it for an absorbing
+ * dielectric), W summed over bands, into `*out_w`.
+ *
+ * # Safety
+ * `ctx` is a live handle; `out_w` is writable.
+ */
+enum ImapStatus imap_get_mesh_absorbed(const struct ImapContext *ctx, uint32_t mesh, double *out_w);
+
+/**
+ * Fills the `size` bytes at `out` with a black, non-dielectric material and sets
+ * `struct_size = size`. Pass `sizeof *out`. Returns IMAP_ERR_NULL_POINTER,
+ * IMAP_ERR_INVALID_ARGUMENT (size too small). Thread-safe.
+ *
+ * # Safety
+ * `out` is NULL or points to `size` writable bytes.
+ */
+enum ImapStatus imap_material_default(struct ImapMaterial *out, size_t size);
+
+/**
+ * Fills the `size` bytes at `out` with an empty mesh (no arrays, material 0, flags 0) and
+ * sets `struct_size = size`. Pass `sizeof *out`. Returns IMAP_ERR_NULL_POINTER,
+ * IMAP_ERR_INVALID_ARGUMENT (size too small). Thread-safe.
+ *
+ * # Safety
+ * `out` is NULL or points to `size` writable bytes.
+ */
+enum ImapStatus imap_mesh_default(struct ImapMesh *out, size_t size);
+
+/**
+ * Adds a material; `*out_id` receives its id (0, 1, ... in order of addition). Materials
+ * may be added at any time. The arrays are copied.
+ *
+ * Returns IMAP_ERR_NULL_POINTER, IMAP_ERR_NON_FINITE, IMAP_ERR_INVALID_ARGUMENT (an array
+ * count other than 0, 1 or the band count; unknown ior_model; struct_size),
+ * IMAP_ERR_BAD_MATERIAL (coefficients outside [0, 1], sum over 1, index below 1),
+ * IMAP_ERR_BUSY.
+ *
+ * # Safety
+ * `ctx` is a live handle; `material` points to an `ImapMaterial` whose arrays hold their
+ * counts of values; `out_id` points to writable storage.
+ */
+enum ImapStatus imap_add_material(struct ImapContext *ctx, const struct ImapMaterial *material, uint32_t *out_id);
+
+/**
+ * Adds a triangle mesh; `*out_id` receives its id (0, 1, ... in order). The arrays are
+ * copied. The memory the mesh needs (its copy, its prepared form, its share of the BVH
+ * and its map) is checked against the budget before anything is copied.
+ *
+ * Returns IMAP_ERR_NULL_POINTER, IMAP_ERR_EMPTY_MESH (no vertex or no triangle),
+ * IMAP_ERR_NON_FINITE (a NaN/Inf coordinate or exitance), IMAP_ERR_PRECISION (a
+ * coordinate beyond ±1e30), IMAP_ERR_INDEX_OUT_OF_RANGE (a vertex index ≥ vertex_count),
+ * IMAP_ERR_DEGENERATE_TRIANGLE (a triangle repeating a vertex), IMAP_ERR_UNKNOWN_MATERIAL,
+ * IMAP_ERR_INVALID_ARGUMENT, IMAP_ERR_NO_LIGHT (an emitting mesh with zero exitance or
+ * zero area), IMAP_ERR_MEMORY_BUDGET, IMAP_ERR_OUT_OF_MEMORY, IMAP_ERR_OUT_OF_ORDER
+ * (after a run: call `imap_reset` first), IMAP_ERR_BUSY. Nothing is added on failure.
+ *
+ * # Safety
+ * `ctx` is a live handle; `mesh` points to an `ImapMesh` whose arrays hold their counts of
+ * values; `out_id` points to writable storage.
+ */
+enum ImapStatus imap_add_mesh(struct ImapContext *ctx, const struct ImapMesh *mesh, uint32_t *out_id);
+
+/**
+ * Adds an isotropic point light at `position` (scene units, |x| ≤ 1e30) with radiant flux
+ * `power` in W per band (1 value = the same in every band, or one per band; the sum over
+ * bands must be finite); `*out_id` receives its id. Lights are chosen by power during the
+ * run.
+ *
+ * Returns IMAP_ERR_NULL_POINTER, IMAP_ERR_NON_FINITE, IMAP_ERR_INVALID_ARGUMENT,
+ * IMAP_ERR_PRECISION, IMAP_ERR_NO_LIGHT (zero power), IMAP_ERR_OUT_OF_ORDER,
+ * IMAP_ERR_BUSY.
+ *
+ * # Safety
+ * `ctx` is a live handle; `position` points to 3 doubles; `power` to `power_count`;
+ * `out_id` to writable storage.
+ */
+enum ImapStatus imap_add_point_light(struct ImapContext *ctx, const double *position, const double *power, size_t power_count, uint32_t *out_id);
+
+/**
+ * Adds a spot light: uniform intensity inside the cone of `half_angle_rad` (0, π] around
+ * `direction`, total flux `power` W per band.
+ *
+ * Returns as `imap_add_point_light`, plus IMAP_ERR_INVALID_ARGUMENT for a zero direction
+ * or an angle out of range.
+ *
+ * # Safety
+ * As `imap_add_point_light`; `direction` points to 3 doubles.
+ */
+enum ImapStatus imap_add_spot_light(struct ImapContext *ctx, const double *position, const double *direction, double half_angle_rad, const double *power, size_t power_count, uint32_t *out_id);
 
 #ifdef __cplusplus
 }  // extern "C"

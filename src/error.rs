@@ -3,6 +3,7 @@
 //! Every fallible operation returns [`Error`], which carries an [`ImapStatus`] (what the C ABI
 //! returns) and a human-readable message (what `imap_last_error` gives back).
 
+use std::ffi::CStr;
 use std::fmt;
 
 /// Status returned by every `imap_*` call. `IMAP_OK` (0) is success; every other value names
@@ -59,6 +60,75 @@ pub enum ImapStatus {
     ImapErrNotRecorded = 19,
     /// The output buffer is too small for the requested data.
     ImapErrBufferTooSmall = 20,
+    /// The scene cannot be traced faithfully: a mesh's triangles are too small for the f32
+    /// precision that ray tracing has at their distance from the scene's centre, or a
+    /// coordinate is beyond ±1e30. The message names the mesh.
+    ImapErrPrecision = 21,
+}
+
+impl ImapStatus {
+    /// Every status, in order of value.
+    pub(crate) const ALL: [ImapStatus; 22] = [
+        ImapStatus::ImapOk,
+        ImapStatus::ImapErrNullPointer,
+        ImapStatus::ImapErrInvalidArgument,
+        ImapStatus::ImapErrNonFinite,
+        ImapStatus::ImapErrIndexOutOfRange,
+        ImapStatus::ImapErrDegenerateTriangle,
+        ImapStatus::ImapErrBadBands,
+        ImapStatus::ImapErrNoGeometry,
+        ImapStatus::ImapErrEmptyMesh,
+        ImapStatus::ImapErrUnknownMaterial,
+        ImapStatus::ImapErrNoLight,
+        ImapStatus::ImapErrBadMaterial,
+        ImapStatus::ImapErrOutOfOrder,
+        ImapStatus::ImapErrMemoryBudget,
+        ImapStatus::ImapErrBusy,
+        ImapStatus::ImapErrEmbree,
+        ImapStatus::ImapErrThreadLost,
+        ImapStatus::ImapErrInternal,
+        ImapStatus::ImapErrOutOfMemory,
+        ImapStatus::ImapErrNotRecorded,
+        ImapStatus::ImapErrBufferTooSmall,
+        ImapStatus::ImapErrPrecision,
+    ];
+
+    /// The C name of the status.
+    pub fn name(self) -> &'static CStr {
+        use ImapStatus::*;
+        match self {
+            ImapOk => c"IMAP_OK",
+            ImapErrNullPointer => c"IMAP_ERR_NULL_POINTER",
+            ImapErrInvalidArgument => c"IMAP_ERR_INVALID_ARGUMENT",
+            ImapErrNonFinite => c"IMAP_ERR_NON_FINITE",
+            ImapErrIndexOutOfRange => c"IMAP_ERR_INDEX_OUT_OF_RANGE",
+            ImapErrDegenerateTriangle => c"IMAP_ERR_DEGENERATE_TRIANGLE",
+            ImapErrBadBands => c"IMAP_ERR_BAD_BANDS",
+            ImapErrNoGeometry => c"IMAP_ERR_NO_GEOMETRY",
+            ImapErrEmptyMesh => c"IMAP_ERR_EMPTY_MESH",
+            ImapErrUnknownMaterial => c"IMAP_ERR_UNKNOWN_MATERIAL",
+            ImapErrNoLight => c"IMAP_ERR_NO_LIGHT",
+            ImapErrBadMaterial => c"IMAP_ERR_BAD_MATERIAL",
+            ImapErrOutOfOrder => c"IMAP_ERR_OUT_OF_ORDER",
+            ImapErrMemoryBudget => c"IMAP_ERR_MEMORY_BUDGET",
+            ImapErrBusy => c"IMAP_ERR_BUSY",
+            ImapErrEmbree => c"IMAP_ERR_EMBREE",
+            ImapErrThreadLost => c"IMAP_ERR_THREAD_LOST",
+            ImapErrInternal => c"IMAP_ERR_INTERNAL",
+            ImapErrOutOfMemory => c"IMAP_ERR_OUT_OF_MEMORY",
+            ImapErrNotRecorded => c"IMAP_ERR_NOT_RECORDED",
+            ImapErrBufferTooSmall => c"IMAP_ERR_BUFFER_TOO_SMALL",
+            ImapErrPrecision => c"IMAP_ERR_PRECISION",
+        }
+    }
+}
+
+/// The name of a status value from C, which may be any int.
+pub fn status_name(value: i32) -> &'static CStr {
+    usize::try_from(value)
+        .ok()
+        .and_then(|i| ImapStatus::ALL.get(i))
+        .map_or(c"IMAP_ERR_UNKNOWN_STATUS", |s| s.name())
 }
 
 /// An error: a status plus a message for `imap_last_error`.
@@ -87,6 +157,18 @@ impl std::error::Error for Error {}
 
 pub type Result<T> = std::result::Result<T, Error>;
 
+thread_local! {
+    /// Non-zero while the thread runs library code whose panics are caught and reported as
+    /// statuses: the C ABI's panic hook prints nothing for them (`ffi::errors`).
+    pub(crate) static QUIET: std::cell::Cell<u32> = const { std::cell::Cell::new(0) };
+}
+
+/// Marks a worker thread the library started: its panics are caught by the library and
+/// become `IMAP_ERR_THREAD_LOST`, so nothing is printed for them.
+pub(crate) fn quiet_thread() {
+    QUIET.with(|q| q.set(q.get() + 1));
+}
+
 /// The text of a caught panic's payload.
 pub(crate) fn panic_message(payload: &(dyn std::any::Any + Send)) -> String {
     payload
@@ -114,4 +196,81 @@ pub(crate) fn check_finite(name: &str, values: &[f64]) -> Result<()> {
         );
     }
     Ok(())
+}
+
+
+/// An empty vector with room for `n` elements, or `IMAP_ERR_OUT_OF_MEMORY` naming `what`:
+/// every allocation whose size depends on the input goes through here (or `try_filled`),
+/// so running out of memory is a status, never an abort of the host.
+pub(crate) fn try_with_capacity<T>(n: usize, what: &str) -> Result<Vec<T>> {
+    let mut v = Vec::new();
+    v.try_reserve_exact(n).map_err(|_| {
+        Error::new(
+            ImapStatus::ImapErrOutOfMemory,
+            format!(
+                "out of memory allocating {what} ({} MiB)",
+                (n as u128 * std::mem::size_of::<T>() as u128) >> 20
+            ),
+        )
+    })?;
+    Ok(v)
+}
+
+/// `n` copies of `value`, allocated fallibly (see `try_with_capacity`).
+pub(crate) fn try_filled<T: Clone>(n: usize, value: T, what: &str) -> Result<Vec<T>> {
+    let mut v = try_with_capacity(n, what)?;
+    v.resize(n, value);
+    Ok(v)
+}
+
+/// Collects an exact-size iterator into a fallibly allocated vector.
+pub(crate) fn try_collect<T>(it: impl ExactSizeIterator<Item = T>, what: &str) -> Result<Vec<T>> {
+    let mut v = try_with_capacity(it.len(), what)?;
+    v.extend(it);
+    Ok(v)
+}
+
+/// Largest coordinate magnitude accepted: ray tracing runs in f32 (max 3.4e38), and the
+/// prepared scene's differences of coordinates must stay finite there.
+pub(crate) const MAX_COORDINATE: f64 = 1e30;
+
+/// Checks that scene coordinates are finite and within ±`MAX_COORDINATE`.
+pub(crate) fn check_coordinates(name: &str, values: &[f64]) -> Result<()> {
+    check_finite(name, values)?;
+    if let Some(i) = values.iter().position(|v| v.abs() > MAX_COORDINATE) {
+        bail!(
+            ImapErrPrecision,
+            "{name}[{i}] = {:e} is beyond ±1e30 (ray tracing works in single precision; move the scene's origin or scale it with unit_m)",
+            values[i]
+        );
+    }
+    Ok(())
+}
+
+/// Checks that a scalar is finite, naming it.
+pub(crate) fn check_finite_scalar(name: &str, value: f64) -> Result<()> {
+    if !value.is_finite() {
+        bail!(
+            ImapErrNonFinite,
+            "{name} is {value} (NaN or infinite values are not allowed)"
+        );
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_int_has_a_status_name() {
+        for (i, s) in ImapStatus::ALL.iter().enumerate() {
+            assert_eq!(*s as i32, i as i32, "ALL is in value order");
+            assert!(s.name().to_str().unwrap().starts_with("IMAP_"));
+        }
+        for v in [-1, 22, 1_000_000, i32::MIN, i32::MAX] {
+            assert_eq!(status_name(v), c"IMAP_ERR_UNKNOWN_STATUS");
+        }
+        assert_eq!(status_name(14), c"IMAP_ERR_BUSY");
+    }
 }

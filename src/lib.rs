@@ -7,16 +7,30 @@
 
 #![warn(clippy::undocumented_unsafe_blocks)]
 
+// `include/imap.h` is generated from `ffi` (and `ImapStatus` in `error`) alone: every
+// other module is hidden from cbindgen, so no internal name can leak into the header.
+
+/// cbindgen:ignore
 pub mod accel;
+/// cbindgen:ignore
 pub mod context;
 pub mod error;
+/// cbindgen:ignore
+mod fault;
 pub mod ffi;
+/// cbindgen:ignore
 pub mod imap;
+/// cbindgen:ignore
 pub mod render;
+/// cbindgen:ignore
 pub mod sampling;
+/// cbindgen:ignore
 pub mod scene;
+/// cbindgen:ignore
 pub mod scenes;
+/// cbindgen:ignore
 pub mod sched;
+/// cbindgen:ignore
 pub mod transport;
 
 pub use context::{Config, Context, Report, SchedulerKind};

@@ -145,24 +145,31 @@ fn the_event_limit_reports_what_it_drops() {
 
 #[test]
 fn memory_budget_refuses_before_allocating() {
-    let g = grid(100, 0.0, 1.0, 0.0, 1.0, 0.0); // 10 201 vertices
+    let g = grid(100, 0.0, 1.0, 0.0, 1.0, 0.0); // 10 201 vertices, 20 000 triangles
     let mut ctx = context(Config {
         bands: spectral(81),
-        memory_budget: 4 << 20,
+        memory_budget: 8 << 20,
         ..Default::default()
     });
     let m = lambert(&mut ctx, 0.5);
-    // 10 201 × 82 × 8 = 6.7 MB > 4 MiB.
+    // The map, 10 201 × 82 × 8 = 6 691 856 bytes, plus the mesh's copy (484 824), prepared
+    // form (684 020), BVH estimate (2 083 216) and transient f64 vertices (244 824):
+    // 10 188 740 bytes > 8 MiB.
     let err = ctx.add_mesh(&g.desc(m)).unwrap_err();
     assert_eq!(err.status, ImapStatus::ImapErrMemoryBudget);
-    assert!(err.message.contains("6691856"), "{}", err.message);
+    assert!(
+        err.message.contains("needs 10188740 bytes"),
+        "{}",
+        err.message
+    );
     // A mesh that records nothing costs no map memory and is accepted.
     let mut d = g.desc(m);
     d.record = false;
     ctx.add_mesh(&d).unwrap();
-    // RGB needs 10 201 × 4 × 8 = 326 kB: accepted under the same budget.
+    // RGB needs 10 201 × 4 × 8 = 326 kB of map: accepted under the same budget, and so is
+    // its run.
     let mut rgb = context(Config {
-        memory_budget: 4 << 20,
+        memory_budget: 8 << 20,
         ..Default::default()
     });
     let m = lambert(&mut rgb, 0.5);

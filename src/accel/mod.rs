@@ -65,7 +65,7 @@ pub struct Hit {
 }
 
 struct ErrorSink {
-    last: Mutex<String>,
+    last: Mutex<(String, bool)>,
 }
 
 unsafe extern "C" fn on_error(user: *mut c_void, code: rtc::RTCError, msg: *const c_char) {
@@ -80,7 +80,10 @@ unsafe extern "C" fn on_error(user: *mut c_void, code: rtc::RTCError, msg: *cons
         (&*(user as *const ErrorSink), text)
     };
     if let Ok(mut last) = sink.last.lock() {
-        *last = format!("{code:?}: {text}");
+        *last = (
+            format!("{code:?}: {text}"),
+            code == rtc::RTCError::OUT_OF_MEMORY,
+        );
     }
 }
 
@@ -111,7 +114,7 @@ impl Device {
             ));
         }
         let errors = Box::new(ErrorSink {
-            last: Mutex::new(String::new()),
+            last: Mutex::new((String::new(), false)),
         });
         // SAFETY: `raw` is a live device; the sink outlives it (released in Drop first).
         let version = unsafe {
@@ -142,13 +145,18 @@ impl Device {
     }
 
     fn error(&self, what: &str) -> Error {
-        let msg = self
+        let (msg, oom) = self
             .errors
             .last
             .lock()
             .map(|s| s.clone())
             .unwrap_or_default();
-        Error::new(ImapStatus::ImapErrEmbree, format!("{what} failed: {msg}"))
+        let status = if oom {
+            ImapStatus::ImapErrOutOfMemory
+        } else {
+            ImapStatus::ImapErrEmbree
+        };
+        Error::new(status, format!("{what} failed: {msg}"))
     }
 }
 
@@ -359,7 +367,7 @@ mod tests {
         scene
             .lights
             .push(Light::point([0.0, 0.0, 1.0], &[1.0], &scene.bands).unwrap());
-        let prepared = PreparedScene::new(&scene);
+        let prepared = PreparedScene::new(&scene).unwrap();
         let accel = Accel::build(&device, &prepared.meshes).unwrap();
         let o = DVec3::new(0.0, 0.0, 1.0) - prepared.origin;
         let (guard, hit) = accel.guard_after_intersect(o, DVec3::new(0.0, 0.0, -1.0));

@@ -1,46 +1,44 @@
-//! The C ABI. Only conversions and calls into the safe API live here; every export goes
-//! through `boundary`: panics are caught, pointers checked, statuses returned and the
+//! The C ABI. Only conversions and calls into the safe API live here, one file per C
+//! object (`context`, `scene`, `run`, `render`); every export goes through `boundary`:
+//! panics are caught (and never printed), pointers checked, statuses returned and the
 //! message kept for `imap_last_error`.
+//!
+//! Versioned structs: every struct the caller fills or receives starts with
+//! `uint32_t struct_size`. The `imap_*_default(out, sizeof *out)` functions set it; the
+//! library reads only the fields inside it (later fields take their defaults) and writes
+//! only what fits. New fields are only ever appended, with 0 meaning "default", so a
+//! program built against an older `imap.h` keeps working with a newer library, and a newer
+//! program that sets a field an older library does not know is refused, never ignored.
 
-mod exports;
-mod types;
+mod context;
+mod errors;
+mod render;
+mod run;
+mod scene;
 
-pub use exports::*;
-pub use types::*;
+pub use context::*;
+pub use render::*;
+pub use run::*;
+pub use scene::*;
 
 use crate::context::Context;
 use crate::error::{Error, ImapStatus, Result};
-use std::cell::RefCell;
-use std::ffi::CString;
 use std::panic::{catch_unwind, AssertUnwindSafe};
-use std::sync::{Mutex, TryLockError};
+use std::sync::{Arc, Mutex, TryLockError};
+
+use errors::{record, ErrorSlots};
 
 /// An illumination-map context: the scene, the map and the run history. Opaque to C.
 pub struct ImapContext {
     inner: Mutex<Context>,
-    last_error: Mutex<CString>,
+    errors: Arc<ErrorSlots>,
 }
 
-thread_local! {
-    static THREAD_ERROR: RefCell<CString> = RefCell::new(CString::default());
-}
-
-fn to_cstring(s: &str) -> CString {
-    CString::new(s.replace('\0', " ")).expect("NULs removed")
-}
-
-fn record(ctx: Option<&ImapContext>, e: &Error) {
-    let text = to_cstring(&e.message);
-    if let Some(ctx) = ctx {
-        let mut slot = ctx.last_error.lock().unwrap_or_else(|p| p.into_inner());
-        *slot = text.clone();
-    }
-    THREAD_ERROR.with(|t| *t.borrow_mut() = text);
-}
-
-/// Runs `f` behind the API boundary: panics become `IMAP_ERR_INTERNAL`, errors are recorded
-/// on the context (when there is one) and on the calling thread.
+/// Runs `f` behind the API boundary: panics become `IMAP_ERR_INTERNAL` (the panic message
+/// goes into the error, nothing is printed), errors are recorded on the context for the
+/// calling thread (when there is a context) and on the calling thread.
 pub(crate) fn boundary(ctx: Option<&ImapContext>, f: impl FnOnce() -> Result<()>) -> ImapStatus {
+    let _quiet = errors::QuietGuard::enter();
     let result = catch_unwind(AssertUnwindSafe(f)).unwrap_or_else(|panic| {
         let what = crate::error::panic_message(&*panic);
         Err(Error::new(
@@ -51,7 +49,7 @@ pub(crate) fn boundary(ctx: Option<&ImapContext>, f: impl FnOnce() -> Result<()>
     match result {
         Ok(()) => ImapStatus::ImapOk,
         Err(e) => {
-            record(ctx, &e);
+            record(ctx.map(|c| &c.errors), &e);
             e.status
         }
     }
@@ -127,26 +125,9 @@ pub(crate) fn slice_mut<'a, T>(name: &str, ptr: *mut T, count: usize) -> Result<
     Ok(unsafe { std::slice::from_raw_parts_mut(ptr, count) })
 }
 
-/// A reference from a C pointer, or a NULL-pointer error naming it.
-pub(crate) fn reference<'a, T>(name: &str, ptr: *const T) -> Result<&'a T> {
-    if ptr.is_null() {
-        return Err(Error::new(
-            ImapStatus::ImapErrNullPointer,
-            format!("{name} is NULL"),
-        ));
-    }
-    // SAFETY: non-NULL pointers from the caller point to a valid, initialised T.
-    Ok(unsafe { &*ptr })
-}
-
 /// Writes an out-parameter (only on success, per the API conventions).
 pub(crate) fn write_out<T>(name: &str, ptr: *mut T, value: T) -> Result<()> {
-    if ptr.is_null() {
-        return Err(Error::new(
-            ImapStatus::ImapErrNullPointer,
-            format!("{name} is NULL"),
-        ));
-    }
+    check_out(name, ptr)?;
     // SAFETY: non-NULL out-pointers from the caller point to writable storage for a T.
     unsafe { ptr.write(value) };
     Ok(())
@@ -161,4 +142,208 @@ pub(crate) fn check_out<T>(name: &str, ptr: *mut T) -> Result<()> {
         ));
     }
     Ok(())
+}
+
+/// Largest `struct_size` taken seriously: anything larger is garbage, not a newer layout.
+const MAX_STRUCT_SIZE: usize = 1 << 16;
+
+/// A C struct that starts with `uint32_t struct_size` and grows only by appending fields
+/// whose value 0 means "default".
+///
+/// # Safety
+/// The type is `#[repr(C)]`, its first field is a `u32` `struct_size`, and every bit
+/// pattern of zeroed bytes followed by a valid prefix is a valid value (plain numbers,
+/// pointers, `Option<fn>`).
+pub(crate) unsafe trait Versioned: Copy {
+    /// The struct's name in C.
+    const NAME: &'static str;
+    /// The `imap_*_default` function that initialises it (for messages).
+    const INIT: &'static str;
+    /// Size of its first published layout: the smallest `struct_size` accepted. When a
+    /// field is appended, this stays the size of the layout before it.
+    const BASE_SIZE: usize = std::mem::size_of::<Self>();
+    /// Every field's default, `struct_size` included.
+    fn defaults() -> Self;
+}
+
+fn struct_size_error(name: &str, init: &str, size: usize, base: usize) -> Error {
+    if size == 0 {
+        Error::new(
+            ImapStatus::ImapErrInvalidArgument,
+            format!("{name}.struct_size is 0: initialise the struct with {init}(&s, sizeof s) before setting its fields"),
+        )
+    } else {
+        Error::new(
+            ImapStatus::ImapErrInvalidArgument,
+            format!("{name}.struct_size = {size} is not a size of {name} (at least {base}, at most {MAX_STRUCT_SIZE}): initialise it with {init}(&s, sizeof s)"),
+        )
+    }
+}
+
+/// `imap_*_default(out, size)`: the defaults written into the caller's `size` bytes (the
+/// bytes past this library's layout zeroed), `struct_size` = `size`.
+pub(crate) fn write_defaults<T: Versioned>(out: *mut T, size: usize) -> Result<()> {
+    check_out("out", out)?;
+    if size < T::BASE_SIZE || size > MAX_STRUCT_SIZE {
+        bail_size::<T>(size)?;
+    }
+    let mut value = T::defaults();
+    // SAFETY: the first field of a Versioned struct is its u32 struct_size.
+    unsafe { (&mut value as *mut T as *mut u32).write(size as u32) };
+    let known = std::mem::size_of::<T>();
+    // SAFETY: the caller provides `size` writable bytes at `out`; `value` is a valid T
+    // whose first min(size, known) bytes are copied, the rest of the caller's bytes zeroed.
+    unsafe {
+        let dst = out as *mut u8;
+        std::ptr::copy_nonoverlapping(&value as *const T as *const u8, dst, size.min(known));
+        if size > known {
+            std::ptr::write_bytes(dst.add(known), 0, size - known);
+        }
+    }
+    Ok(())
+}
+
+fn bail_size<T: Versioned>(size: usize) -> Result<()> {
+    Err(struct_size_error(T::NAME, T::INIT, size, T::BASE_SIZE))
+}
+
+/// Reads an input struct of the caller's `struct_size`: fields past it take their
+/// defaults; fields past this library's layout must be 0 (a newer program asking for
+/// something this library cannot do is refused, not ignored).
+pub(crate) fn read_versioned<T: Versioned>(name: &str, ptr: *const T) -> Result<T> {
+    if ptr.is_null() {
+        return Err(Error::new(
+            ImapStatus::ImapErrNullPointer,
+            format!("{name} is NULL"),
+        ));
+    }
+    // SAFETY: a non-NULL pointer to a Versioned struct starts with its u32 struct_size.
+    let size = unsafe { (ptr as *const u32).read_unaligned() } as usize;
+    if size < T::BASE_SIZE || size > MAX_STRUCT_SIZE {
+        return Err(struct_size_error(T::NAME, T::INIT, size, T::BASE_SIZE));
+    }
+    let known = std::mem::size_of::<T>();
+    if size > known {
+        // SAFETY: the caller declares `size` readable bytes at `ptr`.
+        let extra =
+            unsafe { std::slice::from_raw_parts((ptr as *const u8).add(known), size - known) };
+        if let Some(i) = extra.iter().position(|&b| b != 0) {
+            return Err(Error::new(
+                ImapStatus::ImapErrInvalidArgument,
+                format!(
+                    "{name} ({}) sets byte {} past the {known} bytes this library knows (libimap {}): the program was built against a newer imap.h and uses a field this library does not have",
+                    T::NAME,
+                    known + i,
+                    env!("CARGO_PKG_VERSION")
+                ),
+            ));
+        }
+    }
+    let mut value = T::defaults();
+    // SAFETY: min(size, known) bytes are readable at `ptr` and form a valid prefix of a T
+    // (Versioned contract); the rest of `value` keeps its defaults.
+    unsafe {
+        std::ptr::copy_nonoverlapping(
+            ptr as *const u8,
+            &mut value as *mut T as *mut u8,
+            size.min(known),
+        );
+    }
+    Ok(value)
+}
+
+/// Writes an output struct into the caller's `size` bytes: the fields that fit (fields of
+/// a newer `imap.h` are zeroed), `struct_size` = the bytes written.
+pub(crate) fn write_versioned<T: Versioned>(
+    name: &str,
+    out: *mut T,
+    size: usize,
+    mut value: T,
+) -> Result<()> {
+    check_out(name, out)?;
+    if size < T::BASE_SIZE || size > MAX_STRUCT_SIZE {
+        return Err(Error::new(
+            ImapStatus::ImapErrInvalidArgument,
+            format!(
+                "{name}_size = {size} is not a size of {} (at least {}): pass sizeof({})",
+                T::NAME,
+                T::BASE_SIZE,
+                T::NAME
+            ),
+        ));
+    }
+    let known = std::mem::size_of::<T>();
+    let n = size.min(known);
+    // SAFETY: the first field of a Versioned struct is its u32 struct_size.
+    unsafe { (&mut value as *mut T as *mut u32).write(n as u32) };
+    // SAFETY: the caller provides `size` writable bytes at `out`.
+    unsafe {
+        let dst = out as *mut u8;
+        std::ptr::copy_nonoverlapping(&value as *const T as *const u8, dst, n);
+        if size > known {
+            std::ptr::write_bytes(dst.add(known), 0, size - known);
+        }
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[repr(C)]
+    #[derive(Clone, Copy, Debug, PartialEq)]
+    struct V2 {
+        struct_size: u32,
+        pad: u32,
+        a: f64,
+        b: u64,
+    }
+    // SAFETY: repr(C), u32 struct_size first, plain numbers.
+    unsafe impl Versioned for V2 {
+        const NAME: &'static str = "V2";
+        const INIT: &'static str = "v2_default";
+        const BASE_SIZE: usize = 16; // struct_size + a: the layout before b was appended
+        fn defaults() -> Self {
+            V2 {
+                struct_size: 24,
+                pad: 0,
+                a: 1.5,
+                b: 7,
+            }
+        }
+    }
+
+    #[test]
+    fn versioned_structs_grow_both_ways() {
+        // An old program (16 bytes) gets the default of the field it does not know.
+        let old: [u64; 2] = [16, 2.5f64.to_bits()];
+        let v = read_versioned("cfg", old.as_ptr() as *const V2).unwrap();
+        assert_eq!((v.a, v.b), (2.5, 7));
+        // A newer program (32 bytes) with its new field left 0 is fine; set, it is refused.
+        let mut newer: [u64; 4] = [32, 2.5f64.to_bits(), 9, 0];
+        assert_eq!(
+            read_versioned("cfg", newer.as_ptr() as *const V2)
+                .unwrap()
+                .b,
+            9
+        );
+        newer[3] = 1;
+        let e = read_versioned("cfg", newer.as_ptr() as *const V2).unwrap_err();
+        assert_eq!(e.status, ImapStatus::ImapErrInvalidArgument);
+        assert!(e.message.contains("newer imap.h"), "{}", e.message);
+        // A zeroed struct is refused with the name of its initialiser.
+        let zero = [0u64; 3];
+        let e = read_versioned("cfg", zero.as_ptr() as *const V2).unwrap_err();
+        assert!(e.message.contains("v2_default"), "{}", e.message);
+        // Defaults into a larger struct zero the unknown tail; outputs are cut to size.
+        let mut big = [u64::MAX; 4];
+        write_defaults(big.as_mut_ptr() as *mut V2, 32).unwrap();
+        assert_eq!(big, [32, 1.5f64.to_bits(), 7, 0]);
+        let mut small = [u64::MAX; 3];
+        let val = V2::defaults();
+        write_versioned("out", small.as_mut_ptr() as *mut V2, 16, val).unwrap();
+        assert_eq!(small, [16, 1.5f64.to_bits(), u64::MAX]);
+        assert!(write_versioned("out", small.as_mut_ptr() as *mut V2, 8, val).is_err());
+    }
 }

@@ -15,9 +15,12 @@
 //! progress readout during a dynamic run takes the same locks, and reads with relaxed
 //! atomic loads. No access to a slot is ever concurrent with a write to it.
 
+mod photon;
 mod readout;
 
-pub use readout::{Readout, NO_DATA_REL_ERROR};
+pub use photon::{BufferedHit, PhotonBuffer, PhotonOut, FULL};
+pub use readout::Readout;
+pub(crate) use readout::NO_DATA_REL_ERROR;
 
 use crate::error::{Error, ImapStatus, Result};
 use std::sync::atomic::{AtomicU64, Ordering::Relaxed};

@@ -15,7 +15,7 @@ use super::IMap;
 use crate::scene::{PreparedMesh, PreparedScene};
 
 /// Relative error reported for a vertex that received nothing or has no area: 1 (100 %).
-pub const NO_DATA_REL_ERROR: f64 = 1.0;
+pub(crate) const NO_DATA_REL_ERROR: f64 = 1.0;
 
 /// What turns map values into physical ones.
 pub struct Readout<'a> {

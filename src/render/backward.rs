@@ -15,6 +15,7 @@ use crate::scene::{EmitterKind, LightShape, Material, PreparedScene, Scene};
 use crate::transport::{collapse_weights, reflect, refract};
 use glam::DVec3;
 use std::f64::consts::PI;
+use std::sync::atomic::{AtomicBool, Ordering};
 
 /// What a light gives in the render's units, per band.
 #[derive(Debug)]
@@ -130,6 +131,7 @@ impl<'a> EyeTracer<'a> {
     /// Traces one backward path through pixel `pixel` and appends its sample to `buf`:
     /// the direct luminance, and a backward photon if the path found a diffuse surface.
     /// `r2_pixel` is the pixel's current gathering radius² (0 before its first photon).
+    #[allow(clippy::too_many_arguments)]
     pub fn trace(
         &self,
         pixel: u32,
@@ -138,6 +140,7 @@ impl<'a> EyeTracer<'a> {
         buf: &mut SampleBuf,
         beta: &mut Vec<f64>,
         stats: &mut EyeStats,
+        stop: &AtomicBool,
     ) {
         let nb = self.bands;
         let entry = buf.pixels.len() as u32;
@@ -148,15 +151,22 @@ impl<'a> EyeTracer<'a> {
         beta.resize(nb, 1.0);
         let mut band: Option<usize> = None;
         let w = self.camera.desc.width;
-        let mut org = self.camera.origin;
         let mut dir = self
             .camera
             .ray(pixel % w, pixel / w, rng.uniform(), rng.uniform());
-        let mut path_len = 0.0;
-        let mut medium: Option<u32> = None;
         stats.paths += 1;
+        // A camera far outside the geometry: start where the ray meets its bounding sphere.
+        let Some(mut org) = self.scene.enter(self.camera.origin, dir) else {
+            return;
+        };
+        let mut path_len = (org - self.camera.origin).length();
+        let mut medium: Option<u32> = None;
 
-        for _ in 0..self.max_events {
+        for event in 0..self.max_events {
+            // A long specular chain must not hold up a stop (the phase is discarded then).
+            if event % 256 == 255 && stop.load(Ordering::Relaxed) {
+                return;
+            }
             stats.rays += 1;
             let Some(hit) = self.accel.intersect(org, dir) else {
                 return;

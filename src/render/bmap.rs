@@ -8,7 +8,7 @@
 //! grid whose cells are one photon diameter wide, so a query reads one cell.
 
 use glam::{IVec3, Vec3};
-use std::sync::atomic::{AtomicU32, AtomicU64, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU32, AtomicU64, Ordering};
 
 /// Adds `x` to the f64 stored as bits in `a` (compare-and-swap loop, relaxed).
 #[inline]
@@ -85,6 +85,9 @@ pub struct BackwardMap {
     /// Forward photons gathered into this map (by its owner and by joiners): the estimate's
     /// normalisation.
     pub forward: AtomicU64,
+    /// A forward photon was abandoned mid-path (the render was stopping) after gathering
+    /// into this map: the phase's samples are discarded.
+    pub interrupted: AtomicBool,
 }
 
 /// Cosine between the normals of a forward photon's surface side and a backward photon's
@@ -101,6 +104,7 @@ impl BackwardMap {
             acc: Vec::new(),
             grid: HashGrid::default(),
             forward: AtomicU64::new(0),
+            interrupted: AtomicBool::new(false),
         }
     }
 
@@ -131,6 +135,7 @@ impl BackwardMap {
         self.acc.resize_with(n, || AtomicU64::new(0));
         self.grid.build(&s.photons);
         self.forward.store(0, Ordering::Relaxed);
+        self.interrupted.store(false, Ordering::Relaxed);
     }
 
     pub fn entries(&self) -> usize {

@@ -30,7 +30,7 @@ pub use backward::{EyeStats, EyeTracer};
 pub use camera::{Camera, CameraDesc};
 
 use crate::sampling::PhotonRng;
-use crate::sched::{Progress, StopReason};
+use crate::sched::{duration_s, push_history, Progress, StopReason, MIN_PROGRESS_INTERVAL_S};
 use crate::transport::{Colour, HitSink, PathStats, SurfaceEvent, Tracer};
 use bmap::{BackwardMap, PixelStore, SampleBuf};
 use gate::Gate;
@@ -399,14 +399,22 @@ impl Engine<'_> {
     ) {
         let mut sink = ForwardSink { maps, gathers: 0 };
         let before = (stats.hits, stats.escaped_photons);
+        let mut done = 0;
         for k in start..start + n {
-            self.fwd.trace(k, colour, &mut sink, stats);
+            if !self.fwd.trace(k, colour, &mut sink, stats, &self.stop) {
+                // Abandoned mid-path: its gathers are in these maps, so their phase goes.
+                for m in maps {
+                    m.interrupted.store(true, Ordering::Relaxed);
+                }
+                break;
+            }
+            done += 1;
         }
         for m in maps {
-            m.forward.fetch_add(n, Ordering::Relaxed);
+            m.forward.fetch_add(done, Ordering::Relaxed);
         }
         let t = &self.totals;
-        t.forward_photons.fetch_add(n, Ordering::Relaxed);
+        t.forward_photons.fetch_add(done, Ordering::Relaxed);
         t.forward_rays.fetch_add(
             (stats.hits - before.0) + (stats.escaped_photons - before.1),
             Ordering::Relaxed,
@@ -453,8 +461,15 @@ impl Engine<'_> {
                         let p = pixel as usize;
                         let mut rng =
                             PhotonRng::new(eye_seed, (store.count(p) as u64) << 32 | pixel as u64);
-                        self.eye
-                            .trace(pixel, &mut rng, store.r2(p), &mut buf, &mut beta, &mut es);
+                        self.eye.trace(
+                            pixel,
+                            &mut rng,
+                            store.r2(p),
+                            &mut buf,
+                            &mut beta,
+                            &mut es,
+                            &self.stop,
+                        );
                     }
                 }
                 let t = &self.totals;
@@ -574,7 +589,7 @@ impl Engine<'_> {
             // --- 4. Every entry becomes one more sample of its pixel (entries split among
             // the group's threads; masks are disjoint, so each pixel has one writer).
             let forward = own.forward.load(Ordering::Relaxed);
-            if forward > 0 {
+            if forward > 0 && !own.interrupted.load(Ordering::Relaxed) {
                 let scale = self.power_scale / forward as f64;
                 let e = own.entries();
                 let k = self.threads_per_group;
@@ -772,7 +787,7 @@ pub fn render(
     let lost: Mutex<Option<String>> = Mutex::new(None);
     let mut history = Vec::new();
     let mut stop = None;
-    let interval = Duration::from_secs_f64(params.progress_interval_s);
+    let interval = duration_s(params.progress_interval_s.max(MIN_PROGRESS_INTERVAL_S));
     std::thread::scope(|s| {
         let mut spawned = 0;
         for gi in 0..g {
@@ -781,7 +796,9 @@ pub fn render(
                 let r = std::thread::Builder::new()
                     .name(format!("imap-render-{gi}.{tid}"))
                     .spawn_scoped(s, move || {
+                        crate::error::quiet_thread();
                         let r = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+                            crate::fault::at(crate::fault::Point::Render);
                             engine.worker(gi, tid)
                         }));
                         if let Err(e) = r {
@@ -805,16 +822,29 @@ pub fn render(
             }
         }
         // The monitor.
-        let mut next = start + interval;
+        let mut next = start.checked_add(interval);
         while finished.load(Ordering::Acquire) < spawned {
             std::thread::sleep(Duration::from_millis(2).min(interval));
             let now = Instant::now();
-            if engine.stop.load(Ordering::Relaxed) || now < next {
+            if engine.stop.load(Ordering::Relaxed) {
                 continue;
             }
-            next = now + interval;
+            // The time budget is checked at every wake-up, not only at progress ticks.
+            if params.time_budget_s > 0.0
+                && now.duration_since(start).as_secs_f64() >= params.time_budget_s
+            {
+                stop = Some(StopReason::TimeBudget);
+                engine.stop.store(true, Ordering::Relaxed);
+                continue;
+            }
+            if next.is_none_or(|t| now < t) {
+                continue;
+            }
             let p = progress_of(&engine, start);
-            history.push(p);
+            // The next tick: one interval on, or later when the estimate was slow.
+            let gap = interval.max(now.elapsed().mul_f64(20.0));
+            next = Instant::now().checked_add(gap);
+            push_history(&mut history, p);
             let mut why = None;
             if let Some(cb) = params.progress.as_mut() {
                 if !cb(&p) {
@@ -849,7 +879,7 @@ pub fn render(
         hits: t.backward_paths.load(Ordering::Relaxed),
         rel_error,
     };
-    history.push(last);
+    push_history(&mut history, last);
     if let Some(cb) = params.progress.as_mut() {
         cb(&last);
     }

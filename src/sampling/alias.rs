@@ -10,14 +10,23 @@ pub struct AliasTable {
 }
 
 impl AliasTable {
-    /// Builds the table. Weights must be finite and non-negative with a positive sum.
-    pub fn new(weights: &[f64]) -> Self {
+    /// Builds the table. Weights must be finite and non-negative with a positive, finite
+    /// sum; otherwise the reason is returned.
+    pub fn new(weights: &[f64]) -> Result<Self, &'static str> {
         let n = weights.len();
+        if n == 0 {
+            return Err("no weights");
+        }
+        if n > u32::MAX as usize {
+            return Err("more than 2^32 weights");
+        }
+        if weights.iter().any(|w| !(*w >= 0.0 && w.is_finite())) {
+            return Err("a weight is negative or not finite");
+        }
         let total: f64 = weights.iter().sum();
-        assert!(
-            n > 0 && total > 0.0 && total.is_finite(),
-            "alias table needs a positive sum"
-        );
+        if !(total > 0.0 && total.is_finite()) {
+            return Err("the weights' sum is zero or not finite");
+        }
         let pdf: Vec<f64> = weights.iter().map(|w| w / total).collect();
         let mut scaled: Vec<f64> = pdf.iter().map(|p| p * n as f64).collect();
         let mut prob = vec![1.0; n];
@@ -34,7 +43,7 @@ impl AliasTable {
             }
         }
         // Leftovers (rounding) keep probability 1 and alias to themselves.
-        AliasTable { prob, alias, pdf }
+        Ok(AliasTable { prob, alias, pdf })
     }
 
     /// Samples an index from a uniform number in [0, 1).
@@ -73,7 +82,7 @@ mod tests {
     #[test]
     fn frequencies_match_weights() {
         let w = [1.0, 0.0, 3.0, 6.0, 0.5];
-        let t = AliasTable::new(&w);
+        let t = AliasTable::new(&w).unwrap();
         let total: f64 = w.iter().sum();
         let n = 400_000;
         let mut count = [0usize; 5];
@@ -89,5 +98,14 @@ mod tests {
             assert!((t.pdf(i) - p).abs() < 1e-15);
         }
         assert_eq!(count[1], 0, "a zero weight must never be drawn");
+    }
+
+    #[test]
+    fn degenerate_weights_are_refused_not_panicked_on() {
+        assert!(AliasTable::new(&[]).is_err());
+        assert!(AliasTable::new(&[0.0, 0.0]).is_err());
+        assert!(AliasTable::new(&[1e308, 1e308]).is_err());
+        assert!(AliasTable::new(&[1.0, f64::NAN]).is_err());
+        assert!(AliasTable::new(&[1.0, -1.0]).is_err());
     }
 }

@@ -90,6 +90,13 @@ impl Bands {
                 "{name} is 0 in every band: the light emits nothing"
             );
         }
+        let total: f64 = v.iter().sum();
+        if !total.is_finite() {
+            bail!(
+                ImapErrInvalidArgument,
+                "{name} sums to {total} over the bands (too large to represent)"
+            );
+        }
         Ok(v)
     }
 }

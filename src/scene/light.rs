@@ -1,7 +1,7 @@
 //! Point and spot lights.
 
 use super::bands::Bands;
-use crate::error::{bail, check_finite, Result};
+use crate::error::{bail, check_coordinates, check_finite, Result};
 use glam::DVec3;
 
 #[derive(Clone, Debug)]
@@ -22,7 +22,7 @@ pub struct Light {
 
 impl Light {
     pub fn point(position: [f64; 3], power: &[f64], bands: &Bands) -> Result<Self> {
-        check_finite("position", &position)?;
+        check_coordinates("position", &position)?;
         let power = bands.expand_emission("power", power)?;
         Ok(Light {
             position: DVec3::from(position),
@@ -38,27 +38,37 @@ impl Light {
         power: &[f64],
         bands: &Bands,
     ) -> Result<Self> {
-        check_finite("position", &position)?;
+        check_coordinates("position", &position)?;
         check_finite("direction", &direction)?;
-        check_finite("half_angle", &[half_angle_rad])?;
-        let axis = DVec3::from(direction);
-        if axis.length() < 1e-300 {
-            bail!(ImapErrInvalidArgument, "spot direction is the zero vector");
-        }
+        crate::error::check_finite_scalar("half_angle_rad", half_angle_rad)?;
+        let Some(axis) = unit_vector(direction) else {
+            bail!(ImapErrInvalidArgument, "direction is the zero vector");
+        };
         if !(half_angle_rad > 0.0 && half_angle_rad <= std::f64::consts::PI) {
             bail!(
                 ImapErrInvalidArgument,
-                "spot half angle {half_angle_rad} rad is not in (0, π]"
+                "half_angle_rad = {half_angle_rad} is not in (0, π]"
             );
         }
         let power = bands.expand_emission("power", power)?;
         Ok(Light {
             position: DVec3::from(position),
             shape: LightShape::Spot {
-                axis: axis.normalize(),
+                axis,
                 cos_half_angle: half_angle_rad.cos(),
             },
             power,
         })
     }
+}
+
+/// `v` scaled to unit length, for any finite non-zero `v` (huge and tiny components
+/// included: it is scaled by its largest component first), or None for the zero vector.
+pub fn unit_vector(v: [f64; 3]) -> Option<DVec3> {
+    let v = DVec3::from(v);
+    let m = v.abs().max_element();
+    if !(m > 0.0 && m.is_finite()) {
+        return None;
+    }
+    Some((v / m).normalize())
 }

@@ -1,7 +1,7 @@
 //! Triangle meshes as the caller describes them, validated on entry.
 
 use super::bands::Bands;
-use crate::error::{bail, check_finite, Result};
+use crate::error::{bail, check_coordinates, try_collect, try_with_capacity, Result};
 
 /// A validated mesh. Positions are kept in f64 as given; the prepared scene recentres them
 /// before handing f32 copies to Embree.
@@ -67,13 +67,12 @@ impl Mesh {
                 "mesh is too large ({nv} vertices, {nt} triangles; at most 2^31 each)"
             );
         }
-        check_finite("positions", desc.positions)?;
-        let positions: Vec<[f64; 3]> = desc
-            .positions
-            .chunks_exact(3)
-            .map(|p| [p[0], p[1], p[2]])
-            .collect();
-        let mut triangles = Vec::with_capacity(nt);
+        check_coordinates("positions", desc.positions)?;
+        let positions: Vec<[f64; 3]> = try_collect(
+            desc.positions.chunks_exact(3).map(|p| [p[0], p[1], p[2]]),
+            "the mesh's positions",
+        )?;
+        let mut triangles = try_with_capacity(nt, "the mesh's triangles")?;
         for (t, tri) in desc.indices.chunks_exact(3).enumerate() {
             if let Some(&i) = tri.iter().find(|&&i| i as usize >= nv) {
                 bail!(
@@ -112,15 +111,37 @@ impl Mesh {
                         ids.len()
                     );
                 }
-                for (t, &m) in ids.iter().enumerate() {
-                    check_material(&format!("triangle {t}'s material"), m)?;
+                if let Some(t) = ids.iter().position(|&m| m as usize >= material_count) {
+                    check_material(&format!("triangle {t}'s material"), ids[t])?;
                 }
-                Some(ids.to_vec())
+                Some(try_collect(
+                    ids.iter().copied(),
+                    "the mesh's triangle materials",
+                )?)
             }
         };
         let exitance = match desc.exitance {
             None => None,
-            Some(e) => Some(bands.expand_emission("exitance", e)?),
+            Some(e) => {
+                let e = bands.expand_emission("exitance", e)?;
+                let area: f64 = triangles
+                    .iter()
+                    .map(|t: &[u32; 3]| triangle_area(&positions, t))
+                    .sum();
+                if area.is_nan() || area <= 0.0 {
+                    bail!(
+                        ImapErrNoLight,
+                        "the mesh emits (exitance given) but its triangles have zero total area"
+                    );
+                }
+                if !area.is_finite() {
+                    bail!(
+                        ImapErrPrecision,
+                        "the emitting mesh's area overflows ({area}): its coordinates are too large"
+                    );
+                }
+                Some(e)
+            }
         };
         Ok(Mesh {
             positions,
@@ -145,6 +166,12 @@ impl Mesh {
     pub fn map_slots(&self) -> usize {
         map_slots(self.positions.len(), self.two_sided, self.record)
     }
+}
+
+/// Area of triangle `t`, scene units².
+pub fn triangle_area(pos: &[[f64; 3]], t: &[u32; 3]) -> f64 {
+    let [a, b, c] = t.map(|i| glam::DVec3::from(pos[i as usize]));
+    0.5 * (b - a).cross(c - a).length()
 }
 
 impl MeshDesc<'_> {

@@ -1,9 +1,15 @@
 //! The prepared scene: geometry recentred for f32 precision, per-triangle normals and
 //! areas, per-vertex area shares, the map's slot layout, and the light-selection table.
 
+use super::mesh::triangle_area;
 use super::{LightShape, Mesh, Scene};
+use crate::error::{bail, try_collect, try_filled, Error, ImapStatus, Result};
 use crate::sampling::{warp, AliasTable, PhotonRng};
 use glam::{DVec3, Vec3};
+
+/// Largest area-weighted relative distortion that f32 rounding of a mesh's vertices may
+/// cause before the scene is refused (`IMAP_ERR_PRECISION`): 0.1 %.
+pub const MAX_DISTORTION: f64 = 1e-3;
 
 /// A mesh ready for tracing. Positions are in scene units relative to `PreparedScene::origin`.
 #[derive(Debug)]
@@ -76,7 +82,7 @@ pub enum EmitterKind {
 }
 
 /// Share of photons spread evenly over the emitters, whatever their power.
-pub const EMITTER_FLOOR: f64 = 0.1;
+pub(crate) const EMITTER_FLOOR: f64 = 0.1;
 
 /// One light source as the tracer sees it.
 #[derive(Debug)]
@@ -106,20 +112,25 @@ pub struct PreparedScene {
 
 impl PreparedScene {
     /// Prepares `scene`. The caller has checked that it has meshes and lights.
-    pub fn new(scene: &Scene) -> Self {
+    ///
+    /// Fails with `IMAP_ERR_PRECISION` naming the mesh when the scene's extent makes a
+    /// mesh's triangles too small for the f32 coordinates ray tracing uses, with
+    /// `IMAP_ERR_NO_LIGHT` / `IMAP_ERR_INVALID_ARGUMENT` naming the light or mesh whose
+    /// power is zero or not representable, and with `IMAP_ERR_OUT_OF_MEMORY`.
+    pub fn new(scene: &Scene) -> Result<Self> {
+        // The bounds of the geometry that can be hit: vertices no triangle uses, and lights
+        // (whose photons enter through the bounding sphere), do not widen them.
         let (lo, hi) = bounds(scene);
         let origin = (lo + hi) * 0.5;
         let radius = ((hi - lo).length() * 0.5).max(f64::MIN_POSITIVE);
         let mut slots = 0usize;
-        let meshes: Vec<PreparedMesh> = scene
-            .meshes
-            .iter()
-            .map(|m| {
-                let p = prepare_mesh(m, origin, m.record.then_some(slots));
-                slots += m.map_slots();
-                p
-            })
-            .collect();
+        let mut meshes = Vec::with_capacity(scene.meshes.len());
+        for (i, m) in scene.meshes.iter().enumerate() {
+            let p = prepare_mesh(m, origin, m.record.then_some(slots))?;
+            check_precision(i, m, &p, radius)?;
+            slots += m.map_slots();
+            meshes.push(p);
+        }
 
         let nb = scene.bands.count() as f64;
         let unit2 = scene.unit_m * scene.unit_m;
@@ -129,8 +140,14 @@ impl PreparedScene {
             let total: f64 = power.iter().sum();
             (power.iter().map(|p| p * nb / total).collect(), total)
         };
-        for l in &scene.lights {
+        for (i, l) in scene.lights.iter().enumerate() {
             let (colour, total) = colour_of(&l.power);
+            if !(total > 0.0 && total.is_finite()) {
+                bail!(
+                    ImapErrInvalidArgument,
+                    "light {i}: its power sums to {total} W over the bands"
+                );
+            }
             let kind = match l.shape {
                 LightShape::Point => EmitterKind::Point,
                 LightShape::Spot {
@@ -153,22 +170,30 @@ impl PreparedScene {
                 continue;
             };
             let pm = &meshes[i];
-            let areas: Vec<f64> = pm
-                .triangles
-                .iter()
-                .map(|t| tri_area(&m.positions, t))
-                .collect();
+            let areas: Vec<f64> = try_collect(
+                pm.triangles.iter().map(|t| triangle_area(&m.positions, t)),
+                "an emitting mesh's triangle areas",
+            )?;
             let area: f64 = areas.iter().sum();
-            if area <= 0.0 {
-                continue;
-            }
             let sides = m.sides() as f64;
             let power: Vec<f64> = exitance.iter().map(|e| e * area * unit2 * sides).collect();
             let (colour, total) = colour_of(&power);
+            if !(total > 0.0 && total.is_finite()) {
+                bail!(
+                    ImapErrInvalidArgument,
+                    "mesh {i} emits {total} W (exitance × area {area:e} scene units² × unit_m²): not a usable power"
+                );
+            }
+            let triangles = AliasTable::new(&areas).map_err(|why| {
+                Error::new(
+                    ImapStatus::ImapErrNoLight,
+                    format!("mesh {i}: its emitting triangles cannot be sampled ({why})"),
+                )
+            })?;
             emitters.push(Emitter {
                 kind: EmitterKind::Mesh {
                     mesh: i,
-                    triangles: AliasTable::new(&areas),
+                    triangles,
                     two_sided: m.two_sided,
                 },
                 position: DVec3::ZERO,
@@ -177,6 +202,12 @@ impl PreparedScene {
             powers.push(total);
         }
         let total_power: f64 = powers.iter().sum();
+        if !(total_power > 0.0 && total_power.is_finite()) {
+            bail!(
+                ImapErrInvalidArgument,
+                "the lights' total power is {total_power} W: too large to represent"
+            );
+        }
         // Emitters are chosen in proportion to power mixed with a uniform share, so a light
         // 1e12 times dimmer than another still gets photons (at least EMITTER_FLOOR / L of
         // them) instead of reading zero for ever. Each photon's colour carries the ratio of
@@ -191,8 +222,13 @@ impl PreparedScene {
             let scale = p / total_power / s;
             em.colour.iter_mut().for_each(|c| *c *= scale);
         }
-        let emitter_table = AliasTable::new(&select);
-        PreparedScene {
+        let emitter_table = AliasTable::new(&select).map_err(|why| {
+            Error::new(
+                ImapStatus::ImapErrNoLight,
+                format!("the lights cannot be sampled ({why})"),
+            )
+        })?;
+        Ok(PreparedScene {
             origin,
             radius,
             meshes,
@@ -200,7 +236,30 @@ impl PreparedScene {
             emitter_table,
             total_power,
             slots,
+        })
+    }
+
+    /// Where a ray from `org` along unit `dir` (local units) can first meet the geometry:
+    /// `org` itself when it is near the scene, otherwise the point where the ray enters
+    /// the bounding sphere (rays from far lights and cameras would otherwise lose the
+    /// geometry's precision in f32), or None when it misses the sphere.
+    #[inline]
+    pub fn enter(&self, org: DVec3, dir: DVec3) -> Option<DVec3> {
+        let r = self.radius * 1.01 + self.offset_at(DVec3::ZERO);
+        let d2 = org.length_squared();
+        if d2 <= 4.0 * r * r {
+            return Some(org);
         }
+        // |org + t·dir|² = r²: t² + 2bt + c = 0 with b = org·dir, c = |org|² − r².
+        let b = org.dot(dir);
+        let c = d2 - r * r;
+        let disc = b * b - c;
+        if b >= 0.0 || disc <= 0.0 {
+            return None;
+        }
+        // The nearer root, computed without cancellation.
+        let t = c / (-b + disc.sqrt());
+        Some(org + dir * t)
     }
 
     /// Offset that moves a new ray's origin off the surface at local point `p`: a few
@@ -242,40 +301,67 @@ impl PreparedScene {
     }
 }
 
+/// The bounding box of the vertices triangles use.
 fn bounds(scene: &Scene) -> (DVec3, DVec3) {
     let mut lo = DVec3::splat(f64::INFINITY);
     let mut hi = DVec3::splat(f64::NEG_INFINITY);
-    let points = scene
-        .meshes
-        .iter()
-        .flat_map(|m| m.positions.iter().map(|&p| DVec3::from(p)));
-    for p in points.chain(scene.lights.iter().map(|l| l.position)) {
-        lo = lo.min(p);
-        hi = hi.max(p);
+    for m in &scene.meshes {
+        for t in &m.triangles {
+            for &i in t {
+                let p = DVec3::from(m.positions[i as usize]);
+                lo = lo.min(p);
+                hi = hi.max(p);
+            }
+        }
     }
     (lo, hi)
 }
 
-fn tri_area(pos: &[[f64; 3]], t: &[u32; 3]) -> f64 {
-    let [a, b, c] = t.map(|i| DVec3::from(pos[i as usize]));
-    0.5 * (b - a).cross(c - a).length()
+/// Refuses a mesh whose triangles f32 coordinates cannot resolve: each vertex of a
+/// triangle moves by up to half an f32 ulp of its largest local coordinate, which changes
+/// the triangle by about that over its smallest height. The area-weighted mean of that
+/// ratio (capped at 1) is the relative error the rounding can cause in the mesh's map.
+fn check_precision(i: usize, m: &Mesh, p: &PreparedMesh, radius: f64) -> Result<()> {
+    let (mut weighted, mut total) = (0.0, 0.0);
+    let mut worst_at = 0.0f64;
+    for t in &p.triangles {
+        let [a, b, c] = t.map(|v| DVec3::from(m.positions[v as usize]));
+        let [la, lb, lc] = t.map(|v| p.vertices[v as usize].as_dvec3());
+        let area = 0.5 * (b - a).cross(c - a).length();
+        if area.is_nan() || area <= 0.0 {
+            continue;
+        }
+        let longest = (b - a).length().max((c - b).length()).max((a - c).length());
+        let height = 2.0 * area / longest;
+        let magnitude = la.abs().max(lb.abs()).max(lc.abs()).max_element();
+        let eps = magnitude * f32::EPSILON as f64 * 0.5 * 3f64.sqrt();
+        weighted += area * (eps / height).min(1.0);
+        total += area;
+        worst_at = worst_at.max(magnitude);
+    }
+    if total > 0.0 && weighted / total > MAX_DISTORTION {
+        bail!(
+            ImapErrPrecision,
+            "mesh {i}: at {worst_at:.3e} scene units from the centre of the scene's bounding box (radius {radius:.3e}), single-precision ray tracing moves its triangles by {:.2} % of their size on average (most allowed: {} %); the scene's extent is too large for this mesh's detail: trace far-apart parts in separate contexts, or leave distant geometry out",
+            100.0 * weighted / total,
+            100.0 * MAX_DISTORTION
+        );
+    }
+    Ok(())
 }
 
-fn prepare_mesh(m: &Mesh, origin: DVec3, slot_base: Option<usize>) -> PreparedMesh {
-    let local: Vec<DVec3> = m
-        .positions
-        .iter()
-        .map(|&p| DVec3::from(p) - origin)
-        .collect();
+fn prepare_mesh(m: &Mesh, origin: DVec3, slot_base: Option<usize>) -> Result<PreparedMesh> {
+    let local: Vec<DVec3> = try_collect(
+        m.positions.iter().map(|&p| DVec3::from(p) - origin),
+        "the prepared mesh's vertices",
+    )?;
     let mut vertex_area = if slot_base.is_some() {
-        vec![0.0; local.len()]
+        try_filled(local.len(), 0.0, "the vertices' areas")?
     } else {
         Vec::new()
     };
-    let normals = m
-        .triangles
-        .iter()
-        .map(|t| {
+    let normals = try_collect(
+        m.triangles.iter().map(|t| {
             let [a, b, c] = t.map(|i| local[i as usize]);
             let n = (b - a).cross(c - a);
             let area = 0.5 * n.length();
@@ -289,18 +375,20 @@ fn prepare_mesh(m: &Mesh, origin: DVec3, slot_base: Option<usize>) -> PreparedMe
             } else {
                 Vec3::ZERO
             }
-        })
-        .collect();
-    PreparedMesh {
-        vertices: local.iter().map(|p| p.as_vec3()).collect(),
-        triangles: m.triangles.clone(),
+        }),
+        "the triangles' normals",
+    )?;
+    let materials = match &m.triangle_materials {
+        Some(ids) => try_collect(ids.iter().copied(), "the triangles' materials")?,
+        None => vec![m.material],
+    };
+    Ok(PreparedMesh {
+        vertices: try_collect(local.iter().map(|p| p.as_vec3()), "the mesh's f32 vertices")?,
+        triangles: try_collect(m.triangles.iter().copied(), "the prepared triangles")?,
         normals,
-        materials: m
-            .triangle_materials
-            .clone()
-            .unwrap_or_else(|| vec![m.material]),
+        materials,
         two_sided: m.two_sided,
         slot_base,
         vertex_area,
-    }
+    })
 }

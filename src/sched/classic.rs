@@ -9,8 +9,8 @@
 //! the accumulator walks the map in memory order, photons collapsed to one band carry one
 //! value instead of a full colour, and the hand-over is a pointer move on a channel.
 
-use super::{Counters, Monitor, PhotonSource, RunContext, RunOutcome, RunParams};
-use crate::imap::{IMap, PhotonSquares};
+use super::{Counters, Monitor, PhotonSource, RunContext, RunOutcome, RunParams, StopGuard};
+use crate::imap::{BufferedHit, IMap, PhotonBuffer, PhotonOut, FULL};
 use crate::scene::PreparedScene;
 use crate::transport::{Colour, HitSink, PathStats};
 use crossbeam::channel::{self, Receiver, RecvTimeoutError, Sender};
@@ -20,8 +20,6 @@ use std::time::Instant;
 const PORTION_RECORDS: usize = 2048;
 /// Portions in the pool per calculating thread.
 const PORTIONS_PER_THREAD: usize = 4;
-/// `HitRec::band` value of a full-colour record.
-const FULL: u16 = u16::MAX;
 
 /// One ray–surface intersection as the paper's classic scheme stores it.
 #[derive(Clone, Copy, Debug)]
@@ -42,6 +40,8 @@ struct Portion {
     colours: Vec<f32>,
     /// (slot, a photon's squared contribution to it), for the error estimate.
     squares: Vec<(u32, f64)>,
+    /// (slot, colour offset): whole contributions of photons folded per slot.
+    slot_values: Vec<(u32, u32)>,
 }
 
 impl Portion {
@@ -50,6 +50,7 @@ impl Portion {
             recs: Vec::with_capacity(PORTION_RECORDS),
             colours: Vec::with_capacity(PORTION_RECORDS * bands),
             squares: Vec::new(),
+            slot_values: Vec::new(),
         }
     }
 
@@ -57,19 +58,26 @@ impl Portion {
         self.recs.clear();
         self.colours.clear();
         self.squares.clear();
+        self.slot_values.clear();
+    }
+
+    fn is_empty(&self) -> bool {
+        self.recs.is_empty() && self.squares.is_empty() && self.slot_values.is_empty()
     }
 
     fn full(&self) -> bool {
-        self.recs.len() >= PORTION_RECORDS || self.squares.len() >= PORTION_RECORDS
+        self.recs.len() + self.slot_values.len() >= PORTION_RECORDS
+            || self.squares.len() >= PORTION_RECORDS
     }
 }
 
-/// The calculating thread's side: fills portions and hands them over.
+/// The calculating thread's side: holds each photon's hits until its path ends, then
+/// fills portions and hands them over.
 struct PortionSink<'a> {
     scene: &'a PreparedScene,
     /// Sort portions by triangle before handing them over (`IMap::worth_sorting`).
     sort: bool,
-    squares: PhotonSquares,
+    photon: PhotonBuffer,
     current: Option<Portion>,
     free: Receiver<Portion>,
     full: Sender<Portion>,
@@ -89,7 +97,7 @@ impl PortionSink<'_> {
 
     fn send(&mut self) {
         if let Some(mut p) = self.current.take() {
-            if p.recs.is_empty() && p.squares.is_empty() {
+            if p.is_empty() {
                 self.current = Some(p);
                 return;
             }
@@ -103,54 +111,61 @@ impl PortionSink<'_> {
     }
 }
 
-impl HitSink for PortionSink<'_> {
-    fn deposit(&mut self, mesh: u32, prim: u32, side: u8, u: f32, v: f32, colour: &Colour) {
-        // The photon's deposits, for its cross terms at the path's end.
-        let m = &self.scene.meshes[mesh as usize];
-        let (uf, vf) = (u as f64, v as f64);
-        let slots = m.triangles[prim as usize].map(|v| {
-            m.slot(v, side as usize)
-                .expect("deposit on a recording mesh")
-        });
-        let e = colour.energy();
-        self.squares
-            .add(slots, [(1.0 - uf - vf) * e, uf * e, vf * e]);
+impl PhotonOut for PortionSink<'_> {
+    fn hit(&mut self, h: &BufferedHit, colour: &[f32]) {
         let Some(p) = self.portion() else {
             return;
         };
         let colour_at = p.colours.len() as u32;
-        let band = match colour.band() {
-            Some(b) => {
-                p.colours.push(colour.values()[b] as f32);
-                b as u16
-            }
-            None => {
-                p.colours.extend(colour.values().iter().map(|&c| c as f32));
-                FULL
-            }
-        };
+        p.colours.extend_from_slice(colour);
         p.recs.push(HitRec {
-            key: (mesh as u64) << 32 | prim as u64,
-            u,
-            v,
+            key: (h.mesh as u64) << 32 | h.prim as u64,
+            u: h.u,
+            v: h.v,
             colour_at,
-            band,
-            side,
+            band: h.band,
+            side: h.side,
         });
         if p.full() {
             self.send();
         }
     }
 
-    fn end_photon(&mut self) {
-        let mut squares = std::mem::take(&mut self.squares);
+    fn square(&mut self, slot: usize, s2: f64) {
         if let Some(p) = self.portion() {
-            squares.drain_cross_terms(|slot, s2| p.squares.push((slot as u32, s2)));
+            p.squares.push((slot as u32, s2));
             if p.full() {
                 self.send();
             }
         }
-        self.squares = squares;
+    }
+
+    fn slot_value(&mut self, slot: usize, colour: &[f32]) {
+        if let Some(p) = self.portion() {
+            let at = p.colours.len() as u32;
+            p.colours.extend_from_slice(colour);
+            p.slot_values.push((slot as u32, at));
+            if p.full() {
+                self.send();
+            }
+        }
+    }
+}
+
+impl HitSink for PortionSink<'_> {
+    fn deposit(&mut self, mesh: u32, prim: u32, side: u8, u: f32, v: f32, colour: &Colour) {
+        self.photon
+            .deposit(self.scene, (mesh, prim, side), u, v, colour);
+    }
+
+    fn end_photon(&mut self) {
+        let mut photon = std::mem::replace(&mut self.photon, PhotonBuffer::new(0));
+        photon.finish(self.scene, self);
+        self.photon = photon;
+    }
+
+    fn abort_photon(&mut self) {
+        self.photon.abort();
     }
 }
 
@@ -176,11 +191,23 @@ fn accumulate(map: &mut IMap, scene: &PreparedScene, p: &Portion) {
     for &(slot, s2) in &p.squares {
         map.add_square(slot as usize, s2);
     }
+    for &(slot, at) in &p.slot_values {
+        let at = at as usize;
+        map.add_colour(slot as usize, 1.0, &p.colours[at..at + map.bands()]);
+    }
+}
+
+/// Bytes a run's buffers take at most: the pool of portions and each calculating thread's
+/// photon buffer.
+pub fn run_bytes(threads: usize, bands: usize) -> u64 {
+    let portion = PORTION_RECORDS * (std::mem::size_of::<HitRec>() + 4 * bands + 16);
+    let pool = (PORTIONS_PER_THREAD * threads + 2) * portion;
+    pool as u64 + threads as u64 * PhotonBuffer::max_bytes(bands)
 }
 
 /// Runs the classic scheduler until a stop criterion is met.
 pub fn run(rc: &RunContext, map: &mut IMap, params: &mut RunParams) -> RunOutcome {
-    let source = PhotonSource::new(rc.first_photon, params.photons);
+    let source = PhotonSource::new(rc.plan.clone());
     let bands = map.bands();
     let pool = PORTIONS_PER_THREAD * rc.threads + 2;
     let (free_tx, free_rx) = channel::bounded::<Portion>(pool);
@@ -192,7 +219,7 @@ pub fn run(rc: &RunContext, map: &mut IMap, params: &mut RunParams) -> RunOutcom
     }
 
     let sort = map.worth_sorting();
-    let mut monitor = Monitor::new(params, rc.elapsed_before_s);
+    let mut monitor = Monitor::new(params, rc);
     let mut counters = Counters {
         groups: 1,
         ..Default::default()
@@ -202,6 +229,8 @@ pub fn run(rc: &RunContext, map: &mut IMap, params: &mut RunParams) -> RunOutcom
     let mut busy_s = 0.0;
 
     std::thread::scope(|s| {
+        // Should this thread unwind, the calculating threads must still stop.
+        let _stop = StopGuard(&source);
         let mut handles = Vec::new();
         for t in 0..rc.threads {
             let (free, full, source, tracer) =
@@ -209,10 +238,11 @@ pub fn run(rc: &RunContext, map: &mut IMap, params: &mut RunParams) -> RunOutcom
             let spawned = std::thread::Builder::new()
                 .name(format!("imap-calc-{t}"))
                 .spawn_scoped(s, move || {
+                    crate::error::quiet_thread();
                     let mut sink = PortionSink {
                         scene: tracer.scene,
                         sort,
-                        squares: PhotonSquares::default(),
+                        photon: PhotonBuffer::new(tracer.bands),
                         current: None,
                         free,
                         full,
@@ -220,7 +250,7 @@ pub fn run(rc: &RunContext, map: &mut IMap, params: &mut RunParams) -> RunOutcom
                     };
                     let mut stats = PathStats::new(tracer.scene.meshes.len());
                     let mut colour = Colour::new(tracer.bands);
-                    source.trace_all(tracer, &mut colour, &mut sink, &mut stats);
+                    super::trace_all(source, tracer, &mut colour, &mut sink, &mut stats);
                     sink.send();
                     (stats, sink.wait_s)
                 });

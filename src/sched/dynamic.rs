@@ -10,7 +10,7 @@
 use super::groups::GroupTable;
 use super::{Counters, Monitor, PhotonSource, RunContext, RunOutcome, RunParams};
 use crate::error::{bail, Result};
-use crate::imap::{IMap, PhotonSquares, Readout};
+use crate::imap::{BufferedHit, IMap, PhotonBuffer, PhotonOut, Readout, FULL};
 use crate::scene::PreparedScene;
 use crate::transport::{Colour, HitSink, PathStats};
 use crossbeam::channel::{self, Receiver, RecvTimeoutError, Sender, TryRecvError};
@@ -22,7 +22,8 @@ use std::time::{Duration, Instant};
 pub struct DynamicParams {
     /// Groups at the start; 0 = one per calculating thread.
     pub initial_groups: usize,
-    /// Most groups ever (the table is preallocated to this); 0 = 64 per calculating thread.
+    /// Most groups ever (the table is preallocated to this); 0 = 64 per calculating thread,
+    /// at most `DEFAULT_MAX_GROUPS`; 1 = one group that never splits.
     pub max_groups: usize,
     /// Subgroups per split (the paper's `subd`).
     pub subd: usize,
@@ -68,10 +69,12 @@ impl DynamicParams {
                 self.subd
             );
         }
-        if self.max_groups > 1 << 20 || self.initial_groups > 1 << 20 {
+        if self.max_groups > MAX_GROUPS_LIMIT || self.initial_groups > MAX_GROUPS_LIMIT {
             bail!(
                 ImapErrInvalidArgument,
-                "initial_groups and max_groups must be at most 2^20"
+                "initial_groups = {} and max_groups = {} must be at most {MAX_GROUPS_LIMIT}",
+                self.initial_groups,
+                self.max_groups
             );
         }
         if self.max_groups != 0 && self.initial_groups > self.max_groups {
@@ -86,6 +89,11 @@ impl DynamicParams {
     }
 }
 
+/// Most groups a configuration may ask for.
+const MAX_GROUPS_LIMIT: usize = 1 << 16;
+/// Most groups by default (64 per calculating thread up to this): every calculating thread
+/// keeps 4 bytes per group, and each group a queue.
+const DEFAULT_MAX_GROUPS: usize = 4096;
 /// Bytes a portion aims at: small enough to stay in cache while it is applied.
 const PORTION_BYTES: usize = 32 << 10;
 /// Most bytes all portions together may take.
@@ -101,9 +109,8 @@ fn contribution_bytes(bands: usize) -> usize {
 fn portion_capacity(bands: usize) -> usize {
     (PORTION_BYTES / contribution_bytes(bands)).clamp(64, 2048)
 }
-/// `Contribution::band` of a full-colour contribution.
-const FULL: u16 = u16::MAX;
-/// `Contribution::band` of a photon's squared scalar contribution (in `w`).
+/// `Contribution::band` of a photon's squared scalar contribution (in `w`); `FULL` (from
+/// the photon buffer) marks a full-colour contribution.
 const SQUARE: u16 = u16::MAX - 1;
 
 /// One vertex's share of one hit.
@@ -153,13 +160,48 @@ struct Shared<'a> {
     inline_apply: bool,
     /// Sort portions by slot before applying them (`IMap::worth_sorting`).
     sort: bool,
+    /// A processing thread was lost: waiting for free portions would never end.
+    poisoned: &'a AtomicBool,
 }
 
-/// A calculating thread's side: one open portion per group it has touched.
+/// Counts a calculating thread out when it ends, also by a panic (then the run stops).
+struct LiveGuard<'a>(&'a AtomicUsize, &'a PhotonSource);
+
+impl Drop for LiveGuard<'_> {
+    fn drop(&mut self) {
+        if std::thread::panicking() {
+            self.1.stop();
+        }
+        self.0.fetch_sub(1, Ordering::Release);
+    }
+}
+
+/// Stops the source and releases the processing threads when the monitor's scope ends,
+/// also by unwinding.
+struct Teardown<'a> {
+    source: &'a PhotonSource,
+    finished: &'a AtomicBool,
+}
+
+impl Drop for Teardown<'_> {
+    fn drop(&mut self) {
+        self.source.stop();
+        self.finished.store(true, Ordering::Release);
+    }
+}
+
+/// `GroupSink::open_at` of a group without an open portion.
+const NOT_OPEN: u32 = u32::MAX;
+
+/// A calculating thread's side: holds each photon's hits until its path ends, then sorts
+/// its contributions into one open portion per group it has touched.
 struct GroupSink<'a> {
     shared: &'a Shared<'a>,
-    open: Vec<Option<Portion>>,
-    open_list: Vec<usize>,
+    /// Where in `open` each group's open portion is (`NOT_OPEN`: none): 4 bytes per group
+    /// of the table, so a thread's cost does not grow with the table.
+    open_at: Vec<u32>,
+    /// The open portions and their groups.
+    open: Vec<(usize, Portion)>,
     spare: Option<Portion>,
     hit: u64,
     wait_s: f64,
@@ -167,32 +209,43 @@ struct GroupSink<'a> {
     last: (usize, usize, usize),
     /// Portions this thread applied itself (their group's owner was idle).
     applied: u64,
-    /// The current photon's deposits, for its cross terms at its end.
-    squares: PhotonSquares,
+    /// The current photon's deposits, handed over when its path ends.
+    photon: PhotonBuffer,
 }
 
 impl<'a> GroupSink<'a> {
-    fn new(shared: &'a Shared<'a>) -> Self {
+    fn new(shared: &'a Shared<'a>, bands: usize) -> Self {
         GroupSink {
             shared,
-            open: (0..shared.table.capacity()).map(|_| None).collect(),
-            open_list: Vec::new(),
+            open_at: vec![NOT_OPEN; shared.table.capacity()],
+            open: Vec::new(),
             spare: None,
             hit: 0,
             wait_s: 0.0,
             last: (0, 0, 0),
             applied: 0,
-            squares: PhotonSquares::default(),
+            photon: PhotonBuffer::new(bands),
         }
+    }
+
+    /// Group `g`'s open portion.
+    #[inline]
+    fn open_mut(&mut self, g: usize) -> &mut Portion {
+        &mut self.open[self.open_at[g] as usize].1
     }
 
     /// Applies group `g`'s open portion on the spot when the group may be written and
     /// nobody is writing it; otherwise hands it to the group's processing thread.
     fn send(&mut self, g: usize) {
-        let Some(mut p) = self.open[g].take() else {
+        let at = self.open_at[g];
+        if at == NOT_OPEN {
             return;
-        };
-        self.open_list.retain(|&x| x != g);
+        }
+        let (_, mut p) = self.open.swap_remove(at as usize);
+        if let Some(&(moved, _)) = self.open.get(at as usize) {
+            self.open_at[moved] = at;
+        }
+        self.open_at[g] = NOT_OPEN;
         if self.shared.sort {
             p.items.sort_unstable_by_key(|c| c.slot);
         }
@@ -221,7 +274,7 @@ impl<'a> GroupSink<'a> {
     }
 
     fn send_all(&mut self) {
-        while let Some(&g) = self.open_list.last() {
+        while let Some(&(g, _)) = self.open.last() {
             self.send(g);
         }
     }
@@ -243,23 +296,14 @@ impl<'a> GroupSink<'a> {
             match self.shared.free.recv_timeout(Duration::from_micros(500)) {
                 Ok(p) => break Some(p),
                 Err(RecvTimeoutError::Disconnected) => break None,
+                Err(RecvTimeoutError::Timeout) if self.shared.poisoned.load(Ordering::Relaxed) => {
+                    break None
+                }
                 Err(RecvTimeoutError::Timeout) => self.send_all(),
             }
         };
         self.wait_s += t.elapsed().as_secs_f64();
         p
-    }
-
-    /// Adds a contribution without a colour (a square) to `slot`'s group.
-    fn push(&mut self, slot: usize, c: Contribution) {
-        let Some(g) = self.portion_for(slot) else {
-            return;
-        };
-        let p = self.open[g].as_mut().expect("opened by portion_for");
-        p.items.push(c);
-        if p.items.len() == self.shared.capacity {
-            self.send(g);
-        }
     }
 
     /// The leaf group of `slot`: the last one found when it still holds the slot.
@@ -280,79 +324,91 @@ impl<'a> GroupSink<'a> {
     fn portion_for(&mut self, slot: usize) -> Option<usize> {
         loop {
             let g = self.group_of(slot);
-            if self.open[g].is_some() {
+            if self.open_at[g] != NOT_OPEN {
                 return Some(g);
             }
             let p = self.free_portion()?;
             // The group may have split while we waited: look again before opening.
             let g = self.group_of(slot);
-            if self.open[g].is_some() {
+            if self.open_at[g] != NOT_OPEN {
                 self.spare = Some(p);
                 return Some(g);
             }
             if self.shared.table.try_open(g) {
-                self.open[g] = Some(p);
-                self.open_list.push(g);
+                self.open_at[g] = self.open.len() as u32;
+                self.open.push((g, p));
                 return Some(g);
             }
             self.spare = Some(p);
         }
     }
+
+    /// Adds one contribution to `slot`'s group; `colour` is stored once per hit (the
+    /// contributions of hit `self.hit` share it).
+    #[inline]
+    fn contribute(&mut self, slot: usize, w: f64, band: u16, colour: &[f32]) {
+        let Some(g) = self.portion_for(slot) else {
+            return;
+        };
+        let hit = self.hit;
+        let capacity = self.shared.capacity;
+        let p = self.open_mut(g);
+        if band != SQUARE && p.stamp != hit {
+            p.stamp = hit;
+            p.stamp_at = p.colours.len() as u32;
+            p.colours.extend_from_slice(colour);
+        }
+        let colour_at = if band == SQUARE { 0 } else { p.stamp_at };
+        p.items.push(Contribution {
+            w,
+            slot: slot as u32,
+            colour_at,
+            band,
+        });
+        if p.items.len() == capacity {
+            self.send(g);
+        }
+    }
+}
+
+impl PhotonOut for GroupSink<'_> {
+    fn hit(&mut self, h: &BufferedHit, colour: &[f32]) {
+        self.hit += 1;
+        let m = &self.shared.scene.meshes[h.mesh as usize];
+        let tri = m.triangles[h.prim as usize];
+        let (u, v) = (h.u as f64, h.v as f64);
+        for (vertex, w) in tri.into_iter().zip([1.0 - u - v, u, v]) {
+            let slot = m
+                .slot(vertex, h.side as usize)
+                .expect("deposit on a recording mesh");
+            self.contribute(slot, w, h.band, colour);
+        }
+    }
+
+    fn square(&mut self, slot: usize, s2: f64) {
+        self.contribute(slot, s2, SQUARE, &[]);
+    }
+
+    fn slot_value(&mut self, slot: usize, colour: &[f32]) {
+        self.hit += 1;
+        self.contribute(slot, 1.0, FULL, colour);
+    }
 }
 
 impl HitSink for GroupSink<'_> {
     fn deposit(&mut self, mesh: u32, prim: u32, side: u8, u: f32, v: f32, colour: &Colour) {
-        self.hit += 1;
-        let m = &self.shared.scene.meshes[mesh as usize];
-        let tri = m.triangles[prim as usize];
-        let (u, v) = (u as f64, v as f64);
-        let w = [1.0 - u - v, u, v];
-        let slots = tri.map(|v| {
-            m.slot(v, side as usize)
-                .expect("deposit on a recording mesh")
-        });
-        let e = colour.energy();
-        self.squares.add(slots, w.map(|w| w * e));
-        for (slot, w) in slots.into_iter().zip(w) {
-            let Some(g) = self.portion_for(slot) else {
-                return;
-            };
-            let p = self.open[g].as_mut().expect("opened above");
-            if p.stamp != self.hit {
-                p.stamp = self.hit;
-                p.stamp_at = p.colours.len() as u32;
-                match colour.band() {
-                    Some(b) => p.colours.push(colour.values()[b] as f32),
-                    None => p.colours.extend(colour.values().iter().map(|&c| c as f32)),
-                }
-            }
-            let band = colour.band().map_or(FULL, |b| b as u16);
-            p.items.push(Contribution {
-                w,
-                slot: slot as u32,
-                colour_at: p.stamp_at,
-                band,
-            });
-            if p.items.len() == self.shared.capacity {
-                self.send(g);
-            }
-        }
+        self.photon
+            .deposit(self.shared.scene, (mesh, prim, side), u, v, colour);
     }
 
     fn end_photon(&mut self) {
-        let mut squares = std::mem::take(&mut self.squares);
-        squares.drain_cross_terms(|slot, s2| {
-            self.push(
-                slot,
-                Contribution {
-                    w: s2,
-                    slot: slot as u32,
-                    colour_at: 0,
-                    band: SQUARE,
-                },
-            )
-        });
-        self.squares = squares;
+        let mut photon = std::mem::replace(&mut self.photon, PhotonBuffer::new(0));
+        photon.finish(self.shared.scene, self);
+        self.photon = photon;
+    }
+
+    fn abort_photon(&mut self) {
+        self.photon.abort();
     }
 
     fn batch_done(&mut self) {
@@ -360,9 +416,9 @@ impl HitSink for GroupSink<'_> {
         // wait for them.
         let table = self.shared.table;
         let split: Vec<usize> = self
-            .open_list
+            .open
             .iter()
-            .copied()
+            .map(|&(g, _)| g)
             .filter(|&g| table.is_split(g))
             .collect();
         for g in split {
@@ -425,15 +481,21 @@ fn process(
     map: &IMap,
     recycle: &Sender<Portion>,
     finished: &AtomicBool,
+    poisoned: &AtomicBool,
 ) -> (f64, f64, u64) {
     let born = Instant::now();
     while !table.ancestors_done(g) {
+        if poisoned.load(Ordering::Relaxed) {
+            // An ancestor's owner was lost: its portions will never be applied.
+            return (0.0, born.elapsed().as_secs_f64(), 0);
+        }
         std::thread::sleep(Duration::from_micros(50));
     }
     let (mut busy, mut applied) = (0.0, 0);
     loop {
         match rx.recv_timeout(Duration::from_millis(2)) {
             Ok(mut p) => {
+                crate::fault::at(crate::fault::Point::Process);
                 // A calculating thread may be applying a portion of this group right now.
                 while !table.try_lock(g) {
                     std::thread::yield_now();
@@ -451,6 +513,9 @@ fn process(
             Err(RecvTimeoutError::Timeout) => {}
             Err(RecvTimeoutError::Disconnected) => break,
         }
+        if poisoned.load(Ordering::Relaxed) {
+            break;
+        }
         // Done when split and drained, or when the calculating threads have all finished
         // (after which no portion can arrive) and the queue is empty.
         if rx.is_empty()
@@ -462,6 +527,27 @@ fn process(
     (busy, born.elapsed().as_secs_f64(), applied)
 }
 
+/// The most groups a run with these settings can have.
+fn max_groups(threads: usize, dp: &DynamicParams) -> usize {
+    let max = if dp.max_groups == 0 {
+        (64 * threads).min(DEFAULT_MAX_GROUPS)
+    } else {
+        dp.max_groups
+    };
+    max.max(dp.initial_groups)
+}
+
+/// Bytes a run's buffers take at least (the pool grows from there within the budget the
+/// context leaves, `RunContext::pool_bytes`): the smallest pool, the group table, every
+/// calculating thread's group index and photon buffer.
+pub fn run_bytes(threads: usize, bands: usize, dp: &DynamicParams) -> u64 {
+    let groups = max_groups(threads, dp) as u64;
+    let capacity = portion_capacity(bands);
+    let portion = (capacity * contribution_bytes(bands)) as u64;
+    let t = threads as u64;
+    8 * t * portion + groups * (128 + 64) + t * groups * 4 + t * PhotonBuffer::max_bytes(bands)
+}
+
 /// Runs the dynamic scheduler until a stop criterion is met.
 pub fn run(
     rc: &RunContext,
@@ -470,19 +556,14 @@ pub fn run(
     dp: &DynamicParams,
 ) -> RunOutcome {
     let threads = rc.threads;
-    let source = PhotonSource::new(rc.first_photon, params.photons);
+    let source = PhotonSource::new(rc.plan.clone());
     let bands = map.bands();
+    let max_groups = max_groups(threads, dp);
     let initial = if dp.initial_groups == 0 {
-        threads
+        threads.min(max_groups)
     } else {
         dp.initial_groups
     };
-    let max_groups = if dp.max_groups == 0 {
-        64 * threads
-    } else {
-        dp.max_groups
-    }
-    .max(initial);
     let low = if dp.low_threshold == 0 {
         threads
     } else {
@@ -494,7 +575,12 @@ pub fn run(
     // with every split, within a memory cap.
     let capacity = portion_capacity(bands);
     let portion_bytes = capacity * contribution_bytes(bands);
-    let pool_cap = (POOL_BYTES / portion_bytes).clamp(8 * threads, 2 * threads * (max_groups + 2));
+    let (least, most) = (
+        8 * threads,
+        (2 * threads * (max_groups + 2)).max(8 * threads),
+    );
+    let pool_bytes = POOL_BYTES.min(usize::try_from(rc.pool_bytes).unwrap_or(usize::MAX));
+    let pool_cap = (pool_bytes / portion_bytes).clamp(least, most);
     let (free_tx, free_rx) = channel::bounded::<Portion>(pool_cap);
     let mut pool = 0;
     let grow_pool = |n: usize, pool: &mut usize| {
@@ -508,12 +594,13 @@ pub fn run(
         (0..max_groups).map(|_| channel::unbounded()).unzip();
     let mut out_rx: Vec<Option<Receiver<Portion>>> = out_rx.into_iter().map(Some).collect();
 
-    let mut monitor = Monitor::new(params, rc.elapsed_before_s);
+    let mut monitor = Monitor::new(params, rc);
     let mut counters = Counters::default();
     let mut stats = PathStats::new(rc.scene.meshes.len());
     let mut thread_lost = None;
     let live = AtomicUsize::new(threads);
     let finished = AtomicBool::new(false);
+    let poisoned = AtomicBool::new(false);
     let shared_map: &IMap = map;
     let shared = Shared {
         table: &table,
@@ -527,25 +614,34 @@ pub fn run(
         inline_apply: dp.inline_apply.unwrap_or_else(|| {
             threads >= std::thread::available_parallelism().map_or(1, |n| n.get())
         }),
+        poisoned: &poisoned,
     };
     let (mut busy_s, mut alive_s) = (0.0, 0.0);
 
     std::thread::scope(|s| {
+        // Should this (monitoring) thread unwind, every other thread must still end.
+        let _teardown = Teardown {
+            source: &source,
+            finished: &finished,
+        };
         let mut calc = Vec::new();
         for t in 0..threads {
             let (shared, source, tracer, live) = (&shared, &source, &rc.tracer, &live);
             let spawned = std::thread::Builder::new()
                 .name(format!("imap-calc-{t}"))
                 .spawn_scoped(s, move || {
-                    let mut sink = GroupSink::new(shared);
+                    crate::error::quiet_thread();
+                    // Counted out even if this thread panics, so the monitor never waits
+                    // for a thread that is gone.
+                    let _live = LiveGuard(live, source);
+                    let mut sink = GroupSink::new(shared, tracer.bands);
                     let mut stats = PathStats::new(tracer.scene.meshes.len());
                     let mut colour = Colour::new(tracer.bands);
-                    source.trace_all(tracer, &mut colour, &mut sink, &mut stats);
+                    super::trace_all(source, tracer, &mut colour, &mut sink, &mut stats);
                     sink.send_all();
                     if let Some(p) = sink.spare.take() {
                         let _ = shared.recycle.send(p);
                     }
-                    live.fetch_sub(1, Ordering::Release);
                     (stats, sink.wait_s, sink.applied)
                 });
             match spawned {
@@ -562,10 +658,20 @@ pub fn run(
         let spawn_processor = |g: usize, out_rx: &mut Vec<Option<Receiver<Portion>>>| {
             let rx = out_rx[g].take().expect("one processing thread per group");
             let recycle = free_tx.clone();
+            let (poisoned, source) = (&poisoned, &source);
             std::thread::Builder::new()
                 .name(format!("imap-group-{g}"))
                 .spawn_scoped(s, move || {
-                    process(g, rx, table, shared_map, &recycle, finished)
+                    crate::error::quiet_thread();
+                    let r = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+                        process(g, rx, table, shared_map, &recycle, finished, poisoned)
+                    }));
+                    // A lost owner: its group's portions never come back, so nobody may
+                    // wait for free portions any more.
+                    r.inspect_err(|_| {
+                        poisoned.store(true, Ordering::Relaxed);
+                        source.stop();
+                    })
                 })
                 .map_err(|e| format!("could not start the processing thread of group {g}: {e}"))
         };
@@ -587,6 +693,7 @@ pub fn run(
         // The monitor: watch the stacks, split overloaded groups, report progress.
         let mut last_split = Instant::now() - Duration::from_secs(1);
         while live.load(Ordering::Acquire) > 0 {
+            crate::fault::at(crate::fault::Point::Monitor);
             std::thread::sleep(Duration::from_micros(250).min(monitor.timeout()));
             monitor.poll(&source, rc, &|n| locked_error(table, shared_map, rc, n));
             let free = free_rx.len();
@@ -622,7 +729,10 @@ pub fn run(
                     counters.portions += applied;
                     counters.inline_portions += applied;
                 }
-                Err(_) => thread_lost = Some(format!("calculating thread {t} panicked")),
+                Err(e) => {
+                    let what = crate::error::panic_message(&*e);
+                    thread_lost = Some(format!("calculating thread {t} panicked: {what}"));
+                }
             }
         }
         // Every calculating thread has handed over all its portions: the processing
@@ -630,12 +740,15 @@ pub fn run(
         finished.store(true, Ordering::Release);
         for h in processors {
             match h.join() {
-                Ok((b, a, n)) => {
+                Ok(Ok((b, a, n))) => {
                     busy_s += b;
                     alive_s += a;
                     counters.portions += n;
                 }
-                Err(_) => thread_lost = Some("a processing thread panicked".into()),
+                Ok(Err(e)) | Err(e) => {
+                    let what = crate::error::panic_message(&*e);
+                    thread_lost = Some(format!("a processing thread panicked: {what}"));
+                }
             }
         }
     });

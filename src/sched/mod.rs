@@ -6,14 +6,51 @@
 pub mod classic;
 pub mod dynamic;
 pub mod groups;
+pub mod photons;
 pub mod trace_only;
+
+pub use photons::{PhotonSource, RangeSet};
 
 use crate::imap::{IMap, Readout};
 use crate::scene::PreparedScene;
-use crate::transport::{PathStats, Tracer};
+use crate::transport::{Colour, HitSink, PathStats, Tracer};
 use std::ops::Range;
-use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::atomic::Ordering;
 use std::time::{Duration, Instant};
+
+/// Shortest progress interval: below it the checks would cost more than they tell.
+pub const MIN_PROGRESS_INTERVAL_S: f64 = 1e-3;
+/// Most points a history keeps; past it, every other old point is dropped.
+pub const MAX_HISTORY: usize = 4096;
+/// Largest share of the wall time the progress evaluations may take: the interval is
+/// lengthened when the last evaluation took longer than this share of it.
+const MAX_PROGRESS_SHARE: f64 = 0.05;
+
+/// A duration of `s` seconds (any non-negative number; huge values saturate).
+pub fn duration_s(s: f64) -> Duration {
+    Duration::try_from_secs_f64(s.max(0.0)).unwrap_or(Duration::MAX)
+}
+
+/// `start + s` seconds, or None when that is beyond what the clock can represent (as good
+/// as never).
+pub fn deadline(start: Instant, s: f64) -> Option<Instant> {
+    start.checked_add(duration_s(s))
+}
+
+/// Appends `p` to a history of at most `MAX_HISTORY` points: when full, every other point
+/// (the first and the newest kept) is dropped, so old points thin out evenly.
+pub fn push_history(history: &mut Vec<Progress>, p: Progress) {
+    if history.len() >= MAX_HISTORY {
+        let mut i = 0;
+        let last = history.len() - 1;
+        history.retain(|_| {
+            let keep = i % 2 == 0 || i == last;
+            i += 1;
+            keep
+        });
+    }
+    history.push(p);
+}
 
 /// One point of the error-against-time history.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -83,6 +120,8 @@ pub struct RunOutcome {
     pub history: Vec<Progress>,
     /// A thread was lost (panicked or could not start); the text says which.
     pub thread_lost: Option<String>,
+    /// The photon indices the run traced to their end.
+    pub traced: RangeSet,
 }
 
 /// Everything a scheduler needs for one run.
@@ -91,78 +130,48 @@ pub struct RunContext<'a> {
     pub scene: &'a PreparedScene,
     pub threads: usize,
     pub unit_m: f64,
-    /// Photons traced before this run: the run's photons are `first_photon..`.
-    pub first_photon: u64,
+    /// The photon indices this run may trace, in order (`photons::continue_plan`).
+    pub plan: Vec<Range<u64>>,
+    /// Photons in the map before this run (the error estimate's count adds this run's).
+    pub photons_before: u64,
+    /// Bytes the run's growing buffers (the dynamic scheduler's pool) may take, on top of
+    /// `run_bytes`: what the memory budget leaves.
+    pub pool_bytes: u64,
     pub hits_before: u64,
     pub elapsed_before_s: f64,
 }
 
-/// Photons handed out in batches from one counter. A claimed batch is always traced to the
-/// end, so the photons traced are exactly `start..min(next, end)`.
-pub struct PhotonSource {
-    next: AtomicU64,
-    end: u64,
-    stop: AtomicBool,
-    /// Hits of finished batches, for progress reports.
-    hits: AtomicU64,
+/// Stops the photon source when dropped: a driving thread that unwinds still ends the
+/// run's threads (the scope would otherwise wait for them for ever).
+pub struct StopGuard<'s>(pub &'s PhotonSource);
+
+impl Drop for StopGuard<'_> {
+    fn drop(&mut self) {
+        self.0.stop();
+    }
 }
 
-/// Photons per claim: small enough to stop quickly, large enough that the counter is cold.
-pub const BATCH: u64 = 64;
-
-impl PhotonSource {
-    pub fn new(start: u64, photons: u64) -> Self {
-        let end = if photons == 0 {
-            u64::MAX
-        } else {
-            start.saturating_add(photons)
-        };
-        PhotonSource {
-            next: AtomicU64::new(start),
-            end,
-            stop: AtomicBool::new(false),
-            hits: AtomicU64::new(0),
-        }
-    }
-
-    pub fn claim(&self) -> Option<Range<u64>> {
-        if self.stop.load(Ordering::Relaxed) {
-            return None;
-        }
-        let s = self.next.fetch_add(BATCH, Ordering::Relaxed);
-        (s < self.end).then(|| s..(s + BATCH).min(self.end))
-    }
-
-    /// Traces a batch at a time until the source is exhausted or stopped.
-    pub fn trace_all(
-        &self,
-        tracer: &Tracer,
-        colour: &mut crate::transport::Colour,
-        sink: &mut impl crate::transport::HitSink,
-        stats: &mut PathStats,
-    ) {
-        while let Some(batch) = self.claim() {
-            let before = stats.hits;
-            for k in batch {
-                tracer.trace(k, colour, sink, stats);
+/// Traces batches from `source` until it is exhausted or stopped. A photon cut short by a
+/// stop, and the rest of its batch, are handed back to the source untraced.
+pub fn trace_all(
+    source: &PhotonSource,
+    tracer: &Tracer,
+    colour: &mut Colour,
+    sink: &mut impl HitSink,
+    stats: &mut PathStats,
+) {
+    let stop = source.stop_flag();
+    while let Some(batch) = source.claim() {
+        crate::fault::at(crate::fault::Point::Calc);
+        let (photons, hits) = (stats.photons, stats.hits);
+        for k in batch.clone() {
+            if stop.load(Ordering::Relaxed) || !tracer.trace(k, colour, sink, stats, stop) {
+                source.give_back(k..batch.end);
+                break;
             }
-            self.hits.fetch_add(stats.hits - before, Ordering::Relaxed);
-            sink.batch_done();
         }
-    }
-
-    /// Hits of the batches finished so far in this run.
-    pub fn hits(&self) -> u64 {
-        self.hits.load(Ordering::Relaxed)
-    }
-
-    pub fn stop(&self) {
-        self.stop.store(true, Ordering::Relaxed);
-    }
-
-    /// Photons claimed so far (all traced once the threads have finished).
-    pub fn claimed(&self) -> u64 {
-        self.next.load(Ordering::Relaxed).min(self.end)
+        source.add_done(stats.photons - photons, stats.hits - hits);
+        sink.batch_done();
     }
 }
 
@@ -182,21 +191,33 @@ pub fn global_error(map: &IMap, rc: &RunContext, photons: u64) -> Option<f64> {
 pub struct Monitor<'p, 'a> {
     params: &'p mut RunParams<'a>,
     start: Instant,
-    next_tick: Instant,
+    interval: Duration,
+    next_tick: Option<Instant>,
+    /// When the time budget runs out (None: no budget, or beyond the clock's range).
+    end: Option<Instant>,
     elapsed_before_s: f64,
+    photons_before: u64,
     pub history: Vec<Progress>,
     pub stop: Option<StopReason>,
 }
 
 impl<'p, 'a> Monitor<'p, 'a> {
-    pub fn new(params: &'p mut RunParams<'a>, elapsed_before_s: f64) -> Self {
+    pub fn new(params: &'p mut RunParams<'a>, rc: &RunContext) -> Self {
         let start = Instant::now();
-        let next_tick = start + Duration::from_secs_f64(params.progress_interval_s);
+        let interval = duration_s(params.progress_interval_s.max(MIN_PROGRESS_INTERVAL_S));
+        let end = if params.time_budget_s > 0.0 {
+            deadline(start, params.time_budget_s)
+        } else {
+            None
+        };
         Monitor {
             params,
             start,
-            next_tick,
-            elapsed_before_s,
+            interval,
+            next_tick: start.checked_add(interval),
+            end,
+            elapsed_before_s: rc.elapsed_before_s,
+            photons_before: rc.photons_before,
             history: Vec::new(),
             stop: None,
         }
@@ -204,11 +225,14 @@ impl<'p, 'a> Monitor<'p, 'a> {
 
     /// How long the driving thread may block before it must call `poll` again.
     pub fn timeout(&self) -> Duration {
-        let mut until = self.next_tick;
-        if self.params.time_budget_s > 0.0 {
-            until = until.min(self.start + Duration::from_secs_f64(self.params.time_budget_s));
-        }
-        until.saturating_duration_since(Instant::now())
+        let until = match (self.next_tick, self.end) {
+            (Some(a), Some(b)) => a.min(b),
+            (Some(a), None) | (None, Some(a)) => a,
+            (None, None) => return Duration::from_millis(100),
+        };
+        until
+            .saturating_duration_since(Instant::now())
+            .min(Duration::from_millis(100))
     }
 
     pub fn wall_s(&self) -> f64 {
@@ -223,20 +247,19 @@ impl<'p, 'a> Monitor<'p, 'a> {
         rc: &RunContext,
         error: &dyn Fn(u64) -> Option<f64>,
     ) -> bool {
-        let hits = rc.hits_before + source.hits();
         let now = Instant::now();
-        if self.stop.is_none()
-            && self.params.time_budget_s > 0.0
-            && self.wall_s() >= self.params.time_budget_s
-        {
+        if self.stop.is_none() && self.end.is_some_and(|end| now >= end) {
             self.stop = Some(StopReason::TimeBudget);
         }
-        if now >= self.next_tick && self.stop.is_none() {
-            while self.next_tick <= now {
-                self.next_tick += Duration::from_secs_f64(self.params.progress_interval_s);
-            }
-            let photons = source.claimed();
-            let p = self.record(photons, hits, error(photons));
+        if self.stop.is_none() && self.next_tick.is_some_and(|t| now >= t) {
+            let hits = rc.hits_before + source.hits();
+            let photons = self.photons_before + source.traced();
+            let err = error(photons);
+            let p = self.record(photons, hits, err);
+            // The next tick: one interval on, or later when the evaluation was slow.
+            let spent = now.elapsed();
+            let gap = self.interval.max(spent.mul_f64(1.0 / MAX_PROGRESS_SHARE));
+            self.next_tick = Instant::now().checked_add(gap);
             if self.params.target_rel_error > 0.0 && p.rel_error <= self.params.target_rel_error {
                 self.stop = Some(StopReason::TargetError);
             } else if let Some(cb) = self.params.progress.as_mut() {
@@ -259,7 +282,7 @@ impl<'p, 'a> Monitor<'p, 'a> {
             hits,
             rel_error: rel_error.unwrap_or(crate::imap::NO_DATA_REL_ERROR),
         };
-        self.history.push(p);
+        push_history(&mut self.history, p);
         p
     }
 
@@ -274,23 +297,53 @@ impl<'p, 'a> Monitor<'p, 'a> {
         thread_lost: Option<String>,
     ) -> RunOutcome {
         let wall_s = self.wall_s();
-        let stop = self.finish(source.claimed(), rc.hits_before + stats.hits, map, rc);
+        let photons = self.photons_before + stats.photons;
+        let p = self.record(
+            photons,
+            rc.hits_before + stats.hits,
+            global_error(map, rc, photons),
+        );
+        if let Some(cb) = self.params.progress.as_mut() {
+            // The final report: its answer no longer matters.
+            cb(&p);
+        }
         RunOutcome {
             stats,
             wall_s,
-            stop,
+            stop: self.stop.unwrap_or(StopReason::PhotonCount),
             counters,
             history: self.history,
             thread_lost,
+            traced: source.traced_set(),
         }
     }
+}
 
-    /// The final report of the run; the callback sees it too (its answer no longer matters).
-    fn finish(&mut self, photons: u64, hits: u64, map: &IMap, rc: &RunContext) -> StopReason {
-        let p = self.record(photons, hits, global_error(map, rc, photons));
-        if let Some(cb) = self.params.progress.as_mut() {
-            cb(&p);
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn durations_saturate_and_histories_stay_bounded() {
+        assert_eq!(duration_s(1e300), Duration::MAX);
+        assert_eq!(duration_s(-1.0), Duration::ZERO);
+        assert!(deadline(Instant::now(), 1e19).is_none());
+        assert!(deadline(Instant::now(), 1.0).is_some());
+        let mut h = Vec::new();
+        for i in 0..100_000u64 {
+            push_history(
+                &mut h,
+                Progress {
+                    elapsed_s: i as f64,
+                    photons: i,
+                    hits: 0,
+                    rel_error: 1.0,
+                },
+            );
+            assert!(h.len() <= MAX_HISTORY);
         }
-        self.stop.unwrap_or(StopReason::PhotonCount)
+        assert_eq!(h[0].photons, 0);
+        assert_eq!(h.last().unwrap().photons, 99_999);
+        assert!(h.windows(2).all(|w| w[0].photons < w[1].photons));
     }
 }

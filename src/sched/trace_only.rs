@@ -1,7 +1,7 @@
 //! The limit for benchmarks: the same photons traced by the same threads with every deposit
 //! discarded (Embree tracing and surface events alone, no portions, no map).
 
-use super::{Counters, Monitor, PhotonSource, RunContext, RunOutcome, RunParams};
+use super::{Counters, Monitor, PhotonSource, RunContext, RunOutcome, RunParams, StopGuard};
 use crate::imap::IMap;
 use crate::transport::{Colour, HitSink, PathStats};
 
@@ -14,18 +14,20 @@ impl HitSink for Discard {
 
 /// Traces until a stop criterion is met; the map is not touched.
 pub fn run(rc: &RunContext, map: &IMap, params: &mut RunParams) -> RunOutcome {
-    let source = PhotonSource::new(rc.first_photon, params.photons);
-    let mut monitor = Monitor::new(params, rc.elapsed_before_s);
+    let source = PhotonSource::new(rc.plan.clone());
+    let mut monitor = Monitor::new(params, rc);
     let mut stats = PathStats::new(rc.scene.meshes.len());
     let mut thread_lost = None;
     std::thread::scope(|s| {
+        let _stop = StopGuard(&source);
         let handles: Vec<_> = (0..rc.threads)
             .map(|_| {
                 let (source, tracer) = (&source, &rc.tracer);
                 s.spawn(move || {
+                    crate::error::quiet_thread();
                     let mut stats = PathStats::new(tracer.scene.meshes.len());
                     let mut colour = Colour::new(tracer.bands);
-                    source.trace_all(tracer, &mut colour, &mut Discard, &mut stats);
+                    super::trace_all(source, tracer, &mut colour, &mut Discard, &mut stats);
                     stats
                 })
             })

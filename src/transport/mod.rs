@@ -14,6 +14,10 @@ use crate::sampling::{warp, PhotonRng};
 use crate::scene::material::fresnel_dielectric;
 use crate::scene::{Material, PreparedScene};
 use glam::DVec3;
+use std::sync::atomic::{AtomicBool, Ordering};
+
+/// Surface events between two looks at the stop flag.
+const STOP_POLL_EVENTS: u32 = 256;
 
 /// Where the tracer sends the photon's hits on recording surfaces.
 pub trait HitSink {
@@ -30,6 +34,10 @@ pub trait HitSink {
 
     /// Called when a photon's path has ended (absorbed, escaped or dropped).
     fn end_photon(&mut self) {}
+
+    /// Called instead of `end_photon` when the run stopped in the middle of the photon's
+    /// path: everything it deposited must be forgotten (it will be traced again).
+    fn abort_photon(&mut self) {}
 
     /// Called after each batch of photons.
     fn batch_done(&mut self) {}
@@ -107,18 +115,52 @@ struct Medium {
     material: u32,
 }
 
+/// How a photon's path ended, for the tallies that are kept only for whole photons.
+enum PathEnd {
+    /// Absorbed by mesh `mesh` (at its surface or inside its medium).
+    Absorbed(u32),
+    Escaped,
+    /// Stopped by the event safety limit.
+    Dropped,
+    /// The run stopped while the photon was in flight.
+    Aborted,
+}
+
 impl Tracer<'_> {
-    /// Traces photon `k` from its emission to its end. `colour` is scratch space reused
-    /// between photons.
+    /// Traces photon `k` from its emission to its end and returns true, or returns false
+    /// when `stop` was raised during the path: then the sink was told to forget the photon
+    /// and `stats` are unchanged. `colour` is scratch space reused between photons.
     pub fn trace(
         &self,
         k: u64,
         colour: &mut Colour,
         sink: &mut impl HitSink,
         stats: &mut PathStats,
-    ) {
-        self.trace_path(k, colour, sink, stats);
+        stop: &AtomicBool,
+    ) -> bool {
+        let mut hits = 0u64;
+        let end = self.trace_path(k, colour, sink, &mut hits, stop);
+        let e = colour.mean();
+        match end {
+            PathEnd::Aborted => {
+                sink.abort_photon();
+                return false;
+            }
+            PathEnd::Absorbed(m) => stats.absorbed[m as usize] += e,
+            PathEnd::Escaped => {
+                stats.escaped += e;
+                stats.escaped_photons += 1;
+            }
+            PathEnd::Dropped => {
+                stats.dropped += e;
+                stats.dropped_photons += 1;
+            }
+        }
+        stats.photons += 1;
+        stats.hits += hits;
+        stats.emitted += colour.energy();
         sink.end_photon();
+        true
     }
 
     fn trace_path<S: HitSink>(
@@ -126,17 +168,24 @@ impl Tracer<'_> {
         k: u64,
         colour: &mut Colour,
         sink: &mut S,
-        stats: &mut PathStats,
-    ) {
+        hits: &mut u64,
+        stop: &AtomicBool,
+    ) -> PathEnd {
         let mut rng = PhotonRng::new(self.seed, k);
         // Emit: choose a light by power, then a point and a direction on it.
-        let (emitter, mut org, mut dir) = self.scene.emit(&mut rng);
+        let (emitter, org, mut dir) = self.scene.emit(&mut rng);
         colour.reset(&self.scene.emitters[emitter].colour);
-        stats.photons += 1;
-        stats.emitted += colour.energy();
+        // A light far outside the geometry: start where the ray meets its bounding sphere.
+        let Some(mut org) = self.scene.enter(org, dir) else {
+            return PathEnd::Escaped;
+        };
         let mut medium: Option<Medium> = None;
 
         for event in 0..self.max_events {
+            // A long path must not hold up a stop: look at the flag now and then.
+            if event % STOP_POLL_EVENTS == STOP_POLL_EVENTS - 1 && stop.load(Ordering::Relaxed) {
+                return PathEnd::Aborted;
+            }
             let hit = self.accel.intersect(org, dir);
 
             // Beer–Lambert: survive the segment through an absorbing medium with the
@@ -150,18 +199,15 @@ impl Tracer<'_> {
                     let dist_m = hit.map_or(f64::INFINITY, |h| h.t) * self.unit_m;
                     let p = colour.survive_absorption(alpha, dist_m, rng.uniform());
                     if p.is_none() {
-                        stats.absorbed[m.mesh as usize] += colour.mean();
-                        return;
+                        return PathEnd::Absorbed(m.mesh);
                     }
                 }
             }
 
             let Some(hit) = hit else {
-                stats.escaped += colour.mean();
-                stats.escaped_photons += 1;
-                return;
+                return PathEnd::Escaped;
             };
-            stats.hits += 1;
+            *hits += 1;
             let mesh = &self.scene.meshes[hit.mesh as usize];
             let prim = hit.prim as usize;
             let ng = mesh.normals[prim].as_dvec3();
@@ -249,11 +295,9 @@ impl Tracer<'_> {
                 }
             }
             // Absorbed: the path ends here.
-            stats.absorbed[hit.mesh as usize] += colour.mean();
-            return;
+            return PathEnd::Absorbed(hit.mesh);
         }
-        stats.dropped += colour.mean();
-        stats.dropped_photons += 1;
+        PathEnd::Dropped
     }
 }
 

@@ -1,14 +1,25 @@
 //! The safe Rust API: a context owns a scene, its prepared form, the map and the run
 //! history. The C ABI in `ffi/` is a thin layer over this.
 
+pub mod memory;
+mod readout;
+mod render;
+
 use crate::accel::{Accel, Device};
-use crate::error::{bail, check_finite, Error, ImapStatus, Result};
-use crate::imap::{IMap, Readout};
-use crate::render::{self, Camera, CameraDesc, EyeTracer, Image, RenderParams, RenderReport};
+use crate::error::{bail, check_finite_scalar, Result};
+use crate::imap::IMap;
+use crate::render::RenderReport;
 use crate::scene::{Bands, Light, Material, MaterialDesc, Mesh, MeshDesc, PreparedScene, Scene};
 use crate::sched::dynamic::DynamicParams;
-use crate::sched::{self, Counters, Progress, RunContext, RunParams, StopReason};
+use crate::sched::{
+    self, photons, push_history, Counters, Progress, RangeSet, RunContext, RunParams, StopReason,
+};
 use crate::transport::{PathStats, Tracer};
+
+/// Most calculating threads a context accepts.
+pub const MAX_THREADS: usize = 1024;
+/// Range of `Config::unit_m`: nanometres to a million kilometres per scene unit.
+pub const UNIT_M_RANGE: (f64, f64) = (1e-9, 1e9);
 
 /// Which scheduler runs the photons.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -84,11 +95,11 @@ struct Prepared {
     accel: Accel,
 }
 
-fn check_threads(threads: usize) -> Result<()> {
-    if threads > 4096 {
+fn check_threads(name: &str, threads: usize) -> Result<()> {
+    if threads > MAX_THREADS {
         bail!(
             ImapErrInvalidArgument,
-            "threads = {threads} is more than 4096"
+            "{name} = {threads} is more than {MAX_THREADS}"
         );
     }
     Ok(())
@@ -102,6 +113,8 @@ pub struct Context {
     prepared: Option<Prepared>,
     map: Option<IMap>,
     stats: PathStats,
+    /// The photon indices whose contributions the map holds (whole photons only).
+    traced: RangeSet,
     elapsed_s: f64,
     history: Vec<Progress>,
     last_run: Option<(u64, u64, f64, StopReason, Counters, usize)>,
@@ -111,16 +124,17 @@ pub struct Context {
 
 impl Context {
     pub fn new(config: Config) -> Result<Self> {
-        check_finite("unit_m", &[config.unit_m])?;
-        if config.unit_m <= 0.0 {
+        check_finite_scalar("config.unit_m", config.unit_m)?;
+        let (lo, hi) = UNIT_M_RANGE;
+        if !(config.unit_m >= lo && config.unit_m <= hi) {
             bail!(
                 ImapErrInvalidArgument,
-                "unit_m = {} must be positive (metres per scene unit)",
+                "config.unit_m = {:e} is not in [{lo:e}, {hi:e}] metres per scene unit",
                 config.unit_m
             );
         }
         config.dynamic.validate()?;
-        check_threads(config.threads)?;
+        check_threads("config.threads", config.threads)?;
         let device = Device::new()?;
         let scene = Scene::new(config.bands.clone(), config.unit_m);
         Ok(Context {
@@ -130,6 +144,7 @@ impl Context {
             prepared: None,
             map: None,
             stats: PathStats::default(),
+            traced: RangeSet::new(),
             elapsed_s: 0.0,
             history: Vec::new(),
             last_run: None,
@@ -160,7 +175,7 @@ impl Context {
 
     /// Changes the number of calculating threads for the next runs (0 = one per core).
     pub fn set_threads(&mut self, threads: usize) -> Result<()> {
-        check_threads(threads)?;
+        check_threads("threads", threads)?;
         self.config.threads = threads;
         Ok(())
     }
@@ -171,7 +186,12 @@ impl Context {
     }
 
     fn photons(&self) -> u64 {
-        self.stats.photons
+        self.traced.len()
+    }
+
+    /// The photon indices whose contributions the map holds.
+    pub fn traced(&self) -> &RangeSet {
+        &self.traced
     }
 
     fn check_unlocked(&self, what: &str) -> Result<()> {
@@ -184,7 +204,7 @@ impl Context {
         Ok(())
     }
 
-    /// The map size limit in force: the configured budget, or by default three quarters of
+    /// The memory limit in force: the configured budget, or by default three quarters of
     /// physical memory.
     pub fn memory_budget(&self) -> u64 {
         if self.config.memory_budget > 0 {
@@ -193,10 +213,22 @@ impl Context {
         physical_memory().map_or(u64::MAX, |m| m / 4 * 3)
     }
 
-    fn check_budget(&self, slots: usize) -> Result<()> {
-        let bytes = self.scene.map_bytes(slots);
+    /// Bytes the context holds or will hold for its scene and map (`memory` model).
+    pub fn memory_estimate(&self) -> u64 {
+        let (scene, transient) = memory::scene_bytes(&self.scene);
+        let map = memory::map_bytes(self.scene.slot_count() as u64, self.bands() as u64);
+        scene.saturating_add(transient).saturating_add(map)
+    }
+
+    fn bands(&self) -> usize {
+        self.scene.bands.count()
+    }
+
+    /// Refuses to go past the budget: `extra` more bytes on top of `base`, for `what`.
+    fn check_budget(&self, base: u64, extra: u64, what: &str) -> Result<()> {
+        let need = base.saturating_add(extra);
         let budget = self.memory_budget();
-        if bytes > budget as u128 {
+        if need > budget {
             let why = if self.config.memory_budget > 0 {
                 "the configured memory budget"
             } else {
@@ -204,8 +236,7 @@ impl Context {
             };
             bail!(
                 ImapErrMemoryBudget,
-                "the map needs {bytes} bytes ({slots} vertex sides × ({} bands + 1) × 8 bytes), over {why} of {budget} bytes",
-                self.scene.bands.count(),
+                "{what} needs {extra} bytes; with the {base} bytes the context holds for its scene and map that is over {why} of {budget} bytes"
             );
         }
         Ok(())
@@ -219,8 +250,18 @@ impl Context {
 
     pub fn add_mesh(&mut self, desc: &MeshDesc) -> Result<u32> {
         self.check_unlocked("add a mesh")?;
-        // The map's size follows from the counts alone: refuse before copying anything.
-        self.check_budget(self.scene.slot_count() + desc.map_slots())?;
+        // Everything the mesh costs follows from its counts: refuse before copying.
+        let (held, transient) = memory::desc_bytes(desc);
+        let map = memory::map_bytes(desc.map_slots() as u64, self.bands() as u64);
+        self.check_budget(
+            self.memory_estimate(),
+            held.saturating_add(transient).saturating_add(map),
+            &format!(
+                "the mesh ({} vertices, {} triangles: its copy, prepared form, BVH and map)",
+                desc.positions.len() / 3,
+                desc.indices.len() / 3
+            ),
+        )?;
         let mesh = Mesh::new(desc, self.scene.materials.len(), &self.scene.bands)?;
         self.scene.meshes.push(mesh);
         self.invalidate();
@@ -267,6 +308,7 @@ impl Context {
             m.clear();
         }
         self.stats = PathStats::default();
+        self.traced.clear();
         self.elapsed_s = 0.0;
         self.history.clear();
         self.last_run = None;
@@ -290,14 +332,7 @@ impl Context {
                     "the scene has no light: add a point or spot light or an emitting mesh"
                 );
             }
-            let scene = PreparedScene::new(&self.scene);
-            if !(scene.total_power > 0.0 && scene.total_power.is_finite()) {
-                bail!(
-                    ImapErrNoLight,
-                    "the lights' total power is {} W (emitting meshes with zero area emit nothing)",
-                    scene.total_power
-                );
-            }
+            let scene = PreparedScene::new(&self.scene)?;
             let accel = Accel::build(&self.device, &scene.meshes)?;
             self.prepared = Some(Prepared { scene, accel });
         }
@@ -307,9 +342,7 @@ impl Context {
     fn prepare(&mut self) -> Result<()> {
         self.prepare_scene()?;
         if self.map.is_none() {
-            let slots = self.scene.slot_count();
-            self.check_budget(slots)?;
-            self.map = Some(IMap::try_new(slots, self.scene.bands.count())?);
+            self.map = Some(IMap::try_new(self.scene.slot_count(), self.bands())?);
         }
         if self.stats.absorbed.len() != self.scene.meshes.len() {
             self.stats = PathStats::new(self.scene.meshes.len());
@@ -318,37 +351,28 @@ impl Context {
     }
 
     /// Traces photons into the map until a stop criterion of `params` is met. A later run
-    /// continues the same photon sequence and accumulates into the same map.
+    /// continues the same photon sequence and accumulates into the same map; photons a
+    /// stop cut short are traced again, whole, by the next run.
     pub fn run(&mut self, params: &mut RunParams) -> Result<Report> {
-        check_finite(
-            "run parameters",
-            &[
-                params.time_budget_s,
-                params.target_rel_error,
-                params.progress_interval_s,
-            ],
-        )?;
-        if params.time_budget_s < 0.0
-            || params.target_rel_error < 0.0
-            || params.progress_interval_s <= 0.0
-        {
-            bail!(
-                ImapErrInvalidArgument,
-                "time_budget_s and target_rel_error must be >= 0 and progress_interval_s > 0"
-            );
-        }
-        if params.max_path_events == 0 {
-            bail!(ImapErrInvalidArgument, "max_path_events must be at least 1");
-        }
-        if params.photons == 0
-            && params.time_budget_s == 0.0
-            && params.target_rel_error == 0.0
-            && params.progress.is_none()
-        {
-            bail!(ImapErrInvalidArgument, "no stop criterion: set photons, time_budget_s, target_rel_error or a progress callback");
-        }
-        self.prepare()?;
+        check_run_params(params)?;
         let threads = self.worker_threads();
+        let nb = self.bands();
+        let transient = match self.config.scheduler {
+            SchedulerKind::Classic => sched::classic::run_bytes(threads, nb),
+            SchedulerKind::Dynamic => sched::dynamic::run_bytes(threads, nb, &self.config.dynamic),
+            SchedulerKind::TraceOnly => 0,
+        };
+        let held = self.memory_estimate();
+        self.check_budget(
+            held,
+            transient,
+            &format!("a run on {threads} threads (its portions and buffers)"),
+        )?;
+        let pool_bytes = self
+            .memory_budget()
+            .saturating_sub(held.saturating_add(transient));
+        self.prepare()?;
+        let plan = photons::continue_plan(&self.traced, params.photons);
         let prepared = self.prepared.as_ref().expect("prepared above");
         let map = self.map.as_mut().expect("allocated above");
         let rc = RunContext {
@@ -364,7 +388,9 @@ impl Context {
             scene: &prepared.scene,
             threads,
             unit_m: self.config.unit_m,
-            first_photon: self.stats.photons,
+            plan,
+            photons_before: self.traced.len(),
+            pool_bytes,
             hits_before: self.stats.hits,
             elapsed_before_s: self.elapsed_s,
         };
@@ -386,133 +412,30 @@ impl Context {
             return Ok(self.report());
         }
         self.stats.merge(&outcome.stats);
+        for r in outcome.traced.ranges() {
+            self.traced.insert(r.clone());
+        }
+        debug_assert_eq!(self.stats.photons, self.traced.len());
         self.elapsed_s += outcome.wall_s;
-        self.history.extend_from_slice(&outcome.history);
+        for p in outcome.history {
+            push_history(&mut self.history, p);
+        }
         if let Some(why) = outcome.thread_lost {
             bail!(
                 ImapErrThreadLost,
                 "{why}; the photons of its unfinished batch (at most {}) are missing from the map",
-                sched::BATCH
+                sched::photons::BATCH
             );
         }
         Ok(self.report())
     }
 
-    /// Renders the camera's view (camera luminance by backward photon maps). Independent of
-    /// the illumination map: neither reads nor changes it, and allocates none. The report is
-    /// also kept (`render_report`). When a worker thread is lost the render stops and this
-    /// returns `ImapErrThreadLost`; `render_partial` gives the image rendered until then.
-    pub fn render(
-        &mut self,
-        camera: &CameraDesc,
-        params: &mut RenderParams,
-    ) -> Result<(Image, RenderReport)> {
-        let (image, report, lost) = self.render_partial(camera, params)?;
-        match lost {
-            Some(e) => Err(e),
-            None => Ok((image, report)),
-        }
-    }
-
     /// Worker threads of a run or render: the configured count, or one per core.
-    fn worker_threads(&self) -> usize {
+    pub(crate) fn worker_threads(&self) -> usize {
         match self.config.threads {
             0 => std::thread::available_parallelism().map_or(1, |n| n.get()),
             t => t,
         }
-    }
-
-    /// The report of the last render since the last reset.
-    pub fn render_report(&self) -> Option<&RenderReport> {
-        self.last_render.as_ref()
-    }
-
-    /// As `render`, but a lost worker thread still yields the image rendered until the
-    /// render stopped, with the error beside it.
-    pub fn render_partial(
-        &mut self,
-        camera: &CameraDesc,
-        params: &mut RenderParams,
-    ) -> Result<(Image, RenderReport, Option<Error>)> {
-        check_finite(
-            "render parameters",
-            &[
-                params.time_budget_s,
-                params.target_rel_error,
-                params.progress_interval_s,
-                params.initial_radius,
-                params.alpha,
-            ],
-        )?;
-        if params.time_budget_s < 0.0
-            || params.target_rel_error < 0.0
-            || params.progress_interval_s <= 0.0
-            || params.initial_radius < 0.0
-        {
-            bail!(
-                ImapErrInvalidArgument,
-                "time_budget_s, target_rel_error and initial_radius must be >= 0 and progress_interval_s > 0"
-            );
-        }
-        if !(params.alpha == 0.0 || (params.alpha > 0.0 && params.alpha < 1.0)) {
-            bail!(
-                ImapErrInvalidArgument,
-                "alpha = {} must be in (0, 1) (or 0 for the default 2/3)",
-                params.alpha
-            );
-        }
-        if params.max_path_events == 0 {
-            bail!(ImapErrInvalidArgument, "max_path_events must be at least 1");
-        }
-        check_threads(params.group_threads)?;
-        if params.passes == 0
-            && params.time_budget_s == 0.0
-            && params.target_rel_error == 0.0
-            && params.progress.is_none()
-        {
-            bail!(ImapErrInvalidArgument, "no stop criterion: set passes, time_budget_s, target_rel_error or a progress callback");
-        }
-        self.prepare_scene()?;
-        let prepared = self.prepared.as_ref().expect("prepared above");
-        let cam = Camera::new(camera, prepared.scene.origin)?;
-        let threads = self.worker_threads();
-        let nb = self.scene.bands.count();
-        let pixels = cam.pixels();
-        let need = render::bytes_needed(params.method, params.group_threads, threads, pixels, nb);
-        let budget = self.memory_budget();
-        if need > budget as u128 {
-            bail!(
-                ImapErrMemoryBudget,
-                "the render ({:?}, {threads} threads) needs up to {need} bytes for {pixels} pixels × {nb} bands, over the memory budget of {budget} bytes",
-                params.method
-            );
-        }
-        let eye = EyeTracer::new(
-            &self.scene,
-            &prepared.scene,
-            &prepared.accel,
-            &cam,
-            params.max_path_events,
-            params.initial_radius,
-        );
-        let fwd = Tracer {
-            scene: &prepared.scene,
-            accel: &prepared.accel,
-            materials: &self.scene.materials,
-            bands: nb,
-            seed: self.config.seed,
-            unit_m: self.config.unit_m,
-            max_events: params.max_path_events,
-        };
-        let (image, report, lost) = render::render(&eye, fwd, params, threads, self.config.seed);
-        self.last_render = Some(report.clone());
-        let lost = lost.map(|why| {
-            Error::new(
-                ImapStatus::ImapErrThreadLost,
-                format!("{why}; the render was stopped and its image holds what was rendered until then"),
-            )
-        });
-        Ok((image, report, lost))
     }
 
     /// Totals since the last reset and the last run's figures.
@@ -572,89 +495,6 @@ impl Context {
             0.0
         })
     }
-
-    fn mesh_index(&self, mesh: u32) -> Result<usize> {
-        if mesh as usize >= self.scene.meshes.len() {
-            bail!(
-                ImapErrIndexOutOfRange,
-                "mesh id {mesh} is out of range (the scene has {} meshes)",
-                self.scene.meshes.len()
-            );
-        }
-        Ok(mesh as usize)
-    }
-
-    /// Vertex count of a mesh.
-    pub fn vertex_count(&self, mesh: u32) -> Result<usize> {
-        Ok(self.scene.meshes[self.mesh_index(mesh)?].positions.len())
-    }
-
-    fn readout_args(
-        &self,
-        mesh: u32,
-        side: u32,
-        out_len: usize,
-    ) -> Result<Option<(Readout<'_>, usize)>> {
-        let i = self.mesh_index(mesh)?;
-        let m = &self.scene.meshes[i];
-        if !m.record {
-            bail!(
-                ImapErrNotRecorded,
-                "mesh {mesh} does not record (it was added with record = 0)"
-            );
-        }
-        if side as usize >= m.sides() {
-            bail!(ImapErrIndexOutOfRange, "side {side} is out of range: mesh {mesh} is one-sided and records only side 0 (front)");
-        }
-        if out_len < m.positions.len() {
-            bail!(
-                ImapErrBufferTooSmall,
-                "the output holds {out_len} values but mesh {mesh} has {} vertices",
-                m.positions.len()
-            );
-        }
-        Ok(match (&self.prepared, &self.map) {
-            (Some(p), Some(map)) => Some((
-                Readout {
-                    map,
-                    scene: &p.scene,
-                    photons: self.photons(),
-                    unit_m: self.config.unit_m,
-                },
-                i,
-            )),
-            _ => None,
-        })
-    }
-
-    /// Irradiance in W/m² of `band` at each vertex of `mesh` on `side` (0 front, 1 back).
-    /// All zeros before the first run.
-    pub fn irradiance(&self, mesh: u32, side: u32, band: u32, out: &mut [f64]) -> Result<()> {
-        if band as usize >= self.scene.bands.count() {
-            bail!(
-                ImapErrIndexOutOfRange,
-                "band {band} is out of range (the context has {} bands)",
-                self.scene.bands.count()
-            );
-        }
-        match self.readout_args(mesh, side, out.len())? {
-            Some((r, i)) => r.irradiance(&r.scene.meshes[i], side as usize, band as usize, out),
-            None => out.iter_mut().for_each(|x| *x = 0.0),
-        }
-        Ok(())
-    }
-
-    /// Relative standard error of each vertex's irradiance (band mean); 1 where nothing has
-    /// arrived yet or the vertex has no area.
-    pub fn rel_error(&self, mesh: u32, side: u32, out: &mut [f64]) -> Result<()> {
-        match self.readout_args(mesh, side, out.len())? {
-            Some((r, i)) => r.rel_error(&r.scene.meshes[i], side as usize, out),
-            None => out
-                .iter_mut()
-                .for_each(|x| *x = crate::imap::NO_DATA_REL_ERROR),
-        }
-        Ok(())
-    }
 }
 
 /// Physical memory in bytes, if the system says.
@@ -667,4 +507,46 @@ fn physical_memory() -> Option<u64> {
         )
     };
     (pages > 0 && size > 0).then(|| (pages as u64).saturating_mul(size as u64))
+}
+
+/// Checks run parameters, naming the field at fault.
+fn check_run_params(p: &RunParams) -> Result<()> {
+    check_finite_scalar("params.time_budget_s", p.time_budget_s)?;
+    check_finite_scalar("params.target_rel_error", p.target_rel_error)?;
+    check_finite_scalar("params.progress_interval_s", p.progress_interval_s)?;
+    if p.time_budget_s < 0.0 {
+        bail!(
+            ImapErrInvalidArgument,
+            "params.time_budget_s = {} is negative (0 means no limit)",
+            p.time_budget_s
+        );
+    }
+    if p.target_rel_error < 0.0 {
+        bail!(
+            ImapErrInvalidArgument,
+            "params.target_rel_error = {} is negative (0 means no target)",
+            p.target_rel_error
+        );
+    }
+    if p.progress_interval_s <= 0.0 {
+        bail!(
+            ImapErrInvalidArgument,
+            "params.progress_interval_s = {} must be positive",
+            p.progress_interval_s
+        );
+    }
+    if p.max_path_events == 0 {
+        bail!(
+            ImapErrInvalidArgument,
+            "params.max_path_events is 0: a path needs at least one event"
+        );
+    }
+    if p.photons == 0 && p.time_budget_s == 0.0 && p.target_rel_error == 0.0 && p.progress.is_none()
+    {
+        bail!(
+            ImapErrInvalidArgument,
+            "params sets no stop criterion: set photons, time_budget_s, target_rel_error or a progress callback"
+        );
+    }
+    Ok(())
 }

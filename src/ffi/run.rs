@@ -1,0 +1,471 @@
+//! Runs and their results: run parameters, progress, the report, the history and the map's
+//! readout.
+
+use super::{
+    boundary, check_out, read_versioned, slice_mut, with_context, write_defaults, write_out,
+    write_versioned, ImapContext, Versioned,
+};
+use crate::context::Report;
+use crate::error::{bail, ImapStatus, Result};
+use crate::sched::{Progress, RunParams, StopReason};
+use std::ffi::c_void;
+
+/// Side index of `imap_get_vertex_energy`: the side the normal (v1−v0)×(v2−v0) points to.
+pub const IMAP_SIDE_FRONT: u32 = 0;
+/// The other side (two-sided meshes only).
+pub const IMAP_SIDE_BACK: u32 = 1;
+
+/// `ImapReport::stop_reason` values: no run yet.
+pub const IMAP_STOP_NONE: u32 = 0;
+/// The run traced its photon count.
+pub const IMAP_STOP_PHOTONS: u32 = 1;
+/// The run used its time budget.
+pub const IMAP_STOP_TIME: u32 = 2;
+/// The estimated error reached the target.
+pub const IMAP_STOP_TARGET_ERROR: u32 = 3;
+/// The progress callback asked to stop.
+pub const IMAP_STOP_CANCELLED: u32 = 4;
+
+/// One point of the error-against-time history. Filled by the library (`struct_size` says
+/// how many bytes of it are valid).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default)]
+pub struct ImapProgress {
+    /// Bytes of this struct the library filled.
+    pub struct_size: u32,
+    /// Run time, s, summed over the runs since the last reset.
+    pub elapsed_s: f64,
+    /// Photons traced since the last reset.
+    pub photons: u64,
+    /// Ray–surface intersections since the last reset.
+    pub hits: u64,
+    /// Estimated global relative error: Σ σ(E_v) / Σ E_v over all recorded vertex sides
+    /// (the irradiance-weighted mean of the per-vertex relative standard errors); 1 before
+    /// anything arrived.
+    pub rel_error: f64,
+}
+
+// SAFETY: repr(C), u32 struct_size first, plain numbers only.
+unsafe impl Versioned for ImapProgress {
+    const NAME: &'static str = "ImapProgress";
+    const INIT: &'static str = "sizeof";
+    fn defaults() -> Self {
+        ImapProgress {
+            struct_size: std::mem::size_of::<Self>() as u32,
+            ..Default::default()
+        }
+    }
+}
+
+/// Progress callback: called from the thread inside `imap_run` at each progress interval
+/// and once at the end. Return 0 to continue, non-zero to stop the run (the map keeps
+/// every photon traced to its end; a later `imap_run` continues). It must not call the same
+/// context (that returns IMAP_ERR_BUSY) and must not throw C++ exceptions.
+pub type ImapProgressFn =
+    Option<unsafe extern "C" fn(progress: *const ImapProgress, user_data: *mut c_void) -> i32>;
+
+/// What `imap_run` does. Initialise with `imap_run_params_default(&p, sizeof p)`; at least
+/// one stop criterion (photons, time budget, target error) or a callback is required.
+#[repr(C)]
+#[derive(Clone, Copy, Debug)]
+pub struct ImapRunParams {
+    /// `sizeof(ImapRunParams)` as the program was compiled; set by `imap_run_params_default`.
+    pub struct_size: u32,
+    /// Safety limit on surface events per photon path (≥ 1); photons reaching it are
+    /// counted in `ImapReport::dropped_w` (never silently).
+    pub max_path_events: u32,
+    /// Photons to trace in this run; 0 = no limit.
+    pub photons: u64,
+    /// Wall-clock seconds this run may take, ≥ 0; 0 = no limit. Any finite value works
+    /// (1e300 is "no limit" too).
+    pub time_budget_s: f64,
+    /// Stop when the estimated global relative error is at or below this; 0 = none.
+    pub target_rel_error: f64,
+    /// Seconds between progress reports and stop checks, > 0. Values below 0.001 s are
+    /// raised to 0.001 s, and the interval is lengthened while evaluating the error would
+    /// take more than 5 % of the run; the history keeps at most 4096 points (older ones
+    /// are thinned out evenly).
+    pub progress_interval_s: f64,
+    pub progress: ImapProgressFn,
+    /// Passed to `progress` unchanged.
+    pub user_data: *mut c_void,
+}
+
+// SAFETY: repr(C), u32 struct_size first, numbers, an Option<fn> and a raw pointer.
+unsafe impl Versioned for ImapRunParams {
+    const NAME: &'static str = "ImapRunParams";
+    const INIT: &'static str = "imap_run_params_default";
+    fn defaults() -> Self {
+        ImapRunParams {
+            struct_size: std::mem::size_of::<Self>() as u32,
+            max_path_events: 1 << 20,
+            photons: 0,
+            time_budget_s: 0.0,
+            target_rel_error: 0.0,
+            progress_interval_s: 0.5,
+            progress: None,
+            user_data: std::ptr::null_mut(),
+        }
+    }
+}
+
+/// Totals since the last reset, the last run's own figures and the scheduler's counters.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default)]
+pub struct ImapReport {
+    /// Bytes of this struct the library filled.
+    pub struct_size: u32,
+    /// `IMAP_STOP_*`: why the last run stopped.
+    pub stop_reason: u32,
+    /// Calculating threads of the last run.
+    pub threads: u32,
+    /// Photons traced since the last reset.
+    pub photons: u64,
+    /// Ray–surface intersections since the last reset.
+    pub hits: u64,
+    /// Run time since the last reset, s.
+    pub elapsed_s: f64,
+    /// Estimated global relative error (see `ImapProgress::rel_error`).
+    pub rel_error: f64,
+    /// Photons of the last run.
+    pub run_photons: u64,
+    /// Intersections of the last run.
+    pub run_hits: u64,
+    /// Wall time of the last run, s.
+    pub run_wall_s: f64,
+    /// Power the traced photons carried from the lights, W (summed over bands); its
+    /// expectation is the lights' total power, which it equals exactly with one light.
+    pub emitted_w: f64,
+    /// Power absorbed by all surfaces and media, W (estimate from the photons traced).
+    pub absorbed_w: f64,
+    /// Power leaving the scene, W.
+    pub escaped_w: f64,
+    /// Power of photons stopped by `max_path_events`, W.
+    pub dropped_w: f64,
+    /// Photons stopped by `max_path_events`.
+    pub dropped_photons: u64,
+    /// Seconds the calculating threads together waited for a free portion (last run).
+    pub calc_wait_s: f64,
+    /// Classic: fraction of the last run the accumulating thread spent applying portions.
+    /// Dynamic: time spent applying portions over the processing threads' lifetime.
+    pub accum_busy_fraction: f64,
+    /// Largest number of filled portions waiting to be applied (last run).
+    pub peak_queue: u64,
+    /// Portions applied (last run).
+    pub portions: u64,
+    /// Of those, portions a calculating thread applied itself because the group was idle
+    /// (dynamic scheduler, last run).
+    pub inline_portions: u64,
+    /// Vertex-group splits (dynamic scheduler; 0 for classic).
+    pub splits: u64,
+    /// Vertex groups at the end of the last run (1 for classic).
+    pub groups: u64,
+    /// Bytes held by the map.
+    pub map_bytes: u64,
+    /// Points in the error-against-time history (`imap_get_history`).
+    pub history_len: u64,
+}
+
+// SAFETY: repr(C), u32 struct_size first, plain numbers only.
+unsafe impl Versioned for ImapReport {
+    const NAME: &'static str = "ImapReport";
+    const INIT: &'static str = "sizeof";
+    fn defaults() -> Self {
+        ImapReport::default()
+    }
+}
+
+/// Fills the `size` bytes at `out` with run defaults and sets `struct_size = size`: no stop
+/// criterion set (set at least one), progress every 0.5 s, at most 2^20 events per path,
+/// no callback. Pass `sizeof *out`.
+///
+/// Returns IMAP_ERR_NULL_POINTER, IMAP_ERR_INVALID_ARGUMENT (size too small). Thread-safe.
+///
+/// # Safety
+/// `out` is NULL or points to `size` writable bytes.
+#[no_mangle]
+pub unsafe extern "C" fn imap_run_params_default(
+    out: *mut ImapRunParams,
+    size: usize,
+) -> ImapStatus {
+    boundary(None, || write_defaults(out, size))
+}
+
+pub(crate) fn progress_to_c(p: &Progress) -> ImapProgress {
+    ImapProgress {
+        struct_size: std::mem::size_of::<ImapProgress>() as u32,
+        elapsed_s: p.elapsed_s,
+        photons: p.photons,
+        hits: p.hits,
+        rel_error: p.rel_error,
+    }
+}
+
+pub(crate) fn stop_to_c(stop: Option<StopReason>) -> u32 {
+    match stop {
+        None => IMAP_STOP_NONE,
+        Some(StopReason::PhotonCount) => IMAP_STOP_PHOTONS,
+        Some(StopReason::TimeBudget) => IMAP_STOP_TIME,
+        Some(StopReason::TargetError) => IMAP_STOP_TARGET_ERROR,
+        Some(StopReason::Cancelled) => IMAP_STOP_CANCELLED,
+    }
+}
+
+fn report_to_c(r: &Report, history_len: usize) -> ImapReport {
+    ImapReport {
+        struct_size: std::mem::size_of::<ImapReport>() as u32,
+        photons: r.photons,
+        hits: r.hits,
+        elapsed_s: r.elapsed_s,
+        rel_error: r.rel_error,
+        run_photons: r.run_photons,
+        run_hits: r.run_hits,
+        run_wall_s: r.run_wall_s,
+        stop_reason: stop_to_c(r.stop),
+        threads: r.threads as u32,
+        emitted_w: r.emitted_w,
+        absorbed_w: r.absorbed_w,
+        escaped_w: r.escaped_w,
+        dropped_w: r.dropped_w,
+        dropped_photons: r.dropped_photons,
+        calc_wait_s: r.counters.calc_wait_s,
+        accum_busy_fraction: r.counters.accum_busy_fraction,
+        peak_queue: r.counters.peak_queue,
+        portions: r.counters.portions,
+        inline_portions: r.counters.inline_portions,
+        splits: r.counters.splits,
+        groups: r.counters.groups,
+        map_bytes: r.map_bytes,
+        history_len: history_len as u64,
+    }
+}
+
+/// Checks a report out-pointer and its size before a call's work.
+pub(crate) fn check_report_out<T: Versioned>(name: &str, out: *mut T, size: usize) -> Result<()> {
+    if !out.is_null() && size < T::BASE_SIZE {
+        bail!(
+            ImapErrInvalidArgument,
+            "{name}_size = {size} is smaller than {} ({} bytes): pass sizeof({})",
+            T::NAME,
+            T::BASE_SIZE,
+            T::NAME
+        );
+    }
+    Ok(())
+}
+
+/// The C view of the progress callback.
+pub(crate) fn callback(cb: ImapProgressFn, user: *mut c_void) -> impl FnMut(&Progress) -> bool {
+    move |pr: &Progress| -> bool {
+        let cp = progress_to_c(pr);
+        // SAFETY: the caller supplied a callable function pointer and its user data.
+        cb.is_none_or(|f| unsafe { f(&cp, user) } == 0)
+    }
+}
+
+/// Traces photons into the map until a stop criterion of `params` is met; blocks the
+/// calling thread, which also runs the progress callback. The first run builds the BVH and
+/// allocates the map. A later run continues the photon sequence and adds to the same map
+/// (a run stopped by the callback or the clock can be resumed: photons cut short by the
+/// stop are traced again from their start by the next run, so the map is always a sum of
+/// whole photons). `report` (may be NULL) receives the report on success, `report_size` =
+/// `sizeof(ImapReport)`.
+///
+/// The run stops within about two progress intervals of its time budget or of a cancel,
+/// whatever the path length.
+///
+/// Returns IMAP_ERR_NULL_POINTER, IMAP_ERR_INVALID_ARGUMENT (no stop criterion, negative
+/// values, struct sizes; the message names the field), IMAP_ERR_NON_FINITE,
+/// IMAP_ERR_NO_GEOMETRY, IMAP_ERR_NO_LIGHT, IMAP_ERR_PRECISION, IMAP_ERR_MEMORY_BUDGET,
+/// IMAP_ERR_OUT_OF_MEMORY, IMAP_ERR_EMBREE, IMAP_ERR_BUSY, IMAP_ERR_THREAD_LOST (a worker
+/// thread panicked; the photons of its unfinished batch are missing from the map; the
+/// message says how many at most).
+///
+/// # Safety
+/// `ctx` is a live handle; `params` points to an `ImapRunParams`; `report` is NULL or
+/// points to `report_size` writable bytes; the callback, if any, is callable with
+/// `user_data`.
+#[no_mangle]
+pub unsafe extern "C" fn imap_run(
+    ctx: *mut ImapContext,
+    params: *const ImapRunParams,
+    report: *mut ImapReport,
+    report_size: usize,
+) -> ImapStatus {
+    with_context(ctx, |c| {
+        let p = read_versioned("params", params)?;
+        check_report_out("report", report, report_size)?;
+        let mut call = callback(p.progress, p.user_data);
+        let mut rp = RunParams {
+            photons: p.photons,
+            time_budget_s: p.time_budget_s,
+            target_rel_error: p.target_rel_error,
+            progress_interval_s: p.progress_interval_s,
+            max_path_events: p.max_path_events,
+            progress: if p.progress.is_some() {
+                Some(&mut call)
+            } else {
+                None
+            },
+        };
+        let r = c.run(&mut rp)?;
+        if !report.is_null() {
+            write_versioned(
+                "report",
+                report,
+                report_size,
+                report_to_c(&r, c.history().len()),
+            )?;
+        }
+        Ok(())
+    })
+}
+
+/// Copies up to `capacity` points of `h` into `out` (elements of `element_size` bytes)
+/// and the total count into `*out_count`.
+pub(crate) fn copy_history(
+    h: &[Progress],
+    out: *mut ImapProgress,
+    capacity: usize,
+    element_size: usize,
+    out_count: *mut usize,
+) -> Result<()> {
+    check_out("out_count", out_count)?;
+    if capacity > 0 {
+        if out.is_null() {
+            bail!(ImapErrNullPointer, "out is NULL but capacity is {capacity}");
+        }
+        if !(ImapProgress::BASE_SIZE..=1 << 16).contains(&element_size) {
+            bail!(
+                ImapErrInvalidArgument,
+                "element_size = {element_size} is not a size of ImapProgress (at least {}): pass sizeof(ImapProgress)",
+                ImapProgress::BASE_SIZE
+            );
+        }
+        if capacity
+            .checked_mul(element_size)
+            .is_none_or(|b| b > isize::MAX as usize)
+        {
+            bail!(ImapErrInvalidArgument, "capacity {capacity} is too large");
+        }
+        for (i, p) in h.iter().take(capacity).enumerate() {
+            // SAFETY: the caller provides capacity × element_size writable bytes at out.
+            let dst = unsafe { (out as *mut u8).add(i * element_size) } as *mut ImapProgress;
+            write_versioned("out", dst, element_size, progress_to_c(p))?;
+        }
+    }
+    write_out("out_count", out_count, h.len())
+}
+
+/// The report of the context: totals since the last reset and the last run's figures.
+/// `size` = `sizeof(ImapReport)`.
+///
+/// # Safety
+/// `ctx` is a live handle; `out` points to `size` writable bytes.
+#[no_mangle]
+pub unsafe extern "C" fn imap_get_report(
+    ctx: *const ImapContext,
+    out: *mut ImapReport,
+    size: usize,
+) -> ImapStatus {
+    with_context(ctx, |c| {
+        write_versioned(
+            "out",
+            out,
+            size,
+            report_to_c(&c.report(), c.history().len()),
+        )
+    })
+}
+
+/// Copies up to `capacity` points of the error-against-time history (oldest first) into
+/// `out` (elements of `element_size` = `sizeof(ImapProgress)` bytes; `out` may be NULL
+/// when `capacity` is 0) and writes the total number of points to `*out_count`.
+///
+/// # Safety
+/// `ctx` is a live handle; `out` holds `capacity` writable elements; `out_count` is
+/// writable.
+#[no_mangle]
+pub unsafe extern "C" fn imap_get_history(
+    ctx: *const ImapContext,
+    out: *mut ImapProgress,
+    capacity: usize,
+    element_size: usize,
+    out_count: *mut usize,
+) -> ImapStatus {
+    with_context(ctx, |c| {
+        copy_history(c.history(), out, capacity, element_size, out_count)
+    })
+}
+
+/// The number of vertices of mesh `mesh` into `*out`.
+///
+/// # Safety
+/// `ctx` is a live handle; `out` is writable.
+#[no_mangle]
+pub unsafe extern "C" fn imap_get_vertex_count(
+    ctx: *const ImapContext,
+    mesh: u32,
+    out: *mut usize,
+) -> ImapStatus {
+    with_context(ctx, |c| write_out("out", out, c.vertex_count(mesh)?))
+}
+
+/// Irradiance in W/m² in band `band` at every vertex of mesh `mesh` on `side`
+/// (`IMAP_SIDE_FRONT`, or `IMAP_SIDE_BACK` on two-sided meshes), written to `out[0 ..
+/// vertex_count)`; `count` may be larger (the rest of `out` is left as it was). Before the
+/// first run: zeros. Vertices used by no triangle of non-zero area get 0.
+///
+/// Returns IMAP_ERR_NULL_POINTER, IMAP_ERR_INDEX_OUT_OF_RANGE (mesh, side or band),
+/// IMAP_ERR_NOT_RECORDED, IMAP_ERR_BUFFER_TOO_SMALL (`count` < vertex count), IMAP_ERR_BUSY;
+/// nothing is written then.
+///
+/// # Safety
+/// `ctx` is a live handle; `out` holds `count` writable doubles.
+#[no_mangle]
+pub unsafe extern "C" fn imap_get_vertex_energy(
+    ctx: *const ImapContext,
+    mesh: u32,
+    side: u32,
+    band: u32,
+    out: *mut f64,
+    count: usize,
+) -> ImapStatus {
+    with_context(ctx, |c| {
+        c.irradiance(mesh, side, band, slice_mut("out", out, count)?)
+    })
+}
+
+/// Relative standard error (σ/E, dimensionless) of the band-mean irradiance at every vertex
+/// of `mesh` on `side`, from the per-vertex sum over photons of each photon's squared
+/// total contribution (calibrated against independent runs). 1 where nothing has arrived or
+/// the vertex has no area. Buffer and statuses as `imap_get_vertex_energy`.
+///
+/// # Safety
+/// `ctx` is a live handle; `out` holds `count` writable doubles.
+#[no_mangle]
+pub unsafe extern "C" fn imap_get_vertex_error(
+    ctx: *const ImapContext,
+    mesh: u32,
+    side: u32,
+    out: *mut f64,
+    count: usize,
+) -> ImapStatus {
+    with_context(ctx, |c| {
+        c.rel_error(mesh, side, slice_mut("out", out, count)?)
+    })
+}
+
+/// Power absorbed by mesh `mesh` (at its surface, or inside it for an absorbing
+/// dielectric), W summed over bands, into `*out_w`.
+///
+/// # Safety
+/// `ctx` is a live handle; `out_w` is writable.
+#[no_mangle]
+pub unsafe extern "C" fn imap_get_mesh_absorbed(
+    ctx: *const ImapContext,
+    mesh: u32,
+    out_w: *mut f64,
+) -> ImapStatus {
+    with_context(ctx, |c| write_out("out_w", out_w, c.absorbed_w(mesh)?))
+}

@@ -1,0 +1,369 @@
+//! The scene: materials, meshes and lights.
+
+use super::{
+    boundary, check_out, read_versioned, slice, with_context, write_defaults, write_out,
+    ImapContext, Versioned,
+};
+use crate::context::Context;
+use crate::error::{bail, ImapStatus, Result};
+use crate::scene::{IorModel, MaterialDesc, MeshDesc};
+
+/// `ImapMaterial::ior_model`: not a dielectric.
+pub const IMAP_IOR_NONE: u32 = 0;
+/// `n = ior[0]`.
+pub const IMAP_IOR_CONSTANT: u32 = 1;
+/// `n = ior[0] + ior[1]/λ² + ior[2]/λ⁴`, λ in µm.
+pub const IMAP_IOR_CAUCHY: u32 = 2;
+/// `n² = 1 + Σ ior[i]·λ²/(λ² − ior[i+3])`, i = 0..2, λ in µm (Schott's B1..B3, C1..C3).
+pub const IMAP_IOR_SELLMEIER: u32 = 3;
+
+/// `ImapMesh::flags`: both sides record (and emit) separately.
+pub const IMAP_MESH_TWO_SIDED: u32 = 1;
+/// `ImapMesh::flags`: the mesh's vertices accumulate irradiance.
+pub const IMAP_MESH_RECORD: u32 = 2;
+
+/// A material. Initialise with `imap_material_default(&m, sizeof m)` (no reflection, no
+/// transmission: black). Per-band arrays hold 1 value (the same in every band) or one per
+/// band; a count of 0 (pointer may be NULL) means 0 in every band. The library copies them.
+#[repr(C)]
+#[derive(Clone, Copy, Debug)]
+pub struct ImapMaterial {
+    /// `sizeof(ImapMaterial)` as the program was compiled; set by `imap_material_default`.
+    pub struct_size: u32,
+    /// `IMAP_IOR_*`. Anything but NONE makes a smooth dielectric (Fresnel reflection and
+    /// Snell refraction; the three coefficients below must then be 0). Its mesh should be
+    /// closed with normals pointing out; the outside is air (n = 1).
+    pub ior_model: u32,
+    /// Probability of Lambertian reflection, [0, 1].
+    pub diffuse_reflectance: *const f64,
+    pub diffuse_reflectance_count: usize,
+    /// Probability of mirror reflection, [0, 1].
+    pub specular_reflectance: *const f64,
+    pub specular_reflectance_count: usize,
+    /// Probability of Lambertian transmission to the other side, [0, 1].
+    pub diffuse_transmittance: *const f64,
+    pub diffuse_transmittance_count: usize,
+    /// Coefficients of the index model (see `IMAP_IOR_*`).
+    pub ior: [f64; 6],
+    /// Beer–Lambert absorption coefficient inside a dielectric, 1/m, per band.
+    pub absorption_per_m: *const f64,
+    pub absorption_count: usize,
+}
+
+// SAFETY: repr(C), u32 struct_size first, numbers and raw pointers only.
+unsafe impl Versioned for ImapMaterial {
+    const NAME: &'static str = "ImapMaterial";
+    const INIT: &'static str = "imap_material_default";
+    fn defaults() -> Self {
+        ImapMaterial {
+            struct_size: std::mem::size_of::<Self>() as u32,
+            ior_model: IMAP_IOR_NONE,
+            diffuse_reflectance: std::ptr::null(),
+            diffuse_reflectance_count: 0,
+            specular_reflectance: std::ptr::null(),
+            specular_reflectance_count: 0,
+            diffuse_transmittance: std::ptr::null(),
+            diffuse_transmittance_count: 0,
+            ior: [0.0; 6],
+            absorption_per_m: std::ptr::null(),
+            absorption_count: 0,
+        }
+    }
+}
+
+/// A triangle mesh. Initialise with `imap_mesh_default(&m, sizeof m)`. The library
+/// copies every array.
+#[repr(C)]
+#[derive(Clone, Copy, Debug)]
+pub struct ImapMesh {
+    /// `sizeof(ImapMesh)` as the program was compiled; set by `imap_mesh_default`.
+    pub struct_size: u32,
+    /// `IMAP_MESH_TWO_SIDED` | `IMAP_MESH_RECORD`.
+    pub flags: u32,
+    /// x, y, z of each vertex (3·vertex_count doubles), scene units, |x| ≤ 1e30.
+    pub positions: *const f64,
+    pub vertex_count: usize,
+    /// Three vertex indices per triangle (3·triangle_count).
+    pub indices: *const u32,
+    pub triangle_count: usize,
+    /// Optional per-triangle material ids (the mesh's parts), triangle_count of them;
+    /// NULL = all triangles use `material`.
+    pub triangle_materials: *const u32,
+    /// Radiant exitance of a self-emitting mesh (a lamp), W/m² per band, Lambertian, from
+    /// the front side (both sides if two-sided); NULL/0 = not emitting.
+    pub exitance: *const f64,
+    pub exitance_count: usize,
+    /// Material id (from `imap_add_material`) of every triangle.
+    pub material: u32,
+}
+
+// SAFETY: repr(C), u32 struct_size first, numbers and raw pointers only.
+unsafe impl Versioned for ImapMesh {
+    const NAME: &'static str = "ImapMesh";
+    const INIT: &'static str = "imap_mesh_default";
+    fn defaults() -> Self {
+        ImapMesh {
+            struct_size: std::mem::size_of::<Self>() as u32,
+            flags: 0,
+            positions: std::ptr::null(),
+            vertex_count: 0,
+            indices: std::ptr::null(),
+            triangle_count: 0,
+            triangle_materials: std::ptr::null(),
+            exitance: std::ptr::null(),
+            exitance_count: 0,
+            material: 0,
+        }
+    }
+}
+
+/// Fills the `size` bytes at `out` with a black, non-dielectric material and sets
+/// `struct_size = size`. Pass `sizeof *out`. Returns IMAP_ERR_NULL_POINTER,
+/// IMAP_ERR_INVALID_ARGUMENT (size too small). Thread-safe.
+///
+/// # Safety
+/// `out` is NULL or points to `size` writable bytes.
+#[no_mangle]
+pub unsafe extern "C" fn imap_material_default(out: *mut ImapMaterial, size: usize) -> ImapStatus {
+    boundary(None, || write_defaults(out, size))
+}
+
+/// Fills the `size` bytes at `out` with an empty mesh (no arrays, material 0, flags 0) and
+/// sets `struct_size = size`. Pass `sizeof *out`. Returns IMAP_ERR_NULL_POINTER,
+/// IMAP_ERR_INVALID_ARGUMENT (size too small). Thread-safe.
+///
+/// # Safety
+/// `out` is NULL or points to `size` writable bytes.
+#[no_mangle]
+pub unsafe extern "C" fn imap_mesh_default(out: *mut ImapMesh, size: usize) -> ImapStatus {
+    boundary(None, || write_defaults(out, size))
+}
+
+/// The frame of every `imap_add_*`: `out_id` is checked before anything is added, `add`
+/// runs on the context, and its id is written only on success.
+fn add_with(
+    ctx: *mut ImapContext,
+    out_id: *mut u32,
+    add: impl FnOnce(&mut Context) -> Result<u32>,
+) -> ImapStatus {
+    with_context(ctx, |c| {
+        check_out("out_id", out_id)?;
+        let id = add(c)?;
+        write_out("out_id", out_id, id)
+    })
+}
+
+/// Three doubles from C.
+fn vec3(name: &str, ptr: *const f64) -> Result<[f64; 3]> {
+    let v = slice(name, ptr, 3)?;
+    Ok([v[0], v[1], v[2]])
+}
+
+fn per_band(name: &str, ptr: *const f64, count: usize) -> Result<Vec<f64>> {
+    let s = slice(name, ptr, count)?;
+    let mut v = Vec::new();
+    v.try_reserve_exact(s.len()).map_err(|_| {
+        crate::error::Error::new(
+            ImapStatus::ImapErrOutOfMemory,
+            format!("{name}: could not copy {count} values"),
+        )
+    })?;
+    v.extend_from_slice(s);
+    Ok(v)
+}
+
+/// Adds a material; `*out_id` receives its id (0, 1, ... in order of addition). Materials
+/// may be added at any time. The arrays are copied.
+///
+/// Returns IMAP_ERR_NULL_POINTER, IMAP_ERR_NON_FINITE, IMAP_ERR_INVALID_ARGUMENT (an array
+/// count other than 0, 1 or the band count; unknown ior_model; struct_size),
+/// IMAP_ERR_BAD_MATERIAL (coefficients outside [0, 1], sum over 1, index below 1),
+/// IMAP_ERR_BUSY.
+///
+/// # Safety
+/// `ctx` is a live handle; `material` points to an `ImapMaterial` whose arrays hold their
+/// counts of values; `out_id` points to writable storage.
+#[no_mangle]
+pub unsafe extern "C" fn imap_add_material(
+    ctx: *mut ImapContext,
+    material: *const ImapMaterial,
+    out_id: *mut u32,
+) -> ImapStatus {
+    add_with(ctx, out_id, |c| {
+        let m = read_versioned("material", material)?;
+        let i = m.ior;
+        let ior = match m.ior_model {
+            IMAP_IOR_NONE => None,
+            IMAP_IOR_CONSTANT => Some(IorModel::Constant(i[0])),
+            IMAP_IOR_CAUCHY => Some(IorModel::Cauchy {
+                a: i[0],
+                b: i[1],
+                c: i[2],
+            }),
+            IMAP_IOR_SELLMEIER => Some(IorModel::Sellmeier {
+                b: [i[0], i[1], i[2]],
+                c: [i[3], i[4], i[5]],
+            }),
+            other => bail!(
+                ImapErrInvalidArgument,
+                "material.ior_model = {other} is not one of IMAP_IOR_NONE, _CONSTANT, _CAUCHY, _SELLMEIER"
+            ),
+        };
+        let desc = MaterialDesc {
+            diffuse_reflect: per_band(
+                "material.diffuse_reflectance",
+                m.diffuse_reflectance,
+                m.diffuse_reflectance_count,
+            )?,
+            specular_reflect: per_band(
+                "material.specular_reflectance",
+                m.specular_reflectance,
+                m.specular_reflectance_count,
+            )?,
+            diffuse_transmit: per_band(
+                "material.diffuse_transmittance",
+                m.diffuse_transmittance,
+                m.diffuse_transmittance_count,
+            )?,
+            ior,
+            absorption_per_m: per_band(
+                "material.absorption_per_m",
+                m.absorption_per_m,
+                m.absorption_count,
+            )?,
+        };
+        c.add_material(&desc)
+    })
+}
+
+/// Adds a triangle mesh; `*out_id` receives its id (0, 1, ... in order). The arrays are
+/// copied. The memory the mesh needs (its copy, its prepared form, its share of the BVH
+/// and its map) is checked against the budget before anything is copied.
+///
+/// Returns IMAP_ERR_NULL_POINTER, IMAP_ERR_EMPTY_MESH (no vertex or no triangle),
+/// IMAP_ERR_NON_FINITE (a NaN/Inf coordinate or exitance), IMAP_ERR_PRECISION (a
+/// coordinate beyond ±1e30), IMAP_ERR_INDEX_OUT_OF_RANGE (a vertex index ≥ vertex_count),
+/// IMAP_ERR_DEGENERATE_TRIANGLE (a triangle repeating a vertex), IMAP_ERR_UNKNOWN_MATERIAL,
+/// IMAP_ERR_INVALID_ARGUMENT, IMAP_ERR_NO_LIGHT (an emitting mesh with zero exitance or
+/// zero area), IMAP_ERR_MEMORY_BUDGET, IMAP_ERR_OUT_OF_MEMORY, IMAP_ERR_OUT_OF_ORDER
+/// (after a run: call `imap_reset` first), IMAP_ERR_BUSY. Nothing is added on failure.
+///
+/// # Safety
+/// `ctx` is a live handle; `mesh` points to an `ImapMesh` whose arrays hold their counts of
+/// values; `out_id` points to writable storage.
+#[no_mangle]
+pub unsafe extern "C" fn imap_add_mesh(
+    ctx: *mut ImapContext,
+    mesh: *const ImapMesh,
+    out_id: *mut u32,
+) -> ImapStatus {
+    add_with(ctx, out_id, |c| {
+        let m = read_versioned("mesh", mesh)?;
+        if m.vertex_count == 0 || m.triangle_count == 0 {
+            bail!(
+                ImapErrEmptyMesh,
+                "mesh has {} vertices and {} triangles: a mesh needs at least one triangle",
+                m.vertex_count,
+                m.triangle_count
+            );
+        }
+        let positions = slice(
+            "mesh.positions",
+            m.positions,
+            m.vertex_count.saturating_mul(3),
+        )?;
+        let indices = slice(
+            "mesh.indices",
+            m.indices,
+            m.triangle_count.saturating_mul(3),
+        )?;
+        let triangle_materials = if m.triangle_materials.is_null() {
+            None
+        } else {
+            Some(slice(
+                "mesh.triangle_materials",
+                m.triangle_materials,
+                m.triangle_count,
+            )?)
+        };
+        let exitance = if m.exitance_count == 0 {
+            None
+        } else {
+            Some(slice("mesh.exitance", m.exitance, m.exitance_count)?)
+        };
+        if m.flags & !(IMAP_MESH_TWO_SIDED | IMAP_MESH_RECORD) != 0 {
+            bail!(
+                ImapErrInvalidArgument,
+                "mesh.flags = 0x{:x} has bits that are no IMAP_MESH_* flag",
+                m.flags
+            );
+        }
+        let desc = MeshDesc {
+            positions,
+            indices,
+            material: m.material,
+            triangle_materials,
+            two_sided: m.flags & IMAP_MESH_TWO_SIDED != 0,
+            record: m.flags & IMAP_MESH_RECORD != 0,
+            exitance,
+        };
+        c.add_mesh(&desc)
+    })
+}
+
+/// Adds an isotropic point light at `position` (scene units, |x| ≤ 1e30) with radiant flux
+/// `power` in W per band (1 value = the same in every band, or one per band; the sum over
+/// bands must be finite); `*out_id` receives its id. Lights are chosen by power during the
+/// run.
+///
+/// Returns IMAP_ERR_NULL_POINTER, IMAP_ERR_NON_FINITE, IMAP_ERR_INVALID_ARGUMENT,
+/// IMAP_ERR_PRECISION, IMAP_ERR_NO_LIGHT (zero power), IMAP_ERR_OUT_OF_ORDER,
+/// IMAP_ERR_BUSY.
+///
+/// # Safety
+/// `ctx` is a live handle; `position` points to 3 doubles; `power` to `power_count`;
+/// `out_id` to writable storage.
+#[no_mangle]
+pub unsafe extern "C" fn imap_add_point_light(
+    ctx: *mut ImapContext,
+    position: *const f64,
+    power: *const f64,
+    power_count: usize,
+    out_id: *mut u32,
+) -> ImapStatus {
+    add_with(ctx, out_id, |c| {
+        c.add_point_light(
+            vec3("position", position)?,
+            slice("power", power, power_count)?,
+        )
+    })
+}
+
+/// Adds a spot light: uniform intensity inside the cone of `half_angle_rad` (0, π] around
+/// `direction`, total flux `power` W per band.
+///
+/// Returns as `imap_add_point_light`, plus IMAP_ERR_INVALID_ARGUMENT for a zero direction
+/// or an angle out of range.
+///
+/// # Safety
+/// As `imap_add_point_light`; `direction` points to 3 doubles.
+#[no_mangle]
+pub unsafe extern "C" fn imap_add_spot_light(
+    ctx: *mut ImapContext,
+    position: *const f64,
+    direction: *const f64,
+    half_angle_rad: f64,
+    power: *const f64,
+    power_count: usize,
+    out_id: *mut u32,
+) -> ImapStatus {
+    add_with(ctx, out_id, |c| {
+        let power = slice("power", power, power_count)?;
+        c.add_spot_light(
+            vec3("position", position)?,
+            vec3("direction", direction)?,
+            half_angle_rad,
+            power,
+        )
+    })
+}

@@ -1,0 +1,192 @@
+//! One photon's deposits, held by the calculating thread until the photon's path ends.
+//!
+//! A run may be stopped while a photon is in flight; the map must then not hold part of
+//! that photon (it is traced again, whole, by the next run). So the i-map sinks buffer a
+//! photon's hits here and hand them to the scheduler only when the path has ended
+//! (`finish`), or forget them (`abort`). Most photons hit a few surfaces; a photon in a
+//! nearly lossless enclosure can bounce a million times, so past `MERGE_AFTER` hits the
+//! buffer folds its hits per map slot: its size is then bounded by the slots the photon
+//! reached, and each reached slot receives one full-colour deposit of weight 1 whose
+//! square is exactly the photon's squared contribution to that slot.
+
+use super::PhotonSquares;
+use crate::scene::PreparedScene;
+use crate::transport::Colour;
+use std::collections::HashMap;
+
+/// Hits kept one by one before the buffer folds them per slot.
+const MERGE_AFTER: usize = 4096;
+
+/// `BufferedHit::band` of a full-colour hit.
+pub const FULL: u16 = u16::MAX;
+
+/// A hit of a buffered photon on a recording surface.
+#[derive(Clone, Copy, Debug)]
+pub struct BufferedHit {
+    pub mesh: u32,
+    pub prim: u32,
+    pub u: f32,
+    pub v: f32,
+    /// Offset of its colour in the buffer's colour arena (one value when `band` is a band).
+    pub colour_at: u32,
+    /// The band of a photon collapsed to one band, or `FULL`.
+    pub band: u16,
+    pub side: u8,
+}
+
+/// Where a finished photon's deposits go (the scheduler's portions).
+pub trait PhotonOut {
+    /// A hit, with its colour (`bands` values, or one value for a collapsed photon).
+    fn hit(&mut self, hit: &BufferedHit, colour: &[f32]);
+    /// The cross terms of the photon's squared contribution to `slot`.
+    fn square(&mut self, slot: usize, s2: f64);
+    /// A folded photon's whole contribution to `slot` (full colour, weight 1): its square
+    /// is the photon's squared contribution.
+    fn slot_value(&mut self, slot: usize, colour: &[f32]);
+}
+
+/// The current photon's deposits.
+#[derive(Debug)]
+pub struct PhotonBuffer {
+    bands: usize,
+    energy: f64,
+    hits: Vec<BufferedHit>,
+    colours: Vec<f32>,
+    /// Folded hits: slot → offset of its `bands` values in `folded_values`.
+    folded: HashMap<u32, usize>,
+    folded_values: Vec<f64>,
+    squares: PhotonSquares,
+    scratch: Vec<f32>,
+}
+
+impl PhotonBuffer {
+    /// Bytes one buffer holds at most before it folds (its hits and their colours).
+    pub fn max_bytes(bands: usize) -> u64 {
+        (MERGE_AFTER * (std::mem::size_of::<BufferedHit>() + 4 * bands)) as u64
+    }
+
+    pub fn new(bands: usize) -> Self {
+        PhotonBuffer {
+            bands,
+            energy: 0.0,
+            hits: Vec::new(),
+            colours: Vec::new(),
+            folded: HashMap::new(),
+            folded_values: Vec::new(),
+            squares: PhotonSquares::default(),
+            scratch: Vec::new(),
+        }
+    }
+
+    /// Records a hit of the current photon.
+    #[inline]
+    pub fn deposit(
+        &mut self,
+        scene: &PreparedScene,
+        (mesh, prim, side): (u32, u32, u8),
+        u: f32,
+        v: f32,
+        colour: &Colour,
+    ) {
+        self.energy = colour.energy();
+        let colour_at = self.colours.len() as u32;
+        let band = match colour.band() {
+            Some(b) => {
+                self.colours.push(colour.values()[b] as f32);
+                b as u16
+            }
+            None => {
+                self.colours
+                    .extend(colour.values().iter().map(|&c| c as f32));
+                FULL
+            }
+        };
+        self.hits.push(BufferedHit {
+            mesh,
+            prim,
+            u,
+            v,
+            colour_at,
+            band,
+            side,
+        });
+        if self.hits.len() >= MERGE_AFTER {
+            self.fold(scene);
+        }
+    }
+
+    /// Folds the buffered hits into the per-slot sums.
+    fn fold(&mut self, scene: &PreparedScene) {
+        let nb = self.bands;
+        for h in &self.hits {
+            let m = &scene.meshes[h.mesh as usize];
+            let tri = m.triangles[h.prim as usize];
+            let (u, v) = (h.u as f64, h.v as f64);
+            for (vertex, w) in tri.into_iter().zip([1.0 - u - v, u, v]) {
+                let slot = m
+                    .slot(vertex, h.side as usize)
+                    .expect("deposit on a recording mesh") as u32;
+                let next = self.folded_values.len();
+                let at = *self.folded.entry(slot).or_insert(next);
+                if at == next {
+                    self.folded_values.resize(next + nb, 0.0);
+                }
+                let values = &mut self.folded_values[at..at + nb];
+                let c = h.colour_at as usize;
+                if h.band == FULL {
+                    for (x, &c) in values.iter_mut().zip(&self.colours[c..c + nb]) {
+                        *x += w * c as f64;
+                    }
+                } else {
+                    values[h.band as usize] += w * self.colours[c] as f64;
+                }
+            }
+        }
+        self.hits.clear();
+        self.colours.clear();
+    }
+
+    /// Forgets the current photon.
+    pub fn abort(&mut self) {
+        self.hits.clear();
+        self.colours.clear();
+        self.folded.clear();
+        self.folded_values.clear();
+    }
+
+    /// The current photon has ended: hands its deposits to `out` and forgets them.
+    pub fn finish(&mut self, scene: &PreparedScene, out: &mut impl PhotonOut) {
+        if !self.folded.is_empty() {
+            self.fold(scene);
+            let nb = self.bands;
+            // In slot order: the same sequence of additions whatever the hash map's order.
+            let mut slots: Vec<(u32, usize)> = self.folded.drain().collect();
+            slots.sort_unstable();
+            for (slot, at) in slots {
+                self.scratch.clear();
+                self.scratch
+                    .extend(self.folded_values[at..at + nb].iter().map(|&x| x as f32));
+                out.slot_value(slot as usize, &self.scratch);
+            }
+            self.folded_values.clear();
+            return;
+        }
+        let e = self.energy;
+        for h in &self.hits {
+            let m = &scene.meshes[h.mesh as usize];
+            let (u, v) = (h.u as f64, h.v as f64);
+            let slots = m.triangles[h.prim as usize].map(|vertex| {
+                m.slot(vertex, h.side as usize)
+                    .expect("deposit on a recording mesh")
+            });
+            self.squares.add(slots, [(1.0 - u - v) * e, u * e, v * e]);
+            let c = h.colour_at as usize;
+            let n = if h.band == FULL { self.bands } else { 1 };
+            out.hit(h, &self.colours[c..c + n]);
+        }
+        self.squares
+            .drain_cross_terms(|slot, s2| out.square(slot, s2));
+        self.hits.clear();
+        self.colours.clear();
+    }
+}
