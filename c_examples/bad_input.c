@@ -78,6 +78,25 @@ int main(void) {
     expect("initial_groups > max_groups", imap_create(&cfg, &ctx), IMAP_ERR_INVALID_ARGUMENT, NULL);
     if (ctx != NULL) printf("FAIL out-parameter written on failure\n"), failures++;
 
+    /* A zeroed struct was never initialised: refused, naming its initialiser. */
+    ImapConfig zeroed;
+    memset(&zeroed, 0, sizeof zeroed);
+    expect("zeroed ImapConfig", imap_create(&zeroed, &ctx), IMAP_ERR_INVALID_ARGUMENT, NULL);
+    if (strstr(imap_last_error(NULL), "imap_config_default") == NULL)
+        printf("FAIL zeroed ImapConfig: message does not name imap_config_default\n"), failures++;
+    imap_config_default(&cfg, sizeof cfg);
+    cfg.threads = 4096;
+    expect("4096 threads", imap_create(&cfg, &ctx), IMAP_ERR_INVALID_ARGUMENT, NULL);
+    imap_config_default(&cfg, sizeof cfg);
+    cfg.unit_m = 1e-200;
+    expect("unit_m = 1e-200", imap_create(&cfg, &ctx), IMAP_ERR_INVALID_ARGUMENT, NULL);
+    expect("imap_config_default(size 4)", imap_config_default(&cfg, 4), IMAP_ERR_INVALID_ARGUMENT, NULL);
+    /* Any int has a static name. */
+    const int odd[] = {-1, 21 + 100, 1000000, -2147483647 - 1};
+    for (int i = 0; i < 4; i++)
+        if (strncmp(imap_status_name(odd[i]), "IMAP_", 5) != 0)
+            printf("FAIL imap_status_name(%d)\n", odd[i]), failures++;
+
     imap_config_default(&cfg, sizeof cfg);
     cfg.threads = 2, cfg.seed = 5;
     expect("imap_create(valid)", imap_create(&cfg, &ctx), IMAP_OK, ctx);

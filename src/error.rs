@@ -198,7 +198,6 @@ pub(crate) fn check_finite(name: &str, values: &[f64]) -> Result<()> {
     Ok(())
 }
 
-
 /// An empty vector with room for `n` elements, or `IMAP_ERR_OUT_OF_MEMORY` naming `what`:
 /// every allocation whose size depends on the input goes through here (or `try_filled`),
 /// so running out of memory is a status, never an abort of the host.

@@ -423,8 +423,7 @@ impl Context {
         if let Some(why) = outcome.thread_lost {
             bail!(
                 ImapErrThreadLost,
-                "{why}; the photons of its unfinished batch (at most {}) are missing from the map",
-                sched::photons::BATCH
+                "{why}; what that thread had not yet handed over is missing from the map while its photons are counted, so the map may read low: call imap_reset and run again for an exact map"
             );
         }
         Ok(self.report())

@@ -1,6 +1,7 @@
 //! The pinhole camera of a render.
 
 use crate::error::{bail, check_finite, Result};
+use crate::scene::light::unit_vector;
 use glam::DVec3;
 
 /// Largest image side accepted.
@@ -38,7 +39,7 @@ impl Camera {
         check_finite("camera position", &desc.position)?;
         check_finite("camera direction", &desc.direction)?;
         check_finite("camera up", &desc.up)?;
-        check_finite("camera fov_y_deg", &[desc.fov_y_deg])?;
+        crate::error::check_finite_scalar("camera fov_y_deg", desc.fov_y_deg)?;
         if !(desc.fov_y_deg > 0.0 && desc.fov_y_deg < 180.0) {
             bail!(
                 ImapErrInvalidArgument,
@@ -54,20 +55,20 @@ impl Camera {
                 );
             }
         }
-        let d = DVec3::from(desc.direction);
-        if d.length() < 1e-300 {
+        let Some(forward) = unit_vector(desc.direction) else {
             bail!(
                 ImapErrInvalidArgument,
                 "camera direction is the zero vector"
             );
-        }
-        let forward = d.normalize();
-        let up_in = DVec3::from(desc.up);
+        };
+        let Some(up_in) = unit_vector(desc.up) else {
+            bail!(ImapErrInvalidArgument, "camera up is the zero vector");
+        };
         let right = forward.cross(up_in);
-        if up_in.length() < 1e-300 || right.length() < 1e-9 * up_in.length() {
+        if right.length() < 1e-9 {
             bail!(
                 ImapErrInvalidArgument,
-                "camera up vector is zero or parallel to the viewing direction"
+                "camera up is parallel to the viewing direction"
             );
         }
         let right = right.normalize();
@@ -129,6 +130,16 @@ mod tests {
         assert!((top.y / -top.z - 1.0).abs() < 1e-12);
         let left = c.ray(0, 50, 0.0, 0.0);
         assert!((left.x / left.z - 2.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn huge_and_tiny_direction_vectors_are_directions() {
+        let mut d = desc();
+        d.direction = [0.0, 0.0, -1e300];
+        d.up = [0.0, 1e-300, 0.0];
+        let c = Camera::new(&d, DVec3::ZERO).unwrap();
+        let u = Camera::new(&desc(), DVec3::ZERO).unwrap();
+        assert!((c.ray(3, 4, 0.5, 0.5) - u.ray(3, 4, 0.5, 0.5)).length() < 1e-15);
     }
 
     #[test]

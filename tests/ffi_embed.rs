@@ -1,0 +1,580 @@
+//! Safe to embed (issue 11), through the C ABI: error-message lifetimes under
+//! concurrency, status names of any int, silence, lost threads and running out of memory.
+//! Tests that need a fault injected or a memory limit run in a child process: this test
+//! binary re-runs itself with `IMAP_EMBED_CHILD` set, so an abort or a print shows.
+
+use imap::ffi::*;
+use imap::ImapStatus;
+use std::ffi::CStr;
+use std::process::Command;
+use std::time::{Duration, Instant};
+
+/// A context handle that may cross threads (the C ABI allows calls from any thread).
+#[derive(Clone, Copy)]
+struct Handle(*mut ImapContext);
+// SAFETY: libimap contexts may be used from any thread, one call at a time (the library
+// answers IMAP_ERR_BUSY to the others).
+unsafe impl Send for Handle {}
+// SAFETY: as above.
+unsafe impl Sync for Handle {}
+
+fn message(ctx: *const ImapContext) -> String {
+    // SAFETY: imap_last_error never returns NULL.
+    unsafe { CStr::from_ptr(imap_last_error(ctx)) }
+        .to_string_lossy()
+        .into_owned()
+}
+
+fn ok(s: ImapStatus, ctx: *const ImapContext) {
+    assert_eq!(s, ImapStatus::ImapOk, "{}", message(ctx));
+}
+
+/// A context with a recording floor under a point light (2 threads).
+fn scene() -> (Handle, u32, usize) {
+    scene_with(|_| {})
+}
+
+/// `scene` with the configuration adjusted by `tweak`.
+fn scene_with(tweak: impl FnOnce(&mut ImapConfig)) -> (Handle, u32, usize) {
+    let mut cfg = std::mem::MaybeUninit::<ImapConfig>::uninit();
+    // SAFETY: the out-pointer holds sizeof(ImapConfig) bytes.
+    let mut cfg = unsafe {
+        ok(
+            imap_config_default(cfg.as_mut_ptr(), std::mem::size_of::<ImapConfig>()),
+            std::ptr::null(),
+        );
+        cfg.assume_init()
+    };
+    cfg.threads = 2;
+    tweak(&mut cfg);
+    let mut ctx = std::ptr::null_mut();
+    // SAFETY: valid pointers throughout; arrays outlive the calls (the library copies).
+    unsafe {
+        ok(imap_create(&cfg, &mut ctx), std::ptr::null());
+        let grey = 0.5;
+        let mut m = std::mem::zeroed::<ImapMaterial>();
+        ok(
+            imap_material_default(&mut m, std::mem::size_of_val(&m)),
+            ctx,
+        );
+        m.diffuse_reflectance = &grey;
+        m.diffuse_reflectance_count = 1;
+        let mut mat = 0;
+        ok(imap_add_material(ctx, &m, &mut mat), ctx);
+        let n = 16usize;
+        let mut xyz = Vec::new();
+        let mut idx = Vec::new();
+        for j in 0..=n {
+            for i in 0..=n {
+                xyz.extend([i as f64 / n as f64, j as f64 / n as f64, 0.0]);
+            }
+        }
+        for j in 0..n as u32 {
+            for i in 0..n as u32 {
+                let a = j * (n as u32 + 1) + i;
+                idx.extend([
+                    a,
+                    a + 1,
+                    a + n as u32 + 2,
+                    a,
+                    a + n as u32 + 2,
+                    a + n as u32 + 1,
+                ]);
+            }
+        }
+        let mut d = std::mem::zeroed::<ImapMesh>();
+        ok(imap_mesh_default(&mut d, std::mem::size_of_val(&d)), ctx);
+        d.positions = xyz.as_ptr();
+        d.vertex_count = xyz.len() / 3;
+        d.indices = idx.as_ptr();
+        d.triangle_count = idx.len() / 3;
+        d.material = mat;
+        d.flags = IMAP_MESH_RECORD;
+        let mut mesh = 0;
+        ok(imap_add_mesh(ctx, &d, &mut mesh), ctx);
+        let (pos, w) = ([0.3, 0.6, 1.0], 10.0);
+        let mut light = 0;
+        ok(
+            imap_add_point_light(ctx, pos.as_ptr(), &w, 1, &mut light),
+            ctx,
+        );
+        (Handle(ctx), mesh, d.vertex_count)
+    }
+}
+
+fn run_params() -> ImapRunParams {
+    let mut p = std::mem::MaybeUninit::<ImapRunParams>::uninit();
+    // SAFETY: the out-pointer holds sizeof(ImapRunParams) bytes.
+    unsafe {
+        ok(
+            imap_run_params_default(p.as_mut_ptr(), std::mem::size_of::<ImapRunParams>()),
+            std::ptr::null(),
+        );
+        p.assume_init()
+    }
+}
+
+/// Item 3: a thread's message is its own. While one thread runs, two others get
+/// IMAP_ERR_BUSY over and over: each one's message pointer stays valid and unchanged
+/// however often the other fails, and the running thread's own earlier message survives.
+#[test]
+fn item03_error_messages_belong_to_the_calling_thread() {
+    let (h, mesh, _) = scene();
+    let ctx = h.0;
+    // The running thread's own failure, before the run: a bad band.
+    let mut out = [0.0; 512];
+    // SAFETY: valid handle and buffer.
+    let s = unsafe { imap_get_vertex_energy(ctx, mesh, 0, 9, out.as_mut_ptr(), out.len()) };
+    assert_eq!(s, ImapStatus::ImapErrIndexOutOfRange);
+    let mine = message(ctx);
+    assert!(mine.contains("band 9"), "{mine}");
+    let stop = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
+    let pollers: Vec<_> = (0..2)
+        .map(|_| {
+            let stop = stop.clone();
+            std::thread::spawn(move || {
+                // The whole handle moves in (a closure would capture only the raw field).
+                let h = h;
+                let ctx = h.0;
+                let mut out = [0.0; 512];
+                let mut first: Option<(usize, String)> = None;
+                let mut busy = 0;
+                while !stop.load(std::sync::atomic::Ordering::Relaxed) {
+                    // SAFETY: valid handle and buffer.
+                    let s = unsafe {
+                        imap_get_vertex_energy(ctx, mesh, 0, 0, out.as_mut_ptr(), out.len())
+                    };
+                    if s != ImapStatus::ImapErrBusy {
+                        continue;
+                    }
+                    busy += 1;
+                    let p = imap_last_error_ptr(ctx);
+                    // SAFETY: the library keeps the string alive until this thread's next
+                    // failing call on ctx.
+                    let text = unsafe { CStr::from_ptr(p as *const _) }
+                        .to_string_lossy()
+                        .into_owned();
+                    match &first {
+                        None => first = Some((p, text.clone())),
+                        // Our own next failure may replace it, but only with our own text.
+                        Some((_, t0)) => assert_eq!(&text, t0),
+                    }
+                    // The pointer we hold stays readable while the other thread fails.
+                    std::thread::yield_now();
+                    let again = unsafe { CStr::from_ptr(p as *const _) }
+                        .to_string_lossy()
+                        .into_owned();
+                    assert_eq!(again, text, "the message changed under this thread");
+                }
+                busy
+            })
+        })
+        .collect();
+    let mut p = run_params();
+    p.time_budget_s = 1.0;
+    // The pollers may hold the context at the moment the run starts: then the run is the
+    // one that gets IMAP_ERR_BUSY (that is the contract), and tries again.
+    let s = loop {
+        // SAFETY: valid handle and params.
+        let s = unsafe { imap_run(ctx, &p, std::ptr::null_mut(), 0) };
+        if s != ImapStatus::ImapErrBusy {
+            break s;
+        }
+    };
+    stop.store(true, std::sync::atomic::Ordering::Relaxed);
+    ok(s, ctx);
+    let busy: Vec<u64> = pollers.into_iter().map(|t| t.join().unwrap()).collect();
+    eprintln!("BUSY answers while the run held the context: {busy:?}");
+    assert!(busy.iter().all(|&b| b > 0), "the pollers never saw the run");
+    // The running thread's message is still its own (a BUSY of its own run, above, would
+    // have been its own too: take the message again in that case).
+    let now = message(ctx);
+    assert!(
+        now == mine || now.contains("in use by another call"),
+        "{now}"
+    );
+    assert!(!now.is_empty());
+    // SAFETY: no call is using the context any more.
+    unsafe { imap_destroy(ctx) };
+}
+
+fn imap_last_error_ptr(ctx: *const ImapContext) -> usize {
+    // SAFETY: a live handle.
+    unsafe { imap_last_error(ctx) as usize }
+}
+
+/// Item 9: any int has a name, and the name of a status is its C name.
+#[test]
+fn item09_every_int_has_a_status_name() {
+    for v in [-1, 21, 22, 1_000_000, i32::MIN, i32::MAX, 14] {
+        // SAFETY: the library returns a static string for any int.
+        let name = unsafe { CStr::from_ptr(imap_status_name(v)) }
+            .to_str()
+            .unwrap();
+        assert!(name.starts_with("IMAP_"), "{v}: {name}");
+    }
+    // SAFETY: as above.
+    let busy = unsafe { CStr::from_ptr(imap_status_name(14)) };
+    assert_eq!(busy.to_str().unwrap(), "IMAP_ERR_BUSY");
+    // SAFETY: as above.
+    let unknown = unsafe { CStr::from_ptr(imap_status_name(-1)) };
+    assert_eq!(unknown.to_str().unwrap(), "IMAP_ERR_UNKNOWN_STATUS");
+}
+
+/// Versioned structs: a zeroed struct is refused with the name of its initialiser, a
+/// struct from a "newer header" with an unknown field set is refused, one with it left 0
+/// is accepted.
+#[test]
+fn versioned_structs_are_checked() {
+    let (h, _, _) = scene();
+    let ctx = h.0;
+    // SAFETY: a zeroed struct of the right size.
+    let zero: ImapRunParams = unsafe { std::mem::zeroed() };
+    // SAFETY: valid pointers.
+    let s = unsafe { imap_run(ctx, &zero, std::ptr::null_mut(), 0) };
+    assert_eq!(s, ImapStatus::ImapErrInvalidArgument);
+    assert!(
+        message(ctx).contains("imap_run_params_default"),
+        "{}",
+        message(ctx)
+    );
+    // A newer program's larger struct.
+    #[repr(C)]
+    struct Newer {
+        p: ImapRunParams,
+        new_field: u64,
+    }
+    let mut n = Newer {
+        p: run_params(),
+        new_field: 0,
+    };
+    let size = std::mem::size_of::<Newer>();
+    // SAFETY: `n` has `size` bytes.
+    ok(
+        unsafe { imap_run_params_default(&mut n.p, size) },
+        std::ptr::null(),
+    );
+    assert_eq!(n.p.struct_size as usize, size);
+    n.p.photons = 1000;
+    // SAFETY: valid pointers; the library reads struct_size bytes.
+    ok(unsafe { imap_run(ctx, &n.p, std::ptr::null_mut(), 0) }, ctx);
+    n.new_field = 7;
+    // SAFETY: as above.
+    let s = unsafe { imap_run(ctx, &n.p, std::ptr::null_mut(), 0) };
+    assert_eq!(s, ImapStatus::ImapErrInvalidArgument);
+    assert!(message(ctx).contains("newer imap.h"), "{}", message(ctx));
+    // An output struct too small for the first layout is refused before the run.
+    let mut r = ImapReport::default();
+    // SAFETY: as above.
+    let s = unsafe { imap_run(ctx, &run_params_with(500), &mut r, 8) };
+    assert_eq!(s, ImapStatus::ImapErrInvalidArgument);
+    let mut rep = ImapReport::default();
+    // SAFETY: as above.
+    ok(
+        unsafe { imap_get_report(ctx, &mut rep, std::mem::size_of_val(&rep)) },
+        ctx,
+    );
+    assert_eq!(rep.photons, 1000, "the refused runs traced nothing");
+    // SAFETY: no call is using the context any more.
+    unsafe { imap_destroy(ctx) };
+}
+
+fn run_params_with(photons: u64) -> ImapRunParams {
+    let mut p = run_params();
+    p.photons = photons;
+    p
+}
+
+/// Item 4 through the C ABI: a buffer larger than the mesh; out-parameters untouched on
+/// failure.
+#[test]
+fn item04_buffers_through_the_c_abi() {
+    let (h, mesh, nv) = scene();
+    let ctx = h.0;
+    // SAFETY: valid handle and params.
+    ok(
+        unsafe { imap_run(ctx, &run_params_with(5000), std::ptr::null_mut(), 0) },
+        ctx,
+    );
+    let mut out = vec![-1.0; nv + 100];
+    // SAFETY: `out` holds out.len() doubles.
+    ok(
+        unsafe { imap_get_vertex_energy(ctx, mesh, 0, 0, out.as_mut_ptr(), out.len()) },
+        ctx,
+    );
+    assert!(out[nv..].iter().all(|x| *x == -1.0));
+    let mut small = vec![-1.0; nv - 1];
+    // SAFETY: `small` holds small.len() doubles.
+    let s = unsafe { imap_get_vertex_energy(ctx, mesh, 0, 0, small.as_mut_ptr(), small.len()) };
+    assert_eq!(s, ImapStatus::ImapErrBufferTooSmall);
+    assert!(small.iter().all(|x| *x == -1.0), "written on failure");
+    // SAFETY: no call is using the context any more.
+    unsafe { imap_destroy(ctx) };
+}
+
+/// Runs this test binary's `test` in a child process with `env`; returns (stdout, stderr,
+/// exit status).
+fn child(test: &str, env: &[(&str, &str)]) -> (String, String, Option<i32>) {
+    let exe = std::env::current_exe().unwrap();
+    let mut cmd = Command::new(exe);
+    cmd.args(["--exact", test, "--nocapture", "--test-threads=1"])
+        .env("IMAP_EMBED_CHILD", "1");
+    for (k, v) in env {
+        cmd.env(k, v);
+    }
+    let out = cmd.output().unwrap();
+    (
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+        out.status.code(),
+    )
+}
+
+fn is_child() -> bool {
+    std::env::var_os("IMAP_EMBED_CHILD").is_some()
+}
+
+/// The child side of `item12_*`: a run or render with a fault injected; prints the status
+/// and whether the context answers afterwards.
+#[test]
+fn child_fault() {
+    if !is_child() {
+        return;
+    }
+    let what = std::env::var("IMAP_TEST_FAULT").unwrap();
+    // Portions must reach the processing threads for one of them to fail.
+    let (h, _, _) = scene_with(|c| c.inline_apply = IMAP_INLINE_NEVER);
+    let ctx = h.0;
+    let t = Instant::now();
+    let s = if what == "render-panic" {
+        let mut cam = std::mem::MaybeUninit::<ImapCamera>::uninit();
+        let mut rp = std::mem::MaybeUninit::<ImapRenderParams>::uninit();
+        // SAFETY: out-pointers hold their struct sizes; the buffers below are large enough.
+        unsafe {
+            ok(
+                imap_camera_default(cam.as_mut_ptr(), std::mem::size_of::<ImapCamera>()),
+                ctx,
+            );
+            ok(
+                imap_render_params_default(
+                    rp.as_mut_ptr(),
+                    std::mem::size_of::<ImapRenderParams>(),
+                ),
+                ctx,
+            );
+            let mut cam = cam.assume_init();
+            let mut rp = rp.assume_init();
+            cam.position = [0.5, 0.5, 2.0];
+            cam.width = 16;
+            cam.height = 16;
+            rp.passes = 4;
+            let mut img = vec![0.0; 16 * 16 * 3];
+            imap_render(
+                ctx,
+                &cam,
+                &rp,
+                img.as_mut_ptr(),
+                img.len(),
+                std::ptr::null_mut(),
+                0,
+                std::ptr::null_mut(),
+                0,
+            )
+        }
+    } else {
+        let mut p = run_params();
+        p.photons = 200_000;
+        p.progress_interval_s = 0.01;
+        // SAFETY: valid handle and params.
+        unsafe { imap_run(ctx, &p, std::ptr::null_mut(), 0) }
+    };
+    let secs = t.elapsed().as_secs_f64();
+    let mut rep = ImapReport::default();
+    // SAFETY: valid handle and buffer.
+    let after = unsafe { imap_get_report(ctx, &mut rep, std::mem::size_of_val(&rep)) };
+    println!(
+        "CHILD {what}: status {s:?} after {secs:.2} s, message \"{}\"; then imap_get_report: {after:?}",
+        message(ctx)
+    );
+    // SAFETY: no call is using the context any more.
+    unsafe { imap_destroy(ctx) };
+}
+
+/// Items 12 and the lost-thread paths: a worker that panics (calculating thread,
+/// processing thread, render thread) or a monitor that unwinds: the call returns a status
+/// in bounded time, the context answers afterwards (not stuck BUSY), and nothing is
+/// printed on stderr.
+#[test]
+fn item12_lost_threads_return_a_status_and_print_nothing() {
+    if is_child() {
+        return;
+    }
+    for (fault, want) in [
+        ("calc-panic", "ImapErrThreadLost"),
+        ("process-panic", "ImapErrThreadLost"),
+        ("monitor-panic", "ImapErrInternal"),
+        ("render-panic", "ImapErrThreadLost"),
+    ] {
+        let t = Instant::now();
+        let (out, err, code) = child("child_fault", &[("IMAP_TEST_FAULT", fault)]);
+        let line = out
+            .lines()
+            .find_map(|l| l.find("CHILD").map(|i| &l[i..]))
+            .unwrap_or_else(|| {
+                panic!("{fault}: no result (exit {code:?}); stdout:\n{out}\nstderr:\n{err}")
+            });
+        eprintln!("{line}");
+        assert!(line.contains(want), "{fault}: {line}");
+        assert!(line.ends_with("imap_get_report: ImapOk"), "{fault}: {line}");
+        assert!(t.elapsed() < Duration::from_secs(60), "{fault}: too slow");
+        assert!(
+            !err.contains("panicked"),
+            "{fault}: the library printed on stderr:\n{err}"
+        );
+        assert_eq!(code, Some(0), "{fault}: child exit");
+    }
+}
+
+fn vm_size() -> u64 {
+    let status = std::fs::read_to_string("/proc/self/status").unwrap();
+    let line = status.lines().find(|l| l.starts_with("VmSize:")).unwrap();
+    line.split_whitespace()
+        .nth(1)
+        .unwrap()
+        .parse::<u64>()
+        .unwrap()
+        * 1024
+}
+
+fn limit_address_space(bytes: u64) {
+    let lim = libc_rlimit(bytes);
+    // SAFETY: setrlimit with a valid struct; the hard limit stays as it was.
+    let r = unsafe {
+        setrlimit(9 /* RLIMIT_AS */, &lim)
+    };
+    assert_eq!(r, 0, "setrlimit");
+}
+
+#[repr(C)]
+struct RLimit {
+    cur: u64,
+    max: u64,
+}
+
+fn libc_rlimit(cur: u64) -> RLimit {
+    RLimit { cur, max: u64::MAX }
+}
+
+extern "C" {
+    fn setrlimit(resource: i32, rlim: *const RLimit) -> i32;
+}
+
+/// The child side of `item05_*`: under an address-space limit, adding a mesh whose copy
+/// does not fit, and preparing a scene that does not fit, return IMAP_ERR_OUT_OF_MEMORY;
+/// with the limit raised again the same context works.
+#[test]
+fn child_oom() {
+    if !is_child() {
+        return;
+    }
+    let (h, mesh, _) = scene();
+    let ctx = h.0;
+    // SAFETY: valid handle and params.
+    ok(
+        unsafe { imap_run(ctx, &run_params_with(2000), std::ptr::null_mut(), 0) },
+        ctx,
+    );
+    // SAFETY: as above.
+    ok(unsafe { imap_reset(ctx) }, ctx);
+    // The caller's arrays: a 2449 × 2449 grid, 6 M vertices (144 MB) and 12 M triangles
+    // (144 MB).
+    let n = 2449u32;
+    let nv = ((n + 1) * (n + 1)) as usize;
+    let mut xyz = Vec::with_capacity(3 * nv);
+    for j in 0..=n {
+        for i in 0..=n {
+            xyz.extend([i as f64 / n as f64, j as f64 / n as f64, 0.0]);
+        }
+    }
+    let mut idx = Vec::with_capacity(6 * (n * n) as usize);
+    for j in 0..n {
+        for i in 0..n {
+            let a = j * (n + 1) + i;
+            idx.extend([a, a + 1, a + n + 2, a, a + n + 2, a + n + 1]);
+        }
+    }
+    let mut d = unsafe { std::mem::zeroed::<ImapMesh>() };
+    // SAFETY: `d` holds sizeof(ImapMesh) bytes.
+    ok(
+        unsafe { imap_mesh_default(&mut d, std::mem::size_of_val(&d)) },
+        ctx,
+    );
+    d.positions = xyz.as_ptr();
+    d.vertex_count = nv;
+    d.indices = idx.as_ptr();
+    d.triangle_count = idx.len() / 3;
+    d.flags = IMAP_MESH_RECORD;
+    // 1. The copy cannot be made: 64 MB of room for a 216 MB copy.
+    limit_address_space(vm_size() + (64 << 20));
+    let mut id = u32::MAX;
+    // SAFETY: valid pointers.
+    let s = unsafe { imap_add_mesh(ctx, &d, &mut id) };
+    println!("CHILD add_mesh under the limit: {s:?} \"{}\"", message(ctx));
+    assert_eq!(id, u32::MAX, "out_id written on failure");
+    // The context is intact and usable under the limit.
+    let mut out = vec![0.0; 17 * 17];
+    // SAFETY: valid pointers.
+    let after = unsafe { imap_run(ctx, &run_params_with(2000), std::ptr::null_mut(), 0) };
+    let read = unsafe { imap_get_vertex_energy(ctx, mesh, 0, 0, out.as_mut_ptr(), out.len()) };
+    println!(
+        "CHILD small run under the limit: {after:?}, read {read:?}, sum {}",
+        out.iter().sum::<f64>()
+    );
+    // 2. With room, the mesh goes in; preparing it cannot, under the limit.
+    limit_address_space(u64::MAX);
+    // SAFETY: as above.
+    ok(unsafe { imap_reset(ctx) }, ctx);
+    ok(unsafe { imap_add_mesh(ctx, &d, &mut id) }, ctx);
+    drop(xyz);
+    drop(idx);
+    limit_address_space(vm_size() + (64 << 20));
+    // SAFETY: as above.
+    let s = unsafe { imap_run(ctx, &run_params_with(2000), std::ptr::null_mut(), 0) };
+    println!(
+        "CHILD run (prepare) under the limit: {s:?} \"{}\"",
+        message(ctx)
+    );
+    limit_address_space(u64::MAX);
+    // SAFETY: as above.
+    let s = unsafe { imap_run(ctx, &run_params_with(2000), std::ptr::null_mut(), 0) };
+    println!("CHILD run with room again: {s:?}");
+    // SAFETY: no call is using the context any more.
+    unsafe { imap_destroy(ctx) };
+}
+
+/// Item 5: running out of memory is a status, never an abort, and the context survives.
+#[test]
+fn item05_out_of_memory_is_a_status() {
+    if is_child() {
+        return;
+    }
+    let (out, err, code) = child("child_oom", &[]);
+    let lines: Vec<&str> = out
+        .lines()
+        .filter_map(|l| l.find("CHILD").map(|i| &l[i..]))
+        .collect();
+    for l in &lines {
+        eprintln!("{l}");
+    }
+    assert_eq!(
+        code,
+        Some(0),
+        "child exit (an abort shows here)\n{out}\n{err}"
+    );
+    assert_eq!(lines.len(), 4, "{out}\n{err}");
+    assert!(lines[0].contains("ImapErrOutOfMemory"), "{}", lines[0]);
+    assert!(lines[1].contains("ImapOk, read ImapOk"), "{}", lines[1]);
+    assert!(lines[2].contains("ImapErrOutOfMemory"), "{}", lines[2]);
+    assert!(lines[3].ends_with("ImapOk"), "{}", lines[3]);
+    assert!(!err.contains("memory allocation"), "{err}");
+}
