@@ -1,0 +1,94 @@
+//! The memory budget bounds the whole context: a scene admitted under a budget of 128 MB
+//! runs (both schedulers) and renders without the process's peak resident memory growing
+//! by more than the budget. One test in its own binary, so the peak is this case's alone.
+
+mod common;
+
+use common::*;
+use imap::{CameraDesc, Config, ImapStatus, RenderMethod, RenderParams, SchedulerKind};
+
+/// Peak resident set size of this process, bytes (Linux: VmHWM).
+fn peak_rss() -> u64 {
+    let status = std::fs::read_to_string("/proc/self/status").unwrap();
+    let line = status.lines().find(|l| l.starts_with("VmHWM:")).unwrap();
+    let kb: u64 = line.split_whitespace().nth(1).unwrap().parse().unwrap();
+    kb * 1024
+}
+
+#[test]
+fn a_scene_admitted_under_a_budget_stays_within_it() {
+    const BUDGET: u64 = 128 << 20;
+    let start = peak_rss();
+    // The largest square grid the model admits (RGB: 4 values of 8 bytes per vertex).
+    let cost = |n: u64| {
+        let (nv, nt) = ((n + 1) * (n + 1), 2 * n * n);
+        let (held, transient) = imap::context::memory::mesh_bytes(nv, nt, false, true, false);
+        held + transient + imap::context::memory::map_bytes(nv, 3)
+    };
+    let mut n = 100;
+    while cost(n + 10) < BUDGET * 9 / 10 {
+        n += 10;
+    }
+    let g = grid(n as usize, -5.0, 5.0, -5.0, 5.0, 0.0);
+    let caller = (g.positions.len() * 8 + g.indices.len() * 4) as u64;
+    let mut ctx = context(Config {
+        memory_budget: BUDGET,
+        threads: 2,
+        ..Default::default()
+    });
+    let grey = lambert(&mut ctx, 0.5);
+    ctx.add_mesh(&g.desc(grey)).unwrap();
+    let tris = g.indices.len() / 3;
+    ctx.add_point_light([1.0, -2.0, 4.0], &[100.0]).unwrap();
+    let estimate = ctx.memory_estimate();
+    run_photons(&mut ctx, 200_000);
+    ctx.set_scheduler(SchedulerKind::Classic, Default::default())
+        .unwrap();
+    run_photons(&mut ctx, 200_000);
+    let mut rp = RenderParams {
+        method: RenderMethod::SemiSynchronous,
+        group_threads: 1,
+        remask_phases: 4,
+        forward_per_pass: 0,
+        initial_radius: 0.0,
+        alpha: 0.0,
+        passes: 3,
+        time_budget_s: 0.0,
+        target_rel_error: 0.0,
+        progress_interval_s: 0.5,
+        max_path_events: 1 << 20,
+        progress: None,
+    };
+    let cam = CameraDesc {
+        position: [0.0, -12.0, 6.0],
+        direction: [0.0, 12.0, -6.0],
+        up: [0.0, 0.0, 1.0],
+        fov_y_deg: 50.0,
+        width: 256,
+        height: 256,
+    };
+    ctx.render(&cam, &mut rp).unwrap();
+    // The process's growth, less the caller's own arrays (the scene as the caller holds
+    // it), is what the context took at its peak.
+    let peak = peak_rss() - start - caller;
+    eprintln!(
+        "{tris} triangles admitted under {} MiB: model {} MiB, peak growth of the process {} MiB besides the caller's {} MiB of arrays, over two runs and a render",
+        BUDGET >> 20,
+        estimate >> 20,
+        peak >> 20,
+        caller >> 20
+    );
+    assert!(estimate <= BUDGET);
+    assert!(
+        peak <= BUDGET,
+        "peak {peak} bytes over a budget of {BUDGET}"
+    );
+    drop(g);
+    // More than the model keeps is not admitted.
+    let mut more = ctx;
+    more.reset();
+    let e = more
+        .add_mesh(&grid(n as usize / 2, 6.0, 7.0, 6.0, 7.0, 0.0).desc(0))
+        .unwrap_err();
+    assert_eq!(e.status, ImapStatus::ImapErrMemoryBudget, "{e}");
+}
