@@ -1042,8 +1042,8 @@ enum ImapStatus imap_run_params_default(struct ImapRunParams *out, size_t size);
  * values, struct sizes; the message names the field), IMAP_ERR_NON_FINITE,
  * IMAP_ERR_NO_GEOMETRY, IMAP_ERR_NO_LIGHT, IMAP_ERR_PRECISION, IMAP_ERR_MEMORY_BUDGET,
  * IMAP_ERR_OUT_OF_MEMORY, IMAP_ERR_EMBREE, IMAP_ERR_BUSY, IMAP_ERR_THREAD_LOST (a worker
- * thread panicked; the photons of its unfinished batch are missing from the map; the
- * message says how many at most).
+ * thread panicked — a bug, please report it: what it had not yet handed over is missing
+ * from the map while its photons are counted; reset and run again for an exact map).
  *
  * # Safety
  * `ctx` is a live handle; `params` points to an `ImapRunParams`; `report` is NULL or

@@ -15,6 +15,9 @@ JOBS=$(nproc)
 echo "== cargo test (release: shares the build with CMake)"
 cargo test --release --workspace --all-targets
 
+echo "== ABI of libimap.so against the baseline in abi/ (abidiff and the header's layout)"
+scripts/abi-check.sh target/release/libimap.so
+
 echo "== loom: the vertex-group split protocol and the photon maps' active-thread counter"
 RUSTFLAGS="--cfg loom" CARGO_TARGET_DIR=target/loom cargo test --release --test loom_groups --test loom_gate
 
@@ -28,6 +31,17 @@ TMP=$(mktemp -d)
 trap 'rm -rf "$TMP"' EXIT
 cmake --install build --prefix "$TMP/first" >/dev/null
 mv "$TMP/first" "$TMP/prefix"
+# Bundled Embree and TBB live in a private directory, never beside system libraries.
+if ls "$TMP/prefix/lib/"libtbb* "$TMP/prefix/lib/"libembree* >/dev/null 2>&1; then
+  echo "installed Embree/TBB into PREFIX/lib, where they shadow system libraries" >&2; exit 1
+fi
+REAL=$(ls "$TMP/prefix/lib/"libimap.so.*.*.*)
+readelf -d "$REAL" | grep -q 'RUNPATH.*\[\$ORIGIN/imap\]' || { echo "libimap's runpath is not \$ORIGIN/imap" >&2; exit 1; }
+if [ -e "$EMBREE_DIR/libtbb.so.12" ] && [ "${EMBREE_DIR#/usr/}" = "$EMBREE_DIR" ]; then
+  [ -e "$TMP/prefix/lib/imap/libtbb.so.12" ] && [ -e "$TMP/prefix/lib/imap/libembree4.so.4" ] \
+    || { echo "bundled Embree/TBB missing from PREFIX/lib/imap" >&2; exit 1; }
+fi
+echo "installed layout: libimap in lib/, Embree and TBB in lib/imap/ (runpath \$ORIGIN/imap)"
 cmake -S c_examples -B "$TMP/examples" -DCMAKE_PREFIX_PATH="$TMP/prefix" >/dev/null
 cmake --build "$TMP/examples" -j "$JOBS"
 PKG_CONFIG_PATH="$TMP/prefix/lib/pkgconfig" cc -std=c11 -Wall -Wextra -Wpedantic -Werror \

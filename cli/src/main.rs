@@ -2,6 +2,10 @@
 //! error-against-time history.
 
 mod cornell;
+mod diag;
+mod materials;
+mod mtl;
+mod obj;
 mod output;
 mod scene;
 mod validate;
@@ -10,6 +14,8 @@ use clap::{Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
 use scene::{fail, CameraSettings, CliError, Result, Settings};
 use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, OnceLock};
 use std::time::Instant;
 
 #[derive(Parser)]
@@ -90,7 +96,10 @@ fn main() {
         Command::Validate { photons } => validate_cmd(photons),
     };
     if let Err(e) = result {
-        eprintln!("imap: error: {e}");
+        // Nothing read from an input reaches the terminal raw, whatever the message.
+        for line in e.0.lines() {
+            eprintln!("imap: error: {}", diag::printable(line));
+        }
         std::process::exit(2);
     }
 }
@@ -117,6 +126,52 @@ fn apply_options(settings: &mut Settings, opts: &RunOptions) {
     }
 }
 
+/// SIGINT and SIGTERM: the first stops the run at its next progress check, and the
+/// outputs of what was computed are written (marked interrupted) before the command exits
+/// with 128 + the signal's number; a second signal exits at once.
+struct Interrupts {
+    any: Arc<AtomicBool>,
+    int: Arc<AtomicBool>,
+    term: Arc<AtomicBool>,
+}
+
+impl Interrupts {
+    fn get() -> &'static Interrupts {
+        static I: OnceLock<Interrupts> = OnceLock::new();
+        I.get_or_init(|| {
+            let i = Interrupts {
+                any: Arc::new(AtomicBool::new(false)),
+                int: Arc::new(AtomicBool::new(false)),
+                term: Arc::new(AtomicBool::new(false)),
+            };
+            use signal_hook::consts::{SIGINT, SIGTERM};
+            for (sig, own) in [(SIGINT, &i.int), (SIGTERM, &i.term)] {
+                // Registered first, runs first: exits when a signal already came.
+                let _ =
+                    signal_hook::flag::register_conditional_shutdown(sig, 128 + sig, i.any.clone());
+                let _ = signal_hook::flag::register(sig, i.any.clone());
+                let _ = signal_hook::flag::register(sig, own.clone());
+            }
+            i
+        })
+    }
+
+    fn raised(&self) -> bool {
+        self.any.load(Ordering::Relaxed)
+    }
+
+    /// The exit status for the signal that came: 130 (SIGINT) or 143 (SIGTERM).
+    fn status(&self) -> Option<i32> {
+        if self.int.load(Ordering::Relaxed) {
+            Some(130)
+        } else if self.term.load(Ordering::Relaxed) {
+            Some(143)
+        } else {
+            None
+        }
+    }
+}
+
 /// Loads, runs with a progress bar, and writes the outputs; returns the report.
 fn run_scene(obj: &Path, mut settings: Settings, opts: &RunOptions) -> Result<serde_json::Value> {
     apply_options(&mut settings, opts);
@@ -124,9 +179,23 @@ fn run_scene(obj: &Path, mut settings: Settings, opts: &RunOptions) -> Result<se
     if !(r.photons > 0 || r.time_s > 0.0 || r.target_error > 0.0) {
         fail!("no stop criterion: give photons, time or target_error (settings [run] or --photons/--time/--target-error)");
     }
+    // Everything that can be checked is checked before tracing: a mistake found after an
+    // hour's run would throw the hour away.
+    if let Some(c) = &settings.camera {
+        c.validate()?;
+    }
     let (mut ctx, scene) = scene::load(obj, &settings)?;
+    for w in &scene.warnings {
+        eprintln!("imap: warning: {}", diag::printable(w));
+    }
+    let cam: CameraSettings = settings
+        .camera
+        .clone()
+        .unwrap_or_else(|| output::default_camera(&scene));
+    cam.validate()?;
     std::fs::create_dir_all(&opts.out)
         .map_err(|e| CliError(format!("{}: {e}", opts.out.display())))?;
+    let interrupted = Interrupts::get();
 
     let bar = if opts.quiet {
         ProgressBar::hidden()
@@ -166,7 +235,7 @@ fn run_scene(obj: &Path, mut settings: Settings, opts: &RunOptions) -> Result<se
             rate / 1e6,
             100.0 * p.rel_error
         ));
-        true
+        !interrupted.raised()
     };
     let t0 = Instant::now();
     let report = ctx.run(&mut imap::RunParams {
@@ -179,19 +248,10 @@ fn run_scene(obj: &Path, mut settings: Settings, opts: &RunOptions) -> Result<se
     })?;
     let wall = t0.elapsed().as_secs_f64();
     bar.finish_and_clear();
+    let was_interrupted = interrupted.raised();
 
     let maps = output::read_maps(&ctx, &scene)?;
-    let out = &opts.out;
-    output::write_csv(&out.join("irradiance.csv"), &scene, &maps)?;
-    output::write_ply(&out.join("irradiance.ply"), &scene, &maps)?;
-    output::plot_convergence(&out.join("convergence.png"), ctx.history())?;
-    let cam: CameraSettings = settings
-        .camera
-        .clone()
-        .unwrap_or_else(|| output::default_camera(&scene));
     let img = output::render_view(&scene, &maps, &cam)?;
-    output::write_png(&out.join("view.png"), cam.width, cam.height, &img)?;
-
     let history: Vec<serde_json::Value> = ctx
         .history()
         .iter()
@@ -203,6 +263,11 @@ fn run_scene(obj: &Path, mut settings: Settings, opts: &RunOptions) -> Result<se
         })
         .collect();
     let c = report.counters;
+    let stop = if was_interrupted {
+        "Interrupted".to_string()
+    } else {
+        format!("{:?}", report.stop.unwrap_or(imap::StopReason::PhotonCount))
+    };
     let json = serde_json::json!({
         "scene": obj.display().to_string(),
         "settings": settings,
@@ -212,7 +277,9 @@ fn run_scene(obj: &Path, mut settings: Settings, opts: &RunOptions) -> Result<se
             "triangles": m.indices.len() / 3, "recorded": m.id.is_some(),
             "emitting": m.emission.is_some()
         })).collect::<Vec<_>>(),
-        "stop": format!("{:?}", report.stop.unwrap_or(imap::StopReason::PhotonCount)),
+        "warnings": scene.warnings,
+        "interrupted": was_interrupted,
+        "stop": stop,
         "photons": report.photons,
         "hits": report.hits,
         "run_s": report.elapsed_s,
@@ -235,17 +302,33 @@ fn run_scene(obj: &Path, mut settings: Settings, opts: &RunOptions) -> Result<se
         "history": history,
         "outputs": ["irradiance.csv", "irradiance.ply", "report.json", "convergence.png", "view.png"],
     });
-    let path = out.join("report.json");
+    // Every output is written to a temporary file first and renamed into place once all
+    // are complete: an interrupted write never leaves a truncated file, and the outputs
+    // of one run are never mixed with an older run's.
+    let out = &opts.out;
+    let mut files = output::Outputs::new(out);
+    output::write_csv(&files.temp("irradiance.csv")?, &scene, &maps)?;
+    output::write_ply(&files.temp("irradiance.ply")?, &scene, &maps)?;
+    output::plot_convergence(&files.temp("convergence.png")?, ctx.history())?;
+    output::write_png(&files.temp("view.png")?, cam.width, cam.height, &img)?;
+    let path = files.temp("report.json")?;
     std::fs::write(&path, serde_json::to_string_pretty(&json).unwrap())
         .map_err(|e| CliError(format!("{}: {e}", path.display())))?;
+    files.commit()?;
     println!(
-        "{} photons in {:.1} s ({:?}), estimated error {:.2} %; wrote {}/{{irradiance.csv, irradiance.ply, report.json, convergence.png, view.png}}",
+        "{} photons in {:.1} s ({stop}), estimated error {:.2} %; wrote {}/{{irradiance.csv, irradiance.ply, report.json, convergence.png, view.png}}",
         report.photons,
         report.elapsed_s,
-        report.stop.unwrap_or(imap::StopReason::PhotonCount),
         100.0 * report.rel_error,
         out.display()
     );
+    if let Some(code) = interrupted.status() {
+        eprintln!(
+            "imap: interrupted: the outputs hold the {} photons traced until then",
+            report.photons
+        );
+        std::process::exit(code);
+    }
     Ok(json)
 }
 

@@ -5,7 +5,71 @@ use crate::scene::{fail, CameraSettings, CliError, LoadedScene, Result};
 use glam::DVec3;
 use imap::{Context, Progress};
 use std::io::Write;
-use std::path::Path;
+use std::path::{Path, PathBuf};
+
+/// A set of output files written to temporary names and renamed into place together once
+/// all are complete (`commit`); dropped uncommitted, the temporary files are removed.
+pub struct Outputs {
+    dir: PathBuf,
+    files: Vec<(PathBuf, PathBuf)>,
+}
+
+impl Outputs {
+    pub fn new(dir: &Path) -> Self {
+        Outputs {
+            dir: dir.to_path_buf(),
+            files: Vec::new(),
+        }
+    }
+
+    /// The temporary path to write `name` to (hidden, with the same extension: writers
+    /// that choose a format by extension keep working).
+    pub fn temp(&mut self, name: &str) -> Result<PathBuf> {
+        let (stem, ext) = name.rsplit_once('.').unwrap_or((name, "tmp"));
+        let tmp = self
+            .dir
+            .join(format!(".{stem}.tmp-{}.{ext}", std::process::id()));
+        self.files.push((tmp.clone(), self.dir.join(name)));
+        Ok(tmp)
+    }
+
+    /// Renames every temporary file into place.
+    pub fn commit(mut self) -> Result<()> {
+        for (tmp, dst) in std::mem::take(&mut self.files) {
+            std::fs::rename(&tmp, &dst).map_err(|e| CliError(format!("{}: {e}", dst.display())))?;
+        }
+        Ok(())
+    }
+}
+
+impl Drop for Outputs {
+    fn drop(&mut self) {
+        for (tmp, _) in &self.files {
+            let _ = std::fs::remove_file(tmp);
+        }
+    }
+}
+
+impl CameraSettings {
+    /// Checks the camera before any work is done.
+    pub fn validate(&self) -> Result<()> {
+        let (w, h) = (self.width as usize, self.height as usize);
+        if w == 0 || h == 0 || w > 8192 || h > 8192 {
+            fail!("camera: image size {w}×{h} is not in 1..=8192");
+        }
+        if !(self.fov_deg > 0.0 && self.fov_deg < 180.0) {
+            fail!("camera: fov_deg = {} is not in (0, 180)", self.fov_deg);
+        }
+        let eye = DVec3::from(self.position);
+        let Some(fwd) = (DVec3::from(self.look_at) - eye).try_normalize() else {
+            fail!("camera: look_at must differ from position (and both be finite)");
+        };
+        if fwd.cross(DVec3::from(self.up)).try_normalize().is_none() {
+            fail!("camera: up is zero or parallel to the view direction");
+        }
+        Ok(())
+    }
+}
 
 /// Per-vertex results of one recorded mesh, front side.
 pub struct MeshMap {
@@ -44,6 +108,9 @@ fn io(path: &Path) -> impl Fn(std::io::Error) -> CliError + '_ {
     move |e| CliError(format!("{}: {e}", path.display()))
 }
 
+/// The map as CSV: one row per recorded vertex, in the order of the file's `v`
+/// statements (`vertex` is that 1-based index; a vertex two objects share has a row for
+/// each), coordinates as the file wrote them.
 pub fn write_csv(path: &Path, scene: &LoadedScene, maps: &[Option<MeshMap>]) -> Result<()> {
     let mut f = create(path)?;
     let err = io(path);
@@ -60,17 +127,41 @@ pub fn write_csv(path: &Path, scene: &LoadedScene, maps: &[Option<MeshMap>]) -> 
         })
         .collect();
     writeln!(f, "mesh,vertex,x,y,z,{},rel_error", bands.join(",")).map_err(&err)?;
-    for (m, map) in scene.meshes.iter().zip(maps) {
-        let Some(map) = map else { continue };
-        for (v, p) in m.positions.chunks_exact(3).enumerate() {
-            write!(f, "{},{v},{},{},{}", m.name, p[0], p[1], p[2]).map_err(&err)?;
-            for e in &map.e {
-                write!(f, ",{}", e[v]).map_err(&err)?;
-            }
-            writeln!(f, ",{}", map.rel_error[v]).map_err(&err)?;
+    let mut rows: Vec<(u32, usize, usize)> = Vec::new();
+    for (mi, (m, map)) in scene.meshes.iter().zip(maps).enumerate() {
+        if map.is_some() {
+            rows.extend(m.file_vertex.iter().enumerate().map(|(v, &fv)| (fv, mi, v)));
         }
     }
+    rows.sort_unstable();
+    for (fv, mi, v) in rows {
+        let (m, map) = (&scene.meshes[mi], maps[mi].as_ref().expect("recorded"));
+        let p = &m.positions[3 * v..3 * v + 3];
+        write!(
+            f,
+            "{},{},{},{},{}",
+            csv_field(&m.name),
+            fv + 1,
+            p[0],
+            p[1],
+            p[2]
+        )
+        .map_err(&err)?;
+        for e in &map.e {
+            write!(f, ",{}", e[v]).map_err(&err)?;
+        }
+        writeln!(f, ",{}", map.rel_error[v]).map_err(&err)?;
+    }
     f.flush().map_err(&err)
+}
+
+/// A CSV field, quoted when it holds a comma, a quote or a line break.
+fn csv_field(s: &str) -> String {
+    if s.contains([',', '"', '\n', '\r']) {
+        format!("\"{}\"", s.replace('"', "\"\""))
+    } else {
+        s.to_string()
+    }
 }
 
 /// Band values → linear RGB: RGB runs as they are, spectral runs averaged over the
@@ -141,7 +232,7 @@ fn vertex_colours(scene: &LoadedScene, maps: &[Option<MeshMap>]) -> Vec<Vec<[f64
                         .map(|b| {
                             let e = map.as_ref().map_or(0.0, |mm| mm.e[b][v]);
                             let emit = m.emission.as_ref().map_or(0.0, |x| x[b]);
-                            m.diffuse[b] * e + emit
+                            m.diffuse[v][b] * e + emit
                         })
                         .collect();
                     to_rgb(&vals, &scene.band_nm, scene.rgb)
@@ -169,7 +260,7 @@ pub fn write_ply(path: &Path, scene: &LoadedScene, maps: &[Option<MeshMap>]) -> 
     let err = io(path);
     write!(
         f,
-        "ply\nformat ascii 1.0\ncomment libimap illumination map: irradiance = band-mean E in W/m2, colour = tone-mapped reflected light\nelement vertex {nv}\nproperty float x\nproperty float y\nproperty float z\nproperty uchar red\nproperty uchar green\nproperty uchar blue\nproperty float irradiance\nproperty float rel_error\nelement face {nf}\nproperty list uchar int vertex_indices\nend_header\n"
+        "ply\nformat ascii 1.0\ncomment libimap illumination map: irradiance = band-mean E in W/m2, colour = tone-mapped reflected light\nelement vertex {nv}\nproperty double x\nproperty double y\nproperty double z\nproperty uchar red\nproperty uchar green\nproperty uchar blue\nproperty float irradiance\nproperty float rel_error\nelement face {nf}\nproperty list uchar int vertex_indices\nend_header\n"
     )
     .map_err(&err)?;
     for &i in &recorded {
@@ -180,14 +271,7 @@ pub fn write_ply(path: &Path, scene: &LoadedScene, maps: &[Option<MeshMap>]) -> 
             writeln!(
                 f,
                 "{} {} {} {} {} {} {} {}",
-                p[0] as f32,
-                p[1] as f32,
-                p[2] as f32,
-                c[0],
-                c[1],
-                c[2],
-                mean as f32,
-                map.rel_error[v] as f32
+                p[0], p[1], p[2], c[0], c[1], c[2], mean as f32, map.rel_error[v] as f32
             )
             .map_err(&err)?;
         }
@@ -247,17 +331,21 @@ pub fn render_view(
     maps: &[Option<MeshMap>],
     cam: &CameraSettings,
 ) -> Result<Vec<u8>> {
+    Ok(rasterize(scene, maps, cam)?.0)
+}
+
+/// `render_view`, and the number of pixels the rasteriser visited (its cost).
+fn rasterize(
+    scene: &LoadedScene,
+    maps: &[Option<MeshMap>],
+    cam: &CameraSettings,
+) -> Result<(Vec<u8>, u64)> {
+    let mut visited = 0u64;
+    cam.validate()?;
     let (w, h) = (cam.width as usize, cam.height as usize);
-    if w == 0 || h == 0 || w > 8192 || h > 8192 {
-        fail!("camera: image size {w}×{h} is not in 1..=8192");
-    }
     let eye = DVec3::from(cam.position);
-    let Some(fwd) = (DVec3::from(cam.look_at) - eye).try_normalize() else {
-        fail!("camera: look_at must differ from position (and both be finite)");
-    };
-    let Some(right) = fwd.cross(DVec3::from(cam.up)).try_normalize() else {
-        fail!("camera: up is parallel to the view direction");
-    };
+    let fwd = (DVec3::from(cam.look_at) - eye).normalize();
+    let right = fwd.cross(DVec3::from(cam.up)).normalize();
     let up = right.cross(fwd);
     let f = 1.0 / (cam.fov_deg.to_radians() / 2.0).tan();
     let aspect = w as f64 / h as f64;
@@ -297,19 +385,34 @@ pub fn render_view(
                 continue;
             }
             let cols = [0, 1, 2].map(|k| colours[mi][t[k] as usize]);
-            let x0 = a[0].min(b[0]).min(c[0]).floor().max(0.0) as usize;
-            let x1 = (a[0].max(b[0]).max(c[0]).ceil() as usize).min(sw);
             let y0 = a[1].min(b[1]).min(c[1]).floor().max(0.0) as usize;
-            let y1 = (a[1].max(b[1]).max(c[1]).ceil() as usize).min(sh);
+            let y1 = (a[1].max(b[1]).max(c[1]).ceil().max(0.0) as usize).min(sh);
             for y in y0..y1 {
+                // The row's span inside the triangle: where the pixel-centre line crosses
+                // its edges. Only those pixels are visited, so a long thin triangle costs
+                // its rows and its pixels, not its bounding box.
+                let py = y as f64 + 0.5;
+                let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+                for (p, q) in [(a, b), (b, c), (c, a)] {
+                    if (p[1] <= py) != (q[1] <= py) {
+                        let x = p[0] + (py - p[1]) / (q[1] - p[1]) * (q[0] - p[0]);
+                        lo = lo.min(x);
+                        hi = hi.max(x);
+                    }
+                }
+                if lo > hi {
+                    continue;
+                }
+                let x0 = (lo - 0.5).ceil().max(0.0) as usize;
+                let x1 = ((hi - 0.5).floor() + 1.0).clamp(0.0, sw as f64) as usize;
+                visited += (x1.saturating_sub(x0)) as u64;
                 for x in x0..x1 {
                     let (px, py) = (x as f64 + 0.5, y as f64 + 0.5);
                     let w0 = ((b[0] - px) * (c[1] - py) - (b[1] - py) * (c[0] - px)) / area;
                     let w1 = ((c[0] - px) * (a[1] - py) - (c[1] - py) * (a[0] - px)) / area;
                     let w2 = 1.0 - w0 - w1;
-                    if w0 < 0.0 || w1 < 0.0 || w2 < 0.0 {
-                        continue;
-                    }
+                    // On the span already; the weights only clip rounding at its ends.
+                    let (w0, w1, w2) = (w0.max(0.0), w1.max(0.0), w2.max(0.0));
                     // Perspective-correct interpolation.
                     let iz = w0 / a[2] + w1 / b[2] + w2 / c[2];
                     let depth = 1.0 / iz;
@@ -337,7 +440,7 @@ pub fn render_view(
             out.extend(tone.apply(c));
         }
     }
-    Ok(out)
+    Ok((out, visited))
 }
 
 /// convergence.png: the estimated global error against run time, log–log, with the
@@ -349,10 +452,25 @@ pub fn plot_convergence(path: &Path, history: &[Progress]) -> Result<()> {
         .filter(|p| p.elapsed_s > 0.0 && p.rel_error > 0.0 && p.rel_error < 1.0)
         .map(|p| (p.elapsed_s, p.rel_error))
         .collect();
-    if pts.is_empty() {
-        fail!("no error history to plot (the run was shorter than one progress interval)");
-    }
     let font = register_font();
+    if pts.is_empty() {
+        // Nothing to plot (no recorded surface got light yet): a plot that says so, rather
+        // than failing a run that may be right (a recorded side facing away from the light).
+        let draw = || -> std::result::Result<(), Box<dyn std::error::Error>> {
+            let root = BitMapBackend::new(path, (800, 560)).into_drawing_area();
+            root.fill(&WHITE)?;
+            if font {
+                root.draw(&Text::new(
+                    "no error estimate yet: no recorded surface received light",
+                    (120, 270),
+                    ("sans-serif", 22),
+                ))?;
+            }
+            root.present()?;
+            Ok(())
+        };
+        return draw().map_err(|e| CliError(format!("{}: {e}", path.display())));
+    }
     let (t0, t1) = (pts[0].0 * 0.8, pts.last().unwrap().0 * 1.25);
     let emin = pts.iter().map(|p| p.1).fold(f64::INFINITY, f64::min) * 0.7;
     let emax = pts.iter().map(|p| p.1).fold(0.0, f64::max) * 1.4;
@@ -439,4 +557,64 @@ fn register_font() -> bool {
         }
         false
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::LoadedMesh;
+
+    /// A fan of long thin triangles costs the pixels it covers, not its triangles' bounding
+    /// boxes: 200 000 triangles around a disk filling the view visit about the disk's
+    /// pixels (2×2 supersampled), where bounding boxes would be ~10^10.
+    #[test]
+    fn a_fan_costs_its_pixels() {
+        let n = 200_000usize;
+        let mut positions = vec![0.0, 0.0, 0.0];
+        for i in 0..n {
+            let a = 2.0 * std::f64::consts::PI * i as f64 / n as f64;
+            positions.extend([a.cos(), a.sin(), 0.0]);
+        }
+        let indices: Vec<u32> = (0..n as u32)
+            .flat_map(|i| [0, 1 + i, 1 + (i + 1) % n as u32])
+            .collect();
+        let nv = n + 1;
+        let scene = LoadedScene {
+            meshes: vec![LoadedMesh {
+                name: "fan".into(),
+                positions,
+                indices,
+                file_vertex: (0..nv as u32).collect(),
+                id: Some(0),
+                diffuse: vec![vec![0.5; 3]; nv],
+                emission: None,
+            }],
+            band_nm: vec![612.0, 549.0, 465.0],
+            rgb: true,
+            warnings: vec![],
+        };
+        let maps = vec![Some(MeshMap {
+            e: vec![vec![1.0; nv]; 3],
+            rel_error: vec![0.01; nv],
+        })];
+        let cam = CameraSettings {
+            position: [0.0, 0.0, 3.0],
+            look_at: [0.0, 0.0, 0.0],
+            up: [0.0, 1.0, 0.0],
+            fov_deg: 40.0,
+            width: 640,
+            height: 640,
+        };
+        let (img, visited) = rasterize(&scene, &maps, &cam).unwrap();
+        // The disk: radius 1 at distance 3 with a 40° field: 1/(3 tan 20°) of the half
+        // width, 0.916 × 640 = 586 supersampled pixels of radius.
+        let r = 1.0 / (3.0 * 20f64.to_radians().tan()) * 640.0;
+        let disk = std::f64::consts::PI * r * r;
+        eprintln!("fan: {visited} pixels visited for a disk of {disk:.0}");
+        assert!((visited as f64) < 1.1 * disk, "{visited} visited");
+        assert!((visited as f64) > 0.9 * disk, "{visited} visited");
+        // The centre pixel is lit.
+        let c = (320 * 640 + 320) * 3;
+        assert!(img[c] > 0);
+    }
 }

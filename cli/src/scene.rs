@@ -1,20 +1,39 @@
-//! Scenes in: OBJ + MTL through `tobj`, and the TOML settings file.
+//! Scenes in: OBJ + MTL (`obj`, `mtl`), and the TOML settings file.
 //!
-//! MTL mapping: `Kd` → Lambertian reflectance, `Ks` → specular reflectance, `Ni` with
-//! `d` < 1 or a `Tf` → dielectric (index `Ni`; `Tf` is the internal transmittance of 1 m of
-//! the material), `Ke` → self-emitting surface with exitance `Ke` W/m² per band. RGB values
-//! become spectra for spectral runs by band: below 490 nm the blue value, 490–580 nm green,
-//! above red. The TOML file can override any material with spectra of its own.
+//! MTL mapping (`materials`): `Kd` → Lambertian reflectance, `Ks` → specular reflectance,
+//! a transparent material (`d` < 1, `Tr` > 0 or `Tf`) with `Ni` > 1 → dielectric (index
+//! `Ni`; `Tf` is the internal transmittance of 1 m of the material), `Ke` → self-emitting
+//! surface with exitance `Ke` W/m² per band. RGB values become spectra for spectral runs by
+//! band: below 490 nm the blue value, 490–580 nm green, above red. The TOML file can
+//! override any material property.
 
-use imap::{Bands, Config, Context, IorModel, MaterialDesc, MeshDesc, SchedulerKind};
+use crate::diag::{printable, Diagnostics};
+use crate::materials::{self, MaterialSettings, Resolved};
+use crate::{mtl, obj};
+use imap::{Bands, Config, Context, MeshDesc, SchedulerKind};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use std::fmt;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
-/// A one-line error for the user: what, and where when a file is to blame.
+/// An error for the user, one line per problem: what, and where when a file is to blame.
 #[derive(Debug)]
 pub struct CliError(pub String);
+
+impl CliError {
+    /// Every error of a load at once (and how many more there were).
+    pub fn from_diagnostics(d: &crate::diag::Diagnostics) -> Self {
+        let mut lines = d.errors.clone();
+        if d.more > 0 {
+            lines.push(format!(
+                "... and {} more error(s) (the first {} are shown)",
+                d.more,
+                crate::diag::MAX_ERRORS
+            ));
+        }
+        CliError(lines.join("\n"))
+    }
+}
 
 impl fmt::Display for CliError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
@@ -24,7 +43,7 @@ impl fmt::Display for CliError {
 
 impl From<imap::Error> for CliError {
     fn from(e: imap::Error) -> Self {
-        CliError(format!("libimap: {}", e.message))
+        CliError(format!("libimap: {}", printable(&e.message)))
     }
 }
 
@@ -44,7 +63,7 @@ pub enum Spectrum {
 }
 
 impl Spectrum {
-    fn values(&self) -> Vec<f64> {
+    pub fn values(&self) -> Vec<f64> {
         match self {
             Spectrum::Grey(x) => vec![*x],
             Spectrum::Bands(v) => v.clone(),
@@ -126,20 +145,6 @@ pub struct LightSettings {
     pub power: Spectrum,
 }
 
-#[derive(Clone, Debug, Default, Deserialize, Serialize)]
-#[serde(deny_unknown_fields)]
-pub struct MaterialSettings {
-    pub diffuse: Option<Spectrum>,
-    pub specular: Option<Spectrum>,
-    pub transmit: Option<Spectrum>,
-    pub ior: Option<f64>,
-    /// Sellmeier coefficients (λ in µm): b and c, three each.
-    pub sellmeier: Option<[[f64; 3]; 2]>,
-    pub absorption_per_m: Option<Spectrum>,
-    /// Exitance, W/m² per band.
-    pub emission: Option<Spectrum>,
-}
-
 #[derive(Clone, Debug, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct CameraSettings {
@@ -193,14 +198,15 @@ pub struct Settings {
 
 impl Settings {
     pub fn load(path: &Path) -> Result<Self> {
-        let text = std::fs::read_to_string(path)
-            .map_err(|e| CliError(format!("{}: {e}", path.display())))?;
+        let bytes =
+            std::fs::read(path).map_err(|e| CliError(format!("{}: {e}", path.display())))?;
+        let text = crate::diag::decode(&bytes);
         toml::from_str(&text).map_err(|e| {
             let line = e
                 .span()
                 .map(|s| text[..s.start].matches('\n').count() + 1)
                 .unwrap_or(0);
-            let msg = e.message().replace('\n', " ");
+            let msg = printable(&e.message().replace('\n', " "));
             CliError(format!("{}:{line}: {msg}", path.display()))
         })
     }
@@ -223,13 +229,18 @@ impl Settings {
 
 /// One mesh as loaded, kept for the outputs.
 pub struct LoadedMesh {
+    /// The OBJ object's name (with the material's for an emitting part split off).
     pub name: String,
+    /// Positions as the file wrote them, in the file's vertex order (f64).
     pub positions: Vec<f64>,
     pub indices: Vec<u32>,
+    /// Each vertex's index among the file's `v` statements (0-based).
+    pub file_vertex: Vec<u32>,
     /// libimap's mesh id when recorded.
     pub id: Option<u32>,
-    /// Diffuse reflectance per band (for the rendered view) and exitance if emitting.
-    pub diffuse: Vec<f64>,
+    /// Diffuse reflectance per band of each vertex (the mean of its triangles'; for the
+    /// rendered view) and exitance if emitting.
+    pub diffuse: Vec<Vec<f64>>,
     pub emission: Option<Vec<f64>>,
 }
 
@@ -238,6 +249,8 @@ pub struct LoadedScene {
     pub meshes: Vec<LoadedMesh>,
     pub band_nm: Vec<f64>,
     pub rgb: bool,
+    /// Warnings of the load (printed once each).
+    pub warnings: Vec<String>,
 }
 
 impl LoadedScene {
@@ -256,95 +269,6 @@ impl LoadedScene {
     }
 }
 
-/// Checks the OBJ's statements that tobj would reject or silently accept (non-finite
-/// numbers, bad indices, unknown materials) and names the line.
-fn check_obj(path: &Path, text: &str, known_materials: Option<&[String]>) -> Result<()> {
-    let mut vertices = 0i64;
-    for (i, line) in text.lines().enumerate() {
-        let at = || format!("{}:{}", path.display(), i + 1);
-        let mut words = line.split_whitespace();
-        let Some(key) = words.next() else { continue };
-        let rest: Vec<&str> = words.collect();
-        let numbers = |n_min: usize| -> Result<()> {
-            if rest.len() < n_min {
-                fail!("{}: '{key}' needs {n_min} numbers: {line}", at());
-            }
-            for w in &rest {
-                match w.parse::<f64>() {
-                    Ok(x) if x.is_finite() => {}
-                    _ => fail!("{}: '{w}' is not a finite number", at()),
-                }
-            }
-            Ok(())
-        };
-        match key {
-            "v" => {
-                numbers(3)?;
-                vertices += 1;
-            }
-            "vn" => numbers(3)?,
-            "vt" => numbers(1)?,
-            "f" => {
-                if rest.len() < 3 {
-                    fail!("{}: a face needs at least 3 vertices: {line}", at());
-                }
-                for w in &rest {
-                    let v = w.split('/').next().unwrap_or("");
-                    let idx: i64 = v
-                        .parse()
-                        .map_err(|_| CliError(format!("{}: '{w}' is not a vertex index", at())))?;
-                    let resolved = if idx < 0 { vertices + 1 + idx } else { idx };
-                    if resolved < 1 || resolved > vertices {
-                        fail!(
-                            "{}: vertex index {idx} is out of range (1..={vertices} so far)",
-                            at()
-                        );
-                    }
-                }
-            }
-            "usemtl" => {
-                let name = rest.join(" ");
-                if let Some(known) = known_materials {
-                    if !known.contains(&name) {
-                        fail!("{}: unknown material '{name}'", at());
-                    }
-                } else {
-                    fail!("{}: material '{name}' used but no mtllib was given", at());
-                }
-            }
-            _ => {}
-        }
-    }
-    Ok(())
-}
-
-/// Checks an MTL file's numeric statements.
-fn check_mtl(path: &Path, text: &str) -> Result<Vec<String>> {
-    let mut names = Vec::new();
-    for (i, line) in text.lines().enumerate() {
-        let mut words = line.split_whitespace();
-        let Some(key) = words.next() else { continue };
-        let rest: Vec<&str> = words.collect();
-        match key {
-            "newmtl" => names.push(rest.join(" ")),
-            "Kd" | "Ks" | "Ke" | "Tf" | "Ka" | "Ni" | "d" | "Ns" | "Tr" | "illum" => {
-                for w in &rest {
-                    match w.parse::<f64>() {
-                        Ok(x) if x.is_finite() => {}
-                        _ => fail!(
-                            "{}:{}: '{w}' in '{key}' is not a finite number",
-                            path.display(),
-                            i + 1
-                        ),
-                    }
-                }
-            }
-            _ => {}
-        }
-    }
-    Ok(names)
-}
-
 /// The RGB channel (0 red, 1 green, 2 blue) that stands for a wavelength: below 490 nm
 /// blue, 490–580 nm green, above red.
 pub fn channel(nm: f64) -> usize {
@@ -357,223 +281,159 @@ pub fn channel(nm: f64) -> usize {
     }
 }
 
-/// RGB → per-band values (the band's colour channel by wavelength).
-fn expand_rgb(rgb: [f64; 3], band_nm: &[f64], is_rgb: bool) -> Vec<f64> {
-    if is_rgb {
-        return rgb.to_vec();
-    }
-    band_nm.iter().map(|&nm| rgb[channel(nm)]).collect()
+fn read(path: &Path) -> Result<Vec<u8>> {
+    std::fs::read(path)
+        .map_err(|e| CliError(format!("{}: {e}", printable(&path.display().to_string()))))
 }
 
-fn per_band(s: &Spectrum, nb: usize, what: &str) -> Result<Vec<f64>> {
-    let v = s.values();
-    match v.len() {
-        1 => Ok(vec![v[0]; nb]),
-        n if n == nb => Ok(v),
-        n => fail!("{what} has {n} values; give 1 or {nb} (one per band)"),
-    }
-}
-
-/// Builds the libimap context from an OBJ file and settings.
-pub fn load(obj: &Path, settings: &Settings) -> Result<(Context, LoadedScene)> {
-    let text =
-        std::fs::read_to_string(obj).map_err(|e| CliError(format!("{}: {e}", obj.display())))?;
-    // The MTL libraries the OBJ names, checked first so usemtl lines can be checked.
-    let dir = obj.parent().unwrap_or(Path::new("."));
-    let mut mtl_names: Option<Vec<String>> = None;
-    for (i, line) in text.lines().enumerate() {
-        if let Some(rest) = line.trim().strip_prefix("mtllib") {
-            for file in rest.split_whitespace() {
-                let p: PathBuf = dir.join(file);
-                let mtext = std::fs::read_to_string(&p).map_err(|e| {
-                    CliError(format!(
-                        "{}:{}: material library {}: {e}",
-                        obj.display(),
-                        i + 1,
-                        p.display()
-                    ))
-                })?;
-                mtl_names
-                    .get_or_insert_with(Vec::new)
-                    .extend(check_mtl(&p, &mtext)?);
-            }
-        }
-    }
-    check_obj(obj, &text, mtl_names.as_deref())?;
-    let (models, materials) = tobj::load_obj(
-        obj,
-        &tobj::LoadOptions {
-            triangulate: true,
-            single_index: true,
-            ignore_points: true,
-            ignore_lines: true,
-        },
-    )
-    .map_err(|e| CliError(format!("{}: {e}", obj.display())))?;
-    let materials = materials.map_err(|e| CliError(format!("{}: MTL: {e}", obj.display())))?;
-    for name in settings.materials.keys() {
-        if !materials.iter().any(|m| &m.name == name) {
-            fail!(
-                "settings: [materials.{name}] names no material of {}",
-                obj.display()
-            );
-        }
-    }
-
-    let bands = settings.bands()?;
-    let band_nm = bands.wavelengths_nm.clone();
-    let rgb = bands.rgb;
-    let nb = band_nm.len();
-    let mut ctx = Context::new(Config {
-        bands,
+/// The context's configuration from the settings.
+fn config(settings: &Settings) -> Result<Config> {
+    Ok(Config {
+        bands: settings.bands()?,
         threads: settings.run.threads,
         seed: settings.run.seed,
         scheduler: settings.scheduler()?,
         unit_m: settings.unit_m.unwrap_or(1.0),
         ..Default::default()
-    })?;
+    })
+}
 
-    // Materials: MTL first, then the settings' overrides.
-    struct Mat {
-        id: u32,
-        diffuse: Vec<f64>,
-        emission: Option<Vec<f64>>,
-    }
-    let mut mats = Vec::new();
-    for m in &materials {
-        let get = |v: Option<[f32; 3]>| v.map(|c| c.map(|x| x as f64));
-        let ke = get(m.emissive).filter(|k| k.iter().any(|&x| x > 0.0));
-        let tf = m.unknown_param.get("Tf").map(|s| {
-            let v: Vec<f64> = s
-                .split_whitespace()
-                .filter_map(|w| w.parse().ok())
-                .collect();
-            if v.len() >= 3 {
-                [v[0], v[1], v[2]]
-            } else {
-                [v.first().copied().unwrap_or(1.0); 3]
-            }
-        });
-        let dissolve = m.dissolve.map_or(1.0, |d| d as f64);
-        let dielectric = m.optical_density.is_some() && (dissolve < 1.0 || tf.is_some());
-        let o = settings.materials.get(&m.name).cloned().unwrap_or_default();
-        let what = |k: &str| format!("material '{}' {k}", m.name);
-        let diffuse = match &o.diffuse {
-            Some(s) => per_band(s, nb, &what("diffuse"))?,
-            None if dielectric => vec![0.0; nb],
-            None => expand_rgb(get(m.diffuse).unwrap_or([0.0; 3]), &band_nm, rgb),
-        };
-        let specular = match &o.specular {
-            Some(s) => per_band(s, nb, &what("specular"))?,
-            None if dielectric => vec![0.0; nb],
-            None => expand_rgb(get(m.specular).unwrap_or([0.0; 3]), &band_nm, rgb),
-        };
-        let transmit = match &o.transmit {
-            Some(s) => per_band(s, nb, &what("transmit"))?,
-            None => vec![0.0; nb],
-        };
-        let ior = if let Some([b, c]) = o.sellmeier {
-            Some(IorModel::Sellmeier { b, c })
-        } else if let Some(n) = o.ior {
-            Some(IorModel::Constant(n))
-        } else if dielectric {
-            Some(IorModel::Constant(m.optical_density.unwrap() as f64))
-        } else {
-            None
-        };
-        let absorption = match (&o.absorption_per_m, tf) {
-            (Some(s), _) => per_band(s, nb, &what("absorption_per_m"))?,
-            (None, Some(t)) if ior.is_some() => {
-                expand_rgb(t.map(|x| -(x.max(1e-12)).ln()), &band_nm, rgb)
-            }
-            _ => vec![],
-        };
-        let emission = match (&o.emission, ke) {
-            (Some(s), _) => Some(per_band(s, nb, &what("emission"))?),
-            (None, Some(k)) => Some(expand_rgb(k, &band_nm, rgb)),
-            _ => None,
-        };
-        // Energy: an opaque surface cannot reflect more than it receives.
-        let sum: Vec<f64> = (0..nb)
-            .map(|b| diffuse[b] + specular[b] + transmit[b])
-            .collect();
-        if ior.is_none() {
-            if let Some(b) = sum.iter().position(|&s| s > 1.0 + 1e-9) {
-                fail!(
-                    "material '{}': Kd + Ks (+ transmit) = {} > 1 in band {b}",
-                    m.name,
-                    sum[b]
-                );
-            }
+/// Reads an OBJ file and its MTL libraries, reporting every problem at once.
+fn read_obj(path: &Path, diag: &mut Diagnostics) -> Result<(obj::Obj, Vec<mtl::Mtl>)> {
+    let bytes = read(path)?;
+    let o = obj::parse(path, &bytes, diag);
+    let mut mtls = Vec::new();
+    for (lib, line) in &o.mtllibs {
+        match std::fs::read(lib) {
+            Ok(b) => mtls.extend(mtl::parse(lib, &b, diag)),
+            Err(e) => diag.error(
+                path,
+                *line,
+                format!("material library {}: {e}", lib.display()),
+            ),
         }
-        let id = ctx
-            .add_material(&MaterialDesc {
-                diffuse_reflect: diffuse.clone(),
-                specular_reflect: specular,
-                diffuse_transmit: transmit,
-                ior,
-                absorption_per_m: absorption,
-            })
-            .map_err(|e| CliError(format!("material '{}': {}", m.name, e.message)))?;
-        mats.push(Mat {
-            id,
-            diffuse,
-            emission,
-        });
     }
-    // Meshes without a material: grey 0.5.
-    let default_mat = ctx.add_material(&MaterialDesc {
-        diffuse_reflect: vec![0.5],
-        ..Default::default()
-    })?;
+    Ok((o, mtls))
+}
 
-    let mut meshes = Vec::new();
-    for model in &models {
-        let m = &model.mesh;
-        if m.indices.is_empty() {
-            continue;
+/// Builds the libimap context from an OBJ file and settings.
+pub fn load(path: &Path, settings: &Settings) -> Result<(Context, LoadedScene)> {
+    let mut diag = Diagnostics::default();
+    let (o, mtls) = read_obj(path, &mut diag)?;
+    for name in settings.materials.keys() {
+        if !mtls.iter().any(|m| &m.name == name) {
+            diag.warn(format!(
+                "settings: [materials.{name}] names no material of {}",
+                path.display()
+            ));
         }
-        let positions: Vec<f64> = m.positions.iter().map(|&x| x as f64).collect();
-        let (mat_id, diffuse, emission) = match m.material_id.and_then(|i| mats.get(i)) {
-            Some(mt) => (mt.id, mt.diffuse.clone(), mt.emission.clone()),
-            None => (default_mat, vec![0.5; nb], None),
-        };
-        let record = settings.record.is_empty() || settings.record.contains(&model.name);
-        let desc = MeshDesc {
-            positions: &positions,
-            indices: &m.indices,
-            material: mat_id,
-            triangle_materials: None,
-            two_sided: settings.two_sided,
-            record,
-            exitance: emission.as_deref(),
-        };
-        let id = ctx.add_mesh(&desc).map_err(|e| {
+    }
+    for n in &settings.record {
+        if !o.objects.iter().any(|m| &m.name == n) {
+            diag.error(
+                Path::new("settings"),
+                0,
+                format!(
+                    "record names '{n}', which is no object or group of {}",
+                    path.display()
+                ),
+            );
+        }
+    }
+    if o.objects.is_empty() && !diag.has_errors() {
+        diag.error(path, 0, "no triangles");
+    }
+    let bands = settings.bands()?;
+    let band_nm = bands.wavelengths_nm.clone();
+    let rgb = bands.rgb;
+    // Materials: MTL first, then the settings' overrides; the OBJ's usemtl names map to
+    // them (unknown names and a missing mtllib get the default grey, with a warning).
+    let resolved: Vec<Resolved> = mtls
+        .iter()
+        .map(|m| materials::resolve(m, settings.materials.get(&m.name), &band_nm, rgb, &mut diag))
+        .collect();
+    if diag.has_errors() {
+        return Err(CliError::from_diagnostics(&diag));
+    }
+    let mut ctx = Context::new(config(settings)?)?;
+    let mut ids = Vec::with_capacity(resolved.len());
+    for (m, r) in mtls.iter().zip(&resolved) {
+        let id = ctx.add_material(&r.desc).map_err(|e| {
             CliError(format!(
-                "{}: object '{}': {}",
-                obj.display(),
-                model.name,
+                "{}:{}: material '{}': {}",
+                m.at.0.display(),
+                m.at.1,
+                printable(&m.name),
                 e.message
             ))
         })?;
-        meshes.push(LoadedMesh {
-            name: model.name.clone(),
-            indices: m.indices.clone(),
-            positions,
-            id: record.then_some(id),
-            diffuse,
-            emission,
-        });
+        ids.push(id);
     }
-    if meshes.is_empty() {
-        fail!("{}: no triangles", obj.display());
-    }
-    for n in &settings.record {
-        if !models.iter().any(|m| &m.name == n) {
-            fail!(
-                "settings: record names '{n}', which is no object or group of {}",
-                obj.display()
+    let default = materials::default_grey(band_nm.len());
+    let default_id = ctx.add_material(&default.desc)?;
+    let of_usemtl: Vec<Option<usize>> = o
+        .material_names
+        .iter()
+        .zip(&o.material_lines)
+        .map(|(n, line)| {
+            let i = mtls.iter().position(|m| &m.name == n);
+            if i.is_none() {
+                let why = if o.mtllibs.is_empty() {
+                    "is used but no mtllib is given"
+                } else {
+                    "is in no material library"
+                };
+                diag.warn(format!(
+                    "{}:{line}: material '{n}' {why}: default grey 0.5",
+                    path.display()
+                ));
+            }
+            i
+        })
+        .collect();
+    let material_of =
+        |t: &obj::Triangle| -> Option<usize> { t.material.and_then(|u| of_usemtl[u]) };
+
+    let mut meshes = Vec::new();
+    for object in &o.objects {
+        // One mesh of the object's non-emitting triangles, one per emitting material.
+        let mut parts: Vec<(Option<usize>, Vec<&obj::Triangle>)> = Vec::new();
+        for t in &object.triangles {
+            let m = material_of(t);
+            let key = m.filter(|&i| resolved[i].emission.is_some());
+            match parts.iter_mut().find(|(k, _)| *k == key) {
+                Some((_, v)) => v.push(t),
+                None => parts.push((key, vec![t])),
+            }
+        }
+        for (emitter, tris) in parts {
+            let name = match emitter {
+                Some(i) => format!("{}/{}", object.name, mtls[i].name),
+                None => object.name.clone(),
+            };
+            let mesh = build_mesh(
+                &name,
+                &o,
+                &tris,
+                &material_of,
+                &resolved,
+                &ids,
+                default_id,
+                &default,
+                settings,
             );
+            let id = ctx.add_mesh(&mesh.desc()).map_err(|e| {
+                CliError(format!(
+                    "{}: object '{}': {}",
+                    path.display(),
+                    printable(&name),
+                    e.message
+                ))
+            })?;
+            meshes.push(LoadedMesh {
+                id: mesh.record.then_some(id),
+                ..mesh.loaded
+            });
         }
     }
     for (i, l) in settings.lights.iter().enumerate() {
@@ -587,7 +447,10 @@ pub fn load(obj: &Path, settings: &Settings) -> Result<(Context, LoadedScene)> {
                 };
                 ctx.add_spot_light(l.position, d, a.to_radians(), &power)
             }
-            k => fail!("{what}: kind = \"{k}\": use \"point\" or \"spot\""),
+            k => fail!(
+                "{what}: kind = \"{}\": use \"point\" or \"spot\"",
+                printable(k)
+            ),
         }
         .map_err(|e| CliError(format!("{what}: {}", e.message)))?;
     }
@@ -597,6 +460,99 @@ pub fn load(obj: &Path, settings: &Settings) -> Result<(Context, LoadedScene)> {
             meshes,
             band_nm,
             rgb,
+            warnings: diag.warnings,
         },
     ))
+}
+
+/// A mesh to add: its loaded form and whether it records.
+struct Built {
+    loaded: LoadedMesh,
+    materials: Vec<u32>,
+    exitance: Option<Vec<f64>>,
+    record: bool,
+    two_sided: bool,
+    material: u32,
+}
+
+impl Built {
+    fn desc(&self) -> MeshDesc<'_> {
+        MeshDesc {
+            positions: &self.loaded.positions,
+            indices: &self.loaded.indices,
+            material: self.material,
+            triangle_materials: Some(&self.materials),
+            two_sided: self.two_sided,
+            record: self.record,
+            exitance: self.exitance.as_deref(),
+        }
+    }
+}
+
+#[allow(clippy::too_many_arguments)]
+fn build_mesh(
+    name: &str,
+    o: &obj::Obj,
+    tris: &[&obj::Triangle],
+    material_of: &dyn Fn(&obj::Triangle) -> Option<usize>,
+    resolved: &[Resolved],
+    ids: &[u32],
+    default_id: u32,
+    default: &Resolved,
+    settings: &Settings,
+) -> Built {
+    // The vertices the triangles use, in the file's order.
+    let mut used: Vec<u32> = tris.iter().flat_map(|t| t.v).collect();
+    used.sort_unstable();
+    used.dedup();
+    let local = |v: u32| used.binary_search(&v).expect("used vertex") as u32;
+    let positions: Vec<f64> = used.iter().flat_map(|&v| o.positions[v as usize]).collect();
+    let indices: Vec<u32> = tris.iter().flat_map(|t| t.v.map(local)).collect();
+    let mat = |t: &obj::Triangle| material_of(t).map_or(default, |i| &resolved[i]);
+    let materials: Vec<u32> = tris
+        .iter()
+        .map(|t| material_of(t).map_or(default_id, |i| ids[i]))
+        .collect();
+    // The view's colour of a vertex: the mean diffuse of its triangles.
+    let nb = default.diffuse.len();
+    let mut diffuse = vec![vec![0.0; nb]; used.len()];
+    let mut count = vec![0u32; used.len()];
+    for t in tris {
+        for v in t.v {
+            let l = local(v) as usize;
+            count[l] += 1;
+            for (d, x) in diffuse[l].iter_mut().zip(&mat(t).diffuse) {
+                *d += x;
+            }
+        }
+    }
+    for (d, c) in diffuse.iter_mut().zip(&count) {
+        d.iter_mut().for_each(|x| *x /= (*c).max(1) as f64);
+    }
+    let exitance = tris.first().and_then(|t| mat(t).emission.clone());
+    // Emitters are not recorded unless named; everything else is when `record` is empty.
+    let record = if settings.record.is_empty() {
+        exitance.is_none()
+    } else {
+        settings
+            .record
+            .iter()
+            .any(|r| r == name || name.split('/').next() == Some(r.as_str()))
+    };
+    Built {
+        loaded: LoadedMesh {
+            name: name.to_string(),
+            positions,
+            indices,
+            file_vertex: used,
+            id: None,
+            diffuse,
+            emission: exitance.clone(),
+        },
+        materials,
+        exitance,
+        record,
+        two_sided: settings.two_sided,
+        material: default_id,
+    }
 }

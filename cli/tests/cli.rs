@@ -107,13 +107,35 @@ fn bad_input_is_one_line_naming_file_and_line() {
     let e = fails(&["run", &idx, "--photons", "10"]);
     assert!(e.contains("idx.obj:4") && e.contains("out of range"), "{e}");
 
+    // An unknown material is a warning (default grey), not an error.
     let unknown = write(
         d.path(),
         "unknown.obj",
         "mtllib scene.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl marble\nf 1 2 3\n",
     );
-    let e = fails(&["run", &unknown, "--photons", "10"]);
-    assert!(e.contains("unknown.obj:5") && e.contains("marble"), "{e}");
+    let lit = write(
+        d.path(),
+        "lit.toml",
+        "[[light]]\nkind = \"point\"\nposition = [0.2, 0.2, 1]\npower = 1\n",
+    );
+    let out = d.path().join("unknown-out");
+    let o = imap(&[
+        "run",
+        &unknown,
+        "--config",
+        &lit,
+        "--photons",
+        "1000",
+        "--quiet",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let w = stderr(&o);
+    assert!(
+        w.contains("warning") && w.contains("unknown.obj:5") && w.contains("marble"),
+        "{w}"
+    );
 
     write(d.path(), "badmtl.mtl", "newmtl a\nKd 0.5 inf 0.5\n");
     let m = write(d.path(), "m.obj", "mtllib badmtl.mtl\nv 0 0 0\n");
@@ -183,6 +205,8 @@ fn outputs_exist_parse_and_the_ply_holds_libimap_s_map() {
     assert_eq!(report["photons"], photons);
     assert_eq!(report["meshes"].as_array().unwrap().len(), 2);
     assert_eq!(report["meshes"][1]["emitting"], true);
+    // Emitters are not recorded unless named in `record`.
+    assert_eq!(report["meshes"][1]["recorded"], false);
     assert!(!report["history"].as_array().unwrap().is_empty());
     let e = &report["energy_w"];
     let balance = e["absorbed"].as_f64().unwrap() + e["escaped"].as_f64().unwrap();
@@ -256,12 +280,12 @@ fn outputs_exist_parse_and_the_ply_holds_libimap_s_map() {
     let ply = std::fs::read_to_string(out.join("irradiance.ply")).unwrap();
     let (header, body) = ply.split_once("end_header\n").unwrap();
     assert!(header.starts_with("ply\nformat ascii 1.0\n"));
-    let nv = floor.len() + lamp.len();
+    let nv = floor.len();
     assert!(
         header.contains(&format!("element vertex {nv}\n")),
         "{header}"
     );
-    assert!(header.contains("element face 34\n"), "{header}");
+    assert!(header.contains("element face 32\n"), "{header}");
     let mut matched = 0;
     for line in body.lines().take(nv) {
         let f: Vec<f64> = line.split(' ').map(|x| x.parse().unwrap()).collect();

@@ -164,15 +164,18 @@ struct Shared<'a> {
     poisoned: &'a AtomicBool,
 }
 
-/// Counts a calculating thread out when it ends, also by a panic (then the run stops).
-struct LiveGuard<'a>(&'a AtomicUsize, &'a PhotonSource);
+/// Counts a calculating thread out when it ends, also by a panic (then the run stops);
+/// the last one out wakes the monitor.
+struct LiveGuard<'a>(&'a AtomicUsize, &'a PhotonSource, &'a std::thread::Thread);
 
 impl Drop for LiveGuard<'_> {
     fn drop(&mut self) {
         if std::thread::panicking() {
             self.1.stop();
         }
-        self.0.fetch_sub(1, Ordering::Release);
+        if self.0.fetch_sub(1, Ordering::Release) == 1 {
+            self.2.unpark();
+        }
     }
 }
 
@@ -474,15 +477,30 @@ fn locked_error(table: &GroupTable, map: &IMap, rc: &RunContext, photons: u64) -
 
 /// A processing thread: waits until no ancestor of its group has work left, then applies
 /// its group's portions until its group is split and drained, or the run ends.
+/// What every processing thread shares.
+struct Owners<'a> {
+    table: &'a GroupTable,
+    map: &'a IMap,
+    /// The calculating threads have all finished: no portion can arrive any more.
+    finished: &'a AtomicBool,
+    poisoned: &'a AtomicBool,
+    /// Closed when `finished` is set: wakes waiting processing threads at once.
+    done: &'a Receiver<()>,
+}
+
 fn process(
     g: usize,
     rx: Receiver<Portion>,
-    table: &GroupTable,
-    map: &IMap,
     recycle: &Sender<Portion>,
-    finished: &AtomicBool,
-    poisoned: &AtomicBool,
+    o: &Owners,
 ) -> (f64, f64, u64) {
+    let Owners {
+        table,
+        map,
+        finished,
+        poisoned,
+        done,
+    } = *o;
     let born = Instant::now();
     while !table.ancestors_done(g) {
         if poisoned.load(Ordering::Relaxed) {
@@ -493,7 +511,14 @@ fn process(
     }
     let (mut busy, mut applied) = (0.0, 0);
     loop {
-        match rx.recv_timeout(Duration::from_millis(2)) {
+        // A portion, or the end of the run (`done` closes when the calculating threads have
+        // all finished: a short run ends without waiting out a timeout).
+        let msg = crossbeam::channel::select! {
+            recv(rx) -> m => m.map_err(|_| RecvTimeoutError::Disconnected),
+            recv(done) -> _ => Err(RecvTimeoutError::Timeout),
+            default(Duration::from_millis(2)) => Err(RecvTimeoutError::Timeout),
+        };
+        match msg {
             Ok(mut p) => {
                 crate::fault::at(crate::fault::Point::Process);
                 // A calculating thread may be applying a portion of this group right now.
@@ -618,7 +643,19 @@ pub fn run(
     };
     let (mut busy_s, mut alive_s) = (0.0, 0.0);
 
+    // Closed (dropped) when the calculating threads have finished: wakes the processing
+    // threads at once.
+    let (done_tx, done_rx) = channel::bounded::<()>(0);
+    let monitor_thread = &std::thread::current();
+    let owners = Owners {
+        table: &table,
+        map: shared_map,
+        finished: &finished,
+        poisoned: &poisoned,
+        done: &done_rx,
+    };
     std::thread::scope(|s| {
+        let done_tx = done_tx;
         // Should this (monitoring) thread unwind, every other thread must still end.
         let _teardown = Teardown {
             source: &source,
@@ -633,7 +670,7 @@ pub fn run(
                     crate::error::quiet_thread();
                     // Counted out even if this thread panics, so the monitor never waits
                     // for a thread that is gone.
-                    let _live = LiveGuard(live, source);
+                    let _live = LiveGuard(live, source, monitor_thread);
                     let mut sink = GroupSink::new(shared, tracer.bands);
                     let mut stats = PathStats::new(tracer.scene.meshes.len());
                     let mut colour = Colour::new(tracer.bands);
@@ -654,17 +691,17 @@ pub fn run(
             }
         }
         let mut processors = Vec::new();
-        let (table, finished) = (&table, &finished);
+        let table = &table;
         let spawn_processor = |g: usize, out_rx: &mut Vec<Option<Receiver<Portion>>>| {
             let rx = out_rx[g].take().expect("one processing thread per group");
             let recycle = free_tx.clone();
-            let (poisoned, source) = (&poisoned, &source);
+            let (owners, source, poisoned) = (&owners, &source, &poisoned);
             std::thread::Builder::new()
                 .name(format!("imap-group-{g}"))
                 .spawn_scoped(s, move || {
                     crate::error::quiet_thread();
                     let r = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
-                        process(g, rx, table, shared_map, &recycle, finished, poisoned)
+                        process(g, rx, &recycle, owners)
                     }));
                     // A lost owner: its group's portions never come back, so nobody may
                     // wait for free portions any more.
@@ -694,7 +731,8 @@ pub fn run(
         let mut last_split = Instant::now() - Duration::from_secs(1);
         while live.load(Ordering::Acquire) > 0 {
             crate::fault::at(crate::fault::Point::Monitor);
-            std::thread::sleep(Duration::from_micros(250).min(monitor.timeout()));
+            // Woken early by the last calculating thread to finish.
+            std::thread::park_timeout(Duration::from_micros(250).min(monitor.timeout()));
             monitor.poll(&source, rc, &|n| locked_error(table, shared_map, rc, n));
             let free = free_rx.len();
             let mut hottest: Option<(usize, usize)> = None;
@@ -738,6 +776,7 @@ pub fn run(
         // Every calculating thread has handed over all its portions: the processing
         // threads drain their queues and finish.
         finished.store(true, Ordering::Release);
+        drop(done_tx);
         for h in processors {
             match h.join() {
                 Ok(Ok((b, a, n))) => {

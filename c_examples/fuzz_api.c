@@ -1,0 +1,427 @@
+/*
+ * A seeded random-call harness over the whole C API, as a hostile integrator would call
+ * it: valid calls mixed with NULL pointers, wrong counts, NaN/Inf/huge values, unknown
+ * enums and ids, struct sizes that are wrong, calls out of order, contexts destroyed and
+ * created again. (Pointers always point to as much memory as their counts say: anything
+ * else is the caller's undefined behaviour, not the library's to catch.)
+ *
+ * It checks, for every call: it returns (no crash, no abort: the process would die), in
+ * bounded time; a failure has a specific status (never IMAP_ERR_INTERNAL or
+ * IMAP_ERR_THREAD_LOST) and a one-line, non-empty message; and a failing call leaves the
+ * map as it was (the first recorded mesh's values are compared before and after).
+ *
+ * usage: fuzz_api [calls] [seed]   (defaults: 100000 calls, seed 1)
+ */
+#include <imap.h>
+
+#include <math.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+static uint64_t rng_state;
+static uint64_t next_u64(void) {
+    uint64_t z = (rng_state += 0x9E3779B97F4A7C15ull);
+    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+    return z ^ (z >> 31);
+}
+static uint32_t below(uint32_t n) { return (uint32_t)(next_u64() % n); }
+static double uniform(void) { return (double)(next_u64() >> 11) * (1.0 / 9007199254740992.0); }
+static int chance(double p) { return uniform() < p; }
+
+/* A double that is usually ordinary and sometimes hostile. */
+static double hostile(double ordinary) {
+    switch (below(24)) {
+    case 0: return NAN;
+    case 1: return INFINITY;
+    case 2: return -INFINITY;
+    case 3: return 1e300;
+    case 4: return -1e300;
+    case 5: return 1e-300;
+    case 6: return 0.0;
+    case 7: return -1.0;
+    case 8: return 1e19;
+    case 9: return 1e39;
+    default: return ordinary;
+    }
+}
+
+static double now_s(void) {
+    struct timespec t;
+    clock_gettime(CLOCK_MONOTONIC, &t);
+    return (double)t.tv_sec + 1e-9 * (double)t.tv_nsec;
+}
+
+#define MAX_CTX 3
+#define MAX_MESHES 16
+
+typedef struct {
+    ImapContext *ctx;
+    uint32_t bands;
+    uint32_t materials;
+    uint32_t meshes;
+    size_t vertices[MAX_MESHES];
+    int recorded[MAX_MESHES];
+} Slot;
+
+static Slot slots[MAX_CTX];
+static long calls, failures_seen, problems;
+static double slowest;
+static const char *slowest_what = "";
+
+static void problem(const char *what, ImapStatus s, const char *msg) {
+    problems++;
+    if (problems <= 20) printf("PROBLEM after %ld calls: %s -> %s \"%s\"\n", calls, what, imap_status_name(s), msg);
+}
+
+/* Checks one call's outcome. */
+static void check(const char *what, ImapStatus s, const ImapContext *ctx, double t0, double bound_s) {
+    double dt = now_s() - t0;
+    calls++;
+    if (dt > slowest) slowest = dt, slowest_what = what;
+    if (dt > bound_s) {
+        char buf[128];
+        snprintf(buf, sizeof buf, "took %.2f s (bound %.1f s)", dt, bound_s);
+        problem(what, s, buf);
+    }
+    if (s == IMAP_OK) return;
+    failures_seen++;
+    const char *msg = imap_last_error(ctx);
+    if (s == IMAP_ERR_INTERNAL || s == IMAP_ERR_THREAD_LOST) problem(what, s, msg);
+    if (msg == NULL || msg[0] == '\0' || strchr(msg, '\n') != NULL) problem(what, s, msg ? msg : "(null)");
+    if (strncmp(imap_status_name(s), "IMAP_ERR_", 9) != 0) problem(what, s, "status without a name");
+}
+
+/* The first recorded mesh's values (all bands), to compare around failing calls. */
+static int snapshot(Slot *sl, double *out, size_t cap, size_t *n) {
+    for (uint32_t m = 0; m < sl->meshes; m++) {
+        if (!sl->recorded[m]) continue;
+        size_t nv = sl->vertices[m];
+        if (nv * sl->bands > cap) return 0;
+        for (uint32_t b = 0; b < sl->bands; b++)
+            if (imap_get_vertex_energy(sl->ctx, m, IMAP_SIDE_FRONT, b, out + b * nv, nv) != IMAP_OK) return 0;
+        *n = nv * sl->bands;
+        return 1;
+    }
+    return 0;
+}
+
+static double before[1 << 16], after[1 << 16];
+
+static void create(Slot *sl) {
+    ImapConfig cfg;
+    imap_config_default(&cfg, sizeof cfg);
+    cfg.threads = 1 + below(3);
+    cfg.scheduler = chance(0.5) ? IMAP_SCHEDULER_DYNAMIC : IMAP_SCHEDULER_CLASSIC;
+    cfg.seed = next_u64();
+    if (chance(0.3)) cfg.band_mode = IMAP_BANDS_SPECTRAL, cfg.band_count = 1 + below(12);
+    if (chance(0.2)) cfg.max_groups = 1 + below(8);
+    if (chance(0.1)) cfg.memory_budget_bytes = 1u << (16 + below(10));
+    /* Hostile configurations, now and then. */
+    if (chance(0.15)) {
+        switch (below(8)) {
+        case 0: cfg.unit_m = hostile(1.0); break;
+        case 1: cfg.band_count = below(2) ? 0 : 5000; break;
+        case 2: cfg.threads = 2000; break;
+        case 3: cfg.subd = below(100); break;
+        case 4: cfg.struct_size = below(200); break;
+        case 5: cfg.inline_apply = 3 + below(10); break;
+        case 6: cfg.wavelength_min_nm = hostile(380); break;
+        default: cfg.scheduler = 2 + below(5); break;
+        }
+    }
+    double t0 = now_s();
+    ImapContext *ctx = NULL;
+    ImapStatus s = imap_create(chance(0.02) ? NULL : &cfg, &ctx);
+    check("imap_create", s, NULL, t0, 5.0);
+    memset(sl, 0, sizeof *sl);
+    if (s == IMAP_OK) {
+        sl->ctx = ctx;
+        sl->bands = cfg.band_mode == IMAP_BANDS_SPECTRAL ? cfg.band_count : 3;
+    } else if (ctx != NULL) {
+        problem("imap_create wrote its out-parameter on failure", s, "");
+    }
+}
+
+/* A grid of n × n cells at height z (normals +z), into xyz/idx. */
+static void grid(int n, double z, double *xyz, uint32_t *idx) {
+    for (int j = 0; j <= n; j++)
+        for (int i = 0; i <= n; i++) {
+            double *p = xyz + 3 * (j * (n + 1) + i);
+            p[0] = (double)i / n, p[1] = (double)j / n, p[2] = z;
+        }
+    for (int j = 0; j < n; j++)
+        for (int i = 0; i < n; i++) {
+            uint32_t a = (uint32_t)(j * (n + 1) + i), *t = idx + 6 * (j * n + i);
+            t[0] = a, t[1] = a + 1, t[2] = a + (uint32_t)n + 2, t[3] = a, t[4] = a + (uint32_t)n + 2,
+            t[5] = a + (uint32_t)n + 1;
+        }
+}
+
+static int progress_calls;
+static int cancel_progress(const ImapProgress *p, void *user) {
+    (void)p;
+    (void)user;
+    return ++progress_calls % 3 == 0;
+}
+
+int main(int argc, char **argv) {
+    long n_calls = argc > 1 ? atol(argv[1]) : 100000;
+    rng_state = argc > 2 ? strtoull(argv[2], NULL, 10) : 1;
+    double start = now_s();
+    for (int i = 0; i < MAX_CTX; i++) create(&slots[i]);
+    static double xyz[3 * 33 * 33];
+    static uint32_t idx[6 * 32 * 32], mats[2 * 32 * 32];
+    double per_band[64];
+
+    while (calls < n_calls) {
+        Slot *sl = &slots[below(MAX_CTX)];
+        if (sl->ctx == NULL) {
+            create(sl);
+            continue;
+        }
+        ImapContext *ctx = chance(0.01) ? NULL : sl->ctx;
+        size_t n_before = 0;
+        int have_map = snapshot(sl, before, sizeof before / sizeof before[0], &n_before);
+        ImapStatus s = IMAP_OK;
+        double t0 = now_s(), bound = 2.0;
+        const char *what = "";
+        uint32_t id = UINT32_MAX;
+        switch (below(20)) {
+        case 0: { /* a material */
+            what = "imap_add_material";
+            ImapMaterial m;
+            imap_material_default(&m, sizeof m);
+            size_t count = below(4) == 0 ? sl->bands : 1;
+            if (chance(0.1)) count = below(70);
+            for (int b = 0; b < 64; b++) per_band[b] = chance(0.9) ? 0.4 * uniform() : hostile(0.5);
+            if (chance(0.6)) m.diffuse_reflectance = per_band, m.diffuse_reflectance_count = count;
+            if (chance(0.2)) m.specular_reflectance = per_band + 1, m.specular_reflectance_count = 1;
+            if (chance(0.1)) m.diffuse_transmittance = per_band + 2, m.diffuse_transmittance_count = 1;
+            if (chance(0.15)) {
+                m = (ImapMaterial){0};
+                imap_material_default(&m, sizeof m);
+                m.ior_model = 1 + below(3);
+                for (int k = 0; k < 6; k++) m.ior[k] = chance(0.9) ? 1.5 + uniform() * 0.01 : hostile(1.5);
+                if (m.ior_model == IMAP_IOR_SELLMEIER)
+                    m.ior[0] = 1.04, m.ior[1] = 0.23, m.ior[2] = 1.01, m.ior[3] = 0.006, m.ior[4] = 0.02,
+                    m.ior[5] = 103.6;
+                if (chance(0.3)) m.absorption_per_m = per_band, m.absorption_count = 1;
+            }
+            if (chance(0.05)) m.ior_model = 4 + below(10);
+            if (chance(0.05)) m.struct_size = below(64);
+            if (chance(0.03)) m.diffuse_reflectance = NULL, m.diffuse_reflectance_count = 3;
+            s = imap_add_material(ctx, chance(0.02) ? NULL : &m, chance(0.02) ? NULL : &id);
+            if (s == IMAP_OK) sl->materials++;
+            break;
+        }
+        case 1:
+        case 2: { /* a mesh */
+            what = "imap_add_mesh";
+            int n = 1 + (int)below(12);
+            size_t nv = (size_t)((n + 1) * (n + 1)), nt = (size_t)(2 * n * n);
+            grid(n, uniform(), xyz, idx);
+            ImapMesh d;
+            imap_mesh_default(&d, sizeof d);
+            d.positions = xyz, d.vertex_count = nv, d.indices = idx, d.triangle_count = nt;
+            d.material = sl->materials ? below(sl->materials + (chance(0.05) ? 3 : 0)) : below(2);
+            d.flags = below(4);
+            if (chance(0.1)) d.flags |= 1u << (2 + below(20));
+            if (chance(0.1)) xyz[3 * below((uint32_t)nv) + below(3)] = hostile(0.5);
+            if (chance(0.1)) idx[below((uint32_t)(3 * nt))] = below((uint32_t)nv + 5);
+            if (chance(0.05)) d.vertex_count = below(3), d.triangle_count = below(2);
+            if (chance(0.1)) {
+                for (size_t t = 0; t < nt; t++) mats[t] = sl->materials ? below(sl->materials) : 0;
+                if (chance(0.2)) mats[below((uint32_t)nt)] = 1000;
+                d.triangle_materials = mats;
+            }
+            if (chance(0.15)) {
+                for (int b = 0; b < 64; b++) per_band[b] = chance(0.95) ? 5 + 10 * uniform() : hostile(5);
+                d.exitance = per_band, d.exitance_count = chance(0.8) ? 1 : sl->bands;
+            }
+            if (chance(0.03)) d.struct_size = below(80);
+            if (chance(0.02)) d.positions = NULL;
+            s = imap_add_mesh(ctx, chance(0.02) ? NULL : &d, chance(0.02) ? NULL : &id);
+            if (s == IMAP_OK && sl->meshes < MAX_MESHES) {
+                sl->vertices[sl->meshes] = d.vertex_count;
+                sl->recorded[sl->meshes] = (d.flags & IMAP_MESH_RECORD) != 0;
+                sl->meshes++;
+            } else if (s == IMAP_OK) {
+                /* More meshes than tracked: start the context over. */
+                imap_destroy(sl->ctx);
+                sl->ctx = NULL;
+            }
+            break;
+        }
+        case 3: { /* a light */
+            what = "imap_add_point_light/spot";
+            double pos[3] = {hostile(0.5), hostile(0.5), hostile(2.0)}, dir[3] = {0, 0, hostile(-1)};
+            if (chance(0.7)) pos[0] = 0.5, pos[1] = 0.5, pos[2] = 2;
+            for (int b = 0; b < 64; b++) per_band[b] = chance(0.9) ? 1 + 100 * uniform() : hostile(10);
+            size_t count = chance(0.8) ? 1 : (chance(0.5) ? sl->bands : below(70));
+            if (chance(0.5))
+                s = imap_add_point_light(ctx, chance(0.02) ? NULL : pos, per_band, count, &id);
+            else
+                s = imap_add_spot_light(ctx, pos, chance(0.02) ? NULL : dir, hostile(0.8), per_band, count, &id);
+            break;
+        }
+        case 4:
+        case 5: { /* a run */
+            what = "imap_run";
+            ImapRunParams p;
+            imap_run_params_default(&p, sizeof p);
+            p.photons = 1 + below(3000);
+            if (chance(0.2)) p.time_budget_s = hostile(0.02), p.photons = chance(0.5) ? 0 : p.photons;
+            if (chance(0.2)) p.progress_interval_s = hostile(0.005);
+            if (chance(0.05)) p.target_rel_error = hostile(0.5);
+            if (chance(0.05)) p.max_path_events = below(3);
+            if (chance(0.1)) p.progress = cancel_progress;
+            if (p.photons == 0 && !(p.time_budget_s > 0 && p.time_budget_s < 0.1)) p.photons = 500;
+            if (chance(0.03)) p.struct_size = below(50);
+            ImapReport r;
+            s = imap_run(ctx, chance(0.02) ? NULL : &p, chance(0.5) ? &r : NULL, chance(0.05) ? below(40) : sizeof r);
+            bound = 10.0;
+            break;
+        }
+        case 6: { /* reading the map */
+            what = "imap_get_vertex_energy/error";
+            uint32_t m = below(sl->meshes + 2);
+            size_t cap = below(2000);
+            if (chance(0.5))
+                s = imap_get_vertex_energy(ctx, m, below(3), below(sl->bands + 2), chance(0.03) ? NULL : after, cap);
+            else
+                s = imap_get_vertex_error(ctx, m, below(3), chance(0.03) ? NULL : after, cap);
+            break;
+        }
+        case 7: { /* reports and history */
+            what = "imap_get_report/history";
+            ImapReport r;
+            ImapProgress h[8];
+            size_t count = 0;
+            if (chance(0.5))
+                s = imap_get_report(ctx, chance(0.03) ? NULL : &r, chance(0.1) ? below(300) : sizeof r);
+            else
+                s = imap_get_history(ctx, chance(0.03) ? NULL : h, below(9), chance(0.1) ? below(60) : sizeof h[0],
+                                     chance(0.03) ? NULL : &count);
+            break;
+        }
+        case 8: { /* counts and absorbed power */
+            what = "imap_get_vertex_count/absorbed";
+            size_t nv;
+            double w;
+            if (chance(0.5))
+                s = imap_get_vertex_count(ctx, below(sl->meshes + 2), chance(0.03) ? NULL : &nv);
+            else
+                s = imap_get_mesh_absorbed(ctx, below(sl->meshes + 2), chance(0.03) ? NULL : &w);
+            break;
+        }
+        case 9: { /* a render, rarely */
+            if (!chance(0.25)) continue;
+            what = "imap_render";
+            ImapCamera cam;
+            ImapRenderParams rp;
+            imap_camera_default(&cam, sizeof cam);
+            imap_render_params_default(&rp, sizeof rp);
+            cam.position[0] = 0.5, cam.position[1] = 0.5, cam.position[2] = 3;
+            cam.width = 1 + below(12), cam.height = 1 + below(12);
+            if (chance(0.1)) cam.position[below(3)] = hostile(1);
+            if (chance(0.1)) cam.direction[below(3)] = hostile(-1);
+            if (chance(0.1)) cam.up[below(3)] = hostile(1);
+            if (chance(0.1)) cam.fov_y_deg = hostile(60);
+            if (chance(0.05)) cam.width = below(2) ? 0 : 20000;
+            rp.method = chance(0.95) ? below(3) : 3 + below(5);
+            rp.passes = 1 + below(2);
+            if (chance(0.1)) rp.initial_radius = hostile(0.1);
+            if (chance(0.1)) rp.alpha = hostile(0.5);
+            if (chance(0.1)) rp.time_budget_s = hostile(0.05), rp.passes = 0;
+            if (chance(0.1)) rp.progress_interval_s = hostile(0.01);
+            if (rp.passes == 0 && !(rp.time_budget_s > 0 && rp.time_budget_s < 0.1)) rp.passes = 1;
+            static double img[12 * 12 * 64], err[12 * 12];
+            size_t want = (size_t)cam.width * cam.height * sl->bands;
+            size_t cap = want <= sizeof img / sizeof img[0] ? want : 0;
+            if (chance(0.1) && cap) cap--;
+            ImapRenderReport rr;
+            s = imap_render(ctx, chance(0.02) ? NULL : &cam, &rp, img, cap, chance(0.5) ? err : NULL,
+                            (size_t)cam.width * cam.height, &rr, sizeof rr);
+            bound = 10.0;
+            break;
+        }
+        case 10: { /* render report and history */
+            what = "imap_get_render_report/history";
+            ImapRenderReport rr;
+            ImapProgress h[4];
+            size_t count;
+            if (chance(0.5))
+                s = imap_get_render_report(ctx, &rr, chance(0.1) ? below(100) : sizeof rr);
+            else
+                s = imap_get_render_history(ctx, h, below(5), sizeof h[0], &count);
+            break;
+        }
+        case 11: /* reset, sometimes */
+            if (!chance(0.2)) continue;
+            what = "imap_reset";
+            s = imap_reset(ctx);
+            have_map = 0; /* a reset clears the map by design */
+            break;
+        case 12: { /* status names, versions, messages: calls without a context */
+            what = "imap_status_name/version/last_error";
+            int32_t v = (int32_t)next_u64();
+            const char *nm = imap_status_name(chance(0.5) ? v : (int32_t)below(30));
+            if (nm == NULL || strncmp(nm, "IMAP_", 5) != 0) problem("imap_status_name", IMAP_OK, "no name");
+            if (imap_version() == NULL || imap_last_error(NULL) == NULL || imap_last_error(sl->ctx) == NULL)
+                problem("imap_version/last_error", IMAP_OK, "NULL");
+            int64_t ev;
+            s = imap_embree_version(ctx, chance(0.05) ? NULL : &ev);
+            break;
+        }
+        case 13: { /* defaults with hostile sizes */
+            what = "imap_*_default";
+            static unsigned char buf[4096];
+            size_t size = chance(0.5) ? below(4096) : below(200);
+            switch (below(6)) {
+            case 0: s = imap_config_default(chance(0.05) ? NULL : (ImapConfig *)(void *)buf, size); break;
+            case 1: s = imap_material_default((ImapMaterial *)(void *)buf, size); break;
+            case 2: s = imap_mesh_default((ImapMesh *)(void *)buf, size); break;
+            case 3: s = imap_run_params_default((ImapRunParams *)(void *)buf, size); break;
+            case 4: s = imap_camera_default((ImapCamera *)(void *)buf, size); break;
+            default: s = imap_render_params_default((ImapRenderParams *)(void *)buf, size); break;
+            }
+            ctx = NULL;
+            have_map = 0;
+            break;
+        }
+        case 14: /* destroy and create, sometimes */
+            if (!chance(0.05)) continue;
+            imap_destroy(sl->ctx);
+            imap_destroy(NULL);
+            sl->ctx = NULL;
+            calls++;
+            continue;
+        default: { /* the common case: a small valid run on a scene that has one */
+            what = "imap_run (valid)";
+            ImapRunParams p;
+            imap_run_params_default(&p, sizeof p);
+            p.photons = 200 + below(800);
+            s = imap_run(ctx, &p, NULL, 0);
+            bound = 10.0;
+            break;
+        }
+        }
+        check(what, s, ctx, t0, bound);
+        if (s != IMAP_OK && have_map && sl->ctx != NULL) {
+            size_t n_after = 0;
+            if (!snapshot(sl, after, sizeof after / sizeof after[0], &n_after) || n_after != n_before ||
+                memcmp(before, after, n_before * sizeof(double)) != 0)
+                problem(what, s, "a failing call changed the map");
+        }
+        if (s != IMAP_OK && id != UINT32_MAX) problem(what, s, "out_id written on failure");
+    }
+    for (int i = 0; i < MAX_CTX; i++) imap_destroy(slots[i].ctx);
+    printf("%ld calls (%ld failing, each with its own status and message) in %.1f s; slowest %.2f s (%s); %ld "
+           "problem(s)\n",
+           calls, failures_seen, now_s() - start, slowest, slowest_what, problems);
+    return problems == 0 ? 0 : 1;
+}

@@ -1,0 +1,176 @@
+//! Wavefront MTL: the statements libimap can use, each checked with its line.
+//!
+//! Colours (`Kd`, `Ks`, `Ke`, `Ka`, `Tf`) take one number (grey) or three; `spectral` and
+//! `xyz` forms are not supported and are skipped with a warning. Scalars: `Ns`, `Ni`, `d`,
+//! `Tr` (= 1 − d), `illum`. Textures: `map_Kd` with its options (`-o`, `-s`, `-t`, `-mm`,
+//! `-bm`, `-boost`, `-texres`, `-blendu`, `-blendv`, `-cc`, `-clamp`, `-imfchan`) skipped to
+//! the file name; other maps are ignored.
+
+use crate::diag::{logical_lines, Diagnostics};
+use std::path::{Path, PathBuf};
+
+/// One `newmtl` block, as written (nothing mapped yet).
+#[derive(Clone, Debug, Default)]
+pub struct Mtl {
+    pub name: String,
+    /// Where it was defined (file, line).
+    pub at: (PathBuf, usize),
+    pub kd: Option<[f64; 3]>,
+    pub ks: Option<[f64; 3]>,
+    pub ke: Option<[f64; 3]>,
+    pub tf: Option<[f64; 3]>,
+    pub ni: Option<f64>,
+    /// Dissolve (opacity), from `d` or 1 − `Tr`.
+    pub d: Option<f64>,
+    pub illum: Option<i64>,
+    /// `map_Kd`, resolved against the MTL's directory.
+    pub map_kd: Option<PathBuf>,
+}
+
+fn colour(rest: &[&str]) -> Result<[f64; 3], String> {
+    let nums: Vec<f64> = rest
+        .iter()
+        .map(|w| match w.parse::<f64>() {
+            Ok(x) if x.is_finite() => Ok(x),
+            _ => Err(format!("'{w}' is not a finite number")),
+        })
+        .collect::<Result<_, _>>()?;
+    match nums.len() {
+        1 => Ok([nums[0]; 3]),
+        3 => Ok([nums[0], nums[1], nums[2]]),
+        n => Err(format!("a colour has 1 or 3 numbers, found {n}")),
+    }
+}
+
+fn scalar(rest: &[&str]) -> Result<f64, String> {
+    match rest {
+        [w] => match w.parse::<f64>() {
+            Ok(x) if x.is_finite() => Ok(x),
+            _ => Err(format!("'{w}' is not a finite number")),
+        },
+        _ => Err(format!("needs 1 number, found {}", rest.len())),
+    }
+}
+
+/// The file name of a `map_*` statement after its options.
+fn map_file(rest: &[&str]) -> Option<String> {
+    let mut i = 0;
+    while i < rest.len() {
+        let w = rest[i];
+        let args = match w {
+            "-o" | "-s" | "-t" => {
+                // One to three numbers.
+                let mut n = 0;
+                while n < 3
+                    && rest
+                        .get(i + 1 + n)
+                        .is_some_and(|x| x.parse::<f64>().is_ok())
+                {
+                    n += 1;
+                }
+                n
+            }
+            "-mm" => 2,
+            "-bm" | "-boost" | "-texres" | "-blendu" | "-blendv" | "-cc" | "-clamp"
+            | "-imfchan" => 1,
+            _ => return Some(rest[i..].join(" ")),
+        };
+        i += 1 + args;
+    }
+    None
+}
+
+/// Parses the MTL at `path` from `bytes`; problems go to `diag`.
+pub fn parse(path: &Path, bytes: &[u8], diag: &mut Diagnostics) -> Vec<Mtl> {
+    let dir = path.parent().unwrap_or(Path::new("."));
+    let mut out: Vec<Mtl> = Vec::new();
+    for (line, text) in logical_lines(bytes) {
+        let mut words = text.split_whitespace();
+        let Some(key) = words.next() else { continue };
+        let rest: Vec<&str> = words.collect();
+        if key == "newmtl" {
+            out.push(Mtl {
+                name: rest.join(" "),
+                at: (path.to_path_buf(), line),
+                ..Default::default()
+            });
+            continue;
+        }
+        let Some(m) = out.last_mut() else {
+            if matches!(
+                key,
+                "Kd" | "Ks" | "Ke" | "Ka" | "Tf" | "Ni" | "d" | "Tr" | "illum" | "map_Kd"
+            ) {
+                diag.error(path, line, format!("'{key}' before any 'newmtl'"));
+            }
+            continue;
+        };
+        let col = |slot: &mut Option<[f64; 3]>, diag: &mut Diagnostics| {
+            if matches!(rest.first(), Some(&"spectral") | Some(&"xyz")) {
+                diag.warn(format!(
+                    "{}: '{key} {}' colours are not supported; material '{}' keeps its default",
+                    path.display(),
+                    rest[0],
+                    m.name
+                ));
+                return;
+            }
+            match colour(&rest) {
+                Ok(c) => *slot = Some(c),
+                Err(e) => diag.error(path, line, format!("'{key}': {e}")),
+            }
+        };
+        match key {
+            "Kd" => col(&mut m.kd, diag),
+            "Ks" => col(&mut m.ks, diag),
+            "Ke" => col(&mut m.ke, diag),
+            "Tf" => col(&mut m.tf, diag),
+            "Ka" => {
+                let mut unused = None;
+                col(&mut unused, diag);
+            }
+            "Ni" | "d" | "Tr" | "Ns" | "illum" => match scalar(&rest) {
+                Ok(x) => match key {
+                    "Ni" => m.ni = Some(x),
+                    "d" => m.d = Some(x),
+                    "Tr" => m.d = Some(1.0 - x),
+                    "illum" => m.illum = Some(x as i64),
+                    _ => {}
+                },
+                Err(e) => diag.error(path, line, format!("'{key}': {e}")),
+            },
+            "map_Kd" => match map_file(&rest) {
+                Some(f) => m.map_kd = Some(dir.join(f)),
+                None => diag.error(path, line, "'map_Kd' names no file"),
+            },
+            _ => {}
+        }
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn short_colours_options_and_errors() {
+        let text = b"newmtl a\nKd 0.5\nKs 0.1 0.2 0.3\nKe 10 2\nTr 0.25\nmap_Kd -s 2 2 1 -o 0.5 -bm 1 wood grain.png\nnewmtl b\nKd\nKd spectral x.spd\nNi\n";
+        let mut d = Diagnostics::default();
+        let m = parse(Path::new("/s/m.mtl"), text, &mut d);
+        assert_eq!(m.len(), 2);
+        assert_eq!(m[0].kd, Some([0.5; 3]));
+        assert_eq!(m[0].ks, Some([0.1, 0.2, 0.3]));
+        assert_eq!(m[0].ke, None);
+        assert_eq!(m[0].d, Some(0.75));
+        assert_eq!(m[0].map_kd.as_deref(), Some(Path::new("/s/wood grain.png")));
+        let at: Vec<&str> = d.errors.iter().map(|e| &e[..11]).collect();
+        assert_eq!(
+            at,
+            ["/s/m.mtl:4:", "/s/m.mtl:8:", "/s/m.mtl:10"],
+            "{:?}",
+            d.errors
+        );
+        assert_eq!(d.warnings.len(), 1);
+    }
+}
