@@ -74,7 +74,7 @@
 /**
  * Library version, patch.
  */
-#define IMAP_VERSION_PATCH 0
+#define IMAP_VERSION_PATCH 1
 
 /**
  * `ImapConfig::band_mode`: three bands, R, G, B.
@@ -113,6 +113,158 @@
  * Always hand portions to the processing threads (the paper's scheme as published).
  */
 #define IMAP_INLINE_NEVER 2
+
+/**
+ * `ImapLight::kind`: isotropic point source.
+ */
+#define IMAP_LIGHT_POINT 0
+
+/**
+ * `ImapLight::kind`: uniform intensity inside a cone (`half_angle_rad`) around `direction`.
+ */
+#define IMAP_LIGHT_SPOT 1
+
+/**
+ * `ImapLight::kind`: I = I0 cos γ into the hemisphere around `direction` (a Lambertian
+ * point source, as in CIE 171:2006 test case 5.2).
+ */
+#define IMAP_LIGHT_COSINE 2
+
+/**
+ * `ImapLight::kind`: a collimated beam along `direction` leaving an aperture (disk or
+ * rectangle) centred on `position`.
+ */
+#define IMAP_LIGHT_BEAM 3
+
+/**
+ * `ImapLight::unit`: `band_power` holds the radiant flux per band, W (1 value or one per
+ * band); the spectrum must be left at EQUAL.
+ */
+#define IMAP_UNIT_W_PER_BAND 0
+
+/**
+ * `ImapLight::unit`: `amount` is the radiant flux over all bands, W.
+ */
+#define IMAP_UNIT_W 1
+
+/**
+ * `ImapLight::unit`: `amount` is the luminous flux, lm.
+ */
+#define IMAP_UNIT_LM 2
+
+/**
+ * `ImapLight::unit`: `amount` is the luminous intensity, cd (point and spot: in every
+ * direction they light; cosine: along the axis).
+ */
+#define IMAP_UNIT_CD 3
+
+/**
+ * `ImapLight::unit`: `amount` is the radiant intensity over all bands, W/sr.
+ */
+#define IMAP_UNIT_W_PER_SR 4
+
+/**
+ * `ImapLight::unit`: `amount` is a beam's illuminance on a plane perpendicular to it, lx.
+ */
+#define IMAP_UNIT_LX 5
+
+/**
+ * `ImapLight::unit`: `amount` is a beam's irradiance on a plane perpendicular to it, W/m².
+ */
+#define IMAP_UNIT_W_PER_M2 6
+
+/**
+ * `ImapLight::aperture`: a disk of diameter `aperture_size[0]`.
+ */
+#define IMAP_APERTURE_DISK 0
+
+/**
+ * `ImapLight::aperture`: a rectangle, `aperture_size[0]` along `aperture_up` (projected
+ * onto the aperture's plane), `aperture_size[1]` across.
+ */
+#define IMAP_APERTURE_RECTANGLE 1
+
+/**
+ * `ImapSpectrum::kind`: the same power per nm (spectral contexts) or R = G = B (RGB
+ * contexts: D65 white).
+ */
+#define IMAP_SPECTRUM_EQUAL 0
+
+/**
+ * `ImapSpectrum::kind`: a linear Rec. 709 colour `rgb`.
+ */
+#define IMAP_SPECTRUM_RGB 1
+
+/**
+ * `ImapSpectrum::kind`: Planck's law at `cct_k` kelvin.
+ */
+#define IMAP_SPECTRUM_BLACKBODY 2
+
+/**
+ * `ImapSpectrum::kind`: CIE standard illuminant A.
+ */
+#define IMAP_SPECTRUM_CIE_A 3
+
+/**
+ * `ImapSpectrum::kind`: CIE standard illuminant D65.
+ */
+#define IMAP_SPECTRUM_CIE_D65 4
+
+/**
+ * `ImapSpectrum::kind`: a table of relative power per nm at `table_nm`, linear between,
+ * 0 outside.
+ */
+#define IMAP_SPECTRUM_TABLE 5
+
+/**
+ * `ImapSpectrum::kind`: relative power per band, `band_values` (one per band).
+ */
+#define IMAP_SPECTRUM_BANDS 6
+
+/**
+ * `ImapPhotometry::type`: type C (vertical angle γ from the nadir, C planes around it).
+ */
+#define IMAP_PHOTOMETRY_C 1
+
+/**
+ * `ImapPhotometry::type`: type B (planes around the luminaire's lateral axis).
+ */
+#define IMAP_PHOTOMETRY_B 2
+
+/**
+ * `ImapPhotometry::opening`: a point source.
+ */
+#define IMAP_OPENING_POINT 0
+
+/**
+ * `ImapPhotometry::opening`: a rectangle `opening_width` × `opening_length` m.
+ */
+#define IMAP_OPENING_RECTANGLE 1
+
+/**
+ * `ImapPhotometry::opening`: an ellipse (a disk when equal) of those diameters, m.
+ */
+#define IMAP_OPENING_ELLIPSE 2
+
+/**
+ * `imap_get_band_balance`: what the photons carried from the lights.
+ */
+#define IMAP_BALANCE_EMITTED 0
+
+/**
+ * `imap_get_band_balance`: what all surfaces and media absorbed.
+ */
+#define IMAP_BALANCE_ABSORBED 1
+
+/**
+ * `imap_get_band_balance`: what left the scene.
+ */
+#define IMAP_BALANCE_ESCAPED 2
+
+/**
+ * `imap_get_band_balance`: what `max_path_events` dropped.
+ */
+#define IMAP_BALANCE_DROPPED 3
 
 /**
  * `ImapRenderParams::method`: all threads share one set of backward photon maps, phase
@@ -301,6 +453,16 @@ typedef enum ImapStatus {
    * coordinate is beyond ±1e30. The message names the mesh.
    */
   IMAP_ERR_PRECISION = 21,
+  /**
+   * A photometric file (IES LM-63, EULUMDAT) or table is malformed: the message names
+   * the line (for files) and the problem.
+   */
+  IMAP_ERR_PARSE = 22,
+  /**
+   * The input is well formed but uses a feature libimap does not support (photometric
+   * type A, a three-dimensional luminous opening asked to emit): the message names it.
+   */
+  IMAP_ERR_UNSUPPORTED = 23,
 } ImapStatus;
 
 /**
@@ -388,6 +550,173 @@ typedef struct ImapConfig {
    */
   uint32_t inline_apply;
 } ImapConfig;
+
+/**
+ * A light's colour. Initialise with `imap_spectrum_default(&s, sizeof s)` (EQUAL). The
+ * library copies the arrays. NULL where a spectrum is asked for means EQUAL.
+ */
+typedef struct ImapSpectrum {
+  uint32_t struct_size;
+  /**
+   * `IMAP_SPECTRUM_*`.
+   */
+  uint32_t kind;
+  /**
+   * RGB: linear Rec. 709 colour, non-negative, not all 0.
+   */
+  double rgb[3];
+  /**
+   * BLACKBODY: temperature, K, in [100, 1e6].
+   */
+  double cct_k;
+  /**
+   * TABLE: increasing wavelengths (nm) and relative power per nm, `table_count` each.
+   */
+  const double *table_nm;
+  const double *table_values;
+  size_t table_count;
+  /**
+   * BANDS: one relative power per band.
+   */
+  const double *band_values;
+  size_t band_count;
+} ImapSpectrum;
+
+/**
+ * A point, spot, cosine or beam light. Initialise with `imap_light_default(&l, sizeof l)`
+ * (a point light at the origin in lumens, amount 0: set it).
+ */
+typedef struct ImapLight {
+  uint32_t struct_size;
+  /**
+   * `IMAP_LIGHT_*`.
+   */
+  uint32_t kind;
+  /**
+   * Scene units (a beam: the aperture's centre).
+   */
+  double position[3];
+  /**
+   * Spot, cosine and beam: the axis (any length but 0). Default (0, 0, −1).
+   */
+  double direction[3];
+  /**
+   * Spot: the cone's half-angle, (0, π].
+   */
+  double half_angle_rad;
+  /**
+   * Beam: `IMAP_APERTURE_*`.
+   */
+  uint32_t aperture;
+  /**
+   * `IMAP_UNIT_*` of `amount` (or of `band_power` for `IMAP_UNIT_W_PER_BAND`).
+   */
+  uint32_t unit;
+  /**
+   * Beam: diameter, or width and height, scene units.
+   */
+  double aperture_size[2];
+  /**
+   * Beam with a rectangular aperture: the direction of `aperture_size[0]`. Default
+   * (0, 0, 1).
+   */
+  double aperture_up[3];
+  /**
+   * How much light, in `unit`.
+   */
+  double amount;
+  /**
+   * `IMAP_UNIT_W_PER_BAND`: W per band, 1 value or one per band.
+   */
+  const double *band_power;
+  size_t band_power_count;
+} ImapLight;
+
+/**
+ * Where and how a goniometric luminaire is placed. Initialise with
+ * `imap_luminaire_default(&p, sizeof p)`: at the origin, aimed down −z with C0 along +x,
+ * the world's up +z, the file's flux, emitting from a point.
+ */
+typedef struct ImapLuminaire {
+  uint32_t struct_size;
+  /**
+   * 1: emit from the file's luminous opening (rectangle or disk, in its plane
+   * perpendicular to `aim`) instead of a point.
+   */
+  uint32_t use_opening;
+  /**
+   * Photometric centre, scene units.
+   */
+  double position[3];
+  /**
+   * The photometric axis: type C the luminaire's nadir (γ = 0); type B its aim (V = H =
+   * 0).
+   */
+  double aim[3];
+  /**
+   * Type C: the C0 direction; type B: the luminaire's up (V = 90°). Its part along
+   * `aim` is ignored; it must not be parallel to `aim`.
+   */
+  double reference[3];
+  /**
+   * The world's up, for TILT: the tilt angle is the angle between `aim` and −`up`.
+   */
+  double up[3];
+  /**
+   * Multiplies the intensities (number of luminaires in one place, maintenance,
+   * dimming). Default 1.
+   */
+  double flux_scale;
+  /**
+   * When > 0: the luminaire's total luminous flux, lm, replacing the file's (its shape
+   * kept). Default 0.
+   */
+  double lumens;
+} ImapLuminaire;
+
+/**
+ * A photometric table from a host's own parser. Initialise with
+ * `imap_photometry_default(&t, sizeof t)` (type C, point opening, no TILT). The symmetry
+ * follows from the horizontal angles as in LM-63: one angle (rotational), 0–90 (four
+ * quadrants), 0–180, 90–270, 0 to more than 180 (none); type B: 0–90 (lateral) or −90–90.
+ */
+typedef struct ImapPhotometry {
+  uint32_t struct_size;
+  /**
+   * `IMAP_PHOTOMETRY_C` or `IMAP_PHOTOMETRY_B`.
+   */
+  uint32_t photometric_type;
+  /**
+   * Increasing vertical angles, degrees (type C: γ in 0–180; type B: V in −90–90).
+   */
+  const double *vertical;
+  size_t vertical_count;
+  /**
+   * Increasing horizontal angles, degrees (type C: C in 0–360; type B: H in −90–90).
+   */
+  const double *horizontal;
+  size_t horizontal_count;
+  /**
+   * Candela, one row of `vertical_count` values per horizontal angle.
+   */
+  const double *candela;
+  /**
+   * Multiplies every candela value. Default 1.
+   */
+  double multiplier;
+  /**
+   * Optional TILT table: increasing angles (degrees) and factors, `tilt_count` each.
+   */
+  const double *tilt_angles;
+  const double *tilt_factors;
+  size_t tilt_count;
+  /**
+   * `IMAP_OPENING_*`, with its width (across C0–C180) and length (along it), metres.
+   */
+  uint32_t opening;
+  double opening_width;
+  double opening_length;
+} ImapPhotometry;
 
 /**
  * A pinhole camera, in scene units. Pixel rows run from the top of the image down.
@@ -709,8 +1038,9 @@ typedef struct ImapReport {
    */
   double run_wall_s;
   /**
-   * Power the traced photons carried from the lights, W (summed over bands); its
-   * expectation is the lights' total power, which it equals exactly with one light.
+   * Radiant power the traced photons carried from the lights, W: the sum over the bands
+   * of their watts (a light of 12.57 W in each of 3 bands emits 37.7 W). Its expectation
+   * is the lights' total power, which it equals exactly with one light.
    */
   double emitted_w;
   /**
@@ -767,6 +1097,18 @@ typedef struct ImapReport {
    * Points in the error-against-time history (`imap_get_history`).
    */
   uint64_t history_len;
+  /**
+   * The balance above in lumens: each band's watts times its luminous efficacy
+   * (docs/photometry.md). Per band: `imap_get_band_balance`. (Since 0.2.1.)
+   */
+  double emitted_lm;
+  double absorbed_lm;
+  double escaped_lm;
+  double dropped_lm;
+  /**
+   * The context's band count.
+   */
+  uint64_t bands;
 } ImapReport;
 
 /**
@@ -937,6 +1279,176 @@ enum ImapStatus imap_embree_version(const struct ImapContext *ctx, int64_t *out)
  * `ctx` is a live handle.
  */
 enum ImapStatus imap_reset(struct ImapContext *ctx);
+
+/**
+ * Fills `size` bytes at `out` with an EQUAL spectrum; sets `struct_size = size`.
+ * Returns IMAP_ERR_NULL_POINTER, IMAP_ERR_INVALID_ARGUMENT (size). Thread-safe.
+ *
+ * # Safety
+ * `out` is NULL or points to `size` writable bytes.
+ */
+enum ImapStatus imap_spectrum_default(struct ImapSpectrum *out, size_t size);
+
+/**
+ * Fills `size` bytes at `out` with a light's defaults (see `ImapLight`).
+ *
+ * # Safety
+ * `out` is NULL or points to `size` writable bytes.
+ */
+enum ImapStatus imap_light_default(struct ImapLight *out, size_t size);
+
+/**
+ * Fills `size` bytes at `out` with a luminaire placement's defaults (see
+ * `ImapLuminaire`).
+ *
+ * # Safety
+ * `out` is NULL or points to `size` writable bytes.
+ */
+enum ImapStatus imap_luminaire_default(struct ImapLuminaire *out, size_t size);
+
+/**
+ * Fills `size` bytes at `out` with an empty photometric table's defaults (see
+ * `ImapPhotometry`).
+ *
+ * # Safety
+ * `out` is NULL or points to `size` writable bytes.
+ */
+enum ImapStatus imap_photometry_default(struct ImapPhotometry *out, size_t size);
+
+/**
+ * Adds a point, spot, cosine or beam light with its amount in any `IMAP_UNIT_*` and a
+ * spectrum (NULL: EQUAL); `*out_id` receives its id (lights and luminaires share ids).
+ * Lumens and candela become band powers through the bands' luminous efficacies
+ * (docs/photometry.md): the light then emits exactly that luminous flux.
+ *
+ * Returns IMAP_ERR_NULL_POINTER, IMAP_ERR_NON_FINITE, IMAP_ERR_INVALID_ARGUMENT (naming
+ * the field: an unknown kind or unit, a unit the kind cannot take, a zero direction, an
+ * amount ≤ 0, a spectrum with no power in the bands), IMAP_ERR_PRECISION, IMAP_ERR_BUSY.
+ *
+ * # Safety
+ * `ctx` is a live handle; `light` points to an initialised `ImapLight` whose arrays hold
+ * their counts; `spectrum` is NULL or likewise; `out_id` is writable.
+ */
+enum ImapStatus imap_add_light(struct ImapContext *ctx, const struct ImapLight *light, const struct ImapSpectrum *spectrum, uint32_t *out_id);
+
+/**
+ * Adds a goniometric luminaire from the text of an IES LM-63 file (1986, 1991, 1995,
+ * 2002 or 2019; photometric types C and B), `len` bytes (no terminator needed). When the
+ * file says `TILT=<file>`, pass that file's text as `tilt_text` (else NULL, 0). The
+ * luminaire emits the table's flux × multiplier × ballast factor (× ballast-lamp factor
+ * for 1986/1991 files) × `flux_scale` × the TILT factor of its placement, or
+ * `placement.lumens`, in `spectrum` (NULL: EQUAL).
+ *
+ * Returns IMAP_ERR_PARSE (the message names the line and the problem), IMAP_ERR_UNSUPPORTED
+ * (photometric type A; emission from a three-dimensional opening), IMAP_ERR_NO_LIGHT (a
+ * table of zeros), and as `imap_add_light`. The context is unchanged on any error.
+ *
+ * # Safety
+ * `ctx` is a live handle; `text` holds `len` readable bytes, `tilt_text` `tilt_len` (or is
+ * NULL with 0); `placement` points to an initialised `ImapLuminaire`; `spectrum` is NULL
+ * or initialised; `out_id` is writable.
+ */
+enum ImapStatus imap_add_luminaire_ies(struct ImapContext *ctx, const char *text, size_t len, const char *tilt_text, size_t tilt_len, const struct ImapLuminaire *placement, const struct ImapSpectrum *spectrum, uint32_t *out_id);
+
+/**
+ * Adds a goniometric luminaire from the text of a EULUMDAT (.ldt) file, `len` bytes. Its
+ * intensities (cd/klm) are scaled by the first lamp set's flux / 1000 and the conversion
+ * factor. Otherwise as `imap_add_luminaire_ies`.
+ *
+ * # Safety
+ * As `imap_add_luminaire_ies`.
+ */
+enum ImapStatus imap_add_luminaire_ldt(struct ImapContext *ctx, const char *text, size_t len, const struct ImapLuminaire *placement, const struct ImapSpectrum *spectrum, uint32_t *out_id);
+
+/**
+ * Adds a goniometric luminaire from a table of angles and candela (for hosts with their
+ * own parsers). The table is interpolated and sampled exactly as a file's. Returns
+ * IMAP_ERR_PARSE for an inconsistent table (counts, angles out of range or not
+ * increasing, negative or non-finite candela), and as `imap_add_luminaire_ies`.
+ *
+ * # Safety
+ * `table` points to an initialised `ImapPhotometry` whose arrays hold their counts (the
+ * candela array `vertical_count × horizontal_count`); otherwise as
+ * `imap_add_luminaire_ies`.
+ */
+enum ImapStatus imap_add_luminaire_table(struct ImapContext *ctx, const struct ImapPhotometry *table, const struct ImapLuminaire *placement, const struct ImapSpectrum *spectrum, uint32_t *out_id);
+
+/**
+ * The radiant flux per band (W) of light `id` into `out_w[0 .. band count)` (NULL with
+ * count 0 to skip), and its luminous flux (lm) into `*out_lm` (NULL to skip). For a
+ * luminaire: what its placement emits (factors, TILT and `lumens` applied).
+ *
+ * Returns IMAP_ERR_NULL_POINTER, IMAP_ERR_INDEX_OUT_OF_RANGE, IMAP_ERR_BUFFER_TOO_SMALL,
+ * IMAP_ERR_BUSY.
+ *
+ * # Safety
+ * `ctx` is a live handle; `out_w` holds `count` writable doubles or is NULL with 0;
+ * `out_lm` is NULL or writable.
+ */
+enum ImapStatus imap_get_light_flux(const struct ImapContext *ctx, uint32_t id, double *out_w, size_t count, double *out_lm);
+
+/**
+ * Illuminance in lux at every vertex of mesh `mesh` on `side`: Σ over bands of the
+ * irradiance times the band's luminous efficacy (docs/photometry.md), into `out[0 ..
+ * vertex_count)`. Its relative error is `imap_get_vertex_error`'s (exact for spectrally
+ * neutral surfaces). Buffer and statuses as `imap_get_vertex_energy`.
+ *
+ * # Safety
+ * `ctx` is a live handle; `out` holds `count` writable doubles.
+ */
+enum ImapStatus imap_get_vertex_illuminance(const struct ImapContext *ctx, uint32_t mesh, uint32_t side, double *out, size_t count);
+
+/**
+ * CIE 1931 X, Y, Z of the light arriving at every vertex of mesh `mesh` on `side`, three
+ * values per vertex (Y = illuminance, lx), into `out[0 .. 3 × vertex_count)`. Give them to
+ * `imap_xyz_to_cct` / `imap_xyz_chromaticity`. Statuses as `imap_get_vertex_energy`
+ * (IMAP_ERR_BUFFER_TOO_SMALL when `count` < 3 × vertex count).
+ *
+ * # Safety
+ * `ctx` is a live handle; `out` holds `count` writable doubles.
+ */
+enum ImapStatus imap_get_vertex_xyz(const struct ImapContext *ctx, uint32_t mesh, uint32_t side, double *out, size_t count);
+
+/**
+ * The luminous efficacy of each band, lm/W (lux per W/m²), into `out[0 .. band count)`.
+ *
+ * # Safety
+ * `ctx` is a live handle; `out` holds `count` writable doubles.
+ */
+enum ImapStatus imap_get_band_efficacy(const struct ImapContext *ctx, double *out, size_t count);
+
+/**
+ * The power balance per band since the last reset, W per band, into `out[0 .. band
+ * count)`: `IMAP_BALANCE_EMITTED`, `_ABSORBED`, `_ESCAPED` or `_DROPPED` (their sums are
+ * `ImapReport`'s `emitted_w` …, their luminous values its `emitted_lm` …). Zeros before
+ * the first run.
+ *
+ * # Safety
+ * `ctx` is a live handle; `out` holds `count` writable doubles.
+ */
+enum ImapStatus imap_get_band_balance(const struct ImapContext *ctx, uint32_t kind, double *out, size_t count);
+
+/**
+ * Chromaticity (x, y) of CIE 1931 tristimulus values into `out_xy[0..2]`. Returns
+ * IMAP_ERR_NULL_POINTER, IMAP_ERR_NON_FINITE, IMAP_ERR_INVALID_ARGUMENT (black: X + Y + Z
+ * ≤ 0). Thread-safe.
+ *
+ * # Safety
+ * `xyz` points to 3 doubles, `out_xy` to 2 writable doubles.
+ */
+enum ImapStatus imap_xyz_chromaticity(const double *xyz, double *out_xy);
+
+/**
+ * Correlated colour temperature (K) of CIE 1931 tristimulus values, and Duv (the signed
+ * distance from the Planckian locus in CIE 1960 uv, positive above it), by search along
+ * the locus (1000–100 000 K). `out_duv` may be NULL. Returns IMAP_ERR_NULL_POINTER,
+ * IMAP_ERR_NON_FINITE, IMAP_ERR_INVALID_ARGUMENT (black, or farther than 0.05 from the
+ * locus: no meaningful CCT). Thread-safe.
+ *
+ * # Safety
+ * `xyz` points to 3 doubles; `out_k` is writable; `out_duv` is NULL or writable.
+ */
+enum ImapStatus imap_xyz_to_cct(const double *xyz, double *out_k, double *out_duv);
 
 /**
  * Fills the `size` bytes at `out` with a camera at the origin looking down −z, up +y,

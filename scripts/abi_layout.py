@@ -97,6 +97,11 @@ def compare(base_path, cur_path):
         if kind == "struct":
             if int(now) < int(value):
                 problems.append(f"struct {name} shrank from {value} to {now} bytes")
+        elif kind == "define" and name in ("IMAP_VERSION_PATCH", "IMAP_VERSION"):
+            # The patch level moves within an epoch (the soname check above guards the
+            # epoch); it is reported, not refused.
+            if now != value:
+                additions.append(f"{kind} {name}: '{value}' -> '{now}'")
         elif now != value:
             problems.append(f"{kind} {name}: '{value}' became '{now}'")
     for key, value in cur.items():

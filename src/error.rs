@@ -64,11 +64,17 @@ pub enum ImapStatus {
     /// precision that ray tracing has at their distance from the scene's centre, or a
     /// coordinate is beyond ±1e30. The message names the mesh.
     ImapErrPrecision = 21,
+    /// A photometric file (IES LM-63, EULUMDAT) or table is malformed: the message names
+    /// the line (for files) and the problem.
+    ImapErrParse = 22,
+    /// The input is well formed but uses a feature libimap does not support (photometric
+    /// type A, a three-dimensional luminous opening asked to emit): the message names it.
+    ImapErrUnsupported = 23,
 }
 
 impl ImapStatus {
     /// Every status, in order of value.
-    pub(crate) const ALL: [ImapStatus; 22] = [
+    pub(crate) const ALL: [ImapStatus; 24] = [
         ImapStatus::ImapOk,
         ImapStatus::ImapErrNullPointer,
         ImapStatus::ImapErrInvalidArgument,
@@ -91,6 +97,8 @@ impl ImapStatus {
         ImapStatus::ImapErrNotRecorded,
         ImapStatus::ImapErrBufferTooSmall,
         ImapStatus::ImapErrPrecision,
+        ImapStatus::ImapErrParse,
+        ImapStatus::ImapErrUnsupported,
     ];
 
     /// The C name of the status.
@@ -119,6 +127,8 @@ impl ImapStatus {
             ImapErrNotRecorded => c"IMAP_ERR_NOT_RECORDED",
             ImapErrBufferTooSmall => c"IMAP_ERR_BUFFER_TOO_SMALL",
             ImapErrPrecision => c"IMAP_ERR_PRECISION",
+            ImapErrParse => c"IMAP_ERR_PARSE",
+            ImapErrUnsupported => c"IMAP_ERR_UNSUPPORTED",
         }
     }
 }
@@ -267,7 +277,7 @@ mod tests {
             assert_eq!(*s as i32, i as i32, "ALL is in value order");
             assert!(s.name().to_str().unwrap().starts_with("IMAP_"));
         }
-        for v in [-1, 22, 1_000_000, i32::MIN, i32::MAX] {
+        for v in [-1, 24, 1_000_000, i32::MIN, i32::MAX] {
             assert_eq!(status_name(v), c"IMAP_ERR_UNKNOWN_STATUS");
         }
         assert_eq!(status_name(14), c"IMAP_ERR_BUSY");

@@ -21,6 +21,8 @@ pub mod ffi;
 /// cbindgen:ignore
 pub mod imap;
 /// cbindgen:ignore
+pub mod photometry;
+/// cbindgen:ignore
 pub mod render;
 /// cbindgen:ignore
 pub mod sampling;

@@ -8,13 +8,17 @@ mod render;
 use crate::accel::{Accel, Device};
 use crate::error::{bail, check_finite_scalar, Result};
 use crate::imap::IMap;
+use crate::photometry::{BandPhotometry, PhotometricData, Spectrum};
 use crate::render::RenderReport;
+use crate::scene::light::{LightDesc, Placement};
 use crate::scene::{Bands, Light, Material, MaterialDesc, Mesh, MeshDesc, PreparedScene, Scene};
 use crate::sched::dynamic::DynamicParams;
 use crate::sched::{
     self, photons, push_history, Counters, Progress, RangeSet, RunContext, RunParams, StopReason,
 };
-use crate::transport::{PathStats, Tracer};
+use crate::transport::{
+    PathStats, Tracer, BAND_ABSORBED, BAND_DROPPED, BAND_EMITTED, BAND_ESCAPED,
+};
 
 /// Most calculating threads a context accepts.
 pub const MAX_THREADS: usize = 1024;
@@ -86,6 +90,13 @@ pub struct Report {
     pub escaped_w: f64,
     pub dropped_w: f64,
     pub dropped_photons: u64,
+    /// The same balance in lumens (the bands' luminous value).
+    pub emitted_lm: f64,
+    pub absorbed_lm: f64,
+    pub escaped_lm: f64,
+    pub dropped_lm: f64,
+    /// The balance per band, W: emitted, absorbed, escaped, dropped (`BalanceKind` order).
+    pub band_w: [Vec<f64>; 4],
     pub counters: Counters,
     pub map_bytes: u64,
 }
@@ -120,6 +131,8 @@ pub struct Context {
     last_run: Option<(u64, u64, f64, StopReason, Counters, usize)>,
     /// The last render's report (with its accuracy history); `None` before the first.
     last_render: Option<RenderReport>,
+    /// Luminous efficacy and colour-matching weights of the bands.
+    photometry: BandPhotometry,
 }
 
 impl Context {
@@ -137,7 +150,9 @@ impl Context {
         check_threads("config.threads", config.threads)?;
         let device = Device::new()?;
         let scene = Scene::new(config.bands.clone(), config.unit_m);
+        let photometry = BandPhotometry::new(&config.bands);
         Ok(Context {
+            photometry,
             config,
             device,
             scene,
@@ -273,6 +288,74 @@ impl Context {
         self.scene.lights.push(light);
         self.invalidate();
         Ok(self.scene.lights.len() as u32 - 1)
+    }
+
+    /// Adds a light described by kind, amount and spectrum.
+    pub fn add_light_desc(&mut self, desc: &LightDesc) -> Result<u32> {
+        self.check_unlocked("add a light")?;
+        let l = Light::new(desc, &self.scene.bands, self.config.unit_m)?;
+        self.add_light(l)
+    }
+
+    /// Adds a goniometric luminaire from photometric data.
+    pub fn add_luminaire(
+        &mut self,
+        data: &PhotometricData,
+        placement: &Placement,
+        spectrum: &Spectrum,
+    ) -> Result<u32> {
+        self.check_unlocked("add a luminaire")?;
+        let l = Light::luminaire(
+            data,
+            placement,
+            spectrum,
+            &self.scene.bands,
+            self.config.unit_m,
+        )?;
+        self.add_light(l)
+    }
+
+    /// Adds a luminaire from the text of an IES LM-63 file (`tilt`: the text of the TILT
+    /// file it names, if it names one).
+    pub fn add_luminaire_ies(
+        &mut self,
+        text: &str,
+        tilt: Option<&str>,
+        placement: &Placement,
+        spectrum: &Spectrum,
+    ) -> Result<u32> {
+        self.check_unlocked("add a luminaire")?;
+        let f = crate::photometry::ies::parse(text, tilt)?;
+        self.add_luminaire(&f.data, placement, spectrum)
+    }
+
+    /// Adds a luminaire from the text of a EULUMDAT file.
+    pub fn add_luminaire_ldt(
+        &mut self,
+        text: &str,
+        placement: &Placement,
+        spectrum: &Spectrum,
+    ) -> Result<u32> {
+        self.check_unlocked("add a luminaire")?;
+        let f = crate::photometry::ldt::parse(text)?;
+        self.add_luminaire(&f.data, placement, spectrum)
+    }
+
+    /// Radiant flux per band (W) of light `id`, and its luminous flux (lm).
+    pub fn light_flux(&self, id: u32) -> Result<(&[f64], f64)> {
+        let Some(l) = self.scene.lights.get(id as usize) else {
+            bail!(
+                ImapErrIndexOutOfRange,
+                "light id {id} is out of range (the scene has {} lights)",
+                self.scene.lights.len()
+            );
+        };
+        Ok((&l.power, self.photometry.luminous(&l.power)))
+    }
+
+    /// What a watt in each band is worth in lumens and X, Y, Z.
+    pub fn photometry(&self) -> &BandPhotometry {
+        &self.photometry
     }
 
     pub fn add_point_light(&mut self, position: [f64; 3], power: &[f64]) -> Result<u32> {
@@ -445,7 +528,17 @@ impl Context {
         let (run_photons, run_hits, run_wall_s, stop, counters, threads) = self
             .last_run
             .unwrap_or((0, 0, 0.0, StopReason::PhotonCount, Counters::default(), 0));
+        let band_w = self.stats.bands.clone().map(|mut b| {
+            b.resize(self.bands(), 0.0);
+            b.iter_mut().for_each(|x| *x *= w);
+            b
+        });
+        let lm = |i: usize| self.photometry.luminous(&band_w[i]);
         Report {
+            emitted_lm: lm(BAND_EMITTED),
+            absorbed_lm: lm(BAND_ABSORBED),
+            escaped_lm: lm(BAND_ESCAPED),
+            dropped_lm: lm(BAND_DROPPED),
             photons: n,
             hits: self.stats.hits,
             elapsed_s: self.elapsed_s,
@@ -464,6 +557,7 @@ impl Context {
             escaped_w: self.stats.escaped * w,
             dropped_w: self.stats.dropped * w,
             dropped_photons: self.stats.dropped_photons,
+            band_w,
             counters,
             map_bytes: self
                 .map

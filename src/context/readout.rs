@@ -82,6 +82,48 @@ impl Context {
         Ok(())
     }
 
+    /// Illuminance in lux at each vertex of `mesh` on `side`: Σ_b K_b E_b with the bands'
+    /// luminous efficacies (docs/photometry.md). All zeros before the first run.
+    pub fn illuminance(&self, mesh: u32, side: u32, out: &mut [f64]) -> Result<()> {
+        let nv = self.vertex_count(mesh)?;
+        let k = self.photometry.efficacy.clone();
+        self.weighted(mesh, side, &[&k], nv, out)
+    }
+
+    /// CIE 1931 X, Y, Z at each vertex of `mesh` on `side`, three values per vertex (Y is
+    /// the illuminance in lux). All zeros before the first run.
+    pub fn tristimulus(&self, mesh: u32, side: u32, out: &mut [f64]) -> Result<()> {
+        let nv = self.vertex_count(mesh)?;
+        let rows: Vec<Vec<f64>> = (0..3)
+            .map(|k| self.photometry.xyz.iter().map(|w| w[k]).collect())
+            .collect();
+        let rows: Vec<&[f64]> = rows.iter().map(Vec::as_slice).collect();
+        self.weighted(mesh, side, &rows, 3 * nv, out)
+    }
+
+    fn weighted(
+        &self,
+        mesh: u32,
+        side: u32,
+        rows: &[&[f64]],
+        len: usize,
+        out: &mut [f64],
+    ) -> Result<()> {
+        let per_vertex = rows.len();
+        if out.len() < len {
+            bail!(
+                ImapErrBufferTooSmall,
+                "the output holds {} values but mesh {mesh} needs {len} ({per_vertex} per vertex)",
+                out.len()
+            );
+        }
+        match self.readout_args(mesh, side, len / per_vertex)? {
+            Some((r, i)) => r.weighted(&r.scene.meshes[i], side as usize, rows, &mut out[..len]),
+            None => out[..len].iter_mut().for_each(|x| *x = 0.0),
+        }
+        Ok(())
+    }
+
     /// Relative standard error of each vertex's irradiance (band mean); 1 where nothing has
     /// arrived yet or the vertex has no area.
     pub fn rel_error(&self, mesh: u32, side: u32, out: &mut [f64]) -> Result<()> {

@@ -12,11 +12,13 @@
 
 mod context;
 mod errors;
+mod light;
 mod render;
 mod run;
 mod scene;
 
 pub use context::*;
+pub use light::*;
 pub use render::*;
 pub use run::*;
 pub use scene::*;

@@ -133,8 +133,9 @@ pub struct ImapReport {
     pub run_hits: u64,
     /// Wall time of the last run, s.
     pub run_wall_s: f64,
-    /// Power the traced photons carried from the lights, W (summed over bands); its
-    /// expectation is the lights' total power, which it equals exactly with one light.
+    /// Radiant power the traced photons carried from the lights, W: the sum over the bands
+    /// of their watts (a light of 12.57 W in each of 3 bands emits 37.7 W). Its expectation
+    /// is the lights' total power, which it equals exactly with one light.
     pub emitted_w: f64,
     /// Power absorbed by all surfaces and media, W (estimate from the photons traced).
     pub absorbed_w: f64,
@@ -164,12 +165,22 @@ pub struct ImapReport {
     pub map_bytes: u64,
     /// Points in the error-against-time history (`imap_get_history`).
     pub history_len: u64,
+    /// The balance above in lumens: each band's watts times its luminous efficacy
+    /// (docs/photometry.md). Per band: `imap_get_band_balance`. (Since 0.2.1.)
+    pub emitted_lm: f64,
+    pub absorbed_lm: f64,
+    pub escaped_lm: f64,
+    pub dropped_lm: f64,
+    /// The context's band count.
+    pub bands: u64,
 }
 
 // SAFETY: repr(C), u32 struct_size first, plain numbers only.
 unsafe impl Versioned for ImapReport {
     const NAME: &'static str = "ImapReport";
     const INIT: &'static str = "sizeof";
+    /// The 0.2 layout, before the luminous balance was appended.
+    const BASE_SIZE: usize = std::mem::offset_of!(ImapReport, emitted_lm);
     fn defaults() -> Self {
         ImapReport::default()
     }
@@ -237,6 +248,11 @@ fn report_to_c(r: &Report, history_len: usize) -> ImapReport {
         groups: r.counters.groups,
         map_bytes: r.map_bytes,
         history_len: history_len as u64,
+        emitted_lm: r.emitted_lm,
+        absorbed_lm: r.absorbed_lm,
+        escaped_lm: r.escaped_lm,
+        dropped_lm: r.dropped_lm,
+        bands: r.band_w[0].len() as u64,
     }
 }
 

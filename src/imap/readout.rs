@@ -49,6 +49,31 @@ impl Readout<'_> {
         }
     }
 
+    /// Σ_b w_b E_b at every vertex of `mesh` on `side` for each of the weight rows in
+    /// `weights` (one row of band weights per output quantity), into `out` (vertex-major:
+    /// `out[v * rows + r]`): lux with the bands' luminous efficacies, X Y Z with the
+    /// colour-matching weights.
+    pub fn weighted(&self, mesh: &PreparedMesh, side: usize, weights: &[&[f64]], out: &mut [f64]) {
+        let k = self.watts_per_unit() / (self.unit_m * self.unit_m);
+        let rows = weights.len();
+        for v in 0..mesh.vertex_area.len() {
+            let slot = mesh.slot(v as u32, side).expect("recording mesh");
+            let a = mesh.vertex_area[v];
+            for (r, w) in weights.iter().enumerate() {
+                out[v * rows + r] = if a > 0.0 {
+                    w.iter()
+                        .enumerate()
+                        .map(|(b, w)| w * self.map.value(slot, b))
+                        .sum::<f64>()
+                        * k
+                        / a
+                } else {
+                    0.0
+                };
+            }
+        }
+    }
+
     /// The standard error of a slot's scalar estimate, in photon units, and the estimate.
     #[inline]
     fn sigma(&self, slot: usize) -> (f64, f64) {

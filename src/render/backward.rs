@@ -20,8 +20,9 @@ use std::sync::atomic::{AtomicBool, Ordering};
 /// What a light gives in the render's units, per band.
 #[derive(Debug)]
 enum LightValue {
-    /// Radiant intensity, W/sr (point and spot lights).
-    Intensity(Vec<f64>),
+    /// Radiant flux, W (lights: their shape gives the intensity per watt, or a beam's
+    /// irradiance per watt).
+    Power(Vec<f64>),
     /// Radiance of an emitting mesh, W/(m²·sr), and its emitting area (scene units²).
     Radiance { radiance: Vec<f64>, area: f64 },
 }
@@ -72,16 +73,7 @@ impl<'a> EyeTracer<'a> {
             .iter()
             .enumerate()
             .map(|(e, em)| match &em.kind {
-                EmitterKind::Point | EmitterKind::Spot { .. } => {
-                    let l = &source.lights[e];
-                    let solid_angle = match l.shape {
-                        LightShape::Point => 4.0 * PI,
-                        LightShape::Spot { cos_half_angle, .. } => {
-                            2.0 * PI * (1.0 - cos_half_angle)
-                        }
-                    };
-                    LightValue::Intensity(l.power.iter().map(|p| p / solid_angle).collect())
-                }
+                EmitterKind::Light(_) => LightValue::Power(source.lights[e].power.clone()),
                 EmitterKind::Mesh { mesh, .. } => {
                     emitter_of_mesh[*mesh] = Some(e as u32);
                     let m = &scene.meshes[*mesh];
@@ -124,7 +116,7 @@ impl<'a> EyeTracer<'a> {
         }
         match &self.lights[e] {
             LightValue::Radiance { radiance, area } => Some((e, radiance, *area, cos.abs())),
-            LightValue::Intensity(_) => None,
+            LightValue::Power(_) => None,
         }
     }
 
@@ -324,25 +316,50 @@ impl<'a> EyeTracer<'a> {
         let em = &self.scene.emitters[e];
         let (u1, u2, u3) = (rng.uniform(), rng.uniform(), rng.uniform());
         match (&em.kind, &self.lights[e]) {
-            (EmitterKind::Point | EmitterKind::Spot { .. }, LightValue::Intensity(intensity)) => {
-                let to = em.position - p;
+            (EmitterKind::Light(LightShape::Beam { axis, aperture }), LightValue::Power(power)) => {
+                // Lit when the point lies in the beam: its projection along the axis falls
+                // inside the aperture, in front of it, with nothing in between.
+                let t = (p - em.position).dot(*axis);
+                let q = p - *axis * t;
+                let wi = -*axis;
+                let cos = wi.dot(n_in);
+                if let (true, Some((w, _))) =
+                    (t > 0.0 && aperture.contains(q - em.position), side(cos))
+                {
+                    let org = p + n_in * (eps * cos.signum());
+                    let dist = (org - em.position).dot(*axis);
+                    stats.rays += 1;
+                    if dist > 0.0 && !self.accel.occluded(org, wi, dist) {
+                        let k = cos.abs() / (aperture.area() * self.unit_m * self.unit_m * pe);
+                        for ((o, w), pw) in out.iter_mut().zip(w).zip(power) {
+                            *o += w * pw * k;
+                        }
+                    }
+                }
+            }
+            (EmitterKind::Light(shape), LightValue::Power(power)) => {
+                // A point, or a point of the luminous opening (uniform over it).
+                let at = match shape.aperture() {
+                    Some(a) => em.position + a.sample(u1, u2),
+                    None => em.position,
+                };
+                let to = at - p;
                 let d2 = to.length_squared();
                 let wi = to / d2.sqrt();
-                if let EmitterKind::Spot { axis, cos_max } = em.kind {
-                    if -wi.dot(axis) < cos_max {
-                        return self.bsdf_sample(p, n_in, eps, p_reflect, &side, rng, out, stats);
-                    }
+                let per_watt = shape.intensity_per_watt(-wi);
+                if per_watt <= 0.0 {
+                    return self.bsdf_sample(p, n_in, eps, p_reflect, &side, rng, out, stats);
                 }
                 let cos = wi.dot(n_in);
                 if let Some((w, _)) = side(cos) {
                     let org = p + n_in * (eps * cos.signum());
                     stats.rays += 1;
-                    let to_light = em.position - org;
+                    let to_light = at - org;
                     let dist = to_light.length();
                     if !self.accel.occluded(org, to_light / dist, dist) {
-                        let k = cos.abs() / (d2 * self.unit_m * self.unit_m * pe);
-                        for ((o, w), i) in out.iter_mut().zip(w).zip(intensity) {
-                            *o += w * i * k;
+                        let k = per_watt * cos.abs() / (d2 * self.unit_m * self.unit_m * pe);
+                        for ((o, w), pw) in out.iter_mut().zip(w).zip(power) {
+                            *o += w * pw * k;
                         }
                     }
                 }

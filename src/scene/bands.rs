@@ -4,7 +4,7 @@ use crate::error::{bail, check_finite, Result};
 
 /// Representative wavelengths (nm) of the R, G and B bands, used by dispersion and by
 /// wavelength-dependent indices of refraction in RGB mode.
-pub const RGB_WAVELENGTHS_NM: [f64; 3] = [612.0, 549.0, 465.0];
+pub(crate) const RGB_WAVELENGTHS_NM: [f64; 3] = [612.0, 549.0, 465.0];
 
 /// The band layout of a context.
 #[derive(Clone, Debug, PartialEq)]
@@ -12,6 +12,8 @@ pub struct Bands {
     /// Centre wavelength of each band in nanometres.
     pub wavelengths_nm: Vec<f64>,
     pub rgb: bool,
+    /// The configured wavelength range (spectral), nm.
+    pub range_nm: (f64, f64),
 }
 
 impl Bands {
@@ -19,6 +21,7 @@ impl Bands {
         Bands {
             wavelengths_nm: RGB_WAVELENGTHS_NM.to_vec(),
             rgb: true,
+            range_nm: (380.0, 780.0),
         }
     }
 
@@ -53,7 +56,25 @@ impl Bands {
         Ok(Bands {
             wavelengths_nm,
             rgb: false,
+            range_nm: (min_nm, max_nm),
         })
+    }
+
+    /// The wavelength interval band `i` stands for, nm: `[λ_i − Δ/2, λ_i + Δ/2]` for bands
+    /// `Δ` apart; the whole range for a single band (a point when the range is one
+    /// wavelength: a monochromatic band). RGB bands: the wavelengths each channel stands
+    /// for in spectral contexts, B 380–490, G 490–580, R 580–780 nm.
+    pub fn interval(&self, i: usize) -> (f64, f64) {
+        if self.rgb {
+            return [(580.0, 780.0), (490.0, 580.0), (380.0, 490.0)][i];
+        }
+        let n = self.count();
+        if n == 1 {
+            return self.range_nm;
+        }
+        let half = 0.5 * (self.range_nm.1 - self.range_nm.0) / (n - 1) as f64;
+        let l = self.wavelengths_nm[i];
+        (l - half, l + half)
     }
 
     pub fn count(&self) -> usize {

@@ -68,11 +68,8 @@ impl PreparedMesh {
 
 #[derive(Debug)]
 pub enum EmitterKind {
-    Point,
-    Spot {
-        axis: DVec3,
-        cos_max: f64,
-    },
+    /// A light: point, spot, cosine, beam or goniometric luminaire.
+    Light(LightShape),
     /// A self-emitting mesh: triangles chosen by area, Lambertian emission.
     Mesh {
         mesh: usize,
@@ -88,7 +85,8 @@ pub(crate) const EMITTER_FLOOR: f64 = 0.1;
 #[derive(Debug)]
 pub struct Emitter {
     pub kind: EmitterKind,
-    /// Position (scene units, recentred) for point-like emitters.
+    /// Position (scene units, recentred) of a light: its point, or the centre of its
+    /// aperture or luminous opening.
     pub position: DVec3,
     /// Colour of an emitted photon: per-band power share times the band count, scaled by
     /// the emitter's power share over its selection probability (mean 1 with one emitter).
@@ -148,18 +146,8 @@ impl PreparedScene {
                     "light {i}: its power sums to {total} W over the bands"
                 );
             }
-            let kind = match l.shape {
-                LightShape::Point => EmitterKind::Point,
-                LightShape::Spot {
-                    axis,
-                    cos_half_angle,
-                } => EmitterKind::Spot {
-                    axis,
-                    cos_max: cos_half_angle,
-                },
-            };
             emitters.push(Emitter {
-                kind,
+                kind: EmitterKind::Light(l.shape.clone()),
                 position: l.position - origin,
                 colour,
             });
@@ -274,11 +262,10 @@ impl PreparedScene {
     pub fn emit(&self, rng: &mut PhotonRng) -> (usize, DVec3, DVec3) {
         let e = self.emitter_table.sample(rng.uniform());
         let em = &self.emitters[e];
-        let (u1, u2) = (rng.uniform(), rng.uniform());
         match &em.kind {
-            EmitterKind::Point => (e, em.position, warp::uniform_sphere(u1, u2)),
-            EmitterKind::Spot { axis, cos_max } => {
-                (e, em.position, warp::uniform_cone(*axis, *cos_max, u1, u2))
+            EmitterKind::Light(shape) => {
+                let (at, d) = shape.sample(rng);
+                (e, em.position + at, d)
             }
             EmitterKind::Mesh {
                 mesh,
@@ -286,6 +273,7 @@ impl PreparedScene {
                 two_sided,
             } => {
                 let pm = &self.meshes[*mesh];
+                let (u1, u2) = (rng.uniform(), rng.uniform());
                 let t = triangles.sample(rng.uniform());
                 let [a, b, c] = pm.triangles[t].map(|i| pm.vertices[i as usize].as_dvec3());
                 let (b1, b2) = warp::uniform_triangle(u1, u2);

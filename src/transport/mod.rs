@@ -71,7 +71,17 @@ pub struct PathStats {
     /// Energy of photons stopped by the event safety limit.
     pub dropped: f64,
     pub dropped_photons: u64,
+    /// The same balance per band (photon units; each photon's band values over the band
+    /// count, so the bands sum to the totals above): emitted, absorbed, escaped, dropped.
+    /// Sized on the first photon.
+    pub bands: [Vec<f64>; 4],
 }
+
+/// Indices of `PathStats::bands`.
+pub const BAND_EMITTED: usize = 0;
+pub const BAND_ABSORBED: usize = 1;
+pub const BAND_ESCAPED: usize = 2;
+pub const BAND_DROPPED: usize = 3;
 
 impl PathStats {
     pub fn new(meshes: usize) -> Self {
@@ -92,6 +102,30 @@ impl PathStats {
         self.escaped_photons += o.escaped_photons;
         self.dropped += o.dropped;
         self.dropped_photons += o.dropped_photons;
+        for (a, b) in self.bands.iter_mut().zip(&o.bands) {
+            if a.len() < b.len() {
+                a.resize(b.len(), 0.0);
+            }
+            for (x, y) in a.iter_mut().zip(b) {
+                *x += y;
+            }
+        }
+    }
+
+    /// Adds a finished photon's emitted and final colour to the per-band balance.
+    #[inline]
+    fn tally_bands(&mut self, end: usize, emitted: &[f64], last: &[f64]) {
+        let nb = emitted.len();
+        if self.bands[0].len() != nb {
+            self.bands.iter_mut().for_each(|b| b.resize(nb, 0.0));
+        }
+        let k = 1.0 / nb as f64;
+        for (a, e) in self.bands[BAND_EMITTED].iter_mut().zip(emitted) {
+            *a += e * k;
+        }
+        for (a, c) in self.bands[end].iter_mut().zip(last) {
+            *a += c * k;
+        }
     }
 }
 
@@ -139,23 +173,33 @@ impl Tracer<'_> {
         stop: &AtomicBool,
     ) -> bool {
         let mut hits = 0u64;
-        let end = self.trace_path(k, colour, sink, &mut hits, stop);
+        let (end, emitter) = self.trace_path(k, colour, sink, &mut hits, stop);
         let e = colour.mean();
-        match end {
+        let band_end = match end {
             PathEnd::Aborted => {
                 sink.abort_photon();
                 return false;
             }
-            PathEnd::Absorbed(m) => stats.absorbed[m as usize] += e,
+            PathEnd::Absorbed(m) => {
+                stats.absorbed[m as usize] += e;
+                BAND_ABSORBED
+            }
             PathEnd::Escaped => {
                 stats.escaped += e;
                 stats.escaped_photons += 1;
+                BAND_ESCAPED
             }
             PathEnd::Dropped => {
                 stats.dropped += e;
                 stats.dropped_photons += 1;
+                BAND_DROPPED
             }
-        }
+        };
+        stats.tally_bands(
+            band_end,
+            &self.scene.emitters[emitter].colour,
+            colour.values(),
+        );
         stats.photons += 1;
         stats.hits += hits;
         stats.emitted += colour.energy();
@@ -170,11 +214,29 @@ impl Tracer<'_> {
         sink: &mut S,
         hits: &mut u64,
         stop: &AtomicBool,
-    ) -> PathEnd {
+    ) -> (PathEnd, usize) {
         let mut rng = PhotonRng::new(self.seed, k);
         // Emit: choose a light by power, then a point and a direction on it.
-        let (emitter, org, mut dir) = self.scene.emit(&mut rng);
+        let (emitter, org, dir) = self.scene.emit(&mut rng);
         colour.reset(&self.scene.emitters[emitter].colour);
+        (
+            self.follow(org, dir, &mut rng, colour, sink, hits, stop),
+            emitter,
+        )
+    }
+
+    /// Follows a photon from its emission at `org` along `dir` to the end of its path.
+    #[allow(clippy::too_many_arguments)]
+    fn follow<S: HitSink>(
+        &self,
+        org: DVec3,
+        mut dir: DVec3,
+        rng: &mut PhotonRng,
+        colour: &mut Colour,
+        sink: &mut S,
+        hits: &mut u64,
+        stop: &AtomicBool,
+    ) -> PathEnd {
         // A light far outside the geometry: start where the ray meets its bounding sphere.
         let Some(mut org) = self.scene.enter(org, dir) else {
             return PathEnd::Escaped;
