@@ -264,6 +264,80 @@ int main(void) {
     /* Reset unlocks the scene. */
     expect("imap_reset", imap_reset(ctx), IMAP_OK, ctx);
     expect("mesh added after reset", imap_add_mesh(ctx, &mesh, &id), IMAP_OK, ctx);
+
+    imap_destroy(ctx);
+
+    /* Photometry, on a fresh context: malformed files get IMAP_ERR_PARSE naming the line;
+     * nothing is added. */
+    imap_config_default(&cfg, sizeof cfg);
+    cfg.threads = 2;
+    expect("photometry context", imap_create(&cfg, &ctx), IMAP_OK, NULL);
+    expect("grey", imap_add_material(ctx, &mat, &m_grey), IMAP_OK, ctx);
+    mesh = square_mesh(m_grey);
+    expect("floor", imap_add_mesh(ctx, &mesh, &floor_id), IMAP_OK, ctx);
+    const char *ies = "IESNA:LM-63-2002\nTILT=NONE\n1 -1 1 3 1 1 2 0 0 0\n1 1 10\n0 45 90\n0\n1000 700 0\n";
+    ImapLuminaire place;
+    imap_luminaire_default(&place, sizeof place);
+    place.position[0] = 0.5, place.position[1] = 0.5, place.position[2] = 2;
+    expect("IES file cut short", imap_add_luminaire_ies(ctx, ies, strlen(ies) - 4, NULL, 0, &place, NULL, &id),
+           IMAP_ERR_PARSE, ctx);
+    if (!strstr(imap_last_error(ctx), "IES line 7")) printf("FAIL the message names no line\n"), failures++;
+    char bad[256];
+    snprintf(bad, sizeof bad, "%s", ies);
+    bad[strlen("IESNA:LM-63-2002\nTILT=NONE\n1 -1 1 3 1 1 2 0 0 0\n1 1 10\n0 4")] = 'x';
+    expect("IES angle 'x5'", imap_add_luminaire_ies(ctx, bad, strlen(bad), NULL, 0, &place, NULL, &id), IMAP_ERR_PARSE, ctx);
+    snprintf(bad, sizeof bad, "IESNA:LM-63-2002\nTILT=lamp.tlt\n1 -1 1 3 1 1 2 0 0 0\n1 1 10\n0 45 90\n0\n1 1 1\n");
+    expect("TILT file not given", imap_add_luminaire_ies(ctx, bad, strlen(bad), NULL, 0, &place, NULL, &id), IMAP_ERR_PARSE,
+           ctx);
+    snprintf(bad, sizeof bad, "IESNA:LM-63-2002\nTILT=NONE\n1 -1 1 3 1 3 2 0 0 0\n1 1 10\n0 45 90\n0\n1 1 1\n");
+    expect("photometric type A", imap_add_luminaire_ies(ctx, bad, strlen(bad), NULL, 0, &place, NULL, &id),
+           IMAP_ERR_UNSUPPORTED, ctx);
+    expect("empty IES text", imap_add_luminaire_ies(ctx, ies, 0, NULL, 0, &place, NULL, &id), IMAP_ERR_PARSE, ctx);
+    expect("EULUMDAT garbage", imap_add_luminaire_ldt(ctx, "x\ny\n", 4, &place, NULL, &id), IMAP_ERR_PARSE, ctx);
+    place.reference[0] = 0, place.reference[2] = -3;
+    expect("reference parallel to aim", imap_add_luminaire_ies(ctx, ies, strlen(ies), NULL, 0, &place, NULL, &id),
+           IMAP_ERR_INVALID_ARGUMENT, ctx);
+    imap_luminaire_default(&place, sizeof place);
+    place.position[0] = 0.5, place.position[1] = 0.5, place.position[2] = 2;
+    ImapLight light;
+    imap_light_default(&light, sizeof light);
+    light.position[0] = 0.5, light.position[1] = 0.5, light.position[2] = 2;
+    light.unit = 99, light.amount = 100;
+    expect("light unit 99", imap_add_light(ctx, &light, NULL, &id), IMAP_ERR_INVALID_ARGUMENT, ctx);
+    light.unit = IMAP_UNIT_LX;
+    expect("lux for a point light", imap_add_light(ctx, &light, NULL, &id), IMAP_ERR_INVALID_ARGUMENT, ctx);
+    light.unit = IMAP_UNIT_LM, light.amount = NAN;
+    expect("amount NaN", imap_add_light(ctx, &light, NULL, &id), IMAP_ERR_NON_FINITE, ctx);
+    ImapSpectrum spec;
+    imap_spectrum_default(&spec, sizeof spec);
+    spec.kind = 42;
+    light.amount = 100;
+    expect("spectrum kind 42", imap_add_light(ctx, &light, &spec, &id), IMAP_ERR_INVALID_ARGUMENT, ctx);
+    ImapLight zero_light;
+    memset(&zero_light, 0, sizeof zero_light);
+    expect("zeroed ImapLight", imap_add_light(ctx, &zero_light, NULL, &id), IMAP_ERR_INVALID_ARGUMENT, ctx);
+    /* The context still works: a luminaire of 1000 cd cos-like, lux under it. */
+    uint32_t lum;
+    spec.kind = IMAP_SPECTRUM_BLACKBODY, spec.cct_k = 3000;
+    expect("luminaire from IES text", imap_add_luminaire_ies(ctx, ies, strlen(ies), NULL, 0, &place, &spec, &lum), IMAP_OK,
+           ctx);
+    double lm = 0;
+    expect("imap_get_light_flux", imap_get_light_flux(ctx, lum, NULL, 0, &lm), IMAP_OK, ctx);
+    if (!(lm > 1000 && lm < 4000)) printf("FAIL luminaire flux %g lm\n", lm), failures++;
+    run.photons = 20000;
+    expect("run with a luminaire", imap_run(ctx, &run, NULL, 0), IMAP_OK, ctx);
+    double lux[4], xyz[12];
+    expect("lux into 3 of 4", imap_get_vertex_illuminance(ctx, floor_id, 0, lux, 3), IMAP_ERR_BUFFER_TOO_SMALL, ctx);
+    expect("XYZ into 4 of 12", imap_get_vertex_xyz(ctx, floor_id, 0, xyz, 4), IMAP_ERR_BUFFER_TOO_SMALL, ctx);
+    expect("lux", imap_get_vertex_illuminance(ctx, floor_id, 0, lux, 4), IMAP_OK, ctx);
+    expect("XYZ", imap_get_vertex_xyz(ctx, floor_id, 0, xyz, 12), IMAP_OK, ctx);
+    double cct = 0, duv = 1;
+    expect("CCT of the floor's light", imap_xyz_to_cct(xyz, &cct, &duv), IMAP_OK, NULL);
+    if (!(fabs(lux[0] - xyz[1]) < 1e-9 * lux[0] && lux[0] > 0 && fabs(cct - 3000) < 5 && fabs(duv) < 1e-3))
+        printf("FAIL lux %g, Y %g, CCT %g K, Duv %g\n", lux[0], xyz[1], cct, duv), failures++;
+    double black[3] = {0, 0, 0};
+    expect("CCT of black", imap_xyz_to_cct(black, &cct, NULL), IMAP_ERR_INVALID_ARGUMENT, NULL);
+    expect("balance kind 9", imap_get_band_balance(ctx, 9, lux, 4), IMAP_ERR_INVALID_ARGUMENT, ctx);
     imap_destroy(ctx);
     imap_destroy(NULL);
     printf("%d failure%s\n", failures, failures == 1 ? "" : "s");

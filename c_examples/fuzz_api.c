@@ -161,6 +161,46 @@ static void grid(int n, double z, double *xyz, uint32_t *idx) {
         }
 }
 
+/* A small valid IES file and a small valid EULUMDAT file, mutated by the harness. */
+static const char IES_TEXT[] = "IESNA:LM-63-2002\n[TEST] fuzz\nTILT=NONE\n1 -1 1 4 1 1 2 -0.2 0 0\n1 1 10\n"
+                               "0 30 60 90\n0\n1000 866 500 0\n";
+static const char LDT_TEXT[] = "fuzz\n1\n1\n4\n90\n3\n45\nr\nl\nn\nf\nd\n0\n0\n0\n100\n0\n0\n0\n0\n0\n"
+                               "100\n80\n1\n0\n1\n1\nLED\n1000\n3000K\n80\n10\n"
+                               "0\n0\n0\n0\n0\n0\n0\n0\n0\n0\n0\n90\n180\n270\n0\n45\n90\n300\n200\n0\n";
+
+/* `text` with a few hostile edits: bytes changed, the end cut off, numbers made NaN. */
+static size_t mutate(const char *text, char *out, size_t cap) {
+    size_t n = strlen(text);
+    if (n > cap) n = cap;
+    memcpy(out, text, n);
+    int edits = (int)below(4);
+    for (int e = 0; e < edits; e++) {
+        switch (below(4)) {
+        case 0: out[below((uint32_t)n)] = (char)below(256); break;
+        case 1: n = below((uint32_t)n + 1); break;
+        case 2: {
+            size_t at = below((uint32_t)n + 1);
+            if (n + 3 <= cap) memmove(out + at + 3, out + at, n - at), memcpy(out + at, "NaN", 3), n += 3;
+            break;
+        }
+        default: out[below((uint32_t)n)] = "0123456789-.,\n "[below(15)]; break;
+        }
+        if (n == 0) break;
+    }
+    return n;
+}
+
+static void hostile_spectrum(ImapSpectrum *sp, double *table) {
+    imap_spectrum_default(sp, sizeof *sp);
+    sp->kind = below(9);
+    sp->rgb[0] = hostile(1), sp->rgb[1] = hostile(0.5), sp->rgb[2] = hostile(0.2);
+    sp->cct_k = hostile(3000);
+    for (int i = 0; i < 8; i++) table[i] = chance(0.9) ? 380 + 50 * i : hostile(500), table[8 + i] = hostile(1);
+    sp->table_nm = table, sp->table_values = table + 8, sp->table_count = below(9);
+    sp->band_values = table + 8, sp->band_count = below(9);
+    if (chance(0.05)) sp->struct_size = below(100);
+}
+
 static int progress_calls;
 static int cancel_progress(const ImapProgress *p, void *user) {
     (void)p;
@@ -190,7 +230,7 @@ int main(int argc, char **argv) {
         double t0 = now_s(), bound = 2.0;
         const char *what = "";
         uint32_t id = UINT32_MAX;
-        switch (below(20)) {
+        switch (below(24)) {
         case 0: { /* a material */
             what = "imap_add_material";
             ImapMaterial m;
@@ -381,7 +421,11 @@ int main(int argc, char **argv) {
             what = "imap_*_default";
             static unsigned char buf[4096];
             size_t size = chance(0.5) ? below(4096) : below(200);
-            switch (below(6)) {
+            switch (below(10)) {
+            case 6: s = imap_light_default((ImapLight *)(void *)buf, size); break;
+            case 7: s = imap_spectrum_default((ImapSpectrum *)(void *)buf, size); break;
+            case 8: s = imap_luminaire_default((ImapLuminaire *)(void *)buf, size); break;
+            case 9: s = imap_photometry_default((ImapPhotometry *)(void *)buf, size); break;
             case 0: s = imap_config_default(chance(0.05) ? NULL : (ImapConfig *)(void *)buf, size); break;
             case 1: s = imap_material_default((ImapMaterial *)(void *)buf, size); break;
             case 2: s = imap_mesh_default((ImapMesh *)(void *)buf, size); break;
@@ -391,6 +435,102 @@ int main(int argc, char **argv) {
             }
             ctx = NULL;
             have_map = 0;
+            break;
+        }
+        case 15: { /* a light in photometric units, with a spectrum */
+            what = "imap_add_light";
+            ImapLight l;
+            ImapSpectrum sp;
+            double table[16];
+            imap_light_default(&l, sizeof l);
+            l.kind = below(5);
+            l.unit = below(8);
+            l.position[0] = 0.5, l.position[1] = 0.5, l.position[2] = 2;
+            if (chance(0.2)) l.position[below(3)] = hostile(1);
+            l.direction[2] = hostile(-1);
+            l.half_angle_rad = hostile(0.5);
+            l.aperture = below(3);
+            l.aperture_size[0] = hostile(0.5), l.aperture_size[1] = hostile(0.5);
+            l.aperture_up[0] = hostile(1);
+            l.amount = hostile(1000);
+            for (int b = 0; b < 64; b++) per_band[b] = chance(0.9) ? 1 + 100 * uniform() : hostile(10);
+            l.band_power = per_band, l.band_power_count = chance(0.8) ? 1 : below(70);
+            if (chance(0.03)) l.struct_size = below(200);
+            hostile_spectrum(&sp, table);
+            s = imap_add_light(ctx, chance(0.02) ? NULL : &l, chance(0.5) ? NULL : &sp, chance(0.02) ? NULL : &id);
+            break;
+        }
+        case 16: { /* a luminaire from (mutated) file text or a table */
+            what = "imap_add_luminaire_ies/ldt/table";
+            static char text[4096];
+            ImapLuminaire pl;
+            ImapSpectrum sp;
+            double table[16];
+            imap_luminaire_default(&pl, sizeof pl);
+            pl.position[0] = 0.5, pl.position[1] = 0.5, pl.position[2] = 2;
+            if (chance(0.1)) pl.aim[below(3)] = hostile(0);
+            if (chance(0.1)) pl.reference[below(3)] = hostile(0);
+            if (chance(0.1)) pl.flux_scale = hostile(1);
+            if (chance(0.1)) pl.lumens = hostile(500);
+            pl.use_opening = chance(0.3) ? below(3) : 0;
+            if (chance(0.03)) pl.struct_size = below(200);
+            hostile_spectrum(&sp, table);
+            const ImapSpectrum *spp = chance(0.7) ? NULL : &sp;
+            switch (below(3)) {
+            case 0: {
+                size_t n = chance(0.3) ? strlen(IES_TEXT) : mutate(IES_TEXT, text, sizeof text);
+                const char *t = n == strlen(IES_TEXT) && chance(0.3) ? IES_TEXT : text;
+                s = imap_add_luminaire_ies(ctx, chance(0.02) ? NULL : t, n, NULL, 0, &pl, spp, &id);
+                break;
+            }
+            case 1: {
+                size_t n = chance(0.3) ? strlen(LDT_TEXT) : mutate(LDT_TEXT, text, sizeof text);
+                const char *t = n == strlen(LDT_TEXT) && chance(0.3) ? LDT_TEXT : text;
+                s = imap_add_luminaire_ldt(ctx, t, n, chance(0.02) ? NULL : &pl, spp, &id);
+                break;
+            }
+            default: {
+                ImapPhotometry ph;
+                double v[4] = {0, 30, 60, 90}, h[4] = {0, 90, 180, 270}, cd[16];
+                for (int i = 0; i < 16; i++) cd[i] = chance(0.95) ? 100 * uniform() : hostile(50);
+                if (chance(0.1)) v[below(4)] = hostile(45);
+                if (chance(0.1)) h[below(4)] = hostile(45);
+                imap_photometry_default(&ph, sizeof ph);
+                ph.photometric_type = chance(0.9) ? 1 : below(4);
+                ph.vertical = v, ph.vertical_count = chance(0.9) ? 4 : below(5);
+                ph.horizontal = h, ph.horizontal_count = chance(0.9) ? 4 : below(5);
+                ph.candela = chance(0.02) ? NULL : cd;
+                ph.multiplier = chance(0.9) ? 1 : hostile(2);
+                ph.opening = below(4), ph.opening_width = hostile(0.3), ph.opening_length = hostile(0.3);
+                ph.tilt_angles = v, ph.tilt_factors = h, ph.tilt_count = chance(0.9) ? 0 : below(5);
+                s = imap_add_luminaire_table(ctx, &ph, &pl, spp, &id);
+                break;
+            }
+            }
+            break;
+        }
+        case 17: { /* photometric read-outs */
+            what = "imap_get_vertex_illuminance/xyz/band_balance/efficacy/light_flux";
+            uint32_t m = below(sl->meshes + 2);
+            size_t cap = below(4000);
+            double lm;
+            switch (below(5)) {
+            case 0: s = imap_get_vertex_illuminance(ctx, m, below(3), chance(0.03) ? NULL : after, cap); break;
+            case 1: s = imap_get_vertex_xyz(ctx, m, below(3), chance(0.03) ? NULL : after, cap); break;
+            case 2: s = imap_get_band_balance(ctx, below(6), chance(0.03) ? NULL : after, below(80)); break;
+            case 3: s = imap_get_band_efficacy(ctx, chance(0.03) ? NULL : after, below(80)); break;
+            default:
+                s = imap_get_light_flux(ctx, below(6), chance(0.5) ? after : NULL, below(80), chance(0.5) ? &lm : NULL);
+                break;
+            }
+            break;
+        }
+        case 18: { /* colour of tristimulus values: calls without a context */
+            what = "imap_xyz_to_cct/chromaticity";
+            double x[3] = {hostile(95), hostile(100), hostile(108)}, out[2], k, duv;
+            s = chance(0.5) ? imap_xyz_to_cct(chance(0.03) ? NULL : x, chance(0.03) ? NULL : &k, chance(0.5) ? &duv : NULL)
+                            : imap_xyz_chromaticity(x, chance(0.03) ? NULL : out);
+            ctx = NULL;
             break;
         }
         case 14: /* destroy and create, sometimes */

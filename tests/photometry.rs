@@ -11,55 +11,6 @@ use imap::scene::light::{Amount, LightDesc, LightKind, Placement};
 use imap::{Bands, Config, Context, ImapStatus, MeshDesc};
 use std::f64::consts::PI;
 
-/// An LM-63-2002 file of `f(C, γ)` (type C) or `f(V, H)` (type B) on the given angles,
-/// with a multiplier, a ballast factor and optional TILT=INCLUDE data.
-fn ies_text(
-    photometric_type: u32,
-    vertical: &[f64],
-    horizontal: &[f64],
-    f: impl Fn(f64, f64) -> f64,
-    multiplier: f64,
-    ballast: f64,
-    tilt: Option<(&[f64], &[f64])>,
-) -> String {
-    let mut s = String::from("IESNA:LM-63-2002\n[TEST] libimap photometry test\n[MANUFAC] none\n");
-    match tilt {
-        None => s.push_str("TILT=NONE\n"),
-        Some((a, f)) => {
-            s.push_str(&format!("TILT=INCLUDE\n1\n{}\n", a.len()));
-            s.push_str(&join(a));
-            s.push_str(&join(f));
-        }
-    }
-    s.push_str(&format!(
-        "1 -1 {multiplier} {} {} {photometric_type} 2 0 0 0\n{ballast} 1 100\n",
-        vertical.len(),
-        horizontal.len()
-    ));
-    s.push_str(&join(vertical));
-    s.push_str(&join(horizontal));
-    for &h in horizontal {
-        let row: Vec<f64> = vertical.iter().map(|&v| f(h, v)).collect();
-        s.push_str(&join(&row));
-    }
-    s
-}
-
-fn join(v: &[f64]) -> String {
-    let mut s = String::new();
-    for (i, x) in v.iter().enumerate() {
-        s.push_str(&format!("{x}"));
-        s.push(if i % 10 == 9 { '\n' } else { ' ' });
-    }
-    s.push('\n');
-    s
-}
-
-fn steps(from: f64, to: f64, step: f64) -> Vec<f64> {
-    let n = ((to - from) / step).round() as usize;
-    (0..=n).map(|i| from + step * i as f64).collect()
-}
-
 fn rgb_context(seed: u64) -> Context {
     context(Config {
         threads: 2,
@@ -469,23 +420,6 @@ fn tilt_flux_scale_and_lumens_set_the_luminaire_flux() {
     assert!((ctx.light_flux(b).unwrap().1 - 1234.0).abs() < 1e-9);
 }
 
-/// Bilinear interpolation of a type C table (planes `cs` over 0–360°, the 360° plane
-/// implied by the 0° one) at (c, g): the test's own reading of "the file's interpolation".
-fn bilinear(cs: &[f64], gs: &[f64], table: &[Vec<f64>], c: f64, g: f64) -> f64 {
-    let c = c.rem_euclid(360.0);
-    let nc = cs.len();
-    let i = (0..nc).rev().find(|&i| cs[i] <= c).unwrap();
-    let (c0, c1, r0, r1) = if i + 1 < nc {
-        (cs[i], cs[i + 1], &table[i], &table[i + 1])
-    } else {
-        (cs[i], 360.0, &table[i], &table[0])
-    };
-    let j = (0..gs.len() - 1).rev().find(|&j| gs[j] <= g).unwrap_or(0);
-    let (s, t) = ((c - c0) / (c1 - c0), (g - gs[j]) / (gs[j + 1] - gs[j]));
-    let at = |r: &Vec<f64>| r[j] * (1.0 - t) + r[j + 1] * t;
-    at(r0) * (1.0 - s) + at(r1) * s
-}
-
 #[test]
 fn an_asymmetric_file_lights_its_c_planes_as_interpolated() {
     // A coarse table with no symmetry (C every 30°, γ every 10°), arbitrary values: under
@@ -833,4 +767,71 @@ fn malformed_files_get_a_status_and_a_line_and_leave_the_context_usable() {
     let mut lux = vec![0.0; g.vertex_count()];
     ctx.illuminance(mesh, 0, &mut lux).unwrap();
     assert!(lux.iter().all(|x| x.is_finite()) && lux.iter().sum::<f64>() > 0.0);
+}
+
+#[test]
+fn a_luminous_opening_gives_the_near_field_of_an_area_source() {
+    // A cosine distribution emitted from a disk opening of radius a is a Lambertian disk
+    // of luminance L = I0 / (π a²). At height h over a plane, E at distance ρ from the
+    // axis is (πL/2)(1 − (h² + ρ² − a²)/√((h² + ρ² + a²)² − 4a²ρ²)): 2000 lx under the
+    // centre of a 1 m disk 0.5 m up with I0 = 1000 cd, where a point source would give
+    // I0/h² = 4000 lx.
+    let (a, h, i0) = (0.5, 0.5, 1000.0);
+    let v = steps(0.0, 90.0, 1.0);
+    let text = ies_text(
+        1,
+        &v,
+        &[0.0],
+        |_, g| i0 * g.to_radians().cos(),
+        1.0,
+        1.0,
+        None,
+    )
+    .replacen(" 1 2 0 0 0\n", " 1 2 -1.0 0 0\n", 1);
+    let mut ctx = rgb_context(51);
+    let black = lambert(&mut ctx, 0.0);
+    let g = grid(16, -2.0, 2.0, -2.0, 2.0, 0.0);
+    let mesh = ctx.add_mesh(&g.desc(black)).unwrap();
+    let place = Placement {
+        position: [0.0, 0.0, h],
+        use_opening: true,
+        ..Default::default()
+    };
+    ctx.add_luminaire_ies(&text, None, &place, &Spectrum::Equal)
+        .unwrap();
+    run_photons(&mut ctx, photons(6_000_000));
+    let nv = g.vertex_count();
+    let (mut lux, mut err) = (vec![0.0; nv], vec![0.0; nv]);
+    ctx.illuminance(mesh, 0, &mut lux).unwrap();
+    ctx.rel_error(mesh, 0, &mut err).unwrap();
+    let l = i0 / (PI * a * a);
+    let field = |x: [f64; 3]| {
+        let r2 = x[0] * x[0] + x[1] * x[1];
+        let s = h * h + r2;
+        PI * l / 2.0 * (1.0 - (s - a * a) / ((s + a * a).powi(2) - 4.0 * a * a * r2).sqrt())
+    };
+    let centre = 8 * 17 + 8;
+    assert!((field(g.vertex(centre)) - 2000.0).abs() < 1e-9);
+    for v in 0..nv {
+        let p = g.vertex(v);
+        if (p[0] * p[0] + p[1] * p[1]).sqrt() > 1.2 {
+            continue;
+        }
+        let expected = hat_average(&g, v, field);
+        let dev = (lux[v] - expected).abs();
+        assert!(
+            dev <= 3.5 * err[v] * lux[v] && dev <= 0.03 * expected,
+            "{p:?}: {} lx vs {expected} lx ({:.2} σ)",
+            lux[v],
+            dev / (err[v] * lux[v])
+        );
+    }
+    // A solid opening cannot emit; a point opening emits from its point.
+    let boxed = text.replacen(" 1 2 -1.0 0 0\n", " 1 2 0.5 0.5 0.2\n", 1);
+    ctx.reset();
+    let e = ctx
+        .add_luminaire_ies(&boxed, None, &place, &Spectrum::Equal)
+        .unwrap_err();
+    assert_eq!(e.status, ImapStatus::ImapErrUnsupported, "{e}");
+    assert!(e.message.contains("box"), "{e}");
 }

@@ -509,3 +509,97 @@ fn render_memory_is_reported_and_budgeted() {
     );
     assert!(img.radiance.iter().all(|v| v.is_finite()));
 }
+
+/// A goniometric luminaire with no symmetry and a collimated beam over a Lambertian floor:
+/// direct light only, by light sampling: L = ρ/π · E with E = I(C, γ) cos³γ / h² read from
+/// the table by bilinear interpolation, plus the beam's illuminance inside its footprint.
+#[test]
+fn floor_under_a_luminaire_and_a_beam() {
+    use imap::photometry::Spectrum;
+    use imap::scene::light::{Amount, LightDesc, LightKind, Placement};
+    let mut ctx = context(Config {
+        threads: 2,
+        ..Default::default()
+    });
+    let rho = 0.5;
+    let m = lambert(&mut ctx, rho);
+    let g = grid(8, -4.0, 4.0, -4.0, 4.0, 0.0);
+    ctx.add_mesh(&g.desc(m)).unwrap();
+    let h = 1.5;
+    let cs = steps(0.0, 330.0, 30.0);
+    let gs = steps(0.0, 90.0, 15.0);
+    let table: Vec<Vec<f64>> = (0..cs.len())
+        .map(|i| {
+            (0..gs.len())
+                .map(|j| 200.0 + ((i * 5 + j * 3) % 7) as f64 * 50.0)
+                .collect()
+        })
+        .collect();
+    let mut text = ies_text(1, &gs, &cs, |_, _| 0.0, 1.0, 1.0, None);
+    text = text.split("\n0 0 0").next().unwrap().to_string() + "\n";
+    for r in &table {
+        text.push_str(&join(r));
+    }
+    ctx.add_luminaire_ies(
+        &text,
+        None,
+        &Placement {
+            position: [0.0, 0.0, h],
+            ..Default::default()
+        },
+        &Spectrum::Equal,
+    )
+    .unwrap();
+    // 200 lx straight down through a 1 × 1 m aperture centred over (1.5, 1.5).
+    let beam_lx = 200.0;
+    ctx.add_light_desc(&LightDesc {
+        kind: LightKind::Beam {
+            direction: [0.0, 0.0, -1.0],
+            disk: false,
+            size: [1.0, 1.0],
+            up: [1.0, 0.0, 0.0],
+        },
+        position: [1.5, 1.5, 3.0],
+        amount: Amount::Lux(beam_lx),
+        spectrum: Spectrum::Equal,
+    })
+    .unwrap();
+    let k_lm_per_w: f64 = ctx.photometry().efficacy.iter().sum::<f64>() / 3.0;
+    let cam = CameraDesc {
+        position: [0.0, 0.0, 4.0],
+        direction: [0.0, 0.0, -1.0],
+        up: [0.0, 1.0, 0.0],
+        fov_y_deg: 60.0,
+        width: 48,
+        height: 48,
+    };
+    // Each sample picks one of the two lights: many passes.
+    let (img, _) = render(&mut ctx, &cam, &mut params(RenderMethod::Synchronous, 2048));
+    let mut truths = Vec::new();
+    for y in 0..48 {
+        for x in 0..48 {
+            let p = floor_point(&cam, x, y).unwrap();
+            let r = (p[0] * p[0] + p[1] * p[1] + h * h).sqrt();
+            let gamma = (h / r).acos().to_degrees();
+            let c = p[1].atan2(p[0]).to_degrees();
+            let mut lux = bilinear(&cs, &gs, &table, c, gamma) * (h / r).powi(3) / (h * h);
+            let (dx, dy) = ((p[0] - 1.5).abs(), (p[1] - 1.5).abs());
+            if dx.max(dy) > 0.45 && dx.max(dy) < 0.55 {
+                continue; // the beam's edge crosses this pixel
+            }
+            if dx < 0.5 && dy < 0.5 {
+                lux += beam_lx;
+            }
+            // Equal power in the three bands: each band's irradiance is lux / Σ K.
+            let e_band = lux / (3.0 * k_lm_per_w);
+            truths.push(((y * 48 + x) as usize, rho / PI * e_band));
+        }
+    }
+    let (dev, est) = compare(&img, &truths, true);
+    eprintln!("luminaire and beam on a floor: rms deviation {dev:.2e}, estimated {est:.2e}");
+    assert!(est < 0.03, "estimated error {est}");
+    assert!(
+        dev < 1.5 * est + 2e-3,
+        "rms relative deviation {dev} against the estimate {est}"
+    );
+}

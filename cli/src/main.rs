@@ -3,6 +3,7 @@
 
 mod cornell;
 mod diag;
+mod lights;
 mod materials;
 mod mtl;
 mod obj;
@@ -263,6 +264,7 @@ fn run_scene(obj: &Path, mut settings: Settings, opts: &RunOptions) -> Result<se
         })
         .collect();
     let c = report.counters;
+    let photometry = output::photometric_summary(&scene, &maps);
     let stop = if was_interrupted {
         "Interrupted".to_string()
     } else {
@@ -272,11 +274,20 @@ fn run_scene(obj: &Path, mut settings: Settings, opts: &RunOptions) -> Result<se
         "scene": obj.display().to_string(),
         "settings": settings,
         "bands_nm": scene.band_nm,
-        "meshes": scene.meshes.iter().map(|m| serde_json::json!({
+        "meshes": scene.meshes.iter().zip(&photometry.meshes).map(|(m, lux)| serde_json::json!({
             "name": m.name, "vertices": m.positions.len() / 3,
             "triangles": m.indices.len() / 3, "recorded": m.id.is_some(),
-            "emitting": m.emission.is_some()
+            "emitting": m.emission.is_some(),
+            "illuminance_lx": lux
         })).collect::<Vec<_>>(),
+        "lights": scene.lights,
+        "units": {
+            "energy_w": "W, radiant, summed over the bands",
+            "energy_w_per_band": "W in each band (bands_nm)",
+            "luminous_lm": "lm",
+            "illuminance_lx": "lx, area-weighted over the recorded vertices (front side)",
+            "csv": "E_* in W/m2 per band, rel_error dimensionless, lux in lx"
+        },
         "warnings": scene.warnings,
         "interrupted": was_interrupted,
         "stop": stop,
@@ -293,6 +304,15 @@ fn run_scene(obj: &Path, mut settings: Settings, opts: &RunOptions) -> Result<se
             "escaped": report.escaped_w, "dropped": report.dropped_w,
             "dropped_photons": report.dropped_photons
         },
+        "energy_w_per_band": {
+            "emitted": report.band_w[0], "absorbed": report.band_w[1],
+            "escaped": report.band_w[2], "dropped": report.band_w[3]
+        },
+        "luminous_lm": {
+            "emitted": report.emitted_lm, "absorbed": report.absorbed_lm,
+            "escaped": report.escaped_lm, "dropped": report.dropped_lm
+        },
+        "light_on_recorded_surfaces": photometry.colour,
         "counters": {
             "calc_wait_s": c.calc_wait_s, "accum_busy_fraction": c.accum_busy_fraction,
             "peak_queue": c.peak_queue, "portions": c.portions,

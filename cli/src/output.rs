@@ -76,6 +76,10 @@ pub struct MeshMap {
     /// Irradiance, W/m², per band: `e[band][vertex]`.
     pub e: Vec<Vec<f64>>,
     pub rel_error: Vec<f64>,
+    /// Illuminance, lx, per vertex.
+    pub lux: Vec<f64>,
+    /// CIE 1931 X, Y, Z per vertex (Y = lux).
+    pub xyz: Vec<[f64; 3]>,
 }
 
 /// Reads the map of every recorded mesh.
@@ -93,9 +97,84 @@ pub fn read_maps(ctx: &Context, scene: &LoadedScene) -> Result<Vec<Option<MeshMa
             }
             let mut rel_error = vec![0.0; nv];
             ctx.rel_error(id, 0, &mut rel_error)?;
-            Ok(Some(MeshMap { e, rel_error }))
+            let mut lux = vec![0.0; nv];
+            ctx.illuminance(id, 0, &mut lux)?;
+            let mut flat = vec![0.0; 3 * nv];
+            ctx.tristimulus(id, 0, &mut flat)?;
+            let xyz = flat.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
+            Ok(Some(MeshMap {
+                e,
+                rel_error,
+                lux,
+                xyz,
+            }))
         })
         .collect()
+}
+
+/// What report.json says in photometric terms.
+pub struct PhotometricSummary {
+    /// Per mesh: mean (area-weighted), minimum and maximum illuminance of a recorded mesh.
+    pub meshes: Vec<serde_json::Value>,
+    /// Chromaticity and CCT of the area-weighted mean light on the recorded surfaces.
+    pub colour: serde_json::Value,
+}
+
+/// Each vertex's share of its triangles' area (a third of each).
+fn vertex_areas(m: &crate::scene::LoadedMesh) -> Vec<f64> {
+    let p = |i: u32| DVec3::from_slice(&m.positions[3 * i as usize..]);
+    let mut a = vec![0.0; m.positions.len() / 3];
+    for t in m.indices.chunks_exact(3) {
+        let area = 0.5 * (p(t[1]) - p(t[0])).cross(p(t[2]) - p(t[0])).length();
+        for &i in t {
+            a[i as usize] += area / 3.0;
+        }
+    }
+    a
+}
+
+pub fn photometric_summary(scene: &LoadedScene, maps: &[Option<MeshMap>]) -> PhotometricSummary {
+    let mut total = [0.0; 3];
+    let mut area_sum = 0.0;
+    let meshes = scene
+        .meshes
+        .iter()
+        .zip(maps)
+        .map(|(m, map)| {
+            let Some(map) = map else {
+                return serde_json::Value::Null;
+            };
+            let areas = vertex_areas(m);
+            let a: f64 = areas.iter().sum();
+            let mean = if a > 0.0 {
+                map.lux.iter().zip(&areas).map(|(l, w)| l * w).sum::<f64>() / a
+            } else {
+                0.0
+            };
+            for (x, w) in map.xyz.iter().zip(&areas) {
+                for k in 0..3 {
+                    total[k] += x[k] * w;
+                }
+            }
+            area_sum += a;
+            let used = areas.iter().zip(&map.lux).filter(|(w, _)| **w > 0.0);
+            let min = used.clone().map(|(_, l)| *l).fold(f64::INFINITY, f64::min);
+            let max = used.map(|(_, l)| *l).fold(0.0, f64::max);
+            serde_json::json!({"mean": mean, "min": if min.is_finite() { min } else { 0.0 }, "max": max})
+        })
+        .collect();
+    let colour = match imap::photometry::chromaticity(total) {
+        Some(xy) => {
+            let cct = imap::photometry::cct(total).filter(|c| c.1.abs() <= 0.05);
+            serde_json::json!({
+                "mean_lx": if area_sum > 0.0 { total[1] / area_sum } else { 0.0 },
+                "x": xy[0], "y": xy[1],
+                "cct_k": cct.map(|c| c.0), "duv": cct.map(|c| c.1)
+            })
+        }
+        None => serde_json::Value::Null,
+    };
+    PhotometricSummary { meshes, colour }
 }
 
 fn create(path: &Path) -> Result<std::io::BufWriter<std::fs::File>> {
@@ -126,7 +205,7 @@ pub fn write_csv(path: &Path, scene: &LoadedScene, maps: &[Option<MeshMap>]) -> 
             }
         })
         .collect();
-    writeln!(f, "mesh,vertex,x,y,z,{},rel_error", bands.join(",")).map_err(&err)?;
+    writeln!(f, "mesh,vertex,x,y,z,{},rel_error,lux", bands.join(",")).map_err(&err)?;
     let mut rows: Vec<(u32, usize, usize)> = Vec::new();
     for (mi, (m, map)) in scene.meshes.iter().zip(maps).enumerate() {
         if map.is_some() {
@@ -150,7 +229,7 @@ pub fn write_csv(path: &Path, scene: &LoadedScene, maps: &[Option<MeshMap>]) -> 
         for e in &map.e {
             write!(f, ",{}", e[v]).map_err(&err)?;
         }
-        writeln!(f, ",{}", map.rel_error[v]).map_err(&err)?;
+        writeln!(f, ",{},{}", map.rel_error[v], map.lux[v]).map_err(&err)?;
     }
     f.flush().map_err(&err)
 }
@@ -260,7 +339,7 @@ pub fn write_ply(path: &Path, scene: &LoadedScene, maps: &[Option<MeshMap>]) -> 
     let err = io(path);
     write!(
         f,
-        "ply\nformat ascii 1.0\ncomment libimap illumination map: irradiance = band-mean E in W/m2, colour = tone-mapped reflected light\nelement vertex {nv}\nproperty double x\nproperty double y\nproperty double z\nproperty uchar red\nproperty uchar green\nproperty uchar blue\nproperty float irradiance\nproperty float rel_error\nelement face {nf}\nproperty list uchar int vertex_indices\nend_header\n"
+        "ply\nformat ascii 1.0\ncomment libimap illumination map: irradiance = band-mean E in W/m2, illuminance in lx, colour = tone-mapped reflected light\nelement vertex {nv}\nproperty double x\nproperty double y\nproperty double z\nproperty uchar red\nproperty uchar green\nproperty uchar blue\nproperty float irradiance\nproperty float rel_error\nproperty float illuminance\nelement face {nf}\nproperty list uchar int vertex_indices\nend_header\n"
     )
     .map_err(&err)?;
     for &i in &recorded {
@@ -270,8 +349,16 @@ pub fn write_ply(path: &Path, scene: &LoadedScene, maps: &[Option<MeshMap>]) -> 
             let mean = map.e.iter().map(|e| e[v]).sum::<f64>() / map.e.len() as f64;
             writeln!(
                 f,
-                "{} {} {} {} {} {} {} {}",
-                p[0], p[1], p[2], c[0], c[1], c[2], mean as f32, map.rel_error[v] as f32
+                "{} {} {} {} {} {} {} {} {}",
+                p[0],
+                p[1],
+                p[2],
+                c[0],
+                c[1],
+                c[2],
+                mean as f32,
+                map.rel_error[v] as f32,
+                map.lux[v] as f32
             )
             .map_err(&err)?;
         }
@@ -324,22 +411,169 @@ pub fn default_camera(scene: &LoadedScene) -> CameraSettings {
     }
 }
 
-/// Renders every mesh with a z-buffer, colours interpolated from the vertices (2×2
-/// supersampled), and returns RGB bytes.
+/// What the view interpolates per vertex: illuminance (lx), the luminance of the reflected
+/// light (for surfaces that do not record), 1 on recording meshes, 1 (coverage).
+type ViewAttr = [f64; 4];
+
+fn view_attributes(scene: &LoadedScene, maps: &[Option<MeshMap>]) -> Vec<Vec<ViewAttr>> {
+    let colours = vertex_colours(scene, maps);
+    scene
+        .meshes
+        .iter()
+        .zip(maps)
+        .zip(colours)
+        .map(|((m, map), cols)| {
+            (0..m.positions.len() / 3)
+                .map(|v| match map {
+                    Some(mm) => [mm.lux[v], luminance(cols[v]), 1.0, 1.0],
+                    None => [0.0, luminance(cols[v]), 0.0, 1.0],
+                })
+                .collect()
+        })
+        .collect()
+}
+
+/// The viridis colour map at t ∈ [0, 1] (piecewise linear through five of its colours).
+fn colour_map(t: f64) -> [u8; 3] {
+    const STOPS: [[f64; 3]; 5] = [
+        [68.0, 1.0, 84.0],
+        [59.0, 82.0, 139.0],
+        [33.0, 145.0, 140.0],
+        [94.0, 201.0, 98.0],
+        [253.0, 231.0, 37.0],
+    ];
+    let x = t.clamp(0.0, 1.0) * 4.0;
+    let i = (x as usize).min(3);
+    let f = x - i as f64;
+    [0, 1, 2].map(|k| (STOPS[i][k] * (1.0 - f) + STOPS[i + 1][k] * f).round() as u8)
+}
+
+/// The smallest of 1, 2, 2.5, 5 × 10^k at or above `x`.
+fn nice_ceiling(x: f64) -> f64 {
+    if !(x > 0.0 && x.is_finite()) {
+        return 1.0;
+    }
+    let p = 10f64.powf(x.log10().floor());
+    [1.0, 2.0, 2.5, 5.0, 10.0]
+        .iter()
+        .map(|m| m * p)
+        .find(|&v| v >= x * (1.0 - 1e-12))
+        .unwrap_or(10.0 * p)
+}
+
+/// The view: recording surfaces in false colour by illuminance (lx), the others grey by
+/// the light they reflect, with a legend in lux along the bottom; RGB bytes.
 pub fn render_view(
     scene: &LoadedScene,
     maps: &[Option<MeshMap>],
     cam: &CameraSettings,
 ) -> Result<Vec<u8>> {
-    Ok(rasterize(scene, maps, cam)?.0)
+    let attrs = view_attributes(scene, maps);
+    let (px, _) = rasterize(scene, &attrs, cam)?;
+    let mut lux: Vec<f64> = maps
+        .iter()
+        .flatten()
+        .flat_map(|m| m.lux.iter().copied())
+        .filter(|x| x.is_finite())
+        .collect();
+    lux.sort_by(f64::total_cmp);
+    // The scale ends at a round number above the 95th percentile (brighter spots, such as
+    // surfaces right under a lamp, saturate to the top colour).
+    let top = nice_ceiling(
+        lux.get((lux.len() as f64 * 0.95) as usize)
+            .copied()
+            .unwrap_or(0.0),
+    );
+    let tone = ToneMap::new(attrs.iter().flatten().filter(|a| a[2] < 0.5).map(|a| a[1]));
+    let mut out = Vec::with_capacity(px.len() * 3);
+    for a in &px {
+        let c = if a[3] < 0.5 {
+            [24, 24, 28]
+        } else if a[2] >= 0.5 {
+            colour_map(a[0] / a[2] / top)
+        } else {
+            let g = tone.apply([a[1]; 3])[0];
+            [g, g, g]
+        };
+        out.extend(c);
+    }
+    draw_legend(&mut out, cam.width, cam.height, top);
+    Ok(out)
 }
 
-/// `render_view`, and the number of pixels the rasteriser visited (its cost).
+/// The colour scale 0 … `top` lx along the bottom of the image (labels when a font is
+/// found).
+fn draw_legend(img: &mut [u8], w: u32, h: u32, top: f64) {
+    use plotters::prelude::*;
+    let bar_h = (h / 40).clamp(6, 24);
+    let pad = (h / 60).clamp(3, 12);
+    let label_h = (h / 28).clamp(9, 22);
+    let strip = bar_h + 3 * pad + label_h;
+    if h < 2 * strip || w < 60 {
+        return; // too small for a legend
+    }
+    let font = register_font();
+    let mut draw = || -> std::result::Result<(), Box<dyn std::error::Error>> {
+        let root = BitMapBackend::with_buffer(img, (w, h)).into_drawing_area();
+        let y0 = (h - strip) as i32;
+        root.draw(&Rectangle::new(
+            [(0, y0), (w as i32, h as i32)],
+            RGBColor(24, 24, 28).filled(),
+        ))?;
+        let (x0, x1) = ((w / 20) as i32, (w - w / 20) as i32);
+        let by = y0 + pad as i32;
+        for x in x0..x1 {
+            let c = colour_map((x - x0) as f64 / (x1 - x0 - 1).max(1) as f64);
+            root.draw(&Rectangle::new(
+                [(x, by), (x + 1, by + bar_h as i32)],
+                RGBColor(c[0], c[1], c[2]).filled(),
+            ))?;
+        }
+        if font {
+            let style = ("sans-serif", label_h as f64)
+                .into_font()
+                .color(&RGBColor(230, 230, 230));
+            use plotters::style::text_anchor::{HPos, Pos, VPos};
+            for k in 0..=4 {
+                let x = x0 + (x1 - x0) * k / 4;
+                let v = top * k as f64 / 4.0;
+                let (text, h) = match k {
+                    0 => (fmt_lux(v), HPos::Left),
+                    4 => (format!("{} lx", fmt_lux(v)), HPos::Right),
+                    _ => (fmt_lux(v), HPos::Center),
+                };
+                root.draw(&Text::new(
+                    text,
+                    (x, by + (bar_h + pad) as i32),
+                    style.clone().pos(Pos::new(h, VPos::Top)),
+                ))?;
+            }
+        }
+        root.present()?;
+        Ok(())
+    };
+    // The legend is a courtesy: a drawing failure leaves the view without it.
+    let _ = draw();
+}
+
+fn fmt_lux(v: f64) -> String {
+    if v == 0.0 || v >= 10.0 {
+        format!("{v:.0}")
+    } else if v >= 1.0 {
+        format!("{v:.1}")
+    } else {
+        format!("{v:.2}")
+    }
+}
+
+/// Draws every mesh with a z-buffer, per-vertex attributes interpolated
+/// perspective-correctly (2×2 supersampled, averaged), and the number of pixels the
+/// rasteriser visited (its cost).
 fn rasterize(
     scene: &LoadedScene,
-    maps: &[Option<MeshMap>],
+    attrs: &[Vec<ViewAttr>],
     cam: &CameraSettings,
-) -> Result<(Vec<u8>, u64)> {
+) -> Result<(Vec<ViewAttr>, u64)> {
     let mut visited = 0u64;
     cam.validate()?;
     let (w, h) = (cam.width as usize, cam.height as usize);
@@ -350,10 +584,8 @@ fn rasterize(
     let f = 1.0 / (cam.fov_deg.to_radians() / 2.0).tan();
     let aspect = w as f64 / h as f64;
     let (sw, sh) = (2 * w, 2 * h);
-    let colours = vertex_colours(scene, maps);
-    let tone = ToneMap::new(colours.iter().flatten().map(|&c| luminance(c)));
     let mut z = vec![f64::INFINITY; sw * sh];
-    let mut img = vec![[0.0f64; 3]; sw * sh];
+    let mut img = vec![[0.0f64; 4]; sw * sh];
     let project = |p: [f64; 3]| -> Option<[f64; 3]> {
         let d = DVec3::from(p) - eye;
         let depth = d.dot(fwd);
@@ -384,7 +616,7 @@ fn rasterize(
             if area.abs() < 1e-12 {
                 continue;
             }
-            let cols = [0, 1, 2].map(|k| colours[mi][t[k] as usize]);
+            let cols = [0, 1, 2].map(|k| attrs[mi][t[k] as usize]);
             let y0 = a[1].min(b[1]).min(c[1]).floor().max(0.0) as usize;
             let y1 = (a[1].max(b[1]).max(c[1]).ceil().max(0.0) as usize).min(sh);
             for y in y0..y1 {
@@ -422,22 +654,23 @@ fn rasterize(
                     }
                     z[i] = depth;
                     let (p0, p1, p2) = (w0 / a[2] * depth, w1 / b[2] * depth, w2 / c[2] * depth);
-                    img[i] = [0, 1, 2].map(|k| p0 * cols[0][k] + p1 * cols[1][k] + p2 * cols[2][k]);
+                    img[i] =
+                        [0, 1, 2, 3].map(|k| p0 * cols[0][k] + p1 * cols[1][k] + p2 * cols[2][k]);
                 }
             }
         }
     }
-    let mut out = Vec::with_capacity(w * h * 3);
+    let mut out = Vec::with_capacity(w * h);
     for y in 0..h {
         for x in 0..w {
-            let mut c = [0.0; 3];
+            let mut c = [0.0; 4];
             for (dx, dy) in [(0, 0), (1, 0), (0, 1), (1, 1)] {
                 let p = img[(2 * y + dy) * sw + 2 * x + dx];
-                for k in 0..3 {
+                for k in 0..4 {
                     c[k] += 0.25 * p[k];
                 }
             }
-            out.extend(tone.apply(c));
+            out.push(c);
         }
     }
     Ok((out, visited))
@@ -592,10 +825,13 @@ mod tests {
             band_nm: vec![612.0, 549.0, 465.0],
             rgb: true,
             warnings: vec![],
+            lights: vec![],
         };
         let maps = vec![Some(MeshMap {
             e: vec![vec![1.0; nv]; 3],
             rel_error: vec![0.01; nv],
+            lux: vec![300.0; nv],
+            xyz: vec![[285.0, 300.0, 327.0]; nv],
         })];
         let cam = CameraSettings {
             position: [0.0, 0.0, 3.0],
@@ -605,7 +841,8 @@ mod tests {
             width: 640,
             height: 640,
         };
-        let (img, visited) = rasterize(&scene, &maps, &cam).unwrap();
+        let attrs = view_attributes(&scene, &maps);
+        let (px, visited) = rasterize(&scene, &attrs, &cam).unwrap();
         // The disk: radius 1 at distance 3 with a 40° field: 1/(3 tan 20°) of the half
         // width, 0.916 × 640 = 586 supersampled pixels of radius.
         let r = 1.0 / (3.0 * 20f64.to_radians().tan()) * 640.0;
@@ -613,8 +850,24 @@ mod tests {
         eprintln!("fan: {visited} pixels visited for a disk of {disk:.0}");
         assert!((visited as f64) < 1.1 * disk, "{visited} visited");
         assert!((visited as f64) > 0.9 * disk, "{visited} visited");
-        // The centre pixel is lit.
-        let c = (320 * 640 + 320) * 3;
-        assert!(img[c] > 0);
+        // The centre pixel shows the recorded illuminance.
+        assert_eq!(
+            px[320 * 640 + 320],
+            [300.0, px[320 * 640 + 320][1], 1.0, 1.0]
+        );
+        // In the view, 300 lx is 0.6 of a 0–500 lx scale; the background is dark grey.
+        let img = render_view(&scene, &maps, &cam).unwrap();
+        assert_eq!(img[(320 * 640 + 320) * 3..][..3], colour_map(0.6));
+        assert_eq!(img[..3], [24, 24, 28]);
+    }
+
+    #[test]
+    fn the_lux_scale_ends_on_a_round_number() {
+        assert_eq!(nice_ceiling(0.0), 1.0);
+        assert_eq!(nice_ceiling(480.0), 500.0);
+        assert_eq!(nice_ceiling(500.0), 500.0);
+        assert_eq!(nice_ceiling(2100.0), 2500.0);
+        assert_eq!(nice_ceiling(0.013), 0.02);
+        assert_eq!(colour_map(0.0), [68, 1, 84]);
     }
 }

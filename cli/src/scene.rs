@@ -8,6 +8,7 @@
 //! override any material property.
 
 use crate::diag::{printable, Diagnostics};
+use crate::lights::{self, LightSettings, LuminaireSettings, PlacedLight};
 use crate::materials::{self, MaterialSettings, Resolved};
 use crate::{mtl, obj};
 use imap::{Bands, Config, Context, MeshDesc, SchedulerKind};
@@ -133,20 +134,6 @@ impl Default for RunSettings {
 
 #[derive(Clone, Debug, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
-pub struct LightSettings {
-    /// "point" or "spot".
-    pub kind: String,
-    pub position: [f64; 3],
-    #[serde(default)]
-    pub direction: Option<[f64; 3]>,
-    #[serde(default)]
-    pub half_angle_deg: Option<f64>,
-    /// W per band.
-    pub power: Spectrum,
-}
-
-#[derive(Clone, Debug, Deserialize, Serialize)]
-#[serde(deny_unknown_fields)]
 pub struct CameraSettings {
     pub position: [f64; 3],
     pub look_at: [f64; 3],
@@ -183,6 +170,11 @@ pub struct Settings {
     pub run: RunSettings,
     #[serde(default, rename = "light")]
     pub lights: Vec<LightSettings>,
+    #[serde(default, rename = "luminaire")]
+    pub luminaires: Vec<LuminaireSettings>,
+    /// The settings file's folder: luminaire files are relative to it.
+    #[serde(skip)]
+    pub base_dir: std::path::PathBuf,
     /// Overrides by MTL material name.
     #[serde(default)]
     pub materials: BTreeMap<String, MaterialSettings>,
@@ -201,14 +193,16 @@ impl Settings {
         let bytes =
             std::fs::read(path).map_err(|e| CliError(format!("{}: {e}", path.display())))?;
         let text = crate::diag::decode(&bytes);
-        toml::from_str(&text).map_err(|e| {
+        let mut s: Settings = toml::from_str(&text).map_err(|e| {
             let line = e
                 .span()
                 .map(|s| text[..s.start].matches('\n').count() + 1)
                 .unwrap_or(0);
             let msg = printable(&e.message().replace('\n', " "));
             CliError(format!("{}:{line}: {msg}", path.display()))
-        })
+        })?;
+        s.base_dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
+        Ok(s)
     }
 
     pub fn bands(&self) -> Result<Bands> {
@@ -251,6 +245,8 @@ pub struct LoadedScene {
     pub rgb: bool,
     /// Warnings of the load (printed once each).
     pub warnings: Vec<String>,
+    /// The lights and luminaires added, with their flux.
+    pub lights: Vec<PlacedLight>,
 }
 
 impl LoadedScene {
@@ -436,24 +432,14 @@ pub fn load(path: &Path, settings: &Settings) -> Result<(Context, LoadedScene)> 
             });
         }
     }
-    for (i, l) in settings.lights.iter().enumerate() {
-        let what = format!("settings: light {}", i + 1);
-        let power = l.power.values();
-        match l.kind.as_str() {
-            "point" => ctx.add_point_light(l.position, &power),
-            "spot" => {
-                let (Some(d), Some(a)) = (l.direction, l.half_angle_deg) else {
-                    fail!("{what}: a spot needs direction and half_angle_deg");
-                };
-                ctx.add_spot_light(l.position, d, a.to_radians(), &power)
-            }
-            k => fail!(
-                "{what}: kind = \"{}\": use \"point\" or \"spot\"",
-                printable(k)
-            ),
-        }
-        .map_err(|e| CliError(format!("{what}: {}", e.message)))?;
-    }
+    let mut placed = Vec::new();
+    lights::add_lights(&mut ctx, &settings.lights, &mut placed)?;
+    lights::add_luminaires(
+        &mut ctx,
+        &settings.luminaires,
+        &settings.base_dir,
+        &mut placed,
+    )?;
     Ok((
         ctx,
         LoadedScene {
@@ -461,6 +447,7 @@ pub fn load(path: &Path, settings: &Settings) -> Result<(Context, LoadedScene)> 
             band_nm,
             rgb,
             warnings: diag.warnings,
+            lights: placed,
         },
     ))
 }

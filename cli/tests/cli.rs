@@ -275,6 +275,8 @@ fn outputs_exist_parse_and_the_ply_holds_libimap_s_map() {
     }
     let mut rel = vec![0.0; floor.len()];
     ctx.rel_error(fid, 0, &mut rel).unwrap();
+    let mut lux = vec![0.0; floor.len()];
+    ctx.illuminance(fid, 0, &mut lux).unwrap();
 
     // PLY: header, then vertices matched by position.
     let ply = std::fs::read_to_string(out.join("irradiance.ply")).unwrap();
@@ -289,13 +291,14 @@ fn outputs_exist_parse_and_the_ply_holds_libimap_s_map() {
     let mut matched = 0;
     for line in body.lines().take(nv) {
         let f: Vec<f64> = line.split(' ').map(|x| x.parse().unwrap()).collect();
-        assert_eq!(f.len(), 8, "{line}");
+        assert_eq!(f.len(), 9, "{line}");
         if let Some(v) = floor
             .iter()
             .position(|p| (0..3).all(|k| (p[k] - f[k]).abs() < 1e-6))
         {
             assert_eq!(f[6] as f32, mean[v] as f32, "vertex {v}: PLY vs libimap");
             assert_eq!(f[7] as f32, rel[v] as f32, "vertex {v}: error");
+            assert_eq!(f[8] as f32, lux[v] as f32, "vertex {v}: lux");
             matched += 1;
         }
     }
@@ -308,13 +311,13 @@ fn outputs_exist_parse_and_the_ply_holds_libimap_s_map() {
     let mut lines = csv.lines();
     assert_eq!(
         lines.next().unwrap(),
-        "mesh,vertex,x,y,z,E_r,E_g,E_b,rel_error"
+        "mesh,vertex,x,y,z,E_r,E_g,E_b,rel_error,lux"
     );
     let rows: Vec<&str> = lines.collect();
     assert_eq!(rows.len(), nv);
     for r in &rows {
         let f: Vec<&str> = r.split(',').collect();
-        assert_eq!(f.len(), 9);
+        assert_eq!(f.len(), 10);
         assert!(f[5..].iter().all(|x| x.parse::<f64>().unwrap().is_finite()));
     }
 
@@ -464,4 +467,229 @@ fn demo_writes_a_cornell_box_with_colour_bleeding() {
         rg(near_red),
         rg(near_green)
     );
+}
+
+/// A cosine IES file: I0 `i0` cd, γ in 1° steps, named TILT file or none.
+fn cosine_ies(i0: f64, tilt: &str) -> String {
+    let mut s =
+        format!("IESNA:LM-63-2002\n[TEST] cosine\nTILT={tilt}\n1 -1 1 91 1 1 2 0 0 0\n1 1 10\n");
+    for g in 0..=90 {
+        s.push_str(&format!("{g} "));
+    }
+    s.push_str("\n0\n");
+    for g in 0..=90 {
+        s.push_str(&format!("{} ", i0 * (g as f64).to_radians().cos()));
+    }
+    s.push('\n');
+    s
+}
+
+#[test]
+fn luminaires_and_photometric_lights_report_lumens_and_lux() {
+    // A black 6 × 6 m floor (12 × 12 cells) under two cosine luminaires 3 m up, one with a
+    // TILT file beside it (aimed 20° off nadir: factor 0.9), and a 500 lm point light. The
+    // floor's area-weighted mean illuminance × its area is the flux it receives, the
+    // integral of I cos θ / r² over it (hat functions sum to one).
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let mut obj = String::from("mtllib floor.mtl\no floor\nusemtl black\n");
+    let n = 12;
+    for j in 0..=n {
+        for i in 0..=n {
+            obj.push_str(&format!(
+                "v {} {} 0\n",
+                -3.0 + 0.5 * i as f64,
+                -3.0 + 0.5 * j as f64
+            ));
+        }
+    }
+    for j in 0..n {
+        for i in 0..n {
+            let a = j * (n + 1) + i + 1;
+            obj.push_str(&format!(
+                "f {} {} {}\nf {} {} {}\n",
+                a,
+                a + 1,
+                a + n + 2,
+                a,
+                a + n + 2,
+                a + n + 1
+            ));
+        }
+    }
+    let o = write(d, "floor.obj", &obj);
+    write(d, "floor.mtl", "newmtl black\nKd 0 0 0\n");
+    write(d, "plain.ies", &cosine_ies(1000.0, "NONE"));
+    write(d, "tilted.ies", &cosine_ies(1000.0, "tilted.tlt"));
+    write(d, "tilted.tlt", "1\n3\n0 20 90\n1 0.9 0.5\n");
+    let t = 20f64.to_radians();
+    let settings = format!(
+        r#"
+[run]
+photons = 4000000
+seed = 3
+[[luminaire]]
+file = "plain.ies"
+positions = [[-1, 0, 3]]
+spectrum = "3000K"
+[[luminaire]]
+file = "tilted.ies"
+position = [1, 0, 3]
+aim = [{}, 0, {}]
+[[light]]
+kind = "point"
+position = [0, 0, 2]
+amount = 500
+unit = "lm"
+spectrum = "D65"
+"#,
+        t.sin(),
+        -t.cos()
+    );
+    let s = write(d, "settings.toml", &settings);
+    let out = d.join("out");
+    let o = imap(&[
+        "run",
+        &o,
+        "--config",
+        &s,
+        "--out",
+        out.to_str().unwrap(),
+        "--quiet",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap()).unwrap();
+    let lights = report["lights"].as_array().unwrap();
+    assert_eq!(lights.len(), 3);
+    let lm: Vec<f64> = lights
+        .iter()
+        .map(|l| l["lumens"].as_f64().unwrap())
+        .collect();
+    let pi = std::f64::consts::PI;
+    // [[light]] tables first, then [[luminaire]] tables, each in file order.
+    assert!((lm[0] - 500.0).abs() < 1e-9, "{lm:?}");
+    assert!((lm[1] / (pi * 1000.0) - 1.0).abs() < 1e-3, "{lm:?}");
+    assert!((lm[2] / (0.9 * pi * 1000.0) - 1.0).abs() < 1e-3, "{lm:?}");
+    let emitted = report["luminous_lm"]["emitted"].as_f64().unwrap();
+    assert!(
+        (emitted / lm.iter().sum::<f64>() - 1.0).abs() < 0.01,
+        "{emitted}"
+    );
+    // The flux onto the floor, by quadrature: cosine sources (one tilted) and the point.
+    let flux_from = |pos: [f64; 3], aim: [f64; 3], i0: f64, cosine: bool| {
+        let m = 600;
+        let mut sum = 0.0;
+        for a in 0..m {
+            for b in 0..m {
+                let x = -3.0 + 6.0 * (a as f64 + 0.5) / m as f64;
+                let y = -3.0 + 6.0 * (b as f64 + 0.5) / m as f64;
+                let v = [x - pos[0], y - pos[1], -pos[2]];
+                let r = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+                let cos_floor = pos[2] / r;
+                let i = if cosine {
+                    i0 * ((v[0] * aim[0] + v[1] * aim[1] + v[2] * aim[2]) / r).max(0.0)
+                } else {
+                    i0
+                };
+                sum += i * cos_floor / (r * r) * (6.0 / m as f64).powi(2);
+            }
+        }
+        sum
+    };
+    let expected = flux_from([-1.0, 0.0, 3.0], [0.0, 0.0, -1.0], 1000.0, true)
+        + flux_from([1.0, 0.0, 3.0], [t.sin(), 0.0, -t.cos()], 900.0, true)
+        + flux_from([0.0, 0.0, 2.0], [0.0; 3], 500.0 / (4.0 * pi), false);
+    let floor = &report["meshes"][0]["illuminance_lx"];
+    let got = floor["mean"].as_f64().unwrap() * 36.0;
+    eprintln!("flux onto the floor: {got:.2} lm, expected {expected:.2} lm");
+    assert!((got / expected - 1.0).abs() < 0.005, "{got} vs {expected}");
+    // The CSV's lux column is the libimap illuminance; the light's colour is reported.
+    let csv = std::fs::read_to_string(out.join("irradiance.csv")).unwrap();
+    assert!(csv.lines().next().unwrap().ends_with(",rel_error,lux"));
+    assert!(
+        report["light_on_recorded_surfaces"]["cct_k"]
+            .as_f64()
+            .unwrap()
+            > 3000.0
+    );
+
+    // A EULUMDAT file placed as a 2 × 3 array: six luminaires at the array's positions.
+    let g: Vec<f64> = (0..=18).map(|i| i as f64 * 10.0).collect();
+    let c: Vec<f64> = (0..12).map(|i| i as f64 * 30.0).collect();
+    let row: Vec<f64> = g
+        .iter()
+        .map(|a| if *a <= 90.0 { 300.0 } else { 0.0 })
+        .collect();
+    write(
+        d,
+        "down.ldt",
+        &imap::photometry::ldt::write(1, &c, &g, &[row], 1200.0),
+    );
+    let s = write(
+        d,
+        "array.toml",
+        "[run]\nphotons = 20000\n[[luminaire]]\nfile = \"down.ldt\"\nrotation_deg = 90\narray = { start = [-2, -2, 3], count = [2, 3], step_a = [4, 0, 0], step_b = [0, 2, 0] }\n",
+    );
+    let o2 = imap(&[
+        "run",
+        &o_path(d),
+        "--config",
+        &s,
+        "--out",
+        out.to_str().unwrap(),
+        "--quiet",
+    ]);
+    assert!(o2.status.success(), "{}", stderr(&o2));
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap()).unwrap();
+    let lights = report["lights"].as_array().unwrap();
+    assert_eq!(lights.len(), 6);
+    assert_eq!(lights[5]["position"], serde_json::json!([2.0, 2.0, 3.0]));
+    // 300 cd/klm × 1.2 klm to γ = 90°, falling linearly to 0 at 100°.
+    let m = 100_000;
+    let table: f64 = (0..m)
+        .map(|k| {
+            let th = (k as f64 + 0.5) / m as f64 * pi;
+            let deg = th.to_degrees();
+            let i = if deg <= 90.0 {
+                360.0
+            } else {
+                (360.0 * (1.0 - (deg - 90.0) / 10.0)).max(0.0)
+            };
+            2.0 * pi * i * th.sin() * pi / m as f64
+        })
+        .sum();
+    for l in lights {
+        let lm = l["lumens"].as_f64().unwrap();
+        assert!((lm / table - 1.0).abs() < 1e-4, "{lm} vs {table}");
+    }
+
+    // A malformed file: one line naming the settings entry, the file and its line.
+    write(
+        d,
+        "bad.ies",
+        &cosine_ies(1000.0, "NONE").replace("0 1 2 3", "0 2 1 3"),
+    );
+    let s = write(
+        d,
+        "bad.toml",
+        "[[luminaire]]\nfile = \"bad.ies\"\nposition = [0, 0, 3]\n",
+    );
+    let e = fails(&[
+        "run",
+        &o_path(d),
+        "--config",
+        &s,
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(
+        e.contains("luminaire 1") && e.contains("bad.ies") && e.contains("IES line 6"),
+        "{e}"
+    );
+}
+
+fn o_path(d: &Path) -> String {
+    d.join("floor.obj").to_string_lossy().into_owned()
 }

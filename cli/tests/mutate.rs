@@ -1,5 +1,5 @@
 //! A seeded mutation harness for the `imap` command's inputs: 4 000 cases, each a small
-//! valid scene (OBJ, MTL, TOML) with one to three mutations — bytes flipped, inserted
+//! valid scene (OBJ, MTL, TOML, an IES and a EULUMDAT file) with one to three mutations — bytes flipped, inserted
 //! (control characters, invalid UTF-8), deleted or truncated; lines swapped, duplicated or
 //! dropped; numbers replaced by hostile values; hostile statements and settings inserted.
 //!
@@ -35,7 +35,11 @@ const OBJ: &str = "# a floor, a lamp and a box\nmtllib s.mtl\no floor\nusemtl gr
 
 const MTL: &str = "newmtl grey\nKd 0.5 0.5 0.5\nKs 0.1\nNs 10\nillum 2\nnewmtl lamp\nKe 20 20 20\nnewmtl red\nKd 0.63 0.065 0.05\nd 1\nnewmtl glass\nKd 0 0 0\nNi 1.5\nd 0.1\nTf 0.9 0.9 0.9\n";
 
-const TOML: &str = "unit_m = 1.0\nrecord = [\"floor\", \"box\"]\ntwo_sided = false\n[run]\nphotons = 300\ntime_s = 5\ntarget_error = 0.0\nthreads = 2\nscheduler = \"dynamic\"\nseed = 3\nprogress_interval_s = 0.1\n[[light]]\nkind = \"spot\"\nposition = [0.5, 0.5, 2]\ndirection = [0, 0, -1]\nhalf_angle_deg = 40\npower = 5\n[materials.red]\nspecular = 0.2\n[camera]\nposition = [0.5, -1, 1.5]\nlook_at = [0.5, 0.5, 0]\nfov_deg = 50\nwidth = 48\nheight = 40\n";
+const IES: &str = "IESNA:LM-63-2002\n[TEST] mutation\nTILT=NONE\n1 -1 1 4 2 1 2 -0.1 0 0\n1 1 10\n0 30 60 90\n0 180\n500 400 200 0\n500 300 100 0\n";
+
+const LDT: &str = "mutation\n1\n2\n4\n90\n3\n45\nr\nl\nn\nf\nd\n0\n0\n0\n100\n50\n0\n0\n0\n0\n100\n80\n1\n0\n1\n1\nLED\n1000\n3000K\n80\n10\n0\n0\n0\n0\n0\n0\n0\n0\n0\n0\n0\n90\n180\n270\n0\n45\n90\n300\n200\n0\n310\n190\n0\n320\n180\n0\n";
+
+const TOML: &str = "unit_m = 1.0\nrecord = [\"floor\", \"box\"]\ntwo_sided = false\n[run]\nphotons = 300\ntime_s = 5\ntarget_error = 0.0\nthreads = 2\nscheduler = \"dynamic\"\nseed = 3\nprogress_interval_s = 0.1\n[[light]]\nkind = \"spot\"\nposition = [0.5, 0.5, 2]\ndirection = [0, 0, -1]\nhalf_angle_deg = 40\npower = 5\n[[light]]\nkind = \"cosine\"\nposition = [0.5, 0.5, 1.5]\ndirection = [0, 0, -1]\namount = 100\nunit = \"cd\"\nspectrum = \"3000K\"\n[[luminaire]]\nfile = \"l.ies\"\nposition = [0.3, 0.5, 1.8]\nuse_opening = true\n[[luminaire]]\nfile = \"l.ldt\"\npositions = [[0.7, 0.5, 1.8]]\nrotation_deg = 30\n[materials.red]\nspecular = 0.2\n[camera]\nposition = [0.5, -1, 1.5]\nlook_at = [0.5, 0.5, 0]\nfov_deg = 50\nwidth = 48\nheight = 40\n";
 
 const HOSTILE_NUMBERS: &[&str] = &[
     "nan",
@@ -129,6 +133,20 @@ const HOSTILE_TOML: &[&str] = &[
     "[camera]\nposition = [0, 0, 5]\nlook_at = [0, 0, 0]\nup = [0, 0, 1]",
     "[run]\nprogress_interval_s = 1e-12", "[run]\ntime_s = 1e300", "[run]\nscheduler = \"fast\"",
     "x = 1", "[run]\nthreads = -1", "[materials.nothing]\ndiffuse = 0.1",
+    "[[light]]\nkind = \"beam\"\nposition = [0, 0, 1]\ndirection = [0, 0, -1]\namount = 1\nunit = \"lx\"",
+    "[[light]]\nkind = \"point\"\nposition = [0, 0, 1]\namount = 1\nunit = \"lx\"",
+    "[[light]]\nkind = \"point\"\nposition = [0, 0, 1]\namount = 10\nunit = \"parsec\"",
+    "[[light]]\nkind = \"point\"\nposition = [0, 0, 1]\namount = 10\nunit = \"lm\"\nspectrum = \"-5K\"",
+    "[[light]]\nkind = \"point\"\nposition = [0, 0, 1]\namount = 10\nunit = \"lm\"\nspectrum_table = [[400, 0], [500, 0]]",
+    "[[luminaire]]\nfile = \"nofile.ies\"\nposition = [0, 0, 1]",
+    "[[luminaire]]\nfile = \"l.ies\"",
+    "[[luminaire]]\nfile = \"l.ies\"\nposition = [0, 0, 1]\naim = [0, 0, 0]",
+    "[[luminaire]]\nfile = \"l.ies\"\nposition = [0, 0, 1]\naim = [1, 0, 0]\nreference = [2, 0, 0]",
+    "[[luminaire]]\nfile = \"l.ldt\"\narray = { start = [0, 0, 1], count = [1000000, 1000000], step_a = [1, 0, 0] }",
+    "[[luminaire]]\nfile = \"l.ldt\"\narray = { start = [0, 0, 1], count = [30, 30], step_a = [0.01, 0, 0], step_b = [0, 0.01, 0] }",
+    "[[luminaire]]\nfile = \"s.obj\"\nposition = [0, 0, 1]",
+    "[[luminaire]]\nfile = \"l.ies\"\nposition = [0, 0, 1]\nflux_scale = -1",
+    "[[luminaire]]\nfile = \"l.ies\"\nposition = [0, 0, 1]\nlumens = 1e308",
 ];
 
 fn mutate_bytes(rng: &mut Rng, text: &mut Vec<u8>) {
@@ -217,13 +235,16 @@ fn case(seed: u64, dir: &Path) -> Result<(), String> {
         OBJ.as_bytes().to_vec(),
         MTL.as_bytes().to_vec(),
         TOML.as_bytes().to_vec(),
+        IES.as_bytes().to_vec(),
+        LDT.as_bytes().to_vec(),
     ];
     for _ in 0..1 + rng.below(3) {
-        let f = rng.below(3);
+        let f = rng.below(5);
         match (f, rng.below(3)) {
             (_, 0) => mutate_bytes(&mut rng, &mut files[f]),
             (0, _) => mutate_lines(&mut rng, &mut files[0], HOSTILE_OBJ_LINES),
             (1, _) => mutate_lines(&mut rng, &mut files[1], HOSTILE_MTL_LINES),
+            (3 | 4, _) => mutate_lines(&mut rng, &mut files[f], HOSTILE_NUMBERS),
             _ => {
                 if rng.below(2) == 0 {
                     let extra = format!("\n{}\n", rng.pick(HOSTILE_TOML));
@@ -235,7 +256,10 @@ fn case(seed: u64, dir: &Path) -> Result<(), String> {
         }
     }
     std::fs::create_dir_all(dir).unwrap();
-    for (name, bytes) in ["s.obj", "s.mtl", "s.toml"].iter().zip(&files) {
+    for (name, bytes) in ["s.obj", "s.mtl", "s.toml", "l.ies", "l.ldt"]
+        .iter()
+        .zip(&files)
+    {
         std::fs::write(dir.join(name), bytes).unwrap();
     }
     let out = dir.join("out");

@@ -10,7 +10,7 @@ use crate::error::{bail, check_finite_scalar, Result};
 use crate::imap::IMap;
 use crate::photometry::{BandPhotometry, PhotometricData, Spectrum};
 use crate::render::RenderReport;
-use crate::scene::light::{LightDesc, Placement};
+use crate::scene::light::{Distribution, LightDesc, Placement};
 use crate::scene::{Bands, Light, Material, MaterialDesc, Mesh, MeshDesc, PreparedScene, Scene};
 use crate::sched::dynamic::DynamicParams;
 use crate::sched::{
@@ -307,6 +307,25 @@ impl Context {
         self.check_unlocked("add a luminaire")?;
         let l = Light::luminaire(
             data,
+            placement,
+            spectrum,
+            &self.scene.bands,
+            self.config.unit_m,
+        )?;
+        self.add_light(l)
+    }
+
+    /// Adds a luminaire from a prepared distribution (place one file many times without
+    /// expanding its table each time).
+    pub fn add_distribution(
+        &mut self,
+        distribution: &Distribution,
+        placement: &Placement,
+        spectrum: &Spectrum,
+    ) -> Result<u32> {
+        self.check_unlocked("add a luminaire")?;
+        let l = Light::placed(
+            distribution,
             placement,
             spectrum,
             &self.scene.bands,

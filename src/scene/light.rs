@@ -79,7 +79,7 @@ impl Aperture {
 /// A placed goniometric distribution.
 #[derive(Debug)]
 pub struct Luminaire {
-    pub dist: Goniometric,
+    pub dist: Arc<Goniometric>,
     /// The distribution's frame in the world: a direction at azimuth φ and polar angle θ
     /// is `sin θ (cos φ x + sin φ y) + cos θ z`. Type C: z = the aim (γ = 0, nadir of the
     /// luminaire), x = the C0 direction, y = C90. Type B: z = the lateral axis (H = 90°),
@@ -199,6 +199,25 @@ pub struct LightDesc {
     pub position: [f64; 3],
     pub amount: Amount,
     pub spectrum: Spectrum,
+}
+
+/// A photometric distribution ready to place any number of times (its tables are shared
+/// by every placement).
+#[derive(Clone, Debug)]
+pub struct Distribution {
+    pub data: Arc<PhotometricData>,
+    pub dist: Arc<Goniometric>,
+}
+
+impl Distribution {
+    /// Checks and expands `data` (IMAP_ERR_PARSE for an inconsistent table,
+    /// IMAP_ERR_NO_LIGHT for one of zeros).
+    pub fn new(data: &PhotometricData) -> Result<Self> {
+        Ok(Distribution {
+            dist: Arc::new(Goniometric::new(data, 1.0)?),
+            data: Arc::new(data.clone()),
+        })
+    }
 }
 
 /// How a goniometric luminaire is placed.
@@ -443,6 +462,17 @@ impl Light {
         bands: &Bands,
         unit_m: f64,
     ) -> Result<Self> {
+        Self::placed(&Distribution::new(data)?, place, spectrum, bands, unit_m)
+    }
+
+    /// A goniometric luminaire placed from a prepared distribution.
+    pub fn placed(
+        distribution: &Distribution,
+        place: &Placement,
+        spectrum: &Spectrum,
+        bands: &Bands,
+        unit_m: f64,
+    ) -> Result<Self> {
         check_coordinates("position", &place.position)?;
         check_finite_scalar("flux_scale", place.flux_scale)?;
         check_finite_scalar("lumens", place.lumens)?;
@@ -463,11 +493,12 @@ impl Light {
         let aim = direction("aim", place.aim)?;
         let reference = perpendicular("reference", place.reference, aim, "aim")?;
         let up = direction("up", place.up)?;
+        let data = &*distribution.data;
         let frame = match data.kind {
             PhotometricType::C => [reference, reference.cross(aim), aim],
             PhotometricType::B => [aim, reference, aim.cross(reference)],
         };
-        let dist = Goniometric::new(data, 1.0)?;
+        let dist = distribution.dist.clone();
         let tilt_deg = aim.dot(-up).clamp(-1.0, 1.0).acos().to_degrees();
         let tilt_factor = data.tilt_factor(tilt_deg);
         let lumens = if place.lumens > 0.0 {

@@ -444,3 +444,69 @@ pub fn solid_angle(p: [f64; 3], tri: [[f64; 3]; 3]) -> f64 {
     let den = la * lb * lc + dot(a, b) * lc + dot(a, c) * lb + dot(b, c) * la;
     2.0 * num.atan2(den)
 }
+
+/// An LM-63-2002 file of `f(C, γ)` (type C) or `f(V, H)` (type B) on the given angles,
+/// with a multiplier, a ballast factor and optional TILT=INCLUDE data.
+pub fn ies_text(
+    photometric_type: u32,
+    vertical: &[f64],
+    horizontal: &[f64],
+    f: impl Fn(f64, f64) -> f64,
+    multiplier: f64,
+    ballast: f64,
+    tilt: Option<(&[f64], &[f64])>,
+) -> String {
+    let mut s = String::from("IESNA:LM-63-2002\n[TEST] libimap photometry test\n[MANUFAC] none\n");
+    match tilt {
+        None => s.push_str("TILT=NONE\n"),
+        Some((a, f)) => {
+            s.push_str(&format!("TILT=INCLUDE\n1\n{}\n", a.len()));
+            s.push_str(&join(a));
+            s.push_str(&join(f));
+        }
+    }
+    s.push_str(&format!(
+        "1 -1 {multiplier} {} {} {photometric_type} 2 0 0 0\n{ballast} 1 100\n",
+        vertical.len(),
+        horizontal.len()
+    ));
+    s.push_str(&join(vertical));
+    s.push_str(&join(horizontal));
+    for &h in horizontal {
+        let row: Vec<f64> = vertical.iter().map(|&v| f(h, v)).collect();
+        s.push_str(&join(&row));
+    }
+    s
+}
+
+pub fn join(v: &[f64]) -> String {
+    let mut s = String::new();
+    for (i, x) in v.iter().enumerate() {
+        s.push_str(&format!("{x}"));
+        s.push(if i % 10 == 9 { '\n' } else { ' ' });
+    }
+    s.push('\n');
+    s
+}
+
+pub fn steps(from: f64, to: f64, step: f64) -> Vec<f64> {
+    let n = ((to - from) / step).round() as usize;
+    (0..=n).map(|i| from + step * i as f64).collect()
+}
+
+/// Bilinear interpolation of a type C table (planes `cs` over 0–360°, the 360° plane
+/// implied by the 0° one) at (c, g): the test's own reading of "the file's interpolation".
+pub fn bilinear(cs: &[f64], gs: &[f64], table: &[Vec<f64>], c: f64, g: f64) -> f64 {
+    let c = c.rem_euclid(360.0);
+    let nc = cs.len();
+    let i = (0..nc).rev().find(|&i| cs[i] <= c).unwrap();
+    let (c0, c1, r0, r1) = if i + 1 < nc {
+        (cs[i], cs[i + 1], &table[i], &table[i + 1])
+    } else {
+        (cs[i], 360.0, &table[i], &table[0])
+    };
+    let j = (0..gs.len() - 1).rev().find(|&j| gs[j] <= g).unwrap_or(0);
+    let (s, t) = ((c - c0) / (c1 - c0), (g - gs[j]) / (gs[j + 1] - gs[j]));
+    let at = |r: &Vec<f64>| r[j] * (1.0 - t) + r[j + 1] * t;
+    at(r0) * (1.0 - s) + at(r1) * s
+}
