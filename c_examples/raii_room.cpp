@@ -3,12 +3,14 @@
 // reads maps into std::vector. The scene is a closed cubic room with grey walls and a
 // point light; the program checks the integrating-sphere law: mean wall irradiance =
 // Φ / (A (1 − ρ)). It also checks that an exception thrown in the progress callback
-// stops the run and reaches the caller, and that the map survives it.
+// stops the run and reaches the caller, and that the map survives it; then the same law in
+// lux for a luminaire from IES text (1000 lm, 3000 K).
 #include <imap.hpp>
 
 #include <cmath>
 #include <cstdio>
 #include <stdexcept>
+#include <string>
 #include <vector>
 
 // A closed cube [0, 2]³ with n × n cells per face, normals pointing in.
@@ -102,6 +104,34 @@ int main() {
                         static_cast<unsigned long long>(after.photons), after.stop_reason);
             if (calls != 3 || after.photons <= n || after.stop_reason != IMAP_STOP_CANCELLED) return 1;
         }
+
+        // Photometry: the same room lit by a luminaire from IES text, set to 1000 lm of
+        // 3000 K light: mean wall illuminance = Φv / (A (1 − ρ)), and the light's colour.
+        imap::Context lit(cfg);
+        walls.material = lit.add_material(grey);
+        uint32_t room2 = lit.add_mesh(walls);
+        const std::string ies =
+            "IESNA:LM-63-2002\nTILT=NONE\n1 -1 1 3 1 1 2 0 0 0\n1 1 20\n0 90 180\n0\n900 500 100\n";
+        ImapLuminaire place = imap::luminaire();
+        place.position[0] = 1.0, place.position[1] = 1.0, place.position[2] = 1.5;
+        place.lumens = 1000;
+        ImapSpectrum warm = imap::spectrum();
+        warm.kind = IMAP_SPECTRUM_BLACKBODY, warm.cct_k = 3000;
+        uint32_t lum = lit.add_luminaire_ies(ies, place, &warm);
+        lit.run(params);
+        std::vector<double> lux = lit.illuminance(room2, IMAP_SIDE_FRONT), tri = lit.xyz(room2, IMAP_SIDE_FRONT);
+        double mean_lux = 0;
+        std::array<double, 3> sum{};
+        for (size_t v = 0; v < lux.size(); v++) {
+            mean_lux += lux[v] * share[v];
+            for (int k = 0; k < 3; k++) sum[k] += tri[3 * v + k] * share[v];
+        }
+        mean_lux /= area;
+        double want = lit.light_lumens(lum) / (area * (1 - rho));
+        std::array<double, 2> cct = imap::cct(sum);
+        std::printf("luminaire: %.1f lm; mean illuminance %.3f lx, integrating-sphere law %.3f (%.2f σ); %.0f K\n",
+                    lit.light_lumens(lum), mean_lux, want, (mean_lux / want - 1) / sigma, cct[0]);
+        if (std::fabs(mean_lux / want - 1) > 4 * sigma || std::fabs(cct[0] - 3000) > 5) return 1;
     } catch (const std::exception& e) {
         std::fprintf(stderr, "error: %s\n", e.what());
         return 1;

@@ -80,6 +80,33 @@ inline ImapCamera camera() {
     check(imap_camera_default(&c, sizeof c));
     return c;
 }
+inline ImapLight light() {
+    ImapLight l;
+    check(imap_light_default(&l, sizeof l));
+    return l;
+}
+inline ImapSpectrum spectrum() {
+    ImapSpectrum s;
+    check(imap_spectrum_default(&s, sizeof s));
+    return s;
+}
+inline ImapLuminaire luminaire() {
+    ImapLuminaire p;
+    check(imap_luminaire_default(&p, sizeof p));
+    return p;
+}
+inline ImapPhotometry photometry() {
+    ImapPhotometry t;
+    check(imap_photometry_default(&t, sizeof t));
+    return t;
+}
+
+/// Correlated colour temperature (K) and Duv of CIE 1931 tristimulus values.
+inline std::array<double, 2> cct(const std::array<double, 3>& xyz) {
+    std::array<double, 2> out{};
+    check(imap_xyz_to_cct(xyz.data(), &out[0], &out[1]));
+    return out;
+}
 
 /// A progress callback: return false to stop.
 using Progress = std::function<bool(const ImapProgress&)>;
@@ -158,6 +185,47 @@ public:
                                   power.size(), &id),
               ctx_);
         return id;
+    }
+
+    /// A point, spot, cosine or beam light in any IMAP_UNIT_* (spectrum: EQUAL if null).
+    uint32_t add_light(const ImapLight& l, const ImapSpectrum* s = nullptr) {
+        uint32_t id = 0;
+        check(imap_add_light(ctx_, &l, s, &id), ctx_);
+        return id;
+    }
+    /// A luminaire from the text of an IES LM-63 file (and of the TILT file it names).
+    uint32_t add_luminaire_ies(const std::string& text, const ImapLuminaire& place = luminaire(),
+                               const ImapSpectrum* s = nullptr, const std::string& tilt = std::string()) {
+        uint32_t id = 0;
+        check(imap_add_luminaire_ies(ctx_, text.data(), text.size(), tilt.empty() ? nullptr : tilt.data(),
+                                     tilt.size(), &place, s, &id),
+              ctx_);
+        return id;
+    }
+    /// A luminaire from the text of a EULUMDAT file.
+    uint32_t add_luminaire_ldt(const std::string& text, const ImapLuminaire& place = luminaire(),
+                               const ImapSpectrum* s = nullptr) {
+        uint32_t id = 0;
+        check(imap_add_luminaire_ldt(ctx_, text.data(), text.size(), &place, s, &id), ctx_);
+        return id;
+    }
+    /// Luminous flux a light emits, lm.
+    double light_lumens(uint32_t id) const {
+        double lm = 0;
+        check(imap_get_light_flux(ctx_, id, nullptr, 0, &lm), ctx_);
+        return lm;
+    }
+    /// Illuminance in lux at every vertex of `mesh` on `side`.
+    std::vector<double> illuminance(uint32_t mesh, uint32_t side) const {
+        std::vector<double> e(vertex_count(mesh));
+        check(imap_get_vertex_illuminance(ctx_, mesh, side, e.data(), e.size()), ctx_);
+        return e;
+    }
+    /// CIE 1931 X, Y, Z at every vertex (three per vertex).
+    std::vector<double> xyz(uint32_t mesh, uint32_t side) const {
+        std::vector<double> e(3 * vertex_count(mesh));
+        check(imap_get_vertex_xyz(ctx_, mesh, side, e.data(), e.size()), ctx_);
+        return e;
     }
 
     /// Runs until a stop criterion of `p` (or `progress` returning false) stops it.
