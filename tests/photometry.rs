@@ -438,13 +438,7 @@ fn an_asymmetric_file_lights_its_c_planes_as_interpolated() {
                 .collect()
         })
         .collect();
-    let mut text = ies_text(1, &gs, &cs, |_, _| 0.0, 1.0, 1.0, None);
-    // Replace the rows with the table (ies_text wrote zeros).
-    let head: Vec<&str> = text.split("\n0 0 0").collect();
-    text = head[0].to_string() + "\n";
-    for r in &table {
-        text.push_str(&join(r));
-    }
+    let text = ies_table(&gs, &cs, &table);
     let mut ctx = rgb_context(16);
     let black = lambert(&mut ctx, 0.0);
     let g = grid(12, -3.0, 3.0, -3.0, 3.0, 0.0);

@@ -535,11 +535,7 @@ fn floor_under_a_luminaire_and_a_beam() {
                 .collect()
         })
         .collect();
-    let mut text = ies_text(1, &gs, &cs, |_, _| 0.0, 1.0, 1.0, None);
-    text = text.split("\n0 0 0").next().unwrap().to_string() + "\n";
-    for r in &table {
-        text.push_str(&join(r));
-    }
+    let text = ies_table(&gs, &cs, &table);
     ctx.add_luminaire_ies(
         &text,
         None,

@@ -305,14 +305,7 @@ impl Context {
         spectrum: &Spectrum,
     ) -> Result<u32> {
         self.check_unlocked("add a luminaire")?;
-        let l = Light::luminaire(
-            data,
-            placement,
-            spectrum,
-            &self.scene.bands,
-            self.config.unit_m,
-        )?;
-        self.add_light(l)
+        self.add_distribution(&Distribution::new(data)?, placement, spectrum)
     }
 
     /// Adds a luminaire from a prepared distribution (place one file many times without
@@ -344,8 +337,11 @@ impl Context {
         spectrum: &Spectrum,
     ) -> Result<u32> {
         self.check_unlocked("add a luminaire")?;
-        let f = crate::photometry::ies::parse(text, tilt)?;
-        self.add_luminaire(&f.data, placement, spectrum)
+        self.add_luminaire(
+            &crate::photometry::ies::parse(text, tilt)?.data,
+            placement,
+            spectrum,
+        )
     }
 
     /// Adds a luminaire from the text of a EULUMDAT file.
@@ -356,8 +352,11 @@ impl Context {
         spectrum: &Spectrum,
     ) -> Result<u32> {
         self.check_unlocked("add a luminaire")?;
-        let f = crate::photometry::ldt::parse(text)?;
-        self.add_luminaire(&f.data, placement, spectrum)
+        self.add_luminaire(
+            &crate::photometry::ldt::parse(text)?.data,
+            placement,
+            spectrum,
+        )
     }
 
     /// Radiant flux per band (W) of light `id`, and its luminous flux (lm).

@@ -3,11 +3,11 @@
 //! illuminance (lux) and colour (XYZ, chromaticity, CCT) read-outs; the power balance per
 //! band. docs/photometry.md states every convention.
 
+use super::scene::add_with;
 use super::{
     boundary, check_out, read_versioned, slice, slice_mut, with_context, write_defaults, write_out,
     ImapContext, Versioned,
 };
-use crate::context::Context;
 use crate::error::{bail, Error, ImapStatus, Result};
 use crate::photometry::{self, Opening, PhotometricData, PhotometricType, Spectrum, Symmetry};
 use crate::scene::light::{Amount, LightDesc, LightKind, Placement};
@@ -382,16 +382,18 @@ fn text_from_c<'a>(
     Ok(String::from_utf8_lossy(bytes))
 }
 
-fn add_with(
-    ctx: *mut ImapContext,
-    out_id: *mut u32,
-    add: impl FnOnce(&mut Context) -> Result<u32>,
-) -> ImapStatus {
-    with_context(ctx, |c| {
-        check_out("out_id", out_id)?;
-        let id = add(c)?;
-        write_out("out_id", out_id, id)
-    })
+/// Copies per-band values into the caller's `out[0 .. count)`.
+fn copy_bands(out: *mut f64, count: usize, values: &[f64]) -> Result<()> {
+    let out = slice_mut("out", out, count)?;
+    if out.len() < values.len() {
+        bail!(
+            ImapErrBufferTooSmall,
+            "the output holds {count} values; the context has {} bands",
+            values.len()
+        );
+    }
+    out[..values.len()].copy_from_slice(values);
+    Ok(())
 }
 
 /// Adds a point, spot, cosine or beam light with its amount in any `IMAP_UNIT_*` and a
@@ -671,15 +673,7 @@ pub unsafe extern "C" fn imap_get_light_flux(
     with_context(ctx, |c| {
         let (w, lm) = c.light_flux(id)?;
         if !out_w.is_null() || count > 0 {
-            let out = slice_mut("out_w", out_w, count)?;
-            if out.len() < w.len() {
-                bail!(
-                    ImapErrBufferTooSmall,
-                    "out_w holds {count} values; the context has {} bands",
-                    w.len()
-                );
-            }
-            out[..w.len()].copy_from_slice(w);
+            copy_bands(out_w, count, w)?;
         }
         if !out_lm.is_null() {
             write_out("out_lm", out_lm, lm)?;
@@ -738,19 +732,7 @@ pub unsafe extern "C" fn imap_get_band_efficacy(
     out: *mut f64,
     count: usize,
 ) -> ImapStatus {
-    with_context(ctx, |c| {
-        let k = &c.photometry().efficacy;
-        let out = slice_mut("out", out, count)?;
-        if out.len() < k.len() {
-            bail!(
-                ImapErrBufferTooSmall,
-                "out holds {count} values; the context has {} bands",
-                k.len()
-            );
-        }
-        out[..k.len()].copy_from_slice(k);
-        Ok(())
-    })
+    with_context(ctx, |c| copy_bands(out, count, &c.photometry().efficacy))
 }
 
 /// The power balance per band since the last reset, W per band, into `out[0 .. band
@@ -774,18 +756,7 @@ pub unsafe extern "C" fn imap_get_band_balance(
                 "kind = {kind} is not an IMAP_BALANCE_* value (0–3)"
             );
         }
-        let r = c.report();
-        let b = &r.band_w[kind as usize];
-        let out = slice_mut("out", out, count)?;
-        if out.len() < b.len() {
-            bail!(
-                ImapErrBufferTooSmall,
-                "out holds {count} values; the context has {} bands",
-                b.len()
-            );
-        }
-        out[..b.len()].copy_from_slice(b);
-        Ok(())
+        copy_bands(out, count, &c.report().band_w[kind as usize])
     })
 }
 

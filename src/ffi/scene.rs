@@ -141,7 +141,7 @@ pub unsafe extern "C" fn imap_mesh_default(out: *mut ImapMesh, size: usize) -> I
 
 /// The frame of every `imap_add_*`: `out_id` is checked before anything is added, `add`
 /// runs on the context, and its id is written only on success.
-fn add_with(
+pub(super) fn add_with(
     ctx: *mut ImapContext,
     out_id: *mut u32,
     add: impl FnOnce(&mut Context) -> Result<u32>,

@@ -479,6 +479,21 @@ pub fn ies_text(
     s
 }
 
+/// A type C LM-63 file of a given table: `rows[h][v]` candela at `horizontal[h]`,
+/// `vertical[v]`.
+pub fn ies_table(vertical: &[f64], horizontal: &[f64], rows: &[Vec<f64>]) -> String {
+    let at = |a: &[f64], x: f64| a.iter().position(|&y| y == x).expect("a table angle");
+    ies_text(
+        1,
+        vertical,
+        horizontal,
+        |h, v| rows[at(horizontal, h)][at(vertical, v)],
+        1.0,
+        1.0,
+        None,
+    )
+}
+
 pub fn join(v: &[f64]) -> String {
     let mut s = String::new();
     for (i, x) in v.iter().enumerate() {
