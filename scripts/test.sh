@@ -16,6 +16,8 @@ echo "== cargo test (release: shares the build with CMake)"
 cargo test --release --workspace --all-targets
 
 echo "== ABI of libimap.so against the baseline in abi/ (abidiff and the header's layout)"
+# cargo test builds the library as an rlib only: build the shared library itself.
+cargo build --release -p imap --lib
 scripts/abi-check.sh target/release/libimap.so
 
 echo "== loom: the vertex-group split protocol and the photon maps' active-thread counter"
