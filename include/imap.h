@@ -352,6 +352,14 @@
 #define IMAP_MESH_RECORD 2
 
 /**
+ * `ImapMesh::flags`: a sensor (calculation surface): it records the photons crossing it
+ * from its recorded side(s) (front, or both with IMAP_MESH_TWO_SIDED) and changes nothing
+ * else: photons pass as if it were not there, cameras do not see it. Needs
+ * IMAP_MESH_RECORD; cannot emit; its material is not used. (Since 0.2.1.)
+ */
+#define IMAP_MESH_SENSOR 4
+
+/**
  * Status returned by every `imap_*` call. `IMAP_OK` (0) is success; every other value names
  * one kind of failure, and the last-error message says which argument and why.
  */

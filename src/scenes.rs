@@ -224,6 +224,7 @@ impl Tess {
             two_sided: false,
             record,
             exitance,
+            sensor: false,
         };
         let id = ctx.add_mesh(&desc)?;
         built.meshes.push(id);
@@ -687,6 +688,7 @@ pub fn cornell_box(ctx: &mut Context, open_front: bool, n: usize) -> Result<Buil
         two_sided: false,
         record: !open_front,
         exitance: None,
+        sensor: false,
     })?;
     let mut lamp = Tess::default();
     lamp.quad(
@@ -706,6 +708,7 @@ pub fn cornell_box(ctx: &mut Context, open_front: bool, n: usize) -> Result<Buil
         two_sided: false,
         record: false,
         exitance: Some(&exitance),
+        sensor: false,
     })?;
     Ok(Built {
         meshes: vec![walls, lamp_id],

@@ -266,6 +266,7 @@ fn item07_zero_and_overflowing_powers_are_refused_by_name() {
             two_sided: false,
             record: false,
             exitance: Some(&[100.0]),
+            sensor: false,
         })
         .unwrap_err();
     assert_eq!(e.status, ImapStatus::ImapErrNoLight, "{e}");
@@ -286,6 +287,7 @@ fn item07_zero_and_overflowing_powers_are_refused_by_name() {
             two_sided: false,
             record: false,
             exitance: Some(&[1.0]),
+            sensor: false,
         })
         .unwrap_err();
     assert_eq!(e.status, ImapStatus::ImapErrPrecision, "{e}");

@@ -46,6 +46,7 @@ fn admits(budget: u64, n: usize) -> bool {
         two_sided: false,
         record: true,
         exitance: None,
+        sensor: false,
     });
     !matches!(r, Err(e) if e.status == ImapStatus::ImapErrMemoryBudget)
 }

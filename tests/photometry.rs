@@ -151,6 +151,7 @@ fn octant_sphere(ctx: &mut Context, r: f64) -> Vec<u32> {
                 two_sided: false,
                 record: false,
                 exitance: None,
+                sensor: false,
             })
             .unwrap()
         })

@@ -172,20 +172,6 @@ fn floor_under_a_point_light() {
     );
 }
 
-/// Irradiance at `x` (normal +z) from a Lambertian polygon of radiance `l`: the polygon
-/// form of Lambert's formula, E = L/2 · |Σ θᵢ n·(aᵢ×bᵢ)/|aᵢ×bᵢ||.
-fn polygon_irradiance(x: [f64; 3], poly: &[[f64; 3]], l: f64) -> f64 {
-    let mut s = 0.0;
-    for i in 0..poly.len() {
-        let a = sub(poly[i], x);
-        let b = sub(poly[(i + 1) % poly.len()], x);
-        let c = cross(a, b);
-        let theta = (dot(a, b) / (norm(a) * norm(b))).clamp(-1.0, 1.0).acos();
-        s += theta * c[2] / norm(c);
-    }
-    l / 2.0 * s.abs()
-}
-
 /// A square emitting mesh over a floor, seen from the side: direct light from an area
 /// light by light sampling and BSDF sampling combined (MIS), against Lambert's polygon
 /// formula. The emitter is black, so there is no indirect light; RGB bands with different
@@ -242,7 +228,7 @@ fn floor_under_an_area_light_with_mis() {
                     continue;
                 }
                 let pix = (y * 48 + x) as usize;
-                let e = polygon_irradiance(p, &square, m / PI);
+                let e = polygon_irradiance(p, [0.0, 0.0, 1.0], &square, m / PI);
                 truths.push(rho * e / PI);
                 vals.push(img.radiance[pix * 3 + band]);
                 est += img.rel_error[pix].powi(2);

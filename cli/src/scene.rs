@@ -472,6 +472,7 @@ impl Built {
             two_sided: self.two_sided,
             record: self.record,
             exitance: self.exitance.as_deref(),
+            sensor: false,
         }
     }
 }

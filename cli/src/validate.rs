@@ -38,6 +38,7 @@ fn mesh<'a>(p: &'a [f64], i: &'a [u32], material: u32) -> MeshDesc<'a> {
         two_sided: false,
         record: true,
         exitance: None,
+        sensor: false,
     }
 }
 

@@ -244,6 +244,7 @@ fn outputs_exist_parse_and_the_ply_holds_libimap_s_map() {
             two_sided: false,
             record: true,
             exitance: None,
+            sensor: false,
         })
         .unwrap();
     ctx.add_mesh(&imap::MeshDesc {
@@ -254,6 +255,7 @@ fn outputs_exist_parse_and_the_ply_holds_libimap_s_map() {
         two_sided: false,
         record: true,
         exitance: Some(&[10.0]),
+        sensor: false,
     })
     .unwrap();
     ctx.run(&mut imap::RunParams {

@@ -180,7 +180,25 @@ unsafe impl Sync for Accel {}
 
 impl Accel {
     /// Builds the BVH over `meshes` (vertices already recentred).
+    /// The BVH of the meshes that are not sensors (mesh ids kept as geometry ids).
     pub fn build(device: &Device, meshes: &[PreparedMesh]) -> Result<Self> {
+        Self::build_where(device, meshes, |m| !m.sensor)
+    }
+
+    /// The BVH of the sensor meshes, or None without any.
+    pub fn build_sensors(device: &Device, meshes: &[PreparedMesh]) -> Result<Option<Self>> {
+        if meshes.iter().any(|m| m.sensor) {
+            Self::build_where(device, meshes, |m| m.sensor).map(Some)
+        } else {
+            Ok(None)
+        }
+    }
+
+    fn build_where(
+        device: &Device,
+        meshes: &[PreparedMesh],
+        keep: impl Fn(&PreparedMesh) -> bool,
+    ) -> Result<Self> {
         // SAFETY: all handles below come from the live `device`; buffers returned by
         // rtcSetNewGeometryBuffer have exactly the requested element count and stride and
         // are written before commit.
@@ -192,7 +210,7 @@ impl Accel {
             let accel = Accel { scene };
             rtc::rtcSetSceneFlags(scene, rtc::RTCSceneFlags::ROBUST);
             rtc::rtcSetSceneBuildQuality(scene, rtc::RTCBuildQuality::MEDIUM);
-            for (id, m) in meshes.iter().enumerate() {
+            for (id, m) in meshes.iter().enumerate().filter(|(_, m)| keep(m)) {
                 let geom = rtc::rtcNewGeometry(device.raw, rtc::RTCGeometryType::TRIANGLE);
                 if geom.is_null() {
                     return Err(device.error("rtcNewGeometry"));
@@ -240,13 +258,18 @@ impl Accel {
     /// Traces one ray with Embree and returns the raw record.
     #[inline]
     fn trace(&self, org: DVec3, dir: DVec3) -> RayHit {
+        self.trace_range(org, dir, 0.0, f32::INFINITY)
+    }
+
+    #[inline]
+    fn trace_range(&self, org: DVec3, dir: DVec3, tnear: f32, tfar: f32) -> RayHit {
         let mut rh = RayHit {
             ray: Ray {
                 org: org.as_vec3().to_array(),
-                tnear: 0.0,
+                tnear,
                 dir: dir.as_vec3().to_array(),
                 time: 0.0,
-                tfar: f32::INFINITY,
+                tfar,
                 mask: u32::MAX,
                 id: 0,
                 flags: 0,
@@ -286,6 +309,36 @@ impl Accel {
             v: rh.hit.v,
             t: rh.ray.tfar as f64,
         })
+    }
+
+    /// Every hit along `org + t·dir` with t in [0, `t_max`], nearest first, handed to `f`
+    /// (sensors: a few crossings per segment, each found by one more query starting just
+    /// past the last).
+    #[inline]
+    pub fn crossings(&self, org: DVec3, dir: DVec3, t_max: f64, mut f: impl FnMut(Hit)) {
+        let tfar = t_max as f32;
+        let mut tnear = 0.0f32;
+        // At most this many crossings of one segment (a ray grazing a fine sensor mesh).
+        for _ in 0..4096 {
+            let rh = self.trace_range(org, dir, tnear, tfar);
+            if rh.hit.geom_id == INVALID_ID {
+                return;
+            }
+            let t = rh.ray.tfar;
+            f(Hit {
+                mesh: rh.hit.geom_id,
+                prim: rh.hit.prim_id,
+                u: rh.hit.u,
+                v: rh.hit.v,
+                t: t as f64,
+            });
+            // Just past this crossing: 16 f32 steps of t (2e-6 of it), so one surface is
+            // counted once.
+            tnear = f32::from_bits(t.max(f32::MIN_POSITIVE).to_bits() + 16);
+            if tnear > tfar {
+                return;
+            }
+        }
     }
 
     /// Whether anything blocks the segment `org + t·dir`, t in (0, `t_max`) (shadow rays).
@@ -360,6 +413,7 @@ mod tests {
             two_sided: false,
             record: true,
             exitance: None,
+            sensor: false,
         };
         scene
             .meshes

@@ -104,6 +104,8 @@ pub struct Report {
 struct Prepared {
     scene: PreparedScene,
     accel: Accel,
+    /// The sensor meshes' BVH, if any.
+    sensors: Option<Accel>,
 }
 
 fn check_threads(name: &str, threads: usize) -> Result<()> {
@@ -430,12 +432,17 @@ impl Context {
             {
                 bail!(
                     ImapErrNoLight,
-                    "the scene has no light: add a point or spot light or an emitting mesh"
+                    "the scene has no light: add a light, a luminaire or an emitting mesh"
                 );
             }
             let scene = PreparedScene::new(&self.scene)?;
             let accel = Accel::build(&self.device, &scene.meshes)?;
-            self.prepared = Some(Prepared { scene, accel });
+            let sensors = Accel::build_sensors(&self.device, &scene.meshes)?;
+            self.prepared = Some(Prepared {
+                scene,
+                accel,
+                sensors,
+            });
         }
         Ok(())
     }
@@ -480,6 +487,7 @@ impl Context {
             tracer: Tracer {
                 scene: &prepared.scene,
                 accel: &prepared.accel,
+                sensors: prepared.sensors.as_ref(),
                 materials: &self.scene.materials,
                 bands: self.scene.bands.count(),
                 seed: self.config.seed,

@@ -67,9 +67,12 @@ impl Context {
             params.max_path_events,
             params.initial_radius,
         );
+        // The render's photons record nothing: sensors are left out (and cameras do not see
+        // them: they are not in `accel`).
         let fwd = Tracer {
             scene: &prepared.scene,
             accel: &prepared.accel,
+            sensors: None,
             materials: &self.scene.materials,
             bands: nb,
             seed: self.config.seed,

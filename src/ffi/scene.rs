@@ -21,6 +21,11 @@ pub const IMAP_IOR_SELLMEIER: u32 = 3;
 pub const IMAP_MESH_TWO_SIDED: u32 = 1;
 /// `ImapMesh::flags`: the mesh's vertices accumulate irradiance.
 pub const IMAP_MESH_RECORD: u32 = 2;
+/// `ImapMesh::flags`: a sensor (calculation surface): it records the photons crossing it
+/// from its recorded side(s) (front, or both with IMAP_MESH_TWO_SIDED) and changes nothing
+/// else: photons pass as if it were not there, cameras do not see it. Needs
+/// IMAP_MESH_RECORD; cannot emit; its material is not used. (Since 0.2.1.)
+pub const IMAP_MESH_SENSOR: u32 = 4;
 
 /// A material. Initialise with `imap_material_default(&m, sizeof m)` (no reflection, no
 /// transmission: black). Per-band arrays hold 1 value (the same in every band) or one per
@@ -291,7 +296,7 @@ pub unsafe extern "C" fn imap_add_mesh(
         } else {
             Some(slice("mesh.exitance", m.exitance, m.exitance_count)?)
         };
-        if m.flags & !(IMAP_MESH_TWO_SIDED | IMAP_MESH_RECORD) != 0 {
+        if m.flags & !(IMAP_MESH_TWO_SIDED | IMAP_MESH_RECORD | IMAP_MESH_SENSOR) != 0 {
             bail!(
                 ImapErrInvalidArgument,
                 "mesh.flags = 0x{:x} has bits that are no IMAP_MESH_* flag",
@@ -306,6 +311,7 @@ pub unsafe extern "C" fn imap_add_mesh(
             two_sided: m.flags & IMAP_MESH_TWO_SIDED != 0,
             record: m.flags & IMAP_MESH_RECORD != 0,
             exitance,
+            sensor: m.flags & IMAP_MESH_SENSOR != 0,
         };
         c.add_mesh(&desc)
     })

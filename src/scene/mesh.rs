@@ -20,6 +20,9 @@ pub struct Mesh {
     pub record: bool,
     /// Radiant exitance per band in W/m² of the emitting side(s); `None` when not emitting.
     pub exitance: Option<Vec<f64>>,
+    /// A sensor: records the photons that cross it (from its recorded sides) and is
+    /// otherwise not there: it neither blocks, reflects nor absorbs anything.
+    pub sensor: bool,
 }
 
 /// What the caller passes to `add_mesh`.
@@ -34,6 +37,8 @@ pub struct MeshDesc<'a> {
     pub two_sided: bool,
     pub record: bool,
     pub exitance: Option<&'a [f64]>,
+    /// A sensor (see `Mesh::sensor`); it records whatever `record` says.
+    pub sensor: bool,
 }
 
 impl Mesh {
@@ -120,6 +125,18 @@ impl Mesh {
                 )?)
             }
         };
+        if desc.sensor && desc.exitance.is_some() {
+            bail!(
+                ImapErrInvalidArgument,
+                "a sensor mesh cannot emit: it is not there for the light (give it no exitance)"
+            );
+        }
+        if desc.sensor && !desc.record {
+            bail!(
+                ImapErrInvalidArgument,
+                "a sensor mesh must record (set the record flag): a sensor that records nothing does nothing"
+            );
+        }
         let exitance = match desc.exitance {
             None => None,
             Some(e) => {
@@ -151,6 +168,7 @@ impl Mesh {
             two_sided: desc.two_sided,
             record: desc.record,
             exitance,
+            sensor: desc.sensor,
         })
     }
 

@@ -25,6 +25,8 @@ pub struct PreparedMesh {
     pub slot_base: Option<usize>,
     /// Each vertex's share of the adjacent triangles' area (a third of each), scene units².
     pub vertex_area: Vec<f64>,
+    /// A sensor: traced in its own BVH, crossed by photons, never stopping them.
+    pub sensor: bool,
 }
 
 impl PreparedMesh {
@@ -98,8 +100,13 @@ pub struct Emitter {
 pub struct PreparedScene {
     /// The scene-unit point that became the local origin.
     pub origin: DVec3,
-    /// Half the diagonal of the bounding box, scene units.
+    /// Half the diagonal of the bounding box of the geometry (sensors left out), scene units.
     pub radius: f64,
+    /// Radius around the origin of a sphere holding every recorded vertex, sensors included:
+    /// where photons from far lights start (`enter`).
+    pub enter_radius: f64,
+    /// Whether any mesh is a sensor.
+    pub has_sensors: bool,
     pub meshes: Vec<PreparedMesh>,
     pub emitters: Vec<Emitter>,
     pub emitter_table: AliasTable,
@@ -118,9 +125,20 @@ impl PreparedScene {
     pub fn new(scene: &Scene) -> Result<Self> {
         // The bounds of the geometry that can be hit: vertices no triangle uses, and lights
         // (whose photons enter through the bounding sphere), do not widen them.
-        let (lo, hi) = bounds(scene);
+        // Sensors do not widen them either: a scene with sensors traces its other meshes
+        // with the same f32 coordinates, and so the same photons, as without them.
+        let (lo, hi) = bounds(scene, |m| !m.sensor).unwrap_or_else(|| {
+            bounds(scene, |_| true).expect("the caller checked there are meshes")
+        });
         let origin = (lo + hi) * 0.5;
         let radius = ((hi - lo).length() * 0.5).max(f64::MIN_POSITIVE);
+        let enter_radius = match bounds(scene, |m| m.sensor) {
+            Some((slo, shi)) => {
+                let far = |p: DVec3| (p - origin).abs();
+                radius.max(far(slo).max(far(shi)).length())
+            }
+            None => radius,
+        };
         let mut slots = 0usize;
         let mut meshes = Vec::with_capacity(scene.meshes.len());
         for (i, m) in scene.meshes.iter().enumerate() {
@@ -219,6 +237,8 @@ impl PreparedScene {
         Ok(PreparedScene {
             origin,
             radius,
+            enter_radius,
+            has_sensors: scene.meshes.iter().any(|m| m.sensor),
             meshes,
             emitters,
             emitter_table,
@@ -233,7 +253,7 @@ impl PreparedScene {
     /// geometry's precision in f32), or None when it misses the sphere.
     #[inline]
     pub fn enter(&self, org: DVec3, dir: DVec3) -> Option<DVec3> {
-        let r = self.radius * 1.01 + self.offset_at(DVec3::ZERO);
+        let r = self.enter_radius * 1.01 + self.offset_at(DVec3::ZERO);
         let d2 = org.length_squared();
         if d2 <= 4.0 * r * r {
             return Some(org);
@@ -289,11 +309,14 @@ impl PreparedScene {
     }
 }
 
-/// The bounding box of the vertices triangles use.
-fn bounds(scene: &Scene) -> (DVec3, DVec3) {
+/// The bounding box of the vertices triangles use in the meshes `keep` accepts; None when
+/// it accepts none.
+fn bounds(scene: &Scene, keep: impl Fn(&Mesh) -> bool) -> Option<(DVec3, DVec3)> {
     let mut lo = DVec3::splat(f64::INFINITY);
     let mut hi = DVec3::splat(f64::NEG_INFINITY);
-    for m in &scene.meshes {
+    let mut any = false;
+    for m in scene.meshes.iter().filter(|m| keep(m)) {
+        any = true;
         for t in &m.triangles {
             for &i in t {
                 let p = DVec3::from(m.positions[i as usize]);
@@ -302,7 +325,7 @@ fn bounds(scene: &Scene) -> (DVec3, DVec3) {
             }
         }
     }
-    (lo, hi)
+    any.then_some((lo, hi))
 }
 
 /// Refuses a mesh whose triangles f32 coordinates cannot resolve: each vertex of a
@@ -378,5 +401,6 @@ fn prepare_mesh(m: &Mesh, origin: DVec3, slot_base: Option<usize>) -> Result<Pre
         two_sided: m.two_sided,
         slot_base,
         vertex_area,
+        sensor: m.sensor,
     })
 }

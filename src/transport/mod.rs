@@ -133,6 +133,9 @@ impl PathStats {
 pub struct Tracer<'a> {
     pub scene: &'a PreparedScene,
     pub accel: &'a Accel,
+    /// The sensor meshes' BVH: every ray segment is checked for crossings (None: no
+    /// sensors, or a caller that does not record them).
+    pub sensors: Option<&'a Accel>,
     pub materials: &'a [Material],
     pub bands: usize,
     pub seed: u64,
@@ -266,6 +269,21 @@ impl Tracer<'_> {
                 }
             }
 
+            if let Some(sensors) = self.sensors {
+                // Sensors on the segment, up to and including the surface it ends on (a
+                // sensor laid on a floor sees the light arriving there).
+                let t_end = hit.map_or(f64::INFINITY, |h| {
+                    let m = &self.scene.meshes[h.mesh as usize];
+                    h.t + 2.0 * self.scene.offset_at(m.point(h.prim as usize, h.u, h.v))
+                });
+                sensors.crossings(org, dir, t_end, |c| {
+                    let mesh = &self.scene.meshes[c.mesh as usize];
+                    let front = dir.dot(mesh.normals[c.prim as usize].as_dvec3()) < 0.0;
+                    if front || mesh.two_sided {
+                        sink.deposit(c.mesh, c.prim, u8::from(!front), c.u, c.v, colour);
+                    }
+                });
+            }
             let Some(hit) = hit else {
                 return PathEnd::Escaped;
             };

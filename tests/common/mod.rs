@@ -53,6 +53,7 @@ impl Geometry {
             two_sided: false,
             record: true,
             exitance: None,
+            sensor: false,
         }
     }
 }
@@ -524,4 +525,19 @@ pub fn bilinear(cs: &[f64], gs: &[f64], table: &[Vec<f64>], c: f64, g: f64) -> f
     let (s, t) = ((c - c0) / (c1 - c0), (g - gs[j]) / (gs[j + 1] - gs[j]));
     let at = |r: &Vec<f64>| r[j] * (1.0 - t) + r[j + 1] * t;
     at(r0) * (1.0 - s) + at(r1) * s
+}
+
+/// Irradiance at `x` on a surface of unit normal `n` from a Lambertian polygon of radiance
+/// `l` wholly in front of it: the polygon form of Lambert's formula,
+/// E = L/2 · |Σ θᵢ n·(aᵢ×bᵢ)/|aᵢ×bᵢ||.
+pub fn polygon_irradiance(x: [f64; 3], n: [f64; 3], poly: &[[f64; 3]], l: f64) -> f64 {
+    let mut s = 0.0;
+    for i in 0..poly.len() {
+        let a = sub(poly[i], x);
+        let b = sub(poly[(i + 1) % poly.len()], x);
+        let c = cross(a, b);
+        let theta = (dot(a, b) / (norm(a) * norm(b))).clamp(-1.0, 1.0).acos();
+        s += theta * dot(n, c) / norm(c);
+    }
+    l / 2.0 * s.abs()
 }
