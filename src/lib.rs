@@ -35,7 +35,7 @@ pub mod sched;
 /// cbindgen:ignore
 pub mod transport;
 
-pub use context::{Config, Context, Report, SchedulerKind};
+pub use context::{Config, Context, RegionStats, Report, SchedulerKind};
 pub use error::{Error, ImapStatus, Result};
 pub use render::{CameraDesc, Image, RenderMethod, RenderParams, RenderReport};
 pub use scene::{Bands, IorModel, MaterialDesc, MeshDesc};

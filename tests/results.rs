@@ -162,3 +162,162 @@ fn sensors_change_no_other_map() {
         }
     }
 }
+
+/// A black sensor plane 1 m under a 1000 lm point light (RGB bands of different power):
+/// its incident flux and average illuminance against the solid angle it subtends, over
+/// seeds: the stated errors match the spread.
+#[test]
+fn region_flux_and_average_have_calibrated_errors() {
+    use imap::photometry::Spectrum;
+    use imap::scene::light::{Amount, LightDesc, LightKind};
+    // The flux through a 2 × 2 square 1 m below an isotropic point: Φ · Ω / 4π, with
+    // Ω = 4 atan(a² / (h √(2a² + h²))) for the half-side a = 1.
+    let (a, h) = (1.0f64, 1.0f64);
+    let omega = 4.0 * (a * a / (h * (2.0 * a * a + h * h).sqrt())).atan();
+    let lm_expected = 1000.0 * omega / (4.0 * PI);
+    let (mut z2_lm, mut z2_band, mut n_z) = (0.0, 0.0, 0);
+    let seeds = 24;
+    for seed in 0..seeds {
+        let mut ctx = context(Config {
+            threads: 2,
+            seed,
+            ..Default::default()
+        });
+        let plane = grid(8, -a, a, -a, a, 0.0);
+        let id = ctx.add_mesh(&sensor_desc(&plane, false)).unwrap();
+        let l = ctx
+            .add_light_desc(&LightDesc {
+                kind: LightKind::Point,
+                position: [0.0, 0.0, h],
+                amount: Amount::Lumens(1000.0),
+                spectrum: Spectrum::Rgb([1.0, 0.6, 0.2]),
+            })
+            .unwrap();
+        let watts: Vec<f64> = ctx.light_flux(l).unwrap().0.to_vec();
+        run_photons(&mut ctx, 20_000);
+        let s = ctx.region_stats(id, 0, None).unwrap();
+        assert!((s.area_m2 - 4.0).abs() < 1e-12);
+        z2_lm += ((s.flux_lm.value - lm_expected) / s.flux_lm.sigma).powi(2);
+        for (b, w) in watts.iter().enumerate() {
+            let expected = w * omega / (4.0 * PI);
+            z2_band += ((s.flux_w[b].value - expected) / s.flux_w[b].sigma).powi(2);
+            n_z += 1;
+        }
+        assert!((s.average.value - s.flux_lm.value / 4.0).abs() < 1e-9 * s.average.value);
+    }
+    let (rms_lm, rms_band) = ((z2_lm / seeds as f64).sqrt(), (z2_band / n_z as f64).sqrt());
+    eprintln!("flux z-scores over {seeds} seeds: rms {rms_lm:.2} (lm), {rms_band:.2} (per band)");
+    assert!(
+        (0.6..1.5).contains(&rms_lm),
+        "lm errors miscalibrated: rms z {rms_lm}"
+    );
+    assert!(
+        (0.7..1.35).contains(&rms_band),
+        "band errors miscalibrated: rms z {rms_band}"
+    );
+}
+
+/// A 500 lx beam covering a sensor plane lights it uniformly: Emin = Emax = 500 lx and
+/// U0 = Ud = 1. The raw minimum of the noisy vertices is far too low; the corrected figures
+/// agree with the truth within their errors.
+#[test]
+fn a_uniform_field_reads_its_true_minimum_and_uniformity() {
+    use imap::photometry::Spectrum;
+    use imap::scene::light::{Amount, LightDesc, LightKind};
+    let (mut raw_low, mut within) = (0, 0);
+    let seeds = 12;
+    for seed in 0..seeds {
+        let mut ctx = context(Config {
+            threads: 2,
+            seed: 100 + seed,
+            ..Default::default()
+        });
+        let plane = grid(12, 0.0, 2.0, 0.0, 2.0, 0.0);
+        let id = ctx.add_mesh(&sensor_desc(&plane, false)).unwrap();
+        ctx.add_light_desc(&LightDesc {
+            kind: LightKind::Beam {
+                direction: [0.0, 0.0, -1.0],
+                disk: false,
+                size: [2.2, 2.2],
+                up: [1.0, 0.0, 0.0],
+            },
+            position: [1.0, 1.0, 1.0],
+            amount: Amount::Lux(500.0),
+            spectrum: Spectrum::Equal,
+        })
+        .unwrap();
+        run_photons(&mut ctx, 60_000);
+        let s = ctx.region_stats(id, 0, None).unwrap();
+        let e = s.extremes.unwrap();
+        let z = |x: imap::imap::stats::Estimate, truth: f64| (x.value - truth).abs() / x.sigma;
+        if e.min_observed < 500.0 - 2.0 * e.min.sigma {
+            raw_low += 1;
+        }
+        if z(e.min, 500.0) < 3.0
+            && z(e.max, 500.0) < 3.0
+            && z(e.u0, 1.0) < 3.0
+            && z(e.ud, 1.0) < 3.0
+        {
+            within += 1;
+        }
+        eprintln!(
+            "seed {seed}: Eavg {:.1} ± {:.1}, Emin raw {:.1} corrected {:.1} ± {:.1}, Emax {:.1} ± {:.1}, U0 {:.3} ± {:.3}, Ud {:.3} ± {:.3}",
+            s.average.value, s.average.sigma, e.min_observed, e.min.value, e.min.sigma,
+            e.max.value, e.max.sigma, e.u0.value, e.u0.sigma, e.ud.value, e.ud.sigma
+        );
+    }
+    assert!(
+        raw_low >= seeds * 3 / 4,
+        "the raw minimum was low in only {raw_low} of {seeds}"
+    );
+    assert!(
+        within >= seeds - 2,
+        "corrected figures within 3σ of the truth in {within} of {seeds}"
+    );
+}
+
+/// Parts: a plane of two materials; the parts' fluxes add up to the mesh's.
+#[test]
+fn parts_add_up_to_their_mesh() {
+    let mut ctx = context(Config {
+        threads: 2,
+        ..Default::default()
+    });
+    let m0 = lambert(&mut ctx, 0.3);
+    let m1 = lambert(&mut ctx, 0.7);
+    let g = grid(4, -1.0, 1.0, -1.0, 1.0, 0.0);
+    let tm: Vec<u32> = (0..g.indices.len() / 3)
+        .map(|t| if t % 8 < 4 { m0 } else { m1 })
+        .collect();
+    let id = ctx
+        .add_mesh(&MeshDesc {
+            triangle_materials: Some(&tm),
+            ..g.desc(m0)
+        })
+        .unwrap();
+    ctx.add_point_light([0.2, 0.1, 1.0], &[10.0]).unwrap();
+    let box_ = cuboid([-1.0, -1.0, -0.5], [1.0, 1.0, 1.5], 2, true);
+    ctx.add_mesh(&MeshDesc {
+        record: false,
+        ..box_.desc(m1)
+    })
+    .unwrap();
+    run_photons(&mut ctx, 100_000);
+    let all = ctx.region_stats(id, 0, None).unwrap();
+    let a = ctx.region_stats(id, 0, Some(m0)).unwrap();
+    let b = ctx.region_stats(id, 0, Some(m1)).unwrap();
+    assert!((a.area_m2 + b.area_m2 - all.area_m2).abs() < 1e-12);
+    for k in 0..3 {
+        let sum = a.flux_w[k].value + b.flux_w[k].value;
+        assert!((sum - all.flux_w[k].value).abs() < 1e-9 * sum, "band {k}");
+    }
+    // The mesh's flux is the sum over its vertices of irradiance × vertex area.
+    let nv = g.vertex_count();
+    let (mut e, mut area) = (vec![0.0; nv], vec![0.0; nv]);
+    ctx.irradiance(id, 0, 0, &mut e).unwrap();
+    ctx.vertex_areas(id, &mut area).unwrap();
+    let from_vertices: f64 = e.iter().zip(&area).map(|(e, a)| e * a).sum();
+    assert!((from_vertices / all.flux_w[0].value - 1.0).abs() < 1e-9);
+    let e = ctx.region_stats(id, 0, Some(99)).unwrap_err();
+    assert_eq!(e.status, imap::ImapStatus::ImapErrIndexOutOfRange);
+}

@@ -3,10 +3,12 @@
 
 pub mod memory;
 mod readout;
+pub use readout::RegionStats;
 mod render;
 
 use crate::accel::{Accel, Device};
 use crate::error::{bail, check_finite_scalar, Result};
+use crate::imap::regions::{RegionShared, RegionTally};
 use crate::imap::IMap;
 use crate::photometry::{BandPhotometry, PhotometricData, Spectrum};
 use crate::render::RenderReport;
@@ -135,6 +137,8 @@ pub struct Context {
     last_render: Option<RenderReport>,
     /// Luminous efficacy and colour-matching weights of the bands.
     photometry: BandPhotometry,
+    /// Photons' totals per region since the last reset (`imap::regions`).
+    region_tally: RegionTally,
 }
 
 impl Context {
@@ -154,6 +158,7 @@ impl Context {
         let scene = Scene::new(config.bands.clone(), config.unit_m);
         let photometry = BandPhotometry::new(&config.bands);
         Ok(Context {
+            region_tally: RegionTally::default(),
             photometry,
             config,
             device,
@@ -411,6 +416,7 @@ impl Context {
             m.clear();
         }
         self.stats = PathStats::default();
+        self.region_tally = RegionTally::default();
         self.traced.clear();
         self.elapsed_s = 0.0;
         self.history.clear();
@@ -451,6 +457,7 @@ impl Context {
         self.prepare_scene()?;
         if self.map.is_none() {
             self.map = Some(IMap::try_new(self.scene.slot_count(), self.bands())?);
+            self.region_tally = RegionTally::default();
         }
         if self.stats.absorbed.len() != self.scene.meshes.len() {
             self.stats = PathStats::new(self.scene.meshes.len());
@@ -483,7 +490,9 @@ impl Context {
         let plan = photons::continue_plan(&self.traced, params.photons);
         let prepared = self.prepared.as_ref().expect("prepared above");
         let map = self.map.as_mut().expect("allocated above");
+        let regions = RegionShared::new(threads, prepared.scene.regions.count, nb);
         let rc = RunContext {
+            regions: &regions,
             tracer: Tracer {
                 scene: &prepared.scene,
                 accel: &prepared.accel,
@@ -521,6 +530,7 @@ impl Context {
             return Ok(self.report());
         }
         self.stats.merge(&outcome.stats);
+        self.region_tally.merge(&regions.total());
         for r in outcome.traced.ranges() {
             self.traced.insert(r.clone());
         }

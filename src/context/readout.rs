@@ -2,6 +2,7 @@
 
 use super::Context;
 use crate::error::{bail, Result};
+use crate::imap::stats::{self, Estimate, Extremes};
 use crate::imap::Readout;
 
 impl Context {
@@ -135,5 +136,148 @@ impl Context {
                 .for_each(|x| *x = crate::imap::NO_DATA_REL_ERROR),
         }
         Ok(())
+    }
+}
+
+/// What a region (a recorded side of a mesh, or a part of it) received: incident flux per
+/// band and in lumens, average illuminance, and its extremes and uniformities, each with a
+/// standard error (`imap::stats`; docs/results.md).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct RegionStats {
+    /// The region's area, m².
+    pub area_m2: f64,
+    /// Vertices of the region.
+    pub vertices: usize,
+    /// Incident radiant flux per band, W.
+    pub flux_w: Vec<Estimate>,
+    /// Incident luminous flux, lm.
+    pub flux_lm: Estimate,
+    /// Incident irradiance averaged over the region per band, W/m².
+    pub average_w_m2: Vec<Estimate>,
+    /// Average illuminance, lx (flux_lm / area).
+    pub average: Estimate,
+    /// Minimum and maximum vertex illuminance (bias-corrected), U0 = Emin/Eavg,
+    /// Ud = Emin/Emax; None before any photon.
+    pub extremes: Option<Extremes>,
+}
+
+impl Context {
+    /// Each vertex's share of the adjacent triangles' area (a third of each), m².
+    pub fn vertex_areas(&self, mesh: u32, out: &mut [f64]) -> Result<()> {
+        let m = &self.scene.meshes[self.mesh_index(mesh)?];
+        let nv = m.positions.len();
+        if out.len() < nv {
+            bail!(
+                ImapErrBufferTooSmall,
+                "the output holds {} values but mesh {mesh} has {nv} vertices",
+                out.len()
+            );
+        }
+        let unit2 = self.config.unit_m * self.config.unit_m;
+        out[..nv].iter_mut().for_each(|x| *x = 0.0);
+        for t in &m.triangles {
+            let a = crate::scene::mesh::triangle_area(&m.positions, t) * unit2 / 3.0;
+            for &v in t {
+                out[v as usize] += a;
+            }
+        }
+        Ok(())
+    }
+
+    /// The figures of mesh `mesh`'s side `side`, or of its part made of material `part`.
+    pub fn region_stats(&self, mesh: u32, side: u32, part: Option<u32>) -> Result<RegionStats> {
+        let i = self.mesh_index(mesh)?;
+        let m = &self.scene.meshes[i];
+        if !m.record {
+            bail!(
+                ImapErrNotRecorded,
+                "mesh {mesh} does not record (it was added with record = 0)"
+            );
+        }
+        if side as usize >= m.sides() {
+            bail!(ImapErrIndexOutOfRange, "side {side} is out of range: mesh {mesh} is one-sided and records only side 0 (front)");
+        }
+        let material_of = |t: usize| {
+            m.triangle_materials
+                .as_ref()
+                .map_or(m.material, |ids| ids[t])
+        };
+        let in_region = |t: usize| part.is_none_or(|p| material_of(t) == p);
+        if let Some(p) = part {
+            if !(0..m.triangles.len()).any(in_region) {
+                bail!(
+                    ImapErrIndexOutOfRange,
+                    "mesh {mesh} has no triangle of material {p}: no such part"
+                );
+            }
+        }
+        // Areas: the region's, and each vertex's share of the region's triangles.
+        let unit2 = self.config.unit_m * self.config.unit_m;
+        let nv = m.positions.len();
+        let mut weights = vec![0.0; nv];
+        let mut area = 0.0;
+        for (_, tri) in m
+            .triangles
+            .iter()
+            .enumerate()
+            .filter(|(t, _)| in_region(*t))
+        {
+            let a = crate::scene::mesh::triangle_area(&m.positions, tri) * unit2;
+            area += a;
+            for &v in tri {
+                weights[v as usize] += a / 3.0;
+            }
+        }
+        let nb = self.scene.bands.count();
+        let mut out = RegionStats {
+            area_m2: area,
+            vertices: weights.iter().filter(|w| **w > 0.0).count(),
+            flux_w: vec![Estimate::default(); nb],
+            average_w_m2: vec![Estimate::default(); nb],
+            ..Default::default()
+        };
+        let (Some(p), n) = (&self.prepared, self.photons()) else {
+            return Ok(out);
+        };
+        if n == 0 || self.region_tally.regions() == 0 {
+            return Ok(out);
+        }
+        let regions = p.scene.regions.meshes[i]
+            .as_ref()
+            .expect("a recording mesh has regions");
+        let r = match part {
+            None => regions.mesh_region(side as usize),
+            Some(material) => regions
+                .part_region(side as usize, material)
+                .unwrap_or(regions.mesh_region(side as usize)),
+        } as usize;
+        let t = &self.region_tally;
+        let nf = n as f64;
+        let wpu = p.scene.total_power / (nf * nb as f64);
+        let est = |sum: f64, sq: f64| Estimate {
+            value: sum * wpu,
+            sigma: (sq - sum * sum / nf).max(0.0).sqrt() * wpu,
+        };
+        let per_area = |e: Estimate| Estimate {
+            value: e.value / area,
+            sigma: e.sigma / area,
+        };
+        for b in 0..nb {
+            out.flux_w[b] = est(t.sum[r * nb + b], t.sq[r * nb + b]);
+            out.average_w_m2[b] = per_area(out.flux_w[b]);
+        }
+        let lum_sum: f64 = (0..nb)
+            .map(|b| t.sum[r * nb + b] * p.scene.efficacy[b])
+            .sum();
+        out.flux_lm = est(lum_sum, t.sq_lum[r]);
+        out.average = per_area(out.flux_lm);
+        // The vertices' illuminance and errors.
+        let mut lux = vec![0.0; nv];
+        let mut rel = vec![0.0; nv];
+        self.illuminance(mesh, side, &mut lux)?;
+        self.rel_error(mesh, side, &mut rel)?;
+        let sigma: Vec<f64> = lux.iter().zip(&rel).map(|(l, r)| l * r).collect();
+        out.extremes = stats::extremes(&lux, &sigma, &weights, out.average);
+        Ok(out)
     }
 }

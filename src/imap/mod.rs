@@ -17,6 +17,8 @@
 
 mod photon;
 mod readout;
+pub mod regions;
+pub mod stats;
 
 pub use photon::{BufferedHit, PhotonBuffer, PhotonOut, FULL};
 pub use readout::Readout;

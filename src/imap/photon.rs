@@ -9,6 +9,7 @@
 //! reached, and each reached slot receives one full-colour deposit of weight 1 whose
 //! square is exactly the photon's squared contribution to that slot.
 
+use super::regions::RegionScratch;
 use super::PhotonSquares;
 use crate::scene::PreparedScene;
 use crate::transport::Colour;
@@ -43,6 +44,8 @@ pub trait PhotonOut {
     /// A folded photon's whole contribution to `slot` (full colour, weight 1): its square
     /// is the photon's squared contribution.
     fn slot_value(&mut self, slot: usize, colour: &[f32]);
+    /// The photon's totals per region it reached (`regions::RegionScratch`).
+    fn regions(&mut self, _ids: &[u32], _values: &[f64]) {}
 }
 
 /// The current photon's deposits.
@@ -57,6 +60,8 @@ pub struct PhotonBuffer {
     folded_values: Vec<f64>,
     squares: PhotonSquares,
     scratch: Vec<f32>,
+    /// The photon's totals per region.
+    regions: RegionScratch,
 }
 
 impl PhotonBuffer {
@@ -75,6 +80,7 @@ impl PhotonBuffer {
             folded_values: Vec::new(),
             squares: PhotonSquares::default(),
             scratch: Vec::new(),
+            regions: RegionScratch::default(),
         }
     }
 
@@ -89,6 +95,20 @@ impl PhotonBuffer {
         colour: &Colour,
     ) {
         self.energy = colour.energy();
+        if let Some(r) = &scene.regions.meshes[mesh as usize] {
+            let material = scene.meshes[mesh as usize].material(prim as usize);
+            let ids = [
+                Some(r.mesh_region(side as usize)),
+                r.part_region(side as usize, material),
+            ];
+            for id in ids.into_iter().flatten() {
+                let s = self.regions.slot(id, self.bands);
+                match colour.band() {
+                    Some(b) => s[b] += colour.values()[b],
+                    None => s.iter_mut().zip(colour.values()).for_each(|(a, c)| *a += c),
+                }
+            }
+        }
         let colour_at = self.colours.len() as u32;
         let band = match colour.band() {
             Some(b) => {
@@ -148,6 +168,7 @@ impl PhotonBuffer {
 
     /// Forgets the current photon.
     pub fn abort(&mut self) {
+        self.regions.clear();
         self.hits.clear();
         self.colours.clear();
         self.folded.clear();
@@ -156,6 +177,10 @@ impl PhotonBuffer {
 
     /// The current photon has ended: hands its deposits to `out` and forgets them.
     pub fn finish(&mut self, scene: &PreparedScene, out: &mut impl PhotonOut) {
+        if !self.regions.ids.is_empty() {
+            out.regions(&self.regions.ids, &self.regions.values);
+            self.regions.clear();
+        }
         if !self.folded.is_empty() {
             self.fold(scene);
             let nb = self.bands;

@@ -96,8 +96,9 @@ impl Mesh {
             }
             triangles.push([tri[0], tri[1], tri[2]]);
         }
+        // A sensor's materials are only labels of its parts: no material need exist.
         let check_material = |what: &str, m: u32| -> Result<()> {
-            if m as usize >= material_count {
+            if !desc.sensor && m as usize >= material_count {
                 bail!(
                     ImapErrUnknownMaterial,
                     "{what} is material {m}, but only {material_count} materials are defined"

@@ -4,6 +4,7 @@
 use super::mesh::triangle_area;
 use super::{LightShape, Mesh, Scene};
 use crate::error::{bail, try_collect, try_filled, Error, ImapStatus, Result};
+use crate::imap::regions::RegionLayout;
 use crate::sampling::{warp, AliasTable, PhotonRng};
 use glam::{DVec3, Vec3};
 
@@ -113,6 +114,10 @@ pub struct PreparedScene {
     /// Total emitted power, W, summed over bands.
     pub total_power: f64,
     pub slots: usize,
+    /// The regions photons' totals are tallied for (`imap::regions`).
+    pub regions: RegionLayout,
+    /// Luminous efficacy of each band, lm/W.
+    pub efficacy: Vec<f64>,
 }
 
 impl PreparedScene {
@@ -234,7 +239,11 @@ impl PreparedScene {
                 format!("the lights cannot be sampled ({why})"),
             )
         })?;
+        let regions = RegionLayout::new(&meshes);
+        let efficacy = crate::photometry::BandPhotometry::new(&scene.bands).efficacy;
         Ok(PreparedScene {
+            regions,
+            efficacy,
             origin,
             radius,
             enter_radius,

@@ -82,6 +82,7 @@ struct PortionSink<'a> {
     free: Receiver<Portion>,
     full: Sender<Portion>,
     wait_s: f64,
+    regions: super::RegionSink<'a>,
 }
 
 impl PortionSink<'_> {
@@ -150,6 +151,10 @@ impl PhotonOut for PortionSink<'_> {
             }
         }
     }
+
+    fn regions(&mut self, ids: &[u32], values: &[f64]) {
+        self.regions.add(ids, values);
+    }
 }
 
 impl HitSink for PortionSink<'_> {
@@ -166,6 +171,10 @@ impl HitSink for PortionSink<'_> {
 
     fn abort_photon(&mut self) {
         self.photon.abort();
+    }
+
+    fn batch_done(&mut self) {
+        self.regions.flush();
     }
 }
 
@@ -233,8 +242,13 @@ pub fn run(rc: &RunContext, map: &mut IMap, params: &mut RunParams) -> RunOutcom
         let _stop = StopGuard(&source);
         let mut handles = Vec::new();
         for t in 0..rc.threads {
-            let (free, full, source, tracer) =
-                (free_rx.clone(), full_tx.clone(), &source, &rc.tracer);
+            let (free, full, source, tracer, regions) = (
+                free_rx.clone(),
+                full_tx.clone(),
+                &source,
+                &rc.tracer,
+                rc.regions,
+            );
             let spawned = std::thread::Builder::new()
                 .name(format!("imap-calc-{t}"))
                 .spawn_scoped(s, move || {
@@ -247,11 +261,13 @@ pub fn run(rc: &RunContext, map: &mut IMap, params: &mut RunParams) -> RunOutcom
                         free,
                         full,
                         wait_s: 0.0,
+                        regions: super::RegionSink::new(regions, tracer.scene, tracer.bands),
                     };
                     let mut stats = PathStats::new(tracer.scene.meshes.len());
                     let mut colour = Colour::new(tracer.bands);
                     super::trace_all(source, tracer, &mut colour, &mut sink, &mut stats);
                     sink.send();
+                    sink.regions.flush();
                     (stats, sink.wait_s)
                 });
             match spawned {

@@ -214,10 +214,11 @@ struct GroupSink<'a> {
     applied: u64,
     /// The current photon's deposits, handed over when its path ends.
     photon: PhotonBuffer,
+    regions: super::RegionSink<'a>,
 }
 
 impl<'a> GroupSink<'a> {
-    fn new(shared: &'a Shared<'a>, bands: usize) -> Self {
+    fn new(shared: &'a Shared<'a>, bands: usize, regions: super::RegionSink<'a>) -> Self {
         GroupSink {
             shared,
             open_at: vec![NOT_OPEN; shared.table.capacity()],
@@ -228,6 +229,7 @@ impl<'a> GroupSink<'a> {
             last: (0, 0, 0),
             applied: 0,
             photon: PhotonBuffer::new(bands),
+            regions,
         }
     }
 
@@ -396,6 +398,10 @@ impl PhotonOut for GroupSink<'_> {
         self.hit += 1;
         self.contribute(slot, 1.0, FULL, colour);
     }
+
+    fn regions(&mut self, ids: &[u32], values: &[f64]) {
+        self.regions.add(ids, values);
+    }
 }
 
 impl HitSink for GroupSink<'_> {
@@ -415,6 +421,7 @@ impl HitSink for GroupSink<'_> {
     }
 
     fn batch_done(&mut self) {
+        self.regions.flush();
         // Portions of groups that split must reach their owner, or the subgroups would
         // wait for them.
         let table = self.shared.table;
@@ -663,7 +670,8 @@ pub fn run(
         };
         let mut calc = Vec::new();
         for t in 0..threads {
-            let (shared, source, tracer, live) = (&shared, &source, &rc.tracer, &live);
+            let (shared, source, tracer, live, regions) =
+                (&shared, &source, &rc.tracer, &live, rc.regions);
             let spawned = std::thread::Builder::new()
                 .name(format!("imap-calc-{t}"))
                 .spawn_scoped(s, move || {
@@ -671,10 +679,15 @@ pub fn run(
                     // Counted out even if this thread panics, so the monitor never waits
                     // for a thread that is gone.
                     let _live = LiveGuard(live, source, monitor_thread);
-                    let mut sink = GroupSink::new(shared, tracer.bands);
+                    let mut sink = GroupSink::new(
+                        shared,
+                        tracer.bands,
+                        super::RegionSink::new(regions, tracer.scene, tracer.bands),
+                    );
                     let mut stats = PathStats::new(tracer.scene.meshes.len());
                     let mut colour = Colour::new(tracer.bands);
                     super::trace_all(source, tracer, &mut colour, &mut sink, &mut stats);
+                    sink.regions.flush();
                     sink.send_all();
                     if let Some(p) = sink.spare.take() {
                         let _ = shared.recycle.send(p);

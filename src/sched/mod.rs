@@ -11,6 +11,7 @@ pub mod trace_only;
 
 pub use photons::{PhotonSource, RangeSet};
 
+use crate::imap::regions::{RegionShared, RegionTally};
 use crate::imap::{IMap, Readout};
 use crate::scene::PreparedScene;
 use crate::transport::{Colour, HitSink, PathStats, Tracer};
@@ -139,6 +140,37 @@ pub struct RunContext<'a> {
     pub pool_bytes: u64,
     pub hits_before: u64,
     pub elapsed_before_s: f64,
+    /// The run's region tallies (one slot per calculating thread).
+    pub regions: &'a RegionShared,
+}
+
+/// A calculating thread's region tallies: photons' totals added locally, handed to the
+/// run's shared slot once per batch.
+pub struct RegionSink<'a> {
+    shared: &'a RegionShared,
+    slot: usize,
+    local: RegionTally,
+    efficacy: &'a [f64],
+}
+
+impl<'a> RegionSink<'a> {
+    pub fn new(rc_regions: &'a RegionShared, scene: &'a PreparedScene, bands: usize) -> Self {
+        RegionSink {
+            shared: rc_regions,
+            slot: rc_regions.claim(),
+            local: RegionTally::new(scene.regions.count, bands),
+            efficacy: &scene.efficacy,
+        }
+    }
+
+    #[inline]
+    pub fn add(&mut self, ids: &[u32], values: &[f64]) {
+        self.local.add_photon(ids, values, self.efficacy);
+    }
+
+    pub fn flush(&mut self) {
+        self.shared.flush(self.slot, &mut self.local);
+    }
 }
 
 /// Stops the photon source when dropped: a driving thread that unwinds still ends the
