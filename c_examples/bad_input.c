@@ -173,6 +173,39 @@ int main(void) {
     expect("mesh id 5", imap_get_vertex_energy(ctx, 5, 0, 0, after, 4), IMAP_ERR_INDEX_OUT_OF_RANGE, ctx);
     expect("output of 3 for 4 vertices", imap_get_vertex_energy(ctx, floor_id, 0, 0, after, 3), IMAP_ERR_BUFFER_TOO_SMALL, ctx);
     expect("output NULL", imap_get_vertex_error(ctx, floor_id, 0, NULL, 4), IMAP_ERR_NULL_POINTER, ctx);
+    /* Region figures and region targets. */
+    ImapRegionStats rs;
+    expect("region stats", imap_get_region_stats(ctx, floor_id, 0, IMAP_ALL_PARTS, &rs, sizeof rs), IMAP_OK, ctx);
+    if (!(rs.area_m2 > 0 && rs.vertices == 4 && rs.photons > 0 && rs.average_lx > 0 && rs.average_lx_sigma > 0 &&
+          rs.u0 > 0 && rs.u0 <= 1.5))
+        printf("FAIL region stats: area %g, %u vertices, Eavg %g ± %g, U0 %g\n", rs.area_m2, rs.vertices,
+               rs.average_lx, rs.average_lx_sigma, rs.u0), failures++;
+    expect("region stats of size 4", imap_get_region_stats(ctx, floor_id, 0, IMAP_ALL_PARTS, &rs, 4),
+           IMAP_ERR_INVALID_ARGUMENT, ctx);
+    expect("region stats out NULL", imap_get_region_stats(ctx, floor_id, 0, IMAP_ALL_PARTS, NULL, sizeof rs),
+           IMAP_ERR_NULL_POINTER, ctx);
+    expect("region of a material the mesh lacks", imap_get_region_stats(ctx, floor_id, 0, 77, &rs, sizeof rs),
+           IMAP_ERR_INDEX_OUT_OF_RANGE, ctx);
+    expect("region of back side", imap_get_region_stats(ctx, floor_id, 1, IMAP_ALL_PARTS, &rs, sizeof rs),
+           IMAP_ERR_INDEX_OUT_OF_RANGE, ctx);
+    double bf[6];
+    expect("region band flux of 5 for 3 bands", imap_get_region_band_flux(ctx, floor_id, 0, IMAP_ALL_PARTS, bf, 5),
+           IMAP_ERR_BUFFER_TOO_SMALL, ctx);
+    expect("vertex areas of 3 for 4 vertices", imap_get_vertex_areas(ctx, floor_id, after, 3), IMAP_ERR_BUFFER_TOO_SMALL, ctx);
+    ImapRunParams rt;
+    imap_run_params_default(&rt, sizeof rt);
+    uint32_t rmesh = floor_id;
+    rt.region_target = 0.5, rt.region_meshes = &rmesh, rt.region_mesh_count = 1;
+    rt.region_measure = 3;
+    expect("region measure 3", imap_run(ctx, &rt, NULL, 0), IMAP_ERR_INVALID_ARGUMENT, ctx);
+    rt.region_measure = IMAP_REGION_VERTICES, rt.region_percentile = 101;
+    expect("region percentile 101", imap_run(ctx, &rt, NULL, 0), IMAP_ERR_INVALID_ARGUMENT, ctx);
+    rt.region_percentile = 0, rt.region_meshes = NULL;
+    expect("region meshes NULL", imap_run(ctx, &rt, NULL, 0), IMAP_ERR_NULL_POINTER, ctx);
+    rmesh = 9, rt.region_meshes = &rmesh;
+    expect("region mesh 9", imap_run(ctx, &rt, NULL, 0), IMAP_ERR_INDEX_OUT_OF_RANGE, ctx);
+    rmesh = floor_id, rt.region_target = -1;
+    expect("negative region target", imap_run(ctx, &rt, NULL, 0), IMAP_ERR_INVALID_ARGUMENT, ctx);
     mesh = square_mesh(m_grey);
     expect("mesh added after a run", imap_add_mesh(ctx, &mesh, &id), IMAP_ERR_OUT_OF_ORDER, ctx);
     expect("light added after a run", imap_add_point_light(ctx, pos, &watts, 1, &id), IMAP_ERR_OUT_OF_ORDER, ctx);

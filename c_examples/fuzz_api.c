@@ -319,6 +319,14 @@ int main(int argc, char **argv) {
             if (chance(0.05)) p.target_rel_error = hostile(0.5);
             if (chance(0.05)) p.max_path_events = below(3);
             if (chance(0.1)) p.progress = cancel_progress;
+            uint32_t rmeshes[3] = {below(sl->meshes + 2), below(sl->meshes + 2), below(sl->meshes + 2)};
+            if (chance(0.1)) {
+                p.region_target = hostile(0.3);
+                p.region_measure = below(4);
+                p.region_percentile = chance(0.7) ? 0 : hostile(80);
+                p.region_meshes = chance(0.05) ? NULL : rmeshes;
+                p.region_mesh_count = below(4);
+            }
             if (p.photons == 0 && !(p.time_budget_s > 0 && p.time_budget_s < 0.1)) p.photons = 500;
             if (chance(0.03)) p.struct_size = below(50);
             ImapReport r;
@@ -510,11 +518,22 @@ int main(int argc, char **argv) {
             break;
         }
         case 17: { /* photometric read-outs */
-            what = "imap_get_vertex_illuminance/xyz/band_balance/efficacy/light_flux";
+            what = "imap_get_vertex_illuminance/xyz/band_balance/efficacy/light_flux/region_stats/vertex_areas";
             uint32_t m = below(sl->meshes + 2);
             size_t cap = below(4000);
             double lm;
-            switch (below(5)) {
+            switch (below(8)) {
+            case 5: {
+                ImapRegionStats rs;
+                s = imap_get_region_stats(ctx, m, below(3), chance(0.5) ? IMAP_ALL_PARTS : below(4),
+                                          chance(0.03) ? NULL : &rs, chance(0.9) ? sizeof rs : below(200));
+                break;
+            }
+            case 6:
+                s = imap_get_region_band_flux(ctx, m, below(3), chance(0.5) ? IMAP_ALL_PARTS : below(4),
+                                              chance(0.03) ? NULL : after, below(200));
+                break;
+            case 7: s = imap_get_vertex_areas(ctx, m, chance(0.03) ? NULL : after, cap); break;
             case 0: s = imap_get_vertex_illuminance(ctx, m, below(3), chance(0.03) ? NULL : after, cap); break;
             case 1: s = imap_get_vertex_xyz(ctx, m, below(3), chance(0.03) ? NULL : after, cap); break;
             case 2: s = imap_get_band_balance(ctx, below(6), chance(0.03) ? NULL : after, below(80)); break;

@@ -91,6 +91,7 @@ fn measure(ctx: &mut Context, kind: SchedulerKind, threads: usize, seconds: f64)
         .expect("scheduler");
     ctx.set_threads(threads).expect("threads");
     let mut p = RunParams {
+        region: None,
         photons: 0,
         time_budget_s: seconds,
         target_rel_error: 0.0,

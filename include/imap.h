@@ -287,6 +287,11 @@
 #define IMAP_RENDER_SEMI_SYNC 2
 
 /**
+ * `part` argument of the region functions: the whole mesh side, all its materials.
+ */
+#define IMAP_ALL_PARTS UINT32_MAX
+
+/**
  * Side index of `imap_get_vertex_energy`: the side the normal (v1−v0)×(v2−v0) points to.
  */
 #define IMAP_SIDE_FRONT 0
@@ -320,6 +325,31 @@
  * The progress callback asked to stop.
  */
 #define IMAP_STOP_CANCELLED 4
+
+/**
+ * The region target (`ImapRunParams::region_target`) was reached. (Since 0.2.1.)
+ */
+#define IMAP_STOP_REGION_TARGET 5
+
+/**
+ * `ImapRunParams::region_measure`: the `region_percentile`-th percentile (default 100:
+ * the largest) of the relative standard errors of the chosen meshes' vertices (band mean,
+ * as `imap_get_vertex_rel_error`; a vertex that received nothing counts as 1). (Since
+ * 0.2.1.)
+ */
+#define IMAP_REGION_VERTICES 0
+
+/**
+ * The relative standard error of each chosen mesh side's average illuminance, the
+ * largest over them (`ImapRegionStats::average_lx_sigma / average_lx`).
+ */
+#define IMAP_REGION_AVERAGE 1
+
+/**
+ * The relative standard error of each chosen mesh side's uniformity U0 = Emin/Eavg, the
+ * largest over them (`ImapRegionStats::u0_sigma / u0`).
+ */
+#define IMAP_REGION_UNIFORMITY 2
 
 /**
  * `ImapMaterial::ior_model`: not a dielectric.
@@ -785,6 +815,11 @@ typedef struct ImapProgress {
    * anything arrived.
    */
   double rel_error;
+  /**
+   * The region target's measure (`ImapRunParams::region_measure`); 0 when the run has
+   * no region target, 1 before the chosen meshes received anything. (Since 0.2.1.)
+   */
+  double region_rel_error;
 } ImapProgress;
 
 /**
@@ -961,6 +996,61 @@ typedef struct ImapRenderReport {
 } ImapRenderReport;
 
 /**
+ * A region's figures (`imap_get_region_stats`), each with its standard error (`*_sigma`,
+ * the same unit). Filled by the library; `struct_size` says how many bytes are valid.
+ * (Since 0.2.1.)
+ */
+typedef struct ImapRegionStats {
+  /**
+   * Bytes of this struct the library filled.
+   */
+  uint32_t struct_size;
+  /**
+   * Vertices with a share of the region's triangles.
+   */
+  uint32_t vertices;
+  /**
+   * Photons the figures are made of (0: no run yet; every figure below is then 0).
+   */
+  uint64_t photons;
+  /**
+   * The region's area, m².
+   */
+  double area_m2;
+  /**
+   * Incident luminous flux, lm, summed photon by photon over the region (its error is
+   * the exact Monte Carlo error of that sum).
+   */
+  double flux_lm;
+  double flux_lm_sigma;
+  /**
+   * Average illuminance Eavg = flux_lm / area_m2, lx.
+   */
+  double average_lx;
+  double average_lx_sigma;
+  /**
+   * Minimum and maximum vertex illuminance, lx, corrected for the bias of the extremes
+   * of noisy values (parametric bootstrap around a shrunk field; docs/results.md).
+   */
+  double min_lx;
+  double min_lx_sigma;
+  double max_lx;
+  double max_lx_sigma;
+  /**
+   * Uniformity U0 = Emin / Eavg and Ud = Emin / Emax (corrected likewise).
+   */
+  double u0;
+  double u0_sigma;
+  double ud;
+  double ud_sigma;
+  /**
+   * The smallest and largest vertex illuminance as observed (uncorrected), lx.
+   */
+  double min_observed_lx;
+  double max_observed_lx;
+} ImapRegionStats;
+
+/**
  * What `imap_run` does. Initialise with `imap_run_params_default(&p, sizeof p)`; at least
  * one stop criterion (photons, time budget, target error) or a callback is required.
  */
@@ -999,6 +1089,28 @@ typedef struct ImapRunParams {
    * Passed to `progress` unchanged.
    */
   void *user_data;
+  /**
+   * Stop when `region_measure` over the meshes `region_meshes[0 .. region_mesh_count)`
+   * (recording meshes: a calculation grid's sensor, a floor) is at or below this; 0 =
+   * none. Checked at each progress interval. (Since 0.2.1.)
+   */
+  double region_target;
+  /**
+   * `IMAP_REGION_VERTICES` (default), `IMAP_REGION_AVERAGE` or `IMAP_REGION_UNIFORMITY`.
+   */
+  uint32_t region_measure;
+  /**
+   * Meshes in `region_meshes`.
+   */
+  uint32_t region_mesh_count;
+  /**
+   * Mesh ids; read during `imap_run` only.
+   */
+  const uint32_t *region_meshes;
+  /**
+   * The percentile of `IMAP_REGION_VERTICES`, in (0, 100]; 0 = 100 (the largest error).
+   */
+  double region_percentile;
 } ImapRunParams;
 
 /**
@@ -1533,6 +1645,41 @@ enum ImapStatus imap_get_render_report(const struct ImapContext *ctx, struct Ima
  * writable.
  */
 enum ImapStatus imap_get_render_history(const struct ImapContext *ctx, struct ImapProgress *out, size_t capacity, size_t element_size, size_t *out_count);
+
+/**
+ * The figures of recording mesh `mesh` on `side` (`IMAP_SIDE_FRONT`/`_BACK`), of the
+ * whole side (`part` = `IMAP_ALL_PARTS`) or of its triangles of material `part`.
+ * `size` = `sizeof(ImapRegionStats)`. Before any photon only `area_m2` and `vertices`
+ * are set. Returns IMAP_ERR_NULL_POINTER, IMAP_ERR_INVALID_ARGUMENT (size),
+ * IMAP_ERR_INDEX_OUT_OF_RANGE (mesh, side, or a material the mesh has no triangle of),
+ * IMAP_ERR_NOT_RECORDED, IMAP_ERR_BUSY.
+ *
+ * # Safety
+ * `ctx` is a live handle; `out` points to `size` writable bytes.
+ */
+enum ImapStatus imap_get_region_stats(const struct ImapContext *ctx, uint32_t mesh, uint32_t side, uint32_t part, struct ImapRegionStats *out, size_t size);
+
+/**
+ * The region's incident radiant flux per band, W, and its standard error:
+ * `out[2b]` = flux of band b, `out[2b + 1]` = its standard error, for b < band count
+ * (`count` ≥ 2 × band count). Arguments and statuses as `imap_get_region_stats`
+ * (IMAP_ERR_BUFFER_TOO_SMALL when `count` is short). Zeros before any photon.
+ *
+ * # Safety
+ * `ctx` is a live handle; `out` holds `count` writable doubles.
+ */
+enum ImapStatus imap_get_region_band_flux(const struct ImapContext *ctx, uint32_t mesh, uint32_t side, uint32_t part, double *out, size_t count);
+
+/**
+ * Each vertex's area of mesh `mesh` — a third of the area of every triangle it belongs
+ * to, m² — into `out[0 .. vertex count)`: E × area summed over a mesh's vertices is the
+ * flux it receives. Any mesh (recording or not). Returns IMAP_ERR_NULL_POINTER,
+ * IMAP_ERR_INDEX_OUT_OF_RANGE, IMAP_ERR_BUFFER_TOO_SMALL, IMAP_ERR_BUSY.
+ *
+ * # Safety
+ * `ctx` is a live handle; `out` holds `count` writable doubles.
+ */
+enum ImapStatus imap_get_vertex_areas(const struct ImapContext *ctx, uint32_t mesh, double *out, size_t count);
 
 /**
  * Fills the `size` bytes at `out` with run defaults and sets `struct_size = size`: no stop

@@ -773,6 +773,7 @@ fn target_error_stops_within_one_progress_interval() {
     ctx.add_point_light([0.1, 0.2, 0.0], &[1.0]).unwrap();
     let (target, interval) = (0.02, 0.05);
     let mut params = RunParams {
+        region: None,
         photons: 0,
         time_budget_s: 0.0,
         target_rel_error: target,

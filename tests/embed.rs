@@ -26,6 +26,7 @@ fn within<T: Send + 'static>(secs: f64, what: &str, f: impl FnOnce() -> T + Send
 
 fn params<'a>(photons: u64) -> RunParams<'a> {
     RunParams {
+        region: None,
         photons,
         time_budget_s: 0.0,
         target_rel_error: 0.0,

@@ -321,3 +321,79 @@ fn parts_add_up_to_their_mesh() {
     let e = ctx.region_stats(id, 0, Some(99)).unwrap_err();
     assert_eq!(e.status, imap::ImapStatus::ImapErrIndexOutOfRange);
 }
+
+/// A region target stops the run at the first progress tick where its measure is at the
+/// target — not before (the previous tick was above it), not later — for each measure and
+/// both schedulers, and the figures read afterwards agree with it.
+#[test]
+fn a_region_target_stops_within_one_progress_interval() {
+    use imap::sched::target::{RegionMeasure, RegionTarget};
+    use imap::StopReason;
+    let cases = [
+        (RegionMeasure::Vertices { percentile: 100.0 }, 0.04),
+        (RegionMeasure::Vertices { percentile: 90.0 }, 0.03),
+        (RegionMeasure::Average, 0.004),
+        (RegionMeasure::Uniformity, 0.02),
+    ];
+    for scheduler in [SchedulerKind::Classic, SchedulerKind::Dynamic] {
+        for (measure, target) in cases {
+            let (mut ctx, _) = room(scheduler, 2, true);
+            let plane = 2; // the sensor grid
+            let mut params = imap::RunParams {
+                region: Some(RegionTarget {
+                    meshes: vec![plane],
+                    measure,
+                    target,
+                }),
+                photons: 0,
+                time_budget_s: 60.0,
+                target_rel_error: 0.0,
+                progress_interval_s: 0.02,
+                max_path_events: 1 << 20,
+                progress: None,
+            };
+            let r = ctx.run(&mut params).unwrap();
+            let what = format!("{scheduler:?} {measure:?} {target}");
+            assert_eq!(r.stop, Some(StopReason::RegionTarget), "{what}");
+            let h = ctx.history();
+            // The last point is the run's end; the one before it the tick that stopped it.
+            let (before, stop) = (h[h.len() - 3], h[h.len() - 2]);
+            assert!(stop.region_rel_error <= target, "{what}: {stop:?}");
+            assert!(before.region_rel_error > target, "{what}: {before:?}");
+            // Read back: the same measure from the map and the region figures.
+            let end = h[h.len() - 1].region_rel_error;
+            let mut rel = vec![0.0; ctx.vertex_count(plane as u32).unwrap()];
+            let s = |side| ctx.region_stats(plane as u32, side, None).unwrap();
+            let read = match measure {
+                RegionMeasure::Vertices { percentile } => {
+                    let mut all = Vec::new();
+                    for side in 0..2 {
+                        ctx.rel_error(plane as u32, side, &mut rel).unwrap();
+                        all.extend_from_slice(&rel);
+                    }
+                    all.sort_by(f64::total_cmp);
+                    let rank = (percentile / 100.0 * all.len() as f64).ceil() as usize;
+                    all[rank - 1]
+                }
+                RegionMeasure::Average => (0..2)
+                    .map(|side| s(side).average.sigma / s(side).average.value)
+                    .fold(0.0, f64::max),
+                RegionMeasure::Uniformity => (0..2)
+                    .map(|side| {
+                        let u0 = s(side).extremes.unwrap().u0;
+                        u0.sigma / u0.value
+                    })
+                    .fold(0.0, f64::max),
+            };
+            eprintln!(
+                "{what}: stopped at {:.4} after {} photons (previous tick {:.4}), end {end:.4}, read back {read:.4}",
+                stop.region_rel_error, stop.photons, before.region_rel_error
+            );
+            assert!(
+                (read / end - 1.0).abs() < 1e-9,
+                "{what}: the run's measure {end} and the map's {read} differ"
+            );
+            assert!(read <= target * 1.1, "{what}: read back {read}");
+        }
+    }
+}

@@ -131,6 +131,7 @@ fn the_event_limit_reports_what_it_drops() {
     ctx.add_spot_light([0.0, 0.0, 0.5], [0.0, 0.0, 1.0], 1e-4, &[1.0])
         .unwrap();
     let mut params = RunParams {
+        region: None,
         photons: 100,
         time_budget_s: 0.0,
         target_rel_error: 0.0,
@@ -192,6 +193,7 @@ fn time_budget_and_target_error_stop_the_run() {
         true
     };
     let mut params = RunParams {
+        region: None,
         photons: 0,
         time_budget_s: 0.6,
         target_rel_error: 0.0,
@@ -215,6 +217,7 @@ fn time_budget_and_target_error_stop_the_run() {
 
     let target = 0.6 * r.rel_error;
     let mut params = RunParams {
+        region: None,
         photons: 0,
         time_budget_s: 30.0,
         target_rel_error: target,

@@ -240,6 +240,7 @@ fn run_scene(obj: &Path, mut settings: Settings, opts: &RunOptions) -> Result<se
     };
     let t0 = Instant::now();
     let report = ctx.run(&mut imap::RunParams {
+        region: None,
         photons,
         time_budget_s: time_s,
         target_rel_error: target,

@@ -44,6 +44,7 @@ fn mesh<'a>(p: &'a [f64], i: &'a [u32], material: u32) -> MeshDesc<'a> {
 
 fn run(ctx: &mut Context, photons: u64) -> Result<imap::Report> {
     Ok(ctx.run(&mut RunParams {
+        region: None,
         photons,
         time_budget_s: 0.0,
         target_rel_error: 0.0,

@@ -259,6 +259,7 @@ fn outputs_exist_parse_and_the_ply_holds_libimap_s_map() {
     })
     .unwrap();
     ctx.run(&mut imap::RunParams {
+        region: None,
         photons,
         time_budget_s: 0.0,
         target_rel_error: 0.0,

@@ -470,6 +470,9 @@ impl Context {
     /// stop cut short are traced again, whole, by the next run.
     pub fn run(&mut self, params: &mut RunParams) -> Result<Report> {
         check_run_params(params)?;
+        if let Some(t) = &params.region {
+            self.check_region_target(t)?;
+        }
         let threads = self.worker_threads();
         let nb = self.bands();
         let transient = match self.config.scheduler {
@@ -493,6 +496,7 @@ impl Context {
         let regions = RegionShared::new(threads, prepared.scene.regions.count, nb);
         let rc = RunContext {
             regions: &regions,
+            regions_before: &self.region_tally,
             tracer: Tracer {
                 scene: &prepared.scene,
                 accel: &prepared.accel,
@@ -638,6 +642,46 @@ fn physical_memory() -> Option<u64> {
     (pages > 0 && size > 0).then(|| (pages as u64).saturating_mul(size as u64))
 }
 
+impl Context {
+    /// Checks a region target against the scene.
+    fn check_region_target(&self, t: &sched::target::RegionTarget) -> Result<()> {
+        check_finite_scalar("params.region_target", t.target)?;
+        if t.target <= 0.0 {
+            bail!(
+                ImapErrInvalidArgument,
+                "params.region_target = {} must be positive",
+                t.target
+            );
+        }
+        if t.meshes.is_empty() {
+            bail!(
+                ImapErrInvalidArgument,
+                "params.region_meshes is empty: a region target needs at least one mesh"
+            );
+        }
+        if let sched::target::RegionMeasure::Vertices { percentile } = t.measure {
+            if !(percentile > 0.0 && percentile <= 100.0) {
+                bail!(
+                    ImapErrInvalidArgument,
+                    "params.region_percentile = {percentile} is not in (0, 100]"
+                );
+            }
+        }
+        for &m in &t.meshes {
+            let i = self.mesh_index(m as u32).map_err(|e| {
+                crate::error::Error::new(e.status, format!("params.region_meshes: {}", e.message))
+            })?;
+            if !self.scene.meshes[i].record {
+                bail!(
+                    ImapErrNotRecorded,
+                    "params.region_meshes: mesh {m} does not record, so it has no error to reach"
+                );
+            }
+        }
+        Ok(())
+    }
+}
+
 /// Checks run parameters, naming the field at fault.
 fn check_run_params(p: &RunParams) -> Result<()> {
     check_finite_scalar("params.time_budget_s", p.time_budget_s)?;
@@ -670,11 +714,15 @@ fn check_run_params(p: &RunParams) -> Result<()> {
             "params.max_path_events is 0: a path needs at least one event"
         );
     }
-    if p.photons == 0 && p.time_budget_s == 0.0 && p.target_rel_error == 0.0 && p.progress.is_none()
+    if p.photons == 0
+        && p.time_budget_s == 0.0
+        && p.target_rel_error == 0.0
+        && p.region.is_none()
+        && p.progress.is_none()
     {
         bail!(
             ImapErrInvalidArgument,
-            "params sets no stop criterion: set photons, time_budget_s, target_rel_error or a progress callback"
+            "params sets no stop criterion: set photons, time_budget_s, target_rel_error, a region target or a progress callback"
         );
     }
     Ok(())

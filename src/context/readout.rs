@@ -148,6 +148,8 @@ pub struct RegionStats {
     pub area_m2: f64,
     /// Vertices of the region.
     pub vertices: usize,
+    /// Photons the figures are made of (0 before any run).
+    pub photons: u64,
     /// Incident radiant flux per band, W.
     pub flux_w: Vec<Estimate>,
     /// Incident luminous flux, lm.
@@ -252,6 +254,7 @@ impl Context {
                 .unwrap_or(regions.mesh_region(side as usize)),
         } as usize;
         let t = &self.region_tally;
+        out.photons = n;
         let nf = n as f64;
         let wpu = p.scene.total_power / (nf * nb as f64);
         let est = |sum: f64, sq: f64| Estimate {

@@ -14,12 +14,14 @@ mod context;
 mod errors;
 mod light;
 mod render;
+mod results;
 mod run;
 mod scene;
 
 pub use context::*;
 pub use light::*;
 pub use render::*;
+pub use results::*;
 pub use run::*;
 pub use scene::*;
 

@@ -7,6 +7,7 @@ use super::{
 };
 use crate::context::Report;
 use crate::error::{bail, ImapStatus, Result};
+use crate::sched::target::{RegionMeasure, RegionTarget};
 use crate::sched::{Progress, RunParams, StopReason};
 use std::ffi::c_void;
 
@@ -25,6 +26,20 @@ pub const IMAP_STOP_TIME: u32 = 2;
 pub const IMAP_STOP_TARGET_ERROR: u32 = 3;
 /// The progress callback asked to stop.
 pub const IMAP_STOP_CANCELLED: u32 = 4;
+/// The region target (`ImapRunParams::region_target`) was reached. (Since 0.2.1.)
+pub const IMAP_STOP_REGION_TARGET: u32 = 5;
+
+/// `ImapRunParams::region_measure`: the `region_percentile`-th percentile (default 100:
+/// the largest) of the relative standard errors of the chosen meshes' vertices (band mean,
+/// as `imap_get_vertex_rel_error`; a vertex that received nothing counts as 1). (Since
+/// 0.2.1.)
+pub const IMAP_REGION_VERTICES: u32 = 0;
+/// The relative standard error of each chosen mesh side's average illuminance, the
+/// largest over them (`ImapRegionStats::average_lx_sigma / average_lx`).
+pub const IMAP_REGION_AVERAGE: u32 = 1;
+/// The relative standard error of each chosen mesh side's uniformity U0 = Emin/Eavg, the
+/// largest over them (`ImapRegionStats::u0_sigma / u0`).
+pub const IMAP_REGION_UNIFORMITY: u32 = 2;
 
 /// One point of the error-against-time history. Filled by the library (`struct_size` says
 /// how many bytes of it are valid).
@@ -43,12 +58,17 @@ pub struct ImapProgress {
     /// (the irradiance-weighted mean of the per-vertex relative standard errors); 1 before
     /// anything arrived.
     pub rel_error: f64,
+    /// The region target's measure (`ImapRunParams::region_measure`); 0 when the run has
+    /// no region target, 1 before the chosen meshes received anything. (Since 0.2.1.)
+    pub region_rel_error: f64,
 }
 
 // SAFETY: repr(C), u32 struct_size first, plain numbers only.
 unsafe impl Versioned for ImapProgress {
     const NAME: &'static str = "ImapProgress";
     const INIT: &'static str = "sizeof";
+    /// The 0.2 layout, before `region_rel_error`.
+    const BASE_SIZE: usize = std::mem::offset_of!(ImapProgress, region_rel_error);
     fn defaults() -> Self {
         ImapProgress {
             struct_size: std::mem::size_of::<Self>() as u32,
@@ -89,12 +109,26 @@ pub struct ImapRunParams {
     pub progress: ImapProgressFn,
     /// Passed to `progress` unchanged.
     pub user_data: *mut c_void,
+    /// Stop when `region_measure` over the meshes `region_meshes[0 .. region_mesh_count)`
+    /// (recording meshes: a calculation grid's sensor, a floor) is at or below this; 0 =
+    /// none. Checked at each progress interval. (Since 0.2.1.)
+    pub region_target: f64,
+    /// `IMAP_REGION_VERTICES` (default), `IMAP_REGION_AVERAGE` or `IMAP_REGION_UNIFORMITY`.
+    pub region_measure: u32,
+    /// Meshes in `region_meshes`.
+    pub region_mesh_count: u32,
+    /// Mesh ids; read during `imap_run` only.
+    pub region_meshes: *const u32,
+    /// The percentile of `IMAP_REGION_VERTICES`, in (0, 100]; 0 = 100 (the largest error).
+    pub region_percentile: f64,
 }
 
 // SAFETY: repr(C), u32 struct_size first, numbers, an Option<fn> and a raw pointer.
 unsafe impl Versioned for ImapRunParams {
     const NAME: &'static str = "ImapRunParams";
     const INIT: &'static str = "imap_run_params_default";
+    /// The 0.2 layout, before the region target.
+    const BASE_SIZE: usize = std::mem::offset_of!(ImapRunParams, region_target);
     fn defaults() -> Self {
         ImapRunParams {
             struct_size: std::mem::size_of::<Self>() as u32,
@@ -105,6 +139,11 @@ unsafe impl Versioned for ImapRunParams {
             progress_interval_s: 0.5,
             progress: None,
             user_data: std::ptr::null_mut(),
+            region_target: 0.0,
+            region_measure: IMAP_REGION_VERTICES,
+            region_mesh_count: 0,
+            region_meshes: std::ptr::null(),
+            region_percentile: 0.0,
         }
     }
 }
@@ -209,6 +248,7 @@ pub(crate) fn progress_to_c(p: &Progress) -> ImapProgress {
         photons: p.photons,
         hits: p.hits,
         rel_error: p.rel_error,
+        region_rel_error: p.region_rel_error,
     }
 }
 
@@ -219,6 +259,7 @@ pub(crate) fn stop_to_c(stop: Option<StopReason>) -> u32 {
         Some(StopReason::TimeBudget) => IMAP_STOP_TIME,
         Some(StopReason::TargetError) => IMAP_STOP_TARGET_ERROR,
         Some(StopReason::Cancelled) => IMAP_STOP_CANCELLED,
+        Some(StopReason::RegionTarget) => IMAP_STOP_REGION_TARGET,
     }
 }
 
@@ -311,8 +352,10 @@ pub unsafe extern "C" fn imap_run(
     with_context(ctx, |c| {
         let p = read_versioned("params", params)?;
         check_report_out("report", report, report_size)?;
+        let region = region_target(&p)?;
         let mut call = callback(p.progress, p.user_data);
         let mut rp = RunParams {
+            region,
             photons: p.photons,
             time_budget_s: p.time_budget_s,
             target_rel_error: p.target_rel_error,
@@ -335,6 +378,46 @@ pub unsafe extern "C" fn imap_run(
         }
         Ok(())
     })
+}
+
+/// The region target of C run parameters.
+fn region_target(p: &ImapRunParams) -> Result<Option<RegionTarget>> {
+    crate::error::check_finite_scalar("params.region_target", p.region_target)?;
+    if p.region_target == 0.0 {
+        return Ok(None);
+    }
+    if p.region_target < 0.0 {
+        bail!(
+            ImapErrInvalidArgument,
+            "params.region_target = {} is negative (0 means no region target)",
+            p.region_target
+        );
+    }
+    let measure = match p.region_measure {
+        IMAP_REGION_VERTICES => RegionMeasure::Vertices {
+            percentile: if p.region_percentile == 0.0 {
+                100.0
+            } else {
+                p.region_percentile
+            },
+        },
+        IMAP_REGION_AVERAGE => RegionMeasure::Average,
+        IMAP_REGION_UNIFORMITY => RegionMeasure::Uniformity,
+        m => bail!(
+            ImapErrInvalidArgument,
+            "params.region_measure = {m} is not an IMAP_REGION_* value (0–2)"
+        ),
+    };
+    let meshes = super::slice(
+        "params.region_meshes",
+        p.region_meshes,
+        p.region_mesh_count as usize,
+    )?;
+    Ok(Some(RegionTarget {
+        meshes: meshes.iter().map(|&m| m as usize).collect(),
+        measure,
+        target: p.region_target,
+    }))
 }
 
 /// Copies up to `capacity` points of `h` into `out` (elements of `element_size` bytes)

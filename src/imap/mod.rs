@@ -16,7 +16,7 @@
 //! atomic loads. No access to a slot is ever concurrent with a write to it.
 
 mod photon;
-mod readout;
+pub(crate) mod readout;
 pub mod regions;
 pub mod stats;
 

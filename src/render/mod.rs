@@ -874,6 +874,7 @@ pub fn render(
     let rel_error = engine.estimate(Some(&mut image));
     let t = &engine.totals;
     let last = Progress {
+        region_rel_error: 0.0,
         elapsed_s: wall_s,
         photons: t.forward_photons.load(Ordering::Relaxed),
         hits: t.backward_paths.load(Ordering::Relaxed),
@@ -928,6 +929,7 @@ pub fn render(
 
 fn progress_of(engine: &Engine, start: Instant) -> Progress {
     Progress {
+        region_rel_error: 0.0,
         elapsed_s: start.elapsed().as_secs_f64(),
         photons: engine.totals.forward_photons.load(Ordering::Relaxed),
         hits: engine.totals.backward_paths.load(Ordering::Relaxed),

@@ -296,7 +296,13 @@ pub fn run(rc: &RunContext, map: &mut IMap, params: &mut RunParams) -> RunOutcom
                 Err(RecvTimeoutError::Timeout) => {}
                 Err(RecvTimeoutError::Disconnected) => break,
             }
-            monitor.poll(&source, rc, &|n| super::global_error(map, rc, n));
+            monitor.poll(
+                &source,
+                rc,
+                &|n| super::global_error(map, rc, n),
+                map,
+                &super::target::Exclusive,
+            );
         }
         for (t, h) in handles.into_iter().enumerate() {
             match h.join() {

@@ -482,6 +482,27 @@ fn locked_error(table: &GroupTable, map: &IMap, rc: &RunContext, photons: u64) -
     (den > 0.0).then_some(num / den)
 }
 
+/// Reads slots while writers run: each leaf group's part of the range under the locks of
+/// the group and its ancestors (the monitor only: it alone splits).
+struct Locked<'a>(&'a GroupTable);
+
+impl super::target::SlotAccess for Locked<'_> {
+    fn visit(&self, slots: std::ops::Range<usize>, f: &mut dyn FnMut(usize)) {
+        let table = self.0;
+        let mut chain = Vec::new();
+        for g in (0..table.count()).filter(|&g| !table.is_split(g)) {
+            let r = table.range(g);
+            let (lo, hi) = (r.start.max(slots.start), r.end.min(slots.end));
+            if lo >= hi {
+                continue;
+            }
+            table.lock_chain(g, &mut chain);
+            (lo..hi).for_each(&mut *f);
+            table.unlock_chain(&chain);
+        }
+    }
+}
+
 /// A processing thread: waits until no ancestor of its group has work left, then applies
 /// its group's portions until its group is split and drained, or the run ends.
 /// What every processing thread shares.
@@ -746,7 +767,13 @@ pub fn run(
             crate::fault::at(crate::fault::Point::Monitor);
             // Woken early by the last calculating thread to finish.
             std::thread::park_timeout(Duration::from_micros(250).min(monitor.timeout()));
-            monitor.poll(&source, rc, &|n| locked_error(table, shared_map, rc, n));
+            monitor.poll(
+                &source,
+                rc,
+                &|n| locked_error(table, shared_map, rc, n),
+                shared_map,
+                &Locked(table),
+            );
             let free = free_rx.len();
             let mut hottest: Option<(usize, usize)> = None;
             for (g, out) in out_tx.iter().enumerate().take(table.count()) {

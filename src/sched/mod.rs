@@ -7,6 +7,7 @@ pub mod classic;
 pub mod dynamic;
 pub mod groups;
 pub mod photons;
+pub mod target;
 pub mod trace_only;
 
 pub use photons::{PhotonSource, RangeSet};
@@ -65,6 +66,9 @@ pub struct Progress {
     /// Estimated global relative error (see `imap::Readout::global_error`); 1 before any
     /// deposit.
     pub rel_error: f64,
+    /// The region target's measure (`RunParams::region`); 0 when the run has none, 1
+    /// before the chosen meshes received anything.
+    pub region_rel_error: f64,
 }
 
 /// Why a run stopped.
@@ -74,6 +78,8 @@ pub enum StopReason {
     TimeBudget,
     TargetError,
     Cancelled,
+    /// The region target's measure reached its target.
+    RegionTarget,
 }
 
 /// What a run is asked to do.
@@ -84,6 +90,8 @@ pub struct RunParams<'a> {
     pub time_budget_s: f64,
     /// Stop when the global relative error is at or below this; 0 for no target.
     pub target_rel_error: f64,
+    /// Stop when a measure of chosen meshes' error is at or below a target.
+    pub region: Option<target::RegionTarget>,
     /// Seconds between progress reports (and target checks).
     pub progress_interval_s: f64,
     /// Safety limit on events per path; photons reaching it are dropped and reported.
@@ -142,6 +150,8 @@ pub struct RunContext<'a> {
     pub elapsed_before_s: f64,
     /// The run's region tallies (one slot per calculating thread).
     pub regions: &'a RegionShared,
+    /// The region tallies of the photons before this run.
+    pub regions_before: &'a RegionTally,
 }
 
 /// A calculating thread's region tallies: photons' totals added locally, handed to the
@@ -273,11 +283,14 @@ impl<'p, 'a> Monitor<'p, 'a> {
 
     /// Checks the clock; at a progress tick evaluates the error (`error` gets the photon
     /// count) and calls the callback. Returns true when the run must stop.
+    /// `map` and `access` read the chosen meshes for a region target.
     pub fn poll(
         &mut self,
         source: &PhotonSource,
         rc: &RunContext,
         error: &dyn Fn(u64) -> Option<f64>,
+        map: &IMap,
+        access: &dyn target::SlotAccess,
     ) -> bool {
         let now = Instant::now();
         if self.stop.is_none() && self.end.is_some_and(|end| now >= end) {
@@ -287,13 +300,25 @@ impl<'p, 'a> Monitor<'p, 'a> {
             let hits = rc.hits_before + source.hits();
             let photons = self.photons_before + source.traced();
             let err = error(photons);
-            let p = self.record(photons, hits, err);
+            let region = self
+                .params
+                .region
+                .as_ref()
+                .map(|t| target::region_error(t, map, rc, photons, access));
+            let p = self.record(photons, hits, err, region);
             // The next tick: one interval on, or later when the evaluation was slow.
             let spent = now.elapsed();
             let gap = self.interval.max(spent.mul_f64(1.0 / MAX_PROGRESS_SHARE));
             self.next_tick = Instant::now().checked_add(gap);
+            let region_met = self
+                .params
+                .region
+                .as_ref()
+                .is_some_and(|t| region.flatten().is_some_and(|e| e <= t.target));
             if self.params.target_rel_error > 0.0 && p.rel_error <= self.params.target_rel_error {
                 self.stop = Some(StopReason::TargetError);
+            } else if region_met {
+                self.stop = Some(StopReason::RegionTarget);
             } else if let Some(cb) = self.params.progress.as_mut() {
                 if !cb(&p) {
                     self.stop = Some(StopReason::Cancelled);
@@ -307,12 +332,19 @@ impl<'p, 'a> Monitor<'p, 'a> {
     }
 
     /// Records a history point.
-    fn record(&mut self, photons: u64, hits: u64, rel_error: Option<f64>) -> Progress {
+    fn record(
+        &mut self,
+        photons: u64,
+        hits: u64,
+        rel_error: Option<f64>,
+        region: Option<Option<f64>>,
+    ) -> Progress {
         let p = Progress {
             elapsed_s: self.elapsed_before_s + self.wall_s(),
             photons,
             hits,
             rel_error: rel_error.unwrap_or(crate::imap::NO_DATA_REL_ERROR),
+            region_rel_error: region.map_or(0.0, |r| r.unwrap_or(crate::imap::NO_DATA_REL_ERROR)),
         };
         push_history(&mut self.history, p);
         p
@@ -330,10 +362,16 @@ impl<'p, 'a> Monitor<'p, 'a> {
     ) -> RunOutcome {
         let wall_s = self.wall_s();
         let photons = self.photons_before + stats.photons;
+        let region = self
+            .params
+            .region
+            .as_ref()
+            .map(|t| target::region_error(t, map, rc, photons, &target::Exclusive));
         let p = self.record(
             photons,
             rc.hits_before + stats.hits,
             global_error(map, rc, photons),
+            region,
         );
         if let Some(cb) = self.params.progress.as_mut() {
             // The final report: its answer no longer matters.
@@ -370,6 +408,7 @@ mod tests {
                     photons: i,
                     hits: 0,
                     rel_error: 1.0,
+                    region_rel_error: 0.0,
                 },
             );
             assert!(h.len() <= MAX_HISTORY);

@@ -34,7 +34,13 @@ pub fn run(rc: &RunContext, map: &IMap, params: &mut RunParams) -> RunOutcome {
             .collect();
         while !handles.iter().all(|h| h.is_finished()) {
             std::thread::sleep(monitor.timeout().min(std::time::Duration::from_millis(1)));
-            monitor.poll(&source, rc, &|n| super::global_error(map, rc, n));
+            monitor.poll(
+                &source,
+                rc,
+                &|n| super::global_error(map, rc, n),
+                map,
+                &super::target::Exclusive,
+            );
         }
         for h in handles {
             match h.join() {

@@ -199,6 +199,7 @@ pub fn photons(base: u64) -> u64 {
 /// Runs `n` photons with no callback.
 pub fn run_photons(ctx: &mut Context, n: u64) -> imap::Report {
     let mut params = imap::RunParams {
+        region: None,
         photons: n,
         time_budget_s: 0.0,
         target_rel_error: 0.0,

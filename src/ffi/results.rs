@@ -1,0 +1,162 @@
+//! Region results: a mesh side's (or a part's) incident flux, average, minimum and maximum
+//! illuminance and uniformities with their standard errors, and the vertices' areas.
+//! docs/results.md states what each figure means and how its error is computed.
+
+use super::{slice_mut, with_context, write_versioned, ImapContext, Versioned};
+use crate::context::RegionStats;
+use crate::error::{bail, ImapStatus};
+
+/// `part` argument of the region functions: the whole mesh side, all its materials.
+pub const IMAP_ALL_PARTS: u32 = u32::MAX;
+
+/// A region's figures (`imap_get_region_stats`), each with its standard error (`*_sigma`,
+/// the same unit). Filled by the library; `struct_size` says how many bytes are valid.
+/// (Since 0.2.1.)
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default)]
+pub struct ImapRegionStats {
+    /// Bytes of this struct the library filled.
+    pub struct_size: u32,
+    /// Vertices with a share of the region's triangles.
+    pub vertices: u32,
+    /// Photons the figures are made of (0: no run yet; every figure below is then 0).
+    pub photons: u64,
+    /// The region's area, m².
+    pub area_m2: f64,
+    /// Incident luminous flux, lm, summed photon by photon over the region (its error is
+    /// the exact Monte Carlo error of that sum).
+    pub flux_lm: f64,
+    pub flux_lm_sigma: f64,
+    /// Average illuminance Eavg = flux_lm / area_m2, lx.
+    pub average_lx: f64,
+    pub average_lx_sigma: f64,
+    /// Minimum and maximum vertex illuminance, lx, corrected for the bias of the extremes
+    /// of noisy values (parametric bootstrap around a shrunk field; docs/results.md).
+    pub min_lx: f64,
+    pub min_lx_sigma: f64,
+    pub max_lx: f64,
+    pub max_lx_sigma: f64,
+    /// Uniformity U0 = Emin / Eavg and Ud = Emin / Emax (corrected likewise).
+    pub u0: f64,
+    pub u0_sigma: f64,
+    pub ud: f64,
+    pub ud_sigma: f64,
+    /// The smallest and largest vertex illuminance as observed (uncorrected), lx.
+    pub min_observed_lx: f64,
+    pub max_observed_lx: f64,
+}
+
+// SAFETY: repr(C), u32 struct_size first, plain numbers only.
+unsafe impl Versioned for ImapRegionStats {
+    const NAME: &'static str = "ImapRegionStats";
+    const INIT: &'static str = "sizeof";
+    fn defaults() -> Self {
+        ImapRegionStats::default()
+    }
+}
+
+fn part_of(part: u32) -> Option<u32> {
+    (part != IMAP_ALL_PARTS).then_some(part)
+}
+
+fn stats_to_c(s: &RegionStats) -> ImapRegionStats {
+    let x = s.extremes.unwrap_or_default();
+    ImapRegionStats {
+        struct_size: std::mem::size_of::<ImapRegionStats>() as u32,
+        vertices: s.vertices.min(u32::MAX as usize) as u32,
+        photons: s.photons,
+        area_m2: s.area_m2,
+        flux_lm: s.flux_lm.value,
+        flux_lm_sigma: s.flux_lm.sigma,
+        average_lx: s.average.value,
+        average_lx_sigma: s.average.sigma,
+        min_lx: x.min.value,
+        min_lx_sigma: x.min.sigma,
+        max_lx: x.max.value,
+        max_lx_sigma: x.max.sigma,
+        u0: x.u0.value,
+        u0_sigma: x.u0.sigma,
+        ud: x.ud.value,
+        ud_sigma: x.ud.sigma,
+        min_observed_lx: x.min_observed,
+        max_observed_lx: x.max_observed,
+    }
+}
+
+/// The figures of recording mesh `mesh` on `side` (`IMAP_SIDE_FRONT`/`_BACK`), of the
+/// whole side (`part` = `IMAP_ALL_PARTS`) or of its triangles of material `part`.
+/// `size` = `sizeof(ImapRegionStats)`. Before any photon only `area_m2` and `vertices`
+/// are set. Returns IMAP_ERR_NULL_POINTER, IMAP_ERR_INVALID_ARGUMENT (size),
+/// IMAP_ERR_INDEX_OUT_OF_RANGE (mesh, side, or a material the mesh has no triangle of),
+/// IMAP_ERR_NOT_RECORDED, IMAP_ERR_BUSY.
+///
+/// # Safety
+/// `ctx` is a live handle; `out` points to `size` writable bytes.
+#[no_mangle]
+pub unsafe extern "C" fn imap_get_region_stats(
+    ctx: *const ImapContext,
+    mesh: u32,
+    side: u32,
+    part: u32,
+    out: *mut ImapRegionStats,
+    size: usize,
+) -> ImapStatus {
+    with_context(ctx, |c| {
+        super::check_out("out", out)?;
+        let s = c.region_stats(mesh, side, part_of(part))?;
+        write_versioned("out", out, size, stats_to_c(&s))
+    })
+}
+
+/// The region's incident radiant flux per band, W, and its standard error:
+/// `out[2b]` = flux of band b, `out[2b + 1]` = its standard error, for b < band count
+/// (`count` ≥ 2 × band count). Arguments and statuses as `imap_get_region_stats`
+/// (IMAP_ERR_BUFFER_TOO_SMALL when `count` is short). Zeros before any photon.
+///
+/// # Safety
+/// `ctx` is a live handle; `out` holds `count` writable doubles.
+#[no_mangle]
+pub unsafe extern "C" fn imap_get_region_band_flux(
+    ctx: *const ImapContext,
+    mesh: u32,
+    side: u32,
+    part: u32,
+    out: *mut f64,
+    count: usize,
+) -> ImapStatus {
+    with_context(ctx, |c| {
+        let out = slice_mut("out", out, count)?;
+        let s = c.region_stats(mesh, side, part_of(part))?;
+        let need = 2 * s.flux_w.len();
+        if out.len() < need {
+            bail!(
+                ImapErrBufferTooSmall,
+                "out holds {} values but the region's band fluxes and errors need {need} (2 × {} bands)",
+                out.len(),
+                s.flux_w.len()
+            );
+        }
+        for (o, e) in out.chunks_exact_mut(2).zip(&s.flux_w) {
+            o[0] = e.value;
+            o[1] = e.sigma;
+        }
+        Ok(())
+    })
+}
+
+/// Each vertex's area of mesh `mesh` — a third of the area of every triangle it belongs
+/// to, m² — into `out[0 .. vertex count)`: E × area summed over a mesh's vertices is the
+/// flux it receives. Any mesh (recording or not). Returns IMAP_ERR_NULL_POINTER,
+/// IMAP_ERR_INDEX_OUT_OF_RANGE, IMAP_ERR_BUFFER_TOO_SMALL, IMAP_ERR_BUSY.
+///
+/// # Safety
+/// `ctx` is a live handle; `out` holds `count` writable doubles.
+#[no_mangle]
+pub unsafe extern "C" fn imap_get_vertex_areas(
+    ctx: *const ImapContext,
+    mesh: u32,
+    out: *mut f64,
+    count: usize,
+) -> ImapStatus {
+    with_context(ctx, |c| c.vertex_areas(mesh, slice_mut("out", out, count)?))
+}
