@@ -1111,6 +1111,12 @@ typedef struct ImapRunParams {
    * The percentile of `IMAP_REGION_VERTICES`, in (0, 100]; 0 = 100 (the largest error).
    */
   double region_percentile;
+  /**
+   * Non-zero: only the meshes' triangles of material `region_part` (a part: e.g. a
+   * grid's points without a guard ring around them) and the vertices they touch.
+   */
+  uint32_t region_part_only;
+  uint32_t region_part;
 } ImapRunParams;
 
 /**

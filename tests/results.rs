@@ -342,6 +342,7 @@ fn a_region_target_stops_within_one_progress_interval() {
             let mut params = imap::RunParams {
                 region: Some(RegionTarget {
                     meshes: vec![plane],
+                    part: None,
                     measure,
                     target,
                 }),

@@ -3,6 +3,7 @@
 
 mod cornell;
 mod diag;
+mod grids;
 mod lights;
 mod materials;
 mod mtl;
@@ -40,6 +41,11 @@ struct RunOptions {
     /// Target global relative error, e.g. 0.01 (overrides the settings; 0 = none).
     #[arg(long)]
     target_error: Option<f64>,
+    /// Stop when the calculation grids' error is at or below this, e.g. 0.02 (the largest
+    /// point error unless [run] grid_error_measure says otherwise); the global target is
+    /// then not used.
+    #[arg(long)]
+    until_grid_error: Option<f64>,
     /// Calculating threads (0 = one per core).
     #[arg(long)]
     threads: Option<usize>,
@@ -116,6 +122,9 @@ fn apply_options(settings: &mut Settings, opts: &RunOptions) {
     if let Some(x) = opts.target_error {
         r.target_error = x;
     }
+    if let Some(x) = opts.until_grid_error {
+        r.grid_error = x;
+    }
     if let Some(x) = opts.threads {
         r.threads = x;
     }
@@ -177,8 +186,18 @@ impl Interrupts {
 fn run_scene(obj: &Path, mut settings: Settings, opts: &RunOptions) -> Result<serde_json::Value> {
     apply_options(&mut settings, opts);
     let r = &settings.run;
-    if !(r.photons > 0 || r.time_s > 0.0 || r.target_error > 0.0) {
-        fail!("no stop criterion: give photons, time or target_error (settings [run] or --photons/--time/--target-error)");
+    if !(r.grid_error.is_finite() && r.grid_error >= 0.0) {
+        fail!(
+            "grid error target {} must be a positive number (0 = none)",
+            r.grid_error
+        );
+    }
+    if r.grid_error > 0.0 && settings.grids.is_empty() {
+        fail!("a grid error target (--until-grid-error or [run] grid_error) needs at least one [[grid]]");
+    }
+    let grid_measure = settings.grid_measure()?;
+    if !(r.photons > 0 || r.time_s > 0.0 || r.target_error > 0.0 || r.grid_error > 0.0) {
+        fail!("no stop criterion: give photons, time, target_error or grid_error (settings [run] or --photons/--time/--target-error/--until-grid-error)");
     }
     // Everything that can be checked is checked before tracing: a mistake found after an
     // hour's run would throw the hour away.
@@ -208,7 +227,19 @@ fn run_scene(obj: &Path, mut settings: Settings, opts: &RunOptions) -> Result<se
             .unwrap()
             .progress_chars("=> "),
     );
-    let (target, time_s, photons) = (r.target_error, r.time_s, r.photons);
+    let grid_target = r.grid_error;
+    let target = if grid_target > 0.0 {
+        0.0
+    } else {
+        r.target_error
+    };
+    let (time_s, photons) = (r.time_s, r.photons);
+    let region = (grid_target > 0.0).then(|| imap::sched::target::RegionTarget {
+        meshes: scene.grids.iter().map(|g| g.id as usize).collect(),
+        part: Some(grids::POINTS_PART),
+        measure: grid_measure,
+        target: grid_target,
+    });
     let mut callback = |p: &imap::Progress| -> bool {
         let rate = if p.elapsed_s > 0.0 {
             p.hits as f64 / p.elapsed_s
@@ -222,6 +253,15 @@ fn run_scene(obj: &Path, mut settings: Settings, opts: &RunOptions) -> Result<se
             let t_target = p.elapsed_s * (p.rel_error / target).powi(2);
             frac = frac.max(p.elapsed_s / t_target);
             eta = format!(", ETA {:.0} s", (t_target - p.elapsed_s).max(0.0));
+        }
+        if grid_target > 0.0 && p.region_rel_error < 1.0 {
+            let t_target = p.elapsed_s * (p.region_rel_error / grid_target).powi(2);
+            frac = frac.max(p.elapsed_s / t_target);
+            eta = format!(
+                ", grid error {:.2} %, ETA {:.0} s",
+                100.0 * p.region_rel_error,
+                (t_target - p.elapsed_s).max(0.0)
+            );
         }
         if time_s > 0.0 {
             frac = frac.max(p.elapsed_s / time_s);
@@ -240,7 +280,7 @@ fn run_scene(obj: &Path, mut settings: Settings, opts: &RunOptions) -> Result<se
     };
     let t0 = Instant::now();
     let report = ctx.run(&mut imap::RunParams {
-        region: None,
+        region,
         photons,
         time_budget_s: time_s,
         target_rel_error: target,
@@ -260,7 +300,7 @@ fn run_scene(obj: &Path, mut settings: Settings, opts: &RunOptions) -> Result<se
         .map(|p| {
             serde_json::json!({
                 "elapsed_s": p.elapsed_s, "photons": p.photons, "hits": p.hits,
-                "rel_error": p.rel_error
+                "rel_error": p.rel_error, "grid_rel_error": p.region_rel_error
             })
         })
         .collect();
@@ -271,6 +311,31 @@ fn run_scene(obj: &Path, mut settings: Settings, opts: &RunOptions) -> Result<se
     } else {
         format!("{:?}", report.stop.unwrap_or(imap::StopReason::PhotonCount))
     };
+    let unit_m = settings.unit_m.unwrap_or(1.0);
+    let grid_results = scene
+        .grids
+        .iter()
+        .map(|g| grids::read(&ctx, g))
+        .collect::<Result<Vec<_>>>()?;
+    let grid_json: Vec<serde_json::Value> = scene
+        .grids
+        .iter()
+        .zip(&grid_results)
+        .map(|(g, r)| grids::summary_json(g, r, unit_m))
+        .collect();
+    let mut outputs: Vec<String> = [
+        "irradiance.csv",
+        "irradiance.ply",
+        "report.json",
+        "convergence.png",
+        "view.png",
+    ]
+    .map(String::from)
+    .to_vec();
+    for g in &scene.grids {
+        outputs.push(format!("grid_{}.csv", g.name));
+        outputs.push(format!("grid_{}.png", g.name));
+    }
     let json = serde_json::json!({
         "scene": obj.display().to_string(),
         "settings": settings,
@@ -321,7 +386,8 @@ fn run_scene(obj: &Path, mut settings: Settings, opts: &RunOptions) -> Result<se
         },
         "map_bytes": report.map_bytes,
         "history": history,
-        "outputs": ["irradiance.csv", "irradiance.ply", "report.json", "convergence.png", "view.png"],
+        "grids": grid_json,
+        "outputs": outputs,
     });
     // Every output is written to a temporary file first and renamed into place once all
     // are complete: an interrupted write never leaves a truncated file, and the outputs
@@ -332,17 +398,25 @@ fn run_scene(obj: &Path, mut settings: Settings, opts: &RunOptions) -> Result<se
     output::write_ply(&files.temp("irradiance.ply")?, &scene, &maps)?;
     output::plot_convergence(&files.temp("convergence.png")?, ctx.history())?;
     output::write_png(&files.temp("view.png")?, cam.width, cam.height, &img)?;
+    for (g, r) in scene.grids.iter().zip(&grid_results) {
+        grids::write_csv(&files.temp(&format!("grid_{}.csv", g.name))?, g, r)?;
+        grids::write_picture(&files.temp(&format!("grid_{}.png", g.name))?, g, r)?;
+    }
     let path = files.temp("report.json")?;
     std::fs::write(&path, serde_json::to_string_pretty(&json).unwrap())
         .map_err(|e| CliError(format!("{}: {e}", path.display())))?;
     files.commit()?;
     println!(
-        "{} photons in {:.1} s ({stop}), estimated error {:.2} %; wrote {}/{{irradiance.csv, irradiance.ply, report.json, convergence.png, view.png}}",
+        "{} photons in {:.1} s ({stop}), estimated error {:.2} %; wrote {}/{{{}}}",
         report.photons,
         report.elapsed_s,
         100.0 * report.rel_error,
-        out.display()
+        out.display(),
+        outputs.join(", ")
     );
+    for (g, r) in scene.grids.iter().zip(&grid_results) {
+        println!("{}", grids::summary_line(g, r));
+    }
     if let Some(code) = interrupted.status() {
         eprintln!(
             "imap: interrupted: the outputs hold the {} photons traced until then",

@@ -434,7 +434,7 @@ fn view_attributes(scene: &LoadedScene, maps: &[Option<MeshMap>]) -> Vec<Vec<Vie
 }
 
 /// The viridis colour map at t ∈ [0, 1] (piecewise linear through five of its colours).
-fn colour_map(t: f64) -> [u8; 3] {
+pub(crate) fn colour_map(t: f64) -> [u8; 3] {
     const STOPS: [[f64; 3]; 5] = [
         [68.0, 1.0, 84.0],
         [59.0, 82.0, 139.0],
@@ -449,7 +449,7 @@ fn colour_map(t: f64) -> [u8; 3] {
 }
 
 /// The smallest of 1, 2, 2.5, 5 × 10^k at or above `x`.
-fn nice_ceiling(x: f64) -> f64 {
+pub(crate) fn nice_ceiling(x: f64) -> f64 {
     if !(x > 0.0 && x.is_finite()) {
         return 1.0;
     }
@@ -501,9 +501,12 @@ pub fn render_view(
     Ok(out)
 }
 
+/// The tallest the legend's strip gets, pixels.
+pub(crate) const LEGEND_MAX_PX: u32 = 24 + 3 * 12 + 22;
+
 /// The colour scale 0 … `top` lx along the bottom of the image (labels when a font is
 /// found).
-fn draw_legend(img: &mut [u8], w: u32, h: u32, top: f64) {
+pub(crate) fn draw_legend(img: &mut [u8], w: u32, h: u32, top: f64) {
     use plotters::prelude::*;
     let bar_h = (h / 40).clamp(6, 24);
     let pad = (h / 60).clamp(3, 12);
@@ -556,7 +559,7 @@ fn draw_legend(img: &mut [u8], w: u32, h: u32, top: f64) {
     let _ = draw();
 }
 
-fn fmt_lux(v: f64) -> String {
+pub(crate) fn fmt_lux(v: f64) -> String {
     if v == 0.0 || v >= 10.0 {
         format!("{v:.0}")
     } else if v >= 1.0 {
@@ -826,6 +829,7 @@ mod tests {
             rgb: true,
             warnings: vec![],
             lights: vec![],
+            grids: Vec::new(),
         };
         let maps = vec![Some(MeshMap {
             e: vec![vec![1.0; nv]; 3],

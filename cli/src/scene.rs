@@ -109,6 +109,18 @@ pub struct RunSettings {
     pub seed: u64,
     #[serde(default = "default_interval")]
     pub progress_interval_s: f64,
+    /// Stop when the grids' error is at or below this (0 = no grid target); the global
+    /// `target_error` is then not used.
+    #[serde(default)]
+    pub grid_error: f64,
+    /// What `grid_error` measures: "points" (default: the largest, or the
+    /// `grid_error_percentile`-th percentile, of the points' relative errors), "average"
+    /// (each grid's Eavg) or "uniformity" (each grid's U0).
+    #[serde(default)]
+    pub grid_error_measure: Option<String>,
+    /// Percentile of the points' errors for "points", in (0, 100]; default 100.
+    #[serde(default)]
+    pub grid_error_percentile: Option<f64>,
 }
 
 fn default_scheduler() -> String {
@@ -128,6 +140,9 @@ impl Default for RunSettings {
             scheduler: default_scheduler(),
             seed: 0,
             progress_interval_s: default_interval(),
+            grid_error: 0.0,
+            grid_error_measure: None,
+            grid_error_percentile: None,
         }
     }
 }
@@ -186,6 +201,9 @@ pub struct Settings {
     pub two_sided: bool,
     #[serde(default)]
     pub camera: Option<CameraSettings>,
+    /// Calculation grids, recorded as sensors.
+    #[serde(default, rename = "grid")]
+    pub grids: Vec<crate::grids::GridSettings>,
 }
 
 impl Settings {
@@ -219,6 +237,24 @@ impl Settings {
             s => fail!("run.scheduler = \"{s}\": use \"dynamic\" or \"classic\""),
         }
     }
+
+    /// The grids' stop criterion, if any.
+    pub fn grid_measure(&self) -> Result<imap::sched::target::RegionMeasure> {
+        use imap::sched::target::RegionMeasure;
+        let r = &self.run;
+        let percentile = r.grid_error_percentile.unwrap_or(100.0);
+        if !(percentile > 0.0 && percentile <= 100.0) {
+            fail!("run.grid_error_percentile = {percentile} is not in (0, 100]");
+        }
+        Ok(match r.grid_error_measure.as_deref() {
+            None | Some("points") => RegionMeasure::Vertices { percentile },
+            Some("average") => RegionMeasure::Average,
+            Some("uniformity") => RegionMeasure::Uniformity,
+            Some(s) => fail!(
+                "run.grid_error_measure = \"{s}\": use \"points\", \"average\" or \"uniformity\""
+            ),
+        })
+    }
 }
 
 /// One mesh as loaded, kept for the outputs.
@@ -247,6 +283,8 @@ pub struct LoadedScene {
     pub warnings: Vec<String>,
     /// The lights and luminaires added, with their flux.
     pub lights: Vec<PlacedLight>,
+    /// The calculation grids.
+    pub grids: Vec<crate::grids::Grid>,
 }
 
 impl LoadedScene {
@@ -440,6 +478,7 @@ pub fn load(path: &Path, settings: &Settings) -> Result<(Context, LoadedScene)> 
         &settings.base_dir,
         &mut placed,
     )?;
+    let grids = crate::grids::add_grids(&mut ctx, &settings.grids, settings.unit_m.unwrap_or(1.0))?;
     Ok((
         ctx,
         LoadedScene {
@@ -448,6 +487,7 @@ pub fn load(path: &Path, settings: &Settings) -> Result<(Context, LoadedScene)> 
             rgb,
             warnings: diag.warnings,
             lights: placed,
+            grids,
         },
     ))
 }

@@ -696,3 +696,133 @@ spectrum = "D65"
 fn o_path(d: &Path) -> String {
     d.join("floor.obj").to_string_lossy().into_owned()
 }
+
+#[test]
+fn grids_measure_a_point_light_and_stop_on_their_error() {
+    // A 1000 lm point light 2 m above the centre of a 2 × 2 m calculation grid with 0.25 m
+    // spacing (8 × 8 points at the cells' centres); the only surface is a small black
+    // triangle far away. Each point reads I cos θ / r² (averaged over its neighbourhood:
+    // within 2 %), the grid's Eavg is I × the solid angle of the square the points span
+    // over its area, and the run stops on the largest point error.
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let o = write(
+        d,
+        "far.obj",
+        "mtllib far.mtl\no far\nusemtl black\nv 50 50 -50\nv 51 50 -50\nv 50 51 -50\nf 1 2 3\n",
+    );
+    write(d, "far.mtl", "newmtl black\nKd 0 0 0\n");
+    let s = write(
+        d,
+        "settings.toml",
+        r#"
+[run]
+time_s = 120
+seed = 5
+threads = 2
+[[light]]
+kind = "point"
+position = [0, 0, 2]
+amount = 1000
+unit = "lm"
+[[grid]]
+name = "floor"
+origin = [-1, -1, 0]
+u = [1, 0, 0]
+v = [0, 1, 0]
+size = [2, 2]
+spacing = 0.25
+"#,
+    );
+    let out = d.join("out");
+    let r = imap(&[
+        "run",
+        &o,
+        "--config",
+        &s,
+        "--out",
+        out.to_str().unwrap(),
+        "--until-grid-error",
+        "0.02",
+        "--quiet",
+    ]);
+    assert!(r.status.success(), "{}", stderr(&r));
+    let stdout = String::from_utf8_lossy(&r.stdout);
+    assert!(
+        stdout.contains("grid 'floor' (8 × 8 points): Eavg"),
+        "{stdout}"
+    );
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap()).unwrap();
+    assert_eq!(report["stop"], "RegionTarget");
+    let i = 1000.0 / (4.0 * std::f64::consts::PI);
+    let h = 2.0;
+    let csv = std::fs::read_to_string(out.join("grid_floor.csv")).unwrap();
+    let rows: Vec<Vec<f64>> = csv
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').map(|x| x.parse().unwrap()).collect())
+        .collect();
+    assert_eq!(rows.len(), 64);
+    let mut min_truth = f64::INFINITY;
+    for row in &rows {
+        let (ii, jj, x, y, z, lux, sigma, rel) = (
+            row[0], row[1], row[2], row[3], row[4], row[5], row[6], row[7],
+        );
+        assert!((x - (-1.0 + 0.25 * (ii + 0.5))).abs() < 1e-12, "{row:?}");
+        assert!((y - (-1.0 + 0.25 * (jj + 0.5))).abs() < 1e-12, "{row:?}");
+        assert_eq!(z, 0.0);
+        assert!(rel <= 0.02 * 1.05, "point error {rel} above the target");
+        let truth = i * h / (x * x + y * y + h * h).powf(1.5);
+        min_truth = min_truth.min(truth);
+        assert!(
+            (lux - truth).abs() <= 3.0 * sigma + 0.02 * truth,
+            "point ({x}, {y}): {lux} ± {sigma} lx, expected {truth}"
+        );
+    }
+    let g = &report["grids"][0];
+    // The square through the outer points: half side 0.875 m.
+    let a: f64 = 0.875;
+    let omega = 4.0 * (a * a / (a * a + h * h)).asin();
+    let eavg = i * omega / (4.0 * a * a);
+    let (avg, avg_sigma) = (
+        g["average_lx"]["value"].as_f64().unwrap(),
+        g["average_lx"]["sigma"].as_f64().unwrap(),
+    );
+    assert!(
+        (avg - eavg).abs() < 4.0 * avg_sigma,
+        "Eavg {avg} ± {avg_sigma}, expected {eavg}"
+    );
+    assert!((g["area_m2"].as_f64().unwrap() - 4.0 * a * a).abs() < 1e-9);
+    let (u0, u0_sigma) = (
+        g["u0"]["value"].as_f64().unwrap(),
+        g["u0"]["sigma"].as_f64().unwrap(),
+    );
+    let u0_truth = min_truth / eavg;
+    assert!(
+        (u0 - u0_truth).abs() <= 3.0 * u0_sigma + 0.02 * u0_truth,
+        "U0 {u0} ± {u0_sigma}, expected {u0_truth}"
+    );
+    assert!(out.join("grid_floor.png").exists());
+
+    // Bad grids are refused before any work, naming the grid.
+    let bad = write(
+        d,
+        "bad.toml",
+        "[run]\nphotons = 1000\n[[grid]]\nname = \"desk\"\norigin = [0, 0, 0]\nu = [1, 0, 0]\nv = [1, 1, 0]\nsize = [1, 1]\n",
+    );
+    let e = fails(&["run", &o, "--config", &bad, "--out", out.to_str().unwrap()]);
+    assert!(
+        e.contains("grid 'desk'") && e.contains("perpendicular"),
+        "{e}"
+    );
+    let e = fails(&[
+        "run",
+        &o,
+        "--until-grid-error",
+        "0.02",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(e.contains("[[grid]]"), "{e}");
+}

@@ -677,6 +677,19 @@ impl Context {
                     "params.region_meshes: mesh {m} does not record, so it has no error to reach"
                 );
             }
+            if let Some(p) = t.part {
+                let mesh = &self.scene.meshes[i];
+                let has = match &mesh.triangle_materials {
+                    Some(ids) => ids.contains(&p),
+                    None => mesh.material == p,
+                };
+                if !has {
+                    bail!(
+                        ImapErrIndexOutOfRange,
+                        "params.region_part: mesh {m} has no triangle of material {p}"
+                    );
+                }
+            }
         }
         Ok(())
     }

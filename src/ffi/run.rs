@@ -121,6 +121,10 @@ pub struct ImapRunParams {
     pub region_meshes: *const u32,
     /// The percentile of `IMAP_REGION_VERTICES`, in (0, 100]; 0 = 100 (the largest error).
     pub region_percentile: f64,
+    /// Non-zero: only the meshes' triangles of material `region_part` (a part: e.g. a
+    /// grid's points without a guard ring around them) and the vertices they touch.
+    pub region_part_only: u32,
+    pub region_part: u32,
 }
 
 // SAFETY: repr(C), u32 struct_size first, numbers, an Option<fn> and a raw pointer.
@@ -144,6 +148,8 @@ unsafe impl Versioned for ImapRunParams {
             region_mesh_count: 0,
             region_meshes: std::ptr::null(),
             region_percentile: 0.0,
+            region_part_only: 0,
+            region_part: 0,
         }
     }
 }
@@ -415,6 +421,7 @@ fn region_target(p: &ImapRunParams) -> Result<Option<RegionTarget>> {
     )?;
     Ok(Some(RegionTarget {
         meshes: meshes.iter().map(|&m| m as usize).collect(),
+        part: (p.region_part_only != 0).then_some(p.region_part),
         measure,
         target: p.region_target,
     }))

@@ -29,6 +29,9 @@ pub enum RegionMeasure {
 pub struct RegionTarget {
     /// Indices of recording meshes in the prepared scene.
     pub meshes: Vec<usize>,
+    /// Only the triangles of this material (a part, e.g. a grid's points without its guard
+    /// ring), and the vertices they touch; None: whole meshes.
+    pub part: Option<u32>,
     pub measure: RegionMeasure,
     pub target: f64,
 }
@@ -70,8 +73,9 @@ pub fn region_error(
                 let m = &scene.meshes[i];
                 let base = m.slot_base?;
                 let sides = m.sides();
+                let weights = part_weights(m, t.part);
                 access.visit(base..base + m.vertex_area.len() * sides, &mut |slot| {
-                    if m.vertex_area[(slot - base) / sides] > 0.0 {
+                    if weights[(slot - base) / sides] > 0.0 {
                         let (s, q) = map.scalar(slot);
                         rel.push(if s > 0.0 {
                             (q - s * s / n).max(0.0).sqrt() / s
@@ -91,12 +95,17 @@ pub fn region_error(
                 let m = &scene.meshes[i];
                 let regions = scene.regions.meshes[i].as_ref()?;
                 for side in 0..m.sides() {
-                    let r = regions.mesh_region(side) as usize;
+                    let r = match t.part {
+                        None => regions.mesh_region(side),
+                        Some(p) => regions
+                            .part_region(side, p)
+                            .unwrap_or(regions.mesh_region(side)),
+                    } as usize;
                     let avg = luminous(&tally, r, nb, &scene.efficacy, n)?;
                     let e = if t.measure == RegionMeasure::Average {
                         avg.sigma / avg.value
                     } else {
-                        uniformity_error(m, side, map, rc, photons, avg, access)?
+                        uniformity_error(m, t.part, side, map, rc, photons, avg, access)?
                     };
                     worst = worst.max(e);
                 }
@@ -129,10 +138,30 @@ fn luminous(t: &RegionTally, r: usize, nb: usize, efficacy: &[f64], n: f64) -> O
     })
 }
 
-/// The relative standard error of U0 of mesh `m`'s `side`, given its luminous sum `avg`
-/// (photon units).
+/// Each vertex's share of the area of mesh `m`'s triangles of material `part` (all
+/// triangles for None), scene units².
+fn part_weights(m: &crate::scene::PreparedMesh, part: Option<u32>) -> Vec<f64> {
+    let Some(p) = part else {
+        return m.vertex_area.clone();
+    };
+    let mut w = vec![0.0; m.vertex_area.len()];
+    for (t, tri) in m.triangles.iter().enumerate() {
+        if m.material(t) == p {
+            let a = m.area(t) / 3.0;
+            for &v in tri {
+                w[v as usize] += a;
+            }
+        }
+    }
+    w
+}
+
+/// The relative standard error of U0 of mesh `m`'s `side` (or its part), given its
+/// luminous sum `avg` (photon units).
+#[allow(clippy::too_many_arguments)]
 fn uniformity_error(
     m: &crate::scene::PreparedMesh,
+    part: Option<u32>,
     side: usize,
     map: &IMap,
     rc: &RunContext,
@@ -163,12 +192,13 @@ fn uniformity_error(
             lux[v]
         };
     });
-    let area: f64 = m.vertex_area.iter().sum();
+    let weights = part_weights(m, part);
+    let area: f64 = weights.iter().sum();
     let average = Estimate {
         value: avg.value / area,
         sigma: avg.sigma / area,
     };
-    let x = stats::extremes(&lux, &sigma, &m.vertex_area, average)?;
+    let x = stats::extremes(&lux, &sigma, &weights, average)?;
     (x.u0.value > 0.0).then(|| x.u0.sigma / x.u0.value)
 }
 

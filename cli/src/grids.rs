@@ -1,0 +1,379 @@
+//! Calculation grids (`[[grid]]`): rectangles of points recorded as sensor meshes (they
+//! change no light path), each written as a CSV table of points with lux and error, a
+//! false-colour picture with isolux lines, and summarised (Eavg, Emin, Emax, U0, Ud with
+//! their errors) in report.json and on the terminal.
+
+use crate::output::{colour_map, draw_legend, fmt_lux, nice_ceiling, write_png};
+use crate::scene::{fail, CliError, Result};
+use glam::DVec3;
+use imap::{Context, MeshDesc};
+use serde::{Deserialize, Serialize};
+use std::io::Write;
+use std::path::Path;
+
+/// A `[[grid]]` of the settings. Positions and sizes in scene units.
+#[derive(Clone, Debug, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct GridSettings {
+    /// Names the outputs (grid_<name>.csv, .png); default "grid1", "grid2", …
+    #[serde(default)]
+    pub name: Option<String>,
+    /// A corner of the rectangle.
+    pub origin: [f64; 3],
+    /// Direction of its first edge (any length).
+    pub u: [f64; 3],
+    /// Direction of its second edge, perpendicular to `u`.
+    pub v: [f64; 3],
+    /// Lengths of the two edges.
+    pub size: [f64; 2],
+    /// Distance between points; default by EN 12464-1: p = 0.2 · 5^log10(d) m, d the longer
+    /// edge in metres.
+    #[serde(default)]
+    pub spacing: Option<f64>,
+    /// Which light is measured: "front" (default: light arriving from the side u × v points
+    /// to, e.g. from above for u = x, v = y in a Z-up scene) or "back".
+    #[serde(default)]
+    pub side: Option<String>,
+}
+
+/// Part labels of a grid's sensor: the triangles between its points, and the guard ring.
+pub const POINTS_PART: u32 = 0;
+const GUARD_PART: u32 = 1;
+
+/// A grid as added: its points (cell centres, row-major along u then v) and sensor id.
+pub struct Grid {
+    pub name: String,
+    pub id: u32,
+    pub nu: usize,
+    pub nv: usize,
+    /// Spacing along u and v, scene units.
+    pub step: [f64; 2],
+    pub positions: Vec<f64>,
+    pub settings: GridSettings,
+}
+
+/// EN 12464-1's maximum grid spacing for a dimension of `d` metres: p = 0.2 · 5^log10(d),
+/// at most 10 m.
+pub fn en12464_spacing_m(d: f64) -> f64 {
+    (0.2 * 5f64.powf(d.log10())).min(10.0)
+}
+
+fn finite3(v: [f64; 3]) -> bool {
+    v.iter().all(|x| x.is_finite())
+}
+
+impl GridSettings {
+    fn checked_axes(&self, what: &str) -> Result<(DVec3, DVec3)> {
+        if !(finite3(self.origin) && finite3(self.u) && finite3(self.v)) {
+            fail!("{what}: origin, u and v must be finite");
+        }
+        let (Some(u), Some(v)) = (
+            DVec3::from(self.u).try_normalize(),
+            DVec3::from(self.v).try_normalize(),
+        ) else {
+            fail!("{what}: u and v must not be zero");
+        };
+        if u.dot(v).abs() > 1e-6 {
+            fail!(
+                "{what}: u and v must be perpendicular (their angle is {:.3}°)",
+                u.dot(v).clamp(-1.0, 1.0).acos().to_degrees()
+            );
+        }
+        if !self.size.iter().all(|s| s.is_finite() && *s > 0.0) {
+            fail!(
+                "{what}: size = {:?} must be two positive lengths",
+                self.size
+            );
+        }
+        Ok((u, v))
+    }
+}
+
+/// The grids' meshes: checked, laid out and added to `ctx` as one-sided sensors.
+pub fn add_grids(ctx: &mut Context, grids: &[GridSettings], unit_m: f64) -> Result<Vec<Grid>> {
+    let mut out: Vec<Grid> = Vec::new();
+    for (k, g) in grids.iter().enumerate() {
+        let name = g.name.clone().unwrap_or_else(|| format!("grid{}", k + 1));
+        let what = format!("grid '{name}'");
+        if name.is_empty()
+            || !name
+                .chars()
+                .all(|c| c.is_ascii_alphanumeric() || "-_. ".contains(c))
+        {
+            fail!("{what}: a name may hold letters, digits, space and - _ . only (it names files)");
+        }
+        if out.iter().any(|o| o.name == name) {
+            fail!("{what}: two grids have this name");
+        }
+        let (u, v) = g.checked_axes(&what)?;
+        let back = match g.side.as_deref() {
+            None | Some("front") => false,
+            Some("back") => true,
+            Some(s) => fail!("{what}: side = \"{s}\": use \"front\" or \"back\""),
+        };
+        let spacing = match g.spacing {
+            Some(s) if s.is_finite() && s > 0.0 => s,
+            Some(s) => fail!("{what}: spacing = {s} must be a positive length"),
+            None => en12464_spacing_m(g.size[0].max(g.size[1]) * unit_m) / unit_m,
+        };
+        // EN 12464-1: the nearest whole number of d/p points per edge, at the cells' centres
+        // (at least two, so that the points span a surface).
+        let n = |d: f64| ((d / spacing).round() as usize).max(2);
+        let (nu, nv) = (n(g.size[0]), n(g.size[1]));
+        if nu * nv > 4_000_000 {
+            fail!("{what}: {nu} × {nv} points are too many (at most 4 million)");
+        }
+        let step = [g.size[0] / nu as f64, g.size[1] / nv as f64];
+        let o = DVec3::from(g.origin);
+        let at = |i: f64, j: f64| o + u * ((i + 0.5) * step[0]) + v * ((j + 0.5) * step[1]);
+        let mut positions = Vec::with_capacity(3 * nu * nv);
+        for j in 0..nv {
+            for i in 0..nu {
+                positions.extend(at(i as f64, j as f64).to_array());
+            }
+        }
+        // The sensor: the points, and a ring of guard vertices one spacing outside them, so
+        // that every point's value is the light averaged symmetrically around it (a point
+        // on the edge of a mesh would average only inwards: first-order biased). Triangles
+        // between points are part POINTS, those touching the ring part GUARD.
+        let (mu, mv) = (nu + 2, nv + 2);
+        let mut mesh_positions = Vec::with_capacity(3 * mu * mv);
+        for j in 0..mv {
+            for i in 0..mu {
+                mesh_positions.extend(at(i as f64 - 1.0, j as f64 - 1.0).to_array());
+            }
+        }
+        let mut indices = Vec::with_capacity(6 * (mu - 1) * (mv - 1));
+        let mut parts = Vec::with_capacity(2 * (mu - 1) * (mv - 1));
+        for j in 0..mv - 1 {
+            for i in 0..mu - 1 {
+                let a = (j * mu + i) as u32;
+                let (b, c, d) = (a + 1, a + mu as u32 + 1, a + mu as u32);
+                // Counter-clockwise seen from u × v: the front faces it.
+                let tris = if back {
+                    [a, c, b, a, d, c]
+                } else {
+                    [a, b, c, a, c, d]
+                };
+                indices.extend(tris);
+                let inner = (1..nu).contains(&i) && (1..nv).contains(&j);
+                let part = if inner { POINTS_PART } else { GUARD_PART };
+                parts.extend([part, part]);
+            }
+        }
+        let id = ctx
+            .add_mesh(&MeshDesc {
+                positions: &mesh_positions,
+                indices: &indices,
+                material: POINTS_PART,
+                triangle_materials: Some(&parts),
+                two_sided: false,
+                record: true,
+                exitance: None,
+                sensor: true,
+            })
+            .map_err(|e| CliError(format!("{what}: {}", e.message)))?;
+        out.push(Grid {
+            name,
+            id,
+            nu,
+            nv,
+            step,
+            positions,
+            settings: g.clone(),
+        });
+    }
+    Ok(out)
+}
+
+/// A grid's results after the run.
+pub struct GridResult {
+    pub lux: Vec<f64>,
+    pub rel_error: Vec<f64>,
+    pub stats: imap::RegionStats,
+}
+
+pub fn read(ctx: &Context, g: &Grid) -> Result<GridResult> {
+    let (mu, mv) = (g.nu + 2, g.nv + 2);
+    let (mut all_lux, mut all_rel) = (vec![0.0; mu * mv], vec![0.0; mu * mv]);
+    ctx.illuminance(g.id, 0, &mut all_lux)?;
+    ctx.rel_error(g.id, 0, &mut all_rel)?;
+    // The points: the sensor's vertices inside its guard ring.
+    let inner = |all: &[f64]| -> Vec<f64> {
+        (0..g.nv)
+            .flat_map(|j| (0..g.nu).map(move |i| (j + 1) * mu + i + 1))
+            .map(|k| all[k])
+            .collect()
+    };
+    let (lux, rel_error) = (inner(&all_lux), inner(&all_rel));
+    let stats = ctx.region_stats(g.id, 0, Some(POINTS_PART))?;
+    Ok(GridResult {
+        lux,
+        rel_error,
+        stats,
+    })
+}
+
+fn est(e: imap::imap::stats::Estimate) -> serde_json::Value {
+    serde_json::json!({"value": e.value, "sigma": e.sigma})
+}
+
+/// report.json's entry of a grid.
+pub fn summary_json(g: &Grid, r: &GridResult, unit_m: f64) -> serde_json::Value {
+    let s = &r.stats;
+    let x = s.extremes.unwrap_or_default();
+    serde_json::json!({
+        "name": g.name,
+        "points": [g.nu, g.nv],
+        "spacing_m": [g.step[0] * unit_m, g.step[1] * unit_m],
+        "area_m2": s.area_m2,
+        "csv": format!("grid_{}.csv", g.name),
+        "picture": format!("grid_{}.png", g.name),
+        "flux_lm": est(s.flux_lm),
+        "average_lx": est(s.average),
+        "min_lx": est(x.min),
+        "max_lx": est(x.max),
+        "min_observed_lx": x.min_observed,
+        "max_observed_lx": x.max_observed,
+        "u0": est(x.u0),
+        "ud": est(x.ud),
+        "max_point_rel_error": r.rel_error.iter().cloned().fold(0.0, f64::max),
+    })
+}
+
+/// The terminal's line for a grid.
+pub fn summary_line(g: &Grid, r: &GridResult) -> String {
+    let s = &r.stats;
+    let x = s.extremes.unwrap_or_default();
+    format!(
+        "grid '{}' ({} × {} points): Eavg {} ± {} lx, Emin {} ± {} lx, Emax {} ± {} lx, U0 {:.3} ± {:.3}, Ud {:.3} ± {:.3}",
+        g.name,
+        g.nu,
+        g.nv,
+        fmt_lux(s.average.value),
+        fmt_lux(s.average.sigma),
+        fmt_lux(x.min.value),
+        fmt_lux(x.min.sigma),
+        fmt_lux(x.max.value),
+        fmt_lux(x.max.sigma),
+        x.u0.value,
+        x.u0.sigma,
+        x.ud.value,
+        x.ud.sigma
+    )
+}
+
+/// The points as a CSV table: indices along u and v, position (scene units), lux, its
+/// standard error and relative error.
+pub fn write_csv(path: &Path, g: &Grid, r: &GridResult) -> Result<()> {
+    let io = |e: std::io::Error| CliError(format!("{}: {e}", path.display()));
+    let mut f = std::io::BufWriter::new(std::fs::File::create(path).map_err(io)?);
+    writeln!(f, "i,j,x,y,z,lux,lux_sigma,rel_error").map_err(io)?;
+    for j in 0..g.nv {
+        for i in 0..g.nu {
+            let k = j * g.nu + i;
+            let p = &g.positions[3 * k..3 * k + 3];
+            writeln!(
+                f,
+                "{i},{j},{},{},{},{},{},{}",
+                p[0],
+                p[1],
+                p[2],
+                r.lux[k],
+                r.lux[k] * r.rel_error[k],
+                r.rel_error[k]
+            )
+            .map_err(io)?;
+        }
+    }
+    f.flush().map_err(io)
+}
+
+/// The grid seen from its measured side: u to the right, v up, false colour by lux
+/// (bilinear between the points), isolux lines at the legend's ticks and halfway between
+/// them, and the colour bar in lux along the bottom.
+pub fn write_picture(path: &Path, g: &Grid, r: &GridResult) -> Result<()> {
+    let (du, dv) = (g.settings.size[0], g.settings.size[1]);
+    let long = 640.0;
+    let scale = long / du.max(dv);
+    let w = ((du * scale).round() as u32).max(160);
+    let plot_h = ((dv * scale).round() as u32).max(100);
+    // Room for the colour bar below the plot (its strip is at most LEGEND_MAX_PX high).
+    let h = plot_h + crate::output::LEGEND_MAX_PX;
+    let mut sorted: Vec<f64> = r.lux.iter().cloned().filter(|x| x.is_finite()).collect();
+    sorted.sort_by(f64::total_cmp);
+    let top = nice_ceiling(sorted.last().copied().unwrap_or(0.0));
+    // The field at a point of the rectangle (s, t ∈ [0, 1]): bilinear between the cell
+    // centres, held constant in the outer half cells.
+    let field = |s: f64, t: f64| {
+        let x = (s * g.nu as f64 - 0.5).clamp(0.0, (g.nu - 1) as f64);
+        let y = (t * g.nv as f64 - 0.5).clamp(0.0, (g.nv - 1) as f64);
+        let (i, j) = ((x as usize).min(g.nu - 2), (y as usize).min(g.nv - 2));
+        let (fx, fy) = (x - i as f64, y - j as f64);
+        let at = |i: usize, j: usize| r.lux[j * g.nu + i];
+        (at(i, j) * (1.0 - fx) + at(i + 1, j) * fx) * (1.0 - fy)
+            + (at(i, j + 1) * (1.0 - fx) + at(i + 1, j + 1) * fx) * fy
+    };
+    let (wu, hu) = (w as usize, plot_h as usize);
+    let mut values = vec![0.0; wu * hu];
+    for py in 0..hu {
+        for px in 0..wu {
+            let s = (px as f64 + 0.5) / wu as f64;
+            let t = 1.0 - (py as f64 + 0.5) / hu as f64; // v up
+            values[py * wu + px] = field(s, t);
+        }
+    }
+    let levels: Vec<f64> = (1..8).map(|k| top * k as f64 / 8.0).collect();
+    let level_of = |x: f64| levels.iter().filter(|&&l| x >= l).count();
+    let mut img: Vec<u8> = [24u8, 24, 28].repeat((w * h) as usize);
+    for py in 0..hu {
+        for px in 0..wu {
+            let v = values[py * wu + px];
+            let l = level_of(v);
+            let edge = (px + 1 < wu && level_of(values[py * wu + px + 1]) != l)
+                || (py + 1 < hu && level_of(values[(py + 1) * wu + px]) != l);
+            let c = if edge {
+                [250, 250, 250]
+            } else {
+                colour_map(v / top)
+            };
+            img[3 * (py * wu + px)..3 * (py * wu + px) + 3].copy_from_slice(&c);
+        }
+    }
+    // The points as small dark dots.
+    for j in 0..g.nv {
+        for i in 0..g.nu {
+            let px = (((i as f64 + 0.5) / g.nu as f64) * wu as f64) as usize;
+            let py = ((1.0 - (j as f64 + 0.5) / g.nv as f64) * hu as f64) as usize;
+            if px < wu && py < hu {
+                img[3 * (py * wu + px)..3 * (py * wu + px) + 3].copy_from_slice(&[20, 20, 20]);
+            }
+        }
+    }
+    draw_legend(&mut img, w, h, top);
+    write_png(path, w, h, &img)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::en12464_spacing_m;
+
+    #[test]
+    fn spacing_follows_en12464() {
+        // The standard's table: d = 1 m → 0.2 m, 5 m → 0.6 m, 10 m → 1 m, 50 m → 3 m,
+        // 100 m → 5 m.
+        for (d, p) in [
+            (1.0, 0.2),
+            (5.0, 0.6),
+            (10.0, 1.0),
+            (50.0, 3.0),
+            (100.0, 5.0),
+        ] {
+            let got = en12464_spacing_m(d);
+            assert!(
+                (got - p).abs() < 0.03 * p,
+                "d = {d} m: {got} m, not about {p} m"
+            );
+        }
+    }
+}
