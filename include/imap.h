@@ -390,6 +390,14 @@
 #define IMAP_MESH_SENSOR 4
 
 /**
+ * `ImapMesh::flags`: keep per-photon tallies of the mesh's regions (its sides, and its
+ * parts by material), so `imap_get_region_stats` gives its flux and Eavg exact standard
+ * errors; without it they get an upper bound (docs/results.md). Sensors always have them.
+ * Costs work at every photon deposit on the mesh. (Since 0.2.1.)
+ */
+#define IMAP_MESH_TALLY 8
+
+/**
  * Status returned by every `imap_*` call. `IMAP_OK` (0) is success; every other value names
  * one kind of failure, and the last-error message says which argument and why.
  */
@@ -1048,6 +1056,12 @@ typedef struct ImapRegionStats {
    */
   double min_observed_lx;
   double max_observed_lx;
+  /**
+   * 1: `flux_lm_sigma` and `average_lx_sigma` are exact Monte Carlo errors (a sensor,
+   * or a mesh added with IMAP_MESH_TALLY); 0: an upper bound, Σ over the vertices of
+   * area × standard error (the region's flux is then summed from its vertices).
+   */
+  uint32_t errors_exact;
 } ImapRegionStats;
 
 /**

@@ -225,6 +225,7 @@ impl Tess {
             record,
             exitance,
             sensor: false,
+            tally: false,
         };
         let id = ctx.add_mesh(&desc)?;
         built.meshes.push(id);
@@ -689,6 +690,7 @@ pub fn cornell_box(ctx: &mut Context, open_front: bool, n: usize) -> Result<Buil
         record: !open_front,
         exitance: None,
         sensor: false,
+        tally: false,
     })?;
     let mut lamp = Tess::default();
     lamp.quad(
@@ -709,6 +711,7 @@ pub fn cornell_box(ctx: &mut Context, open_front: bool, n: usize) -> Result<Buil
         record: false,
         exitance: Some(&exitance),
         sensor: false,
+        tally: false,
     })?;
     Ok(Built {
         meshes: vec![walls, lamp_id],

@@ -268,6 +268,7 @@ fn item07_zero_and_overflowing_powers_are_refused_by_name() {
             record: false,
             exitance: Some(&[100.0]),
             sensor: false,
+            tally: false,
         })
         .unwrap_err();
     assert_eq!(e.status, ImapStatus::ImapErrNoLight, "{e}");
@@ -289,6 +290,7 @@ fn item07_zero_and_overflowing_powers_are_refused_by_name() {
             record: false,
             exitance: Some(&[1.0]),
             sensor: false,
+            tally: false,
         })
         .unwrap_err();
     assert_eq!(e.status, ImapStatus::ImapErrPrecision, "{e}");

@@ -47,6 +47,7 @@ fn admits(budget: u64, n: usize) -> bool {
         record: true,
         exitance: None,
         sensor: false,
+        tally: false,
     });
     !matches!(r, Err(e) if e.status == ImapStatus::ImapErrMemoryBudget)
 }

@@ -152,6 +152,7 @@ fn octant_sphere(ctx: &mut Context, r: f64) -> Vec<u32> {
                 record: false,
                 exitance: None,
                 sensor: false,
+                tally: false,
             })
             .unwrap()
         })

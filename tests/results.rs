@@ -27,6 +27,7 @@ fn wall_grid(nx: usize, nz: usize, x: f64, y: [f64; 2], z: [f64; 2]) -> Geometry
 fn sensor_desc(g: &Geometry, two_sided: bool) -> MeshDesc<'_> {
     MeshDesc {
         sensor: true,
+        tally: false,
         two_sided,
         ..g.desc(0)
     }
@@ -292,6 +293,7 @@ fn parts_add_up_to_their_mesh() {
     let id = ctx
         .add_mesh(&MeshDesc {
             triangle_materials: Some(&tm),
+            tally: true,
             ..g.desc(m0)
         })
         .unwrap();
@@ -306,6 +308,7 @@ fn parts_add_up_to_their_mesh() {
     let all = ctx.region_stats(id, 0, None).unwrap();
     let a = ctx.region_stats(id, 0, Some(m0)).unwrap();
     let b = ctx.region_stats(id, 0, Some(m1)).unwrap();
+    assert!(all.exact_errors && a.exact_errors && b.exact_errors);
     assert!((a.area_m2 + b.area_m2 - all.area_m2).abs() < 1e-12);
     for k in 0..3 {
         let sum = a.flux_w[k].value + b.flux_w[k].value;

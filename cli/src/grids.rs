@@ -171,6 +171,7 @@ pub fn add_grids(ctx: &mut Context, grids: &[GridSettings], unit_m: f64) -> Resu
                 record: true,
                 exitance: None,
                 sensor: true,
+                tally: false,
             })
             .map_err(|e| CliError(format!("{what}: {}", e.message)))?;
         out.push(Grid {

@@ -513,6 +513,7 @@ impl Built {
             record: self.record,
             exitance: self.exitance.as_deref(),
             sensor: false,
+            tally: false,
         }
     }
 }

@@ -39,6 +39,7 @@ fn mesh<'a>(p: &'a [f64], i: &'a [u32], material: u32) -> MeshDesc<'a> {
         record: true,
         exitance: None,
         sensor: false,
+        tally: false,
     }
 }
 

@@ -245,6 +245,7 @@ fn outputs_exist_parse_and_the_ply_holds_libimap_s_map() {
             record: true,
             exitance: None,
             sensor: false,
+            tally: false,
         })
         .unwrap();
     ctx.add_mesh(&imap::MeshDesc {
@@ -256,6 +257,7 @@ fn outputs_exist_parse_and_the_ply_holds_libimap_s_map() {
         record: true,
         exitance: Some(&[10.0]),
         sensor: false,
+        tally: false,
     })
     .unwrap();
     ctx.run(&mut imap::RunParams {

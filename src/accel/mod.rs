@@ -414,6 +414,7 @@ mod tests {
             record: true,
             exitance: None,
             sensor: false,
+            tally: false,
         };
         scene
             .meshes

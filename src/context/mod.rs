@@ -677,6 +677,16 @@ impl Context {
                     "params.region_meshes: mesh {m} does not record, so it has no error to reach"
                 );
             }
+            let on_tallies = matches!(
+                t.measure,
+                sched::target::RegionMeasure::Average | sched::target::RegionMeasure::Uniformity
+            );
+            if on_tallies && !self.scene.meshes[i].tally {
+                bail!(
+                    ImapErrInvalidArgument,
+                    "params.region_meshes: mesh {m} keeps no region tallies, so its average has no exact error: add it as a sensor or with the tally flag (IMAP_MESH_TALLY) to stop on its average or uniformity"
+                );
+            }
             if let Some(p) = t.part {
                 let mesh = &self.scene.meshes[i];
                 let has = match &mesh.triangle_materials {

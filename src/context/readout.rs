@@ -150,6 +150,9 @@ pub struct RegionStats {
     pub vertices: usize,
     /// Photons the figures are made of (0 before any run).
     pub photons: u64,
+    /// The flux and average errors are exact (the mesh keeps per-photon region tallies:
+    /// a sensor, or added with `tally`); otherwise they are an upper bound, Σ aᵥσᵥ.
+    pub exact_errors: bool,
     /// Incident radiant flux per band, W.
     pub flux_w: Vec<Estimate>,
     /// Incident luminous flux, lm.
@@ -241,12 +244,46 @@ impl Context {
         let (Some(p), n) = (&self.prepared, self.photons()) else {
             return Ok(out);
         };
-        if n == 0 || self.region_tally.regions() == 0 {
+        if n == 0 {
             return Ok(out);
         }
-        let regions = p.scene.regions.meshes[i]
-            .as_ref()
-            .expect("a recording mesh has regions");
+        out.photons = n;
+        // The vertices' illuminance and errors.
+        let mut lux = vec![0.0; nv];
+        let mut rel = vec![0.0; nv];
+        self.illuminance(mesh, side, &mut lux)?;
+        self.rel_error(mesh, side, &mut rel)?;
+        let sigma: Vec<f64> = lux.iter().zip(&rel).map(|(l, r)| l * r).collect();
+        let Some(regions) = p.scene.regions.meshes[i].as_ref() else {
+            // No tallies: sums over the vertices, with the upper bound Σ aᵥσᵥ of their
+            // errors (correlated vertices: the error of a sum is at most the sum of errors).
+            let bound = |e: &[f64]| Estimate {
+                value: e.iter().zip(&weights).map(|(e, w)| e * w).sum(),
+                sigma: e
+                    .iter()
+                    .zip(&weights)
+                    .zip(&rel)
+                    .map(|((e, w), r)| e * w * r)
+                    .sum(),
+            };
+            let mut e = vec![0.0; nv];
+            for b in 0..nb {
+                self.irradiance(mesh, side, b as u32, &mut e)?;
+                out.flux_w[b] = bound(&e);
+                out.average_w_m2[b] = Estimate {
+                    value: out.flux_w[b].value / area,
+                    sigma: out.flux_w[b].sigma / area,
+                };
+            }
+            out.flux_lm = bound(&lux);
+            out.average = Estimate {
+                value: out.flux_lm.value / area,
+                sigma: out.flux_lm.sigma / area,
+            };
+            out.extremes = stats::extremes(&lux, &sigma, &weights, out.average);
+            return Ok(out);
+        };
+        out.exact_errors = true;
         let r = match part {
             None => regions.mesh_region(side as usize),
             Some(material) => regions
@@ -254,7 +291,6 @@ impl Context {
                 .unwrap_or(regions.mesh_region(side as usize)),
         } as usize;
         let t = &self.region_tally;
-        out.photons = n;
         let nf = n as f64;
         let wpu = p.scene.total_power / (nf * nb as f64);
         let est = |sum: f64, sq: f64| Estimate {
@@ -274,12 +310,6 @@ impl Context {
             .sum();
         out.flux_lm = est(lum_sum, t.sq_lum[r]);
         out.average = per_area(out.flux_lm);
-        // The vertices' illuminance and errors.
-        let mut lux = vec![0.0; nv];
-        let mut rel = vec![0.0; nv];
-        self.illuminance(mesh, side, &mut lux)?;
-        self.rel_error(mesh, side, &mut rel)?;
-        let sigma: Vec<f64> = lux.iter().zip(&rel).map(|(l, r)| l * r).collect();
         out.extremes = stats::extremes(&lux, &sigma, &weights, out.average);
         Ok(out)
     }

@@ -44,6 +44,10 @@ pub struct ImapRegionStats {
     /// The smallest and largest vertex illuminance as observed (uncorrected), lx.
     pub min_observed_lx: f64,
     pub max_observed_lx: f64,
+    /// 1: `flux_lm_sigma` and `average_lx_sigma` are exact Monte Carlo errors (a sensor,
+    /// or a mesh added with IMAP_MESH_TALLY); 0: an upper bound, Σ over the vertices of
+    /// area × standard error (the region's flux is then summed from its vertices).
+    pub errors_exact: u32,
 }
 
 // SAFETY: repr(C), u32 struct_size first, plain numbers only.
@@ -80,6 +84,7 @@ fn stats_to_c(s: &RegionStats) -> ImapRegionStats {
         ud_sigma: x.ud.sigma,
         min_observed_lx: x.min_observed,
         max_observed_lx: x.max_observed,
+        errors_exact: u32::from(s.exact_errors),
     }
 }
 

@@ -26,6 +26,11 @@ pub const IMAP_MESH_RECORD: u32 = 2;
 /// else: photons pass as if it were not there, cameras do not see it. Needs
 /// IMAP_MESH_RECORD; cannot emit; its material is not used. (Since 0.2.1.)
 pub const IMAP_MESH_SENSOR: u32 = 4;
+/// `ImapMesh::flags`: keep per-photon tallies of the mesh's regions (its sides, and its
+/// parts by material), so `imap_get_region_stats` gives its flux and Eavg exact standard
+/// errors; without it they get an upper bound (docs/results.md). Sensors always have them.
+/// Costs work at every photon deposit on the mesh. (Since 0.2.1.)
+pub const IMAP_MESH_TALLY: u32 = 8;
 
 /// A material. Initialise with `imap_material_default(&m, sizeof m)` (no reflection, no
 /// transmission: black). Per-band arrays hold 1 value (the same in every band) or one per
@@ -296,7 +301,9 @@ pub unsafe extern "C" fn imap_add_mesh(
         } else {
             Some(slice("mesh.exitance", m.exitance, m.exitance_count)?)
         };
-        if m.flags & !(IMAP_MESH_TWO_SIDED | IMAP_MESH_RECORD | IMAP_MESH_SENSOR) != 0 {
+        if m.flags & !(IMAP_MESH_TWO_SIDED | IMAP_MESH_RECORD | IMAP_MESH_SENSOR | IMAP_MESH_TALLY)
+            != 0
+        {
             bail!(
                 ImapErrInvalidArgument,
                 "mesh.flags = 0x{:x} has bits that are no IMAP_MESH_* flag",
@@ -312,6 +319,7 @@ pub unsafe extern "C" fn imap_add_mesh(
             record: m.flags & IMAP_MESH_RECORD != 0,
             exitance,
             sensor: m.flags & IMAP_MESH_SENSOR != 0,
+            tally: m.flags & IMAP_MESH_TALLY != 0,
         };
         c.add_mesh(&desc)
     })

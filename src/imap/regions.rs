@@ -54,6 +54,9 @@ impl RegionLayout {
             .iter()
             .map(|m| {
                 m.slot_base?;
+                if !m.tally {
+                    return None;
+                }
                 let mut parts = m.materials.clone();
                 parts.sort_unstable();
                 parts.dedup();

@@ -23,6 +23,10 @@ pub struct Mesh {
     /// A sensor: records the photons that cross it (from its recorded sides) and is
     /// otherwise not there: it neither blocks, reflects nor absorbs anything.
     pub sensor: bool,
+    /// Keep per-photon tallies of the mesh's regions (its sides and parts), which give
+    /// their flux and Eavg exact errors (docs/results.md); sensors always do. Costs work at
+    /// every deposit on the mesh, so only on request.
+    pub tally: bool,
 }
 
 /// What the caller passes to `add_mesh`.
@@ -39,6 +43,8 @@ pub struct MeshDesc<'a> {
     pub exitance: Option<&'a [f64]>,
     /// A sensor (see `Mesh::sensor`); it records whatever `record` says.
     pub sensor: bool,
+    /// See `Mesh::tally`.
+    pub tally: bool,
 }
 
 impl Mesh {
@@ -170,6 +176,7 @@ impl Mesh {
             record: desc.record,
             exitance,
             sensor: desc.sensor,
+            tally: desc.sensor || desc.tally,
         })
     }
 

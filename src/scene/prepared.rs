@@ -28,6 +28,8 @@ pub struct PreparedMesh {
     pub vertex_area: Vec<f64>,
     /// A sensor: traced in its own BVH, crossed by photons, never stopping them.
     pub sensor: bool,
+    /// Its regions are tallied per photon (`Mesh::tally`).
+    pub tally: bool,
 }
 
 impl PreparedMesh {
@@ -411,5 +413,6 @@ fn prepare_mesh(m: &Mesh, origin: DVec3, slot_base: Option<usize>) -> Result<Pre
         slot_base,
         vertex_area,
         sensor: m.sensor,
+        tally: m.tally,
     })
 }

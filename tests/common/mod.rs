@@ -54,6 +54,7 @@ impl Geometry {
             record: true,
             exitance: None,
             sensor: false,
+            tally: false,
         }
     }
 }
