@@ -22,12 +22,8 @@ impl Context {
         Ok(self.scene.meshes[self.mesh_index(mesh)?].positions.len())
     }
 
-    fn readout_args(
-        &self,
-        mesh: u32,
-        side: u32,
-        out_len: usize,
-    ) -> Result<Option<(Readout<'_>, usize)>> {
+    /// The index of recording mesh `mesh`, whose side `side` exists.
+    fn recorded_side(&self, mesh: u32, side: u32) -> Result<usize> {
         let i = self.mesh_index(mesh)?;
         let m = &self.scene.meshes[i];
         if !m.record {
@@ -39,6 +35,17 @@ impl Context {
         if side as usize >= m.sides() {
             bail!(ImapErrIndexOutOfRange, "side {side} is out of range: mesh {mesh} is one-sided and records only side 0 (front)");
         }
+        Ok(i)
+    }
+
+    fn readout_args(
+        &self,
+        mesh: u32,
+        side: u32,
+        out_len: usize,
+    ) -> Result<Option<(Readout<'_>, usize)>> {
+        let i = self.recorded_side(mesh, side)?;
+        let m = &self.scene.meshes[i];
         if out_len < m.positions.len() {
             bail!(
                 ImapErrBufferTooSmall,
@@ -191,17 +198,8 @@ impl Context {
 
     /// The figures of mesh `mesh`'s side `side`, or of its part made of material `part`.
     pub fn region_stats(&self, mesh: u32, side: u32, part: Option<u32>) -> Result<RegionStats> {
-        let i = self.mesh_index(mesh)?;
+        let i = self.recorded_side(mesh, side)?;
         let m = &self.scene.meshes[i];
-        if !m.record {
-            bail!(
-                ImapErrNotRecorded,
-                "mesh {mesh} does not record (it was added with record = 0)"
-            );
-        }
-        if side as usize >= m.sides() {
-            bail!(ImapErrIndexOutOfRange, "side {side} is out of range: mesh {mesh} is one-sided and records only side 0 (front)");
-        }
         let material_of = |t: usize| {
             m.triangle_materials
                 .as_ref()
