@@ -132,6 +132,16 @@ int main() {
         std::printf("luminaire: %.1f lm; mean illuminance %.3f lx, integrating-sphere law %.3f (%.2f σ); %.0f K\n",
                     lit.light_lumens(lum), mean_lux, want, (mean_lux / want - 1) / sigma, cct[0]);
         if (std::fabs(mean_lux / want - 1) > 4 * sigma || std::fabs(cct[0] - 3000) > 5) return 1;
+        // The region figures: the walls' vertex areas are the shares above, and their Eavg
+        // (summed from the vertices: the walls keep no tallies) is the mean just computed.
+        std::vector<double> areas = lit.vertex_areas(room2);
+        for (size_t v = 0; v < areas.size(); v++)
+            if (std::fabs(areas[v] - share[v]) > 1e-12) return 1;
+        ImapRegionStats rs = lit.region_stats(room2, IMAP_SIDE_FRONT);
+        std::printf("walls: Eavg %.3f ± %.3f lx (bound), Emin %.3f ± %.3f lx, U0 %.4f ± %.4f\n", rs.average_lx,
+                    rs.average_lx_sigma, rs.min_lx, rs.min_lx_sigma, rs.u0, rs.u0_sigma);
+        if (std::fabs(rs.average_lx / mean_lux - 1) > 1e-9 || rs.errors_exact != 0 || std::fabs(rs.area_m2 - area) > 1e-9)
+            return 1;
     } catch (const std::exception& e) {
         std::fprintf(stderr, "error: %s\n", e.what());
         return 1;

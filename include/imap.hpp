@@ -228,6 +228,21 @@ public:
         return e;
     }
 
+    /// Each vertex's area, m² (a third of each adjacent triangle's).
+    std::vector<double> vertex_areas(uint32_t mesh) const {
+        std::vector<double> a(vertex_count(mesh));
+        check(imap_get_vertex_areas(ctx_, mesh, a.data(), a.size()), ctx_);
+        return a;
+    }
+
+    /// A mesh side's (or its part's) flux, Eavg, Emin, Emax, U0 and Ud with their errors
+    /// (docs/results.md).
+    ImapRegionStats region_stats(uint32_t mesh, uint32_t side, uint32_t part = IMAP_ALL_PARTS) const {
+        ImapRegionStats s;
+        check(imap_get_region_stats(ctx_, mesh, side, part, &s, sizeof s), ctx_);
+        return s;
+    }
+
     /// Runs until a stop criterion of `p` (or `progress` returning false) stops it.
     ImapReport run(ImapRunParams p, Progress progress = nullptr) {
         detail::Callback cb{&progress, nullptr};
