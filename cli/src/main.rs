@@ -305,7 +305,7 @@ fn run_scene(obj: &Path, mut settings: Settings, opts: &RunOptions) -> Result<se
         })
         .collect();
     let c = report.counters;
-    let photometry = output::photometric_summary(&scene, &maps);
+    let photometry = output::photometric_summary(&maps);
     let stop = if was_interrupted {
         "Interrupted".to_string()
     } else {

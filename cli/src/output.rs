@@ -80,6 +80,8 @@ pub struct MeshMap {
     pub lux: Vec<f64>,
     /// CIE 1931 X, Y, Z per vertex (Y = lux).
     pub xyz: Vec<[f64; 3]>,
+    /// Each vertex's area (a third of each adjacent triangle's), m².
+    pub areas: Vec<f64>,
 }
 
 /// Reads the map of every recorded mesh.
@@ -102,11 +104,14 @@ pub fn read_maps(ctx: &Context, scene: &LoadedScene) -> Result<Vec<Option<MeshMa
             let mut flat = vec![0.0; 3 * nv];
             ctx.tristimulus(id, 0, &mut flat)?;
             let xyz = flat.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
+            let mut areas = vec![0.0; nv];
+            ctx.vertex_areas(id, &mut areas)?;
             Ok(Some(MeshMap {
                 e,
                 rel_error,
                 lux,
                 xyz,
+                areas,
             }))
         })
         .collect()
@@ -120,38 +125,23 @@ pub struct PhotometricSummary {
     pub colour: serde_json::Value,
 }
 
-/// Each vertex's share of its triangles' area (a third of each).
-fn vertex_areas(m: &crate::scene::LoadedMesh) -> Vec<f64> {
-    let p = |i: u32| DVec3::from_slice(&m.positions[3 * i as usize..]);
-    let mut a = vec![0.0; m.positions.len() / 3];
-    for t in m.indices.chunks_exact(3) {
-        let area = 0.5 * (p(t[1]) - p(t[0])).cross(p(t[2]) - p(t[0])).length();
-        for &i in t {
-            a[i as usize] += area / 3.0;
-        }
-    }
-    a
-}
-
-pub fn photometric_summary(scene: &LoadedScene, maps: &[Option<MeshMap>]) -> PhotometricSummary {
+pub fn photometric_summary(maps: &[Option<MeshMap>]) -> PhotometricSummary {
     let mut total = [0.0; 3];
     let mut area_sum = 0.0;
-    let meshes = scene
-        .meshes
+    let meshes = maps
         .iter()
-        .zip(maps)
-        .map(|(m, map)| {
+        .map(|map| {
             let Some(map) = map else {
                 return serde_json::Value::Null;
             };
-            let areas = vertex_areas(m);
+            let areas = map.areas.as_slice();
             let a: f64 = areas.iter().sum();
             let mean = if a > 0.0 {
-                map.lux.iter().zip(&areas).map(|(l, w)| l * w).sum::<f64>() / a
+                map.lux.iter().zip(areas).map(|(l, w)| l * w).sum::<f64>() / a
             } else {
                 0.0
             };
-            for (x, w) in map.xyz.iter().zip(&areas) {
+            for (x, w) in map.xyz.iter().zip(areas) {
                 for k in 0..3 {
                     total[k] += x[k] * w;
                 }
@@ -836,6 +826,7 @@ mod tests {
             rel_error: vec![0.01; nv],
             lux: vec![300.0; nv],
             xyz: vec![[285.0, 300.0, 327.0]; nv],
+            areas: vec![1.0; nv],
         })];
         let cam = CameraSettings {
             position: [0.0, 0.0, 3.0],

@@ -470,9 +470,10 @@ impl Context {
     /// stop cut short are traced again, whole, by the next run.
     pub fn run(&mut self, params: &mut RunParams) -> Result<Report> {
         check_run_params(params)?;
-        if let Some(t) = &params.region {
-            self.check_region_target(t)?;
-        }
+        let region_weights = match &params.region {
+            Some(t) => self.region_weights(t)?,
+            None => Vec::new(),
+        };
         let threads = self.worker_threads();
         let nb = self.bands();
         let transient = match self.config.scheduler {
@@ -497,6 +498,7 @@ impl Context {
         let rc = RunContext {
             regions: &regions,
             regions_before: &self.region_tally,
+            region_weights: &region_weights,
             tracer: Tracer {
                 scene: &prepared.scene,
                 accel: &prepared.accel,
@@ -643,8 +645,9 @@ fn physical_memory() -> Option<u64> {
 }
 
 impl Context {
-    /// Checks a region target against the scene.
-    fn check_region_target(&self, t: &sched::target::RegionTarget) -> Result<()> {
+    /// Checks a region target against the scene; the weights of each target mesh's vertices
+    /// (`RunContext::region_weights`).
+    fn region_weights(&self, t: &sched::target::RegionTarget) -> Result<Vec<Vec<f64>>> {
         check_finite_scalar("params.region_target", t.target)?;
         if t.target <= 0.0 {
             bail!(
@@ -689,11 +692,7 @@ impl Context {
             }
             if let Some(p) = t.part {
                 let mesh = &self.scene.meshes[i];
-                let has = match &mesh.triangle_materials {
-                    Some(ids) => ids.contains(&p),
-                    None => mesh.material == p,
-                };
-                if !has {
+                if !(0..mesh.triangles.len()).any(|t| mesh.material_of(t) == p) {
                     bail!(
                         ImapErrIndexOutOfRange,
                         "params.region_part: mesh {m} has no triangle of material {p}"
@@ -701,7 +700,11 @@ impl Context {
                 }
             }
         }
-        Ok(())
+        // The vertices' weights the measure is taken with: their shares of the region.
+        Ok(t.meshes
+            .iter()
+            .map(|&m| self.scene.meshes[m].area_shares(t.part))
+            .collect())
     }
 }
 

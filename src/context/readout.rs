@@ -2,6 +2,7 @@
 
 use super::Context;
 use crate::error::{bail, Result};
+use crate::imap::readout::std_error;
 use crate::imap::stats::{self, Estimate, Extremes};
 use crate::imap::Readout;
 
@@ -186,12 +187,8 @@ impl Context {
             );
         }
         let unit2 = self.config.unit_m * self.config.unit_m;
-        out[..nv].iter_mut().for_each(|x| *x = 0.0);
-        for t in &m.triangles {
-            let a = crate::scene::mesh::triangle_area(&m.positions, t) * unit2 / 3.0;
-            for &v in t {
-                out[v as usize] += a;
-            }
+        for (o, a) in out.iter_mut().zip(m.area_shares(None)) {
+            *o = a * unit2;
         }
         Ok(())
     }
@@ -200,37 +197,18 @@ impl Context {
     pub fn region_stats(&self, mesh: u32, side: u32, part: Option<u32>) -> Result<RegionStats> {
         let i = self.recorded_side(mesh, side)?;
         let m = &self.scene.meshes[i];
-        let material_of = |t: usize| {
-            m.triangle_materials
-                .as_ref()
-                .map_or(m.material, |ids| ids[t])
-        };
-        let in_region = |t: usize| part.is_none_or(|p| material_of(t) == p);
         if let Some(p) = part {
-            if !(0..m.triangles.len()).any(in_region) {
+            if !(0..m.triangles.len()).any(|t| m.material_of(t) == p) {
                 bail!(
                     ImapErrIndexOutOfRange,
                     "mesh {mesh} has no triangle of material {p}: no such part"
                 );
             }
         }
-        // Areas: the region's, and each vertex's share of the region's triangles.
+        // Each vertex's share of the region's area, m², and the region's area.
         let unit2 = self.config.unit_m * self.config.unit_m;
-        let nv = m.positions.len();
-        let mut weights = vec![0.0; nv];
-        let mut area = 0.0;
-        for (_, tri) in m
-            .triangles
-            .iter()
-            .enumerate()
-            .filter(|(t, _)| in_region(*t))
-        {
-            let a = crate::scene::mesh::triangle_area(&m.positions, tri) * unit2;
-            area += a;
-            for &v in tri {
-                weights[v as usize] += a / 3.0;
-            }
-        }
+        let weights: Vec<f64> = m.area_shares(part).iter().map(|a| a * unit2).collect();
+        let area: f64 = weights.iter().sum();
         let nb = self.scene.bands.count();
         let mut out = RegionStats {
             area_m2: area,
@@ -247,12 +225,30 @@ impl Context {
         }
         out.photons = n;
         // The vertices' illuminance and errors.
+        let nv = m.positions.len();
         let mut lux = vec![0.0; nv];
         let mut rel = vec![0.0; nv];
         self.illuminance(mesh, side, &mut lux)?;
         self.rel_error(mesh, side, &mut rel)?;
-        let sigma: Vec<f64> = lux.iter().zip(&rel).map(|(l, r)| l * r).collect();
-        let Some(regions) = p.scene.regions.meshes[i].as_ref() else {
+        if let Some(regions) = &p.scene.regions.meshes[i] {
+            // The photon tallies: exact errors.
+            out.exact_errors = true;
+            let r = regions.region(side as usize, part) as usize;
+            let t = &self.region_tally;
+            let nf = n as f64;
+            let wpu = p.scene.total_power / (nf * nb as f64);
+            let est = |sum: f64, sq: f64| Estimate {
+                value: sum * wpu,
+                sigma: std_error(sum, sq, nf) * wpu,
+            };
+            for b in 0..nb {
+                out.flux_w[b] = est(t.sum[r * nb + b], t.sq[r * nb + b]);
+            }
+            let lum_sum: f64 = (0..nb)
+                .map(|b| t.sum[r * nb + b] * p.scene.efficacy[b])
+                .sum();
+            out.flux_lm = est(lum_sum, t.sq_lum[r]);
+        } else {
             // No tallies: sums over the vertices, with the upper bound Σ aᵥσᵥ of their
             // errors (correlated vertices: the error of a sum is at most the sum of errors).
             let bound = |e: &[f64]| Estimate {
@@ -268,46 +264,16 @@ impl Context {
             for b in 0..nb {
                 self.irradiance(mesh, side, b as u32, &mut e)?;
                 out.flux_w[b] = bound(&e);
-                out.average_w_m2[b] = Estimate {
-                    value: out.flux_w[b].value / area,
-                    sigma: out.flux_w[b].sigma / area,
-                };
             }
             out.flux_lm = bound(&lux);
-            out.average = Estimate {
-                value: out.flux_lm.value / area,
-                sigma: out.flux_lm.sigma / area,
-            };
-            out.extremes = stats::extremes(&lux, &sigma, &weights, out.average);
-            return Ok(out);
-        };
-        out.exact_errors = true;
-        let r = match part {
-            None => regions.mesh_region(side as usize),
-            Some(material) => regions
-                .part_region(side as usize, material)
-                .unwrap_or(regions.mesh_region(side as usize)),
-        } as usize;
-        let t = &self.region_tally;
-        let nf = n as f64;
-        let wpu = p.scene.total_power / (nf * nb as f64);
-        let est = |sum: f64, sq: f64| Estimate {
-            value: sum * wpu,
-            sigma: (sq - sum * sum / nf).max(0.0).sqrt() * wpu,
-        };
+        }
         let per_area = |e: Estimate| Estimate {
             value: e.value / area,
             sigma: e.sigma / area,
         };
-        for b in 0..nb {
-            out.flux_w[b] = est(t.sum[r * nb + b], t.sq[r * nb + b]);
-            out.average_w_m2[b] = per_area(out.flux_w[b]);
-        }
-        let lum_sum: f64 = (0..nb)
-            .map(|b| t.sum[r * nb + b] * p.scene.efficacy[b])
-            .sum();
-        out.flux_lm = est(lum_sum, t.sq_lum[r]);
+        out.average_w_m2 = out.flux_w.iter().copied().map(per_area).collect();
         out.average = per_area(out.flux_lm);
+        let sigma: Vec<f64> = lux.iter().zip(&rel).map(|(l, r)| l * r).collect();
         out.extremes = stats::extremes(&lux, &sigma, &weights, out.average);
         Ok(out)
     }

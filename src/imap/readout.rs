@@ -17,6 +17,13 @@ use crate::scene::{PreparedMesh, PreparedScene};
 /// Relative error reported for a vertex that received nothing or has no area: 1 (100 %).
 pub(crate) const NO_DATA_REL_ERROR: f64 = 1.0;
 
+/// The standard error of a sum `sum` of `n` independent photon contributions whose squares
+/// sum to `sq`: √(Q − S²/N) (the module's formula; 0 when rounding makes it negative).
+#[inline]
+pub(crate) fn std_error(sum: f64, sq: f64, n: f64) -> f64 {
+    (sq - sum * sum / n).max(0.0).sqrt()
+}
+
 /// What turns map values into physical ones.
 pub struct Readout<'a> {
     pub map: &'a IMap,
@@ -79,19 +86,30 @@ impl Readout<'_> {
     fn sigma(&self, slot: usize) -> (f64, f64) {
         let (s, q) = self.map.scalar(slot);
         let n = self.photons.max(1) as f64;
-        ((q - s * s / n).max(0.0).sqrt(), s)
+        (std_error(s, q, n), s)
     }
 
     /// Relative standard error of every vertex of `mesh` on `side`, into `out`.
     pub fn rel_error(&self, mesh: &PreparedMesh, side: usize, out: &mut [f64]) {
         for (v, o) in out.iter_mut().enumerate() {
             let slot = mesh.slot(v as u32, side).expect("recording mesh");
-            let (sigma, s) = self.sigma(slot);
-            *o = if s > 0.0 && mesh.vertex_area[v] > 0.0 {
-                sigma / s
+            *o = if mesh.vertex_area[v] > 0.0 {
+                self.slot_rel_error(slot)
             } else {
                 NO_DATA_REL_ERROR
             };
+        }
+    }
+
+    /// Relative standard error of one slot's estimate (`NO_DATA_REL_ERROR` before anything
+    /// arrived).
+    #[inline]
+    pub fn slot_rel_error(&self, slot: usize) -> f64 {
+        let (sigma, s) = self.sigma(slot);
+        if s > 0.0 {
+            sigma / s
+        } else {
+            NO_DATA_REL_ERROR
         }
     }
 

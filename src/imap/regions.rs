@@ -39,6 +39,14 @@ impl MeshRegions {
         self.base + side as u32 * self.per_side()
     }
 
+    /// The region of the part of material `part` on `side`, or of the whole side (for None,
+    /// or a mesh of one material).
+    #[inline]
+    pub fn region(&self, side: usize, part: Option<u32>) -> u32 {
+        part.and_then(|p| self.part_region(side, p))
+            .unwrap_or_else(|| self.mesh_region(side))
+    }
+
     /// The region of the part of material `material` on `side`, if the mesh has parts.
     #[inline]
     pub fn part_region(&self, side: usize, material: u32) -> Option<u32> {
@@ -76,13 +84,12 @@ impl RegionLayout {
 }
 
 /// Per region: Σ over photons of the photon's total per band (photon units), of its square
-/// per band, and of the squares of its band mean and of its luminous value.
+/// per band, and of the square of its luminous value.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct RegionTally {
     pub bands: usize,
     pub sum: Vec<f64>,
     pub sq: Vec<f64>,
-    pub sq_mean: Vec<f64>,
     pub sq_lum: Vec<f64>,
 }
 
@@ -92,13 +99,12 @@ impl RegionTally {
             bands,
             sum: vec![0.0; regions * bands],
             sq: vec![0.0; regions * bands],
-            sq_mean: vec![0.0; regions],
             sq_lum: vec![0.0; regions],
         }
     }
 
     pub fn regions(&self) -> usize {
-        self.sq_mean.len()
+        self.sq_lum.len()
     }
 
     /// Adds one photon's totals: `values[k * bands ..]` for region `ids[k]`; `efficacy`
@@ -108,47 +114,34 @@ impl RegionTally {
         for (k, &r) in ids.iter().enumerate() {
             let v = &values[k * nb..(k + 1) * nb];
             let r = r as usize;
-            let (mut mean, mut lum) = (0.0, 0.0);
+            let mut lum = 0.0;
             for b in 0..nb {
                 self.sum[r * nb + b] += v[b];
                 self.sq[r * nb + b] += v[b] * v[b];
-                mean += v[b];
                 lum += v[b] * efficacy[b];
             }
-            mean /= nb as f64;
-            self.sq_mean[r] += mean * mean;
             self.sq_lum[r] += lum * lum;
         }
     }
 
     /// Adds another tally of the same layout (an empty default one takes `o`'s).
     pub fn merge(&mut self, o: &RegionTally) {
-        if self.sq_mean.is_empty() {
+        if self.sq_lum.is_empty() {
             *self = o.clone();
             return;
         }
         debug_assert_eq!(self.sum.len(), o.sum.len(), "tallies of different layouts");
-        for (a, b) in self.sum.iter_mut().zip(&o.sum) {
-            *a += b;
-        }
-        for (a, b) in self.sq.iter_mut().zip(&o.sq) {
-            *a += b;
-        }
-        for (a, b) in self.sq_mean.iter_mut().zip(&o.sq_mean) {
-            *a += b;
-        }
-        for (a, b) in self.sq_lum.iter_mut().zip(&o.sq_lum) {
-            *a += b;
+        for (mine, theirs) in [
+            (&mut self.sum, &o.sum),
+            (&mut self.sq, &o.sq),
+            (&mut self.sq_lum, &o.sq_lum),
+        ] {
+            mine.iter_mut().zip(theirs).for_each(|(a, b)| *a += b);
         }
     }
 
     pub fn clear(&mut self) {
-        for v in [
-            &mut self.sum,
-            &mut self.sq,
-            &mut self.sq_mean,
-            &mut self.sq_lum,
-        ] {
+        for v in [&mut self.sum, &mut self.sq, &mut self.sq_lum] {
             v.iter_mut().for_each(|x| *x = 0.0);
         }
     }

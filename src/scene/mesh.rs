@@ -180,6 +180,28 @@ impl Mesh {
         })
     }
 
+    /// The material (for a sensor: the part label) of triangle `t`.
+    pub fn material_of(&self, t: usize) -> u32 {
+        self.triangle_materials
+            .as_ref()
+            .map_or(self.material, |ids| ids[t])
+    }
+
+    /// Each vertex's share — a third of each — of the area of the triangles of material
+    /// `part` (all triangles for None), scene units².
+    pub fn area_shares(&self, part: Option<u32>) -> Vec<f64> {
+        let mut out = vec![0.0; self.positions.len()];
+        for (t, tri) in self.triangles.iter().enumerate() {
+            if part.is_none_or(|p| self.material_of(t) == p) {
+                let a = triangle_area(&self.positions, tri) / 3.0;
+                for &v in tri {
+                    out[v as usize] += a;
+                }
+            }
+        }
+        out
+    }
+
     pub fn sides(&self) -> usize {
         if self.two_sided {
             2

@@ -152,6 +152,9 @@ pub struct RunContext<'a> {
     pub regions: &'a RegionShared,
     /// The region tallies of the photons before this run.
     pub regions_before: &'a RegionTally,
+    /// Per mesh of the region target (in its order): each vertex's share of the target's
+    /// triangles (scene units²; 0 outside it). Empty without a target.
+    pub region_weights: &'a [Vec<f64>],
 }
 
 /// A calculating thread's region tallies: photons' totals added locally, handed to the
@@ -300,11 +303,7 @@ impl<'p, 'a> Monitor<'p, 'a> {
             let hits = rc.hits_before + source.hits();
             let photons = self.photons_before + source.traced();
             let err = error(photons);
-            let region = self
-                .params
-                .region
-                .as_ref()
-                .map(|t| target::region_error(t, map, rc, photons, access));
+            let region = self.region_error(map, rc, photons, access);
             let p = self.record(photons, hits, err, region);
             // The next tick: one interval on, or later when the evaluation was slow.
             let spent = now.elapsed();
@@ -329,6 +328,19 @@ impl<'p, 'a> Monitor<'p, 'a> {
             source.stop();
         }
         self.stop.is_some()
+    }
+
+    /// The region target's measure: None without a target, Some(None) before the chosen
+    /// meshes received anything.
+    fn region_error(
+        &self,
+        map: &IMap,
+        rc: &RunContext,
+        photons: u64,
+        access: &dyn target::SlotAccess,
+    ) -> Option<Option<f64>> {
+        let t = self.params.region.as_ref()?;
+        Some(target::region_error(t, map, rc, photons, access))
     }
 
     /// Records a history point.
@@ -362,16 +374,11 @@ impl<'p, 'a> Monitor<'p, 'a> {
     ) -> RunOutcome {
         let wall_s = self.wall_s();
         let photons = self.photons_before + stats.photons;
-        let region = self
-            .params
-            .region
-            .as_ref()
-            .map(|t| target::region_error(t, map, rc, photons, &target::Exclusive));
         let p = self.record(
             photons,
             rc.hits_before + stats.hits,
             global_error(map, rc, photons),
-            region,
+            self.region_error(map, rc, photons, &target::Exclusive),
         );
         if let Some(cb) = self.params.progress.as_mut() {
             // The final report: its answer no longer matters.

@@ -3,10 +3,11 @@
 //! tick while the writers go on (each scheduler says how its slots are read safely).
 
 use super::RunContext;
-use crate::imap::readout::NO_DATA_REL_ERROR;
+use crate::imap::readout::std_error;
 use crate::imap::regions::RegionTally;
 use crate::imap::stats::{self, Estimate};
-use crate::imap::IMap;
+use crate::imap::{IMap, Readout};
+use crate::scene::PreparedMesh;
 use std::ops::Range;
 
 /// What a region target measures.
@@ -63,25 +64,24 @@ pub fn region_error(
     if photons == 0 {
         return None;
     }
-    let n = photons as f64;
     let scene = rc.scene;
-    let nb = map.bands();
+    let readout = Readout {
+        map,
+        scene,
+        photons,
+        unit_m: rc.unit_m,
+    };
+    let targets = t.meshes.iter().zip(rc.region_weights);
     match t.measure {
         RegionMeasure::Vertices { percentile } => {
             let mut rel = Vec::new();
-            for &i in &t.meshes {
+            for (&i, weights) in targets {
                 let m = &scene.meshes[i];
                 let base = m.slot_base?;
                 let sides = m.sides();
-                let weights = part_weights(m, t.part);
                 access.visit(base..base + m.vertex_area.len() * sides, &mut |slot| {
                     if weights[(slot - base) / sides] > 0.0 {
-                        let (s, q) = map.scalar(slot);
-                        rel.push(if s > 0.0 {
-                            (q - s * s / n).max(0.0).sqrt() / s
-                        } else {
-                            NO_DATA_REL_ERROR
-                        });
+                        rel.push(readout.slot_rel_error(slot));
                     }
                 });
             }
@@ -91,21 +91,16 @@ pub fn region_error(
             let mut tally = rc.regions_before.clone();
             tally.merge(&rc.regions.total());
             let mut worst: f64 = 0.0;
-            for &i in &t.meshes {
+            for (&i, weights) in targets {
                 let m = &scene.meshes[i];
                 let regions = scene.regions.meshes[i].as_ref()?;
                 for side in 0..m.sides() {
-                    let r = match t.part {
-                        None => regions.mesh_region(side),
-                        Some(p) => regions
-                            .part_region(side, p)
-                            .unwrap_or(regions.mesh_region(side)),
-                    } as usize;
-                    let avg = luminous(&tally, r, nb, &scene.efficacy, n)?;
+                    let r = regions.region(side, t.part) as usize;
+                    let avg = luminous(&tally, r, &scene.efficacy, photons as f64)?;
                     let e = if t.measure == RegionMeasure::Average {
                         avg.sigma / avg.value
                     } else {
-                        uniformity_error(m, t.part, side, map, rc, photons, avg, access)?
+                        uniformity_error(m, weights, side, &readout, avg, access)?
                     };
                     worst = worst.max(e);
                 }
@@ -127,78 +122,52 @@ fn percentile_of(x: &mut [f64], p: f64) -> Option<f64> {
 
 /// Region `r`'s luminous sum and its standard error in photon units; None before it
 /// received anything.
-fn luminous(t: &RegionTally, r: usize, nb: usize, efficacy: &[f64], n: f64) -> Option<Estimate> {
+fn luminous(t: &RegionTally, r: usize, efficacy: &[f64], n: f64) -> Option<Estimate> {
     if t.regions() <= r {
         return None;
     }
+    let nb = t.bands;
     let s: f64 = (0..nb).map(|b| t.sum[r * nb + b] * efficacy[b]).sum();
     (s > 0.0).then(|| Estimate {
         value: s,
-        sigma: (t.sq_lum[r] - s * s / n).max(0.0).sqrt(),
+        sigma: std_error(s, t.sq_lum[r], n),
     })
 }
 
-/// Each vertex's share of the area of mesh `m`'s triangles of material `part` (all
-/// triangles for None), scene units².
-fn part_weights(m: &crate::scene::PreparedMesh, part: Option<u32>) -> Vec<f64> {
-    let Some(p) = part else {
-        return m.vertex_area.clone();
-    };
-    let mut w = vec![0.0; m.vertex_area.len()];
-    for (t, tri) in m.triangles.iter().enumerate() {
-        if m.material(t) == p {
-            let a = m.area(t) / 3.0;
-            for &v in tri {
-                w[v as usize] += a;
-            }
-        }
-    }
-    w
-}
-
-/// The relative standard error of U0 of mesh `m`'s `side` (or its part), given its
-/// luminous sum `avg` (photon units).
-#[allow(clippy::too_many_arguments)]
+/// The relative standard error of U0 of mesh `m`'s `side`, its vertices weighted by
+/// `weights` (the target's share of them), given its luminous sum `avg` (photon units).
 fn uniformity_error(
-    m: &crate::scene::PreparedMesh,
-    part: Option<u32>,
+    m: &PreparedMesh,
+    weights: &[f64],
     side: usize,
-    map: &IMap,
-    rc: &RunContext,
-    photons: u64,
+    readout: &Readout,
     avg: Estimate,
     access: &dyn SlotAccess,
 ) -> Option<f64> {
     let base = m.slot_base?;
     let sides = m.sides();
     let nv = m.vertex_area.len();
-    let n = photons as f64;
-    let eff = &rc.scene.efficacy;
+    let map = readout.map;
+    let eff = &readout.scene.efficacy;
     // Everything in photon units per scene unit²: U0 is a ratio.
     let mut lux = vec![0.0; nv];
     let mut sigma = vec![0.0; nv];
     access.visit(base..base + nv * sides, &mut |slot| {
-        let (v, s_side) = ((slot - base) / sides, (slot - base) % sides);
+        let v = (slot - base) / sides;
         let a = m.vertex_area[v];
-        if s_side != side || a <= 0.0 {
+        if (slot - base) % sides != side || a <= 0.0 {
             return;
         }
         let l: f64 = (0..map.bands()).map(|b| map.value(slot, b) * eff[b]).sum();
-        let (s, q) = map.scalar(slot);
         lux[v] = l / a;
-        sigma[v] = if s > 0.0 {
-            lux[v] * (q - s * s / n).max(0.0).sqrt() / s
-        } else {
-            lux[v]
-        };
+        sigma[v] = lux[v] * readout.slot_rel_error(slot);
     });
-    let weights = part_weights(m, part);
     let area: f64 = weights.iter().sum();
     let average = Estimate {
         value: avg.value / area,
         sigma: avg.sigma / area,
     };
-    let x = stats::extremes(&lux, &sigma, &weights, average)?;
+    let x = stats::extremes(&lux, &sigma, weights, average)?;
     (x.u0.value > 0.0).then(|| x.u0.sigma / x.u0.value)
 }
 
