@@ -209,6 +209,16 @@ int main(void) {
     mesh = square_mesh(m_grey);
     expect("mesh added after a run", imap_add_mesh(ctx, &mesh, &id), IMAP_ERR_OUT_OF_ORDER, ctx);
     expect("light added after a run", imap_add_point_light(ctx, pos, &watts, 1, &id), IMAP_ERR_OUT_OF_ORDER, ctx);
+    /* Layers: unknown flags, changes after a run, layers that are not kept. */
+    expect("layer flags 4", imap_set_layers(ctx, 4), IMAP_ERR_INVALID_ARGUMENT, ctx);
+    expect("layers asked for after a run", imap_set_layers(ctx, IMAP_KEEP_DIRECT), IMAP_ERR_OUT_OF_ORDER, ctx);
+    expect("light group set after a run", imap_set_light_group(ctx, 0, 1), IMAP_ERR_OUT_OF_ORDER, ctx);
+    expect("group layer not kept", imap_get_layer_energy(ctx, floor_id, 0, 1, 0, after, 4), IMAP_ERR_NOT_RECORDED, ctx);
+    expect("direct layer not kept", imap_get_layer_error(ctx, floor_id, 0, IMAP_LAYER_DIRECT, after, 4),
+           IMAP_ERR_NOT_RECORDED, ctx);
+    expect("layers, NULL outputs", imap_get_layers(ctx, NULL, NULL), IMAP_OK, ctx);
+    expect("IMAP_LAYER_ALL", imap_get_layer_energy(ctx, floor_id, 0, 1, IMAP_LAYER_ALL, after, 4), IMAP_OK, ctx);
+    if (memcmp(before, after, sizeof before) != 0) printf("FAIL IMAP_LAYER_ALL differs from the map\n"), failures++;
 
     /* Render: bad cameras and parameters refused before any work, then a real render,
      * which leaves the illumination map as it was. */
@@ -354,6 +364,17 @@ int main(void) {
     spec.kind = IMAP_SPECTRUM_BLACKBODY, spec.cct_k = 3000;
     expect("luminaire from IES text", imap_add_luminaire_ies(ctx, ies, strlen(ies), NULL, 0, &place, &spec, &lum), IMAP_OK,
            ctx);
+    /* Its light in group 1, with the direct layer. */
+    expect("layers: groups and direct", imap_set_layers(ctx, IMAP_KEEP_LIGHT_GROUPS | IMAP_KEEP_DIRECT), IMAP_OK, ctx);
+    expect("group of light 7", imap_set_light_group(ctx, 7, 1), IMAP_ERR_INDEX_OUT_OF_RANGE, ctx);
+    expect("group IMAP_MAX_LIGHT_GROUPS", imap_set_light_group(ctx, lum, IMAP_MAX_LIGHT_GROUPS), IMAP_ERR_INVALID_ARGUMENT,
+           ctx);
+    expect("light group of a mesh that does not emit", imap_set_mesh_light_group(ctx, floor_id, 1),
+           IMAP_ERR_INVALID_ARGUMENT, ctx);
+    expect("light group 1", imap_set_light_group(ctx, lum, 1), IMAP_OK, ctx);
+    uint32_t groups = 0, direct = 0;
+    expect("imap_get_layers", imap_get_layers(ctx, &groups, &direct), IMAP_OK, ctx);
+    if (groups != 2 || direct != 1) printf("FAIL %u group layers, direct %u; want 2 and 1\n", groups, direct), failures++;
     double lm = 0;
     expect("imap_get_light_flux", imap_get_light_flux(ctx, lum, NULL, 0, &lm), IMAP_OK, ctx);
     if (!(lm > 1000 && lm < 4000)) printf("FAIL luminaire flux %g lm\n", lm), failures++;
@@ -368,6 +389,15 @@ int main(void) {
     expect("CCT of the floor's light", imap_xyz_to_cct(xyz, &cct, &duv), IMAP_OK, NULL);
     if (!(fabs(lux[0] - xyz[1]) < 1e-9 * lux[0] && lux[0] > 0 && fabs(cct - 3000) < 5 && fabs(duv) < 1e-3))
         printf("FAIL lux %g, Y %g, CCT %g K, Duv %g\n", lux[0], xyz[1], cct, duv), failures++;
+    /* All light is group 1's, and direct (nothing sends it back to the floor). */
+    double g0[4], g1[4], dl[4];
+    expect("lux of group 0", imap_get_layer_illuminance(ctx, floor_id, 0, 0, g0, 4), IMAP_OK, ctx);
+    expect("lux of group 1", imap_get_layer_illuminance(ctx, floor_id, 0, 1, g1, 4), IMAP_OK, ctx);
+    expect("lux of the direct layer", imap_get_layer_illuminance(ctx, floor_id, 0, IMAP_LAYER_DIRECT, dl, 4), IMAP_OK, ctx);
+    expect("group 2 of 2", imap_get_layer_illuminance(ctx, floor_id, 0, 2, g0, 4), IMAP_ERR_INDEX_OUT_OF_RANGE, ctx);
+    for (int i = 0; i < 4; i++)
+        if (g0[i] != 0 || fabs(g1[i] - lux[i]) > 1e-12 * lux[i] || fabs(dl[i] - lux[i]) > 1e-12 * lux[i])
+            printf("FAIL vertex %d: layers %g + %g, direct %g, lux %g\n", i, g0[i], g1[i], dl[i], lux[i]), failures++;
     double black[3] = {0, 0, 0};
     expect("CCT of black", imap_xyz_to_cct(black, &cct, NULL), IMAP_ERR_INVALID_ARGUMENT, NULL);
     expect("balance kind 9", imap_get_band_balance(ctx, 9, lux, 4), IMAP_ERR_INVALID_ARGUMENT, ctx);

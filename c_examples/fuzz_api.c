@@ -518,11 +518,30 @@ int main(int argc, char **argv) {
             break;
         }
         case 17: { /* photometric read-outs */
-            what = "imap_get_vertex_illuminance/xyz/band_balance/efficacy/light_flux/region_stats/vertex_areas";
+            what = "imap_get_vertex_illuminance/xyz/band_balance/efficacy/light_flux/region_stats/vertex_areas/"
+                   "layers";
             uint32_t m = below(sl->meshes + 2);
             size_t cap = below(4000);
             double lm;
-            switch (below(8)) {
+            uint32_t layer = chance(0.3) ? IMAP_LAYER_ALL - below(3) : below(4);
+            switch (below(10)) {
+            case 8:
+                switch (below(3)) {
+                case 0: s = imap_get_layer_energy(ctx, m, below(3), below(5), layer, chance(0.03) ? NULL : after, cap); break;
+                case 1: s = imap_get_layer_illuminance(ctx, m, below(3), layer, chance(0.03) ? NULL : after, cap); break;
+                default: s = imap_get_layer_error(ctx, m, below(3), layer, chance(0.03) ? NULL : after, cap); break;
+                }
+                break;
+            case 9: {
+                uint32_t g, d;
+                switch (below(4)) {
+                case 0: s = imap_set_layers(ctx, below(5)); break;
+                case 1: s = imap_set_light_group(ctx, below(4), chance(0.9) ? below(4) : IMAP_MAX_LIGHT_GROUPS - below(2)); break;
+                case 2: s = imap_set_mesh_light_group(ctx, m, below(300)); break;
+                default: s = imap_get_layers(ctx, chance(0.5) ? &g : NULL, chance(0.5) ? &d : NULL); break;
+                }
+                break;
+            }
             case 5: {
                 ImapRegionStats rs;
                 s = imap_get_region_stats(ctx, m, below(3), chance(0.5) ? IMAP_ALL_PARTS : below(4),

@@ -118,6 +118,7 @@ int main() {
         ImapSpectrum warm = imap::spectrum();
         warm.kind = IMAP_SPECTRUM_BLACKBODY, warm.cct_k = 3000;
         uint32_t lum = lit.add_luminaire_ies(ies, place, &warm);
+        lit.set_layers(IMAP_KEEP_DIRECT);
         lit.run(params);
         std::vector<double> lux = lit.illuminance(room2, IMAP_SIDE_FRONT), tri = lit.xyz(room2, IMAP_SIDE_FRONT);
         double mean_lux = 0;
@@ -142,6 +143,17 @@ int main() {
                     rs.average_lx_sigma, rs.min_lx, rs.min_lx_sigma, rs.u0, rs.u0_sigma);
         if (std::fabs(rs.average_lx / mean_lux - 1) > 1e-9 || rs.errors_exact != 0 || std::fabs(rs.area_m2 - area) > 1e-9)
             return 1;
+        // The direct layer: every photon's first surface is a wall, so the walls' mean direct
+        // illuminance is Φv / A without noise (to the f32 rounding of the deposits' colours),
+        // and the rest of the mean is indirect.
+        std::vector<double> direct = lit.layer_illuminance(room2, IMAP_SIDE_FRONT, IMAP_LAYER_DIRECT);
+        double mean_direct = 0;
+        for (size_t v = 0; v < direct.size(); v++) mean_direct += direct[v] * share[v];
+        mean_direct /= area;
+        double want_direct = lit.light_lumens(lum) / area;
+        std::printf("walls: direct %.6f lx (Φv/A = %.6f), indirect %.3f lx\n", mean_direct, want_direct,
+                    mean_lux - mean_direct);
+        if (std::fabs(mean_direct / want_direct - 1) > 1e-6 || lit.light_group_layers() != 0) return 1;
     } catch (const std::exception& e) {
         std::fprintf(stderr, "error: %s\n", e.what());
         return 1;

@@ -115,6 +115,31 @@
 #define IMAP_INLINE_NEVER 2
 
 /**
+ * `imap_set_layers` flag: keep one layer per light group. (Since 0.2.1.)
+ */
+#define IMAP_KEEP_LIGHT_GROUPS 1
+
+/**
+ * `imap_set_layers` flag: keep the direct component as its own layer. (Since 0.2.1.)
+ */
+#define IMAP_KEEP_DIRECT 2
+
+/**
+ * `layer` argument of the layer read-outs: the whole map (the sum of the group layers).
+ */
+#define IMAP_LAYER_ALL UINT32_MAX
+
+/**
+ * `layer` argument of the layer read-outs: the direct layer.
+ */
+#define IMAP_LAYER_DIRECT (UINT32_MAX - 1)
+
+/**
+ * Light groups are 0 … IMAP_MAX_LIGHT_GROUPS − 1. (Since 0.2.1.)
+ */
+#define IMAP_MAX_LIGHT_GROUPS 254
+
+/**
  * `ImapLight::kind`: isotropic point source.
  */
 #define IMAP_LIGHT_POINT 0
@@ -1419,6 +1444,92 @@ enum ImapStatus imap_embree_version(const struct ImapContext *ctx, int64_t *out)
  * `ctx` is a live handle.
  */
 enum ImapStatus imap_reset(struct ImapContext *ctx);
+
+/**
+ * Chooses the layers the map keeps, from the flags `IMAP_KEEP_LIGHT_GROUPS` (one layer
+ * per light group: 0 … the largest group given to a light or emitting mesh) and
+ * `IMAP_KEEP_DIRECT` (the direct component: what photons deposit before their first
+ * surface event — the first surface they reach and sensors crossed on the way; light
+ * through glass is not direct). 0 keeps none (the default). The group layers sum to the
+ * whole map, so a host recombines E = Σ_g d_g E_g for any dimming d without a rerun. Each
+ * layer costs the memory of a map; a scene that keeps none pays nothing. Only before any
+ * photon is traced (IMAP_ERR_OUT_OF_ORDER after a run: call imap_reset first).
+ *
+ * Returns IMAP_ERR_INVALID_ARGUMENT (unknown flag), IMAP_ERR_OUT_OF_ORDER,
+ * IMAP_ERR_MEMORY_BUDGET (the layers would not fit), IMAP_ERR_BUSY. (Since 0.2.1.)
+ *
+ * # Safety
+ * `ctx` is a live handle.
+ */
+enum ImapStatus imap_set_layers(struct ImapContext *ctx, uint32_t flags);
+
+/**
+ * Puts light `light` (an id from imap_add_light, imap_add_point_light, imap_add_spot_light
+ * or imap_add_luminaire_*) in light group `group` (0 … IMAP_MAX_LIGHT_GROUPS − 1; every
+ * light starts in group 0). Only before any photon is traced.
+ *
+ * Returns IMAP_ERR_INDEX_OUT_OF_RANGE (light), IMAP_ERR_INVALID_ARGUMENT (group),
+ * IMAP_ERR_OUT_OF_ORDER, IMAP_ERR_MEMORY_BUDGET (groups are kept and the new layers would
+ * not fit), IMAP_ERR_BUSY. (Since 0.2.1.)
+ *
+ * # Safety
+ * `ctx` is a live handle.
+ */
+enum ImapStatus imap_set_light_group(struct ImapContext *ctx, uint32_t light, uint32_t group);
+
+/**
+ * Puts emitting mesh `mesh` in light group `group`, as `imap_set_light_group`.
+ * IMAP_ERR_INVALID_ARGUMENT when the mesh does not emit. (Since 0.2.1.)
+ *
+ * # Safety
+ * `ctx` is a live handle.
+ */
+enum ImapStatus imap_set_mesh_light_group(struct ImapContext *ctx, uint32_t mesh, uint32_t group);
+
+/**
+ * The layers the map keeps for the scene as it is: `*groups` group layers (0 when groups
+ * are not kept) and `*direct` 1 when the direct layer is kept. Either pointer may be NULL.
+ * (Since 0.2.1.)
+ *
+ * # Safety
+ * `ctx` is a live handle; non-NULL pointers are writable.
+ */
+enum ImapStatus imap_get_layers(const struct ImapContext *ctx, uint32_t *groups, uint32_t *direct);
+
+/**
+ * Irradiance in W/m² in band `band` of one layer of the map — `layer` a light group,
+ * IMAP_LAYER_DIRECT or IMAP_LAYER_ALL — at every vertex of `mesh` on `side`, as
+ * `imap_get_vertex_energy`. Summed over the group layers it is the whole map's (to
+ * rounding, a few units in the last place).
+ *
+ * Returns as `imap_get_vertex_energy`, and IMAP_ERR_NOT_RECORDED when the layer is not
+ * kept (imap_set_layers), IMAP_ERR_INDEX_OUT_OF_RANGE for a group past the largest.
+ * (Since 0.2.1.)
+ *
+ * # Safety
+ * `ctx` is a live handle; `out` holds `count` writable doubles.
+ */
+enum ImapStatus imap_get_layer_energy(const struct ImapContext *ctx, uint32_t mesh, uint32_t side, uint32_t band, uint32_t layer, double *out, size_t count);
+
+/**
+ * Illuminance in lux of one layer at every vertex, as `imap_get_vertex_illuminance` and
+ * `imap_get_layer_energy`. (Since 0.2.1.)
+ *
+ * # Safety
+ * `ctx` is a live handle; `out` holds `count` writable doubles.
+ */
+enum ImapStatus imap_get_layer_illuminance(const struct ImapContext *ctx, uint32_t mesh, uint32_t side, uint32_t layer, double *out, size_t count);
+
+/**
+ * The relative standard error of one layer's band-mean irradiance at every vertex, as
+ * `imap_get_vertex_error` and `imap_get_layer_energy`. A recombination Σ_g d_g E_g has the
+ * error σ² = Σ_g d_g² (σ_g² + E_g²/N) − (Σ_g d_g E_g)²/N, with σ_g = rel_g·E_g and N the
+ * photons traced (every photon belongs to one group; docs/results.md). (Since 0.2.1.)
+ *
+ * # Safety
+ * `ctx` is a live handle; `out` holds `count` writable doubles.
+ */
+enum ImapStatus imap_get_layer_error(const struct ImapContext *ctx, uint32_t mesh, uint32_t side, uint32_t layer, double *out, size_t count);
 
 /**
  * Fills `size` bytes at `out` with an EQUAL spectrum; sets `struct_size = size`.

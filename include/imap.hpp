@@ -243,6 +243,36 @@ public:
         return s;
     }
 
+    /// Light groups and layers (docs/results.md): `flags` of IMAP_KEEP_LIGHT_GROUPS and
+    /// IMAP_KEEP_DIRECT; before any run.
+    void set_layers(uint32_t flags) { check(imap_set_layers(ctx_, flags), ctx_); }
+    void set_light_group(uint32_t light, uint32_t group) { check(imap_set_light_group(ctx_, light, group), ctx_); }
+    void set_mesh_light_group(uint32_t mesh, uint32_t group) {
+        check(imap_set_mesh_light_group(ctx_, mesh, group), ctx_);
+    }
+    /// Group layers kept (0: none).
+    uint32_t light_group_layers() const {
+        uint32_t g = 0;
+        check(imap_get_layers(ctx_, &g, nullptr), ctx_);
+        return g;
+    }
+    /// Illuminance in lux of `layer` (a group, IMAP_LAYER_DIRECT or IMAP_LAYER_ALL).
+    std::vector<double> layer_illuminance(uint32_t mesh, uint32_t side, uint32_t layer) const {
+        std::vector<double> e(vertex_count(mesh));
+        check(imap_get_layer_illuminance(ctx_, mesh, side, layer, e.data(), e.size()), ctx_);
+        return e;
+    }
+    std::vector<double> layer_irradiance(uint32_t mesh, uint32_t side, uint32_t band, uint32_t layer) const {
+        std::vector<double> e(vertex_count(mesh));
+        check(imap_get_layer_energy(ctx_, mesh, side, band, layer, e.data(), e.size()), ctx_);
+        return e;
+    }
+    std::vector<double> layer_rel_error(uint32_t mesh, uint32_t side, uint32_t layer) const {
+        std::vector<double> e(vertex_count(mesh));
+        check(imap_get_layer_error(ctx_, mesh, side, layer, e.data(), e.size()), ctx_);
+        return e;
+    }
+
     /// Runs until a stop criterion of `p` (or `progress` returning false) stops it.
     ImapReport run(ImapRunParams p, Progress progress = nullptr) {
         detail::Callback cb{&progress, nullptr};

@@ -35,8 +35,8 @@ pub mod sched;
 /// cbindgen:ignore
 pub mod transport;
 
-pub use context::{Config, Context, RegionStats, Report, SchedulerKind};
+pub use context::{Config, Context, Layer, RegionStats, Report, SchedulerKind};
 pub use error::{Error, ImapStatus, Result};
 pub use render::{CameraDesc, Image, RenderMethod, RenderParams, RenderReport};
-pub use scene::{Bands, IorModel, MaterialDesc, MeshDesc};
+pub use scene::{Bands, IorModel, LayerRequest, MaterialDesc, MeshDesc};
 pub use sched::{Progress, RunParams, StopReason};

@@ -1,8 +1,10 @@
 //! The safe Rust API: a context owns a scene, its prepared form, the map and the run
 //! history. The C ABI in `ffi/` is a thin layer over this.
 
+mod layers;
 pub mod memory;
 mod readout;
+pub use layers::Layer;
 pub use readout::RegionStats;
 mod render;
 
@@ -238,12 +240,17 @@ impl Context {
     /// Bytes the context holds or will hold for its scene and map (`memory` model).
     pub fn memory_estimate(&self) -> u64 {
         let (scene, transient) = memory::scene_bytes(&self.scene);
-        let map = memory::map_bytes(self.scene.slot_count() as u64, self.bands() as u64);
+        let map = memory::map_bytes(self.map_cells(self.scene.slot_count()), self.bands() as u64);
         scene.saturating_add(transient).saturating_add(map)
     }
 
     fn bands(&self) -> usize {
         self.scene.bands.count()
+    }
+
+    /// Cells (accumulator records) of `slots` slots with the scene's layers.
+    fn map_cells(&self, slots: usize) -> u64 {
+        (slots as u64).saturating_mul(self.scene.layer_layout().per_slot() as u64)
     }
 
     /// Refuses to go past the budget: `extra` more bytes on top of `base`, for `what`.
@@ -274,7 +281,7 @@ impl Context {
         self.check_unlocked("add a mesh")?;
         // Everything the mesh costs follows from its counts: refuse before copying.
         let (held, transient) = memory::desc_bytes(desc);
-        let map = memory::map_bytes(desc.map_slots() as u64, self.bands() as u64);
+        let map = memory::map_bytes(self.map_cells(desc.map_slots()), self.bands() as u64);
         self.check_budget(
             self.memory_estimate(),
             held.saturating_add(transient).saturating_add(map),
@@ -456,7 +463,11 @@ impl Context {
     fn prepare(&mut self) -> Result<()> {
         self.prepare_scene()?;
         if self.map.is_none() {
-            self.map = Some(IMap::try_new(self.scene.slot_count(), self.bands())?);
+            self.map = Some(IMap::try_new(
+                self.scene.slot_count(),
+                self.bands(),
+                self.scene.layer_layout(),
+            )?);
             self.region_tally = RegionTally::default();
         }
         if self.stats.absorbed.len() != self.scene.meshes.len() {
@@ -601,10 +612,7 @@ impl Context {
             dropped_photons: self.stats.dropped_photons,
             band_w,
             counters,
-            map_bytes: self
-                .map
-                .as_ref()
-                .map_or(0, |m| (m.slots() * (m.bands() + 1) * 8) as u64),
+            map_bytes: self.map.as_ref().map_or(0, IMap::bytes),
         }
     }
 

@@ -1,6 +1,7 @@
 //! Reading the map: irradiance, errors and absorbed power per mesh.
 
 use super::Context;
+use super::Layer;
 use crate::error::{bail, Result};
 use crate::imap::readout::std_error;
 use crate::imap::stats::{self, Estimate, Extremes};
@@ -39,12 +40,16 @@ impl Context {
         Ok(i)
     }
 
-    fn readout_args(
+    /// What reads `layer` of mesh `mesh`'s side `side` into `out_len` values, and the
+    /// mesh's index; None before the first run.
+    fn layer_readout_args(
         &self,
         mesh: u32,
         side: u32,
+        layer: Layer,
         out_len: usize,
     ) -> Result<Option<(Readout<'_>, usize)>> {
+        let layer = self.layer_index(layer)?;
         let i = self.recorded_side(mesh, side)?;
         let m = &self.scene.meshes[i];
         if out_len < m.positions.len() {
@@ -61,6 +66,7 @@ impl Context {
                     scene: &p.scene,
                     photons: self.photons(),
                     unit_m: self.config.unit_m,
+                    layer,
                 },
                 i,
             )),
@@ -71,6 +77,18 @@ impl Context {
     /// Irradiance in W/m² of `band` at each vertex of `mesh` on `side` (0 front, 1 back).
     /// All zeros before the first run.
     pub fn irradiance(&self, mesh: u32, side: u32, band: u32, out: &mut [f64]) -> Result<()> {
+        self.irradiance_layer(mesh, side, band, Layer::Combined, out)
+    }
+
+    /// `irradiance` of one layer of the map.
+    pub fn irradiance_layer(
+        &self,
+        mesh: u32,
+        side: u32,
+        band: u32,
+        layer: Layer,
+        out: &mut [f64],
+    ) -> Result<()> {
         if band as usize >= self.scene.bands.count() {
             bail!(
                 ImapErrIndexOutOfRange,
@@ -79,7 +97,7 @@ impl Context {
             );
         }
         let nv = self.vertex_count(mesh)?;
-        match self.readout_args(mesh, side, out.len())? {
+        match self.layer_readout_args(mesh, side, layer, out.len())? {
             Some((r, i)) => r.irradiance(
                 &r.scene.meshes[i],
                 side as usize,
@@ -94,9 +112,20 @@ impl Context {
     /// Illuminance in lux at each vertex of `mesh` on `side`: Σ_b K_b E_b with the bands'
     /// luminous efficacies (docs/photometry.md). All zeros before the first run.
     pub fn illuminance(&self, mesh: u32, side: u32, out: &mut [f64]) -> Result<()> {
+        self.illuminance_layer(mesh, side, Layer::Combined, out)
+    }
+
+    /// `illuminance` of one layer of the map.
+    pub fn illuminance_layer(
+        &self,
+        mesh: u32,
+        side: u32,
+        layer: Layer,
+        out: &mut [f64],
+    ) -> Result<()> {
         let nv = self.vertex_count(mesh)?;
         let k = self.photometry.efficacy.clone();
-        self.weighted(mesh, side, &[&k], nv, out)
+        self.weighted(mesh, side, layer, &[&k], nv, out)
     }
 
     /// CIE 1931 X, Y, Z at each vertex of `mesh` on `side`, three values per vertex (Y is
@@ -107,13 +136,14 @@ impl Context {
             .map(|k| self.photometry.xyz.iter().map(|w| w[k]).collect())
             .collect();
         let rows: Vec<&[f64]> = rows.iter().map(Vec::as_slice).collect();
-        self.weighted(mesh, side, &rows, 3 * nv, out)
+        self.weighted(mesh, side, Layer::Combined, &rows, 3 * nv, out)
     }
 
     fn weighted(
         &self,
         mesh: u32,
         side: u32,
+        layer: Layer,
         rows: &[&[f64]],
         len: usize,
         out: &mut [f64],
@@ -126,7 +156,7 @@ impl Context {
                 out.len()
             );
         }
-        match self.readout_args(mesh, side, len / per_vertex)? {
+        match self.layer_readout_args(mesh, side, layer, len / per_vertex)? {
             Some((r, i)) => r.weighted(&r.scene.meshes[i], side as usize, rows, &mut out[..len]),
             None => out[..len].iter_mut().for_each(|x| *x = 0.0),
         }
@@ -136,8 +166,19 @@ impl Context {
     /// Relative standard error of each vertex's irradiance (band mean); 1 where nothing has
     /// arrived yet or the vertex has no area.
     pub fn rel_error(&self, mesh: u32, side: u32, out: &mut [f64]) -> Result<()> {
+        self.rel_error_layer(mesh, side, Layer::Combined, out)
+    }
+
+    /// `rel_error` of one layer of the map (the layer's own Monte Carlo error).
+    pub fn rel_error_layer(
+        &self,
+        mesh: u32,
+        side: u32,
+        layer: Layer,
+        out: &mut [f64],
+    ) -> Result<()> {
         let nv = self.vertex_count(mesh)?;
-        match self.readout_args(mesh, side, out.len())? {
+        match self.layer_readout_args(mesh, side, layer, out.len())? {
             Some((r, i)) => r.rel_error(&r.scene.meshes[i], side as usize, &mut out[..nv]),
             None => out[..nv]
                 .iter_mut()

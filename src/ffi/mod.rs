@@ -12,6 +12,7 @@
 
 mod context;
 mod errors;
+mod layers;
 mod light;
 mod render;
 mod results;
@@ -19,6 +20,7 @@ mod run;
 mod scene;
 
 pub use context::*;
+pub use layers::*;
 pub use light::*;
 pub use render::*;
 pub use results::*;

@@ -9,6 +9,13 @@
 //! Slots exist only for recording meshes and only for their recorded sides; a slot's
 //! values are contiguous so one deposit touches one cache line or a few.
 //!
+//! Layers (on request, `LayerLayout`): a slot then holds one such record per light group,
+//! side by side (cell = slot · per_slot + layer), plus one for the direct component. A photon
+//! comes from one light, so it writes one group layer: the combined value is the sum of the
+//! group layers, and so is the combined sum of squares, exactly (no photon has a cross term
+//! between two groups). The direct layer repeats the first-surface deposits and is not part
+//! of the sum. Without layers a slot has one cell and the cell index is the slot.
+//!
 //! The values are f64 bit patterns in `AtomicU64`s (same layout as f64). Writers use plain
 //! f64 arithmetic: the classic accumulator through its exclusive `&mut`, the dynamic
 //! scheduler's writers through `*_exclusive` while holding their vertex group's lock; the
@@ -27,19 +34,90 @@ pub(crate) use readout::NO_DATA_REL_ERROR;
 use crate::error::{Error, ImapStatus, Result};
 use std::sync::atomic::{AtomicU64, Ordering::Relaxed};
 
+/// Most light groups a map can keep as layers (group ids 0 … `MAX_LIGHT_GROUPS` − 1): a
+/// buffered hit names its layer in one byte, the direct layer included.
+pub const MAX_LIGHT_GROUPS: usize = 254;
+
+/// How many cells (accumulator records) each slot has.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct LayerLayout {
+    /// Group layers, summed into the combined map (1 when groups are not kept).
+    pub groups: u8,
+    /// A direct-component layer after the group layers.
+    pub direct: bool,
+}
+
+impl Default for LayerLayout {
+    fn default() -> Self {
+        LayerLayout::SINGLE
+    }
+}
+
+impl LayerLayout {
+    /// No layers: one cell per slot.
+    pub const SINGLE: LayerLayout = LayerLayout {
+        groups: 1,
+        direct: false,
+    };
+
+    /// Cells per slot.
+    #[inline]
+    pub fn per_slot(self) -> usize {
+        self.groups as usize + usize::from(self.direct)
+    }
+
+    /// The direct layer's index, if kept.
+    #[inline]
+    pub fn direct_layer(self) -> Option<u8> {
+        self.direct.then_some(self.groups)
+    }
+
+    /// The cell of `layer` in `slot`.
+    #[inline]
+    pub fn cell(self, slot: usize, layer: u8) -> usize {
+        slot * self.per_slot() + layer as usize
+    }
+
+    /// The slot a cell belongs to.
+    #[inline]
+    pub fn slot_of(self, cell: usize) -> usize {
+        if self == LayerLayout::SINGLE {
+            cell
+        } else {
+            cell / self.per_slot()
+        }
+    }
+}
+
 /// The accumulators.
 #[derive(Debug)]
 pub struct IMap {
     bands: usize,
     stride: usize,
+    layout: LayerLayout,
     data: Vec<AtomicU64>,
 }
 
 impl IMap {
-    /// Allocates a zeroed map, reporting allocation failure instead of aborting.
-    pub fn try_new(slots: usize, bands: usize) -> Result<Self> {
+    /// Allocates a zeroed map of `slots` slots of `layout.per_slot()` cells each, reporting
+    /// allocation failure instead of aborting. Cells are indexed by u32 in the run's
+    /// buffers: a map of more cells is refused.
+    pub fn try_new(slots: usize, bands: usize, layout: LayerLayout) -> Result<Self> {
         let stride = bands + 1;
-        let len = slots
+        let cells = slots
+            .checked_mul(layout.per_slot())
+            .filter(|&c| c <= u32::MAX as usize)
+            .ok_or_else(|| {
+                Error::new(
+                    ImapStatus::ImapErrOutOfMemory,
+                    format!(
+                        "the map would have {slots} slots × {} layers: more than {} cells",
+                        layout.per_slot(),
+                        u32::MAX
+                    ),
+                )
+            })?;
+        let len = cells
             .checked_mul(stride)
             .ok_or_else(|| Error::new(ImapStatus::ImapErrOutOfMemory, "map size overflows"))?;
         let mut data = Vec::new();
@@ -53,6 +131,7 @@ impl IMap {
         Ok(IMap {
             bands,
             stride,
+            layout,
             data,
         })
     }
@@ -61,8 +140,18 @@ impl IMap {
         self.bands
     }
 
+    pub fn layout(&self) -> LayerLayout {
+        self.layout
+    }
+
+    /// Slots (vertex, side) of the map.
     pub fn slots(&self) -> usize {
-        self.data.len() / self.stride
+        self.data.len() / (self.stride * self.layout.per_slot())
+    }
+
+    /// Bytes of the accumulators.
+    pub fn bytes(&self) -> u64 {
+        self.data.len() as u64 * 8
     }
 
     /// Whether sorting a portion by vertex before applying it pays: only when the map does
@@ -83,7 +172,8 @@ impl IMap {
         }
     }
 
-    /// Adds a deposit of barycentric weight `w` of a full-colour photon (exclusive access).
+    /// Adds a deposit of barycentric weight `w` of a full-colour photon to cell `slot`
+    /// (`LayerLayout::cell`; exclusive access). The `add_*` calls take cells.
     #[inline]
     pub fn add_colour(&mut self, slot: usize, w: f64, colour: &[f32]) {
         let (bands, stride) = (self.bands, self.stride);
@@ -175,16 +265,50 @@ impl IMap {
         unsafe { *p = (f64::from_bits(*p) + x).to_bits() };
     }
 
-    /// Accumulated band value (photon units) of a slot.
+    /// Accumulated band value (photon units) of a slot: the sum of its group layers.
     #[inline]
     pub fn value(&self, slot: usize, band: usize) -> f64 {
-        f64::from_bits(self.data[slot * self.stride + band].load(Relaxed))
+        if self.layout == LayerLayout::SINGLE {
+            return self.cell_value(slot, band);
+        }
+        let first = self.layout.cell(slot, 0);
+        (first..first + self.layout.groups as usize)
+            .map(|c| self.cell_value(c, band))
+            .sum()
     }
 
-    /// (Σ deposits of the scalar energy, Σ squares) of a slot.
+    /// (Σ deposits of the scalar energy, Σ squares) of a slot: the sums of its group layers.
     #[inline]
     pub fn scalar(&self, slot: usize) -> (f64, f64) {
-        let s = &self.data[slot * self.stride..(slot + 1) * self.stride];
+        if self.layout == LayerLayout::SINGLE {
+            return self.cell_scalar(slot);
+        }
+        let first = self.layout.cell(slot, 0);
+        (first..first + self.layout.groups as usize)
+            .map(|c| self.cell_scalar(c))
+            .fold((0.0, 0.0), |(s, q), (a, b)| (s + a, q + b))
+    }
+
+    /// The value of one layer of a slot (`layout().groups` for the direct layer).
+    #[inline]
+    pub fn layer_value(&self, slot: usize, layer: u8, band: usize) -> f64 {
+        self.cell_value(self.layout.cell(slot, layer), band)
+    }
+
+    /// `scalar` of one layer of a slot.
+    #[inline]
+    pub fn layer_scalar(&self, slot: usize, layer: u8) -> (f64, f64) {
+        self.cell_scalar(self.layout.cell(slot, layer))
+    }
+
+    #[inline]
+    fn cell_value(&self, cell: usize, band: usize) -> f64 {
+        f64::from_bits(self.data[cell * self.stride + band].load(Relaxed))
+    }
+
+    #[inline]
+    fn cell_scalar(&self, cell: usize) -> (f64, f64) {
+        let s = &self.data[cell * self.stride..(cell + 1) * self.stride];
         let get = |a: &AtomicU64| f64::from_bits(a.load(Relaxed));
         let sum: f64 = s[..self.bands].iter().map(get).sum();
         (sum / self.bands as f64, get(&s[self.bands]))
@@ -298,7 +422,7 @@ mod tests {
     fn plain_vs_compensated(n: u64, seed: u64, colours: &[f32]) -> (f64, f64) {
         assert!(colours.len().is_power_of_two());
         let mask = colours.len() as u64 - 1;
-        let mut map = IMap::try_new(1, 1).unwrap();
+        let mut map = IMap::try_new(1, 1, LayerLayout::SINGLE).unwrap();
         let (mut sum, mut sq) = (
             Compensated { sum: 0.0, c: 0.0 },
             Compensated { sum: 0.0, c: 0.0 },

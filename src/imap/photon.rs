@@ -33,17 +33,34 @@ pub struct BufferedHit {
     /// The band of a photon collapsed to one band, or `FULL`.
     pub band: u16,
     pub side: u8,
+    /// The map layer (`LayerLayout`): the photon's light group, or the direct layer.
+    pub layer: u8,
+}
+
+impl BufferedHit {
+    /// The map cells of the hit triangle's three vertices.
+    #[inline]
+    pub fn cells(&self, scene: &PreparedScene) -> [usize; 3] {
+        let m = &scene.meshes[self.mesh as usize];
+        m.triangles[self.prim as usize].map(|vertex| {
+            let slot = m
+                .slot(vertex, self.side as usize)
+                .expect("deposit on a recording mesh");
+            scene.layers.cell(slot, self.layer)
+        })
+    }
 }
 
 /// Where a finished photon's deposits go (the scheduler's portions).
 pub trait PhotonOut {
     /// A hit, with its colour (`bands` values, or one value for a collapsed photon).
     fn hit(&mut self, hit: &BufferedHit, colour: &[f32]);
-    /// The cross terms of the photon's squared contribution to `slot`.
-    fn square(&mut self, slot: usize, s2: f64);
-    /// A folded photon's whole contribution to `slot` (full colour, weight 1): its square
-    /// is the photon's squared contribution.
-    fn slot_value(&mut self, slot: usize, colour: &[f32]);
+    /// The cross terms of the photon's squared contribution to map cell `cell`
+    /// (`LayerLayout::cell`).
+    fn square(&mut self, cell: usize, s2: f64);
+    /// A folded photon's whole contribution to map cell `cell` (full colour, weight 1): its
+    /// square is the photon's squared contribution.
+    fn slot_value(&mut self, cell: usize, colour: &[f32]);
     /// The photon's totals per region it reached (`regions::RegionScratch`).
     fn regions(&mut self, _ids: &[u32], _values: &[f64]) {}
 }
@@ -55,13 +72,17 @@ pub struct PhotonBuffer {
     energy: f64,
     hits: Vec<BufferedHit>,
     colours: Vec<f32>,
-    /// Folded hits: slot → offset of its `bands` values in `folded_values`.
+    /// Folded hits: map cell → offset of its `bands` values in `folded_values`.
     folded: HashMap<u32, usize>,
     folded_values: Vec<f64>,
     squares: PhotonSquares,
     scratch: Vec<f32>,
     /// The photon's totals per region.
     regions: RegionScratch,
+    /// The current photon's layer (its light group's).
+    layer: u8,
+    /// Whether the current photon has not yet had a surface event.
+    direct: bool,
 }
 
 impl PhotonBuffer {
@@ -81,7 +102,22 @@ impl PhotonBuffer {
             squares: PhotonSquares::default(),
             scratch: Vec::new(),
             regions: RegionScratch::default(),
+            layer: 0,
+            direct: false,
         }
+    }
+
+    /// A new photon from `emitter` starts (its deposits go to the emitter's layer).
+    #[inline]
+    pub fn begin(&mut self, scene: &PreparedScene, emitter: usize) {
+        self.layer = scene.emitters[emitter].layer;
+        self.direct = true;
+    }
+
+    /// The current photon's first surface event is over.
+    #[inline]
+    pub fn direct_done(&mut self) {
+        self.direct = false;
     }
 
     /// Records a hit of the current photon.
@@ -121,7 +157,7 @@ impl PhotonBuffer {
                 FULL
             }
         };
-        self.hits.push(BufferedHit {
+        let hit = BufferedHit {
             mesh,
             prim,
             u,
@@ -129,7 +165,15 @@ impl PhotonBuffer {
             colour_at,
             band,
             side,
-        });
+            layer: self.layer,
+        };
+        self.hits.push(hit);
+        if self.direct {
+            if let Some(layer) = scene.layers.direct_layer() {
+                // The direct layer holds the same deposit again (not part of the sum).
+                self.hits.push(BufferedHit { layer, ..hit });
+            }
+        }
         if self.hits.len() >= MERGE_AFTER {
             self.fold(scene);
         }
@@ -139,13 +183,9 @@ impl PhotonBuffer {
     fn fold(&mut self, scene: &PreparedScene) {
         let nb = self.bands;
         for h in &self.hits {
-            let m = &scene.meshes[h.mesh as usize];
-            let tri = m.triangles[h.prim as usize];
             let (u, v) = (h.u as f64, h.v as f64);
-            for (vertex, w) in tri.into_iter().zip([1.0 - u - v, u, v]) {
-                let slot = m
-                    .slot(vertex, h.side as usize)
-                    .expect("deposit on a recording mesh") as u32;
+            for (cell, w) in h.cells(scene).into_iter().zip([1.0 - u - v, u, v]) {
+                let slot = cell as u32;
                 let next = self.folded_values.len();
                 let at = *self.folded.entry(slot).or_insert(next);
                 if at == next {
@@ -198,13 +238,9 @@ impl PhotonBuffer {
         }
         let e = self.energy;
         for h in &self.hits {
-            let m = &scene.meshes[h.mesh as usize];
             let (u, v) = (h.u as f64, h.v as f64);
-            let slots = m.triangles[h.prim as usize].map(|vertex| {
-                m.slot(vertex, h.side as usize)
-                    .expect("deposit on a recording mesh")
-            });
-            self.squares.add(slots, [(1.0 - u - v) * e, u * e, v * e]);
+            self.squares
+                .add(h.cells(scene), [(1.0 - u - v) * e, u * e, v * e]);
             let c = h.colour_at as usize;
             let n = if h.band == FULL { self.bands } else { 1 };
             out.hit(h, &self.colours[c..c + n]);

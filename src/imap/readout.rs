@@ -30,9 +30,19 @@ pub struct Readout<'a> {
     pub scene: &'a PreparedScene,
     pub photons: u64,
     pub unit_m: f64,
+    /// One layer of the map (`LayerLayout`), or None: the combined values.
+    pub layer: Option<u8>,
 }
 
 impl Readout<'_> {
+    #[inline]
+    fn value(&self, slot: usize, band: usize) -> f64 {
+        match self.layer {
+            None => self.map.value(slot, band),
+            Some(l) => self.map.layer_value(slot, l, band),
+        }
+    }
+
     /// Watts per unit of band value.
     fn watts_per_unit(&self) -> f64 {
         if self.photons == 0 {
@@ -49,7 +59,7 @@ impl Readout<'_> {
             let slot = mesh.slot(v as u32, side).expect("recording mesh");
             let a = mesh.vertex_area[v];
             *o = if a > 0.0 {
-                self.map.value(slot, band) * k / a
+                self.value(slot, band) * k / a
             } else {
                 0.0
             };
@@ -70,7 +80,7 @@ impl Readout<'_> {
                 out[v * rows + r] = if a > 0.0 {
                     w.iter()
                         .enumerate()
-                        .map(|(b, w)| w * self.map.value(slot, b))
+                        .map(|(b, w)| w * self.value(slot, b))
                         .sum::<f64>()
                         * k
                         / a
@@ -84,7 +94,10 @@ impl Readout<'_> {
     /// The standard error of a slot's scalar estimate, in photon units, and the estimate.
     #[inline]
     fn sigma(&self, slot: usize) -> (f64, f64) {
-        let (s, q) = self.map.scalar(slot);
+        let (s, q) = match self.layer {
+            None => self.map.scalar(slot),
+            Some(l) => self.map.layer_scalar(slot, l),
+        };
         let n = self.photons.max(1) as f64;
         (std_error(s, q, n), s)
     }

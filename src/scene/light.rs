@@ -260,6 +260,9 @@ pub struct Light {
     pub shape: LightShape,
     /// Radiant flux per band, W.
     pub power: Vec<f64>,
+    /// Light group (`Scene::layers`): which layer of the map its photons go to when light
+    /// groups are kept; 0 by default.
+    pub group: u32,
 }
 
 /// `v` scaled to unit length, for any finite non-zero `v` (huge and tiny components
@@ -451,6 +454,7 @@ impl Light {
             position: DVec3::from(desc.position),
             shape,
             power,
+            group: 0,
         })
     }
 
@@ -554,6 +558,7 @@ impl Light {
                 inv_flux,
             })),
             power,
+            group: 0,
         })
     }
 

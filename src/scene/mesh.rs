@@ -27,6 +27,8 @@ pub struct Mesh {
     /// their flux and Eavg exact errors (docs/results.md); sensors always do. Costs work at
     /// every deposit on the mesh, so only on request.
     pub tally: bool,
+    /// Light group of an emitting mesh's photons (see `Light::group`).
+    pub light_group: u32,
 }
 
 /// What the caller passes to `add_mesh`.
@@ -177,6 +179,7 @@ impl Mesh {
             exitance,
             sensor: desc.sensor,
             tally: desc.sensor || desc.tally,
+            light_group: 0,
         })
     }
 

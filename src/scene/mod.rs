@@ -7,6 +7,7 @@ pub mod material;
 pub mod mesh;
 mod prepared;
 
+use crate::imap::LayerLayout;
 pub use bands::Bands;
 pub use light::{Light, LightShape};
 pub use material::{IorModel, Material, MaterialDesc};
@@ -22,6 +23,17 @@ pub struct Scene {
     pub lights: Vec<Light>,
     /// Metres per scene unit: irradiance is reported in W/m².
     pub unit_m: f64,
+    /// The layers the map keeps besides the combined values.
+    pub layers: LayerRequest,
+}
+
+/// Which layers a map keeps (`crate::imap::LayerLayout`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct LayerRequest {
+    /// One layer per light group (groups 0 … the largest group of a light or emitting mesh).
+    pub groups: bool,
+    /// The direct component: what photons deposit before their first surface event.
+    pub direct: bool,
 }
 
 impl Scene {
@@ -32,7 +44,33 @@ impl Scene {
             meshes: Vec::new(),
             lights: Vec::new(),
             unit_m,
+            layers: LayerRequest::default(),
         }
+    }
+
+    /// The map's layers for this scene: as requested, with as many group layers as the
+    /// largest group of a light or emitting mesh needs.
+    pub fn layer_layout(&self) -> LayerLayout {
+        let groups = match self.largest_light_group() {
+            // Group ids are checked when set (< MAX_LIGHT_GROUPS).
+            Some(g) if self.layers.groups => g as u8 + 1,
+            _ => 1,
+        };
+        LayerLayout {
+            groups,
+            direct: self.layers.direct,
+        }
+    }
+
+    /// The largest light group of a light or emitting mesh.
+    pub fn largest_light_group(&self) -> Option<u32> {
+        let lights = self.lights.iter().map(|l| l.group);
+        let meshes = self
+            .meshes
+            .iter()
+            .filter(|m| m.exitance.is_some())
+            .map(|m| m.light_group);
+        lights.chain(meshes).max()
     }
 
     /// Number of (vertex, side) slots the map needs: recorded sides of recording meshes.

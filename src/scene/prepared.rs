@@ -5,6 +5,7 @@ use super::mesh::triangle_area;
 use super::{LightShape, Mesh, Scene};
 use crate::error::{bail, try_collect, try_filled, Error, ImapStatus, Result};
 use crate::imap::regions::RegionLayout;
+use crate::imap::LayerLayout;
 use crate::sampling::{warp, AliasTable, PhotonRng};
 use glam::{DVec3, Vec3};
 
@@ -96,6 +97,8 @@ pub struct Emitter {
     /// Colour of an emitted photon: per-band power share times the band count, scaled by
     /// the emitter's power share over its selection probability (mean 1 with one emitter).
     pub colour: Vec<f64>,
+    /// The map layer its photons write (its light group when groups are kept, else 0).
+    pub layer: u8,
 }
 
 /// The frozen scene a run reads.
@@ -120,6 +123,8 @@ pub struct PreparedScene {
     pub regions: RegionLayout,
     /// Luminous efficacy of each band, lm/W.
     pub efficacy: Vec<f64>,
+    /// The map's layers.
+    pub layers: LayerLayout,
 }
 
 impl PreparedScene {
@@ -157,6 +162,8 @@ impl PreparedScene {
 
         let nb = scene.bands.count() as f64;
         let unit2 = scene.unit_m * scene.unit_m;
+        let layers = scene.layer_layout();
+        let layer_of = |group: u32| if scene.layers.groups { group as u8 } else { 0 };
         let mut emitters = Vec::new();
         let mut powers = Vec::new();
         let colour_of = |power: &[f64]| -> (Vec<f64>, f64) {
@@ -175,6 +182,7 @@ impl PreparedScene {
                 kind: EmitterKind::Light(l.shape.clone()),
                 position: l.position - origin,
                 colour,
+                layer: layer_of(l.group),
             });
             powers.push(total);
         }
@@ -211,6 +219,7 @@ impl PreparedScene {
                 },
                 position: DVec3::ZERO,
                 colour,
+                layer: layer_of(m.light_group),
             });
             powers.push(total);
         }
@@ -244,6 +253,7 @@ impl PreparedScene {
         let regions = RegionLayout::new(&meshes);
         let efficacy = crate::photometry::BandPhotometry::new(&scene.bands).efficacy;
         Ok(PreparedScene {
+            layers,
             regions,
             efficacy,
             origin,

@@ -32,6 +32,7 @@ struct HitRec {
     colour_at: u32,
     band: u16,
     side: u8,
+    layer: u8,
 }
 
 /// A portion of intersection records (the paper's IOP).
@@ -126,6 +127,7 @@ impl PhotonOut for PortionSink<'_> {
             colour_at,
             band: h.band,
             side: h.side,
+            layer: h.layer,
         });
         if p.full() {
             self.send();
@@ -163,6 +165,14 @@ impl HitSink for PortionSink<'_> {
             .deposit(self.scene, (mesh, prim, side), u, v, colour);
     }
 
+    fn begin_photon(&mut self, emitter: usize) {
+        self.photon.begin(self.scene, emitter);
+    }
+
+    fn direct_done(&mut self) {
+        self.photon.direct_done();
+    }
+
     fn end_photon(&mut self) {
         let mut photon = std::mem::replace(&mut self.photon, PhotonBuffer::new(0));
         photon.finish(self.scene, self);
@@ -180,6 +190,7 @@ impl HitSink for PortionSink<'_> {
 
 /// Applies a sorted portion to the map: the accumulating thread's work.
 fn accumulate(map: &mut IMap, scene: &PreparedScene, p: &Portion) {
+    let layers = scene.layers;
     for r in &p.recs {
         let mesh = &scene.meshes[(r.key >> 32) as usize];
         let tri = mesh.triangles[(r.key & 0xFFFF_FFFF) as usize];
@@ -190,6 +201,7 @@ fn accumulate(map: &mut IMap, scene: &PreparedScene, p: &Portion) {
             let slot = mesh
                 .slot(vertex, r.side as usize)
                 .expect("deposit on a recording mesh");
+            let slot = layers.cell(slot, r.layer);
             if r.band == FULL {
                 map.add_colour(slot, w, &p.colours[at..at + map.bands()]);
             } else {

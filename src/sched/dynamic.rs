@@ -117,6 +117,7 @@ const SQUARE: u16 = u16::MAX - 1;
 #[derive(Clone, Copy, Debug)]
 struct Contribution {
     w: f64,
+    /// The map cell (`LayerLayout::cell`).
     slot: u32,
     colour_at: u32,
     band: u16,
@@ -348,11 +349,12 @@ impl<'a> GroupSink<'a> {
         }
     }
 
-    /// Adds one contribution to `slot`'s group; `colour` is stored once per hit (the
+    /// Adds one contribution to map cell `cell`, in its slot's group (groups are ranges of
+    /// slots, so a slot's layers share its group); `colour` is stored once per hit (the
     /// contributions of hit `self.hit` share it).
     #[inline]
-    fn contribute(&mut self, slot: usize, w: f64, band: u16, colour: &[f32]) {
-        let Some(g) = self.portion_for(slot) else {
+    fn contribute(&mut self, cell: usize, w: f64, band: u16, colour: &[f32]) {
+        let Some(g) = self.portion_for(self.shared.scene.layers.slot_of(cell)) else {
             return;
         };
         let hit = self.hit;
@@ -366,7 +368,7 @@ impl<'a> GroupSink<'a> {
         let colour_at = if band == SQUARE { 0 } else { p.stamp_at };
         p.items.push(Contribution {
             w,
-            slot: slot as u32,
+            slot: cell as u32,
             colour_at,
             band,
         });
@@ -379,24 +381,23 @@ impl<'a> GroupSink<'a> {
 impl PhotonOut for GroupSink<'_> {
     fn hit(&mut self, h: &BufferedHit, colour: &[f32]) {
         self.hit += 1;
-        let m = &self.shared.scene.meshes[h.mesh as usize];
-        let tri = m.triangles[h.prim as usize];
         let (u, v) = (h.u as f64, h.v as f64);
-        for (vertex, w) in tri.into_iter().zip([1.0 - u - v, u, v]) {
-            let slot = m
-                .slot(vertex, h.side as usize)
-                .expect("deposit on a recording mesh");
-            self.contribute(slot, w, h.band, colour);
+        for (cell, w) in h
+            .cells(self.shared.scene)
+            .into_iter()
+            .zip([1.0 - u - v, u, v])
+        {
+            self.contribute(cell, w, h.band, colour);
         }
     }
 
-    fn square(&mut self, slot: usize, s2: f64) {
-        self.contribute(slot, s2, SQUARE, &[]);
+    fn square(&mut self, cell: usize, s2: f64) {
+        self.contribute(cell, s2, SQUARE, &[]);
     }
 
-    fn slot_value(&mut self, slot: usize, colour: &[f32]) {
+    fn slot_value(&mut self, cell: usize, colour: &[f32]) {
         self.hit += 1;
-        self.contribute(slot, 1.0, FULL, colour);
+        self.contribute(cell, 1.0, FULL, colour);
     }
 
     fn regions(&mut self, ids: &[u32], values: &[f64]) {
@@ -408,6 +409,14 @@ impl HitSink for GroupSink<'_> {
     fn deposit(&mut self, mesh: u32, prim: u32, side: u8, u: f32, v: f32, colour: &Colour) {
         self.photon
             .deposit(self.shared.scene, (mesh, prim, side), u, v, colour);
+    }
+
+    fn begin_photon(&mut self, emitter: usize) {
+        self.photon.begin(self.shared.scene, emitter);
+    }
+
+    fn direct_done(&mut self) {
+        self.photon.direct_done();
     }
 
     fn end_photon(&mut self) {
@@ -469,6 +478,7 @@ fn locked_error(table: &GroupTable, map: &IMap, rc: &RunContext, photons: u64) -
         scene: rc.scene,
         photons,
         unit_m: rc.unit_m,
+        layer: None,
     };
     let (mut num, mut den) = (0.0, 0.0);
     let mut chain = Vec::new();

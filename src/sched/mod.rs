@@ -227,6 +227,7 @@ pub fn global_error(map: &IMap, rc: &RunContext, photons: u64) -> Option<f64> {
         scene: rc.scene,
         photons,
         unit_m: rc.unit_m,
+        layer: None,
     }
     .global_error()
 }

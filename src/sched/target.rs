@@ -70,6 +70,7 @@ pub fn region_error(
         scene,
         photons,
         unit_m: rc.unit_m,
+        layer: None,
     };
     let targets = t.meshes.iter().zip(rc.region_weights);
     match t.measure {

@@ -32,6 +32,14 @@ pub trait HitSink {
     /// arrival.
     fn surface(&mut self, _event: &SurfaceEvent, _colour: &Colour) {}
 
+    /// Called when photon tracing starts, with its emitter (`PreparedScene::emitters`).
+    fn begin_photon(&mut self, _emitter: usize) {}
+
+    /// Called once the photon's first surface event is over: what it deposits from then on
+    /// is indirect light (until then, its deposits — sensors crossed on the way and the
+    /// first surface it reaches — are the direct component).
+    fn direct_done(&mut self) {}
+
     /// Called when a photon's path has ended (absorbed, escaped or dropped).
     fn end_photon(&mut self) {}
 
@@ -222,6 +230,7 @@ impl Tracer<'_> {
         // Emit: choose a light by power, then a point and a direction on it.
         let (emitter, org, dir) = self.scene.emit(&mut rng);
         colour.reset(&self.scene.emitters[emitter].colour);
+        sink.begin_photon(emitter);
         (
             self.follow(org, dir, &mut rng, colour, sink, hits, stop),
             emitter,
@@ -299,6 +308,9 @@ impl Tracer<'_> {
             // Deposit on the hit triangle's vertices (the sink applies barycentric weights).
             if mesh.slot_base.is_some() && (front || mesh.two_sided) {
                 sink.deposit(hit.mesh, hit.prim, u8::from(!front), hit.u, hit.v, colour);
+            }
+            if event == 0 {
+                sink.direct_done();
             }
 
             let p_hit = mesh.point(prim, hit.u, hit.v);
