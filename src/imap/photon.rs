@@ -81,7 +81,8 @@ pub struct PhotonBuffer {
     regions: RegionScratch,
     /// The current photon's layer (its light group's).
     layer: u8,
-    /// Whether the current photon has not yet had a surface event.
+    /// Whether the current photon has not yet had a surface event and the map keeps the
+    /// direct layer.
     direct: bool,
 }
 
@@ -111,7 +112,8 @@ impl PhotonBuffer {
     #[inline]
     pub fn begin(&mut self, scene: &PreparedScene, emitter: usize) {
         self.layer = scene.emitters[emitter].layer;
-        self.direct = true;
+        // Only a map with a direct layer looks at it: a deposit then costs one test.
+        self.direct = scene.layers.direct;
     }
 
     /// The current photon's first surface event is over.
