@@ -145,14 +145,7 @@ fn floor_under_a_point_light() {
     ctx.add_mesh(&g.desc(m)).unwrap();
     let h = 1.0;
     ctx.add_point_light([0.0, 0.0, h], &[4.0 * PI]).unwrap();
-    let cam = CameraDesc {
-        position: [0.0, 0.0, 3.0],
-        direction: [0.0, 0.0, -1.0],
-        up: [0.0, 1.0, 0.0],
-        fov_y_deg: 60.0,
-        width: 48,
-        height: 48,
-    };
+    let cam = looking_down(3.0);
     let (img, _) = render(&mut ctx, &cam, &mut params(RenderMethod::Synchronous, 16));
     let mut truths = Vec::new();
     for y in 0..48 {
@@ -283,6 +276,19 @@ fn small_room(threads: usize) -> Context {
     d.exitance = Some(&[20.0]);
     ctx.add_mesh(&d).unwrap();
     ctx
+}
+
+/// A 48 × 48, 60° camera at height `z` over the origin, looking straight down (y up in
+/// the image).
+fn looking_down(z: f64) -> CameraDesc {
+    CameraDesc {
+        position: [0.0, 0.0, z],
+        direction: [0.0, 0.0, -1.0],
+        up: [0.0, 1.0, 0.0],
+        fov_y_deg: 60.0,
+        width: 48,
+        height: 48,
+    }
 }
 
 fn room_camera() -> CameraDesc {
@@ -547,14 +553,7 @@ fn floor_under_a_luminaire_and_a_beam() {
     })
     .unwrap();
     let k_lm_per_w: f64 = ctx.photometry().efficacy.iter().sum::<f64>() / 3.0;
-    let cam = CameraDesc {
-        position: [0.0, 0.0, 4.0],
-        direction: [0.0, 0.0, -1.0],
-        up: [0.0, 1.0, 0.0],
-        fov_y_deg: 60.0,
-        width: 48,
-        height: 48,
-    };
+    let cam = looking_down(4.0);
     // Each sample picks one of the two lights: many passes.
     let (img, _) = render(&mut ctx, &cam, &mut params(RenderMethod::Synchronous, 2048));
     let mut truths = Vec::new();

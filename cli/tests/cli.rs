@@ -78,6 +78,11 @@ fn scene_obj() -> (String, Part, Part) {
     (obj, (floor, fi), (lamp, li))
 }
 
+/// The report.json a run wrote into `out`.
+fn read_report(out: &Path) -> serde_json::Value {
+    serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap()).unwrap()
+}
+
 fn write(dir: &Path, name: &str, text: &str) -> String {
     let p = dir.join(name);
     std::fs::write(&p, text).unwrap();
@@ -200,8 +205,7 @@ fn outputs_exist_parse_and_the_ply_holds_libimap_s_map() {
     assert!(o.status.success(), "{}", stderr(&o));
 
     // report.json
-    let report: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap()).unwrap();
+    let report = read_report(&out);
     assert_eq!(report["photons"], photons);
     assert_eq!(report["meshes"].as_array().unwrap().len(), 2);
     assert_eq!(report["meshes"][1]["emitting"], true);
@@ -389,8 +393,7 @@ fn mtl_materials_map_to_libimap_materials() {
         "--quiet",
     ]);
     assert!(o.status.success(), "{}", stderr(&o));
-    let report: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap()).unwrap();
+    let report = read_report(&out);
     let meshes = report["meshes"].as_array().unwrap();
     assert_eq!(meshes.len(), 3);
     assert_eq!(meshes[0]["recorded"], true);
@@ -563,8 +566,7 @@ spectrum = "D65"
         "--quiet",
     ]);
     assert!(o.status.success(), "{}", stderr(&o));
-    let report: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap()).unwrap();
+    let report = read_report(&out);
     let lights = report["lights"].as_array().unwrap();
     assert_eq!(lights.len(), 3);
     let lm: Vec<f64> = lights
@@ -646,8 +648,7 @@ spectrum = "D65"
         "--quiet",
     ]);
     assert!(o2.status.success(), "{}", stderr(&o2));
-    let report: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap()).unwrap();
+    let report = read_report(&out);
     let lights = report["lights"].as_array().unwrap();
     assert_eq!(lights.len(), 6);
     assert_eq!(lights[5]["position"], serde_json::json!([2.0, 2.0, 3.0]));
@@ -754,8 +755,7 @@ spacing = 0.25
         stdout.contains("grid 'floor' (8 × 8 points): Eavg"),
         "{stdout}"
     );
-    let report: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap()).unwrap();
+    let report = read_report(&out);
     assert_eq!(report["stop"], "RegionTarget");
     let i = 1000.0 / (4.0 * std::f64::consts::PI);
     let h = 2.0;

@@ -86,14 +86,7 @@ impl Context {
     /// Refuses a layout whose map would not fit the memory budget.
     fn check_layout_budget(&self, request: LayerRequest, group: Option<u32>) -> Result<()> {
         let now = self.scene.layer_layout();
-        let largest = self.scene.largest_light_group().max(group);
-        let next = LayerLayout {
-            groups: match largest {
-                Some(g) if request.groups => g as u8 + 1,
-                _ => 1,
-            },
-            direct: request.direct,
-        };
+        let next = LayerLayout::new(request, self.scene.largest_light_group().max(group));
         let extra = next.per_slot().saturating_sub(now.per_slot()) as u64;
         if extra == 0 {
             return Ok(());

@@ -448,7 +448,7 @@ impl Context {
                     "the scene has no light: add a light, a luminaire or an emitting mesh"
                 );
             }
-            let scene = PreparedScene::new(&self.scene)?;
+            let scene = PreparedScene::new(&self.scene, &self.photometry.efficacy)?;
             let accel = Accel::build(&self.device, &scene.meshes)?;
             let sensors = Accel::build_sensors(&self.device, &scene.meshes)?;
             self.prepared = Some(Prepared {

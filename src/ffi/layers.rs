@@ -1,8 +1,8 @@
 //! Light groups and the map's layers (docs/results.md, "Light groups and layers").
 
-use super::{slice_mut, with_context, write_out, ImapContext};
+use super::{slice_mut, with_context, write_optional, ImapContext};
 use crate::context::Layer;
-use crate::error::{bail, ImapStatus, Result};
+use crate::error::{bail, ImapStatus};
 use crate::scene::LayerRequest;
 
 /// `imap_set_layers` flag: keep one layer per light group. (Since 0.2.1.)
@@ -105,13 +105,6 @@ pub unsafe extern "C" fn imap_get_layers(
         write_optional(groups, g)?;
         write_optional(direct, u32::from(d))
     })
-}
-
-fn write_optional(out: *mut u32, value: u32) -> Result<()> {
-    if out.is_null() {
-        return Ok(());
-    }
-    write_out("out", out, value)
 }
 
 /// Irradiance in W/m² in band `band` of one layer of the map — `layer` a light group,

@@ -5,8 +5,8 @@
 
 use super::scene::add_with;
 use super::{
-    boundary, check_out, read_versioned, slice, slice_mut, with_context, write_defaults, write_out,
-    ImapContext, Versioned,
+    boundary, check_out, read_versioned, slice, slice_mut, with_context, write_defaults,
+    write_optional, write_out, ImapContext, Versioned,
 };
 use crate::error::{bail, Error, ImapStatus, Result};
 use crate::photometry::{self, Opening, PhotometricData, PhotometricType, Spectrum, Symmetry};
@@ -675,10 +675,7 @@ pub unsafe extern "C" fn imap_get_light_flux(
         if !out_w.is_null() || count > 0 {
             copy_bands(out_w, count, w)?;
         }
-        if !out_lm.is_null() {
-            write_out("out_lm", out_lm, lm)?;
-        }
-        Ok(())
+        write_optional(out_lm, lm)
     })
 }
 
@@ -812,9 +809,6 @@ pub unsafe extern "C" fn imap_xyz_to_cct(
             );
         };
         write_out("out_k", out_k, t)?;
-        if !out_duv.is_null() {
-            write_out("out_duv", out_duv, duv)?;
-        }
-        Ok(())
+        write_optional(out_duv, duv)
     })
 }

@@ -139,6 +139,16 @@ pub(crate) fn write_out<T>(name: &str, ptr: *mut T, value: T) -> Result<()> {
     Ok(())
 }
 
+/// Writes an out-parameter the caller may leave NULL (then nothing is written).
+pub(crate) fn write_optional<T>(ptr: *mut T, value: T) -> Result<()> {
+    if ptr.is_null() {
+        return Ok(());
+    }
+    // SAFETY: non-NULL out-pointers from the caller point to writable storage for a T.
+    unsafe { ptr.write(value) };
+    Ok(())
+}
+
 /// Checks an out-pointer before work whose result it will receive.
 pub(crate) fn check_out<T>(name: &str, ptr: *mut T) -> Result<()> {
     if ptr.is_null() {

@@ -60,6 +60,18 @@ impl LayerLayout {
         direct: false,
     };
 
+    /// The layers of `request` when the largest light group in use is `largest`.
+    pub fn new(request: crate::scene::LayerRequest, largest: Option<u32>) -> Self {
+        LayerLayout {
+            // Group ids are checked when set (< MAX_LIGHT_GROUPS).
+            groups: match largest {
+                Some(g) if request.groups => g as u8 + 1,
+                _ => 1,
+            },
+            direct: request.direct,
+        }
+    }
+
     /// Cells per slot.
     #[inline]
     pub fn per_slot(self) -> usize {

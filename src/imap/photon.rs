@@ -53,8 +53,9 @@ impl BufferedHit {
 
 /// Where a finished photon's deposits go (the scheduler's portions).
 pub trait PhotonOut {
-    /// A hit, with its colour (`bands` values, or one value for a collapsed photon).
-    fn hit(&mut self, hit: &BufferedHit, colour: &[f32]);
+    /// A hit, with the map cells of its triangle's vertices (`BufferedHit::cells`) and its
+    /// colour (`bands` values, or one value for a collapsed photon).
+    fn hit(&mut self, hit: &BufferedHit, cells: [usize; 3], colour: &[f32]);
     /// The cross terms of the photon's squared contribution to map cell `cell`
     /// (`LayerLayout::cell`).
     fn square(&mut self, cell: usize, s2: f64);
@@ -81,9 +82,9 @@ pub struct PhotonBuffer {
     regions: RegionScratch,
     /// The current photon's layer (its light group's).
     layer: u8,
-    /// Whether the current photon has not yet had a surface event and the map keeps the
-    /// direct layer.
-    direct: bool,
+    /// The direct layer, while the current photon has had no surface event and the map
+    /// keeps one.
+    direct: Option<u8>,
 }
 
 impl PhotonBuffer {
@@ -104,7 +105,7 @@ impl PhotonBuffer {
             scratch: Vec::new(),
             regions: RegionScratch::default(),
             layer: 0,
-            direct: false,
+            direct: None,
         }
     }
 
@@ -112,14 +113,13 @@ impl PhotonBuffer {
     #[inline]
     pub fn begin(&mut self, scene: &PreparedScene, emitter: usize) {
         self.layer = scene.emitters[emitter].layer;
-        // Only a map with a direct layer looks at it: a deposit then costs one test.
-        self.direct = scene.layers.direct;
+        self.direct = scene.layers.direct_layer();
     }
 
     /// The current photon's first surface event is over.
     #[inline]
     pub fn direct_done(&mut self) {
-        self.direct = false;
+        self.direct = None;
     }
 
     /// Records a hit of the current photon.
@@ -170,11 +170,9 @@ impl PhotonBuffer {
             layer: self.layer,
         };
         self.hits.push(hit);
-        if self.direct {
-            if let Some(layer) = scene.layers.direct_layer() {
-                // The direct layer holds the same deposit again (not part of the sum).
-                self.hits.push(BufferedHit { layer, ..hit });
-            }
+        if let Some(layer) = self.direct {
+            // The direct layer holds the same deposit again (not part of the sum).
+            self.hits.push(BufferedHit { layer, ..hit });
         }
         if self.hits.len() >= MERGE_AFTER {
             self.fold(scene);
@@ -187,9 +185,8 @@ impl PhotonBuffer {
         for h in &self.hits {
             let (u, v) = (h.u as f64, h.v as f64);
             for (cell, w) in h.cells(scene).into_iter().zip([1.0 - u - v, u, v]) {
-                let slot = cell as u32;
                 let next = self.folded_values.len();
-                let at = *self.folded.entry(slot).or_insert(next);
+                let at = *self.folded.entry(cell as u32).or_insert(next);
                 if at == next {
                     self.folded_values.resize(next + nb, 0.0);
                 }
@@ -226,14 +223,14 @@ impl PhotonBuffer {
         if !self.folded.is_empty() {
             self.fold(scene);
             let nb = self.bands;
-            // In slot order: the same sequence of additions whatever the hash map's order.
-            let mut slots: Vec<(u32, usize)> = self.folded.drain().collect();
-            slots.sort_unstable();
-            for (slot, at) in slots {
+            // In cell order: the same sequence of additions whatever the hash map's order.
+            let mut cells: Vec<(u32, usize)> = self.folded.drain().collect();
+            cells.sort_unstable();
+            for (cell, at) in cells {
                 self.scratch.clear();
                 self.scratch
                     .extend(self.folded_values[at..at + nb].iter().map(|&x| x as f32));
-                out.slot_value(slot as usize, &self.scratch);
+                out.slot_value(cell as usize, &self.scratch);
             }
             self.folded_values.clear();
             return;
@@ -241,11 +238,11 @@ impl PhotonBuffer {
         let e = self.energy;
         for h in &self.hits {
             let (u, v) = (h.u as f64, h.v as f64);
-            self.squares
-                .add(h.cells(scene), [(1.0 - u - v) * e, u * e, v * e]);
+            let cells = h.cells(scene);
+            self.squares.add(cells, [(1.0 - u - v) * e, u * e, v * e]);
             let c = h.colour_at as usize;
             let n = if h.band == FULL { self.bands } else { 1 };
-            out.hit(h, &self.colours[c..c + n]);
+            out.hit(h, cells, &self.colours[c..c + n]);
         }
         self.squares
             .drain_cross_terms(|slot, s2| out.square(slot, s2));

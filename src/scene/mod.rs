@@ -51,15 +51,7 @@ impl Scene {
     /// The map's layers for this scene: as requested, with as many group layers as the
     /// largest group of a light or emitting mesh needs.
     pub fn layer_layout(&self) -> LayerLayout {
-        let groups = match self.largest_light_group() {
-            // Group ids are checked when set (< MAX_LIGHT_GROUPS).
-            Some(g) if self.layers.groups => g as u8 + 1,
-            _ => 1,
-        };
-        LayerLayout {
-            groups,
-            direct: self.layers.direct,
-        }
+        LayerLayout::new(self.layers, self.largest_light_group())
     }
 
     /// The largest light group of a light or emitting mesh.

@@ -128,13 +128,14 @@ pub struct PreparedScene {
 }
 
 impl PreparedScene {
-    /// Prepares `scene`. The caller has checked that it has meshes and lights.
+    /// Prepares `scene`, whose bands have the luminous efficacies `efficacy` (lm/W, the
+    /// context's `BandPhotometry`). The caller has checked that it has meshes and lights.
     ///
     /// Fails with `IMAP_ERR_PRECISION` naming the mesh when the scene's extent makes a
     /// mesh's triangles too small for the f32 coordinates ray tracing uses, with
     /// `IMAP_ERR_NO_LIGHT` / `IMAP_ERR_INVALID_ARGUMENT` naming the light or mesh whose
     /// power is zero or not representable, and with `IMAP_ERR_OUT_OF_MEMORY`.
-    pub fn new(scene: &Scene) -> Result<Self> {
+    pub fn new(scene: &Scene, efficacy: &[f64]) -> Result<Self> {
         // The bounds of the geometry that can be hit: vertices no triangle uses, and lights
         // (whose photons enter through the bounding sphere), do not widen them.
         // Sensors do not widen them either: a scene with sensors traces its other meshes
@@ -251,11 +252,10 @@ impl PreparedScene {
             )
         })?;
         let regions = RegionLayout::new(&meshes);
-        let efficacy = crate::photometry::BandPhotometry::new(&scene.bands).efficacy;
         Ok(PreparedScene {
             layers,
             regions,
-            efficacy,
+            efficacy: efficacy.to_vec(),
             origin,
             radius,
             enter_radius,

@@ -114,7 +114,8 @@ impl PortionSink<'_> {
 }
 
 impl PhotonOut for PortionSink<'_> {
-    fn hit(&mut self, h: &BufferedHit, colour: &[f32]) {
+    fn hit(&mut self, h: &BufferedHit, _cells: [usize; 3], colour: &[f32]) {
+        // The accumulating thread finds the cells itself, after sorting by triangle.
         let Some(p) = self.portion() else {
             return;
         };

@@ -379,14 +379,10 @@ impl<'a> GroupSink<'a> {
 }
 
 impl PhotonOut for GroupSink<'_> {
-    fn hit(&mut self, h: &BufferedHit, colour: &[f32]) {
+    fn hit(&mut self, h: &BufferedHit, cells: [usize; 3], colour: &[f32]) {
         self.hit += 1;
         let (u, v) = (h.u as f64, h.v as f64);
-        for (cell, w) in h
-            .cells(self.shared.scene)
-            .into_iter()
-            .zip([1.0 - u - v, u, v])
-        {
+        for (cell, w) in cells.into_iter().zip([1.0 - u - v, u, v]) {
             self.contribute(cell, w, h.band, colour);
         }
     }
