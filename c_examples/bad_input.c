@@ -71,6 +71,9 @@ int main(void) {
     cfg.inline_apply = 9;
     expect("unknown inline_apply", imap_create(&cfg, &ctx), IMAP_ERR_INVALID_ARGUMENT, NULL);
     imap_config_default(&cfg, sizeof cfg);
+    cfg.flags = 2;
+    expect("unknown config flag", imap_create(&cfg, &ctx), IMAP_ERR_INVALID_ARGUMENT, NULL);
+    imap_config_default(&cfg, sizeof cfg);
     cfg.subd = 1;
     expect("subd = 1", imap_create(&cfg, &ctx), IMAP_ERR_INVALID_ARGUMENT, NULL);
     imap_config_default(&cfg, sizeof cfg);
@@ -138,6 +141,12 @@ int main(void) {
     expect("vertex index out of range", imap_add_mesh(ctx, &mesh, &id), IMAP_ERR_INDEX_OUT_OF_RANGE, ctx);
     square_idx[5] = 0;
     expect("triangle repeating a vertex", imap_add_mesh(ctx, &mesh, &id), IMAP_ERR_DEGENERATE_TRIANGLE, ctx);
+    mesh.flags = IMAP_MESH_SKIP_DEGENERATE;
+    mesh.triangle_count = 1;
+    square_idx[2] = 1;
+    expect("only degenerate triangles, skipped", imap_add_mesh(ctx, &mesh, &id), IMAP_ERR_DEGENERATE_TRIANGLE, ctx);
+    square_idx[2] = 2;
+    mesh = square_mesh(m_grey);
     square_idx[5] = 3;
     mesh.triangle_count = 0;
     expect("mesh with zero triangles", imap_add_mesh(ctx, &mesh, &id), IMAP_ERR_EMPTY_MESH, ctx);
@@ -146,6 +155,16 @@ int main(void) {
     mesh = square_mesh(m_grey);
     uint32_t floor_id = 99;
     expect("imap_add_mesh(valid)", imap_add_mesh(ctx, &mesh, &floor_id), IMAP_OK, ctx);
+    size_t dropped = 99;
+    expect("imap_get_mesh_dropped_triangles", imap_get_mesh_dropped_triangles(ctx, floor_id, &dropped), IMAP_OK, ctx);
+    if (dropped != 0) {
+        fprintf(stderr, "FAIL: %zu triangles dropped from a clean mesh\n", dropped);
+        failures++;
+    }
+    expect("imap_get_mesh_dropped_triangles(out = NULL)", imap_get_mesh_dropped_triangles(ctx, floor_id, NULL),
+           IMAP_ERR_NULL_POINTER, ctx);
+    expect("imap_get_mesh_dropped_triangles(mesh 99)", imap_get_mesh_dropped_triangles(ctx, 99, &dropped),
+           IMAP_ERR_INDEX_OUT_OF_RANGE, ctx);
 
     /* Lights. */
     double pos[3] = {0.5, 0.5, 1}, zero = 0, watts = 10, nan_pos[3] = {0, NAN, 1};

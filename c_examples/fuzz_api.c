@@ -120,6 +120,7 @@ static void create(Slot *sl) {
     if (chance(0.3)) cfg.band_mode = IMAP_BANDS_SPECTRAL, cfg.band_count = 1 + below(12);
     if (chance(0.2)) cfg.max_groups = 1 + below(8);
     if (chance(0.1)) cfg.memory_budget_bytes = 1u << (16 + below(10));
+    if (chance(0.3)) cfg.flags = chance(0.9) ? IMAP_CONFIG_NO_LIGHT_AIMING : below(8);
     /* Hostile configurations, now and then. */
     if (chance(0.15)) {
         switch (below(8)) {
@@ -268,7 +269,7 @@ int main(int argc, char **argv) {
             imap_mesh_default(&d, sizeof d);
             d.positions = xyz, d.vertex_count = nv, d.indices = idx, d.triangle_count = nt;
             d.material = sl->materials ? below(sl->materials + (chance(0.05) ? 3 : 0)) : below(2);
-            d.flags = below(4);
+            d.flags = below(4) | (chance(0.3) ? IMAP_MESH_SKIP_DEGENERATE : 0);
             if (chance(0.1)) d.flags |= 1u << (2 + below(20));
             if (chance(0.1)) xyz[3 * below((uint32_t)nv) + below(3)] = hostile(0.5);
             if (chance(0.1)) idx[below((uint32_t)(3 * nt))] = below((uint32_t)nv + 5);
@@ -357,13 +358,15 @@ int main(int argc, char **argv) {
             break;
         }
         case 8: { /* counts and absorbed power */
-            what = "imap_get_vertex_count/absorbed";
+            what = "imap_get_vertex_count/absorbed/dropped_triangles";
             size_t nv;
             double w;
-            if (chance(0.5))
+            if (chance(0.4))
                 s = imap_get_vertex_count(ctx, below(sl->meshes + 2), chance(0.03) ? NULL : &nv);
-            else
+            else if (chance(0.7))
                 s = imap_get_mesh_absorbed(ctx, below(sl->meshes + 2), chance(0.03) ? NULL : &w);
+            else
+                s = imap_get_mesh_dropped_triangles(ctx, below(sl->meshes + 2), chance(0.03) ? NULL : &nv);
             break;
         }
         case 9: { /* a render, rarely */

@@ -115,6 +115,19 @@
 #define IMAP_INLINE_NEVER 2
 
 /**
+ * `ImapConfig::flags`: do not aim point-like lights at the geometry. By default a point,
+ * spot, cosine or goniometric light (without a luminous opening) outside the sphere
+ * around the scene's geometry emits only into the cone of directions toward that sphere,
+ * each photon weighted by the light's flux share in the cone (for a point light, the
+ * cone's solid angle over 4π; for cosine lights and luminaires, with the cone within 30°
+ * of its axis, I(d)/Φ times the cone's solid angle): the directions left out meet
+ * nothing, so the map and the energy balance stay exact (the flux left out is counted as
+ * escaped) and no photon is spent on the void. Set this to trace every direction, as the
+ * paper's method does. (Since 0.2.1.)
+ */
+#define IMAP_CONFIG_NO_LIGHT_AIMING 1
+
+/**
  * `imap_set_layers` flag: keep one layer per light group. (Since 0.2.1.)
  */
 #define IMAP_KEEP_LIGHT_GROUPS 1
@@ -423,6 +436,14 @@
 #define IMAP_MESH_TALLY 8
 
 /**
+ * `ImapMesh::flags`: leave out the triangles that repeat a vertex (CAD exports hold many;
+ * they have no area) instead of refusing the mesh with IMAP_ERR_DEGENERATE_TRIANGLE;
+ * `imap_get_mesh_dropped_triangles` says how many. `triangle_materials` is still given
+ * for every input triangle. A mesh with no triangle left is refused. (Since 0.2.1.)
+ */
+#define IMAP_MESH_SKIP_DEGENERATE 16
+
+/**
  * Status returned by every `imap_*` call. `IMAP_OK` (0) is success; every other value names
  * one kind of failure, and the last-error message says which argument and why.
  */
@@ -620,6 +641,10 @@ typedef struct ImapConfig {
    * Dynamic scheduler: `IMAP_INLINE_*`.
    */
   uint32_t inline_apply;
+  /**
+   * `IMAP_CONFIG_*` flags, or-ed; 0 = the defaults. (Since 0.2.1.)
+   */
+  uint32_t flags;
 } ImapConfig;
 
 /**
@@ -1328,7 +1353,7 @@ typedef struct ImapMesh {
    */
   uint32_t struct_size;
   /**
-   * `IMAP_MESH_TWO_SIDED` | `IMAP_MESH_RECORD`.
+   * `IMAP_MESH_*` flags, or-ed.
    */
   uint32_t flags;
   /**
@@ -1914,6 +1939,17 @@ enum ImapStatus imap_get_vertex_error(const struct ImapContext *ctx, uint32_t me
 enum ImapStatus imap_get_mesh_absorbed(const struct ImapContext *ctx, uint32_t mesh, double *out_w);
 
 /**
+ * How many triangles of mesh `mesh` were left out because they repeat a vertex (added
+ * with IMAP_MESH_SKIP_DEGENERATE; 0 otherwise), into `*out_count`. (Since 0.2.1.)
+ *
+ * Returns IMAP_ERR_NULL_POINTER, IMAP_ERR_INVALID_ARGUMENT (no such mesh).
+ *
+ * # Safety
+ * `ctx` is a live handle; `out_count` is writable.
+ */
+enum ImapStatus imap_get_mesh_dropped_triangles(const struct ImapContext *ctx, uint32_t mesh, size_t *out_count);
+
+/**
  * Fills the `size` bytes at `out` with a black, non-dielectric material and sets
  * `struct_size = size`. Pass `sizeof *out`. Returns IMAP_ERR_NULL_POINTER,
  * IMAP_ERR_INVALID_ARGUMENT (size too small). Thread-safe.
@@ -1956,7 +1992,8 @@ enum ImapStatus imap_add_material(struct ImapContext *ctx, const struct ImapMate
  * Returns IMAP_ERR_NULL_POINTER, IMAP_ERR_EMPTY_MESH (no vertex or no triangle),
  * IMAP_ERR_NON_FINITE (a NaN/Inf coordinate or exitance), IMAP_ERR_PRECISION (a
  * coordinate beyond ±1e30), IMAP_ERR_INDEX_OUT_OF_RANGE (a vertex index ≥ vertex_count),
- * IMAP_ERR_DEGENERATE_TRIANGLE (a triangle repeating a vertex), IMAP_ERR_UNKNOWN_MATERIAL,
+ * IMAP_ERR_DEGENERATE_TRIANGLE (a triangle repeating a vertex, unless
+ * IMAP_MESH_SKIP_DEGENERATE; or no triangle left), IMAP_ERR_UNKNOWN_MATERIAL,
  * IMAP_ERR_INVALID_ARGUMENT, IMAP_ERR_NO_LIGHT (an emitting mesh with zero exitance or
  * zero area), IMAP_ERR_MEMORY_BUDGET, IMAP_ERR_OUT_OF_MEMORY, IMAP_ERR_OUT_OF_ORDER
  * (after a run: call `imap_reset` first), IMAP_ERR_BUSY. Nothing is added on failure.

@@ -226,6 +226,7 @@ impl Tess {
             exitance,
             sensor: false,
             tally: false,
+            skip_degenerate: false,
         };
         let id = ctx.add_mesh(&desc)?;
         built.meshes.push(id);
@@ -691,6 +692,7 @@ pub fn cornell_box(ctx: &mut Context, open_front: bool, n: usize) -> Result<Buil
         exitance: None,
         sensor: false,
         tally: false,
+        skip_degenerate: false,
     })?;
     let mut lamp = Tess::default();
     lamp.quad(
@@ -712,6 +714,7 @@ pub fn cornell_box(ctx: &mut Context, open_front: bool, n: usize) -> Result<Buil
         exitance: Some(&exitance),
         sensor: false,
         tally: false,
+        skip_degenerate: false,
     })?;
     Ok(Built {
         meshes: vec![walls, lamp_id],

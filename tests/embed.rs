@@ -269,6 +269,7 @@ fn item07_zero_and_overflowing_powers_are_refused_by_name() {
             exitance: Some(&[100.0]),
             sensor: false,
             tally: false,
+            skip_degenerate: false,
         })
         .unwrap_err();
     assert_eq!(e.status, ImapStatus::ImapErrNoLight, "{e}");
@@ -291,6 +292,7 @@ fn item07_zero_and_overflowing_powers_are_refused_by_name() {
             exitance: Some(&[1.0]),
             sensor: false,
             tally: false,
+            skip_degenerate: false,
         })
         .unwrap_err();
     assert_eq!(e.status, ImapStatus::ImapErrPrecision, "{e}");
@@ -506,4 +508,74 @@ fn item14_messages_name_the_argument() {
     cam.up = [0.0, 2.0, -1.5];
     let e = ctx.render(&cam, &mut rp).unwrap_err();
     assert!(e.message.contains("camera up is parallel"), "{e}");
+}
+
+/// Degenerate triangles (a repeated vertex index; CAD exports hold thousands): refused
+/// with their code by default; with `skip_degenerate` left out and counted, the per-triangle
+/// materials follow their triangles, and the map is the map of the mesh without them.
+#[test]
+fn degenerate_triangles_are_refused_or_skipped_on_request() {
+    let cfg = || Config {
+        threads: 2,
+        seed: 7,
+        ..Default::default()
+    };
+    let mut clean = grid(4, -1.0, 1.0, -1.0, 1.0, 0.0);
+    let nt = clean.indices.len() / 3;
+    // Triangle materials: the first half grey, the second half white.
+    let mats_clean: Vec<u32> = (0..nt).map(|t| u32::from(t >= nt / 2)).collect();
+    // The same mesh with degenerate triangles between its triangles; their material is one
+    // that does not matter (black), so a misaligned material list would show in the map.
+    let mut dirty = Geometry {
+        positions: clean.positions.clone(),
+        indices: Vec::new(),
+    };
+    let mut mats_dirty = Vec::new();
+    for (t, (tri, &m)) in clean.indices.chunks_exact(3).zip(&mats_clean).enumerate() {
+        if t % 3 == 0 {
+            dirty.indices.extend([3, 3, 4]);
+            mats_dirty.push(2);
+        }
+        dirty.indices.extend_from_slice(tri);
+        mats_dirty.push(m);
+    }
+    let dropped = mats_dirty.len() - nt;
+    let build = |g: &Geometry, mats: &[u32], skip: bool| -> imap::error::Result<(Context, u32)> {
+        let mut ctx = context(cfg());
+        lambert(&mut ctx, 0.5);
+        lambert(&mut ctx, 0.9);
+        lambert(&mut ctx, 0.0);
+        // Something for the floor's reflection to reach the floor again.
+        let roof = grid(2, -1.0, 1.0, -1.0, 1.0, 1.5).flipped();
+        ctx.add_mesh(&MeshDesc {
+            record: false,
+            ..roof.desc(1)
+        })?;
+        let id = ctx.add_mesh(&MeshDesc {
+            triangle_materials: Some(mats),
+            skip_degenerate: skip,
+            ..g.desc(0)
+        })?;
+        ctx.add_point_light([0.1, 0.2, 1.0], &[10.0])?;
+        Ok((ctx, id))
+    };
+    let err = build(&dirty, &mats_dirty, false).err().expect("refused");
+    assert_eq!(err.status, imap::ImapStatus::ImapErrDegenerateTriangle);
+    assert!(err.message.contains("triangle 0"), "{}", err.message);
+
+    let (mut a, ida) = build(&clean, &mats_clean, false).unwrap();
+    let (mut b, idb) = build(&dirty, &mats_dirty, true).unwrap();
+    assert_eq!(a.dropped_triangles(ida).unwrap(), 0);
+    assert_eq!(b.dropped_triangles(idb).unwrap(), dropped);
+    a.run(&mut params(200_000)).unwrap();
+    b.run(&mut params(200_000)).unwrap();
+    let (ma, mb) = (map_of(&a, ida), map_of(&b, idb));
+    assert!(ma.iter().any(|&e| e > 0.0));
+    assert_eq!(ma, mb);
+
+    // Nothing left: refused, even when skipping.
+    clean.indices = vec![0, 0, 1, 2, 2, 2];
+    let err = build(&clean, &[0, 0], true).err().expect("refused");
+    assert_eq!(err.status, imap::ImapStatus::ImapErrDegenerateTriangle);
+    assert!(err.message.contains("nothing is left"), "{}", err.message);
 }

@@ -578,3 +578,63 @@ fn item05_out_of_memory_is_a_status() {
     assert!(lines[3].ends_with("ImapOk"), "{}", lines[3]);
     assert!(!err.contains("memory allocation"), "{err}");
 }
+
+/// Issue 14 through the C ABI: IMAP_MESH_SKIP_DEGENERATE leaves out (and counts) the
+/// triangles that repeat a vertex; without it they are refused. IMAP_CONFIG_NO_LIGHT_AIMING
+/// is taken, unknown config flags are refused.
+#[test]
+fn c_abi_skips_degenerate_triangles_and_takes_config_flags() {
+    let (h, _, _) = scene_with(|c| c.flags = IMAP_CONFIG_NO_LIGHT_AIMING);
+    let ctx = h.0;
+    let xyz = [0.0, 0.0, 0.5, 1.0, 0.0, 0.5, 0.0, 1.0, 0.5];
+    let idx = [0u32, 1, 2, 1, 1, 2, 0, 2, 2];
+    let mats = [0u32, 7, 0];
+    // SAFETY: valid pointers; the arrays outlive the calls.
+    unsafe {
+        let mut d = std::mem::zeroed::<ImapMesh>();
+        ok(imap_mesh_default(&mut d, std::mem::size_of_val(&d)), ctx);
+        d.positions = xyz.as_ptr();
+        d.vertex_count = 3;
+        d.indices = idx.as_ptr();
+        d.triangle_count = 3;
+        d.flags = IMAP_MESH_RECORD;
+        let mut id = 99;
+        assert_eq!(
+            imap_add_mesh(ctx, &d, &mut id),
+            ImapStatus::ImapErrDegenerateTriangle
+        );
+        assert!(message(ctx).contains("triangle 1"), "{}", message(ctx));
+        d.flags |= IMAP_MESH_SKIP_DEGENERATE;
+        d.triangle_materials = mats.as_ptr();
+        // Every id is checked, a dropped triangle's too: material 7 does not exist.
+        assert_eq!(
+            imap_add_mesh(ctx, &d, &mut id),
+            ImapStatus::ImapErrUnknownMaterial
+        );
+        d.triangle_materials = std::ptr::null();
+        ok(imap_add_mesh(ctx, &d, &mut id), ctx);
+        let mut dropped = 0usize;
+        ok(imap_get_mesh_dropped_triangles(ctx, id, &mut dropped), ctx);
+        assert_eq!(dropped, 2);
+        let mut nv = 0usize;
+        ok(imap_get_vertex_count(ctx, id, &mut nv), ctx);
+        assert_eq!(nv, 3);
+        imap_destroy(ctx);
+    }
+    let mut cfg = std::mem::MaybeUninit::<ImapConfig>::uninit();
+    // SAFETY: the out-pointer holds sizeof(ImapConfig) bytes.
+    let mut cfg = unsafe {
+        ok(
+            imap_config_default(cfg.as_mut_ptr(), std::mem::size_of::<ImapConfig>()),
+            std::ptr::null(),
+        );
+        cfg.assume_init()
+    };
+    cfg.flags = 2;
+    let mut out = std::ptr::null_mut();
+    // SAFETY: valid pointers.
+    let s = unsafe { imap_create(&cfg, &mut out) };
+    assert_eq!(s, ImapStatus::ImapErrInvalidArgument);
+    assert!(out.is_null());
+    assert!(message(std::ptr::null()).contains("config.flags"));
+}

@@ -48,6 +48,7 @@ fn admits(budget: u64, n: usize) -> bool {
         exitance: None,
         sensor: false,
         tally: false,
+        skip_degenerate: false,
     });
     !matches!(r, Err(e) if e.status == ImapStatus::ImapErrMemoryBudget)
 }

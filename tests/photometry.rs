@@ -153,6 +153,7 @@ fn octant_sphere(ctx: &mut Context, r: f64) -> Vec<u32> {
                 exitance: None,
                 sensor: false,
                 tally: false,
+                skip_degenerate: false,
             })
             .unwrap()
         })

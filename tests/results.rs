@@ -28,6 +28,7 @@ fn sensor_desc(g: &Geometry, two_sided: bool) -> MeshDesc<'_> {
     MeshDesc {
         sensor: true,
         tally: false,
+        skip_degenerate: false,
         two_sided,
         ..g.desc(0)
     }
@@ -294,6 +295,7 @@ fn parts_add_up_to_their_mesh() {
         .add_mesh(&MeshDesc {
             triangle_materials: Some(&tm),
             tally: true,
+            skip_degenerate: false,
             ..g.desc(m0)
         })
         .unwrap();

@@ -172,6 +172,7 @@ pub fn add_grids(ctx: &mut Context, grids: &[GridSettings], unit_m: f64) -> Resu
                 exitance: None,
                 sensor: true,
                 tally: false,
+                skip_degenerate: false,
             })
             .map_err(|e| CliError(format!("{what}: {}", e.message)))?;
         out.push(Grid {

@@ -3,12 +3,16 @@
 
 mod cornell;
 mod diag;
+mod gltf_in;
 mod grids;
 mod lights;
 mod materials;
+mod meshes_in;
+mod model;
 mod mtl;
 mod obj;
 mod output;
+mod render_cmd;
 mod scene;
 mod validate;
 
@@ -62,15 +66,57 @@ struct RunOptions {
 
 #[derive(Subcommand)]
 enum Command {
-    /// Compute the illumination map of an OBJ scene.
+    /// Compute the illumination map of a model.
     Run {
-        /// The scene (OBJ with its MTL libraries).
+        /// The model (.obj with its MTL libraries, .gltf, .glb, .ply, .stl).
         scene: PathBuf,
         /// TOML settings: lights, spectra, recording, stop criteria, camera.
         #[arg(long, short)]
         config: Option<PathBuf>,
         #[command(flatten)]
         opts: RunOptions,
+    },
+    /// Render the camera image of a model (backward photon maps): a tone-mapped PNG,
+    /// radiance and per-pixel error as PFM, the error history and its plot.
+    Render {
+        /// The model (.obj with its MTL libraries, .gltf, .glb, .ply, .stl).
+        scene: PathBuf,
+        /// TOML settings: lights, spectra, camera, [render].
+        #[arg(long, short)]
+        config: Option<PathBuf>,
+        /// Output folder (created if missing).
+        #[arg(long, short, default_value = "imap-render")]
+        out: PathBuf,
+        /// "semi-synchronous" (default), "synchronous" or "asynchronous".
+        #[arg(long)]
+        method: Option<String>,
+        /// Image size, WIDTHxHEIGHT (overrides the camera's).
+        #[arg(long, value_parser = render_cmd::parse_size)]
+        size: Option<(u32, u32)>,
+        /// Passes over the image (0 = no limit).
+        #[arg(long)]
+        passes: Option<u64>,
+        /// Seconds (0 = no limit).
+        #[arg(long)]
+        time: Option<f64>,
+        /// Target relative error of the image, e.g. 0.02 (0 = none).
+        #[arg(long)]
+        target_error: Option<f64>,
+        /// Threads (0 = one per core).
+        #[arg(long)]
+        threads: Option<usize>,
+        /// Seed of the random streams.
+        #[arg(long)]
+        seed: Option<u64>,
+        /// No progress line.
+        #[arg(long)]
+        quiet: bool,
+    },
+    /// Read a model and print what was read, as JSON: format, objects, triangles,
+    /// materials, bounds, warnings and errors (exit status 2 when it has errors).
+    Info {
+        /// The model (.obj with its MTL libraries, .gltf, .glb, .ply, .stl).
+        scene: PathBuf,
     },
     /// The Cornell box, built in memory, run to a target error; writes every output.
     Demo {
@@ -99,6 +145,36 @@ fn main() {
             };
             run_scene(&scene, settings, &opts).map(|_| ())
         })(),
+        Command::Render {
+            scene,
+            config,
+            out,
+            method,
+            size,
+            passes,
+            time,
+            target_error,
+            threads,
+            seed,
+            quiet,
+        } => (|| {
+            let settings = match &config {
+                Some(p) => Settings::load(p)?,
+                None => Settings::default(),
+            };
+            let opts = render_cmd::RenderOptions {
+                method,
+                size,
+                passes,
+                time,
+                target_error,
+                threads,
+                seed,
+                quiet,
+            };
+            render_cmd::render(&scene, settings, &opts, &out).map(|_| ())
+        })(),
+        Command::Info { scene } => info(&scene),
         Command::Demo { opts } => demo(&opts),
         Command::Validate { photons } => validate_cmd(photons),
     };
@@ -139,14 +215,14 @@ fn apply_options(settings: &mut Settings, opts: &RunOptions) {
 /// SIGINT and SIGTERM: the first stops the run at its next progress check, and the
 /// outputs of what was computed are written (marked interrupted) before the command exits
 /// with 128 + the signal's number; a second signal exits at once.
-struct Interrupts {
+pub(crate) struct Interrupts {
     any: Arc<AtomicBool>,
     int: Arc<AtomicBool>,
     term: Arc<AtomicBool>,
 }
 
 impl Interrupts {
-    fn get() -> &'static Interrupts {
+    pub(crate) fn get() -> &'static Interrupts {
         static I: OnceLock<Interrupts> = OnceLock::new();
         I.get_or_init(|| {
             let i = Interrupts {
@@ -166,12 +242,12 @@ impl Interrupts {
         })
     }
 
-    fn raised(&self) -> bool {
+    pub(crate) fn raised(&self) -> bool {
         self.any.load(Ordering::Relaxed)
     }
 
     /// The exit status for the signal that came: 130 (SIGINT) or 143 (SIGTERM).
-    fn status(&self) -> Option<i32> {
+    pub(crate) fn status(&self) -> Option<i32> {
         if self.int.load(Ordering::Relaxed) {
             Some(130)
         } else if self.term.load(Ordering::Relaxed) {
@@ -204,6 +280,7 @@ fn run_scene(obj: &Path, mut settings: Settings, opts: &RunOptions) -> Result<se
     if let Some(c) = &settings.camera {
         c.validate()?;
     }
+    let up = settings.up()?;
     let (mut ctx, scene) = scene::load(obj, &settings)?;
     for w in &scene.warnings {
         eprintln!("imap: warning: {}", diag::printable(w));
@@ -211,7 +288,7 @@ fn run_scene(obj: &Path, mut settings: Settings, opts: &RunOptions) -> Result<se
     let cam: CameraSettings = settings
         .camera
         .clone()
-        .unwrap_or_else(|| output::default_camera(&scene));
+        .unwrap_or_else(|| output::default_camera(&scene, up));
     cam.validate()?;
     std::fs::create_dir_all(&opts.out)
         .map_err(|e| CliError(format!("{}: {e}", opts.out.display())))?;
@@ -338,6 +415,10 @@ fn run_scene(obj: &Path, mut settings: Settings, opts: &RunOptions) -> Result<se
     }
     let json = serde_json::json!({
         "scene": obj.display().to_string(),
+        "model": {
+            "format": scene.format, "triangles_read": scene.triangles_read,
+            "material_variants": scene.material_variants
+        },
         "settings": settings,
         "bands_nm": scene.band_nm,
         "meshes": scene.meshes.iter().zip(&photometry.meshes).map(|(m, lux)| serde_json::json!({
@@ -425,6 +506,51 @@ fn run_scene(obj: &Path, mut settings: Settings, opts: &RunOptions) -> Result<se
         std::process::exit(code);
     }
     Ok(json)
+}
+
+fn info(path: &Path) -> Result<()> {
+    let mut d = diag::Diagnostics::default();
+    let m = model::load(path, &mut d).map_err(CliError)?;
+    if m.triangles() == 0 && !d.has_errors() {
+        d.error(path, 0, "no triangles");
+    }
+    let mut lo = [f64::INFINITY; 3];
+    let mut hi = [f64::NEG_INFINITY; 3];
+    for o in &m.objects {
+        for t in &o.triangles {
+            for &v in &t.v {
+                let p = m.positions[v as usize];
+                for k in 0..3 {
+                    lo[k] = lo[k].min(p[k]);
+                    hi[k] = hi[k].max(p[k]);
+                }
+            }
+        }
+    }
+    let json = serde_json::json!({
+        "scene": path.display().to_string(),
+        "format": m.format,
+        "vertices": m.positions.len(),
+        "triangles": m.triangles(),
+        "degenerate_triangles_left_out": m.degenerate,
+        "vertex_colours": m.colours.is_some(),
+        "objects": m.objects.iter().map(|o| serde_json::json!({
+            "name": o.name, "triangles": o.triangles.len()
+        })).collect::<Vec<_>>(),
+        "materials": m.materials.iter().map(|x| serde_json::json!({
+            "name": x.name, "kd": x.kd, "ks": x.ks, "ke": x.ke, "ni": x.ni, "d": x.d,
+            "texture": x.texture.as_ref().map(|t| t.name.clone()),
+            "texture_average": x.texture.as_ref().map(|t| t.average),
+        })).collect::<Vec<_>>(),
+        "bounds": if m.triangles() > 0 { serde_json::json!([lo, hi]) } else { serde_json::Value::Null },
+        "warnings": d.warnings,
+        "errors": d.errors,
+    });
+    println!("{}", serde_json::to_string_pretty(&json).unwrap());
+    if d.has_errors() {
+        return Err(CliError::from_diagnostics(&d));
+    }
+    Ok(())
 }
 
 fn demo(opts: &RunOptions) -> Result<()> {

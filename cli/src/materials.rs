@@ -110,7 +110,9 @@ pub fn resolve(
     let tf = m.tf.map(|t| t.map(|x| x.clamp(0.0, 1.0)));
     let transparent = opacity < 1.0 || tf.is_some_and(|t| t.iter().any(|&x| x < 1.0));
     let refractive = m.ni.is_some_and(|n| n > 1.0 + 1e-6);
-    let black = m.kd.is_none_or(|k| k.iter().all(|&x| x <= 0.0)) && m.map_kd.is_none();
+    let black = m.kd.is_none_or(|k| k.iter().all(|&x| x <= 0.0))
+        && m.map_kd.is_none()
+        && m.texture.is_none();
     let mut ior = None;
     if transparent && refractive {
         ior = m.ni;
@@ -148,7 +150,7 @@ pub fn resolve(
         // A lamp without a Kd: it emits and absorbs.
         (None, None) if emits => Some([0.0; 3]),
         (None, None) => {
-            if !dielectric && o.diffuse.is_none() {
+            if !dielectric && o.diffuse.is_none() && !m.implicit {
                 diag.warn(format!(
                     "{}:{line}: material '{name}' has no Kd and no texture: grey 0.5",
                     file.display()

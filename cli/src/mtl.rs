@@ -25,6 +25,10 @@ pub struct Mtl {
     pub illum: Option<i64>,
     /// `map_Kd`, resolved against the MTL's directory.
     pub map_kd: Option<PathBuf>,
+    /// The decoded diffuse texture (`map_Kd`, glTF baseColorTexture), when it could be read.
+    pub texture: Option<std::sync::Arc<crate::model::Texture>>,
+    /// Made by a reader for a file without materials (PLY, STL): vertex colours override it.
+    pub implicit: bool,
 }
 
 fn colour(rest: &[&str]) -> Result<[f64; 3], String> {

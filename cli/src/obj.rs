@@ -4,7 +4,8 @@
 //! vertex's index in the file, reports every problem with its line, reads names in UTF-8 or
 //! Latin-1, and drops (and counts) triangles that repeat a vertex.
 //!
-//! Statements read: `v` (x y z; a w or vertex colours after them are ignored), `vt`,
+//! Statements read: `v` (x y z, and r g b vertex colours in [0, 1], sRGB, when every vertex
+//! has them; a lone w is ignored), `vt`,
 //! `vn` (checked only), `f` (v, v/vt, v//vn, v/vt/vn; negative indices count back;
 //! polygons are split into a fan from their first vertex), `o` and `g` (each name is a
 //! mesh), `usemtl`, `mtllib`. Others (`s`, `l`, `p`, curves) are skipped.
@@ -20,8 +21,6 @@ pub const MAX_COORDINATE: f64 = 1e30;
 #[derive(Clone, Debug)]
 pub struct Triangle {
     pub v: [u32; 3],
-    /// Read for `map_Kd` textures (next step of the loader).
-    #[allow(dead_code)]
     pub vt: Option<[u32; 3]>,
     pub material: Option<usize>,
 }
@@ -39,6 +38,8 @@ pub struct Obj {
     /// Every `v`, in the file's order, as written (f64).
     pub positions: Vec<[f64; 3]>,
     pub texcoords: Vec<[f64; 2]>,
+    /// Linear vertex colours, when every `v` gives r g b.
+    pub colours: Option<Vec<[f64; 3]>>,
     pub objects: Vec<Object>,
     /// Material names in order of first `usemtl`, with that line.
     pub material_names: Vec<String>,
@@ -60,6 +61,8 @@ pub fn parse(path: &Path, bytes: &[u8], diag: &mut Diagnostics) -> Obj {
     let mut current: Option<usize> = None;
     let mut material: Option<usize> = None;
     let mut normals = 0usize;
+    let mut colours: Vec<[f64; 3]> = Vec::new();
+    let mut all_coloured = true;
     for (line, text) in logical_lines(bytes) {
         let mut words = text.split_whitespace();
         let Some(key) = words.next() else { continue };
@@ -73,6 +76,7 @@ pub fn parse(path: &Path, bytes: &[u8], diag: &mut Diagnostics) -> Obj {
                         format!("'v' needs 3 numbers, found {}", rest.len()),
                     );
                     obj.positions.push([0.0; 3]);
+                    all_coloured = false;
                     continue;
                 }
                 let mut p = [0.0; 3];
@@ -88,6 +92,15 @@ pub fn parse(path: &Path, bytes: &[u8], diag: &mut Diagnostics) -> Obj {
                     }
                 }
                 obj.positions.push(p);
+                let rgb: Vec<f64> = rest[3..].iter().filter_map(|w| number(w)).collect();
+                if rest.len() >= 6
+                    && rgb.len() >= 3
+                    && rgb[..3].iter().all(|c| (0.0..=1.0).contains(c))
+                {
+                    colours.push([0, 1, 2].map(|k| crate::model::srgb_to_linear(rgb[k])));
+                } else {
+                    all_coloured = false;
+                }
             }
             "vt" => {
                 let mut t = [0.0; 2];
@@ -195,16 +208,17 @@ pub fn parse(path: &Path, bytes: &[u8], diag: &mut Diagnostics) -> Obj {
                 });
                 for k in 1..corners.len() - 1 {
                     let c = [corners[0], corners[k], corners[k + 1]];
-                    let v = c.map(|x| x.0);
-                    if v[0] == v[1] || v[1] == v[2] || v[0] == v[2] {
-                        obj.degenerate += 1;
-                        continue;
-                    }
                     let vt = match c.map(|x| x.1) {
                         [Some(a), Some(b), Some(d)] => Some([a, b, d]),
                         _ => None,
                     };
-                    obj.objects[o].triangles.push(Triangle { v, vt, material });
+                    crate::model::push_triangle(
+                        &mut obj.objects[o].triangles,
+                        &mut obj.degenerate,
+                        c.map(|x| x.0),
+                        vt,
+                        material,
+                    );
                 }
             }
             "o" | "g" => {
@@ -254,6 +268,9 @@ pub fn parse(path: &Path, bytes: &[u8], diag: &mut Diagnostics) -> Obj {
         ));
     }
     obj.objects.retain(|o| !o.triangles.is_empty());
+    if all_coloured && !colours.is_empty() {
+        obj.colours = Some(colours);
+    }
     obj
 }
 

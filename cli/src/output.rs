@@ -82,6 +82,8 @@ pub struct MeshMap {
     pub xyz: Vec<[f64; 3]>,
     /// Each vertex's area (a third of each adjacent triangle's), m².
     pub areas: Vec<f64>,
+    /// Illuminance of the back side, lx, when the meshes record both sides.
+    pub lux_back: Option<Vec<f64>>,
 }
 
 /// Reads the map of every recorded mesh.
@@ -106,12 +108,20 @@ pub fn read_maps(ctx: &Context, scene: &LoadedScene) -> Result<Vec<Option<MeshMa
             let xyz = flat.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
             let mut areas = vec![0.0; nv];
             ctx.vertex_areas(id, &mut areas)?;
+            let lux_back = if scene.two_sided {
+                let mut b = vec![0.0; nv];
+                ctx.illuminance(id, 1, &mut b)?;
+                Some(b)
+            } else {
+                None
+            };
             Ok(Some(MeshMap {
                 e,
                 rel_error,
                 lux,
                 xyz,
                 areas,
+                lux_back,
             }))
         })
         .collect()
@@ -125,6 +135,21 @@ pub struct PhotometricSummary {
     pub colour: serde_json::Value,
 }
 
+/// Area-weighted mean, minimum and maximum of a side's illuminance over the vertices that
+/// have area.
+fn lux_stats(lux: &[f64], areas: &[f64]) -> serde_json::Value {
+    let a: f64 = areas.iter().sum();
+    let mean = if a > 0.0 {
+        lux.iter().zip(areas).map(|(l, w)| l * w).sum::<f64>() / a
+    } else {
+        0.0
+    };
+    let used = areas.iter().zip(lux).filter(|(w, _)| **w > 0.0);
+    let min = used.clone().map(|(_, l)| *l).fold(f64::INFINITY, f64::min);
+    let max = used.map(|(_, l)| *l).fold(0.0, f64::max);
+    serde_json::json!({"mean": mean, "min": if min.is_finite() { min } else { 0.0 }, "max": max})
+}
+
 pub fn photometric_summary(maps: &[Option<MeshMap>]) -> PhotometricSummary {
     let mut total = [0.0; 3];
     let mut area_sum = 0.0;
@@ -136,21 +161,17 @@ pub fn photometric_summary(maps: &[Option<MeshMap>]) -> PhotometricSummary {
             };
             let areas = map.areas.as_slice();
             let a: f64 = areas.iter().sum();
-            let mean = if a > 0.0 {
-                map.lux.iter().zip(areas).map(|(l, w)| l * w).sum::<f64>() / a
-            } else {
-                0.0
-            };
             for (x, w) in map.xyz.iter().zip(areas) {
                 for k in 0..3 {
                     total[k] += x[k] * w;
                 }
             }
             area_sum += a;
-            let used = areas.iter().zip(&map.lux).filter(|(w, _)| **w > 0.0);
-            let min = used.clone().map(|(_, l)| *l).fold(f64::INFINITY, f64::min);
-            let max = used.map(|(_, l)| *l).fold(0.0, f64::max);
-            serde_json::json!({"mean": mean, "min": if min.is_finite() { min } else { 0.0 }, "max": max})
+            let mut stats = lux_stats(&map.lux, areas);
+            if let Some(back) = &map.lux_back {
+                stats["back"] = lux_stats(back, areas);
+            }
+            stats
         })
         .collect();
     let colour = match imap::photometry::chromaticity(total) {
@@ -195,7 +216,13 @@ pub fn write_csv(path: &Path, scene: &LoadedScene, maps: &[Option<MeshMap>]) -> 
             }
         })
         .collect();
-    writeln!(f, "mesh,vertex,x,y,z,{},rel_error,lux", bands.join(",")).map_err(&err)?;
+    let back = if scene.two_sided { ",lux_back" } else { "" };
+    writeln!(
+        f,
+        "mesh,vertex,x,y,z,{},rel_error,lux{back}",
+        bands.join(",")
+    )
+    .map_err(&err)?;
     let mut rows: Vec<(u32, usize, usize)> = Vec::new();
     for (mi, (m, map)) in scene.meshes.iter().zip(maps).enumerate() {
         if map.is_some() {
@@ -219,7 +246,11 @@ pub fn write_csv(path: &Path, scene: &LoadedScene, maps: &[Option<MeshMap>]) -> 
         for e in &map.e {
             write!(f, ",{}", e[v]).map_err(&err)?;
         }
-        writeln!(f, ",{},{}", map.rel_error[v], map.lux[v]).map_err(&err)?;
+        write!(f, ",{},{}", map.rel_error[v], map.lux[v]).map_err(&err)?;
+        if let Some(b) = &map.lux_back {
+            write!(f, ",{}", b[v]).map_err(&err)?;
+        }
+        writeln!(f).map_err(&err)?;
     }
     f.flush().map_err(&err)
 }
@@ -383,18 +414,62 @@ pub fn write_png(path: &Path, w: u32, h: u32, rgb: &[u8]) -> Result<()> {
         .map_err(|e| CliError(format!("{}: {e}", path.display())))
 }
 
-/// A camera framing the scene's bounding box from the front-left, slightly above.
-pub fn default_camera(scene: &LoadedScene) -> CameraSettings {
+/// A camera that frames the whole model (its bounding sphere fills the 40° view) from the
+/// side of its lights, looking down at about 20° to the model's `up`: from the lights'
+/// power-weighted centre as seen horizontally from the model's centre, or, when they are
+/// (nearly) straight above or below it, from the front of the model (−z for y-up models,
+/// −y for z-up ones) turned 17° about the up axis.
+pub fn default_camera(scene: &LoadedScene, up: [f64; 3]) -> CameraSettings {
     let (lo, hi) = scene.bounds();
     let (lo, hi) = (DVec3::from(lo), DVec3::from(hi));
     let c = 0.5 * (lo + hi);
+    let radius = (0.5 * (hi - lo).length()).max(1e-9);
+    let up = DVec3::from(up).normalize();
+    // The front: −z for y-up, −y for z-up, −x... any axis perpendicular to up.
+    let front = if up.y.abs() > 0.5 {
+        DVec3::NEG_Z
+    } else if up.z.abs() > 0.5 {
+        DVec3::NEG_Y
+    } else {
+        DVec3::NEG_Z
+    };
+    let side = up.cross(front).normalize();
+    let mut horizontal = (front + 0.3 * side).normalize();
+    let mut lit = DVec3::ZERO;
+    let mut power = 0.0;
+    for l in &scene.lights {
+        lit += l.watts * DVec3::from(l.position);
+        power += l.watts;
+    }
+    for m in scene.meshes.iter().filter(|m| m.emission.is_some()) {
+        let n = (m.positions.len() / 3).max(1) as f64;
+        let p: DVec3 = m
+            .positions
+            .chunks_exact(3)
+            .map(|p| DVec3::new(p[0], p[1], p[2]))
+            .sum();
+        let w: f64 = m.emission.as_ref().map_or(0.0, |e| e.iter().sum());
+        lit += w * p / n;
+        power += w;
+    }
+    let mut elevation: f64 = 0.35;
+    if power > 0.0 && (lit / power).is_finite() {
+        let to = lit / power - c;
+        let h = to - up * to.dot(up);
+        if h.length() > 0.2 * radius {
+            horizontal = h.normalize();
+        }
+        if to.dot(up) < -0.2 * radius {
+            elevation = -0.35; // lit from below: look from below
+        }
+    }
+    let dir = (horizontal + elevation * up).normalize();
     let fov: f64 = 40.0;
-    let dist = 0.5 * (hi - lo).length() / (fov.to_radians() / 2.0).sin();
-    let dir = DVec3::new(0.3, 0.35, -1.0).normalize();
+    let dist = radius / (fov.to_radians() / 2.0).sin();
     CameraSettings {
         position: (c + dir * dist).to_array(),
         look_at: c.to_array(),
-        up: [0.0, 1.0, 0.0],
+        up: up.to_array(),
         fov_deg: fov,
         width: 640,
         height: 640,
@@ -820,6 +895,10 @@ mod tests {
             warnings: vec![],
             lights: vec![],
             grids: Vec::new(),
+            format: "OBJ",
+            triangles_read: n,
+            material_variants: 0,
+            two_sided: false,
         };
         let maps = vec![Some(MeshMap {
             e: vec![vec![1.0; nv]; 3],
@@ -827,6 +906,7 @@ mod tests {
             lux: vec![300.0; nv],
             xyz: vec![[285.0, 300.0, 327.0]; nv],
             areas: vec![1.0; nv],
+            lux_back: None,
         })];
         let cam = CameraSettings {
             position: [0.0, 0.0, 3.0],

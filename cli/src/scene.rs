@@ -10,7 +10,7 @@
 use crate::diag::{printable, Diagnostics};
 use crate::lights::{self, LightSettings, LuminaireSettings, PlacedLight};
 use crate::materials::{self, MaterialSettings, Resolved};
-use crate::{mtl, obj};
+use crate::obj;
 use imap::{Bands, Config, Context, MeshDesc, SchedulerKind};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
@@ -121,6 +121,14 @@ pub struct RunSettings {
     /// Percentile of the points' errors for "points", in (0, 100]; default 100.
     #[serde(default)]
     pub grid_error_percentile: Option<f64>,
+    /// Aim point-like lights outside the model at it (exact; default true). False traces
+    /// every direction, as the paper's method does.
+    #[serde(default = "yes")]
+    pub aim_lights: bool,
+}
+
+fn yes() -> bool {
+    true
 }
 
 fn default_scheduler() -> String {
@@ -143,6 +151,7 @@ impl Default for RunSettings {
             grid_error: 0.0,
             grid_error_measure: None,
             grid_error_percentile: None,
+            aim_lights: true,
         }
     }
 }
@@ -152,6 +161,7 @@ impl Default for RunSettings {
 pub struct CameraSettings {
     pub position: [f64; 3],
     pub look_at: [f64; 3],
+    /// Default: the settings' `up_axis`.
     #[serde(default = "default_up")]
     pub up: [f64; 3],
     #[serde(default = "default_fov")]
@@ -179,6 +189,11 @@ pub struct Settings {
     /// Metres per scene unit.
     #[serde(default)]
     pub unit_m: Option<f64>,
+    /// The model's up direction: "y" (OBJ and glTF convention, the default), "z" (most CAD
+    /// and STL files), "x", or with a sign ("-z"). Used by the default camera and as the
+    /// camera's default `up`.
+    #[serde(default)]
+    pub up_axis: Option<String>,
     #[serde(default)]
     pub spectral: Option<SpectralSettings>,
     #[serde(default)]
@@ -201,6 +216,9 @@ pub struct Settings {
     pub two_sided: bool,
     #[serde(default)]
     pub camera: Option<CameraSettings>,
+    /// `imap render`: method and stop criteria.
+    #[serde(default)]
+    pub render: Option<crate::render_cmd::RenderSettings>,
     /// Calculation grids, recorded as sensors.
     #[serde(default, rename = "grid")]
     pub grids: Vec<crate::grids::GridSettings>,
@@ -220,7 +238,41 @@ impl Settings {
             CliError(format!("{}:{line}: {msg}", path.display()))
         })?;
         s.base_dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
+        // A camera without its own `up` takes the model's.
+        let table: toml::Table = text.parse().unwrap_or_default();
+        let up = s.up()?;
+        if let Some(c) = s.camera.as_mut() {
+            if table.get("camera").and_then(|c| c.get("up")).is_none() {
+                c.up = up;
+            }
+        }
         Ok(s)
+    }
+
+    /// The up direction from `up_axis`.
+    pub fn up(&self) -> Result<[f64; 3]> {
+        let a = self
+            .up_axis
+            .as_deref()
+            .unwrap_or("y")
+            .trim()
+            .to_ascii_lowercase();
+        let (sign, axis) = match a.strip_prefix('-') {
+            Some(r) => (-1.0, r),
+            None => (1.0, a.strip_prefix('+').unwrap_or(&a)),
+        };
+        let k = match axis {
+            "x" => 0,
+            "y" => 1,
+            "z" => 2,
+            _ => fail!(
+                "up_axis = \"{}\": use \"x\", \"y\" or \"z\" (optionally with a sign)",
+                printable(&a)
+            ),
+        };
+        let mut u = [0.0; 3];
+        u[k] = sign;
+        Ok(u)
     }
 
     pub fn bands(&self) -> Result<Bands> {
@@ -285,6 +337,14 @@ pub struct LoadedScene {
     pub lights: Vec<PlacedLight>,
     /// The calculation grids.
     pub grids: Vec<crate::grids::Grid>,
+    /// The model's file format, and its triangles as read (before any was dropped).
+    pub format: &'static str,
+    pub triangles_read: usize,
+    /// libimap materials made for colours from textures and vertex colours (and the
+    /// default grey): one per material and colour in steps of 1/63 of sRGB.
+    pub material_variants: usize,
+    /// Every mesh records both sides (settings `two_sided`).
+    pub two_sided: bool,
 }
 
 impl LoadedScene {
@@ -315,11 +375,6 @@ pub fn channel(nm: f64) -> usize {
     }
 }
 
-fn read(path: &Path) -> Result<Vec<u8>> {
-    std::fs::read(path)
-        .map_err(|e| CliError(format!("{}: {e}", printable(&path.display().to_string()))))
-}
-
 /// The context's configuration from the settings.
 fn config(settings: &Settings) -> Result<Config> {
     Ok(Config {
@@ -328,34 +383,17 @@ fn config(settings: &Settings) -> Result<Config> {
         seed: settings.run.seed,
         scheduler: settings.scheduler()?,
         unit_m: settings.unit_m.unwrap_or(1.0),
+        aim_lights: settings.run.aim_lights,
         ..Default::default()
     })
 }
 
-/// Reads an OBJ file and its MTL libraries, reporting every problem at once.
-fn read_obj(path: &Path, diag: &mut Diagnostics) -> Result<(obj::Obj, Vec<mtl::Mtl>)> {
-    let bytes = read(path)?;
-    let o = obj::parse(path, &bytes, diag);
-    let mut mtls = Vec::new();
-    for (lib, line) in &o.mtllibs {
-        match std::fs::read(lib) {
-            Ok(b) => mtls.extend(mtl::parse(lib, &b, diag)),
-            Err(e) => diag.error(
-                path,
-                *line,
-                format!("material library {}: {e}", lib.display()),
-            ),
-        }
-    }
-    Ok((o, mtls))
-}
-
-/// Builds the libimap context from an OBJ file and settings.
+/// Builds the libimap context from a model file (OBJ, glTF, PLY, STL) and settings.
 pub fn load(path: &Path, settings: &Settings) -> Result<(Context, LoadedScene)> {
     let mut diag = Diagnostics::default();
-    let (o, mtls) = read_obj(path, &mut diag)?;
+    let model = crate::model::load(path, &mut diag).map_err(CliError)?;
     for name in settings.materials.keys() {
-        if !mtls.iter().any(|m| &m.name == name) {
+        if !model.materials.iter().any(|m| &m.name == name) {
             diag.warn(format!(
                 "settings: [materials.{name}] names no material of {}",
                 path.display()
@@ -363,7 +401,7 @@ pub fn load(path: &Path, settings: &Settings) -> Result<(Context, LoadedScene)> 
         }
     }
     for n in &settings.record {
-        if !o.objects.iter().any(|m| &m.name == n) {
+        if !model.objects.iter().any(|m| &m.name == n) {
             diag.error(
                 Path::new("settings"),
                 0,
@@ -374,15 +412,22 @@ pub fn load(path: &Path, settings: &Settings) -> Result<(Context, LoadedScene)> 
             );
         }
     }
-    if o.objects.is_empty() && !diag.has_errors() {
+    if model.objects.is_empty() && !diag.has_errors() {
         diag.error(path, 0, "no triangles");
+    }
+    if model.degenerate > 0 {
+        diag.warn(format!(
+            "{}: {} triangle(s) repeat a vertex and were left out",
+            path.display(),
+            model.degenerate
+        ));
     }
     let bands = settings.bands()?;
     let band_nm = bands.wavelengths_nm.clone();
     let rgb = bands.rgb;
-    // Materials: MTL first, then the settings' overrides; the OBJ's usemtl names map to
-    // them (unknown names and a missing mtllib get the default grey, with a warning).
-    let resolved: Vec<Resolved> = mtls
+    // Materials: the file's first, then the settings' overrides (warnings once each).
+    let resolved: Vec<Resolved> = model
+        .materials
         .iter()
         .map(|m| materials::resolve(m, settings.materials.get(&m.name), &band_nm, rgb, &mut diag))
         .collect();
@@ -390,51 +435,26 @@ pub fn load(path: &Path, settings: &Settings) -> Result<(Context, LoadedScene)> 
         return Err(CliError::from_diagnostics(&diag));
     }
     let mut ctx = Context::new(config(settings)?)?;
-    let mut ids = Vec::with_capacity(resolved.len());
-    for (m, r) in mtls.iter().zip(&resolved) {
-        let id = ctx.add_material(&r.desc).map_err(|e| {
-            CliError(format!(
-                "{}:{}: material '{}': {}",
-                m.at.0.display(),
-                m.at.1,
-                printable(&m.name),
-                e.message
-            ))
-        })?;
-        ids.push(id);
-    }
-    let default = materials::default_grey(band_nm.len());
-    let default_id = ctx.add_material(&default.desc)?;
-    let of_usemtl: Vec<Option<usize>> = o
-        .material_names
-        .iter()
-        .zip(&o.material_lines)
-        .map(|(n, line)| {
-            let i = mtls.iter().position(|m| &m.name == n);
-            if i.is_none() {
-                let why = if o.mtllibs.is_empty() {
-                    "is used but no mtllib is given"
-                } else {
-                    "is in no material library"
-                };
-                diag.warn(format!(
-                    "{}:{line}: material '{n}' {why}: default grey 0.5",
-                    path.display()
-                ));
-            }
-            i
-        })
-        .collect();
-    let material_of =
-        |t: &obj::Triangle| -> Option<usize> { t.material.and_then(|u| of_usemtl[u]) };
+    let mut palette = Palette {
+        model: &model,
+        settings,
+        band_nm: &band_nm,
+        rgb,
+        resolved,
+        default: materials::default_grey(band_nm.len()),
+        ids: BTreeMap::new(),
+        variants: Vec::new(),
+    };
 
     let mut meshes = Vec::new();
-    for object in &o.objects {
+    let mut dropped = 0usize;
+    for object in &model.objects {
         // One mesh of the object's non-emitting triangles, one per emitting material.
         let mut parts: Vec<(Option<usize>, Vec<&obj::Triangle>)> = Vec::new();
         for t in &object.triangles {
-            let m = material_of(t);
-            let key = m.filter(|&i| resolved[i].emission.is_some());
+            let key = t
+                .material
+                .filter(|&i| palette.resolved[i].emission.is_some());
             match parts.iter_mut().find(|(k, _)| *k == key) {
                 Some((_, v)) => v.push(t),
                 None => parts.push((key, vec![t])),
@@ -442,20 +462,10 @@ pub fn load(path: &Path, settings: &Settings) -> Result<(Context, LoadedScene)> 
         }
         for (emitter, tris) in parts {
             let name = match emitter {
-                Some(i) => format!("{}/{}", object.name, mtls[i].name),
+                Some(i) => format!("{}/{}", object.name, model.materials[i].name),
                 None => object.name.clone(),
             };
-            let mesh = build_mesh(
-                &name,
-                &o,
-                &tris,
-                &material_of,
-                &resolved,
-                &ids,
-                default_id,
-                &default,
-                settings,
-            );
+            let mesh = build_mesh(&name, &tris, &mut palette, &mut ctx)?;
             let id = ctx.add_mesh(&mesh.desc()).map_err(|e| {
                 CliError(format!(
                     "{}: object '{}': {}",
@@ -464,12 +474,20 @@ pub fn load(path: &Path, settings: &Settings) -> Result<(Context, LoadedScene)> 
                     e.message
                 ))
             })?;
+            dropped += ctx.dropped_triangles(id)?;
             meshes.push(LoadedMesh {
                 id: mesh.record.then_some(id),
                 ..mesh.loaded
             });
         }
     }
+    if dropped > 0 {
+        diag.warn(format!(
+            "{}: {dropped} triangle(s) with a repeated vertex after merging were left out",
+            path.display()
+        ));
+    }
+    let variants = palette.variants.len();
     let mut placed = Vec::new();
     lights::add_lights(&mut ctx, &settings.lights, &mut placed)?;
     lights::add_luminaires(
@@ -488,8 +506,123 @@ pub fn load(path: &Path, settings: &Settings) -> Result<(Context, LoadedScene)> 
             warnings: diag.warnings,
             lights: placed,
             grids,
+            format: model.format,
+            triangles_read: model.triangles(),
+            material_variants: variants,
+            two_sided: settings.two_sided,
         },
     ))
+}
+
+/// A file material (None: the default grey) and a colour key (None: its own colour).
+type MaterialKey = (Option<usize>, Option<[u8; 3]>);
+
+/// The libimap materials of a model, made on first use: one per file material, and one per
+/// (material, colour) where a texture or vertex colours give triangles their own colour.
+struct Palette<'a> {
+    model: &'a crate::model::Model,
+    settings: &'a Settings,
+    band_nm: &'a [f64],
+    rgb: bool,
+    resolved: Vec<Resolved>,
+    default: Resolved,
+    /// (material or None for the default, colour key or None) → (id, index into variants
+    /// or usize::MAX for an unvaried material).
+    ids: BTreeMap<MaterialKey, (u32, usize)>,
+    variants: Vec<Resolved>,
+}
+
+impl Palette<'_> {
+    /// The colour a triangle takes from a texture or its vertices, if any.
+    fn colour(&self, t: &obj::Triangle) -> Option<[f64; 3]> {
+        let m = t.material.map(|i| &self.model.materials[i]);
+        // The settings' diffuse overrides any colour of the file.
+        if let Some(m) = m {
+            if self
+                .settings
+                .materials
+                .get(&m.name)
+                .is_some_and(|o| o.diffuse.is_some() || o.dielectric == Some(true))
+            {
+                return None;
+            }
+        }
+        if let Some(tex) = m.and_then(|m| m.texture.as_ref()) {
+            let c = match t.vt {
+                Some(vt) => tex.footprint(vt.map(|i| self.model.texcoords[i as usize])),
+                None => tex.average,
+            };
+            // map_Kd multiplies Kd (the MTL definition); without a Kd the texture alone.
+            let kd = m.and_then(|m| m.kd).unwrap_or([1.0; 3]);
+            return Some([0, 1, 2].map(|k| c[k] * kd[k]));
+        }
+        let cols = self.model.colours.as_ref()?;
+        // Vertex colours colour what the file gives no colour: no material, or one without
+        // Kd (the default material of PLY and STL files counts as none).
+        if m.is_some_and(|m| m.kd.is_some() && !m.implicit) {
+            return None;
+        }
+        let mut c = [0.0; 3];
+        for v in t.v {
+            for k in 0..3 {
+                c[k] += cols[v as usize][k] / 3.0;
+            }
+        }
+        Some(c)
+    }
+
+    /// The material id and resolved material of a triangle.
+    fn of(&mut self, t: &obj::Triangle, ctx: &mut Context) -> Result<(u32, &Resolved)> {
+        let key = (t.material, self.colour(t).map(crate::model::colour_key));
+        if !self.ids.contains_key(&key) {
+            let r = match (key.0, key.1) {
+                (None, None) => self.default.clone(),
+                (Some(i), None) => self.resolved[i].clone(),
+                (m, Some(k)) => {
+                    let mut base = match m {
+                        Some(i) => self.model.materials[i].clone(),
+                        None => crate::mtl::Mtl {
+                            name: "default".into(),
+                            ..Default::default()
+                        },
+                    };
+                    base.kd = Some(crate::model::key_colour(k));
+                    base.texture = None;
+                    base.map_kd = None;
+                    // Warnings were given for the material itself.
+                    let mut quiet = Diagnostics::default();
+                    let o = self.settings.materials.get(&base.name);
+                    materials::resolve(&base, o, self.band_nm, self.rgb, &mut quiet)
+                }
+            };
+            let id = ctx.add_material(&r.desc).map_err(|e| {
+                let name = key.0.map_or("default".to_string(), |i| {
+                    let m = &self.model.materials[i];
+                    format!(
+                        "{}:{}: material '{}'",
+                        m.at.0.display(),
+                        m.at.1,
+                        printable(&m.name)
+                    )
+                });
+                CliError(format!("{name}: {}", e.message))
+            })?;
+            let slot = if key.1.is_some() || key.0.is_none() {
+                self.variants.push(r);
+                self.variants.len() - 1
+            } else {
+                usize::MAX
+            };
+            self.ids.insert(key, (id, slot));
+        }
+        let (id, slot) = self.ids[&key];
+        let r = if slot != usize::MAX {
+            &self.variants[slot]
+        } else {
+            &self.resolved[key.0.expect("a file material")]
+        };
+        Ok((id, r))
+    }
 }
 
 /// A mesh to add: its loaded form and whether it records.
@@ -514,22 +647,20 @@ impl Built {
             exitance: self.exitance.as_deref(),
             sensor: false,
             tally: false,
+            // Vertices merged by position (STL) can make a triangle repeat one.
+            skip_degenerate: true,
         }
     }
 }
 
-#[allow(clippy::too_many_arguments)]
 fn build_mesh(
     name: &str,
-    o: &obj::Obj,
     tris: &[&obj::Triangle],
-    material_of: &dyn Fn(&obj::Triangle) -> Option<usize>,
-    resolved: &[Resolved],
-    ids: &[u32],
-    default_id: u32,
-    default: &Resolved,
-    settings: &Settings,
-) -> Built {
+    palette: &mut Palette,
+    ctx: &mut Context,
+) -> Result<Built> {
+    let o = palette.model;
+    let settings = palette.settings;
     // The vertices the triangles use, in the file's order.
     let mut used: Vec<u32> = tris.iter().flat_map(|t| t.v).collect();
     used.sort_unstable();
@@ -537,20 +668,22 @@ fn build_mesh(
     let local = |v: u32| used.binary_search(&v).expect("used vertex") as u32;
     let positions: Vec<f64> = used.iter().flat_map(|&v| o.positions[v as usize]).collect();
     let indices: Vec<u32> = tris.iter().flat_map(|t| t.v.map(local)).collect();
-    let mat = |t: &obj::Triangle| material_of(t).map_or(default, |i| &resolved[i]);
-    let materials: Vec<u32> = tris
-        .iter()
-        .map(|t| material_of(t).map_or(default_id, |i| ids[i]))
-        .collect();
     // The view's colour of a vertex: the mean diffuse of its triangles.
-    let nb = default.diffuse.len();
+    let nb = palette.band_nm.len();
     let mut diffuse = vec![vec![0.0; nb]; used.len()];
     let mut count = vec![0u32; used.len()];
-    for t in tris {
+    let mut materials = Vec::with_capacity(tris.len());
+    let mut exitance = None;
+    for (k, t) in tris.iter().enumerate() {
+        let (id, r) = palette.of(t, ctx)?;
+        materials.push(id);
+        if k == 0 {
+            exitance = r.emission.clone();
+        }
         for v in t.v {
             let l = local(v) as usize;
             count[l] += 1;
-            for (d, x) in diffuse[l].iter_mut().zip(&mat(t).diffuse) {
+            for (d, x) in diffuse[l].iter_mut().zip(&r.diffuse) {
                 *d += x;
             }
         }
@@ -558,7 +691,6 @@ fn build_mesh(
     for (d, c) in diffuse.iter_mut().zip(&count) {
         d.iter_mut().for_each(|x| *x /= (*c).max(1) as f64);
     }
-    let exitance = tris.first().and_then(|t| mat(t).emission.clone());
     // Emitters are not recorded unless named; everything else is when `record` is empty.
     let record = if settings.record.is_empty() {
         exitance.is_none()
@@ -568,7 +700,8 @@ fn build_mesh(
             .iter()
             .any(|r| r == name || name.split('/').next() == Some(r.as_str()))
     };
-    Built {
+    let material = materials[0];
+    Ok(Built {
         loaded: LoadedMesh {
             name: name.to_string(),
             positions,
@@ -582,6 +715,6 @@ fn build_mesh(
         exitance,
         record,
         two_sided: settings.two_sided,
-        material: default_id,
-    }
+        material,
+    })
 }

@@ -40,6 +40,7 @@ fn mesh<'a>(p: &'a [f64], i: &'a [u32], material: u32) -> MeshDesc<'a> {
         exitance: None,
         sensor: false,
         tally: false,
+        skip_degenerate: false,
     }
 }
 

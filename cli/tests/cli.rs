@@ -250,6 +250,7 @@ fn outputs_exist_parse_and_the_ply_holds_libimap_s_map() {
             exitance: None,
             sensor: false,
             tally: false,
+            skip_degenerate: false,
         })
         .unwrap();
     ctx.add_mesh(&imap::MeshDesc {
@@ -262,6 +263,7 @@ fn outputs_exist_parse_and_the_ply_holds_libimap_s_map() {
         exitance: Some(&[10.0]),
         sensor: false,
         tally: false,
+        skip_degenerate: false,
     })
     .unwrap();
     ctx.run(&mut imap::RunParams {

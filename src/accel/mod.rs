@@ -415,6 +415,7 @@ mod tests {
             exitance: None,
             sensor: false,
             tally: false,
+            skip_degenerate: false,
         };
         scene
             .meshes
@@ -422,7 +423,7 @@ mod tests {
         scene
             .lights
             .push(Light::point([0.0, 0.0, 1.0], &[1.0], &scene.bands).unwrap());
-        let prepared = PreparedScene::new(&scene, &[1.0]).unwrap();
+        let prepared = PreparedScene::new(&scene, &[1.0], true).unwrap();
         let accel = Accel::build(&device, &prepared.meshes).unwrap();
         let o = DVec3::new(0.0, 0.0, 1.0) - prepared.origin;
         let (guard, hit) = accel.guard_after_intersect(o, DVec3::new(0.0, 0.0, -1.0));

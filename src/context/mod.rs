@@ -57,6 +57,9 @@ pub struct Config {
     pub memory_budget: u64,
     /// Metres per scene unit.
     pub unit_m: f64,
+    /// Aim point-like lights outside the geometry's bounding sphere at it (exact; see
+    /// `IMAP_CONFIG_NO_LIGHT_AIMING`). Default true.
+    pub aim_lights: bool,
 }
 
 impl Default for Config {
@@ -69,6 +72,7 @@ impl Default for Config {
             dynamic: DynamicParams::default(),
             memory_budget: 0,
             unit_m: 1.0,
+            aim_lights: true,
         }
     }
 }
@@ -448,7 +452,11 @@ impl Context {
                     "the scene has no light: add a light, a luminaire or an emitting mesh"
                 );
             }
-            let scene = PreparedScene::new(&self.scene, &self.photometry.efficacy)?;
+            let scene = PreparedScene::new(
+                &self.scene,
+                &self.photometry.efficacy,
+                self.config.aim_lights,
+            )?;
             let accel = Accel::build(&self.device, &scene.meshes)?;
             let sensors = Accel::build_sensors(&self.device, &scene.meshes)?;
             self.prepared = Some(Prepared {
@@ -619,6 +627,13 @@ impl Context {
     /// The error-against-time history since the last reset.
     pub fn history(&self) -> &[Progress] {
         &self.history
+    }
+
+    /// Triangles of mesh `mesh` left out because they repeat a vertex
+    /// (`MeshDesc::skip_degenerate`).
+    pub fn dropped_triangles(&self, mesh: u32) -> Result<usize> {
+        self.mesh_index(mesh)?;
+        Ok(self.scene.meshes[mesh as usize].dropped_triangles)
     }
 
     /// Power absorbed by a mesh (at its surface or inside its medium), W.

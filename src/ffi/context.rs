@@ -38,6 +38,16 @@ pub const IMAP_INLINE_AUTO: u32 = 0;
 pub const IMAP_INLINE_ALWAYS: u32 = 1;
 /// Always hand portions to the processing threads (the paper's scheme as published).
 pub const IMAP_INLINE_NEVER: u32 = 2;
+/// `ImapConfig::flags`: do not aim point-like lights at the geometry. By default a point,
+/// spot, cosine or goniometric light (without a luminous opening) outside the sphere
+/// around the scene's geometry emits only into the cone of directions toward that sphere,
+/// each photon weighted by the light's flux share in the cone (for a point light, the
+/// cone's solid angle over 4π; for cosine lights and luminaires, with the cone within 30°
+/// of its axis, I(d)/Φ times the cone's solid angle): the directions left out meet
+/// nothing, so the map and the energy balance stay exact (the flux left out is counted as
+/// escaped) and no photon is spent on the void. Set this to trace every direction, as the
+/// paper's method does. (Since 0.2.1.)
+pub const IMAP_CONFIG_NO_LIGHT_AIMING: u32 = 1;
 
 /// Context settings, fixed at creation (threads and scheduler settings can be changed
 /// later). Initialise with `imap_config_default(&cfg, sizeof cfg)`.
@@ -84,6 +94,8 @@ pub struct ImapConfig {
     pub min_group_slots: u32,
     /// Dynamic scheduler: `IMAP_INLINE_*`.
     pub inline_apply: u32,
+    /// `IMAP_CONFIG_*` flags, or-ed; 0 = the defaults. (Since 0.2.1.)
+    pub flags: u32,
 }
 
 // SAFETY: repr(C), u32 struct_size first, plain numbers only.
@@ -109,6 +121,7 @@ unsafe impl Versioned for ImapConfig {
             split_high_threshold: 0,
             min_group_slots: 0,
             inline_apply: IMAP_INLINE_AUTO,
+            flags: 0,
         }
     }
 }
@@ -176,6 +189,13 @@ fn config_from_c(c: &ImapConfig) -> Result<Config> {
             ),
         },
     };
+    if c.flags & !IMAP_CONFIG_NO_LIGHT_AIMING != 0 {
+        bail!(
+            ImapErrInvalidArgument,
+            "config.flags = 0x{:x} has bits that are no IMAP_CONFIG_* flag",
+            c.flags
+        );
+    }
     Ok(Config {
         bands,
         threads: c.threads as usize,
@@ -184,6 +204,7 @@ fn config_from_c(c: &ImapConfig) -> Result<Config> {
         dynamic,
         memory_budget: c.memory_budget_bytes,
         unit_m: c.unit_m,
+        aim_lights: c.flags & IMAP_CONFIG_NO_LIGHT_AIMING == 0,
     })
 }
 

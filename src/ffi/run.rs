@@ -575,3 +575,21 @@ pub unsafe extern "C" fn imap_get_mesh_absorbed(
 ) -> ImapStatus {
     with_context(ctx, |c| write_out("out_w", out_w, c.absorbed_w(mesh)?))
 }
+
+/// How many triangles of mesh `mesh` were left out because they repeat a vertex (added
+/// with IMAP_MESH_SKIP_DEGENERATE; 0 otherwise), into `*out_count`. (Since 0.2.1.)
+///
+/// Returns IMAP_ERR_NULL_POINTER, IMAP_ERR_INVALID_ARGUMENT (no such mesh).
+///
+/// # Safety
+/// `ctx` is a live handle; `out_count` is writable.
+#[no_mangle]
+pub unsafe extern "C" fn imap_get_mesh_dropped_triangles(
+    ctx: *const ImapContext,
+    mesh: u32,
+    out_count: *mut usize,
+) -> ImapStatus {
+    with_context(ctx, |c| {
+        write_out("out_count", out_count, c.dropped_triangles(mesh)?)
+    })
+}

@@ -31,6 +31,11 @@ pub const IMAP_MESH_SENSOR: u32 = 4;
 /// errors; without it they get an upper bound (docs/results.md). Sensors always have them.
 /// Costs work at every photon deposit on the mesh. (Since 0.2.1.)
 pub const IMAP_MESH_TALLY: u32 = 8;
+/// `ImapMesh::flags`: leave out the triangles that repeat a vertex (CAD exports hold many;
+/// they have no area) instead of refusing the mesh with IMAP_ERR_DEGENERATE_TRIANGLE;
+/// `imap_get_mesh_dropped_triangles` says how many. `triangle_materials` is still given
+/// for every input triangle. A mesh with no triangle left is refused. (Since 0.2.1.)
+pub const IMAP_MESH_SKIP_DEGENERATE: u32 = 16;
 
 /// A material. Initialise with `imap_material_default(&m, sizeof m)` (no reflection, no
 /// transmission: black). Per-band arrays hold 1 value (the same in every band) or one per
@@ -88,7 +93,7 @@ unsafe impl Versioned for ImapMaterial {
 pub struct ImapMesh {
     /// `sizeof(ImapMesh)` as the program was compiled; set by `imap_mesh_default`.
     pub struct_size: u32,
-    /// `IMAP_MESH_TWO_SIDED` | `IMAP_MESH_RECORD`.
+    /// `IMAP_MESH_*` flags, or-ed.
     pub flags: u32,
     /// x, y, z of each vertex (3·vertex_count doubles), scene units, |x| ≤ 1e30.
     pub positions: *const f64,
@@ -253,7 +258,8 @@ pub unsafe extern "C" fn imap_add_material(
 /// Returns IMAP_ERR_NULL_POINTER, IMAP_ERR_EMPTY_MESH (no vertex or no triangle),
 /// IMAP_ERR_NON_FINITE (a NaN/Inf coordinate or exitance), IMAP_ERR_PRECISION (a
 /// coordinate beyond ±1e30), IMAP_ERR_INDEX_OUT_OF_RANGE (a vertex index ≥ vertex_count),
-/// IMAP_ERR_DEGENERATE_TRIANGLE (a triangle repeating a vertex), IMAP_ERR_UNKNOWN_MATERIAL,
+/// IMAP_ERR_DEGENERATE_TRIANGLE (a triangle repeating a vertex, unless
+/// IMAP_MESH_SKIP_DEGENERATE; or no triangle left), IMAP_ERR_UNKNOWN_MATERIAL,
 /// IMAP_ERR_INVALID_ARGUMENT, IMAP_ERR_NO_LIGHT (an emitting mesh with zero exitance or
 /// zero area), IMAP_ERR_MEMORY_BUDGET, IMAP_ERR_OUT_OF_MEMORY, IMAP_ERR_OUT_OF_ORDER
 /// (after a run: call `imap_reset` first), IMAP_ERR_BUSY. Nothing is added on failure.
@@ -301,9 +307,12 @@ pub unsafe extern "C" fn imap_add_mesh(
         } else {
             Some(slice("mesh.exitance", m.exitance, m.exitance_count)?)
         };
-        if m.flags & !(IMAP_MESH_TWO_SIDED | IMAP_MESH_RECORD | IMAP_MESH_SENSOR | IMAP_MESH_TALLY)
-            != 0
-        {
+        let known = IMAP_MESH_TWO_SIDED
+            | IMAP_MESH_RECORD
+            | IMAP_MESH_SENSOR
+            | IMAP_MESH_TALLY
+            | IMAP_MESH_SKIP_DEGENERATE;
+        if m.flags & !known != 0 {
             bail!(
                 ImapErrInvalidArgument,
                 "mesh.flags = 0x{:x} has bits that are no IMAP_MESH_* flag",
@@ -320,6 +329,7 @@ pub unsafe extern "C" fn imap_add_mesh(
             exitance,
             sensor: m.flags & IMAP_MESH_SENSOR != 0,
             tally: m.flags & IMAP_MESH_TALLY != 0,
+            skip_degenerate: m.flags & IMAP_MESH_SKIP_DEGENERATE != 0,
         };
         c.add_mesh(&desc)
     })

@@ -44,6 +44,19 @@ pub fn uniform_cone(axis: DVec3, cos_max: f64, u1: f64, u2: f64) -> DVec3 {
     (t * (r * phi.cos()) + b * (r * phi.sin()) + axis * z).normalize()
 }
 
+/// Uniform direction in the cone around unit `axis` whose half-angle θ has
+/// 1 − cos θ = `one_minus_cos`, precise however narrow the cone: the sine of the angle to
+/// the axis comes from 1 − cos directly, never from a cosine rounded near 1.
+#[inline]
+pub fn uniform_narrow_cone(axis: DVec3, one_minus_cos: f64, u1: f64, u2: f64) -> DVec3 {
+    let v = u1 * one_minus_cos; // 1 − cos of the angle to the axis
+    let r = (v * (2.0 - v)).max(0.0).sqrt();
+    let z = 1.0 - v;
+    let phi = 2.0 * PI * u2;
+    let (t, b) = basis(axis);
+    (t * (r * phi.cos()) + b * (r * phi.sin()) + axis * z).normalize()
+}
+
 /// Uniform barycentric coordinates (b1, b2) on a triangle.
 #[inline]
 pub fn uniform_triangle(u1: f64, u2: f64) -> (f64, f64) {

@@ -29,6 +29,9 @@ pub struct Mesh {
     pub tally: bool,
     /// Light group of an emitting mesh's photons (see `Light::group`).
     pub light_group: u32,
+    /// Triangles of the description left out because they repeat a vertex
+    /// (`MeshDesc::skip_degenerate`).
+    pub dropped_triangles: usize,
 }
 
 /// What the caller passes to `add_mesh`.
@@ -47,6 +50,10 @@ pub struct MeshDesc<'a> {
     pub sensor: bool,
     /// See `Mesh::tally`.
     pub tally: bool,
+    /// Leave out (and count in `Mesh::dropped_triangles`) the triangles that repeat a
+    /// vertex instead of refusing the mesh. CAD exports hold many of them; they have no
+    /// area and carry no light, so dropping them changes nothing else.
+    pub skip_degenerate: bool,
 }
 
 impl Mesh {
@@ -86,6 +93,8 @@ impl Mesh {
             "the mesh's positions",
         )?;
         let mut triangles = try_with_capacity(nt, "the mesh's triangles")?;
+        // Input triangles kept (only built when some are dropped).
+        let mut kept: Option<Vec<usize>> = None;
         for (t, tri) in desc.indices.chunks_exact(3).enumerate() {
             if let Some(&i) = tri.iter().find(|&&i| i as usize >= nv) {
                 bail!(
@@ -94,6 +103,10 @@ impl Mesh {
                 );
             }
             if tri[0] == tri[1] || tri[1] == tri[2] || tri[0] == tri[2] {
+                if desc.skip_degenerate {
+                    kept.get_or_insert_with(|| (0..t).collect());
+                    continue;
+                }
                 bail!(
                     ImapErrDegenerateTriangle,
                     "triangle {t} uses a vertex twice ({}, {}, {})",
@@ -102,7 +115,17 @@ impl Mesh {
                     tri[2]
                 );
             }
+            if let Some(k) = kept.as_mut() {
+                k.push(t);
+            }
             triangles.push([tri[0], tri[1], tri[2]]);
+        }
+        let dropped_triangles = nt - triangles.len();
+        if triangles.is_empty() {
+            bail!(
+                ImapErrDegenerateTriangle,
+                "every one of the mesh's {nt} triangles uses a vertex twice: nothing is left"
+            );
         }
         // A sensor's materials are only labels of its parts: no material need exist.
         let check_material = |what: &str, m: u32| -> Result<()> {
@@ -128,10 +151,12 @@ impl Mesh {
                 if let Some(t) = ids.iter().position(|&m| m as usize >= material_count) {
                     check_material(&format!("triangle {t}'s material"), ids[t])?;
                 }
-                Some(try_collect(
-                    ids.iter().copied(),
-                    "the mesh's triangle materials",
-                )?)
+                Some(match &kept {
+                    None => try_collect(ids.iter().copied(), "the mesh's triangle materials")?,
+                    Some(k) => {
+                        try_collect(k.iter().map(|&t| ids[t]), "the mesh's triangle materials")?
+                    }
+                })
             }
         };
         if desc.sensor && desc.exitance.is_some() {
@@ -180,6 +205,7 @@ impl Mesh {
             sensor: desc.sensor,
             tally: desc.sensor || desc.tally,
             light_group: 0,
+            dropped_triangles,
         })
     }
 

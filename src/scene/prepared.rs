@@ -99,6 +99,78 @@ pub struct Emitter {
     pub colour: Vec<f64>,
     /// The map layer its photons write (its light group when groups are kept, else 0).
     pub layer: u8,
+    /// Where a point-like light's photons are aimed (`Aim`), if they are.
+    pub aim: Option<Aim>,
+}
+
+/// A point-like light outside the sphere that holds the geometry (the one `enter` uses)
+/// emits only into the cone of directions that meet the sphere: every other direction
+/// meets nothing. Photons are sampled uniformly in the cone and weighted by the light's
+/// flux share there, so the map is unchanged in expectation and the flux outside the cone
+/// is counted as escaped at emission.
+#[derive(Clone, Copy, Debug)]
+pub struct Aim {
+    /// From the light toward the sphere's centre.
+    pub axis: DVec3,
+    /// 1 − cos of the cone's half-angle, computed without cancellation (a light 10⁷ scene
+    /// sizes away sees a cone of 10⁻¹⁴ here).
+    pub one_minus_cos: f64,
+    /// The cone's solid angle, 2π·one_minus_cos, sr.
+    pub solid_angle: f64,
+    /// The weight of every photon when the light's intensity is constant over the cone;
+    /// None: I(d)/Φ times the solid angle, per direction.
+    pub weight: Option<f64>,
+}
+
+/// Widest cone (half-angle) a light of non-uniform intensity is aimed into: beyond it,
+/// weights I(d)·Ω/Φ spread too widely to pay for the photons saved.
+const AIM_MAX_HALF_ANGLE_DEG: f64 = 30.0;
+
+impl Aim {
+    /// The aim of a light of `shape` at `position` (local units) toward the sphere of
+    /// radius `r` around the origin; None when the light is inside it, is not point-like,
+    /// or gains nothing.
+    fn new(shape: &LightShape, position: DVec3, r: f64) -> Option<Aim> {
+        let d = position.length();
+        if !d.is_finite() || d <= r * (1.0 + 1e-9) {
+            return None;
+        }
+        let axis = -position / d;
+        let sin = r / d;
+        let cos_max = (1.0 - sin * sin).max(0.0).sqrt();
+        let one_minus_cos = sin * sin / (1.0 + cos_max);
+        let solid_angle = 2.0 * std::f64::consts::PI * one_minus_cos;
+        let aim = |weight| {
+            Some(Aim {
+                axis,
+                one_minus_cos,
+                solid_angle,
+                weight,
+            })
+        };
+        let narrow = cos_max >= AIM_MAX_HALF_ANGLE_DEG.to_radians().cos();
+        match shape {
+            LightShape::Point => aim(Some(solid_angle / (4.0 * std::f64::consts::PI))),
+            LightShape::Spot {
+                axis: a,
+                cos_half_angle,
+            } => {
+                let beta = a.dot(axis).clamp(-1.0, 1.0).acos();
+                let alpha = cos_half_angle.clamp(-1.0, 1.0).acos();
+                let theta = cos_max.clamp(-1.0, 1.0).acos();
+                if beta + theta <= alpha {
+                    // The cone lies inside the spot: constant intensity over it.
+                    let spot = 2.0 * std::f64::consts::PI * (1.0 - cos_half_angle);
+                    aim(Some(solid_angle / spot))
+                } else {
+                    None
+                }
+            }
+            LightShape::Cosine { .. } if narrow => aim(None),
+            LightShape::Luminaire(l) if narrow && l.opening.is_none() => aim(None),
+            _ => None,
+        }
+    }
 }
 
 /// The frozen scene a run reads.
@@ -135,7 +207,8 @@ impl PreparedScene {
     /// mesh's triangles too small for the f32 coordinates ray tracing uses, with
     /// `IMAP_ERR_NO_LIGHT` / `IMAP_ERR_INVALID_ARGUMENT` naming the light or mesh whose
     /// power is zero or not representable, and with `IMAP_ERR_OUT_OF_MEMORY`.
-    pub fn new(scene: &Scene, efficacy: &[f64]) -> Result<Self> {
+    /// `aim_lights`: aim point-like lights outside the geometry at it (`Aim`).
+    pub fn new(scene: &Scene, efficacy: &[f64], aim_lights: bool) -> Result<Self> {
         // The bounds of the geometry that can be hit: vertices no triangle uses, and lights
         // (whose photons enter through the bounding sphere), do not widen them.
         // Sensors do not widen them either: a scene with sensors traces its other meshes
@@ -184,6 +257,7 @@ impl PreparedScene {
                 position: l.position - origin,
                 colour,
                 layer: layer_of(l.group),
+                aim: None,
             });
             powers.push(total);
         }
@@ -221,6 +295,7 @@ impl PreparedScene {
                 position: DVec3::ZERO,
                 colour,
                 layer: layer_of(m.light_group),
+                aim: None,
             });
             powers.push(total);
         }
@@ -252,7 +327,7 @@ impl PreparedScene {
             )
         })?;
         let regions = RegionLayout::new(&meshes);
-        Ok(PreparedScene {
+        let mut prepared = PreparedScene {
             layers,
             regions,
             efficacy: efficacy.to_vec(),
@@ -265,7 +340,23 @@ impl PreparedScene {
             emitter_table,
             total_power,
             slots,
-        })
+        };
+        if aim_lights {
+            let r = prepared.sphere_radius();
+            for em in &mut prepared.emitters {
+                if let EmitterKind::Light(shape) = &em.kind {
+                    em.aim = Aim::new(shape, em.position, r);
+                }
+            }
+        }
+        Ok(prepared)
+    }
+
+    /// Radius of the sphere around the origin that holds all the geometry, sensors
+    /// included: rays that miss it meet nothing.
+    #[inline]
+    fn sphere_radius(&self) -> f64 {
+        self.enter_radius * 1.01 + self.offset_at(DVec3::ZERO)
     }
 
     /// Where a ray from `org` along unit `dir` (local units) can first meet the geometry:
@@ -274,7 +365,7 @@ impl PreparedScene {
     /// geometry's precision in f32), or None when it misses the sphere.
     #[inline]
     pub fn enter(&self, org: DVec3, dir: DVec3) -> Option<DVec3> {
-        let r = self.enter_radius * 1.01 + self.offset_at(DVec3::ZERO);
+        let r = self.sphere_radius();
         let d2 = org.length_squared();
         if d2 <= 4.0 * r * r {
             return Some(org);
@@ -299,15 +390,27 @@ impl PreparedScene {
         4e-6 * p.abs().max_element().max(1e-4 * self.radius)
     }
 
-    /// Samples an emitter and a photon's first ray: (emitter index, origin, direction).
-    pub fn emit(&self, rng: &mut PhotonRng) -> (usize, DVec3, DVec3) {
+    /// Samples an emitter and a photon's first ray: (emitter index, origin, direction,
+    /// weight). The weight multiplies the photon's colour: 1 but for aimed lights (`Aim`),
+    /// whose photons carry their light's flux share in the cone.
+    pub fn emit(&self, rng: &mut PhotonRng) -> (usize, DVec3, DVec3, f64) {
         let e = self.emitter_table.sample(rng.uniform());
         let em = &self.emitters[e];
         match &em.kind {
-            EmitterKind::Light(shape) => {
-                let (at, d) = shape.sample(rng);
-                (e, em.position + at, d)
-            }
+            EmitterKind::Light(shape) => match &em.aim {
+                Some(a) => {
+                    let (u1, u2) = (rng.uniform(), rng.uniform());
+                    let d = warp::uniform_narrow_cone(a.axis, a.one_minus_cos, u1, u2);
+                    let w = a
+                        .weight
+                        .unwrap_or_else(|| shape.intensity_per_watt(d) * a.solid_angle);
+                    (e, em.position, d, w)
+                }
+                None => {
+                    let (at, d) = shape.sample(rng);
+                    (e, em.position + at, d, 1.0)
+                }
+            },
             EmitterKind::Mesh {
                 mesh,
                 triangles,
@@ -324,7 +427,7 @@ impl PreparedScene {
                     n = -n;
                 }
                 let d = warp::cosine_hemisphere(n, rng.uniform(), rng.uniform());
-                (e, p + n * self.offset_at(p), d)
+                (e, p + n * self.offset_at(p), d, 1.0)
             }
         }
     }

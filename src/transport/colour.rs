@@ -25,6 +25,12 @@ impl Colour {
         self.energy = self.mean();
     }
 
+    /// Scales the colour by `w` (an aimed photon's weight), keeping `energy` (what its
+    /// emitter gave out: the rest was counted as escaped at emission).
+    pub fn scale(&mut self, w: f64) {
+        self.c.iter_mut().for_each(|c| *c *= w);
+    }
+
     /// The photon's energy in photon units as it left its emitter: the band mean, which
     /// every event keeps (1 with a single light; the emitter's power share over its
     /// selection probability in general).

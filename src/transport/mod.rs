@@ -120,6 +120,15 @@ impl PathStats {
         }
     }
 
+    /// Adds `share` of an emitted colour to the per-band escaped flux.
+    #[inline]
+    fn tally_escaped_share(&mut self, emitted: &[f64], share: f64) {
+        let k = share / emitted.len() as f64;
+        for (a, e) in self.bands[BAND_ESCAPED].iter_mut().zip(emitted) {
+            *a += e * k;
+        }
+    }
+
     /// Adds a finished photon's emitted and final colour to the per-band balance.
     #[inline]
     fn tally_bands(&mut self, end: usize, emitted: &[f64], last: &[f64]) {
@@ -184,7 +193,7 @@ impl Tracer<'_> {
         stop: &AtomicBool,
     ) -> bool {
         let mut hits = 0u64;
-        let (end, emitter) = self.trace_path(k, colour, sink, &mut hits, stop);
+        let (end, emitter, weight) = self.trace_path(k, colour, sink, &mut hits, stop);
         let e = colour.mean();
         let band_end = match end {
             PathEnd::Aborted => {
@@ -206,11 +215,14 @@ impl Tracer<'_> {
                 BAND_DROPPED
             }
         };
-        stats.tally_bands(
-            band_end,
-            &self.scene.emitters[emitter].colour,
-            colour.values(),
-        );
+        let emitted = &self.scene.emitters[emitter].colour;
+        stats.tally_bands(band_end, emitted, colour.values());
+        if weight != 1.0 {
+            // An aimed photon: the flux its light sent outside the cone met nothing.
+            let miss = 1.0 - weight;
+            stats.escaped += miss * colour.energy();
+            stats.tally_escaped_share(emitted, miss);
+        }
         stats.photons += 1;
         stats.hits += hits;
         stats.emitted += colour.energy();
@@ -225,15 +237,22 @@ impl Tracer<'_> {
         sink: &mut S,
         hits: &mut u64,
         stop: &AtomicBool,
-    ) -> (PathEnd, usize) {
+    ) -> (PathEnd, usize, f64) {
         let mut rng = PhotonRng::new(self.seed, k);
         // Emit: choose a light by power, then a point and a direction on it.
-        let (emitter, org, dir) = self.scene.emit(&mut rng);
+        let (emitter, org, dir, weight) = self.scene.emit(&mut rng);
         colour.reset(&self.scene.emitters[emitter].colour);
         sink.begin_photon(emitter);
+        if weight != 1.0 {
+            colour.scale(weight);
+            if weight == 0.0 {
+                return (PathEnd::Escaped, emitter, weight);
+            }
+        }
         (
             self.follow(org, dir, &mut rng, colour, sink, hits, stop),
             emitter,
+            weight,
         )
     }
 

@@ -55,6 +55,7 @@ impl Geometry {
             exitance: None,
             sensor: false,
             tally: false,
+            skip_degenerate: false,
         }
     }
 }

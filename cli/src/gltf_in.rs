@@ -1,0 +1,272 @@
+//! glTF 2.0 (`.gltf` with its buffers and images, or `.glb`), with the `gltf` crate.
+//!
+//! The default scene (or the first) is walked from its root nodes; each node's mesh is
+//! placed by the product of the node transforms (in f64; a mirroring transform keeps the
+//! front faces by reversing the winding) and becomes an object named after the node (or
+//! its mesh). Primitives in triangle, strip and fan modes are read; points and lines are
+//! skipped with a warning. Materials (metallic-roughness):
+//! - baseColorFactor × baseColorTexture (sRGB, averaged over each triangle's UV footprint)
+//!   → the reflectance; of it, the metallic share goes to mirror reflection when the
+//!   roughness is below 0.3 and stays diffuse otherwise (a rough metal scatters its light
+//!   about as broadly as a diffuse surface), the rest is diffuse;
+//! - emissiveFactor × KHR_materials_emissive_strength → an emitting surface of that
+//!   exitance, W/m² per band (as an MTL `Ke`);
+//! - a primitive without a material gets the default grey. Transparency (alpha,
+//!   KHR_materials_transmission) is not read: make glass with `[materials.NAME]`.
+
+use crate::diag::{printable, Diagnostics};
+use crate::model::{push_triangle, Model, Texture};
+use crate::mtl::Mtl;
+use crate::obj::Object;
+use glam::{DMat4, DVec3};
+use gltf::mesh::Mode;
+use std::path::Path;
+use std::sync::Arc;
+
+/// Deepest node nesting followed (a cyclic file would otherwise never end).
+const MAX_DEPTH: usize = 64;
+
+/// Bytes per texel, and its RGB.
+type TexelReader = (usize, fn(&[u8]) -> [u8; 3]);
+
+fn rgb8(data: &gltf::image::Data) -> Option<Vec<u8>> {
+    use gltf::image::Format::*;
+    let p = &data.pixels;
+    let (step, take): TexelReader = match data.format {
+        R8 => (1, |c| [c[0]; 3]),
+        R8G8 => (2, |c| [c[0]; 3]),
+        R8G8B8 => (3, |c| [c[0], c[1], c[2]]),
+        R8G8B8A8 => (4, |c| [c[0], c[1], c[2]]),
+        // 16-bit channels, little-endian: the high byte.
+        R16 => (2, |c| [c[1]; 3]),
+        R16G16 => (4, |c| [c[1]; 3]),
+        R16G16B16 => (6, |c| [c[1], c[3], c[5]]),
+        R16G16B16A16 => (8, |c| [c[1], c[3], c[5]]),
+        _ => return None,
+    };
+    Some(p.chunks_exact(step).flat_map(take).collect())
+}
+
+/// Whether a file that failed to load is glTF 1.0: a binary container of version 1, or
+/// JSON whose asset.version starts with 1.
+fn is_gltf1(path: &Path) -> bool {
+    let Ok(b) = std::fs::read(path) else {
+        return false;
+    };
+    if b.starts_with(b"glTF") {
+        return b.get(4..8) == Some(&1u32.to_le_bytes()[..]);
+    }
+    serde_json::from_slice::<serde_json::Value>(&b).is_ok_and(|v| {
+        v.pointer("/asset/version")
+            .and_then(|v| v.as_str())
+            .is_some_and(|v| v.starts_with('1'))
+    })
+}
+
+pub fn load(path: &Path, diag: &mut Diagnostics) -> Result<Model, String> {
+    let name = printable(&path.display().to_string());
+    let g = gltf::Gltf::open(path).map_err(|e| {
+        if is_gltf1(path) {
+            format!("{name}: a glTF 1.0 file: imap reads glTF 2.0 (convert it, e.g. with gltf-pipeline or Blender)")
+        } else {
+            format!("{name}: {}", printable(&e.to_string()))
+        }
+    })?;
+    let base = path.parent().unwrap_or(Path::new("."));
+    let buffers = gltf::import_buffers(&g.document, Some(base), g.blob.clone())
+        .map_err(|e| format!("{name}: buffers: {}", printable(&e.to_string())))?;
+    let doc = &g.document;
+    let mut model = Model {
+        format: "glTF",
+        ..Default::default()
+    };
+
+    // Images are decoded when a material uses them; one that cannot be read is a warning.
+    let mut images: Vec<Option<Option<Arc<Texture>>>> = vec![None; doc.images().count()];
+    let mut texture_of = |img: gltf::Image, diag: &mut Diagnostics| -> Option<Arc<Texture>> {
+        let i = img.index();
+        images[i]
+            .get_or_insert_with(|| {
+                let label = format!("{name} image {i}");
+                let got = gltf::image::Data::from_source(img.source(), Some(base), &buffers)
+                    .map_err(|e| e.to_string())
+                    .and_then(|d| {
+                        let rgb = rgb8(&d).ok_or("unsupported pixel format")?;
+                        Texture::from_rgb8(label.clone(), d.width, d.height, rgb)
+                    });
+                match got {
+                    Ok(t) => Some(Arc::new(t)),
+                    Err(e) => {
+                        diag.warn(format!(
+                            "{label} not read ({}): its materials use their base colour factor",
+                            printable(&e)
+                        ));
+                        None
+                    }
+                }
+            })
+            .clone()
+    };
+
+    // Materials, and the texture coordinate set each reads.
+    let mut uv_set = Vec::new();
+    for m in doc.materials() {
+        let pbr = m.pbr_metallic_roughness();
+        let [r, g, b, _a] = pbr.base_color_factor().map(|x| x as f64);
+        let metal = (pbr.metallic_factor() as f64).clamp(0.0, 1.0);
+        let rough = pbr.roughness_factor() as f64;
+        let texture = pbr
+            .base_color_texture()
+            .and_then(|t| texture_of(t.texture().source(), diag));
+        uv_set.push(pbr.base_color_texture().map_or(0, |t| t.tex_coord()));
+        let base = [r, g, b];
+        let mirror = if rough < 0.3 { metal } else { 0.0 };
+        let strength = m.emissive_strength().unwrap_or(1.0) as f64;
+        let ke = m.emissive_factor().map(|x| x as f64 * strength);
+        let label = m
+            .name()
+            .map(str::to_string)
+            .unwrap_or_else(|| format!("material{}", m.index().unwrap_or(0)));
+        model.materials.push(Mtl {
+            name: label,
+            at: (path.to_path_buf(), 0),
+            kd: Some(base.map(|c| c * (1.0 - mirror))),
+            ks: (mirror > 0.0).then(|| base.map(|c| c * mirror)),
+            ke: ke.iter().any(|&x| x > 0.0).then_some(ke),
+            texture,
+            ..Default::default()
+        });
+    }
+
+    let scene = doc
+        .default_scene()
+        .or_else(|| doc.scenes().next())
+        .ok_or_else(|| format!("{name}: no scene"))?;
+    let mut stack: Vec<(gltf::Node, DMat4, usize)> =
+        scene.nodes().map(|n| (n, DMat4::IDENTITY, 0)).collect();
+    stack.reverse();
+    let mut skipped_modes = 0usize;
+    let mut too_deep = false;
+    while let Some((node, parent, depth)) = stack.pop() {
+        let local =
+            DMat4::from_cols_array_2d(&node.transform().matrix().map(|c| c.map(|x| x as f64)));
+        let world = parent * local;
+        if depth >= MAX_DEPTH {
+            too_deep = true;
+            continue;
+        }
+        for child in node.children().collect::<Vec<_>>().into_iter().rev() {
+            stack.push((child, world, depth + 1));
+        }
+        let Some(mesh) = node.mesh() else { continue };
+        let mirrored = world.determinant() < 0.0;
+        let oname = node
+            .name()
+            .or(mesh.name())
+            .map(str::to_string)
+            .unwrap_or_else(|| format!("node{}", node.index()));
+        let mut object = Object {
+            name: oname,
+            triangles: Vec::new(),
+        };
+        for prim in mesh.primitives() {
+            let reader = prim.reader(|b| buffers.get(b.index()).map(|d| &d.0[..]));
+            let Some(pos) = reader.read_positions() else {
+                continue;
+            };
+            let first = model.positions.len() as u32;
+            for p in pos {
+                let w = world.transform_point3(DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64));
+                model.positions.push(w.to_array());
+            }
+            let count = model.positions.len() as u32 - first;
+            let material = prim.material().index();
+            let set = material.map_or(0, |m| uv_set[m]);
+            let uv_first = model.texcoords.len() as u32;
+            let has_uv = match reader.read_tex_coords(set) {
+                Some(tc) => {
+                    let before = model.texcoords.len();
+                    // glTF's v points down the image: flipped to the OBJ convention.
+                    model
+                        .texcoords
+                        .extend(tc.into_f32().map(|[u, v]| [u as f64, 1.0 - v as f64]));
+                    model.texcoords.len() - before == count as usize
+                }
+                None => false,
+            };
+            let idx: Vec<u32> = match reader.read_indices() {
+                Some(i) => i.into_u32().collect(),
+                None => (0..count).collect(),
+            };
+            if let Some(&bad) = idx.iter().find(|&&i| i >= count) {
+                diag.error(
+                    path,
+                    0,
+                    format!(
+                        "mesh '{}': index {bad} is beyond its {count} vertices",
+                        printable(&object.name)
+                    ),
+                );
+                continue;
+            }
+            let tris: Vec<[u32; 3]> = match prim.mode() {
+                Mode::Triangles => idx.chunks_exact(3).map(|t| [t[0], t[1], t[2]]).collect(),
+                Mode::TriangleStrip => (2..idx.len())
+                    .map(|k| {
+                        if k % 2 == 0 {
+                            [idx[k - 2], idx[k - 1], idx[k]]
+                        } else {
+                            [idx[k - 1], idx[k - 2], idx[k]]
+                        }
+                    })
+                    .collect(),
+                Mode::TriangleFan => (2..idx.len())
+                    .map(|k| [idx[0], idx[k - 1], idx[k]])
+                    .collect(),
+                _ => {
+                    skipped_modes += 1;
+                    continue;
+                }
+            };
+            for t in tris {
+                let t = if mirrored { [t[0], t[2], t[1]] } else { t };
+                push_triangle(
+                    &mut object.triangles,
+                    &mut model.degenerate,
+                    t.map(|i| first + i),
+                    has_uv.then(|| t.map(|i| uv_first + i)),
+                    material,
+                );
+            }
+        }
+        if !object.triangles.is_empty() {
+            model.objects.push(object);
+        }
+    }
+    if skipped_modes > 0 {
+        diag.warn(format!(
+            "{name}: {skipped_modes} primitive(s) of points or lines skipped (libimap needs surfaces)"
+        ));
+    }
+    if too_deep {
+        diag.warn(format!(
+            "{name}: nodes nested deeper than {MAX_DEPTH} (a cycle?) were not followed"
+        ));
+    }
+    for p in &model.positions {
+        if p.iter()
+            .any(|x| !x.is_finite() || x.abs() > crate::obj::MAX_COORDINATE)
+        {
+            diag.error(
+                path,
+                0,
+                format!("a vertex at {p:?} is not finite or beyond ±1e30"),
+            );
+            break;
+        }
+    }
+    if model.objects.is_empty() && !diag.has_errors() {
+        return Err(format!("{name}: the scene has no triangles"));
+    }
+    Ok(model)
+}

@@ -1,0 +1,348 @@
+//! One model from any supported file: OBJ + MTL (`obj`, `mtl`), glTF 2.0 (`gltf_in`), PLY
+//! and STL (`meshes_in`), as positions in f64, objects of triangles, materials as MTL-like
+//! records, per-vertex colours and textures. The scene builder (`scene`) turns it into
+//! libimap meshes and materials.
+
+use crate::diag::{printable, Diagnostics};
+use crate::mtl::Mtl;
+use crate::obj::{Object, Triangle};
+use std::collections::HashMap;
+use std::fmt;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+/// A diffuse colour texture (`map_Kd`, glTF baseColorTexture): sRGB 8-bit texels, looked up
+/// with texture coordinates whose v points up (OBJ's convention; glTF's are flipped on
+/// reading), repeating outside [0, 1].
+pub struct Texture {
+    pub name: String,
+    width: u32,
+    height: u32,
+    rgb: Vec<u8>,
+    /// The mean linear colour over the whole image.
+    pub average: [f64; 3],
+}
+
+impl fmt::Debug for Texture {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "Texture({}, {}×{})", self.name, self.width, self.height)
+    }
+}
+
+/// sRGB-encoded 8-bit value → linear.
+pub fn srgb_to_linear(c: f64) -> f64 {
+    if c <= 0.04045 {
+        c / 12.92
+    } else {
+        ((c + 0.055) / 1.055).powf(2.4)
+    }
+}
+
+fn linear_to_srgb(c: f64) -> f64 {
+    if c <= 0.0031308 {
+        12.92 * c
+    } else {
+        1.055 * c.powf(1.0 / 2.4) - 0.055
+    }
+}
+
+fn lut() -> &'static [f64; 256] {
+    static LUT: std::sync::OnceLock<[f64; 256]> = std::sync::OnceLock::new();
+    LUT.get_or_init(|| std::array::from_fn(|i| srgb_to_linear(i as f64 / 255.0)))
+}
+
+impl Texture {
+    /// From `width` × `height` sRGB texels, row 0 at the top.
+    pub fn from_rgb8(name: String, width: u32, height: u32, rgb: Vec<u8>) -> Result<Self, String> {
+        if width == 0 || height == 0 || rgb.len() != 3 * width as usize * height as usize {
+            return Err(format!(
+                "{name}: an image of {width}×{height} texels is empty or short"
+            ));
+        }
+        let l = lut();
+        let mut sum = [0.0; 3];
+        for p in rgb.chunks_exact(3) {
+            for k in 0..3 {
+                sum[k] += l[p[k] as usize];
+            }
+        }
+        let n = (width as usize * height as usize) as f64;
+        Ok(Texture {
+            name,
+            width,
+            height,
+            rgb,
+            average: sum.map(|s| s / n),
+        })
+    }
+
+    /// Decodes an image file (PNG, JPEG, TGA, BMP) with the `image` crate.
+    pub fn load(path: &Path) -> Result<Self, String> {
+        let name = printable(&path.display().to_string());
+        let img = image::ImageReader::open(path)
+            .map_err(|e| format!("{name}: {e}"))?
+            .with_guessed_format()
+            .map_err(|e| format!("{name}: {e}"))?
+            .decode()
+            .map_err(|e| format!("{name}: {e}"))?
+            .to_rgb8();
+        let (w, h) = img.dimensions();
+        Texture::from_rgb8(name, w, h, img.into_raw())
+    }
+
+    /// The linear colour at (u, v), nearest texel, repeating.
+    pub fn texel(&self, u: f64, v: f64) -> [f64; 3] {
+        let wrap = |x: f64| {
+            let f = x - x.floor();
+            if f.is_finite() {
+                f
+            } else {
+                0.0
+            }
+        };
+        let (u, v) = (wrap(u), wrap(v));
+        let x = ((u * self.width as f64) as u32).min(self.width - 1);
+        let y = (((1.0 - v) * self.height as f64) as u32).min(self.height - 1);
+        let i = 3 * (y as usize * self.width as usize + x as usize);
+        let l = lut();
+        [
+            l[self.rgb[i] as usize],
+            l[self.rgb[i + 1] as usize],
+            l[self.rgb[i + 2] as usize],
+        ]
+    }
+
+    /// The mean linear colour over a triangle of texture coordinates: the texels at the
+    /// centroids of its 16 sub-triangles (the triangle cut in 4 along each edge), equally
+    /// weighted. Every point is inside the triangle, so a triangle on a texture's colour
+    /// boundary takes nothing from across its edges.
+    pub fn footprint(&self, uv: [[f64; 2]; 3]) -> [f64; 3] {
+        const N: usize = 4;
+        let mut sum = [0.0; 3];
+        let mut count = 0.0;
+        let mut add = |a: f64, b: f64| {
+            let c = 1.0 - a - b;
+            let u = a * uv[0][0] + b * uv[1][0] + c * uv[2][0];
+            let v = a * uv[0][1] + b * uv[1][1] + c * uv[2][1];
+            let t = self.texel(u, v);
+            for k in 0..3 {
+                sum[k] += t[k];
+            }
+            count += 1.0;
+        };
+        let n = N as f64;
+        for i in 0..N {
+            for j in 0..N - i {
+                add((i as f64 + 1.0 / 3.0) / n, (j as f64 + 1.0 / 3.0) / n);
+                if i + j + 2 <= N {
+                    add((i as f64 + 2.0 / 3.0) / n, (j as f64 + 2.0 / 3.0) / n);
+                }
+            }
+        }
+        debug_assert_eq!(count, (N * N) as f64);
+        sum.map(|s| s / count)
+    }
+}
+
+/// A colour made a material key: 6 bits per sRGB-encoded channel (steps of about 1.6 %
+/// in lightness), so triangles of nearly the same colour share one libimap material.
+pub fn colour_key(c: [f64; 3]) -> [u8; 3] {
+    c.map(|x| (linear_to_srgb(x.clamp(0.0, 1.0)) * 63.0).round() as u8)
+}
+
+/// The linear colour a key stands for.
+pub fn key_colour(k: [u8; 3]) -> [f64; 3] {
+    k.map(|x| srgb_to_linear(x as f64 / 63.0))
+}
+
+/// A model as read from its file.
+#[derive(Debug, Default)]
+pub struct Model {
+    pub positions: Vec<[f64; 3]>,
+    /// Texture coordinates, v up.
+    pub texcoords: Vec<[f64; 2]>,
+    /// Linear colour of each position, when the file gives vertex colours.
+    pub colours: Option<Vec<[f64; 3]>>,
+    pub objects: Vec<Object>,
+    /// The materials; `Triangle::material` indexes them (None: the default grey).
+    pub materials: Vec<Mtl>,
+    /// What kind of file (for messages and the report).
+    pub format: &'static str,
+    /// Triangles left out because they repeat a vertex.
+    pub degenerate: usize,
+}
+
+impl Model {
+    pub fn triangles(&self) -> usize {
+        self.objects.iter().map(|o| o.triangles.len()).sum()
+    }
+}
+
+/// The formats `imap` reads, by file extension.
+pub const FORMATS: &str = ".obj (with .mtl), .gltf, .glb, .ply, .stl";
+
+/// Reads a model of any supported format; problems go to `diag`.
+pub fn load(path: &Path, diag: &mut Diagnostics) -> Result<Model, String> {
+    let ext = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .unwrap_or("")
+        .to_ascii_lowercase();
+    let bytes = |p: &Path| {
+        std::fs::read(p).map_err(|e| format!("{}: {e}", printable(&p.display().to_string())))
+    };
+    match ext.as_str() {
+        "obj" => {
+            let b = utf16_to_utf8(bytes(path)?);
+            Ok(from_obj(path, &b, diag))
+        }
+        "gltf" | "glb" => crate::gltf_in::load(path, diag),
+        "ply" => crate::meshes_in::load_ply(path, &bytes(path)?, diag),
+        "stl" => crate::meshes_in::load_stl(path, &bytes(path)?, diag),
+        _ => Err(format!(
+            "{}: unknown model format '.{}' (imap reads {FORMATS})",
+            printable(&path.display().to_string()),
+            printable(&ext)
+        )),
+    }
+}
+
+/// A text file in UTF-16 (with its byte-order mark) as UTF-8; anything else unchanged.
+pub fn utf16_to_utf8(b: Vec<u8>) -> Vec<u8> {
+    let be = match b.get(..2) {
+        Some([0xFE, 0xFF]) => true,
+        Some([0xFF, 0xFE]) => false,
+        _ => return b,
+    };
+    let units = b[2..].chunks_exact(2).map(|c| {
+        if be {
+            u16::from_be_bytes([c[0], c[1]])
+        } else {
+            u16::from_le_bytes([c[0], c[1]])
+        }
+    });
+    char::decode_utf16(units)
+        .map(|c| c.unwrap_or(char::REPLACEMENT_CHARACTER))
+        .collect::<String>()
+        .into_bytes()
+}
+
+/// An OBJ and its MTL libraries; each distinct `map_Kd` image is decoded once.
+fn from_obj(path: &Path, bytes: &[u8], diag: &mut Diagnostics) -> Model {
+    let mut o = crate::obj::parse(path, bytes, diag);
+    let mut mtls: Vec<Mtl> = Vec::new();
+    for (lib, line) in &o.mtllibs {
+        match std::fs::read(lib) {
+            Ok(b) => mtls.extend(crate::mtl::parse(lib, &utf16_to_utf8(b), diag)),
+            Err(e) => diag.error(
+                path,
+                *line,
+                format!("material library {}: {e}", lib.display()),
+            ),
+        }
+    }
+    let mut textures: HashMap<PathBuf, Option<Arc<Texture>>> = HashMap::new();
+    for m in &mut mtls {
+        let Some(p) = m.map_kd.clone() else { continue };
+        let t = textures.entry(p.clone()).or_insert_with(|| match Texture::load(&p) {
+            Ok(t) => Some(Arc::new(t)),
+            Err(e) => {
+                diag.warn(format!(
+                    "{}:{}: map_Kd texture not read ({e}): material '{}' uses its Kd (grey 0.5 without one)",
+                    m.at.0.display(),
+                    m.at.1,
+                    printable(&m.name)
+                ));
+                None
+            }
+        });
+        m.texture = t.clone();
+    }
+    // usemtl names → materials (unknown ones: the default grey, with a warning).
+    let of_usemtl: Vec<Option<usize>> = o
+        .material_names
+        .iter()
+        .zip(&o.material_lines)
+        .map(|(n, line)| {
+            let i = mtls.iter().position(|m| &m.name == n);
+            if i.is_none() {
+                let why = if o.mtllibs.is_empty() {
+                    "is used but no mtllib is given"
+                } else {
+                    "is in no material library"
+                };
+                diag.warn(format!(
+                    "{}:{line}: material '{}' {why}: default grey 0.5",
+                    path.display(),
+                    printable(n)
+                ));
+            }
+            i
+        })
+        .collect();
+    for ob in &mut o.objects {
+        for t in &mut ob.triangles {
+            t.material = t.material.and_then(|u| of_usemtl[u]);
+        }
+    }
+    Model {
+        positions: o.positions,
+        texcoords: o.texcoords,
+        colours: o.colours,
+        objects: o.objects,
+        materials: mtls,
+        format: "OBJ",
+        degenerate: o.degenerate,
+    }
+}
+
+/// Appends a polygon's triangles (a fan from its first corner) to `tris`, leaving out and
+/// counting those that repeat a vertex.
+pub fn push_triangle(
+    tris: &mut Vec<Triangle>,
+    degenerate: &mut usize,
+    v: [u32; 3],
+    vt: Option<[u32; 3]>,
+    material: Option<usize>,
+) {
+    if v[0] == v[1] || v[1] == v[2] || v[0] == v[2] {
+        *degenerate += 1;
+    } else {
+        tris.push(Triangle { v, vt, material });
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn texels_footprints_and_colour_keys() {
+        // 2 × 2: top row red, white; bottom row black, mid grey (sRGB 188 ≈ linear 0.5).
+        let t = Texture::from_rgb8(
+            "t".into(),
+            2,
+            2,
+            vec![255, 0, 0, 255, 255, 255, 0, 0, 0, 188, 188, 188],
+        )
+        .unwrap();
+        assert_eq!(t.texel(0.25, 0.75), [1.0, 0.0, 0.0]); // v up: the top row
+        assert_eq!(t.texel(0.25, 0.25), [0.0; 3]);
+        assert_eq!(t.texel(1.25, -0.75), [0.0; 3]); // repeats
+        assert!((t.texel(0.75, 0.25)[0] - 0.5).abs() < 0.005);
+        let avg = (1.0 + 1.0 + 0.0 + srgb_to_linear(188.0 / 255.0)) / 4.0;
+        assert!((t.average[0] - avg).abs() < 1e-12);
+        // A triangle inside the white texel sees white only.
+        let f = t.footprint([[0.55, 0.55], [0.95, 0.55], [0.95, 0.95]]);
+        assert_eq!(f, [1.0; 3]);
+        // Keys: 6 bits of sRGB; the colour a key stands for is within one step.
+        for c in [0.0, 0.003, 0.05, 0.18, 0.5, 0.93, 1.0] {
+            let back = key_colour(colour_key([c; 3]))[0];
+            assert!(
+                (linear_to_srgb(back) - linear_to_srgb(c)).abs() <= 0.5 / 63.0 + 1e-12,
+                "{c} → {back}"
+            );
+        }
+        assert!(Texture::from_rgb8("e".into(), 0, 0, vec![]).is_err());
+    }
+}

@@ -1,0 +1,271 @@
+//! `imap render`: the camera image of a model through libimap's renderer (backward photon
+//! maps with progressive radius reduction; the second paper's three parallel methods),
+//! written as a tone-mapped PNG, as radiance (PFM, linear, W/(m²·sr) per RGB channel) with
+//! each pixel's relative error, and with the error history and its plot.
+
+use crate::output::{self, ToneMap};
+use crate::scene::{self, fail, CameraSettings, CliError, Result, Settings};
+use serde::{Deserialize, Serialize};
+use std::io::Write;
+use std::path::Path;
+
+/// `[render]` in the settings: how the image is computed.
+#[derive(Clone, Debug, Default, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct RenderSettings {
+    /// "semi-synchronous" (default), "synchronous" or "asynchronous".
+    #[serde(default)]
+    pub method: Option<String>,
+    /// Passes over the image (0 = no limit).
+    #[serde(default)]
+    pub passes: u64,
+    /// Seconds (0 = no limit; with no criterion at all, 30 s).
+    #[serde(default)]
+    pub time_s: f64,
+    /// Target relative error of the image (0 = none).
+    #[serde(default)]
+    pub target_error: f64,
+    /// First gathering radius, scene units (0 = four pixel footprints).
+    #[serde(default)]
+    pub initial_radius: f64,
+    /// Radius reduction α in (0, 1) (0 = 2/3).
+    #[serde(default)]
+    pub alpha: f64,
+    /// Semi-synchronous: threads per group (0 = 1).
+    #[serde(default)]
+    pub group_threads: usize,
+}
+
+/// Command-line overrides of `[render]` and the camera's size.
+pub struct RenderOptions {
+    pub method: Option<String>,
+    pub size: Option<(u32, u32)>,
+    pub passes: Option<u64>,
+    pub time: Option<f64>,
+    pub target_error: Option<f64>,
+    pub threads: Option<usize>,
+    pub seed: Option<u64>,
+    pub quiet: bool,
+}
+
+/// "640x480" → (640, 480).
+pub fn parse_size(s: &str) -> std::result::Result<(u32, u32), String> {
+    let (w, h) = s
+        .split_once(['x', 'X', '×'])
+        .ok_or_else(|| format!("'{s}' is not WIDTHxHEIGHT"))?;
+    let n = |v: &str| {
+        v.trim()
+            .parse::<u32>()
+            .map_err(|_| format!("'{s}' is not WIDTHxHEIGHT"))
+    };
+    Ok((n(w)?, n(h)?))
+}
+
+fn method(name: Option<&str>) -> Result<imap::RenderMethod> {
+    Ok(
+        match name.unwrap_or("semi-synchronous").to_ascii_lowercase().as_str() {
+            "semi-synchronous" | "semisynchronous" | "semi" => imap::RenderMethod::SemiSynchronous,
+            "synchronous" | "sync" => imap::RenderMethod::Synchronous,
+            "asynchronous" | "async" => imap::RenderMethod::Asynchronous,
+            m => fail!(
+                "render method \"{}\": use \"semi-synchronous\", \"synchronous\" or \"asynchronous\"",
+                crate::diag::printable(m)
+            ),
+        },
+    )
+}
+
+/// Writes `rgb` (3 floats per pixel, rows from the top) or `grey` (1 per pixel) as a PFM:
+/// little-endian floats, rows from the bottom, as the format defines.
+fn write_pfm(path: &Path, w: u32, h: u32, channels: usize, values: &[f32]) -> Result<()> {
+    let err = |e: std::io::Error| CliError(format!("{}: {e}", path.display()));
+    let f = std::fs::File::create(path).map_err(err)?;
+    let mut f = std::io::BufWriter::new(f);
+    let tag = if channels == 3 { "PF" } else { "Pf" };
+    write!(f, "{tag}\n{w} {h}\n-1.0\n").map_err(err)?;
+    let row = w as usize * channels;
+    for y in (0..h as usize).rev() {
+        for v in &values[y * row..(y + 1) * row] {
+            f.write_all(&v.to_le_bytes()).map_err(err)?;
+        }
+    }
+    f.flush().map_err(err)
+}
+
+/// Loads, renders and writes the image and its report; returns the report.
+pub fn render(
+    model: &Path,
+    mut settings: Settings,
+    opts: &RenderOptions,
+    out: &Path,
+) -> Result<serde_json::Value> {
+    if let Some(t) = opts.threads {
+        settings.run.threads = t;
+    }
+    if let Some(s) = opts.seed {
+        settings.run.seed = s;
+    }
+    let mut r = settings.render.clone().unwrap_or_default();
+    if let Some(m) = &opts.method {
+        r.method = Some(m.clone());
+    }
+    if let Some(p) = opts.passes {
+        r.passes = p;
+    }
+    if let Some(t) = opts.time {
+        r.time_s = t;
+    }
+    if let Some(e) = opts.target_error {
+        r.target_error = e;
+    }
+    for (what, x) in [("time", r.time_s), ("target error", r.target_error)] {
+        if !(x.is_finite() && x >= 0.0) {
+            fail!("render {what} {x} must be a positive number (0 = none)");
+        }
+    }
+    if r.passes == 0 && r.time_s == 0.0 && r.target_error == 0.0 {
+        r.time_s = 30.0;
+    }
+    let m = method(r.method.as_deref())?;
+    if let Some(c) = &settings.camera {
+        c.validate()?;
+    }
+    let up = settings.up()?;
+    let (mut ctx, scene) = scene::load(model, &settings)?;
+    for w in &scene.warnings {
+        eprintln!("imap: warning: {}", crate::diag::printable(w));
+    }
+    let mut cam: CameraSettings = settings
+        .camera
+        .clone()
+        .unwrap_or_else(|| output::default_camera(&scene, up));
+    if let Some((w, h)) = opts.size {
+        cam.width = w;
+        cam.height = h;
+    }
+    cam.validate()?;
+    std::fs::create_dir_all(out).map_err(|e| CliError(format!("{}: {e}", out.display())))?;
+    let desc = imap::CameraDesc {
+        position: cam.position,
+        direction: [0, 1, 2].map(|k| cam.look_at[k] - cam.position[k]),
+        up: cam.up,
+        fov_y_deg: cam.fov_deg,
+        width: cam.width,
+        height: cam.height,
+    };
+    let interrupted = crate::Interrupts::get();
+    let quiet = opts.quiet;
+    let mut callback = |p: &imap::Progress| -> bool {
+        if !quiet {
+            eprint!(
+                "\r{:7.1} s  error {:6.2} %   ",
+                p.elapsed_s,
+                100.0 * p.rel_error
+            );
+        }
+        !interrupted.raised()
+    };
+    let (image, report) = ctx.render(
+        &desc,
+        &mut imap::RenderParams {
+            method: m,
+            group_threads: r.group_threads,
+            remask_phases: 0,
+            forward_per_pass: 0,
+            initial_radius: r.initial_radius,
+            alpha: r.alpha,
+            passes: r.passes,
+            time_budget_s: r.time_s,
+            target_rel_error: r.target_error,
+            progress_interval_s: settings.run.progress_interval_s,
+            max_path_events: 1 << 20,
+            progress: Some(&mut callback),
+        },
+    )?;
+    if !quiet {
+        eprintln!();
+    }
+    let was_interrupted = interrupted.raised();
+    let (w, h, nb) = (image.width, image.height, image.bands);
+    let px = w as usize * h as usize;
+    let rgb: Vec<[f64; 3]> = (0..px)
+        .map(|i| {
+            output::to_rgb(
+                &image.radiance[i * nb..(i + 1) * nb],
+                &scene.band_nm,
+                scene.rgb,
+            )
+        })
+        .collect();
+    let tone = ToneMap::new(
+        rgb.iter()
+            .map(|c| 0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2]),
+    );
+    let png: Vec<u8> = rgb.iter().flat_map(|&c| tone.apply(c)).collect();
+    let flat: Vec<f32> = rgb.iter().flat_map(|c| c.map(|x| x as f32)).collect();
+    let errors: Vec<f32> = image.rel_error.iter().map(|&e| e as f32).collect();
+    let history: Vec<serde_json::Value> = report
+        .history
+        .iter()
+        .map(|p| serde_json::json!({"elapsed_s": p.elapsed_s, "rel_error": p.rel_error}))
+        .collect();
+    let stop = if was_interrupted {
+        "Interrupted".to_string()
+    } else {
+        format!("{:?}", report.stop.unwrap_or(imap::StopReason::TimeBudget))
+    };
+    let outputs = [
+        "render.png",
+        "radiance.pfm",
+        "rel_error.pfm",
+        "convergence.png",
+        "render.json",
+    ];
+    let json = serde_json::json!({
+        "scene": model.display().to_string(),
+        "model": {
+            "format": scene.format, "triangles_read": scene.triangles_read,
+            "material_variants": scene.material_variants
+        },
+        "camera": cam,
+        "method": format!("{m:?}"),
+        "bands_nm": scene.band_nm,
+        "units": {
+            "radiance.pfm": "W/(m2 sr) per RGB channel (spectral runs: the bands' mean over each channel's wavelengths), linear, rows from the bottom (PFM)",
+            "rel_error.pfm": "relative standard error of each pixel's band mean"
+        },
+        "warnings": scene.warnings,
+        "interrupted": was_interrupted,
+        "stop": stop,
+        "passes": report.passes,
+        "rel_error": report.rel_error,
+        "wall_s": report.wall_s,
+        "threads": report.threads,
+        "forward_photons": report.forward_photons,
+        "backward_paths": report.backward_paths,
+        "history": history,
+        "outputs": outputs,
+    });
+    let mut files = output::Outputs::new(out);
+    output::write_png(&files.temp("render.png")?, w, h, &png)?;
+    write_pfm(&files.temp("radiance.pfm")?, w, h, 3, &flat)?;
+    write_pfm(&files.temp("rel_error.pfm")?, w, h, 1, &errors)?;
+    output::plot_convergence(&files.temp("convergence.png")?, &report.history)?;
+    let path = files.temp("render.json")?;
+    std::fs::write(&path, serde_json::to_string_pretty(&json).unwrap())
+        .map_err(|e| CliError(format!("{}: {e}", path.display())))?;
+    files.commit()?;
+    println!(
+        "{w}×{h}, {:.1} passes in {:.1} s ({stop}), estimated error {:.2} %; wrote {}/{{{}}}",
+        report.passes,
+        report.wall_s,
+        100.0 * report.rel_error,
+        out.display(),
+        outputs.join(", ")
+    );
+    if let Some(code) = interrupted.status() {
+        eprintln!("imap: interrupted: the outputs hold the image rendered until then");
+        std::process::exit(code);
+    }
+    Ok(json)
+}
