@@ -155,3 +155,57 @@ fn aimed_cosine_light_is_exact() {
     let (z, rel) = check(&c, id, &g, tilted);
     assert!(z.abs() < 4.0 && rel < 0.01, "tilted: {z} σ, error {rel}");
 }
+
+/// The error estimate of aimed photons is that of their weights: at the same photon count
+/// the standard error of a vertex is √F times that of tracing every direction (F: the
+/// cone's share of the sphere of directions), and it matches the scatter over seeds. The
+/// light shines from the side into the gap between two white plates, so a photon hits the
+/// same vertex many times (the cross terms of its square count).
+#[test]
+fn aimed_errors_are_calibrated() {
+    const NEAR: f64 = 0.3;
+    const GAP: f64 = 0.04;
+    let near = |aim: bool, seed: u64| {
+        let mut ctx = context(Config {
+            seed,
+            threads: 2,
+            aim_lights: aim,
+            ..Default::default()
+        });
+        let white = lambert(&mut ctx, 0.9);
+        let g = grid(6, -0.1, 0.1, -0.1, 0.1, 0.0);
+        let id = ctx.add_mesh(&g.desc(white)).unwrap();
+        let lid = grid(6, -0.1, 0.1, -0.1, 0.1, GAP).flipped();
+        ctx.add_mesh(&imap::MeshDesc {
+            record: false,
+            ..lid.desc(white)
+        })
+        .unwrap();
+        ctx.add_point_light([NEAR, 0.0, GAP / 2.0], &[1.0]).unwrap();
+        run_photons(&mut ctx, 400_000);
+        let v = 3 * 7 + 5; // near the open side the light faces
+        let n = g.vertex_count();
+        let (mut e, mut r) = (vec![0.0; n], vec![0.0; n]);
+        ctx.irradiance(id, 0, 0, &mut e).unwrap();
+        ctx.rel_error(id, 0, &mut r).unwrap();
+        (e[v], e[v] * r[v])
+    };
+    // The sphere the light aims at: the plates' half-diagonal, 1 % wider.
+    let radius = 0.5 * (0.2f64 * 0.2 + 0.2 * 0.2 + GAP * GAP).sqrt() * 1.01;
+    let sin = radius / NEAR;
+    let f = (1.0 - (1.0 - sin * sin).sqrt()) / 2.0;
+    let (_, s_aimed) = near(true, 1);
+    let (_, s_plain) = near(false, 1);
+    let ratio = s_aimed / s_plain / f.sqrt();
+    assert!((0.75..1.33).contains(&ratio), "σ ratio / √F = {ratio}");
+    // Scatter over seeds against the estimate.
+    let runs: Vec<(f64, f64)> = (10..22).map(|s| near(true, s)).collect();
+    let mean = runs.iter().map(|r| r.0).sum::<f64>() / runs.len() as f64;
+    let scatter =
+        (runs.iter().map(|r| (r.0 - mean).powi(2)).sum::<f64>() / (runs.len() - 1) as f64).sqrt();
+    let estimated = runs.iter().map(|r| r.1).sum::<f64>() / runs.len() as f64;
+    assert!(
+        (0.6..1.6).contains(&(scatter / estimated)),
+        "scatter {scatter} vs estimated {estimated}"
+    );
+}

@@ -34,17 +34,22 @@ fn scene() -> (Handle, u32, usize) {
     scene_with(|_| {})
 }
 
-/// `scene` with the configuration adjusted by `tweak`.
-fn scene_with(tweak: impl FnOnce(&mut ImapConfig)) -> (Handle, u32, usize) {
+/// The defaults, from `imap_config_default`.
+fn default_config() -> ImapConfig {
     let mut cfg = std::mem::MaybeUninit::<ImapConfig>::uninit();
-    // SAFETY: the out-pointer holds sizeof(ImapConfig) bytes.
-    let mut cfg = unsafe {
+    // SAFETY: the out-pointer holds sizeof(ImapConfig) bytes, which the call fills.
+    unsafe {
         ok(
             imap_config_default(cfg.as_mut_ptr(), std::mem::size_of::<ImapConfig>()),
             std::ptr::null(),
         );
         cfg.assume_init()
-    };
+    }
+}
+
+/// `scene` with the configuration adjusted by `tweak`.
+fn scene_with(tweak: impl FnOnce(&mut ImapConfig)) -> (Handle, u32, usize) {
+    let mut cfg = default_config();
     cfg.threads = 2;
     tweak(&mut cfg);
     let mut ctx = std::ptr::null_mut();
@@ -621,15 +626,7 @@ fn c_abi_skips_degenerate_triangles_and_takes_config_flags() {
         assert_eq!(nv, 3);
         imap_destroy(ctx);
     }
-    let mut cfg = std::mem::MaybeUninit::<ImapConfig>::uninit();
-    // SAFETY: the out-pointer holds sizeof(ImapConfig) bytes.
-    let mut cfg = unsafe {
-        ok(
-            imap_config_default(cfg.as_mut_ptr(), std::mem::size_of::<ImapConfig>()),
-            std::ptr::null(),
-        );
-        cfg.assume_init()
-    };
+    let mut cfg = default_config();
     cfg.flags = 2;
     let mut out = std::ptr::null_mut();
     // SAFETY: valid pointers.

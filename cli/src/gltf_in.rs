@@ -56,10 +56,15 @@ fn is_gltf1(path: &Path) -> bool {
     if b.starts_with(b"glTF") {
         return b.get(4..8) == Some(&1u32.to_le_bytes()[..]);
     }
+    // glTF 1.0 has no required asset.version, but keeps its objects in maps by name where
+    // 2.0 has arrays.
     serde_json::from_slice::<serde_json::Value>(&b).is_ok_and(|v| {
         v.pointer("/asset/version")
             .and_then(|v| v.as_str())
             .is_some_and(|v| v.starts_with('1'))
+            || ["accessors", "meshes", "nodes"]
+                .iter()
+                .any(|k| v.get(*k).is_some_and(|x| x.is_object()))
     })
 }
 

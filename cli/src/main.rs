@@ -139,10 +139,7 @@ fn main() {
             config,
             opts,
         } => (|| {
-            let settings = match &config {
-                Some(p) => Settings::load(p)?,
-                None => Settings::default(),
-            };
+            let settings = settings_from(config.as_deref())?;
             run_scene(&scene, settings, &opts).map(|_| ())
         })(),
         Command::Render {
@@ -158,10 +155,7 @@ fn main() {
             seed,
             quiet,
         } => (|| {
-            let settings = match &config {
-                Some(p) => Settings::load(p)?,
-                None => Settings::default(),
-            };
+            let settings = settings_from(config.as_deref())?;
             let opts = render_cmd::RenderOptions {
                 method,
                 size,
@@ -184,6 +178,14 @@ fn main() {
             eprintln!("imap: error: {}", diag::printable(line));
         }
         std::process::exit(2);
+    }
+}
+
+/// The settings file, or the defaults without one.
+fn settings_from(config: Option<&Path>) -> Result<Settings> {
+    match config {
+        Some(p) => Settings::load(p),
+        None => Ok(Settings::default()),
     }
 }
 

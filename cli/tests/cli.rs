@@ -1,19 +1,11 @@
 //! The `imap` command end to end: argument and input errors, outputs that exist and
 //! parse, the PLY's values against libimap's own map, validate and demo.
 
+mod common;
+
+use common::{imap, stderr, write};
+
 use std::path::Path;
-use std::process::{Command, Output};
-
-fn imap(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_imap"))
-        .args(args)
-        .output()
-        .expect("run imap")
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
 
 /// Runs imap expecting failure; returns its one-line message.
 fn fails(args: &[&str]) -> String {
@@ -81,12 +73,6 @@ fn scene_obj() -> (String, Part, Part) {
 /// The report.json a run wrote into `out`.
 fn read_report(out: &Path) -> serde_json::Value {
     serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap()).unwrap()
-}
-
-fn write(dir: &Path, name: &str, text: &str) -> String {
-    let p = dir.join(name);
-    std::fs::write(&p, text).unwrap();
-    p.to_str().unwrap().to_string()
 }
 
 #[test]
@@ -529,8 +515,8 @@ fn luminaires_and_photometric_lights_report_lumens_and_lux() {
     }
     let o = write(d, "floor.obj", &obj);
     write(d, "floor.mtl", "newmtl black\nKd 0 0 0\n");
-    write(d, "plain.ies", &cosine_ies(1000.0, "NONE"));
-    write(d, "tilted.ies", &cosine_ies(1000.0, "tilted.tlt"));
+    write(d, "plain.ies", cosine_ies(1000.0, "NONE"));
+    write(d, "tilted.ies", cosine_ies(1000.0, "tilted.tlt"));
     write(d, "tilted.tlt", "1\n3\n0 20 90\n1 0.9 0.5\n");
     let t = 20f64.to_radians();
     let settings = format!(
@@ -633,7 +619,7 @@ spectrum = "D65"
     write(
         d,
         "down.ldt",
-        &imap::photometry::ldt::write(1, &c, &g, &[row], 1200.0),
+        imap::photometry::ldt::write(1, &c, &g, &[row], 1200.0),
     );
     let s = write(
         d,
@@ -677,7 +663,7 @@ spectrum = "D65"
     write(
         d,
         "bad.ies",
-        &cosine_ies(1000.0, "NONE").replace("0 1 2 3", "0 2 1 3"),
+        cosine_ies(1000.0, "NONE").replace("0 1 2 3", "0 2 1 3"),
     );
     let s = write(
         d,

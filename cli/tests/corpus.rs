@@ -5,8 +5,11 @@
 //! nothing panics, hangs or dies of a signal. The models known to be readable must stay
 //! readable. `scripts/setup-system.sh` installs the package.
 
+mod common;
+
+use common::imap;
+
 use std::path::{Path, PathBuf};
-use std::process::Command;
 use std::time::Instant;
 
 const CORPUS: &str = "/usr/share/assimp/models";
@@ -69,13 +72,6 @@ fn models(dir: &Path, out: &mut Vec<PathBuf>) {
             }
         }
     }
-}
-
-fn imap(args: &[&str]) -> std::process::Output {
-    Command::new(env!("CARGO_BIN_EXE_imap"))
-        .args(args)
-        .output()
-        .expect("run imap")
 }
 
 /// A refusal: exit status 2, every line of stderr an `imap:` message, no panic.

@@ -2,26 +2,13 @@
 //! signals during a run, mistakes that used to be found only after the run, huge
 //! coordinates and raw control bytes.
 
+mod common;
+
+use common::{imap, stderr, write};
+
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output, Stdio};
+use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
-
-fn imap(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_imap"))
-        .args(args)
-        .output()
-        .expect("run imap")
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
-
-fn write(dir: &Path, name: &str, bytes: &[u8]) -> String {
-    let p = dir.join(name);
-    std::fs::write(&p, bytes).unwrap();
-    p.to_str().unwrap().to_string()
-}
 
 /// A lit floor: a grey 4 × 4 floor and a lamp above it.
 fn scene(dir: &Path, mtl: &str) -> String {

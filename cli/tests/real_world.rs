@@ -2,25 +2,11 @@
 //! own test, the other model formats (glTF, PLY, STL), the default camera of a Z-up model,
 //! and `imap render`.
 
+mod common;
+
+use common::{imap, stderr, write};
+
 use std::path::Path;
-use std::process::{Command, Output};
-
-fn imap(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_imap"))
-        .args(args)
-        .output()
-        .expect("run imap")
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
-
-fn write(dir: &Path, name: &str, bytes: impl AsRef<[u8]>) -> String {
-    let p = dir.join(name);
-    std::fs::write(&p, bytes).unwrap();
-    p.to_str().unwrap().to_string()
-}
 
 /// A point light of 10 W per band half a metre above the floor's centre, seed fixed.
 const LIGHT: &str =

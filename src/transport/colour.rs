@@ -25,10 +25,11 @@ impl Colour {
         self.energy = self.mean();
     }
 
-    /// Scales the colour by `w` (an aimed photon's weight), keeping `energy` (what its
-    /// emitter gave out: the rest was counted as escaped at emission).
+    /// Scales the photon by `w` (an aimed photon's weight): its colour and its energy,
+    /// which weighs its squared deposits.
     pub fn scale(&mut self, w: f64) {
         self.c.iter_mut().for_each(|c| *c *= w);
+        self.energy *= w;
     }
 
     /// The photon's energy in photon units as it left its emitter: the band mean, which

@@ -217,15 +217,18 @@ impl Tracer<'_> {
         };
         let emitted = &self.scene.emitters[emitter].colour;
         stats.tally_bands(band_end, emitted, colour.values());
+        let mut emitted_energy = colour.energy();
         if weight != 1.0 {
-            // An aimed photon: the flux its light sent outside the cone met nothing.
-            let miss = 1.0 - weight;
-            stats.escaped += miss * colour.energy();
-            stats.tally_escaped_share(emitted, miss);
+            // An aimed photon: its light sent the rest of its flux outside the cone, where
+            // it met nothing.
+            let e0 = emitted.iter().sum::<f64>() / emitted.len() as f64;
+            emitted_energy = e0;
+            stats.escaped += (1.0 - weight) * e0;
+            stats.tally_escaped_share(emitted, 1.0 - weight);
         }
         stats.photons += 1;
         stats.hits += hits;
-        stats.emitted += colour.energy();
+        stats.emitted += emitted_energy;
         sink.end_photon();
         true
     }
