@@ -271,7 +271,12 @@ pub fn load(path: &Path, diag: &mut Diagnostics) -> Result<Model, String> {
         }
     }
     if model.objects.is_empty() && !diag.has_errors() {
-        return Err(format!("{name}: the scene has no triangles"));
+        let why = if skipped_modes > 0 {
+            format!(" ({skipped_modes} primitive(s) of points or lines: libimap needs surfaces)")
+        } else {
+            String::new()
+        };
+        return Err(format!("{name}: the scene has no triangles{why}"));
     }
     Ok(model)
 }

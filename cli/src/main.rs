@@ -84,33 +84,8 @@ enum Command {
         /// TOML settings: lights, spectra, camera, [render].
         #[arg(long, short)]
         config: Option<PathBuf>,
-        /// Output folder (created if missing).
-        #[arg(long, short, default_value = "imap-render")]
-        out: PathBuf,
-        /// "semi-synchronous" (default), "synchronous" or "asynchronous".
-        #[arg(long)]
-        method: Option<String>,
-        /// Image size, WIDTHxHEIGHT (overrides the camera's).
-        #[arg(long, value_parser = render_cmd::parse_size)]
-        size: Option<(u32, u32)>,
-        /// Passes over the image (0 = no limit).
-        #[arg(long)]
-        passes: Option<u64>,
-        /// Seconds (0 = no limit).
-        #[arg(long)]
-        time: Option<f64>,
-        /// Target relative error of the image, e.g. 0.02 (0 = none).
-        #[arg(long)]
-        target_error: Option<f64>,
-        /// Threads (0 = one per core).
-        #[arg(long)]
-        threads: Option<usize>,
-        /// Seed of the random streams.
-        #[arg(long)]
-        seed: Option<u64>,
-        /// No progress line.
-        #[arg(long)]
-        quiet: bool,
+        #[command(flatten)]
+        opts: render_cmd::RenderOptions,
     },
     /// Read a model and print what was read, as JSON: format, objects, triangles,
     /// materials, bounds, warnings and errors (exit status 2 when it has errors).
@@ -145,29 +120,9 @@ fn main() {
         Command::Render {
             scene,
             config,
-            out,
-            method,
-            size,
-            passes,
-            time,
-            target_error,
-            threads,
-            seed,
-            quiet,
-        } => (|| {
-            let settings = settings_from(config.as_deref())?;
-            let opts = render_cmd::RenderOptions {
-                method,
-                size,
-                passes,
-                time,
-                target_error,
-                threads,
-                seed,
-                quiet,
-            };
-            render_cmd::render(&scene, settings, &opts, &out).map(|_| ())
-        })(),
+            opts,
+        } => settings_from(config.as_deref())
+            .and_then(|settings| render_cmd::render(&scene, settings, &opts).map(|_| ())),
         Command::Info { scene } => info(&scene),
         Command::Demo { opts } => demo(&opts),
         Command::Validate { photons } => validate_cmd(photons),

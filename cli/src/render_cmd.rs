@@ -7,7 +7,7 @@ use crate::output::{self, ToneMap};
 use crate::scene::{self, fail, CameraSettings, CliError, Result, Settings};
 use serde::{Deserialize, Serialize};
 use std::io::Write;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 /// `[render]` in the settings: how the image is computed.
 #[derive(Clone, Debug, Default, Deserialize, Serialize)]
@@ -37,14 +37,34 @@ pub struct RenderSettings {
 }
 
 /// Command-line overrides of `[render]` and the camera's size.
+#[derive(clap::Args, Clone)]
 pub struct RenderOptions {
+    /// Output folder (created if missing).
+    #[arg(long, short, default_value = "imap-render")]
+    pub out: PathBuf,
+    /// "semi-synchronous" (default), "synchronous" or "asynchronous".
+    #[arg(long)]
     pub method: Option<String>,
+    /// Image size, WIDTHxHEIGHT (overrides the camera's).
+    #[arg(long, value_parser = parse_size)]
     pub size: Option<(u32, u32)>,
+    /// Passes over the image (0 = no limit).
+    #[arg(long)]
     pub passes: Option<u64>,
+    /// Seconds (0 = no limit).
+    #[arg(long)]
     pub time: Option<f64>,
+    /// Target relative error of the image, e.g. 0.02 (0 = none).
+    #[arg(long)]
     pub target_error: Option<f64>,
+    /// Threads (0 = one per core).
+    #[arg(long)]
     pub threads: Option<usize>,
+    /// Seed of the random streams.
+    #[arg(long)]
     pub seed: Option<u64>,
+    /// No progress line.
+    #[arg(long)]
     pub quiet: bool,
 }
 
@@ -97,8 +117,8 @@ pub fn render(
     model: &Path,
     mut settings: Settings,
     opts: &RenderOptions,
-    out: &Path,
 ) -> Result<serde_json::Value> {
+    let out = opts.out.as_path();
     if let Some(t) = opts.threads {
         settings.run.threads = t;
     }

@@ -7,7 +7,7 @@
 
 mod common;
 
-use common::imap;
+use common::{imap, run_photons};
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -137,23 +137,7 @@ fn third_party_models_run_or_are_refused_with_a_reason() {
         .unwrap();
         let out = tmp.path().join(format!("out{k}"));
         let t0 = Instant::now();
-        let o = imap(&[
-            "run",
-            p,
-            "--config",
-            toml.to_str().unwrap(),
-            "--photons",
-            "100000",
-            "--time",
-            "0",
-            "--target-error",
-            "0",
-            "--threads",
-            "2",
-            "--quiet",
-            "--out",
-            out.to_str().unwrap(),
-        ]);
+        let o = run_photons(p, toml.to_str().unwrap(), &out, 100_000);
         let secs = t0.elapsed().as_secs_f64();
         if !o.status.success() {
             let why = refused_cleanly(&o, &rel);

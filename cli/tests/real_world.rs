@@ -4,7 +4,7 @@
 
 mod common;
 
-use common::{imap, stderr, write};
+use common::{imap, run_photons, stderr, write};
 
 use std::path::Path;
 
@@ -17,23 +17,7 @@ const LIGHT: &str =
 fn run(dir: &Path, model: &str, settings: &str, tag: &str) -> (serde_json::Value, String) {
     let toml = write(dir, &format!("{tag}.toml"), settings);
     let out = dir.join(format!("out-{tag}"));
-    let o = imap(&[
-        "run",
-        model,
-        "--config",
-        &toml,
-        "--photons",
-        "200000",
-        "--time",
-        "0",
-        "--target-error",
-        "0",
-        "--threads",
-        "2",
-        "--quiet",
-        "--out",
-        out.to_str().unwrap(),
-    ]);
+    let o = run_photons(model, &toml, &out, 200_000);
     assert!(o.status.success(), "{tag}: {}", stderr(&o));
     let report: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap()).unwrap();

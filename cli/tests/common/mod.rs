@@ -22,3 +22,25 @@ pub fn write(dir: &Path, name: &str, bytes: impl AsRef<[u8]>) -> String {
     std::fs::write(&p, bytes).unwrap();
     p.to_str().unwrap().to_string()
 }
+
+/// `imap run MODEL --config TOML` for exactly `photons` photons on 2 threads, quietly,
+/// into `out`.
+pub fn run_photons(model: &str, toml: &str, out: &Path, photons: u64) -> Output {
+    imap(&[
+        "run",
+        model,
+        "--config",
+        toml,
+        "--photons",
+        &photons.to_string(),
+        "--time",
+        "0",
+        "--target-error",
+        "0",
+        "--threads",
+        "2",
+        "--quiet",
+        "--out",
+        out.to_str().unwrap(),
+    ])
+}
