@@ -258,18 +258,6 @@ pub fn load(path: &Path, diag: &mut Diagnostics) -> Result<Model, String> {
             "{name}: nodes nested deeper than {MAX_DEPTH} (a cycle?) were not followed"
         ));
     }
-    for p in &model.positions {
-        if p.iter()
-            .any(|x| !x.is_finite() || x.abs() > crate::obj::MAX_COORDINATE)
-        {
-            diag.error(
-                path,
-                0,
-                format!("a vertex at {p:?} is not finite or beyond ±1e30"),
-            );
-            break;
-        }
-    }
     if model.objects.is_empty() && !diag.has_errors() {
         let why = if skipped_modes > 0 {
             format!(" ({skipped_modes} primitive(s) of points or lines: libimap needs surfaces)")

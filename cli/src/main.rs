@@ -234,18 +234,7 @@ fn run_scene(obj: &Path, mut settings: Settings, opts: &RunOptions) -> Result<se
     }
     // Everything that can be checked is checked before tracing: a mistake found after an
     // hour's run would throw the hour away.
-    if let Some(c) = &settings.camera {
-        c.validate()?;
-    }
-    let up = settings.up()?;
-    let (mut ctx, scene) = scene::load(obj, &settings)?;
-    for w in &scene.warnings {
-        eprintln!("imap: warning: {}", diag::printable(w));
-    }
-    let cam: CameraSettings = settings
-        .camera
-        .clone()
-        .unwrap_or_else(|| output::default_camera(&scene, up));
+    let (mut ctx, scene, cam) = scene::load_with_camera(obj, &settings)?;
     cam.validate()?;
     std::fs::create_dir_all(&opts.out)
         .map_err(|e| CliError(format!("{}: {e}", opts.out.display())))?;
@@ -468,22 +457,7 @@ fn run_scene(obj: &Path, mut settings: Settings, opts: &RunOptions) -> Result<se
 fn info(path: &Path) -> Result<()> {
     let mut d = diag::Diagnostics::default();
     let m = model::load(path, &mut d).map_err(CliError)?;
-    if m.triangles() == 0 && !d.has_errors() {
-        d.error(path, 0, "no triangles");
-    }
-    let mut lo = [f64::INFINITY; 3];
-    let mut hi = [f64::NEG_INFINITY; 3];
-    for o in &m.objects {
-        for t in &o.triangles {
-            for &v in &t.v {
-                let p = m.positions[v as usize];
-                for k in 0..3 {
-                    lo[k] = lo[k].min(p[k]);
-                    hi[k] = hi[k].max(p[k]);
-                }
-            }
-        }
-    }
+    let (lo, hi) = m.bounds();
     let json = serde_json::json!({
         "scene": path.display().to_string(),
         "format": m.format,
@@ -528,7 +502,7 @@ fn demo(opts: &RunOptions) -> Result<()> {
         camera: Some(CameraSettings {
             position: [278.0, 273.0, -800.0],
             look_at: [278.0, 273.0, 0.0],
-            up: [0.0, 1.0, 0.0],
+            up: Some([0.0, 1.0, 0.0]),
             fov_deg: 39.3,
             width: 512,
             height: 512,

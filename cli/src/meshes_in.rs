@@ -128,17 +128,11 @@ pub fn load_ply(path: &Path, bytes: &[u8], diag: &mut Diagnostics) -> Result<Mod
     for (i, v) in verts.iter().enumerate() {
         let mut p = [0.0; 3];
         for (k, axis) in ["x", "y", "z"].iter().enumerate() {
-            match v.get(*axis).and_then(scalar) {
-                Some(x) if x.is_finite() && x.abs() <= crate::obj::MAX_COORDINATE => p[k] = x,
-                Some(x) => diag.error(
-                    path,
-                    0,
-                    format!("vertex {i}: {axis} = {x} is not a finite coordinate within ±1e30"),
-                ),
-                None => {
-                    return Err(format!("{name}: vertex {i} has no numeric '{axis}'"));
-                }
-            }
+            // Checked for range with every format's positions (model::load).
+            p[k] = v
+                .get(*axis)
+                .and_then(scalar)
+                .ok_or_else(|| format!("{name}: vertex {i} has no numeric '{axis}'"))?;
         }
         model.positions.push(p);
         let c = ["red", "green", "blue"].map(|c| {
@@ -211,7 +205,7 @@ pub fn load_ply(path: &Path, bytes: &[u8], diag: &mut Diagnostics) -> Result<Mod
     Ok(model)
 }
 
-pub fn load_stl(path: &Path, bytes: &[u8], diag: &mut Diagnostics) -> Result<Model, String> {
+pub fn load_stl(path: &Path, bytes: &[u8]) -> Result<Model, String> {
     let name = printable(&path.display().to_string());
     // ASCII STL with a tab after `solid` (stl_io wants a space to see ASCII).
     let mut fixed;
@@ -232,19 +226,9 @@ pub fn load_stl(path: &Path, bytes: &[u8], diag: &mut Diagnostics) -> Result<Mod
         materials: vec![default_material(path)],
         ..Default::default()
     };
-    for (i, v) in mesh.vertices.iter().enumerate() {
-        let p = v.0.map(|x| x as f64);
-        if p.iter()
-            .any(|x| !x.is_finite() || x.abs() > crate::obj::MAX_COORDINATE)
-        {
-            diag.error(
-                path,
-                0,
-                format!("vertex {i}: {p:?} is not a finite position within ±1e30"),
-            );
-        }
-        model.positions.push(p);
-    }
+    model
+        .positions
+        .extend(mesh.vertices.iter().map(|v| v.0.map(|x| x as f64)));
     let mut object = Object {
         name: object_name(path),
         triangles: Vec::new(),
@@ -291,13 +275,12 @@ mod tests {
             b.extend(x.to_le_bytes());
         }
         b.extend([0, 0]);
-        let mut d = Diagnostics::default();
-        let m = load_stl(Path::new("b.stl"), &b, &mut d).unwrap();
+        let m = load_stl(Path::new("b.stl"), &b).unwrap();
         assert_eq!(m.objects[0].triangles.len(), 1);
         assert_eq!(m.positions.len(), 3);
         let a = b"solid s\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 0\nvertex 0 1 0\nendloop\nendfacet\nendsolid s\n";
-        let m = load_stl(Path::new("a.stl"), a, &mut d).unwrap();
+        let m = load_stl(Path::new("a.stl"), a).unwrap();
         assert_eq!(m.objects[0].triangles.len(), 1);
-        assert!(load_stl(Path::new("x.stl"), b"solid\nfacet", &mut d).is_err());
+        assert!(load_stl(Path::new("x.stl"), b"solid\nfacet").is_err());
     }
 }

@@ -176,12 +176,60 @@ impl Model {
     pub fn triangles(&self) -> usize {
         self.objects.iter().map(|o| o.triangles.len()).sum()
     }
+
+    /// The box around the vertices the triangles use.
+    pub fn bounds(&self) -> ([f64; 3], [f64; 3]) {
+        bounds(
+            self.objects
+                .iter()
+                .flat_map(|o| &o.triangles)
+                .flat_map(|t| t.v)
+                .map(|v| self.positions[v as usize]),
+        )
+    }
+
+    /// Every position finite and within ±1e30, or one error naming the first that is not
+    /// (the OBJ reader reports each with its line).
+    fn check_positions(&self, path: &Path, diag: &mut Diagnostics) {
+        let bad = |p: &&[f64; 3]| {
+            p.iter()
+                .any(|x| !x.is_finite() || x.abs() > crate::obj::MAX_COORDINATE)
+        };
+        let mut far = self.positions.iter().enumerate().filter(|(_, p)| bad(p));
+        if let Some((i, p)) = far.next() {
+            let more = far.count();
+            let others = if more > 0 {
+                format!(" (and {more} more)")
+            } else {
+                String::new()
+            };
+            diag.error(
+                path,
+                0,
+                format!("vertex {i} at {p:?} is not finite or beyond ±1e30{others}"),
+            );
+        }
+    }
+}
+
+/// The box around `points`; infinite (lo > hi) when there are none.
+pub fn bounds(points: impl Iterator<Item = [f64; 3]>) -> ([f64; 3], [f64; 3]) {
+    let mut lo = [f64::INFINITY; 3];
+    let mut hi = [f64::NEG_INFINITY; 3];
+    for p in points {
+        for k in 0..3 {
+            lo[k] = lo[k].min(p[k]);
+            hi[k] = hi[k].max(p[k]);
+        }
+    }
+    (lo, hi)
 }
 
 /// The formats `imap` reads, by file extension.
 pub const FORMATS: &str = ".obj (with .mtl), .gltf, .glb, .ply, .stl";
 
-/// Reads a model of any supported format; problems go to `diag`.
+/// Reads a model of any supported format; problems go to `diag`. A model without
+/// triangles is an error; triangles that repeat a vertex are left out with one warning.
 pub fn load(path: &Path, diag: &mut Diagnostics) -> Result<Model, String> {
     let ext = path
         .extension()
@@ -191,20 +239,33 @@ pub fn load(path: &Path, diag: &mut Diagnostics) -> Result<Model, String> {
     let bytes = |p: &Path| {
         std::fs::read(p).map_err(|e| format!("{}: {e}", printable(&p.display().to_string())))
     };
-    match ext.as_str() {
-        "obj" => {
-            let b = utf16_to_utf8(bytes(path)?);
-            Ok(from_obj(path, &b, diag))
+    let model = match ext.as_str() {
+        "obj" => from_obj(path, &utf16_to_utf8(bytes(path)?), diag),
+        "gltf" | "glb" => crate::gltf_in::load(path, diag)?,
+        "ply" => crate::meshes_in::load_ply(path, &bytes(path)?, diag)?,
+        "stl" => crate::meshes_in::load_stl(path, &bytes(path)?)?,
+        _ => {
+            return Err(format!(
+                "{}: unknown model format '.{}' (imap reads {FORMATS})",
+                printable(&path.display().to_string()),
+                printable(&ext)
+            ))
         }
-        "gltf" | "glb" => crate::gltf_in::load(path, diag),
-        "ply" => crate::meshes_in::load_ply(path, &bytes(path)?, diag),
-        "stl" => crate::meshes_in::load_stl(path, &bytes(path)?, diag),
-        _ => Err(format!(
-            "{}: unknown model format '.{}' (imap reads {FORMATS})",
-            printable(&path.display().to_string()),
-            printable(&ext)
-        )),
+    };
+    if ext != "obj" {
+        model.check_positions(path, diag);
     }
+    if model.objects.is_empty() && !diag.has_errors() {
+        diag.error(path, 0, "no triangles");
+    }
+    if model.degenerate > 0 {
+        diag.warn(format!(
+            "{}: {} triangle(s) repeat a vertex and were left out",
+            path.display(),
+            model.degenerate
+        ));
+    }
+    Ok(model)
 }
 
 /// A text file in UTF-16 (with its byte-order mark) as UTF-8; anything else unchanged.
@@ -315,6 +376,28 @@ pub fn push_triangle(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn one_warning_for_degenerate_triangles_and_an_error_for_none_left() {
+        let d = tempfile::tempdir().unwrap();
+        let p = d.path().join("t.obj");
+        std::fs::write(&p, "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\nf 1 1 2\nf 2 2 3\n").unwrap();
+        let mut diag = Diagnostics::default();
+        let m = load(&p, &mut diag).unwrap();
+        assert_eq!((m.triangles(), m.degenerate), (1, 2));
+        assert!(diag.errors.is_empty(), "{:?}", diag.errors);
+        assert_eq!(diag.warnings.len(), 1, "{:?}", diag.warnings);
+        assert!(diag.warnings[0].contains("2 triangle(s) repeat a vertex"));
+        std::fs::write(&p, "v 0 0 0\nv 1 0 0\nf 1 1 2\n").unwrap();
+        let mut diag = Diagnostics::default();
+        load(&p, &mut diag).unwrap();
+        assert_eq!(diag.errors.len(), 1);
+        assert!(
+            diag.errors[0].ends_with("no triangles"),
+            "{:?}",
+            diag.errors
+        );
+    }
 
     #[test]
     fn texels_footprints_and_colour_keys() {

@@ -51,6 +51,11 @@ impl Drop for Outputs {
 }
 
 impl CameraSettings {
+    /// The up vector: the camera's, or +y for a camera made without settings.
+    pub fn up(&self) -> [f64; 3] {
+        self.up.unwrap_or([0.0, 1.0, 0.0])
+    }
+
     /// Checks the camera before any work is done.
     pub fn validate(&self) -> Result<()> {
         let (w, h) = (self.width as usize, self.height as usize);
@@ -64,7 +69,7 @@ impl CameraSettings {
         let Some(fwd) = (DVec3::from(self.look_at) - eye).try_normalize() else {
             fail!("camera: look_at must differ from position (and both be finite)");
         };
-        if fwd.cross(DVec3::from(self.up)).try_normalize().is_none() {
+        if fwd.cross(DVec3::from(self.up())).try_normalize().is_none() {
             fail!("camera: up is zero or parallel to the view direction");
         }
         Ok(())
@@ -425,10 +430,8 @@ pub fn default_camera(scene: &LoadedScene, up: [f64; 3]) -> CameraSettings {
     let c = 0.5 * (lo + hi);
     let radius = (0.5 * (hi - lo).length()).max(1e-9);
     let up = DVec3::from(up).normalize();
-    // The front: −z for y-up, −y for z-up, −x... any axis perpendicular to up.
-    let front = if up.y.abs() > 0.5 {
-        DVec3::NEG_Z
-    } else if up.z.abs() > 0.5 {
+    // The front: −y for z-up models, −z for the others.
+    let front = if up.z.abs() > 0.5 {
         DVec3::NEG_Y
     } else {
         DVec3::NEG_Z
@@ -469,7 +472,7 @@ pub fn default_camera(scene: &LoadedScene, up: [f64; 3]) -> CameraSettings {
     CameraSettings {
         position: (c + dir * dist).to_array(),
         look_at: c.to_array(),
-        up: up.to_array(),
+        up: Some(up.to_array()),
         fov_deg: fov,
         width: 640,
         height: 640,
@@ -647,7 +650,7 @@ fn rasterize(
     let (w, h) = (cam.width as usize, cam.height as usize);
     let eye = DVec3::from(cam.position);
     let fwd = (DVec3::from(cam.look_at) - eye).normalize();
-    let right = fwd.cross(DVec3::from(cam.up)).normalize();
+    let right = fwd.cross(DVec3::from(cam.up())).normalize();
     let up = right.cross(fwd);
     let f = 1.0 / (cam.fov_deg.to_radians() / 2.0).tan();
     let aspect = w as f64 / h as f64;
@@ -911,7 +914,7 @@ mod tests {
         let cam = CameraSettings {
             position: [0.0, 0.0, 3.0],
             look_at: [0.0, 0.0, 0.0],
-            up: [0.0, 1.0, 0.0],
+            up: Some([0.0, 1.0, 0.0]),
             fov_deg: 40.0,
             width: 640,
             height: 640,

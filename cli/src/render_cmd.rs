@@ -4,7 +4,7 @@
 //! each pixel's relative error, and with the error history and its plot.
 
 use crate::output::{self, ToneMap};
-use crate::scene::{self, fail, CameraSettings, CliError, Result, Settings};
+use crate::scene::{self, fail, CliError, Result, Settings};
 use serde::{Deserialize, Serialize};
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -95,7 +95,7 @@ fn method(name: Option<&str>) -> Result<imap::RenderMethod> {
     )
 }
 
-/// Writes `rgb` (3 floats per pixel, rows from the top) or `grey` (1 per pixel) as a PFM:
+/// Writes `values` (`channels` = 3 or 1 floats per pixel, rows from the top) as a PFM:
 /// little-endian floats, rows from the bottom, as the format defines.
 fn write_pfm(path: &Path, w: u32, h: u32, channels: usize, values: &[f32]) -> Result<()> {
     let err = |e: std::io::Error| CliError(format!("{}: {e}", path.display()));
@@ -147,18 +147,7 @@ pub fn render(
         r.time_s = 30.0;
     }
     let m = method(r.method.as_deref())?;
-    if let Some(c) = &settings.camera {
-        c.validate()?;
-    }
-    let up = settings.up()?;
-    let (mut ctx, scene) = scene::load(model, &settings)?;
-    for w in &scene.warnings {
-        eprintln!("imap: warning: {}", crate::diag::printable(w));
-    }
-    let mut cam: CameraSettings = settings
-        .camera
-        .clone()
-        .unwrap_or_else(|| output::default_camera(&scene, up));
+    let (mut ctx, scene, mut cam) = scene::load_with_camera(model, &settings)?;
     if let Some((w, h)) = opts.size {
         cam.width = w;
         cam.height = h;
@@ -168,7 +157,7 @@ pub fn render(
     let desc = imap::CameraDesc {
         position: cam.position,
         direction: [0, 1, 2].map(|k| cam.look_at[k] - cam.position[k]),
-        up: cam.up,
+        up: cam.up(),
         fov_y_deg: cam.fov_deg,
         width: cam.width,
         height: cam.height,

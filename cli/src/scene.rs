@@ -161,9 +161,9 @@ impl Default for RunSettings {
 pub struct CameraSettings {
     pub position: [f64; 3],
     pub look_at: [f64; 3],
-    /// Default: the settings' `up_axis`.
-    #[serde(default = "default_up")]
-    pub up: [f64; 3],
+    /// Default: the settings' `up_axis` (filled in by `Settings::load`).
+    #[serde(default)]
+    pub up: Option<[f64; 3]>,
     #[serde(default = "default_fov")]
     pub fov_deg: f64,
     #[serde(default = "default_size")]
@@ -172,9 +172,6 @@ pub struct CameraSettings {
     pub height: u32,
 }
 
-fn default_up() -> [f64; 3] {
-    [0.0, 1.0, 0.0]
-}
 fn default_fov() -> f64 {
     40.0
 }
@@ -239,12 +236,9 @@ impl Settings {
         })?;
         s.base_dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
         // A camera without its own `up` takes the model's.
-        let table: toml::Table = text.parse().unwrap_or_default();
         let up = s.up()?;
         if let Some(c) = s.camera.as_mut() {
-            if table.get("camera").and_then(|c| c.get("up")).is_none() {
-                c.up = up;
-            }
+            c.up.get_or_insert(up);
         }
         Ok(s)
     }
@@ -337,11 +331,11 @@ pub struct LoadedScene {
     pub lights: Vec<PlacedLight>,
     /// The calculation grids.
     pub grids: Vec<crate::grids::Grid>,
-    /// The model's file format, and its triangles as read (before any was dropped).
+    /// The model's file format, and its triangles (those repeating a vertex left out).
     pub format: &'static str,
     pub triangles_read: usize,
-    /// libimap materials made for colours from textures and vertex colours (and the
-    /// default grey): one per material and colour in steps of 1/63 of sRGB.
+    /// libimap materials made for colours from textures and vertex colours: one per
+    /// material and colour in steps of 1/63 of sRGB.
     pub material_variants: usize,
     /// Every mesh records both sides (settings `two_sided`).
     pub two_sided: bool,
@@ -349,17 +343,11 @@ pub struct LoadedScene {
 
 impl LoadedScene {
     pub fn bounds(&self) -> ([f64; 3], [f64; 3]) {
-        let mut lo = [f64::INFINITY; 3];
-        let mut hi = [f64::NEG_INFINITY; 3];
-        for m in &self.meshes {
-            for p in m.positions.chunks_exact(3) {
-                for k in 0..3 {
-                    lo[k] = lo[k].min(p[k]);
-                    hi[k] = hi[k].max(p[k]);
-                }
-            }
-        }
-        (lo, hi)
+        crate::model::bounds(
+            self.meshes
+                .iter()
+                .flat_map(|m| m.positions.chunks_exact(3).map(|p| [p[0], p[1], p[2]])),
+        )
     }
 }
 
@@ -388,6 +376,28 @@ fn config(settings: &Settings) -> Result<Config> {
     })
 }
 
+/// `load`, with the settings' camera checked first (a mistake found after an hour's run
+/// would throw the hour away) and the load's warnings printed; the camera is the
+/// settings' or the default one (`output::default_camera`), for the caller to check.
+pub fn load_with_camera(
+    path: &Path,
+    settings: &Settings,
+) -> Result<(Context, LoadedScene, CameraSettings)> {
+    if let Some(c) = &settings.camera {
+        c.validate()?;
+    }
+    let up = settings.up()?;
+    let (ctx, scene) = load(path, settings)?;
+    for w in &scene.warnings {
+        eprintln!("imap: warning: {}", printable(w));
+    }
+    let cam = settings
+        .camera
+        .clone()
+        .unwrap_or_else(|| crate::output::default_camera(&scene, up));
+    Ok((ctx, scene, cam))
+}
+
 /// Builds the libimap context from a model file (OBJ, glTF, PLY, STL) and settings.
 pub fn load(path: &Path, settings: &Settings) -> Result<(Context, LoadedScene)> {
     let mut diag = Diagnostics::default();
@@ -412,16 +422,6 @@ pub fn load(path: &Path, settings: &Settings) -> Result<(Context, LoadedScene)> 
             );
         }
     }
-    if model.objects.is_empty() && !diag.has_errors() {
-        diag.error(path, 0, "no triangles");
-    }
-    if model.degenerate > 0 {
-        diag.warn(format!(
-            "{}: {} triangle(s) repeat a vertex and were left out",
-            path.display(),
-            model.degenerate
-        ));
-    }
     let bands = settings.bands()?;
     let band_nm = bands.wavelengths_nm.clone();
     let rgb = bands.rgb;
@@ -435,19 +435,9 @@ pub fn load(path: &Path, settings: &Settings) -> Result<(Context, LoadedScene)> 
         return Err(CliError::from_diagnostics(&diag));
     }
     let mut ctx = Context::new(config(settings)?)?;
-    let mut palette = Palette {
-        model: &model,
-        settings,
-        band_nm: &band_nm,
-        rgb,
-        resolved,
-        default: materials::default_grey(band_nm.len()),
-        ids: BTreeMap::new(),
-        variants: Vec::new(),
-    };
+    let mut palette = Palette::new(&model, settings, &band_nm, rgb, resolved);
 
     let mut meshes = Vec::new();
-    let mut dropped = 0usize;
     for object in &model.objects {
         // One mesh of the object's non-emitting triangles, one per emitting material.
         let mut parts: Vec<(Option<usize>, Vec<&obj::Triangle>)> = Vec::new();
@@ -474,20 +464,13 @@ pub fn load(path: &Path, settings: &Settings) -> Result<(Context, LoadedScene)> 
                     e.message
                 ))
             })?;
-            dropped += ctx.dropped_triangles(id)?;
             meshes.push(LoadedMesh {
                 id: mesh.record.then_some(id),
                 ..mesh.loaded
             });
         }
     }
-    if dropped > 0 {
-        diag.warn(format!(
-            "{}: {dropped} triangle(s) with a repeated vertex after merging were left out",
-            path.display()
-        ));
-    }
-    let variants = palette.variants.len();
+    let variants = palette.variants();
     let mut placed = Vec::new();
     lights::add_lights(&mut ctx, &settings.lights, &mut placed)?;
     lights::add_luminaires(
@@ -524,29 +507,55 @@ struct Palette<'a> {
     settings: &'a Settings,
     band_nm: &'a [f64],
     rgb: bool,
+    /// The file's materials with the settings' overrides.
     resolved: Vec<Resolved>,
-    default: Resolved,
-    /// (material or None for the default, colour key or None) → (id, index into variants
-    /// or usize::MAX for an unvaried material).
-    ids: BTreeMap<MaterialKey, (u32, usize)>,
-    variants: Vec<Resolved>,
+    /// Per file material: whether the settings fix its colour (a diffuse value, or glass),
+    /// so that no texture or vertex colour changes it.
+    fixed_colour: Vec<bool>,
+    /// Every material made, with its libimap id, by key.
+    made: BTreeMap<MaterialKey, (u32, Resolved)>,
 }
 
-impl Palette<'_> {
+impl<'a> Palette<'a> {
+    fn new(
+        model: &'a crate::model::Model,
+        settings: &'a Settings,
+        band_nm: &'a [f64],
+        rgb: bool,
+        resolved: Vec<Resolved>,
+    ) -> Self {
+        let fixed_colour = model
+            .materials
+            .iter()
+            .map(|m| {
+                settings
+                    .materials
+                    .get(&m.name)
+                    .is_some_and(|o| o.diffuse.is_some() || o.dielectric == Some(true))
+            })
+            .collect();
+        Palette {
+            model,
+            settings,
+            band_nm,
+            rgb,
+            resolved,
+            fixed_colour,
+            made: BTreeMap::new(),
+        }
+    }
+
+    /// Materials made for colours from textures and vertex colours.
+    fn variants(&self) -> usize {
+        self.made.keys().filter(|k| k.1.is_some()).count()
+    }
+
     /// The colour a triangle takes from a texture or its vertices, if any.
     fn colour(&self, t: &obj::Triangle) -> Option<[f64; 3]> {
-        let m = t.material.map(|i| &self.model.materials[i]);
-        // The settings' diffuse overrides any colour of the file.
-        if let Some(m) = m {
-            if self
-                .settings
-                .materials
-                .get(&m.name)
-                .is_some_and(|o| o.diffuse.is_some() || o.dielectric == Some(true))
-            {
-                return None;
-            }
+        if t.material.is_some_and(|i| self.fixed_colour[i]) {
+            return None;
         }
+        let m = t.material.map(|i| &self.model.materials[i]);
         if let Some(tex) = m.and_then(|m| m.texture.as_ref()) {
             let c = match t.vt {
                 Some(vt) => tex.footprint(vt.map(|i| self.model.texcoords[i as usize])),
@@ -571,30 +580,35 @@ impl Palette<'_> {
         Some(c)
     }
 
+    /// The material a key stands for, resolved.
+    fn resolve(&self, key: MaterialKey) -> Resolved {
+        match key {
+            (None, None) => materials::default_grey(self.band_nm.len()),
+            (Some(i), None) => self.resolved[i].clone(),
+            (m, Some(k)) => {
+                let mut base = match m {
+                    Some(i) => self.model.materials[i].clone(),
+                    None => crate::mtl::Mtl {
+                        name: "default".into(),
+                        ..Default::default()
+                    },
+                };
+                base.kd = Some(crate::model::key_colour(k));
+                base.texture = None;
+                base.map_kd = None;
+                // Warnings were given for the material itself.
+                let mut quiet = Diagnostics::default();
+                let o = self.settings.materials.get(&base.name);
+                materials::resolve(&base, o, self.band_nm, self.rgb, &mut quiet)
+            }
+        }
+    }
+
     /// The material id and resolved material of a triangle.
-    fn of(&mut self, t: &obj::Triangle, ctx: &mut Context) -> Result<(u32, &Resolved)> {
+    fn of(&mut self, t: &obj::Triangle, ctx: &mut Context) -> Result<&(u32, Resolved)> {
         let key = (t.material, self.colour(t).map(crate::model::colour_key));
-        if !self.ids.contains_key(&key) {
-            let r = match (key.0, key.1) {
-                (None, None) => self.default.clone(),
-                (Some(i), None) => self.resolved[i].clone(),
-                (m, Some(k)) => {
-                    let mut base = match m {
-                        Some(i) => self.model.materials[i].clone(),
-                        None => crate::mtl::Mtl {
-                            name: "default".into(),
-                            ..Default::default()
-                        },
-                    };
-                    base.kd = Some(crate::model::key_colour(k));
-                    base.texture = None;
-                    base.map_kd = None;
-                    // Warnings were given for the material itself.
-                    let mut quiet = Diagnostics::default();
-                    let o = self.settings.materials.get(&base.name);
-                    materials::resolve(&base, o, self.band_nm, self.rgb, &mut quiet)
-                }
-            };
+        if !self.made.contains_key(&key) {
+            let r = self.resolve(key);
             let id = ctx.add_material(&r.desc).map_err(|e| {
                 let name = key.0.map_or("default".to_string(), |i| {
                     let m = &self.model.materials[i];
@@ -607,21 +621,9 @@ impl Palette<'_> {
                 });
                 CliError(format!("{name}: {}", e.message))
             })?;
-            let slot = if key.1.is_some() || key.0.is_none() {
-                self.variants.push(r);
-                self.variants.len() - 1
-            } else {
-                usize::MAX
-            };
-            self.ids.insert(key, (id, slot));
+            self.made.insert(key, (id, r));
         }
-        let (id, slot) = self.ids[&key];
-        let r = if slot != usize::MAX {
-            &self.variants[slot]
-        } else {
-            &self.resolved[key.0.expect("a file material")]
-        };
-        Ok((id, r))
+        Ok(&self.made[&key])
     }
 }
 
@@ -647,8 +649,8 @@ impl Built {
             exitance: self.exitance.as_deref(),
             sensor: false,
             tally: false,
-            // Vertices merged by position (STL) can make a triangle repeat one.
-            skip_degenerate: true,
+            // The model loader left out the triangles that repeat a vertex.
+            skip_degenerate: false,
         }
     }
 }
@@ -676,7 +678,7 @@ fn build_mesh(
     let mut exitance = None;
     for (k, t) in tris.iter().enumerate() {
         let (id, r) = palette.of(t, ctx)?;
-        materials.push(id);
+        materials.push(*id);
         if k == 0 {
             exitance = r.emission.clone();
         }

@@ -169,6 +169,15 @@ struct Medium {
     material: u32,
 }
 
+/// A photon as its light gave it out.
+struct Emission {
+    emitter: usize,
+    /// The aimed photon's weight (`PreparedScene::emit`); 1 otherwise.
+    weight: f64,
+    /// Its energy in photon units before the weight: what its light emitted.
+    energy: f64,
+}
+
 /// How a photon's path ended, for the tallies that are kept only for whole photons.
 enum PathEnd {
     /// Absorbed by mesh `mesh` (at its surface or inside its medium).
@@ -193,7 +202,7 @@ impl Tracer<'_> {
         stop: &AtomicBool,
     ) -> bool {
         let mut hits = 0u64;
-        let (end, emitter, weight) = self.trace_path(k, colour, sink, &mut hits, stop);
+        let (end, emission) = self.trace_path(k, colour, sink, &mut hits, stop);
         let e = colour.mean();
         let band_end = match end {
             PathEnd::Aborted => {
@@ -215,20 +224,18 @@ impl Tracer<'_> {
                 BAND_DROPPED
             }
         };
-        let emitted = &self.scene.emitters[emitter].colour;
+        let emitted = &self.scene.emitters[emission.emitter].colour;
         stats.tally_bands(band_end, emitted, colour.values());
-        let mut emitted_energy = colour.energy();
-        if weight != 1.0 {
+        if emission.weight != 1.0 {
             // An aimed photon: its light sent the rest of its flux outside the cone, where
             // it met nothing.
-            let e0 = emitted.iter().sum::<f64>() / emitted.len() as f64;
-            emitted_energy = e0;
-            stats.escaped += (1.0 - weight) * e0;
-            stats.tally_escaped_share(emitted, 1.0 - weight);
+            let miss = 1.0 - emission.weight;
+            stats.escaped += miss * emission.energy;
+            stats.tally_escaped_share(emitted, miss);
         }
         stats.photons += 1;
         stats.hits += hits;
-        stats.emitted += emitted_energy;
+        stats.emitted += emission.energy;
         sink.end_photon();
         true
     }
@@ -240,22 +247,26 @@ impl Tracer<'_> {
         sink: &mut S,
         hits: &mut u64,
         stop: &AtomicBool,
-    ) -> (PathEnd, usize, f64) {
+    ) -> (PathEnd, Emission) {
         let mut rng = PhotonRng::new(self.seed, k);
         // Emit: choose a light by power, then a point and a direction on it.
         let (emitter, org, dir, weight) = self.scene.emit(&mut rng);
         colour.reset(&self.scene.emitters[emitter].colour);
+        let emission = Emission {
+            emitter,
+            weight,
+            energy: colour.energy(),
+        };
         sink.begin_photon(emitter);
         if weight != 1.0 {
             colour.scale(weight);
             if weight == 0.0 {
-                return (PathEnd::Escaped, emitter, weight);
+                return (PathEnd::Escaped, emission);
             }
         }
         (
             self.follow(org, dir, &mut rng, colour, sink, hits, stop),
-            emitter,
-            weight,
+            emission,
         )
     }
 
