@@ -97,6 +97,7 @@ fn measure(ctx: &mut Context, kind: SchedulerKind, threads: usize, seconds: f64)
         target_rel_error: 0.0,
         progress_interval_s: seconds,
         max_path_events: 1 << 20,
+        selection: Default::default(),
         progress: None,
     };
     ctx.run(&mut p).expect("run")

@@ -74,7 +74,7 @@
 /**
  * Library version, patch.
  */
-#define IMAP_VERSION_PATCH 1
+#define IMAP_VERSION_PATCH 2
 
 /**
  * `ImapConfig::band_mode`: three bands, R, G, B.
@@ -444,6 +444,17 @@
 #define IMAP_MESH_SKIP_DEGENERATE 16
 
 /**
+ * `imap_state_write` flag: leave the map's accumulators out (an MPI rank's "ledger": the
+ * caller sums the maps itself, see `imap_map_accumulators`). (Since 0.2.2.)
+ */
+#define IMAP_STATE_NO_MAP 1
+
+/**
+ * The state format version this library writes and reads. (Since 0.2.2.)
+ */
+#define IMAP_STATE_FORMAT_VERSION 1
+
+/**
  * Status returned by every `imap_*` call. `IMAP_OK` (0) is success; every other value names
  * one kind of failure, and the last-error message says which argument and why.
  */
@@ -555,6 +566,25 @@ typedef enum ImapStatus {
    * type A, a three-dimensional luminous opening asked to emit): the message names it.
    */
   IMAP_ERR_UNSUPPORTED = 23,
+  /**
+   * A file could not be opened, read, written or renamed: the message names the path
+   * and the system's reason.
+   */
+  IMAP_ERR_IO = 24,
+  /**
+   * A state (`imap_state_load`, `imap_state_merge`) is not a libimap state, is
+   * truncated, or fails its checksum: the message says which.
+   */
+  IMAP_ERR_STATE_CORRUPT = 25,
+  /**
+   * A state is of another scene or other settings (its fingerprint differs): the message
+   * names what differs (settings, geometry, materials, lights).
+   */
+  IMAP_ERR_STATE_MISMATCH = 26,
+  /**
+   * A state to merge holds photons the context holds too: they would count twice.
+   */
+  IMAP_ERR_STATE_OVERLAP = 27,
 } ImapStatus;
 
 /**
@@ -1181,6 +1211,23 @@ typedef struct ImapRunParams {
    */
   uint32_t region_part_only;
   uint32_t region_part;
+  /**
+   * The photon indices this run may trace (since 0.2.2): `[photon_first, photon_first +
+   * photon_count)` (`photon_count` 0 = no end), and of those only shard `shard_index` of
+   * `shard_count`: blocks of `shard_block` photons (a multiple of 64; 0 = 65536) dealt
+   * round robin. Photon k's path depends only on the seed and k, so processes running
+   * the shards 0 … N−1 of one range trace each of its photons exactly once, whatever
+   * each one's stop criterion, and their states merge (`imap_state_merge`) into the map
+   * of one process tracing the same photons (equal up to summation order, ~1e-15
+   * relative). A run traces the lowest indices of its selection the map does not hold
+   * yet; `photons` still counts this run's photons. Defaults: 0, 0, 1, 0, 0 (every
+   * photon, one process).
+   */
+  uint64_t photon_first;
+  uint64_t photon_count;
+  uint64_t shard_count;
+  uint64_t shard_index;
+  uint64_t shard_block;
 } ImapRunParams;
 
 /**
@@ -2031,6 +2078,124 @@ enum ImapStatus imap_add_point_light(struct ImapContext *ctx, const double *posi
  * As `imap_add_point_light`; `direction` points to 3 doubles.
  */
 enum ImapStatus imap_add_spot_light(struct ImapContext *ctx, const double *position, const double *direction, double half_angle_rad, const double *power, size_t power_count, uint32_t *out_id);
+
+/**
+ * Writes everything the context has accumulated — the map's sums and squares in every
+ * layer, the photon indices it holds, the energy and region tallies, the run time and the
+ * error history — with a fingerprint of the scene and settings and `meta_len` bytes of
+ * the caller's own `meta` (any bytes, e.g. which job this is; NULL with 0), as one
+ * versioned, checksummed state (IMAP_STATE_FORMAT_VERSION; little-endian) into `buffer`
+ * of `capacity` bytes. `*size` receives the state's size: with `buffer` NULL or
+ * `capacity` too small the call returns IMAP_ERR_BUFFER_TOO_SMALL, writes nothing useful
+ * and sets `*size`; call again with a buffer that large. A context that has not run
+ * writes a state of zeros (its map is allocated). `flags`: 0, or `IMAP_STATE_NO_MAP`.
+ *
+ * Returns IMAP_ERR_NULL_POINTER (`size`), IMAP_ERR_INVALID_ARGUMENT (unknown flag),
+ * IMAP_ERR_BUFFER_TOO_SMALL, IMAP_ERR_NO_GEOMETRY / IMAP_ERR_NO_LIGHT (nothing to
+ * prepare), IMAP_ERR_BUSY. (Since 0.2.2.)
+ *
+ * # Safety
+ * `ctx` is a live handle; `meta` points to `meta_len` readable bytes; `buffer` to
+ * `capacity` writable bytes.
+ */
+enum ImapStatus imap_state_write(struct ImapContext *ctx, uint32_t flags, const void *meta, size_t meta_len, void *buffer, size_t capacity, size_t *size);
+
+/**
+ * Writes the whole state (`imap_state_write` without flags) to the file `path` (UTF-8 or
+ * the system's bytes, NUL-terminated) atomically: into a temporary file beside it
+ * (`path` + ".tmp-" + the process id), flushed to the disk, then renamed over `path`. A
+ * crash or SIGKILL at any moment leaves either the previous file or the new one whole,
+ * never a part: a checkpoint written this way can always be resumed from.
+ *
+ * Returns IMAP_ERR_NULL_POINTER, IMAP_ERR_IO (the message names the path and the system's
+ * reason), IMAP_ERR_BUSY. (Since 0.2.2.)
+ *
+ * # Safety
+ * `ctx` is a live handle; `path` is NUL-terminated; `meta` points to `meta_len` bytes.
+ */
+enum ImapStatus imap_state_save(struct ImapContext *ctx, const char *path, const void *meta, size_t meta_len);
+
+/**
+ * Replaces what the context has accumulated by a state (resume after a crash): the map,
+ * the photons it holds, the tallies, the run time and the history. The context must hold
+ * the same scene and settings as the one that wrote it (same meshes, materials, lights,
+ * bands, seed, units, layers, light aiming), added in the same order; the next imap_run
+ * continues with the photons the state does not hold. On any error the context is
+ * unchanged.
+ *
+ * Returns IMAP_ERR_STATE_CORRUPT (not a state, truncated, checksum fails: the message
+ * says which), IMAP_ERR_UNSUPPORTED (a newer format version), IMAP_ERR_STATE_MISMATCH
+ * (another scene or settings: the message names what differs), IMAP_ERR_INVALID_ARGUMENT
+ * (a state written with IMAP_STATE_NO_MAP), IMAP_ERR_BUSY. (Since 0.2.2.)
+ *
+ * # Safety
+ * `ctx` is a live handle; `buffer` points to `size` readable bytes.
+ */
+enum ImapStatus imap_state_load(struct ImapContext *ctx, const void *buffer, size_t size);
+
+/**
+ * `imap_state_load` from the file `path`; errors name the file. Also IMAP_ERR_IO (cannot
+ * read it) and IMAP_ERR_MEMORY_BUDGET (the file does not fit beside the map). (Since 0.2.2.)
+ *
+ * # Safety
+ * `ctx` is a live handle; `path` is NUL-terminated.
+ */
+enum ImapStatus imap_state_load_file(struct ImapContext *ctx, const char *path);
+
+/**
+ * Adds a state to what the context holds: the states of shards or ranges of the same
+ * scene (same conditions as `imap_state_load`) that hold disjoint photons. Every sum adds
+ * — the map, the sums of squares (so the merged error estimate is exact), the energy and
+ * region tallies, the photon counts; the run times add; the history gains one point with
+ * the combined error. The result equals one run of all the photons up to summation order
+ * (~1e-15 relative). A state written with IMAP_STATE_NO_MAP adds everything but the map:
+ * use it after summing the maps yourself (`imap_map_accumulators`, e.g. `MPI_Reduce`).
+ * On any error the context is unchanged.
+ *
+ * Returns the errors of `imap_state_load` and IMAP_ERR_STATE_OVERLAP (the state holds
+ * photons the context holds too: they would count twice). (Since 0.2.2.)
+ *
+ * # Safety
+ * `ctx` is a live handle; `buffer` points to `size` readable bytes.
+ */
+enum ImapStatus imap_state_merge(struct ImapContext *ctx, const void *buffer, size_t size);
+
+/**
+ * `imap_state_merge` from the file `path`; errors name the file. (Since 0.2.2.)
+ *
+ * # Safety
+ * `ctx` is a live handle; `path` is NUL-terminated.
+ */
+enum ImapStatus imap_state_merge_file(struct ImapContext *ctx, const char *path);
+
+/**
+ * Checks a state in memory (frame, version, checksum) without a context, and tells its
+ * photon count (`photons`, may be NULL) and where the caller's metadata lies inside
+ * `buffer` (`meta`, `meta_len`, may be NULL). Returns the errors of the format
+ * (IMAP_ERR_STATE_CORRUPT, IMAP_ERR_UNSUPPORTED). Thread-safe. (Since 0.2.2.)
+ *
+ * # Safety
+ * `buffer` points to `size` readable bytes; the out-pointers are NULL or writable.
+ */
+enum ImapStatus imap_state_info(const void *buffer, size_t size, uint64_t *photons, const void **meta, size_t *meta_len);
+
+/**
+ * The context's map accumulators as one contiguous array of `*count` doubles, owned by
+ * the context (allocated, zeroed, if it has not run): per map cell, one value per band
+ * then the sum of squares. Contexts of the same scene (same fingerprint) have arrays of
+ * the same length and order, so summing them element by element — `MPI_Reduce(…,
+ * MPI_DOUBLE, MPI_SUM, …)` straight on this pointer, `MPI_IN_PLACE` at the root — and
+ * then merging each other rank's state written with `IMAP_STATE_NO_MAP` into the root
+ * (`imap_state_merge`) gives the root exactly the merged state. Sum first, then merge
+ * (the merge's history point reads the summed map). The pointer stays valid until the
+ * scene changes, `imap_destroy`; read or write it only between calls on the context (never
+ * during imap_run). Returns IMAP_ERR_NULL_POINTER, IMAP_ERR_NO_GEOMETRY /
+ * IMAP_ERR_NO_LIGHT, IMAP_ERR_BUSY. (Since 0.2.2.)
+ *
+ * # Safety
+ * `ctx` is a live handle; `data` and `count` are writable.
+ */
+enum ImapStatus imap_map_accumulators(struct ImapContext *ctx, double **data, uint64_t *count);
 
 #ifdef __cplusplus
 }  // extern "C"

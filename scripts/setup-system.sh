@@ -2,10 +2,11 @@
 # System packages libimap needs to build and test on Debian (as root, or through sudo;
 # idempotent): libclang for bindgen, patchelf for the Embree libraries, cmake, unzip,
 # pkg-config, abigail-tools and python3 for the ABI check, assimp-testmodels (the
-# third-party model corpus the command's corpus test reads), and pip (to fetch the pinned
+# third-party model corpus the command's corpus test reads), Open MPI (libopenmpi-dev and
+# openmpi-bin: the MPI example ctest runs with mpirun -np 2), and pip (to fetch the pinned
 # Embree wheel) when the machine has none.
 set -euo pipefail
-PKGS="libclang-dev patchelf cmake unzip pkg-config fonts-dejavu-core abigail-tools assimp-testmodels"
+PKGS="libclang-dev patchelf cmake unzip pkg-config fonts-dejavu-core abigail-tools assimp-testmodels libopenmpi-dev openmpi-bin"
 command -v python3 >/dev/null || PKGS="$PKGS python3"
 command -v pip3 >/dev/null || PKGS="$PKGS python3-pip"
 missing=""

@@ -70,11 +70,22 @@ pub enum ImapStatus {
     /// The input is well formed but uses a feature libimap does not support (photometric
     /// type A, a three-dimensional luminous opening asked to emit): the message names it.
     ImapErrUnsupported = 23,
+    /// A file could not be opened, read, written or renamed: the message names the path
+    /// and the system's reason.
+    ImapErrIo = 24,
+    /// A state (`imap_state_load`, `imap_state_merge`) is not a libimap state, is
+    /// truncated, or fails its checksum: the message says which.
+    ImapErrStateCorrupt = 25,
+    /// A state is of another scene or other settings (its fingerprint differs): the message
+    /// names what differs (settings, geometry, materials, lights).
+    ImapErrStateMismatch = 26,
+    /// A state to merge holds photons the context holds too: they would count twice.
+    ImapErrStateOverlap = 27,
 }
 
 impl ImapStatus {
     /// Every status, in order of value.
-    pub(crate) const ALL: [ImapStatus; 24] = [
+    pub(crate) const ALL: [ImapStatus; 28] = [
         ImapStatus::ImapOk,
         ImapStatus::ImapErrNullPointer,
         ImapStatus::ImapErrInvalidArgument,
@@ -99,6 +110,10 @@ impl ImapStatus {
         ImapStatus::ImapErrPrecision,
         ImapStatus::ImapErrParse,
         ImapStatus::ImapErrUnsupported,
+        ImapStatus::ImapErrIo,
+        ImapStatus::ImapErrStateCorrupt,
+        ImapStatus::ImapErrStateMismatch,
+        ImapStatus::ImapErrStateOverlap,
     ];
 
     /// The C name of the status.
@@ -129,6 +144,10 @@ impl ImapStatus {
             ImapErrPrecision => c"IMAP_ERR_PRECISION",
             ImapErrParse => c"IMAP_ERR_PARSE",
             ImapErrUnsupported => c"IMAP_ERR_UNSUPPORTED",
+            ImapErrIo => c"IMAP_ERR_IO",
+            ImapErrStateCorrupt => c"IMAP_ERR_STATE_CORRUPT",
+            ImapErrStateMismatch => c"IMAP_ERR_STATE_MISMATCH",
+            ImapErrStateOverlap => c"IMAP_ERR_STATE_OVERLAP",
         }
     }
 }

@@ -39,4 +39,4 @@ pub use context::{Config, Context, Layer, RegionStats, Report, SchedulerKind};
 pub use error::{Error, ImapStatus, Result};
 pub use render::{CameraDesc, Image, RenderMethod, RenderParams, RenderReport};
 pub use scene::{Bands, IorModel, LayerRequest, MaterialDesc, MeshDesc};
-pub use sched::{Progress, RunParams, StopReason};
+pub use sched::{Progress, RunParams, Selection, StopReason};

@@ -779,6 +779,7 @@ fn target_error_stops_within_one_progress_interval() {
         target_rel_error: target,
         progress_interval_s: interval,
         max_path_events: 1 << 20,
+        selection: Default::default(),
         progress: None,
     };
     let report = ctx.run(&mut params).unwrap();

@@ -32,6 +32,7 @@ fn params<'a>(photons: u64) -> RunParams<'a> {
         target_rel_error: 0.0,
         progress_interval_s: 0.5,
         max_path_events: 1 << 20,
+        selection: Default::default(),
         progress: None,
     }
 }

@@ -356,6 +356,7 @@ fn a_region_target_stops_within_one_progress_interval() {
                 target_rel_error: 0.0,
                 progress_interval_s: 0.02,
                 max_path_events: 1 << 20,
+                selection: Default::default(),
                 progress: None,
             };
             let r = ctx.run(&mut params).unwrap();

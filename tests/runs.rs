@@ -137,6 +137,7 @@ fn the_event_limit_reports_what_it_drops() {
         target_rel_error: 0.0,
         progress_interval_s: 1.0,
         max_path_events: 1000,
+        selection: Default::default(),
         progress: None,
     };
     let r = ctx.run(&mut params).unwrap();
@@ -199,6 +200,7 @@ fn time_budget_and_target_error_stop_the_run() {
         target_rel_error: 0.0,
         progress_interval_s: 0.1,
         max_path_events: 1 << 20,
+        selection: Default::default(),
         progress: Some(&mut cb),
     };
     let r = ctx.run(&mut params).unwrap();
@@ -223,6 +225,7 @@ fn time_budget_and_target_error_stop_the_run() {
         target_rel_error: target,
         progress_interval_s: 0.1,
         max_path_events: 1 << 20,
+        selection: Default::default(),
         progress: None,
     };
     let r2 = ctx.run(&mut params).unwrap();

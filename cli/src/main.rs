@@ -5,6 +5,7 @@ mod cornell;
 mod diag;
 mod gltf_in;
 mod grids;
+mod jobs;
 mod lights;
 mod materials;
 mod meshes_in;
@@ -62,6 +63,18 @@ struct RunOptions {
     /// No progress bar.
     #[arg(long)]
     quiet: bool,
+    /// Save the run's state to FILE every --checkpoint-every seconds and at the end
+    /// (atomically: a crash never leaves a part); `imap resume FILE` goes on from it.
+    #[arg(long, value_name = "FILE")]
+    checkpoint: Option<PathBuf>,
+    /// Seconds between checkpoints (default 60).
+    #[arg(long, value_name = "SECONDS")]
+    checkpoint_every: Option<f64>,
+    /// Trace shard k of N (0 <= k < N) of the photons (of the first --photons, when given)
+    /// and write the state (to --checkpoint, or OUT/shard-k-of-N.imap) instead of the
+    /// outputs; `imap merge` adds the shards' states and writes every output.
+    #[arg(long, value_name = "k/N")]
+    shard: Option<String>,
 }
 
 #[derive(Subcommand)]
@@ -86,6 +99,32 @@ enum Command {
         config: Option<PathBuf>,
         #[command(flatten)]
         opts: render_cmd::RenderOptions,
+    },
+    /// Go on with a run from its checkpoint or a shard's state (killed, rebooted, or to run
+    /// further): the same model and settings, the rest of its photons; writes the outputs
+    /// as the run would have.
+    Resume {
+        /// The state file (`imap run --checkpoint FILE` or `--shard`).
+        state: PathBuf,
+        /// Output folder (default: the run's).
+        #[arg(long, short)]
+        out: Option<PathBuf>,
+        /// Calculating threads (0 = one per core; the map does not depend on it).
+        #[arg(long)]
+        threads: Option<usize>,
+        /// No progress bar.
+        #[arg(long)]
+        quiet: bool,
+    },
+    /// Add the states of shards or separate runs of the same model and settings (disjoint
+    /// photons) and write every output of the whole.
+    Merge {
+        /// State files (`imap run --shard k/N`, `--checkpoint`).
+        #[arg(required = true)]
+        states: Vec<PathBuf>,
+        /// Output folder (default: the first state's run's).
+        #[arg(long, short)]
+        out: Option<PathBuf>,
     },
     /// Read a model and print what was read, as JSON: format, objects, triangles,
     /// materials, bounds, warnings and errors (exit status 2 when it has errors).
@@ -123,6 +162,13 @@ fn main() {
             opts,
         } => settings_from(config.as_deref())
             .and_then(|settings| render_cmd::render(&scene, settings, &opts).map(|_| ())),
+        Command::Resume {
+            state,
+            out,
+            threads,
+            quiet,
+        } => resume(&state, out, threads, quiet).map(|_| ()),
+        Command::Merge { states, out } => merge(&states, out),
         Command::Info { scene } => info(&scene),
         Command::Demo { opts } => demo(&opts),
         Command::Validate { photons } => validate_cmd(photons),
@@ -218,6 +264,81 @@ impl Interrupts {
 /// Loads, runs with a progress bar, and writes the outputs; returns the report.
 fn run_scene(obj: &Path, mut settings: Settings, opts: &RunOptions) -> Result<serde_json::Value> {
     apply_options(&mut settings, opts);
+    let plan = jobs::StatePlan::new(
+        opts.checkpoint.as_deref(),
+        opts.checkpoint_every,
+        opts.shard.as_deref(),
+        &opts.out,
+    )?;
+    execute(obj, settings, &opts.out, plan, None, opts.quiet)
+}
+
+/// Goes on from a checkpoint or a shard's state.
+fn resume(
+    path: &Path,
+    out: Option<PathBuf>,
+    threads: Option<usize>,
+    quiet: bool,
+) -> Result<serde_json::Value> {
+    let (bytes, meta) = jobs::read_state(path)?;
+    let mut settings = meta.settings();
+    if let Some(t) = threads {
+        settings.run.threads = t;
+    }
+    let mut plan = meta.plan.clone();
+    // Checkpoints go on into the file resumed from.
+    plan.checkpoint = Some(jobs::absolute(path));
+    let out = out.unwrap_or_else(|| meta.out.clone());
+    execute(
+        &meta.scene,
+        settings,
+        &out,
+        plan,
+        Some((path, bytes)),
+        quiet,
+    )
+}
+
+/// Adds states and writes the outputs of the whole.
+fn merge(paths: &[PathBuf], out: Option<PathBuf>) -> Result<()> {
+    let t0 = Instant::now();
+    let (bytes, meta) = jobs::read_state(&paths[0])?;
+    let settings = meta.settings();
+    let out = out.unwrap_or_else(|| meta.out.clone());
+    let (mut ctx, scene, cam) = scene::load_with_camera(&meta.scene, &settings)?;
+    ctx.load_state(&bytes)
+        .map_err(|e| CliError(format!("{}: {}", paths[0].display(), e.message)))?;
+    drop(bytes);
+    for p in &paths[1..] {
+        ctx.merge_state_file(p).map_err(|e| CliError(e.message))?;
+    }
+    std::fs::create_dir_all(&out).map_err(|e| CliError(format!("{}: {e}", out.display())))?;
+    let report = ctx.report();
+    let wall = t0.elapsed().as_secs_f64();
+    write_outputs(
+        &ctx,
+        &scene,
+        &cam,
+        &settings,
+        &meta.scene,
+        &out,
+        &report,
+        "Merged",
+        wall,
+    )?;
+    Ok(())
+}
+
+/// Checks, loads (and resumes from `state`), runs in segments with checkpoints, and
+/// writes the outputs (a shard: its state).
+fn execute(
+    obj: &Path,
+    settings: Settings,
+    out: &Path,
+    plan: jobs::StatePlan,
+    state: Option<(&Path, Vec<u8>)>,
+    quiet: bool,
+) -> Result<serde_json::Value> {
     let r = &settings.run;
     if !(r.grid_error.is_finite() && r.grid_error >= 0.0) {
         fail!(
@@ -236,11 +357,14 @@ fn run_scene(obj: &Path, mut settings: Settings, opts: &RunOptions) -> Result<se
     // hour's run would throw the hour away.
     let (mut ctx, scene, cam) = scene::load_with_camera(obj, &settings)?;
     cam.validate()?;
-    std::fs::create_dir_all(&opts.out)
-        .map_err(|e| CliError(format!("{}: {e}", opts.out.display())))?;
+    if let Some((path, bytes)) = state {
+        ctx.load_state(&bytes)
+            .map_err(|e| CliError(format!("{}: {}", path.display(), e.message)))?;
+    }
+    std::fs::create_dir_all(out).map_err(|e| CliError(format!("{}: {e}", out.display())))?;
     let interrupted = Interrupts::get();
 
-    let bar = if opts.quiet {
+    let bar = if quiet {
         ProgressBar::hidden()
     } else {
         ProgressBar::new(1000)
@@ -290,7 +414,8 @@ fn run_scene(obj: &Path, mut settings: Settings, opts: &RunOptions) -> Result<se
             frac = frac.max(p.elapsed_s / time_s);
         }
         if photons > 0 {
-            frac = frac.max(p.photons as f64 / photons as f64);
+            let share = plan.shard.map_or(1.0, |(_, n)| 1.0 / n as f64);
+            frac = frac.max(p.photons as f64 / (photons as f64 * share));
         }
         bar.set_position((frac.min(1.0) * 1000.0) as u64);
         bar.set_message(format!(
@@ -301,20 +426,112 @@ fn run_scene(obj: &Path, mut settings: Settings, opts: &RunOptions) -> Result<se
         ));
         !interrupted.raised()
     };
+    let meta = jobs::StateMeta::new(obj, &settings, out, &plan).bytes();
+    let selection = match plan.shard {
+        Some((k, n)) => imap::Selection {
+            end: if photons > 0 { photons } else { u64::MAX },
+            shards: n,
+            shard: k,
+            ..imap::Selection::ALL
+        },
+        None => imap::Selection::ALL,
+    };
     let t0 = Instant::now();
-    let report = ctx.run(&mut imap::RunParams {
-        region,
-        photons,
-        time_budget_s: time_s,
-        target_rel_error: target,
-        progress_interval_s: r.progress_interval_s,
-        max_path_events: 1 << 20,
-        progress: Some(&mut callback),
-    })?;
+    // In segments of plan.every_s seconds, the state saved after each: a kill loses at
+    // most one segment.
+    let report = loop {
+        let done = ctx.report();
+        let left_photons = match (plan.shard, photons) {
+            (None, p) if p > 0 => p.saturating_sub(done.photons),
+            _ => 0,
+        };
+        if plan.shard.is_none() && photons > 0 && left_photons == 0 {
+            break done; // a state that is complete already
+        }
+        let left_time = if time_s > 0.0 {
+            time_s - done.elapsed_s
+        } else {
+            f64::INFINITY
+        };
+        if left_time <= 0.0 {
+            break done;
+        }
+        let segment = left_time.min(plan.every_s.unwrap_or(f64::INFINITY));
+        let r = ctx.run(&mut imap::RunParams {
+            region: region.clone(),
+            photons: left_photons,
+            time_budget_s: if segment.is_finite() { segment } else { 0.0 },
+            target_rel_error: target,
+            progress_interval_s: r.progress_interval_s,
+            max_path_events: 1 << 20,
+            progress: Some(&mut callback),
+            selection,
+        })?;
+        if let Some(path) = &plan.checkpoint {
+            ctx.save_state(path, &meta)
+                .map_err(|e| CliError(e.message))?;
+        }
+        let time_left = time_s == 0.0 || r.elapsed_s < time_s;
+        if r.stop == Some(imap::StopReason::TimeBudget) && time_left && !interrupted.raised() {
+            continue;
+        }
+        break r;
+    };
     let wall = t0.elapsed().as_secs_f64();
     bar.finish_and_clear();
     let was_interrupted = interrupted.raised();
+    if let Some((k, n)) = plan.shard {
+        println!(
+            "shard {k}/{n}: {} photons in {:.1} s{}; state written to {}",
+            report.photons,
+            report.elapsed_s,
+            if was_interrupted {
+                " (interrupted)"
+            } else {
+                ""
+            },
+            plan.checkpoint
+                .as_ref()
+                .expect("shards keep a state")
+                .display()
+        );
+        if let Some(code) = interrupted.status() {
+            std::process::exit(code);
+        }
+        return Ok(serde_json::json!({"photons": report.photons}));
+    }
+    let stop = if was_interrupted {
+        "Interrupted".to_string()
+    } else {
+        format!("{:?}", report.stop.unwrap_or(imap::StopReason::PhotonCount))
+    };
+    let json = write_outputs(
+        &ctx, &scene, &cam, &settings, obj, out, &report, &stop, wall,
+    )?;
+    if let Some(code) = interrupted.status() {
+        eprintln!(
+            "imap: interrupted: the outputs hold the {} photons traced until then",
+            report.photons
+        );
+        std::process::exit(code);
+    }
+    Ok(json)
+}
 
+/// Writes every output of the map the context holds to `out` (all or nothing), prints
+/// the summary, and returns the report's JSON.
+#[allow(clippy::too_many_arguments)]
+fn write_outputs(
+    ctx: &imap::Context,
+    scene: &scene::LoadedScene,
+    cam: &CameraSettings,
+    settings: &Settings,
+    obj: &Path,
+    out: &Path,
+    report: &imap::Report,
+    stop: &str,
+    wall: f64,
+) -> Result<serde_json::Value> {
     let maps = output::read_maps(&ctx, &scene)?;
     let img = output::render_view(&scene, &maps, &cam)?;
     let history: Vec<serde_json::Value> = ctx
@@ -329,11 +546,6 @@ fn run_scene(obj: &Path, mut settings: Settings, opts: &RunOptions) -> Result<se
         .collect();
     let c = report.counters;
     let photometry = output::photometric_summary(&maps);
-    let stop = if was_interrupted {
-        "Interrupted".to_string()
-    } else {
-        format!("{:?}", report.stop.unwrap_or(imap::StopReason::PhotonCount))
-    };
     let unit_m = settings.unit_m.unwrap_or(1.0);
     let grid_results = scene
         .grids
@@ -382,7 +594,7 @@ fn run_scene(obj: &Path, mut settings: Settings, opts: &RunOptions) -> Result<se
             "csv": "E_* in W/m2 per band, rel_error dimensionless, lux in lx"
         },
         "warnings": scene.warnings,
-        "interrupted": was_interrupted,
+        "interrupted": stop == "Interrupted",
         "stop": stop,
         "photons": report.photons,
         "hits": report.hits,
@@ -419,7 +631,6 @@ fn run_scene(obj: &Path, mut settings: Settings, opts: &RunOptions) -> Result<se
     // Every output is written to a temporary file first and renamed into place once all
     // are complete: an interrupted write never leaves a truncated file, and the outputs
     // of one run are never mixed with an older run's.
-    let out = &opts.out;
     let mut files = output::Outputs::new(out);
     output::write_csv(&files.temp("irradiance.csv")?, &scene, &maps)?;
     output::write_ply(&files.temp("irradiance.ply")?, &scene, &maps)?;
@@ -443,13 +654,6 @@ fn run_scene(obj: &Path, mut settings: Settings, opts: &RunOptions) -> Result<se
     );
     for (g, r) in scene.grids.iter().zip(&grid_results) {
         println!("{}", grids::summary_line(g, r));
-    }
-    if let Some(code) = interrupted.status() {
-        eprintln!(
-            "imap: interrupted: the outputs hold the {} photons traced until then",
-            report.photons
-        );
-        std::process::exit(code);
     }
     Ok(json)
 }

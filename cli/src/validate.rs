@@ -52,6 +52,7 @@ fn run(ctx: &mut Context, photons: u64) -> Result<imap::Report> {
         target_rel_error: 0.0,
         progress_interval_s: 1.0,
         max_path_events: 1 << 20,
+        selection: Default::default(),
         progress: None,
     })?)
 }

@@ -259,6 +259,7 @@ fn outputs_exist_parse_and_the_ply_holds_libimap_s_map() {
         target_rel_error: 0.0,
         progress_interval_s: 1.0,
         max_path_events: 1 << 20,
+        selection: Default::default(),
         progress: None,
     })
     .unwrap();

@@ -7,6 +7,7 @@ mod readout;
 pub use layers::Layer;
 pub use readout::RegionStats;
 mod render;
+pub mod state;
 
 use crate::accel::{Accel, Device};
 use crate::error::{bail, check_finite_scalar, Result};
@@ -510,7 +511,7 @@ impl Context {
             .memory_budget()
             .saturating_sub(held.saturating_add(transient));
         self.prepare()?;
-        let plan = photons::continue_plan(&self.traced, params.photons);
+        let plan = photons::continue_plan(&self.traced, params.photons, &params.selection);
         let prepared = self.prepared.as_ref().expect("prepared above");
         let map = self.map.as_mut().expect("allocated above");
         let regions = RegionShared::new(threads, prepared.scene.regions.count, nb);
@@ -532,6 +533,7 @@ impl Context {
             threads,
             unit_m: self.config.unit_m,
             plan,
+            selection: params.selection,
             photons_before: self.traced.len(),
             pool_bytes,
             hits_before: self.stats.hits,
@@ -757,6 +759,9 @@ fn check_run_params(p: &RunParams) -> Result<()> {
             p.progress_interval_s
         );
     }
+    if let Some(why) = p.selection.check() {
+        bail!(ImapErrInvalidArgument, "params.{why}");
+    }
     if p.max_path_events == 0 {
         bail!(
             ImapErrInvalidArgument,
@@ -768,10 +773,11 @@ fn check_run_params(p: &RunParams) -> Result<()> {
         && p.target_rel_error == 0.0
         && p.region.is_none()
         && p.progress.is_none()
+        && p.selection.end == u64::MAX
     {
         bail!(
             ImapErrInvalidArgument,
-            "params sets no stop criterion: set photons, time_budget_s, target_rel_error, a region target or a progress callback"
+            "params sets no stop criterion: set photons, time_budget_s, target_rel_error, a region target, a progress callback or a photon range with an end"
         );
     }
     Ok(())

@@ -17,7 +17,7 @@ pub const IMAP_VERSION_MAJOR: u32 = 0;
 /// epoch: `libimap.so.0.<minor>` (see README, "ABI policy").
 pub const IMAP_VERSION_MINOR: u32 = 2;
 /// Library version, patch.
-pub const IMAP_VERSION_PATCH: u32 = 1;
+pub const IMAP_VERSION_PATCH: u32 = 2;
 
 /// `ImapConfig::band_mode`: three bands, R, G, B.
 pub const IMAP_BANDS_RGB: u32 = 0;

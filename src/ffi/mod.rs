@@ -18,6 +18,7 @@ mod render;
 mod results;
 mod run;
 mod scene;
+mod state;
 
 pub use context::*;
 pub use layers::*;
@@ -26,6 +27,7 @@ pub use render::*;
 pub use results::*;
 pub use run::*;
 pub use scene::*;
+pub use state::*;
 
 use crate::context::Context;
 use crate::error::{Error, ImapStatus, Result};

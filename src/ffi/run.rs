@@ -125,6 +125,21 @@ pub struct ImapRunParams {
     /// grid's points without a guard ring around them) and the vertices they touch.
     pub region_part_only: u32,
     pub region_part: u32,
+    /// The photon indices this run may trace (since 0.2.2): `[photon_first, photon_first +
+    /// photon_count)` (`photon_count` 0 = no end), and of those only shard `shard_index` of
+    /// `shard_count`: blocks of `shard_block` photons (a multiple of 64; 0 = 65536) dealt
+    /// round robin. Photon k's path depends only on the seed and k, so processes running
+    /// the shards 0 … N−1 of one range trace each of its photons exactly once, whatever
+    /// each one's stop criterion, and their states merge (`imap_state_merge`) into the map
+    /// of one process tracing the same photons (equal up to summation order, ~1e-15
+    /// relative). A run traces the lowest indices of its selection the map does not hold
+    /// yet; `photons` still counts this run's photons. Defaults: 0, 0, 1, 0, 0 (every
+    /// photon, one process).
+    pub photon_first: u64,
+    pub photon_count: u64,
+    pub shard_count: u64,
+    pub shard_index: u64,
+    pub shard_block: u64,
 }
 
 // SAFETY: repr(C), u32 struct_size first, numbers, an Option<fn> and a raw pointer.
@@ -150,7 +165,29 @@ unsafe impl Versioned for ImapRunParams {
             region_percentile: 0.0,
             region_part_only: 0,
             region_part: 0,
+            photon_first: 0,
+            photon_count: 0,
+            shard_count: 1,
+            shard_index: 0,
+            shard_block: 0,
         }
+    }
+}
+
+/// The photon selection of run parameters (`ImapRunParams::photon_first` …).
+fn selection(p: &ImapRunParams) -> crate::sched::Selection {
+    crate::sched::Selection {
+        first: p.photon_first,
+        end: match p.photon_count {
+            0 => u64::MAX,
+            n => p.photon_first.saturating_add(n),
+        },
+        shards: p.shard_count,
+        shard: p.shard_index,
+        block: match p.shard_block {
+            0 => crate::sched::photons::DEFAULT_BLOCK,
+            b => b,
+        },
     }
 }
 
@@ -372,6 +409,7 @@ pub unsafe extern "C" fn imap_run(
             } else {
                 None
             },
+            selection: selection(&p),
         };
         let r = c.run(&mut rp)?;
         if !report.is_null() {

@@ -184,6 +184,17 @@ impl IMap {
         }
     }
 
+    /// Every accumulator, in storage order (per cell: the band sums, then the sum of
+    /// squares), for a caller that holds the map while no run writes it.
+    pub(crate) fn values(&self) -> impl Iterator<Item = f64> + '_ {
+        self.data.iter().map(|a| f64::from_bits(a.load(Relaxed)))
+    }
+
+    /// Every accumulator as one mutable array (`values` order; exclusive access).
+    pub(crate) fn raw_mut(&mut self) -> &mut [f64] {
+        self.plain()
+    }
+
     /// Adds a deposit of barycentric weight `w` of a full-colour photon to cell `slot`
     /// (`LayerLayout::cell`; exclusive access). The `add_*` calls take cells.
     #[inline]

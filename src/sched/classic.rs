@@ -229,7 +229,7 @@ pub fn run_bytes(threads: usize, bands: usize) -> u64 {
 
 /// Runs the classic scheduler until a stop criterion is met.
 pub fn run(rc: &RunContext, map: &mut IMap, params: &mut RunParams) -> RunOutcome {
-    let source = PhotonSource::new(rc.plan.clone());
+    let source = PhotonSource::new(rc.plan.clone(), rc.selection);
     let bands = map.bands();
     let pool = PORTIONS_PER_THREAD * rc.threads + 2;
     let (free_tx, free_rx) = channel::bounded::<Portion>(pool);

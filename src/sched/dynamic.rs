@@ -615,7 +615,7 @@ pub fn run(
     dp: &DynamicParams,
 ) -> RunOutcome {
     let threads = rc.threads;
-    let source = PhotonSource::new(rc.plan.clone());
+    let source = PhotonSource::new(rc.plan.clone(), rc.selection);
     let bands = map.bands();
     let max_groups = max_groups(threads, dp);
     let initial = if dp.initial_groups == 0 {

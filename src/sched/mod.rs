@@ -10,7 +10,7 @@ pub mod photons;
 pub mod target;
 pub mod trace_only;
 
-pub use photons::{PhotonSource, RangeSet};
+pub use photons::{PhotonSource, RangeSet, Selection};
 
 use crate::imap::regions::{RegionShared, RegionTally};
 use crate::imap::{IMap, Readout};
@@ -98,6 +98,25 @@ pub struct RunParams<'a> {
     pub max_path_events: u32,
     /// Called at each progress interval and once at the end; returning false cancels.
     pub progress: Option<&'a mut dyn FnMut(&Progress) -> bool>,
+    /// Which photon indices the run may trace (default: all; ranges and shards for runs
+    /// split over processes).
+    pub selection: Selection,
+}
+
+impl Default for RunParams<'_> {
+    /// Every photon, no stop criterion (set one), progress every 0.5 s, 2²⁰ events.
+    fn default() -> Self {
+        RunParams {
+            photons: 0,
+            time_budget_s: 0.0,
+            target_rel_error: 0.0,
+            region: None,
+            progress_interval_s: 0.5,
+            max_path_events: 1 << 20,
+            progress: None,
+            selection: Selection::ALL,
+        }
+    }
 }
 
 /// Scheduler instrumentation, in the run report.
@@ -139,8 +158,10 @@ pub struct RunContext<'a> {
     pub scene: &'a PreparedScene,
     pub threads: usize,
     pub unit_m: f64,
-    /// The photon indices this run may trace, in order (`photons::continue_plan`).
+    /// The local indices of `selection` this run may trace, in order
+    /// (`photons::continue_plan`).
     pub plan: Vec<Range<u64>>,
+    pub selection: Selection,
     /// Photons in the map before this run (the error estimate's count adds this run's).
     pub photons_before: u64,
     /// Bytes the run's growing buffers (the dynamic scheduler's pool) may take, on top of

@@ -14,7 +14,7 @@ impl HitSink for Discard {
 
 /// Traces until a stop criterion is met; the map is not touched.
 pub fn run(rc: &RunContext, map: &IMap, params: &mut RunParams) -> RunOutcome {
-    let source = PhotonSource::new(rc.plan.clone());
+    let source = PhotonSource::new(rc.plan.clone(), rc.selection);
     let mut monitor = Monitor::new(params, rc);
     let mut stats = PathStats::new(rc.scene.meshes.len());
     let mut thread_lost = None;

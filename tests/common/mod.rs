@@ -207,6 +207,7 @@ pub fn run_photons(ctx: &mut Context, n: u64) -> imap::Report {
         target_rel_error: 0.0,
         progress_interval_s: 1.0,
         max_path_events: 1 << 20,
+        selection: Default::default(),
         progress: None,
     };
     ctx.run(&mut params).expect("run")

@@ -1,0 +1,806 @@
+//! Map state out and in: everything a context has accumulated (the map's sums and squares
+//! in every layer, the photon indices it holds, the energy tallies, the region tallies, the
+//! run time and the error history), with a fingerprint of the scene and settings, as one
+//! versioned, checksummed byte stream. A state can be written to a buffer or, atomically,
+//! to a file; loaded back (resume) or merged into a context of the same scene (shards,
+//! ranks). Photon k depends only on the seed and k, and every value of the state is a sum
+//! over photons, so states of disjoint photon sets add: the merged map, its error estimate
+//! (sums of squares add) and its tallies are those of one run of all their photons.
+//!
+//! Layout (little-endian): `IMAPSTAT`, format version (u32), flags (u32), total length
+//! (u64), the fingerprint (four 128-bit hashes: settings, geometry, materials, lights), the
+//! library version, the map's dimensions, the photon ranges, run time and history, energy
+//! and region tallies, the caller's metadata, the map (unless `flags` says it was left
+//! out; 8-byte aligned) and an XXH3-128 checksum of everything before it.
+
+use super::Context;
+use crate::error::{bail, Error, ImapStatus, Result};
+use crate::imap::Readout;
+use crate::sched::{push_history, Progress, RangeSet};
+use crate::transport::PathStats;
+use std::fmt::Write as _;
+use std::io::{Read, Write};
+use std::path::Path;
+use xxhash_rust::xxh3::Xxh3;
+
+const MAGIC: &[u8; 8] = b"IMAPSTAT";
+/// The state format this library writes and reads.
+pub const FORMAT_VERSION: u32 = 1;
+/// `flags`: the map's accumulators are not in the state (an MPI rank's ledger: its map is
+/// summed by the caller, e.g. with `MPI_Reduce`).
+pub const FLAG_NO_MAP: u32 = 1;
+const PREFIX: usize = 8 + 4 + 4 + 8;
+const CHECKSUM: usize = 16;
+
+/// What a state's fingerprint covers, in the order of its four hashes.
+const PARTS: [&str; 4] = [
+    "settings (bands, seed, units, light aiming, layers)",
+    "geometry (meshes: vertices, triangles, sides, recording, emission)",
+    "materials",
+    "lights",
+];
+
+/// Hashes of the scene and the settings that decide what photon k deposits.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Fingerprint(pub [u128; 4]);
+
+/// A hasher that text can be formatted into (exact: `Debug` of f64 round-trips).
+struct HashText(Xxh3);
+
+impl std::fmt::Write for HashText {
+    fn write_str(&mut self, s: &str) -> std::fmt::Result {
+        self.0.update(s.as_bytes());
+        Ok(())
+    }
+}
+
+impl Fingerprint {
+    pub fn of(ctx: &Context) -> Self {
+        let scene = &ctx.scene;
+        let mut settings = HashText(Xxh3::new());
+        let _ = write!(
+            settings,
+            "{:?}|{}|{:?}|{}|{:?}|{:?}",
+            scene.bands,
+            ctx.config.seed,
+            ctx.config.unit_m.to_bits(),
+            ctx.config.aim_lights,
+            scene.layers,
+            scene.layer_layout()
+        );
+        let mut geometry = Xxh3::new();
+        for m in &scene.meshes {
+            geometry.update(&(m.positions.len() as u64).to_le_bytes());
+            for p in &m.positions {
+                for c in p {
+                    geometry.update(&c.to_le_bytes());
+                }
+            }
+            geometry.update(&(m.triangles.len() as u64).to_le_bytes());
+            for t in &m.triangles {
+                for i in t {
+                    geometry.update(&i.to_le_bytes());
+                }
+            }
+            let mut rest = HashText(geometry);
+            let _ = write!(
+                rest,
+                "|{}|{:?}|{}|{}|{:?}|{}|{}|{}|",
+                m.material,
+                m.triangle_materials,
+                m.two_sided,
+                m.record,
+                m.exitance,
+                m.sensor,
+                m.tally,
+                m.light_group
+            );
+            geometry = rest.0;
+        }
+        let mut materials = HashText(Xxh3::new());
+        let _ = write!(materials, "{:?}", scene.materials);
+        let mut lights = HashText(Xxh3::new());
+        let _ = write!(lights, "{:?}", scene.lights);
+        Fingerprint([
+            settings.0.digest128(),
+            geometry.digest128(),
+            materials.0.digest128(),
+            lights.0.digest128(),
+        ])
+    }
+
+    /// What differs between two fingerprints, in words.
+    fn differences(&self, o: &Fingerprint) -> String {
+        let differ: Vec<&str> = (0..4)
+            .filter(|&i| self.0[i] != o.0[i])
+            .map(|i| PARTS[i])
+            .collect();
+        differ.join("; ")
+    }
+}
+
+/// The map's dimensions a state was written for.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+struct Dims {
+    bands: u32,
+    per_slot: u32,
+    slots: u64,
+    meshes: u32,
+    regions: u64,
+}
+
+/// A state read from bytes, checked against its checksum.
+pub struct StateFile<'a> {
+    pub flags: u32,
+    pub fingerprint: Fingerprint,
+    /// The libimap version that wrote it.
+    pub library: String,
+    dims: Dims,
+    pub traced: RangeSet,
+    pub elapsed_s: f64,
+    pub history: Vec<Progress>,
+    pub stats: PathStats,
+    regions: crate::imap::regions::RegionTally,
+    /// The caller's metadata, as written.
+    pub meta: &'a [u8],
+    /// The map's values (little-endian f64), unless `FLAG_NO_MAP`.
+    map: &'a [u8],
+}
+
+impl StateFile<'_> {
+    pub fn photons(&self) -> u64 {
+        self.traced.len()
+    }
+    pub fn has_map(&self) -> bool {
+        self.flags & FLAG_NO_MAP == 0
+    }
+}
+
+fn corrupt(what: impl std::fmt::Display) -> Error {
+    Error::new(ImapStatus::ImapErrStateCorrupt, what.to_string())
+}
+
+/// Reads fields in order, refusing to read past the end.
+struct Reader<'a> {
+    b: &'a [u8],
+    at: usize,
+}
+
+impl<'a> Reader<'a> {
+    fn take(&mut self, n: u64, what: &str) -> Result<&'a [u8]> {
+        let left = (self.b.len() - self.at) as u64;
+        if n > left {
+            return Err(corrupt(format!(
+                "state is malformed: {what} needs {n} bytes at offset {} but {left} are left",
+                self.at
+            )));
+        }
+        let s = &self.b[self.at..self.at + n as usize];
+        self.at += n as usize;
+        Ok(s)
+    }
+    fn u32(&mut self, what: &str) -> Result<u32> {
+        Ok(u32::from_le_bytes(self.take(4, what)?.try_into().unwrap()))
+    }
+    fn u64(&mut self, what: &str) -> Result<u64> {
+        Ok(u64::from_le_bytes(self.take(8, what)?.try_into().unwrap()))
+    }
+    fn f64(&mut self, what: &str) -> Result<f64> {
+        Ok(f64::from_le_bytes(self.take(8, what)?.try_into().unwrap()))
+    }
+    fn f64s(&mut self, n: u64, what: &str) -> Result<Vec<f64>> {
+        let b = self.take(n.saturating_mul(8), what)?;
+        Ok(b.chunks_exact(8)
+            .map(|c| f64::from_le_bytes(c.try_into().unwrap()))
+            .collect())
+    }
+    fn counted_f64s(&mut self, what: &str) -> Result<Vec<f64>> {
+        let n = self.u64(what)?;
+        self.f64s(n, what)
+    }
+}
+
+/// Appends little-endian fields.
+#[derive(Default)]
+struct Writer(Vec<u8>);
+
+impl Writer {
+    fn u32(&mut self, x: u32) {
+        self.0.extend_from_slice(&x.to_le_bytes());
+    }
+    fn u64(&mut self, x: u64) {
+        self.0.extend_from_slice(&x.to_le_bytes());
+    }
+    fn f64(&mut self, x: f64) {
+        self.0.extend_from_slice(&x.to_le_bytes());
+    }
+    fn f64s(&mut self, xs: &[f64]) {
+        self.u64(xs.len() as u64);
+        for &x in xs {
+            self.f64(x);
+        }
+    }
+}
+
+/// A writer that hashes and counts what passes through it.
+struct Hashing<W: Write> {
+    inner: W,
+    hash: Xxh3,
+    written: u64,
+}
+
+impl<W: Write> Write for Hashing<W> {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        let n = self.inner.write(buf)?;
+        self.hash.update(&buf[..n]);
+        self.written += n as u64;
+        Ok(n)
+    }
+    fn flush(&mut self) -> std::io::Result<()> {
+        self.inner.flush()
+    }
+}
+
+/// Checks the frame of a state (magic, version, length, checksum) and reads it.
+pub fn parse(b: &[u8]) -> Result<StateFile<'_>> {
+    if b.len() < 8 || &b[..8] != MAGIC {
+        bail!(
+            ImapErrStateCorrupt,
+            "not a libimap state: it does not start with \"IMAPSTAT\""
+        );
+    }
+    if b.len() < PREFIX + CHECKSUM {
+        bail!(
+            ImapErrStateCorrupt,
+            "state is truncated: {} bytes, not even its header",
+            b.len()
+        );
+    }
+    let mut r = Reader { b, at: 8 };
+    let version = r.u32("version")?;
+    if version != FORMAT_VERSION {
+        bail!(
+            ImapErrUnsupported,
+            "state format version {version}; this library (libimap {}) reads version {FORMAT_VERSION}",
+            env!("CARGO_PKG_VERSION")
+        );
+    }
+    let flags = r.u32("flags")?;
+    let total = r.u64("length")?;
+    if total != b.len() as u64 {
+        bail!(
+            ImapErrStateCorrupt,
+            "state is {}: {} bytes where its header says {total}",
+            if (b.len() as u64) < total {
+                "truncated"
+            } else {
+                "longer than written (trailing bytes)"
+            },
+            b.len()
+        );
+    }
+    let body = &b[..b.len() - CHECKSUM];
+    let stored = u128::from_le_bytes(b[b.len() - CHECKSUM..].try_into().unwrap());
+    if xxhash_rust::xxh3::xxh3_128(body) != stored {
+        bail!(
+            ImapErrStateCorrupt,
+            "state is corrupt: its checksum does not match its contents (a damaged or altered file)"
+        );
+    }
+    let mut r = Reader {
+        b: body,
+        at: PREFIX,
+    };
+    let mut fp = [0u128; 4];
+    for f in &mut fp {
+        *f = u128::from_le_bytes(r.take(16, "fingerprint")?.try_into().unwrap());
+    }
+    let n = r.u32("library version")?;
+    let library = String::from_utf8_lossy(r.take(n as u64, "library version")?).into_owned();
+    let dims = Dims {
+        bands: r.u32("bands")?,
+        per_slot: r.u32("layers")?,
+        slots: r.u64("slots")?,
+        meshes: r.u32("meshes")?,
+        regions: r.u64("regions")?,
+    };
+    let ranges = r.u64("photon ranges")?;
+    if ranges > (body.len() / 16) as u64 {
+        return Err(corrupt(format!(
+            "state is malformed: {ranges} photon ranges"
+        )));
+    }
+    let mut traced = RangeSet::new();
+    let mut last_end = 0;
+    for i in 0..ranges {
+        let (a, e) = (r.u64("photon range")?, r.u64("photon range")?);
+        if a >= e || (i > 0 && a <= last_end) {
+            return Err(corrupt(format!(
+                "state is malformed: photon range {a}..{e} is empty or out of order"
+            )));
+        }
+        last_end = e;
+        traced.insert(a..e);
+    }
+    let elapsed_s = r.f64("run time")?;
+    let points = r.u64("history")?;
+    if points > (body.len() / 40) as u64 {
+        return Err(corrupt(format!(
+            "state is malformed: {points} history points"
+        )));
+    }
+    let mut history = Vec::with_capacity(points as usize);
+    for _ in 0..points {
+        history.push(Progress {
+            elapsed_s: r.f64("history")?,
+            photons: r.u64("history")?,
+            hits: r.u64("history")?,
+            rel_error: r.f64("history")?,
+            region_rel_error: r.f64("history")?,
+        });
+    }
+    let mut stats = PathStats {
+        photons: r.u64("photon count")?,
+        hits: r.u64("hits")?,
+        emitted: r.f64("energy tally")?,
+        absorbed: r.counted_f64s("absorbed tally")?,
+        escaped: r.f64("energy tally")?,
+        escaped_photons: r.u64("energy tally")?,
+        dropped: r.f64("energy tally")?,
+        dropped_photons: r.u64("energy tally")?,
+        bands: Default::default(),
+    };
+    for b in &mut stats.bands {
+        *b = r.counted_f64s("band tally")?;
+    }
+    let mut regions = crate::imap::regions::RegionTally {
+        bands: r.u32("region tally")? as usize,
+        ..Default::default()
+    };
+    regions.sum = r.counted_f64s("region tally")?;
+    regions.sq = r.counted_f64s("region tally")?;
+    regions.sq_lum = r.counted_f64s("region tally")?;
+    let n = r.u64("metadata")?;
+    let meta = r.take(n, "metadata")?;
+    let pad = (8 - r.at % 8) % 8;
+    r.take(pad as u64, "padding")?;
+    let map = if flags & FLAG_NO_MAP == 0 {
+        let n = r.u64("map")?;
+        r.take(n.saturating_mul(8), "map")?
+    } else {
+        &[]
+    };
+    if r.at != body.len() {
+        return Err(corrupt(format!(
+            "state is malformed: {} bytes after the map",
+            body.len() - r.at
+        )));
+    }
+    if stats.photons != traced.len() {
+        return Err(corrupt(format!(
+            "state is malformed: {} photons counted, {} in its ranges",
+            stats.photons,
+            traced.len()
+        )));
+    }
+    Ok(StateFile {
+        flags,
+        fingerprint: Fingerprint(fp),
+        library,
+        dims,
+        traced,
+        elapsed_s,
+        history,
+        stats,
+        regions,
+        meta,
+        map,
+    })
+}
+
+/// Reads a whole file, naming it in any error.
+pub fn read_file(path: &Path) -> Result<Vec<u8>> {
+    let mut f = std::fs::File::open(path).map_err(|e| io_error(path, "cannot open", e))?;
+    let mut v = Vec::new();
+    f.read_to_end(&mut v)
+        .map_err(|e| io_error(path, "cannot read", e))?;
+    Ok(v)
+}
+
+fn io_error(path: &Path, what: &str, e: std::io::Error) -> Error {
+    Error::new(
+        ImapStatus::ImapErrIo,
+        format!("{what} {}: {e}", path.display()),
+    )
+}
+
+impl Context {
+    fn dims(&self) -> Dims {
+        Dims {
+            bands: self.bands() as u32,
+            per_slot: self.scene.layer_layout().per_slot() as u32,
+            slots: self.scene.slot_count() as u64,
+            meshes: self.scene.meshes.len() as u32,
+            regions: self
+                .prepared
+                .as_ref()
+                .map_or(0, |p| p.scene.regions.count as u64),
+        }
+    }
+
+    /// The fingerprint of the scene and settings a state of this context carries.
+    pub fn fingerprint(&self) -> Fingerprint {
+        Fingerprint::of(self)
+    }
+
+    /// Writes the state (without the map's accumulators with `FLAG_NO_MAP`) and the
+    /// caller's `meta` to `w`; returns the bytes written.
+    pub fn write_state(&mut self, w: &mut dyn Write, flags: u32, meta: &[u8]) -> Result<u64> {
+        // The state of a context that has not run is a map of zeros: prepare it.
+        self.prepare()?;
+        if flags & !FLAG_NO_MAP != 0 {
+            bail!(
+                ImapErrInvalidArgument,
+                "flags = {flags:#x} has bits other than IMAP_STATE_NO_MAP"
+            );
+        }
+        let dims = self.dims();
+        let with_map = flags & FLAG_NO_MAP == 0;
+        let mut h = Writer::default();
+        for f in self.fingerprint().0 {
+            h.0.extend_from_slice(&f.to_le_bytes());
+        }
+        let lib = env!("CARGO_PKG_VERSION");
+        h.u32(lib.len() as u32);
+        h.0.extend_from_slice(lib.as_bytes());
+        h.u32(dims.bands);
+        h.u32(dims.per_slot);
+        h.u64(dims.slots);
+        h.u32(dims.meshes);
+        h.u64(dims.regions);
+        h.u64(self.traced.ranges().len() as u64);
+        for r in self.traced.ranges() {
+            h.u64(r.start);
+            h.u64(r.end);
+        }
+        h.f64(self.elapsed_s);
+        h.u64(self.history.len() as u64);
+        for p in &self.history {
+            h.f64(p.elapsed_s);
+            h.u64(p.photons);
+            h.u64(p.hits);
+            h.f64(p.rel_error);
+            h.f64(p.region_rel_error);
+        }
+        let s = &self.stats;
+        h.u64(s.photons);
+        h.u64(s.hits);
+        h.f64(s.emitted);
+        h.f64s(&s.absorbed);
+        h.f64(s.escaped);
+        h.u64(s.escaped_photons);
+        h.f64(s.dropped);
+        h.u64(s.dropped_photons);
+        for b in &s.bands {
+            h.f64s(b);
+        }
+        let t = &self.region_tally;
+        h.u32(t.bands as u32);
+        h.f64s(&t.sum);
+        h.f64s(&t.sq);
+        h.f64s(&t.sq_lum);
+        h.u64(meta.len() as u64);
+        h.0.extend_from_slice(meta);
+        let pad = (8 - (PREFIX + h.0.len()) % 8) % 8;
+        h.0.resize(h.0.len() + pad, 0);
+        let values = dims.slots * dims.per_slot as u64 * (dims.bands as u64 + 1);
+        let map_bytes = if with_map { 8 + values * 8 } else { 0 };
+        let total = (PREFIX + h.0.len()) as u64 + map_bytes + CHECKSUM as u64;
+
+        let mut out = Hashing {
+            inner: w,
+            hash: Xxh3::new(),
+            written: 0,
+        };
+        let io = |e: std::io::Error| {
+            Error::new(ImapStatus::ImapErrIo, format!("writing the state: {e}"))
+        };
+        out.write_all(MAGIC).map_err(io)?;
+        out.write_all(&FORMAT_VERSION.to_le_bytes()).map_err(io)?;
+        out.write_all(&flags.to_le_bytes()).map_err(io)?;
+        out.write_all(&total.to_le_bytes()).map_err(io)?;
+        out.write_all(&h.0).map_err(io)?;
+        if with_map {
+            out.write_all(&values.to_le_bytes()).map_err(io)?;
+            let map = self.map.as_ref().expect("prepared");
+            let mut buf = Vec::with_capacity(1 << 16);
+            for v in map.values() {
+                buf.extend_from_slice(&v.to_le_bytes());
+                if buf.len() == buf.capacity() {
+                    out.write_all(&buf).map_err(io)?;
+                    buf.clear();
+                }
+            }
+            out.write_all(&buf).map_err(io)?;
+        }
+        let sum = out.hash.digest128();
+        out.inner.write_all(&sum.to_le_bytes()).map_err(io)?;
+        debug_assert_eq!(out.written + CHECKSUM as u64, total);
+        Ok(total)
+    }
+
+    /// The state as bytes (`write_state`).
+    pub fn state_bytes(&mut self, flags: u32, meta: &[u8]) -> Result<Vec<u8>> {
+        let mut v = Vec::new();
+        self.write_state(&mut v, flags, meta)?;
+        Ok(v)
+    }
+
+    /// Writes the whole state to `path` atomically: to a temporary file in the same folder,
+    /// flushed to the disk, then renamed over `path` (and the folder flushed). A crash at
+    /// any moment leaves either the old file or the new one, never a part.
+    pub fn save_state(&mut self, path: &Path, meta: &[u8]) -> Result<u64> {
+        let dir = match path.parent() {
+            Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
+            _ => std::path::PathBuf::from("."),
+        };
+        let Some(name) = path.file_name() else {
+            bail!(
+                ImapErrInvalidArgument,
+                "path {} names no file",
+                path.display()
+            );
+        };
+        let mut tmp_name = name.to_os_string();
+        tmp_name.push(format!(".tmp-{}", std::process::id()));
+        let tmp = dir.join(tmp_name);
+        let result = (|| {
+            let f = std::fs::File::create(&tmp).map_err(|e| io_error(&tmp, "cannot create", e))?;
+            let mut w = std::io::BufWriter::with_capacity(1 << 20, f);
+            let n = self
+                .write_state(&mut w, 0, meta)
+                .map_err(|e| Error::new(e.status, format!("{}: {}", tmp.display(), e.message)))?;
+            let f = w
+                .into_inner()
+                .map_err(|e| io_error(&tmp, "cannot write", e.into_error()))?;
+            f.sync_all()
+                .map_err(|e| io_error(&tmp, "cannot flush", e))?;
+            drop(f);
+            std::fs::rename(&tmp, path).map_err(|e| io_error(path, "cannot rename into", e))?;
+            // The rename itself reaches the disk with the folder.
+            if let Ok(d) = std::fs::File::open(&dir) {
+                let _ = d.sync_all();
+            }
+            remove_dead_temporaries(&dir, name);
+            Ok(n)
+        })();
+        if result.is_err() {
+            let _ = std::fs::remove_file(&tmp);
+        }
+        result
+    }
+
+    /// Checks a state against this context: same fingerprint and dimensions.
+    fn check_state(&self, s: &StateFile) -> Result<()> {
+        let mine = self.fingerprint();
+        if s.fingerprint != mine {
+            bail!(
+                ImapErrStateMismatch,
+                "the state is of another scene or other settings (written by libimap {}): its {} differ from this context's",
+                s.library,
+                s.fingerprint.differences(&mine)
+            );
+        }
+        let dims = self.dims();
+        if s.dims != dims {
+            bail!(
+                ImapErrStateMismatch,
+                "the state's map has {} slots × {} layers × {} bands, this context's {} × {} × {}",
+                s.dims.slots,
+                s.dims.per_slot,
+                s.dims.bands,
+                dims.slots,
+                dims.per_slot,
+                dims.bands
+            );
+        }
+        if s.stats.absorbed.len() != dims.meshes as usize
+            || (!s.regions.sq_lum.is_empty()
+                && (s.regions.bands != dims.bands as usize
+                    || s.regions.sq_lum.len() as u64 != dims.regions
+                    || s.regions.sum.len() as u64 != dims.regions * dims.bands as u64
+                    || s.regions.sq.len() != s.regions.sum.len()))
+            || s.stats.bands.iter().any(|b| b.len() > dims.bands as usize)
+        {
+            return Err(corrupt(
+                "state is malformed: its tallies do not match its map's dimensions",
+            ));
+        }
+        if s.has_map()
+            && s.map.len() as u64 != dims.slots * dims.per_slot as u64 * (dims.bands as u64 + 1) * 8
+        {
+            return Err(corrupt("state is malformed: its map has the wrong size"));
+        }
+        Ok(())
+    }
+
+    /// Replaces what the context has accumulated by the state in `bytes` (resume): the map,
+    /// photons, tallies, run time and history. Returns the caller's metadata. On any error
+    /// the context is unchanged.
+    pub fn load_state<'b>(&mut self, bytes: &'b [u8]) -> Result<&'b [u8]> {
+        let s = parse(bytes)?;
+        self.prepare()?;
+        self.check_state(&s)?;
+        if !s.has_map() {
+            bail!(
+                ImapErrInvalidArgument,
+                "the state was written without its map (IMAP_STATE_NO_MAP): it can only be merged into a context whose map already holds its accumulators"
+            );
+        }
+        let map = self.map.as_mut().expect("prepared");
+        for (v, c) in map.raw_mut().iter_mut().zip(s.map.chunks_exact(8)) {
+            *v = f64::from_le_bytes(c.try_into().unwrap());
+        }
+        let mut stats = s.stats;
+        for b in &mut stats.bands {
+            b.resize(self.bands(), 0.0);
+        }
+        self.stats = stats;
+        self.region_tally = s.regions;
+        self.traced = s.traced;
+        self.elapsed_s = s.elapsed_s;
+        self.history = s.history;
+        self.last_run = None;
+        self.last_render = None;
+        Ok(s.meta)
+    }
+
+    /// Adds the state in `bytes` to what the context holds (shards, ranks): refused when it
+    /// is of another scene or settings, or when it holds photons the context already holds
+    /// (they would count twice). Without the map (`FLAG_NO_MAP`) everything but the map is
+    /// added: the caller has summed the maps itself (`map_accumulators`). The run times
+    /// add; the history gains one point with the combined error. Returns the metadata.
+    /// On any error the context is unchanged.
+    pub fn merge_state<'b>(&mut self, bytes: &'b [u8]) -> Result<&'b [u8]> {
+        let s = parse(bytes)?;
+        self.prepare()?;
+        self.check_state(&s)?;
+        for r in s.traced.ranges() {
+            if self.traced.intersects(r) {
+                let both = self
+                    .traced
+                    .ranges()
+                    .iter()
+                    .find(|x| x.start < r.end && r.start < x.end)
+                    .map(|x| x.start.max(r.start)..x.end.min(r.end))
+                    .expect("they intersect");
+                bail!(
+                    ImapErrStateOverlap,
+                    "the state holds photons this context holds too (indices {}..{} among others): merging would count them twice; merge states of disjoint photon ranges or shards",
+                    both.start,
+                    both.end
+                );
+            }
+        }
+        let map = self.map.as_mut().expect("prepared");
+        if s.has_map() {
+            for (v, c) in map.raw_mut().iter_mut().zip(s.map.chunks_exact(8)) {
+                *v += f64::from_le_bytes(c.try_into().unwrap());
+            }
+        }
+        self.stats.merge(&s.stats);
+        if !s.regions.sq_lum.is_empty() {
+            self.region_tally.merge(&s.regions);
+        }
+        for r in s.traced.ranges() {
+            self.traced.insert(r.clone());
+        }
+        self.elapsed_s += s.elapsed_s;
+        self.push_merge_point();
+        Ok(s.meta)
+    }
+
+    /// A history point for the state after a merge: the combined photons and error.
+    fn push_merge_point(&mut self) {
+        let (Some(p), Some(map)) = (self.prepared.as_ref(), self.map.as_ref()) else {
+            return;
+        };
+        let photons = self.traced.len();
+        let err = Readout {
+            map,
+            scene: &p.scene,
+            photons,
+            unit_m: self.config.unit_m,
+            layer: None,
+        }
+        .global_error();
+        push_history(
+            &mut self.history,
+            Progress {
+                elapsed_s: self.elapsed_s,
+                photons,
+                hits: self.stats.hits,
+                rel_error: err.unwrap_or(crate::imap::NO_DATA_REL_ERROR),
+                region_rel_error: 0.0,
+            },
+        );
+    }
+
+    /// `load_state` from a file.
+    pub fn load_state_file(&mut self, path: &Path) -> Result<Vec<u8>> {
+        let bytes = self.read_state_file(path)?;
+        self.load_state(&bytes)
+            .map(<[u8]>::to_vec)
+            .map_err(|e| in_file(path, e))
+    }
+
+    /// `merge_state` from a file.
+    pub fn merge_state_file(&mut self, path: &Path) -> Result<Vec<u8>> {
+        let bytes = self.read_state_file(path)?;
+        self.merge_state(&bytes)
+            .map(<[u8]>::to_vec)
+            .map_err(|e| in_file(path, e))
+    }
+
+    fn read_state_file(&self, path: &Path) -> Result<Vec<u8>> {
+        let len = std::fs::metadata(path)
+            .map_err(|e| io_error(path, "cannot open", e))?
+            .len();
+        self.check_budget(
+            self.memory_estimate(),
+            len,
+            &format!("reading the state {}", path.display()),
+        )?;
+        read_file(path)
+    }
+
+    /// The map's accumulators as one contiguous array (allocated, zeroed, when the context
+    /// has not run yet): per cell (`IMap`: slot · layers + layer), the band sums then the sum
+    /// of squares. Summing this array over contexts of the same scene element by element
+    /// (e.g. `MPI_Reduce`) and merging their states written with `FLAG_NO_MAP` gives the
+    /// merged state exactly.
+    pub fn map_accumulators(&mut self) -> Result<&mut [f64]> {
+        self.prepare()?;
+        Ok(self.map.as_mut().expect("prepared").raw_mut())
+    }
+}
+
+/// Removes the temporary files earlier writers of `name` left when they were killed (their
+/// process no longer exists): a run killed many times leaves no litter.
+fn remove_dead_temporaries(dir: &Path, name: &std::ffi::OsStr) {
+    let Ok(entries) = std::fs::read_dir(dir) else {
+        return;
+    };
+    let mut prefix = name.to_os_string();
+    prefix.push(".tmp-");
+    let prefix = prefix.as_encoded_bytes();
+    for e in entries.flatten() {
+        let file = e.file_name();
+        let Some(pid) = file
+            .as_encoded_bytes()
+            .strip_prefix(prefix)
+            .and_then(|p| std::str::from_utf8(p).ok())
+            .and_then(|p| p.parse::<libc::pid_t>().ok())
+        else {
+            continue;
+        };
+        // SAFETY: signal 0 only asks whether the process exists.
+        let gone = pid > 0
+            && unsafe { libc::kill(pid, 0) } == -1
+            && std::io::Error::last_os_error().raw_os_error() == Some(libc::ESRCH);
+        if gone {
+            let _ = std::fs::remove_file(e.path());
+        }
+    }
+}
+
+/// Prefixes an error with the file it came from.
+fn in_file(path: &Path, e: Error) -> Error {
+    Error::new(e.status, format!("{}: {}", path.display(), e.message))
+}
+
+/// What `imap_state_info`-like callers see of a state without a context.
+pub fn summary(bytes: &[u8]) -> Result<(u64, &[u8])> {
+    let s = parse(bytes)?;
+    Ok((s.photons(), s.meta))
+}
