@@ -7,6 +7,7 @@
 
 #include <math.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 
 static int failures = 0;
@@ -420,6 +421,53 @@ int main(void) {
     double black[3] = {0, 0, 0};
     expect("CCT of black", imap_xyz_to_cct(black, &cct, NULL), IMAP_ERR_INVALID_ARGUMENT, NULL);
     expect("balance kind 9", imap_get_band_balance(ctx, 9, lux, 4), IMAP_ERR_INVALID_ARGUMENT, ctx);
+
+    /* States: sizes, bad buffers, damaged states and files; the map survives each. */
+    size_t size = 0;
+    expect("state size", imap_state_write(ctx, 0, "m", 1, NULL, 0, &size), IMAP_ERR_BUFFER_TOO_SMALL, ctx);
+    expect("state: size NULL", imap_state_write(ctx, 0, NULL, 0, NULL, 0, NULL), IMAP_ERR_NULL_POINTER, ctx);
+    expect("state: meta NULL", imap_state_write(ctx, 0, NULL, 4, NULL, 0, &size), IMAP_ERR_NULL_POINTER, ctx);
+    expect("state: flag 8", imap_state_write(ctx, 8, NULL, 0, NULL, 0, &size), IMAP_ERR_INVALID_ARGUMENT, ctx);
+    size_t need = 0;
+    imap_state_write(ctx, 0, "m", 1, NULL, 0, &need);
+    unsigned char *st = malloc(need);
+    expect("state: one byte short", imap_state_write(ctx, 0, "m", 1, st, need - 1, &size), IMAP_ERR_BUFFER_TOO_SMALL, ctx);
+    expect("state", imap_state_write(ctx, 0, "m", 1, st, need, &size), IMAP_OK, ctx);
+    uint64_t held = 0;
+    const void *meta = NULL;
+    size_t meta_len = 0;
+    expect("state info", imap_state_info(st, size, &held, &meta, &meta_len), IMAP_OK, NULL);
+    ImapReport now;
+    expect("report", imap_get_report(ctx, &now, sizeof now), IMAP_OK, ctx);
+    if (held != now.photons || held == 0 || meta_len != 1 || *(const char *)meta != 'm')
+        printf("FAIL state info: %llu photons, %zu bytes of metadata\n", (unsigned long long)held, meta_len), failures++;
+    expect("merge a state into its own context", imap_state_merge(ctx, st, size), IMAP_ERR_STATE_OVERLAP, ctx);
+    st[size / 2] ^= 4;
+    expect("load a corrupted state", imap_state_load(ctx, st, size), IMAP_ERR_STATE_CORRUPT, ctx);
+    st[size / 2] ^= 4;
+    expect("load a truncated state", imap_state_load(ctx, st, size - 9), IMAP_ERR_STATE_CORRUPT, ctx);
+    expect("load NULL", imap_state_load(ctx, NULL, 10), IMAP_ERR_NULL_POINTER, ctx);
+    expect("info of nothing", imap_state_info(st, 3, NULL, NULL, NULL), IMAP_ERR_STATE_CORRUPT, NULL);
+    expect("load from a missing file", imap_state_load_file(ctx, "/nonexistent/x.imap"), IMAP_ERR_IO, ctx);
+    expect("merge from a NULL path", imap_state_merge_file(ctx, NULL), IMAP_ERR_NULL_POINTER, ctx);
+    expect("save into a missing folder", imap_state_save(ctx, "/nonexistent/d/x.imap", NULL, 0), IMAP_ERR_IO, ctx);
+    expect("save to an empty path", imap_state_save(ctx, "", NULL, 0), IMAP_ERR_INVALID_ARGUMENT, ctx);
+    double lux2[4];
+    expect("lux after the refused states", imap_get_vertex_illuminance(ctx, floor_id, 0, lux2, 4), IMAP_OK, ctx);
+    if (memcmp(lux, lux2, sizeof lux) != 0) printf("FAIL the map changed under refused states\n"), failures++;
+    /* The state loads into a fresh context of the same scene only. */
+    expect("load into this context", imap_state_load(ctx, st, size), IMAP_OK, ctx);
+    expect("run with a bad shard", (run.shard_count = 2, run.shard_index = 2, imap_run(ctx, &run, NULL, 0)),
+           IMAP_ERR_INVALID_ARGUMENT, ctx);
+    run.shard_count = 1, run.shard_index = 0, run.shard_block = 100;
+    expect("run with a block of 100", imap_run(ctx, &run, NULL, 0), IMAP_ERR_INVALID_ARGUMENT, ctx);
+    run.shard_block = 0;
+    double *acc = NULL;
+    uint64_t acc_n = 0;
+    expect("accumulators", imap_map_accumulators(ctx, &acc, &acc_n), IMAP_OK, ctx);
+    expect("accumulators: count NULL", imap_map_accumulators(ctx, &acc, NULL), IMAP_ERR_NULL_POINTER, ctx);
+    if (acc == NULL || acc_n == 0) printf("FAIL no accumulators\n"), failures++;
+    free(st);
     imap_destroy(ctx);
     imap_destroy(NULL);
     printf("%d failure%s\n", failures, failures == 1 ? "" : "s");

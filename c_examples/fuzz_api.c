@@ -231,7 +231,7 @@ int main(int argc, char **argv) {
         double t0 = now_s(), bound = 2.0;
         const char *what = "";
         uint32_t id = UINT32_MAX;
-        switch (below(24)) {
+        switch (below(26)) {
         case 0: { /* a material */
             what = "imap_add_material";
             ImapMaterial m;
@@ -327,6 +327,13 @@ int main(int argc, char **argv) {
                 p.region_percentile = chance(0.7) ? 0 : hostile(80);
                 p.region_meshes = chance(0.05) ? NULL : rmeshes;
                 p.region_mesh_count = below(4);
+            }
+            if (chance(0.1)) { /* a range or a shard of the photons */
+                p.photon_first = chance(0.5) ? below(5000) : next_u64();
+                p.photon_count = chance(0.3) ? 0 : (chance(0.9) ? below(4000) : next_u64());
+                p.shard_count = chance(0.05) ? 0 : 1 + below(4);
+                p.shard_index = below(5);
+                p.shard_block = chance(0.7) ? 0 : (chance(0.5) ? 64 * below(10) : below(1000));
             }
             if (p.photons == 0 && !(p.time_budget_s > 0 && p.time_budget_s < 0.1)) p.photons = 500;
             if (chance(0.03)) p.struct_size = below(50);
@@ -572,6 +579,36 @@ int main(int argc, char **argv) {
             s = chance(0.5) ? imap_xyz_to_cct(chance(0.03) ? NULL : x, chance(0.03) ? NULL : &k, chance(0.5) ? &duv : NULL)
                             : imap_xyz_chromaticity(x, chance(0.03) ? NULL : out);
             ctx = NULL;
+            break;
+        }
+        case 19: { /* states: written, damaged, loaded or merged (also into other contexts) */
+            what = "imap_state_*";
+            size_t need = 0;
+            s = imap_state_write(ctx, chance(0.9) ? (chance(0.2) ? IMAP_STATE_NO_MAP : 0) : below(8), "fz", below(3),
+                                 NULL, 0, chance(0.03) ? NULL : &need);
+            if (s != IMAP_ERR_BUFFER_TOO_SMALL) break;
+            unsigned char *st = malloc(need + 16);
+            size_t size = 0;
+            s = imap_state_write(ctx, 0, "fz", 2, st, need + 16, &size);
+            if (s == IMAP_OK) {
+                if (chance(0.3)) st[below((uint32_t)size)] ^= (unsigned char)(1u << below(8));
+                if (chance(0.2)) size = below((uint32_t)size + 1);
+                ImapContext *into = chance(0.5) ? sl->ctx : slots[below(MAX_CTX)].ctx;
+                if (into != sl->ctx) have_map = 0; /* another context's map may change */
+                switch (below(4)) {
+                case 0: s = imap_state_load(into, chance(0.03) ? NULL : st, size); break;
+                case 1: s = imap_state_merge(into, st, size); break;
+                case 2: s = imap_state_info(st, size, NULL, NULL, NULL); break;
+                default: {
+                    double *acc = NULL;
+                    uint64_t n = 0;
+                    s = imap_map_accumulators(into, chance(0.03) ? NULL : &acc, &n);
+                    break;
+                }
+                }
+                ctx = into;
+            }
+            free(st);
             break;
         }
         case 14: /* destroy and create, sometimes */
