@@ -1,6 +1,7 @@
 //! Map state out and in: photon ranges and shards merged equal one run, resume equals an
 //! uninterrupted run, merges refuse other scenes and shared photons, damaged states get
 //! specific errors and leave the context as it was.
+#![allow(clippy::single_range_in_vec_init)]
 
 mod common;
 use common::*;

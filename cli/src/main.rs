@@ -532,8 +532,8 @@ fn write_outputs(
     stop: &str,
     wall: f64,
 ) -> Result<serde_json::Value> {
-    let maps = output::read_maps(&ctx, &scene)?;
-    let img = output::render_view(&scene, &maps, &cam)?;
+    let maps = output::read_maps(ctx, scene)?;
+    let img = output::render_view(scene, &maps, cam)?;
     let history: Vec<serde_json::Value> = ctx
         .history()
         .iter()
@@ -550,7 +550,7 @@ fn write_outputs(
     let grid_results = scene
         .grids
         .iter()
-        .map(|g| grids::read(&ctx, g))
+        .map(|g| grids::read(ctx, g))
         .collect::<Result<Vec<_>>>()?;
     let grid_json: Vec<serde_json::Value> = scene
         .grids
@@ -632,8 +632,8 @@ fn write_outputs(
     // are complete: an interrupted write never leaves a truncated file, and the outputs
     // of one run are never mixed with an older run's.
     let mut files = output::Outputs::new(out);
-    output::write_csv(&files.temp("irradiance.csv")?, &scene, &maps)?;
-    output::write_ply(&files.temp("irradiance.ply")?, &scene, &maps)?;
+    output::write_csv(&files.temp("irradiance.csv")?, scene, &maps)?;
+    output::write_ply(&files.temp("irradiance.ply")?, scene, &maps)?;
     output::plot_convergence(&files.temp("convergence.png")?, ctx.history())?;
     output::write_png(&files.temp("view.png")?, cam.width, cam.height, &img)?;
     for (g, r) in scene.grids.iter().zip(&grid_results) {

@@ -19,7 +19,7 @@ use crate::imap::Readout;
 use crate::sched::{push_history, Progress, RangeSet};
 use crate::transport::PathStats;
 use std::fmt::Write as _;
-use std::io::{Read, Write};
+use std::io::Write;
 use std::path::Path;
 use xxhash_rust::xxh3::Xxh3;
 
@@ -400,11 +400,7 @@ pub fn parse(b: &[u8]) -> Result<StateFile<'_>> {
 
 /// Reads a whole file, naming it in any error.
 pub fn read_file(path: &Path) -> Result<Vec<u8>> {
-    let mut f = std::fs::File::open(path).map_err(|e| io_error(path, "cannot open", e))?;
-    let mut v = Vec::new();
-    f.read_to_end(&mut v)
-        .map_err(|e| io_error(path, "cannot read", e))?;
-    Ok(v)
+    std::fs::read(path).map_err(|e| io_error(path, "cannot read", e))
 }
 
 fn io_error(path: &Path, what: &str, e: std::io::Error) -> Error {
