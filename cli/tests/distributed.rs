@@ -145,30 +145,15 @@ fn sigkill_then_resume_equals_the_uninterrupted_run() {
 
     let ck = d.path().join("ck.imap");
     let killed = d.path().join("killed");
-    let run = [
-        "run",
-        &model,
-        "--config",
-        &toml,
-        "--photons",
-        &photons.to_string(),
-        "--time",
-        "0",
-        "--target-error",
-        "0",
-        "--threads",
-        "2",
-        "--quiet",
-        "--out",
-        s(&killed),
-        "--checkpoint",
-        s(&ck),
-        "--checkpoint-every",
-        "0.05",
-    ];
+    let mut run = run_args(&model, &toml, &killed, photons);
+    run.extend(["--checkpoint", s(&ck), "--checkpoint-every", "0.05"].map(String::from));
     // Killed three times at no particular moment (perhaps while writing a checkpoint):
     // the run, then twice its resumption.
-    kill_after_a_checkpoint(&run, &ck, 130);
+    kill_after_a_checkpoint(
+        &run.iter().map(String::as_str).collect::<Vec<_>>(),
+        &ck,
+        130,
+    );
     let resume = ["resume", s(&ck), "--quiet", "--out", s(&killed)];
     for delay in [70, 210] {
         kill_after_a_checkpoint(&resume, &ck, delay);
@@ -219,25 +204,10 @@ fn shards_merged_equal_one_run_and_bad_states_are_refused() {
     let mut states = Vec::new();
     for k in 0..3 {
         let out = d.path().join(format!("shard{k}"));
-        let o = imap(&[
-            "run",
-            &model,
-            "--config",
-            &toml,
-            "--photons",
-            &photons.to_string(),
-            "--time",
-            "0",
-            "--target-error",
-            "0",
-            "--threads",
-            "2",
-            "--quiet",
-            "--out",
-            s(&out),
-            "--shard",
-            &format!("{k}/3"),
-        ]);
+        let o = imap_with(
+            &run_args(&model, &toml, &out, photons),
+            &["--shard", &format!("{k}/3")],
+        );
         ok(&o);
         let st = out.join(format!("shard-{k}-of-3.imap"));
         assert!(st.exists(), "{}", String::from_utf8_lossy(&o.stdout));

@@ -23,10 +23,10 @@ pub fn write(dir: &Path, name: &str, bytes: impl AsRef<[u8]>) -> String {
     p.to_str().unwrap().to_string()
 }
 
-/// `imap run MODEL --config TOML` for exactly `photons` photons on 2 threads, quietly,
-/// into `out`.
-pub fn run_photons(model: &str, toml: &str, out: &Path, photons: u64) -> Output {
-    imap(&[
+/// The arguments of `imap run MODEL --config TOML` for exactly `photons` photons on 2
+/// threads, quietly, into `out`.
+pub fn run_args(model: &str, toml: &str, out: &Path, photons: u64) -> Vec<String> {
+    [
         "run",
         model,
         "--config",
@@ -42,5 +42,20 @@ pub fn run_photons(model: &str, toml: &str, out: &Path, photons: u64) -> Output 
         "--quiet",
         "--out",
         out.to_str().unwrap(),
-    ])
+    ]
+    .map(String::from)
+    .to_vec()
+}
+
+/// Runs `imap` with `args` and `extra` after them.
+pub fn imap_with(args: &[String], extra: &[&str]) -> Output {
+    let mut all: Vec<&str> = args.iter().map(String::as_str).collect();
+    all.extend(extra);
+    imap(&all)
+}
+
+/// `imap run MODEL --config TOML` for exactly `photons` photons on 2 threads, quietly,
+/// into `out`.
+pub fn run_photons(model: &str, toml: &str, out: &Path, photons: u64) -> Output {
+    imap_with(&run_args(model, toml, out, photons), &[])
 }
