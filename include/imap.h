@@ -2103,7 +2103,8 @@ enum ImapStatus imap_state_write(struct ImapContext *ctx, uint32_t flags, const 
 /**
  * Writes the whole state (`imap_state_write` without flags) to the file `path` (UTF-8 or
  * the system's bytes, NUL-terminated) atomically: into a temporary file beside it
- * (`path` + ".tmp-" + the process id), flushed to the disk, then renamed over `path`. A
+ * (`path` + ".tmp-" + the process id and a count), flushed to the disk, then renamed over
+ * `path`; temporary files of writers that were killed are removed. A
  * crash or SIGKILL at any moment leaves either the previous file or the new one whole,
  * never a part: a checkpoint written this way can always be resumed from.
  *

@@ -635,3 +635,126 @@ fn c_abi_skips_degenerate_triangles_and_takes_config_flags() {
     assert!(out.is_null());
     assert!(message(std::ptr::null()).contains("config.flags"));
 }
+
+/// Three photon ranges traced by three contexts through the C ABI, their states written
+/// to buffers and merged into a fourth: the map and its error equal one context's run of
+/// all the photons (1e-12); a state of a context with another seed is refused.
+#[test]
+fn c_abi_ranges_states_and_merges() {
+    let n = 30_000u64;
+    let map = |ctx: *mut ImapContext, mesh: u32, nv: usize| -> Vec<f64> {
+        let (mut e, mut r) = (vec![0.0; nv], vec![0.0; nv]);
+        // SAFETY: valid handle and buffers of nv values.
+        unsafe {
+            ok(
+                imap_get_vertex_energy(ctx, mesh, 0, 0, e.as_mut_ptr(), nv),
+                ctx,
+            );
+            ok(imap_get_vertex_error(ctx, mesh, 0, r.as_mut_ptr(), nv), ctx);
+        }
+        e.extend(r);
+        e
+    };
+    let (one, mesh, nv) = scene();
+    let mut p = run_params_with(n);
+    // SAFETY: valid handle and params.
+    ok(
+        unsafe { imap_run(one.0, &p, std::ptr::null_mut(), 0) },
+        one.0,
+    );
+    let want = map(one.0, mesh, nv);
+    let (all, _, _) = scene();
+    for (first, count) in [(0, n / 3), (n / 3, n / 2 - n / 3), (n / 2, n - n / 2)] {
+        let (part, _, _) = scene();
+        p.photons = 0;
+        p.photon_first = first;
+        p.photon_count = count;
+        let mut size = 0usize;
+        // SAFETY: valid handles, params and out-pointers; the buffer holds `size` bytes.
+        unsafe {
+            ok(imap_run(part.0, &p, std::ptr::null_mut(), 0), part.0);
+            let s = imap_state_write(
+                part.0,
+                0,
+                std::ptr::null(),
+                0,
+                std::ptr::null_mut(),
+                0,
+                &mut size,
+            );
+            assert_eq!(s, ImapStatus::ImapErrBufferTooSmall);
+            let mut buf = vec![0u8; size];
+            ok(
+                imap_state_write(
+                    part.0,
+                    0,
+                    std::ptr::null(),
+                    0,
+                    buf.as_mut_ptr().cast(),
+                    size,
+                    &mut size,
+                ),
+                part.0,
+            );
+            let mut photons = 0u64;
+            ok(
+                imap_state_info(
+                    buf.as_ptr().cast(),
+                    size,
+                    &mut photons,
+                    std::ptr::null_mut(),
+                    std::ptr::null_mut(),
+                ),
+                std::ptr::null(),
+            );
+            assert_eq!(photons, count);
+            ok(imap_state_merge(all.0, buf.as_ptr().cast(), size), all.0);
+        }
+    }
+    let got = map(all.0, mesh, nv);
+    let worst = want
+        .iter()
+        .zip(&got)
+        .map(|(a, b)| (a - b).abs() / a.abs().max(b.abs()).max(1e-300))
+        .fold(0.0, f64::max);
+    assert!(
+        worst <= 1e-12,
+        "merged ranges differ from one run by {worst:e}"
+    );
+    assert!(want.iter().any(|&x| x > 0.0));
+    // Another seed: another fingerprint.
+    let (other, _, _) = scene_with(|c| c.seed = 99);
+    let mut size = 0usize;
+    // SAFETY: as above.
+    unsafe {
+        imap_state_write(
+            all.0,
+            0,
+            std::ptr::null(),
+            0,
+            std::ptr::null_mut(),
+            0,
+            &mut size,
+        );
+        let mut buf = vec![0u8; size];
+        ok(
+            imap_state_write(
+                all.0,
+                0,
+                std::ptr::null(),
+                0,
+                buf.as_mut_ptr().cast(),
+                size,
+                &mut size,
+            ),
+            all.0,
+        );
+        let s = imap_state_merge(other.0, buf.as_ptr().cast(), size);
+        assert_eq!(s, ImapStatus::ImapErrStateMismatch);
+        assert!(
+            message(other.0).contains("settings"),
+            "{}",
+            message(other.0)
+        );
+    }
+}

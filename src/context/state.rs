@@ -547,8 +547,12 @@ impl Context {
                 path.display()
             );
         };
+        // Unique per process and per call: two contexts of one process may save the same
+        // path at once.
+        static SAVES: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
+        let call = SAVES.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
         let mut tmp_name = name.to_os_string();
-        tmp_name.push(format!(".tmp-{}", std::process::id()));
+        tmp_name.push(format!(".tmp-{}-{call}", std::process::id()));
         let tmp = dir.join(tmp_name);
         let result = (|| {
             let f = std::fs::File::create(&tmp).map_err(|e| io_error(&tmp, "cannot create", e))?;
@@ -776,7 +780,7 @@ fn remove_dead_temporaries(dir: &Path, name: &std::ffi::OsStr) {
             .as_encoded_bytes()
             .strip_prefix(prefix)
             .and_then(|p| std::str::from_utf8(p).ok())
-            .and_then(|p| p.parse::<libc::pid_t>().ok())
+            .and_then(|p| p.split('-').next()?.parse::<libc::pid_t>().ok())
         else {
             continue;
         };
