@@ -39,19 +39,8 @@ fn context(n: usize, bands: u32) -> Context {
             indices.extend([a, b, c, a, c, d]);
         }
     }
-    ctx.add_mesh(&MeshDesc {
-        positions: &positions,
-        indices: &indices,
-        material: grey,
-        triangle_materials: None,
-        two_sided: false,
-        record: true,
-        exitance: None,
-        sensor: false,
-        tally: false,
-        skip_degenerate: false,
-    })
-    .unwrap();
+    ctx.add_mesh(&MeshDesc::new(&positions, &indices, grey))
+        .unwrap();
     ctx.add_point_light([0.5, 0.5, 1.0], &[10.0]).unwrap();
     ctx
 }

@@ -217,16 +217,10 @@ impl Tess {
         let tm: Vec<u32> = self.parts.iter().map(|&p| materials[p as usize]).collect();
         let uniform = tm.iter().all(|&m| m == tm[0]);
         let desc = MeshDesc {
-            positions: &self.positions,
-            indices: &self.indices,
-            material: tm[0],
             triangle_materials: (!uniform).then_some(&tm[..]),
-            two_sided: false,
             record,
             exitance,
-            sensor: false,
-            tally: false,
-            skip_degenerate: false,
+            ..MeshDesc::new(&self.positions, &self.indices, tm[0])
         };
         let id = ctx.add_mesh(&desc)?;
         built.meshes.push(id);
@@ -683,16 +677,9 @@ pub fn cornell_box(ctx: &mut Context, open_front: bool, n: usize) -> Result<Buil
     let mats = [white, red, green];
     let triangle_materials: Vec<u32> = room.parts.iter().map(|&p| mats[p as usize]).collect();
     let walls = ctx.add_mesh(&MeshDesc {
-        positions: &room.positions,
-        indices: &room.indices,
-        material: white,
         triangle_materials: Some(&triangle_materials),
-        two_sided: false,
         record: !open_front,
-        exitance: None,
-        sensor: false,
-        tally: false,
-        skip_degenerate: false,
+        ..MeshDesc::new(&room.positions, &room.indices, white)
     })?;
     let mut lamp = Tess::default();
     lamp.quad(
@@ -705,16 +692,9 @@ pub fn cornell_box(ctx: &mut Context, open_front: bool, n: usize) -> Result<Buil
     );
     let exitance = [17.0 / (0.130 * 0.105)];
     let lamp_id = ctx.add_mesh(&MeshDesc {
-        positions: &lamp.positions,
-        indices: &lamp.indices,
-        material: black,
-        triangle_materials: None,
-        two_sided: false,
         record: false,
         exitance: Some(&exitance),
-        sensor: false,
-        tally: false,
-        skip_degenerate: false,
+        ..MeshDesc::new(&lamp.positions, &lamp.indices, black)
     })?;
     Ok(Built {
         meshes: vec![walls, lamp_id],

@@ -261,16 +261,9 @@ fn item07_zero_and_overflowing_powers_are_refused_by_name() {
     let line = [0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 2.0, 0.0, 0.0];
     let e = ctx
         .add_mesh(&MeshDesc {
-            positions: &line,
-            indices: &[0, 1, 2],
-            material: grey,
-            triangle_materials: None,
-            two_sided: false,
             record: false,
             exitance: Some(&[100.0]),
-            sensor: false,
-            tally: false,
-            skip_degenerate: false,
+            ..MeshDesc::new(&line, &[0, 1, 2], grey)
         })
         .unwrap_err();
     assert_eq!(e.status, ImapStatus::ImapErrNoLight, "{e}");
@@ -284,16 +277,9 @@ fn item07_zero_and_overflowing_powers_are_refused_by_name() {
     let far = [1e200, 0.0, 0.0, 1e200, 1.0, 0.0, 1e200, 0.0, 1.0];
     let e = ctx
         .add_mesh(&MeshDesc {
-            positions: &far,
-            indices: &[0, 1, 2],
-            material: grey,
-            triangle_materials: None,
-            two_sided: false,
             record: false,
             exitance: Some(&[1.0]),
-            sensor: false,
-            tally: false,
-            skip_degenerate: false,
+            ..MeshDesc::new(&far, &[0, 1, 2], grey)
         })
         .unwrap_err();
     assert_eq!(e.status, ImapStatus::ImapErrPrecision, "{e}");

@@ -669,33 +669,11 @@ fn c_abi_ranges_states_and_merges() {
         p.photons = 0;
         p.photon_first = first;
         p.photon_count = count;
-        let mut size = 0usize;
         // SAFETY: valid handles, params and out-pointers; the buffer holds `size` bytes.
         unsafe {
             ok(imap_run(part.0, &p, std::ptr::null_mut(), 0), part.0);
-            let s = imap_state_write(
-                part.0,
-                0,
-                std::ptr::null(),
-                0,
-                std::ptr::null_mut(),
-                0,
-                &mut size,
-            );
-            assert_eq!(s, ImapStatus::ImapErrBufferTooSmall);
-            let mut buf = vec![0u8; size];
-            ok(
-                imap_state_write(
-                    part.0,
-                    0,
-                    std::ptr::null(),
-                    0,
-                    buf.as_mut_ptr().cast(),
-                    size,
-                    &mut size,
-                ),
-                part.0,
-            );
+            let buf = state_of(part.0);
+            let size = buf.len();
             let mut photons = 0u64;
             ok(
                 imap_state_info(
@@ -724,31 +702,10 @@ fn c_abi_ranges_states_and_merges() {
     assert!(want.iter().any(|&x| x > 0.0));
     // Another seed: another fingerprint.
     let (other, _, _) = scene_with(|c| c.seed = 99);
-    let mut size = 0usize;
+    let buf = state_of(all.0);
     // SAFETY: as above.
     unsafe {
-        imap_state_write(
-            all.0,
-            0,
-            std::ptr::null(),
-            0,
-            std::ptr::null_mut(),
-            0,
-            &mut size,
-        );
-        let mut buf = vec![0u8; size];
-        ok(
-            imap_state_write(
-                all.0,
-                0,
-                std::ptr::null(),
-                0,
-                buf.as_mut_ptr().cast(),
-                size,
-                &mut size,
-            ),
-            all.0,
-        );
+        let size = buf.len();
         let s = imap_state_merge(other.0, buf.as_ptr().cast(), size);
         assert_eq!(s, ImapStatus::ImapErrStateMismatch);
         assert!(
@@ -756,5 +713,22 @@ fn c_abi_ranges_states_and_merges() {
             "{}",
             message(other.0)
         );
+    }
+}
+
+/// The context's whole state through the C ABI: the size asked first (NULL buffer →
+/// IMAP_ERR_BUFFER_TOO_SMALL with the size), then written.
+fn state_of(ctx: *mut ImapContext) -> Vec<u8> {
+    let mut size = 0usize;
+    let null = std::ptr::null();
+    // SAFETY: a valid handle; the buffer holds `size` bytes.
+    unsafe {
+        let s = imap_state_write(ctx, 0, null, 0, std::ptr::null_mut(), 0, &mut size);
+        assert_eq!(s, ImapStatus::ImapErrBufferTooSmall);
+        let mut buf = vec![0u8; size];
+        let s = imap_state_write(ctx, 0, null, 0, buf.as_mut_ptr().cast(), size, &mut size);
+        ok(s, ctx);
+        assert_eq!(size, buf.len());
+        buf
     }
 }

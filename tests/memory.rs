@@ -38,18 +38,7 @@ fn admits(budget: u64, n: usize) -> bool {
         ..Default::default()
     });
     let grey = lambert(&mut ctx, 0.5);
-    let r = ctx.add_mesh(&imap::MeshDesc {
-        positions: &positions,
-        indices: &indices,
-        material: grey,
-        triangle_materials: None,
-        two_sided: false,
-        record: true,
-        exitance: None,
-        sensor: false,
-        tally: false,
-        skip_degenerate: false,
-    });
+    let r = ctx.add_mesh(&imap::MeshDesc::new(&positions, &indices, grey));
     !matches!(r, Err(e) if e.status == ImapStatus::ImapErrMemoryBudget)
 }
 

@@ -144,16 +144,8 @@ fn octant_sphere(ctx: &mut Context, r: f64) -> Vec<u32> {
         .iter()
         .map(|indices| {
             ctx.add_mesh(&MeshDesc {
-                positions: &g.positions,
-                indices,
-                material: black,
-                triangle_materials: None,
-                two_sided: false,
                 record: false,
-                exitance: None,
-                sensor: false,
-                tally: false,
-                skip_degenerate: false,
+                ..MeshDesc::new(&g.positions, indices, black)
             })
             .unwrap()
         })

@@ -27,8 +27,6 @@ fn wall_grid(nx: usize, nz: usize, x: f64, y: [f64; 2], z: [f64; 2]) -> Geometry
 fn sensor_desc(g: &Geometry, two_sided: bool) -> MeshDesc<'_> {
     MeshDesc {
         sensor: true,
-        tally: false,
-        skip_degenerate: false,
         two_sided,
         ..g.desc(0)
     }
@@ -295,7 +293,6 @@ fn parts_add_up_to_their_mesh() {
         .add_mesh(&MeshDesc {
             triangle_materials: Some(&tm),
             tally: true,
-            skip_degenerate: false,
             ..g.desc(m0)
         })
         .unwrap();

@@ -163,16 +163,9 @@ pub fn add_grids(ctx: &mut Context, grids: &[GridSettings], unit_m: f64) -> Resu
         }
         let id = ctx
             .add_mesh(&MeshDesc {
-                positions: &mesh_positions,
-                indices: &indices,
-                material: POINTS_PART,
                 triangle_materials: Some(&parts),
-                two_sided: false,
-                record: true,
-                exitance: None,
                 sensor: true,
-                tally: false,
-                skip_degenerate: false,
+                ..MeshDesc::new(&mesh_positions, &indices, POINTS_PART)
             })
             .map_err(|e| CliError(format!("{what}: {}", e.message)))?;
         out.push(Grid {

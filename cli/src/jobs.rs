@@ -113,22 +113,22 @@ impl StateMeta {
     }
 }
 
-/// A state file's bytes (checked: frame, version, checksum) and the command's metadata.
+/// A state file's bytes and the command's metadata. Only the frame is checked here (magic,
+/// version, length); the checksum is checked once, by the load or merge that follows,
+/// unless the metadata is unreadable, when a damaged file is named as such first.
 pub fn read_state(path: &Path) -> Result<(Vec<u8>, StateMeta)> {
-    let lib = |e: imap::Error| CliError(format!("{}: {}", path.display(), e.message));
+    let named = |e: imap::Error| CliError(format!("{}: {}", path.display(), e.message));
     let bytes = state::read_file(path).map_err(|e| CliError(e.message))?;
-    let meta = {
-        let (_, meta) = state::summary(&bytes).map_err(lib)?;
-        let m: StateMeta = serde_json::from_slice(meta).map_err(|_| {
-            CliError(format!(
+    let meta = state::parse_unchecked(&bytes).map_err(named)?.meta;
+    let m = match serde_json::from_slice::<StateMeta>(meta) {
+        Ok(m) if m.written_by == WRITTEN_BY => m,
+        _ => {
+            state::parse(&bytes).map_err(named)?;
+            fail!(
                 "{}: a libimap state, but not one written by the imap command (it has no model and settings to go on with)",
                 path.display()
-            ))
-        })?;
-        if m.written_by != WRITTEN_BY {
-            fail!("{}: not written by the imap command", path.display());
+            );
         }
-        m
     };
-    Ok((bytes, meta))
+    Ok((bytes, m))
 }

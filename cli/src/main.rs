@@ -430,9 +430,7 @@ fn execute(
     let selection = match plan.shard {
         Some((k, n)) => imap::Selection {
             end: if photons > 0 { photons } else { u64::MAX },
-            shards: n,
-            shard: k,
-            ..imap::Selection::ALL
+            ..imap::Selection::shard(k, n)
         },
         None => imap::Selection::ALL,
     };

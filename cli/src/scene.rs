@@ -639,18 +639,13 @@ struct Built {
 
 impl Built {
     fn desc(&self) -> MeshDesc<'_> {
+        // The model loader left out the triangles that repeat a vertex: no skip_degenerate.
         MeshDesc {
-            positions: &self.loaded.positions,
-            indices: &self.loaded.indices,
-            material: self.material,
             triangle_materials: Some(&self.materials),
             two_sided: self.two_sided,
             record: self.record,
             exitance: self.exitance.as_deref(),
-            sensor: false,
-            tally: false,
-            // The model loader left out the triangles that repeat a vertex.
-            skip_degenerate: false,
+            ..MeshDesc::new(&self.loaded.positions, &self.loaded.indices, self.material)
         }
     }
 }

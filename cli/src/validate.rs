@@ -29,21 +29,6 @@ fn plane(n: usize, x: [f64; 2], y: [f64; 2], z: f64, up: bool) -> (Vec<f64>, Vec
     (p, idx)
 }
 
-fn mesh<'a>(p: &'a [f64], i: &'a [u32], material: u32) -> MeshDesc<'a> {
-    MeshDesc {
-        positions: p,
-        indices: i,
-        material,
-        triangle_materials: None,
-        two_sided: false,
-        record: true,
-        exitance: None,
-        sensor: false,
-        tally: false,
-        skip_degenerate: false,
-    }
-}
-
 fn run(ctx: &mut Context, photons: u64) -> Result<imap::Report> {
     Ok(ctx.run(&mut RunParams {
         region: None,
@@ -130,7 +115,7 @@ pub fn cases(photons: u64) -> Result<Vec<Case>> {
         let mut ctx = context(1)?;
         let m = black(&mut ctx)?;
         let (p, i) = plane(16, [-2.0, 2.0], [-2.0, 2.0], 0.0, true);
-        let id = ctx.add_mesh(&mesh(&p, &i, m))?;
+        let id = ctx.add_mesh(&MeshDesc::new(&p, &i, m))?;
         ctx.add_point_light([0.0, 0.0, 1.0], &[10.0])?;
         run(&mut ctx, photons)?;
         let f = 4.0 * (4.0f64 / 3.0).atan() / (4.0 * PI);
@@ -151,12 +136,12 @@ pub fn cases(photons: u64) -> Result<Vec<Case>> {
         let mut ctx = context(2)?;
         let m = black(&mut ctx)?;
         let (p, i) = plane(12, [0.0, 1.0], [0.0, 1.0], 0.0, true);
-        let id = ctx.add_mesh(&mesh(&p, &i, m))?;
+        let id = ctx.add_mesh(&MeshDesc::new(&p, &i, m))?;
         let (pe, ie) = plane(1, [0.0, 1.0], [0.0, 1.0], 0.5, false);
         ctx.add_mesh(&MeshDesc {
             record: false,
             exitance: Some(&[5.0]),
-            ..mesh(&pe, &ie, m)
+            ..MeshDesc::new(&pe, &ie, m)
         })?;
         run(&mut ctx, photons)?;
         let (x, y) = (2.0f64, 2.0f64);
@@ -206,7 +191,7 @@ pub fn cases(photons: u64) -> Result<Vec<Case>> {
         }
         let mut ids = Vec::new();
         for (q, i) in &all {
-            ids.push(ctx.add_mesh(&mesh(q, i, wall))?);
+            ids.push(ctx.add_mesh(&MeshDesc::new(q, i, wall))?);
         }
         ctx.add_point_light([0.3, 0.6, 0.45], &[6.0])?;
         run(&mut ctx, photons / 4)?;
@@ -249,11 +234,11 @@ pub fn cases(photons: u64) -> Result<Vec<Case>> {
         for (p, i) in [(&top, &it), (&bottom, &ib), (&sp, &si)] {
             ctx.add_mesh(&MeshDesc {
                 record: false,
-                ..mesh(p, i, glass)
+                ..MeshDesc::new(p, i, glass)
             })?;
         }
         let (p, i) = plane(4, [-1.0, 1.0], [-1.0, 1.0], -0.5, true);
-        let id = ctx.add_mesh(&mesh(&p, &i, m))?;
+        let id = ctx.add_mesh(&MeshDesc::new(&p, &i, m))?;
         ctx.add_spot_light([0.0, 0.0, 0.5], [0.0, 0.0, -1.0], 1e-3, &[1.0])?;
         run(&mut ctx, photons)?;
         let r = (0.5f64 / 2.5).powi(2);

@@ -225,31 +225,10 @@ fn outputs_exist_parse_and_the_ply_holds_libimap_s_map() {
         .unwrap();
     let fp: Vec<f64> = floor.iter().flatten().copied().collect();
     let lp: Vec<f64> = lamp.iter().flatten().copied().collect();
-    let fid = ctx
-        .add_mesh(&imap::MeshDesc {
-            positions: &fp,
-            indices: &fi,
-            material: grey,
-            triangle_materials: None,
-            two_sided: false,
-            record: true,
-            exitance: None,
-            sensor: false,
-            tally: false,
-            skip_degenerate: false,
-        })
-        .unwrap();
+    let fid = ctx.add_mesh(&imap::MeshDesc::new(&fp, &fi, grey)).unwrap();
     ctx.add_mesh(&imap::MeshDesc {
-        positions: &lp,
-        indices: &li,
-        material: black,
-        triangle_materials: None,
-        two_sided: false,
-        record: true,
         exitance: Some(&[10.0]),
-        sensor: false,
-        tally: false,
-        skip_degenerate: false,
+        ..imap::MeshDesc::new(&lp, &li, black)
     })
     .unwrap();
     ctx.run(&mut imap::RunParams {

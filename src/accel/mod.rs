@@ -405,18 +405,7 @@ mod tests {
         scene
             .materials
             .push(crate::scene::Material::new(&Default::default(), &scene.bands).unwrap());
-        let desc = MeshDesc {
-            positions: &[-1., -1., 0., 1., -1., 0., 0., 1., 0.],
-            indices: &[0, 1, 2],
-            material: 0,
-            triangle_materials: None,
-            two_sided: false,
-            record: true,
-            exitance: None,
-            sensor: false,
-            tally: false,
-            skip_degenerate: false,
-        };
+        let desc = MeshDesc::new(&[-1., -1., 0., 1., -1., 0., 0., 1., 0.], &[0, 1, 2], 0);
         scene
             .meshes
             .push(Mesh::new(&desc, 1, &scene.bands).unwrap());

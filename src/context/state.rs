@@ -129,6 +129,13 @@ struct Dims {
     regions: u64,
 }
 
+impl Dims {
+    /// Accumulators of the map: per cell, one per band and the sum of squares.
+    fn values(&self) -> u64 {
+        self.slots * self.per_slot as u64 * (self.bands as u64 + 1)
+    }
+}
+
 /// A state read from bytes, checked against its checksum.
 pub struct StateFile<'a> {
     pub flags: u32,
@@ -153,6 +160,12 @@ impl StateFile<'_> {
     }
     pub fn has_map(&self) -> bool {
         self.flags & FLAG_NO_MAP == 0
+    }
+    /// The map's accumulators (none without the map).
+    fn map_values(&self) -> impl Iterator<Item = f64> + '_ {
+        self.map
+            .chunks_exact(8)
+            .map(|c| f64::from_le_bytes(c.try_into().unwrap()))
     }
 }
 
@@ -243,6 +256,17 @@ impl<W: Write> Write for Hashing<W> {
 
 /// Checks the frame of a state (magic, version, length, checksum) and reads it.
 pub fn parse(b: &[u8]) -> Result<StateFile<'_>> {
+    parse_with(b, true)
+}
+
+/// Reads a state checking its frame (magic, version, length) but not its checksum, for a
+/// caller that loads or merges the same bytes next (which checks it): one pass over a
+/// large map instead of two.
+pub fn parse_unchecked(b: &[u8]) -> Result<StateFile<'_>> {
+    parse_with(b, false)
+}
+
+fn parse_with(b: &[u8], verify: bool) -> Result<StateFile<'_>> {
     if b.len() < 8 || &b[..8] != MAGIC {
         bail!(
             ImapErrStateCorrupt,
@@ -281,7 +305,7 @@ pub fn parse(b: &[u8]) -> Result<StateFile<'_>> {
     }
     let body = &b[..b.len() - CHECKSUM];
     let stored = u128::from_le_bytes(b[b.len() - CHECKSUM..].try_into().unwrap());
-    if xxhash_rust::xxh3::xxh3_128(body) != stored {
+    if verify && xxhash_rust::xxh3::xxh3_128(body) != stored {
         bail!(
             ImapErrStateCorrupt,
             "state is corrupt: its checksum does not match its contents (a damaged or altered file)"
@@ -353,13 +377,12 @@ pub fn parse(b: &[u8]) -> Result<StateFile<'_>> {
     for b in &mut stats.bands {
         *b = r.counted_f64s("band tally")?;
     }
-    let mut regions = crate::imap::regions::RegionTally {
+    let regions = crate::imap::regions::RegionTally {
         bands: r.u32("region tally")? as usize,
-        ..Default::default()
+        sum: r.counted_f64s("region tally")?,
+        sq: r.counted_f64s("region tally")?,
+        sq_lum: r.counted_f64s("region tally")?,
     };
-    regions.sum = r.counted_f64s("region tally")?;
-    regions.sq = r.counted_f64s("region tally")?;
-    regions.sq_lum = r.counted_f64s("region tally")?;
     let n = r.u64("metadata")?;
     let meta = r.take(n, "metadata")?;
     let pad = (8 - r.at % 8) % 8;
@@ -432,14 +455,14 @@ impl Context {
     /// Writes the state (without the map's accumulators with `FLAG_NO_MAP`) and the
     /// caller's `meta` to `w`; returns the bytes written.
     pub fn write_state(&mut self, w: &mut dyn Write, flags: u32, meta: &[u8]) -> Result<u64> {
-        // The state of a context that has not run is a map of zeros: prepare it.
-        self.prepare()?;
         if flags & !FLAG_NO_MAP != 0 {
             bail!(
                 ImapErrInvalidArgument,
                 "flags = {flags:#x} has bits other than IMAP_STATE_NO_MAP"
             );
         }
+        // The state of a context that has not run is a map of zeros: prepare it.
+        self.prepare()?;
         let dims = self.dims();
         let with_map = flags & FLAG_NO_MAP == 0;
         let mut h = Writer::default();
@@ -489,7 +512,7 @@ impl Context {
         h.0.extend_from_slice(meta);
         let pad = (8 - (PREFIX + h.0.len()) % 8) % 8;
         h.0.resize(h.0.len() + pad, 0);
-        let values = dims.slots * dims.per_slot as u64 * (dims.bands as u64 + 1);
+        let values = dims.values();
         let map_bytes = if with_map { 8 + values * 8 } else { 0 };
         let total = (PREFIX + h.0.len()) as u64 + map_bytes + CHECKSUM as u64;
 
@@ -559,7 +582,7 @@ impl Context {
             let mut w = std::io::BufWriter::with_capacity(1 << 20, f);
             let n = self
                 .write_state(&mut w, 0, meta)
-                .map_err(|e| Error::new(e.status, format!("{}: {}", tmp.display(), e.message)))?;
+                .map_err(|e| in_file(&tmp, e))?;
             let f = w
                 .into_inner()
                 .map_err(|e| io_error(&tmp, "cannot write", e.into_error()))?;
@@ -616,9 +639,7 @@ impl Context {
                 "state is malformed: its tallies do not match its map's dimensions",
             ));
         }
-        if s.has_map()
-            && s.map.len() as u64 != dims.slots * dims.per_slot as u64 * (dims.bands as u64 + 1) * 8
-        {
+        if s.has_map() && s.map.len() as u64 != dims.values() * 8 {
             return Err(corrupt("state is malformed: its map has the wrong size"));
         }
         Ok(())
@@ -638,8 +659,8 @@ impl Context {
             );
         }
         let map = self.map.as_mut().expect("prepared");
-        for (v, c) in map.raw_mut().iter_mut().zip(s.map.chunks_exact(8)) {
-            *v = f64::from_le_bytes(c.try_into().unwrap());
+        for (v, x) in map.raw_mut().iter_mut().zip(s.map_values()) {
+            *v = x;
         }
         let mut stats = s.stats;
         for b in &mut stats.bands {
@@ -666,14 +687,7 @@ impl Context {
         self.prepare()?;
         self.check_state(&s)?;
         for r in s.traced.ranges() {
-            if self.traced.intersects(r) {
-                let both = self
-                    .traced
-                    .ranges()
-                    .iter()
-                    .find(|x| x.start < r.end && r.start < x.end)
-                    .map(|x| x.start.max(r.start)..x.end.min(r.end))
-                    .expect("they intersect");
+            if let Some(both) = self.traced.overlap(r) {
                 bail!(
                     ImapErrStateOverlap,
                     "the state holds photons this context holds too (indices {}..{} among others): merging would count them twice; merge states of disjoint photon ranges or shards",
@@ -683,10 +697,8 @@ impl Context {
             }
         }
         let map = self.map.as_mut().expect("prepared");
-        if s.has_map() {
-            for (v, c) in map.raw_mut().iter_mut().zip(s.map.chunks_exact(8)) {
-                *v += f64::from_le_bytes(c.try_into().unwrap());
-            }
+        for (v, x) in map.raw_mut().iter_mut().zip(s.map_values()) {
+            *v += x;
         }
         self.stats.merge(&s.stats);
         if !s.regions.sq_lum.is_empty() {
@@ -797,10 +809,4 @@ fn remove_dead_temporaries(dir: &Path, name: &std::ffi::OsStr) {
 /// Prefixes an error with the file it came from.
 fn in_file(path: &Path, e: Error) -> Error {
     Error::new(e.status, format!("{}: {}", path.display(), e.message))
-}
-
-/// What `imap_state_info`-like callers see of a state without a context.
-pub fn summary(bytes: &[u8]) -> Result<(u64, &[u8])> {
-    let s = parse(bytes)?;
-    Ok((s.photons(), s.meta))
 }

@@ -222,10 +222,10 @@ pub unsafe extern "C" fn imap_state_info(
 ) -> ImapStatus {
     boundary(None, || {
         let b = slice("buffer", buffer as *const u8, size)?;
-        let (n, m) = state::summary(b)?;
-        write_optional(photons, n)?;
-        write_optional(meta, m.as_ptr() as *const c_void)?;
-        write_optional(meta_len, m.len())
+        let s = state::parse(b)?;
+        write_optional(photons, s.photons())?;
+        write_optional(meta, s.meta.as_ptr() as *const c_void)?;
+        write_optional(meta_len, s.meta.len())
     })
 }
 

@@ -251,7 +251,24 @@ pub fn triangle_area(pos: &[[f64; 3]], t: &[u32; 3]) -> f64 {
     0.5 * (b - a).cross(c - a).length()
 }
 
-impl MeshDesc<'_> {
+impl<'a> MeshDesc<'a> {
+    /// A one-sided, recording, non-emitting mesh of one material; change the rest with
+    /// struct update syntax (`MeshDesc { two_sided: true, ..MeshDesc::new(p, i, m) }`).
+    pub fn new(positions: &'a [f64], indices: &'a [u32], material: u32) -> Self {
+        MeshDesc {
+            positions,
+            indices,
+            material,
+            triangle_materials: None,
+            two_sided: false,
+            record: true,
+            exitance: None,
+            sensor: false,
+            tally: false,
+            skip_degenerate: false,
+        }
+    }
+
     /// `Mesh::map_slots` from the description alone, before anything is copied.
     pub fn map_slots(&self) -> usize {
         map_slots(self.positions.len() / 3, self.two_sided, self.record)

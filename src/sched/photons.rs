@@ -61,8 +61,14 @@ impl RangeSet {
 
     /// Whether any index of `r` is in the set.
     pub fn intersects(&self, r: &Range<u64>) -> bool {
+        self.overlap(r).is_some()
+    }
+
+    /// The first part of `r` that is in the set, if any.
+    pub fn overlap(&self, r: &Range<u64>) -> Option<Range<u64>> {
         let i = self.ranges.partition_point(|x| x.end <= r.start);
-        self.ranges.get(i).is_some_and(|x| x.start < r.end)
+        let x = self.ranges.get(i).filter(|x| x.start < r.end)?;
+        Some(x.start.max(r.start)..x.end.min(r.end))
     }
 
     /// The parts of `within` that are not in the set, in increasing order.
@@ -309,6 +315,7 @@ impl PhotonSource {
         let g = self.selection.global(l.start);
         Some(g..g + (l.end - l.start))
     }
+
     /// The stop flag: set when the run must end; paths in flight poll it and are abandoned.
     pub fn stop_flag(&self) -> &AtomicBool {
         &self.stop
@@ -424,6 +431,8 @@ mod tests {
         assert_eq!(s.gaps(45..55), vec![45..50]);
         assert_eq!(s.len(), 45);
         assert!(s.intersects(&(39..41)) && !s.intersects(&(40..50)));
+        assert_eq!(s.overlap(&(38..70)), Some(38..40));
+        assert_eq!(s.overlap(&(45..55)), Some(50..55));
         assert_eq!(continue_plan(&s, 10, &Selection::ALL), vec![0..5, 40..45]);
     }
 

@@ -45,18 +45,7 @@ impl Geometry {
     }
 
     pub fn desc(&self, material: u32) -> MeshDesc<'_> {
-        MeshDesc {
-            positions: &self.positions,
-            indices: &self.indices,
-            material,
-            triangle_materials: None,
-            two_sided: false,
-            record: true,
-            exitance: None,
-            sensor: false,
-            tally: false,
-            skip_degenerate: false,
-        }
+        MeshDesc::new(&self.positions, &self.indices, material)
     }
 }
 
