@@ -98,6 +98,7 @@ fn measure(ctx: &mut Context, kind: SchedulerKind, threads: usize, seconds: f64)
         progress_interval_s: seconds,
         max_path_events: 1 << 20,
         selection: Default::default(),
+        estimator: None,
         progress: None,
     };
     ctx.run(&mut p).expect("run")

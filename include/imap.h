@@ -390,6 +390,22 @@
 #define IMAP_REGION_UNIFORMITY 2
 
 /**
+ * `ImapRunParams::estimator`: the map's (light sampling for an empty map). (Since 0.2.2.)
+ */
+#define IMAP_ESTIMATOR_DEFAULT 0
+
+/**
+ * `ImapRunParams::estimator`: photons only (the first paper's method). (Since 0.2.2.)
+ */
+#define IMAP_ESTIMATOR_PHOTONS 1
+
+/**
+ * `ImapRunParams::estimator`: direct light by light sampling at the vertices, photons for
+ * the indirect part. (Since 0.2.2.)
+ */
+#define IMAP_ESTIMATOR_LIGHT_SAMPLING 2
+
+/**
  * `ImapMaterial::ior_model`: not a dielectric.
  */
 #define IMAP_IOR_NONE 0
@@ -1228,6 +1244,32 @@ typedef struct ImapRunParams {
   uint64_t shard_count;
   uint64_t shard_index;
   uint64_t shard_block;
+  /**
+   * How the map is estimated (since 0.2.2): `IMAP_ESTIMATOR_DEFAULT` (0: the estimator
+   * of the photons the map holds, light sampling for an empty map),
+   * `IMAP_ESTIMATOR_PHOTONS` (the first paper's method: photons deposit everything) or
+   * `IMAP_ESTIMATOR_LIGHT_SAMPLING` (direct light by shadow rays from points spread over
+   * each vertex's support to points on the lights, chosen by power, with multiple
+   * importance sampling for emitting meshes; photons then bring the indirect part).
+   * Both are unbiased and give the same map in expectation; light sampling reaches a
+   * given error several times sooner where direct light dominates. A map holds the
+   * photons of one estimator: changing it needs `imap_reset` (IMAP_ERR_OUT_OF_ORDER
+   * otherwise). The estimator is part of a state's settings.
+   */
+  uint32_t estimator;
+  /**
+   * Light sampling: samples per vertex per pass (stratified: an Owen-scrambled Sobol
+   * set of its own per vertex and pass; at most 65536); 0 = 4.
+   */
+  uint32_t direct_samples;
+  /**
+   * Light sampling: photons per pass (each vertex gets one pass of `direct_samples`
+   * samples per this many photons; photon k does its share of pass k / this, so the
+   * direct part belongs to photon indices like the rest of the map); at least the
+   * vertex sides over 16; 0 = chosen from the scene (about half as many shadow rays as
+   * photons).
+   */
+  uint64_t direct_pass_photons;
 } ImapRunParams;
 
 /**

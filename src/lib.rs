@@ -40,3 +40,4 @@ pub use error::{Error, ImapStatus, Result};
 pub use render::{CameraDesc, Image, RenderMethod, RenderParams, RenderReport};
 pub use scene::{Bands, IorModel, LayerRequest, MaterialDesc, MeshDesc};
 pub use sched::{Progress, RunParams, Selection, StopReason};
+pub use transport::direct::Estimator;

@@ -780,6 +780,7 @@ fn target_error_stops_within_one_progress_interval() {
         progress_interval_s: interval,
         max_path_events: 1 << 20,
         selection: Default::default(),
+        estimator: None,
         progress: None,
     };
     let report = ctx.run(&mut params).unwrap();

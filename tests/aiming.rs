@@ -3,7 +3,8 @@
 //! the cone. The map stays unbiased (against the analytic irradiance of a point and of a
 //! cosine light on a small plate far away), the energy balance stays exact, the same seed
 //! gives the same map for any thread count and scheduler, and the error for the same
-//! photons is far below that of tracing every direction.
+//! photons is far below that of tracing every direction. (Photons only: aiming is about
+//! photons; light sampling is checked against the same cases in tests/estimators.rs.)
 
 mod common;
 
@@ -53,7 +54,10 @@ fn check(ctx: &Context, id: u32, g: &Geometry, exact: impl Fn([f64; 3]) -> f64) 
     let a = vertex_areas(g);
     let total: f64 = a.iter().sum();
     let got: f64 = e.iter().zip(&a).map(|(e, a)| e * a).sum::<f64>() / total;
-    let want: f64 = (0..n).map(|v| exact(g.vertex(v)) * a[v]).sum::<f64>() / total;
+    let want: f64 = (0..n)
+        .map(|v| hat_average(g, v, &exact) * a[v])
+        .sum::<f64>()
+        / total;
     // An upper bound of the mean's standard error (vertices' errors taken as correlated).
     let sigma = e
         .iter()
@@ -73,7 +77,7 @@ fn aimed_point_light_is_exact_and_far_more_accurate() {
     };
     let n = photons(400_000);
     let (mut aimed, id, g) = plate(LightKind::Point, cfg(true, 2, SchedulerKind::Dynamic));
-    let ra = run_photons(&mut aimed, n);
+    let ra = run_photons_only(&mut aimed, n);
     let (z, rel_aimed) = check(&aimed, id, &g, point);
     assert!(z.abs() < 4.0, "aimed: {z} σ from the analytic mean");
     assert!(rel_aimed < 0.01, "aimed: mean's error {rel_aimed}");
@@ -91,7 +95,7 @@ fn aimed_point_light_is_exact_and_far_more_accurate() {
 
     // Every direction traced, the same photons: an error many times larger.
     let (mut plain, id, g) = plate(LightKind::Point, cfg(false, 2, SchedulerKind::Dynamic));
-    run_photons(&mut plain, n);
+    run_photons_only(&mut plain, n);
     let mut e = vec![0.0; g.vertex_count()];
     plain.irradiance(id, 0, 0, &mut e).unwrap();
     let hit = e.iter().filter(|&&x| x > 0.0).count();
@@ -110,7 +114,7 @@ fn aimed_point_light_is_exact_and_far_more_accurate() {
     let reference = map(&aimed);
     for (threads, scheduler) in [(1, SchedulerKind::Dynamic), (3, SchedulerKind::Classic)] {
         let (mut c, _, _) = plate(LightKind::Point, cfg(true, threads, scheduler));
-        run_photons(&mut c, n);
+        run_photons_only(&mut c, n);
         for (a, b) in map(&c).iter().zip(&reference) {
             assert!(
                 (a - b).abs() <= 1e-12 * b.abs().max(1e-300),
@@ -132,7 +136,7 @@ fn aimed_cosine_light_is_exact() {
         direction: [0.0, 0.0, -1.0],
     };
     let (mut c, id, g) = plate(kind(), cfg(true, 2, SchedulerKind::Dynamic));
-    let r = run_photons(&mut c, photons(400_000));
+    let r = run_photons_only(&mut c, photons(400_000));
     let (z, rel) = check(&c, id, &g, cosine);
     assert!(z.abs() < 4.0 && rel < 0.01, "{z} σ, error {rel}");
     assert!((r.absorbed_w + r.escaped_w - r.emitted_w).abs() < 1e-9 * r.emitted_w);
@@ -151,7 +155,7 @@ fn aimed_cosine_light_is_exact() {
         LightKind::Cosine { direction: axis },
         cfg(true, 2, SchedulerKind::Dynamic),
     );
-    run_photons(&mut c, photons(400_000));
+    run_photons_only(&mut c, photons(400_000));
     let (z, rel) = check(&c, id, &g, tilted);
     assert!(z.abs() < 4.0 && rel < 0.01, "tilted: {z} σ, error {rel}");
 }
@@ -182,7 +186,7 @@ fn aimed_errors_are_calibrated() {
         })
         .unwrap();
         ctx.add_point_light([NEAR, 0.0, GAP / 2.0], &[1.0]).unwrap();
-        run_photons(&mut ctx, 400_000);
+        run_photons_only(&mut ctx, 400_000);
         let v = 3 * 7 + 5; // near the open side the light faces
         let n = g.vertex_count();
         let (mut e, mut r) = (vec![0.0; n], vec![0.0; n]);

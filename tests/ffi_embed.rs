@@ -690,14 +690,23 @@ fn c_abi_ranges_states_and_merges() {
         }
     }
     let got = map(all.0, mesh, nv);
-    let worst = want
-        .iter()
-        .zip(&got)
-        .map(|(a, b)| (a - b).abs() / a.abs().max(b.abs()).max(1e-300))
-        .fold(0.0, f64::max);
+    let worst = |from: usize, to: usize| {
+        want[from..to]
+            .iter()
+            .zip(&got[from..to])
+            .map(|(a, b)| (a - b).abs() / a.abs().max(b.abs()).max(1e-300))
+            .fold(0.0, f64::max)
+    };
+    let (map_diff, error_diff) = (worst(0, nv), worst(nv, 2 * nv));
     assert!(
-        worst <= 1e-12,
-        "merged ranges differ from one run by {worst:e}"
+        map_diff <= 1e-12,
+        "merged ranges' map differs from one run by {map_diff:e}"
+    );
+    // The error is a difference of sums (Σx² − (Σx)²/n): a light-sampled vertex's passes
+    // vary little, so it magnifies the sums' rounding (their order differs).
+    assert!(
+        error_diff <= 1e-8,
+        "merged ranges' errors differ from one run by {error_diff:e}"
     );
     assert!(want.iter().any(|&x| x > 0.0));
     // Another seed: another fingerprint.

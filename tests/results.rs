@@ -354,6 +354,7 @@ fn a_region_target_stops_within_one_progress_interval() {
                 progress_interval_s: 0.02,
                 max_path_events: 1 << 20,
                 selection: Default::default(),
+                estimator: None,
                 progress: None,
             };
             let r = ctx.run(&mut params).unwrap();

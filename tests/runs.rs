@@ -138,6 +138,7 @@ fn the_event_limit_reports_what_it_drops() {
         progress_interval_s: 1.0,
         max_path_events: 1000,
         selection: Default::default(),
+        estimator: None,
         progress: None,
     };
     let r = ctx.run(&mut params).unwrap();
@@ -151,16 +152,27 @@ fn memory_budget_refuses_before_allocating() {
     let mut ctx = context(Config {
         bands: spectral(81),
         memory_budget: 8 << 20,
+        threads: 2,
         ..Default::default()
     });
     let m = lambert(&mut ctx, 0.5);
-    // The map, 10 201 × 82 × 8 = 6 691 856 bytes, plus the mesh's copy (484 824), prepared
-    // form (684 020), BVH estimate (2 083 216) and transient f64 vertices (244 824):
-    // 10 188 740 bytes > 8 MiB.
+    // The map, 10 201 × 82 × 8 = 6 691 856 bytes, the light-sampling estimator's direct
+    // records, 10 201 × 84 × 8 = 6 855 072, and vertex adjacency, 20 000 × 3 × 8 +
+    // 10 202 × 4 = 520 808, plus the mesh's copy (484 824), prepared form (684 020), BVH
+    // estimate (2 083 216), transient f64 vertices (244 824) and a run's buffers on two
+    // threads: over 8 MiB.
     let err = ctx.add_mesh(&g.desc(m)).unwrap_err();
     assert_eq!(err.status, ImapStatus::ImapErrMemoryBudget);
+    let needs: u64 = err
+        .message
+        .split("needs ")
+        .nth(1)
+        .and_then(|s| s.split(' ').next())
+        .and_then(|s| s.parse().ok())
+        .expect("the message states the bytes");
+    let fixed = 6_691_856 + 6_855_072 + 520_808 + 484_824 + 684_020 + 2_083_216 + 244_824;
     assert!(
-        err.message.contains("needs 10188740 bytes"),
+        needs > fixed && needs < fixed + (8 << 20),
         "{}",
         err.message
     );
@@ -168,8 +180,8 @@ fn memory_budget_refuses_before_allocating() {
     let mut d = g.desc(m);
     d.record = false;
     ctx.add_mesh(&d).unwrap();
-    // RGB needs 10 201 × 4 × 8 = 326 kB of map: accepted under the same budget, and so is
-    // its run.
+    // RGB needs 10 201 × (4 + 6) × 8 = 816 kB of map and direct records: accepted under
+    // the same budget, and so is its run.
     let mut rgb = context(Config {
         memory_budget: 8 << 20,
         ..Default::default()
@@ -178,7 +190,7 @@ fn memory_budget_refuses_before_allocating() {
     rgb.add_mesh(&g.desc(m)).unwrap();
     rgb.add_point_light([0.5, 0.5, 1.0], &[1.0]).unwrap();
     let r = run_photons(&mut rgb, 1000);
-    assert_eq!(r.map_bytes, 10_201 * 4 * 8);
+    assert_eq!(r.map_bytes, 10_201 * (4 + 6) * 8);
 }
 
 #[test]
@@ -201,6 +213,7 @@ fn time_budget_and_target_error_stop_the_run() {
         progress_interval_s: 0.1,
         max_path_events: 1 << 20,
         selection: Default::default(),
+        estimator: None,
         progress: Some(&mut cb),
     };
     let r = ctx.run(&mut params).unwrap();
@@ -226,6 +239,7 @@ fn time_budget_and_target_error_stop_the_run() {
         progress_interval_s: 0.1,
         max_path_events: 1 << 20,
         selection: Default::default(),
+        estimator: None,
         progress: None,
     };
     let r2 = ctx.run(&mut params).unwrap();

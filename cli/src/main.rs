@@ -57,6 +57,10 @@ struct RunOptions {
     /// "dynamic" or "classic".
     #[arg(long)]
     scheduler: Option<String>,
+    /// "light-sampling" (default: direct light by shadow rays from the vertices, photons
+    /// for the indirect part) or "photons" (photons only, the first paper's method).
+    #[arg(long)]
+    estimator: Option<String>,
     /// Seed of the random streams.
     #[arg(long)]
     seed: Option<u64>,
@@ -210,8 +214,22 @@ fn apply_options(settings: &mut Settings, opts: &RunOptions) {
     if let Some(x) = &opts.scheduler {
         r.scheduler = x.clone();
     }
+    if let Some(x) = &opts.estimator {
+        r.estimator = x.clone();
+    }
     if let Some(x) = opts.seed {
         r.seed = x;
+    }
+}
+
+/// The estimator a settings' name stands for.
+fn estimator(name: &str) -> Result<imap::Estimator> {
+    match name {
+        "light-sampling" => Ok(imap::Estimator::DEFAULT),
+        "photons" => Ok(imap::Estimator::Photons),
+        other => Err(CliError(format!(
+            "estimator \"{other}\": use \"light-sampling\" or \"photons\""
+        ))),
     }
 }
 
@@ -464,6 +482,7 @@ fn execute(
             max_path_events: 1 << 20,
             progress: Some(&mut callback),
             selection,
+            estimator: Some(estimator(&r.estimator)?),
         })?;
         if let Some(path) = &plan.checkpoint {
             ctx.save_state(path, &meta)

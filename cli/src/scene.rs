@@ -125,6 +125,15 @@ pub struct RunSettings {
     /// every direction, as the paper's method does.
     #[serde(default = "yes")]
     pub aim_lights: bool,
+    /// "light-sampling" (default: direct light by shadow rays from the vertices, photons
+    /// for the indirect part) or "photons" (photons bring everything: the first paper's
+    /// method). Both are unbiased.
+    #[serde(default = "default_estimator")]
+    pub estimator: String,
+}
+
+fn default_estimator() -> String {
+    "light-sampling".into()
 }
 
 fn yes() -> bool {
@@ -152,6 +161,7 @@ impl Default for RunSettings {
             grid_error_measure: None,
             grid_error_percentile: None,
             aim_lights: true,
+            estimator: default_estimator(),
         }
     }
 }

@@ -31,14 +31,9 @@ fn plane(n: usize, x: [f64; 2], y: [f64; 2], z: f64, up: bool) -> (Vec<f64>, Vec
 
 fn run(ctx: &mut Context, photons: u64) -> Result<imap::Report> {
     Ok(ctx.run(&mut RunParams {
-        region: None,
         photons,
-        time_budget_s: 0.0,
-        target_rel_error: 0.0,
         progress_interval_s: 1.0,
-        max_path_events: 1 << 20,
-        selection: Default::default(),
-        progress: None,
+        ..Default::default()
     })?)
 }
 

@@ -232,14 +232,9 @@ fn outputs_exist_parse_and_the_ply_holds_libimap_s_map() {
     })
     .unwrap();
     ctx.run(&mut imap::RunParams {
-        region: None,
         photons,
-        time_budget_s: 0.0,
-        target_rel_error: 0.0,
         progress_interval_s: 1.0,
-        max_path_events: 1 << 20,
-        selection: Default::default(),
-        progress: None,
+        ..Default::default()
     })
     .unwrap();
     let mut mean = vec![0.0; floor.len()];

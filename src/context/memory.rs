@@ -72,3 +72,23 @@ pub fn scene_bytes(scene: &Scene) -> (u64, u64) {
 pub fn map_bytes(slots: u64, bands: u64) -> u64 {
     slots.saturating_mul(bands + 1).saturating_mul(8)
 }
+
+/// Bytes the light-sampling estimator adds for a recording mesh of (triangles, vertices)
+/// `corners` and `cells` map cells: per cell its direct record (bands, sums of squares,
+/// pass count), per triangle corner its adjacency entry, per vertex its list's start.
+pub fn direct_bytes((triangles, vertices): (usize, usize), cells: u64, bands: u64) -> u64 {
+    let adjacency = 3 * triangles as u64 * 8 + 4 * (vertices as u64 + 1);
+    cells
+        .saturating_mul(bands + 3)
+        .saturating_mul(8)
+        .saturating_add(adjacency)
+}
+
+/// `direct_bytes` of a mesh about to be added.
+pub fn direct_desc_bytes(desc: &crate::scene::MeshDesc, cells: u64, bands: u64) -> u64 {
+    direct_bytes(
+        (desc.indices.len() / 3, desc.positions.len() / 3),
+        cells,
+        bands,
+    )
+}

@@ -21,6 +21,7 @@ use crate::sched::dynamic::DynamicParams;
 use crate::sched::{
     self, photons, push_history, Counters, Progress, RangeSet, RunContext, RunParams, StopReason,
 };
+use crate::transport::direct::{self as direct, DirectPlan, DirectSampler, Estimator};
 use crate::transport::{
     PathStats, Tracer, BAND_ABSORBED, BAND_DROPPED, BAND_EMITTED, BAND_ESCAPED,
 };
@@ -115,6 +116,8 @@ struct Prepared {
     accel: Accel,
     /// The sensor meshes' BVH, if any.
     sensors: Option<Accel>,
+    /// What the light-sampling estimator needs of the scene (built on its first run).
+    direct: Option<DirectPlan>,
 }
 
 fn check_threads(name: &str, threads: usize) -> Result<()> {
@@ -146,6 +149,8 @@ pub struct Context {
     photometry: BandPhotometry,
     /// Photons' totals per region since the last reset (`imap::regions`).
     region_tally: RegionTally,
+    /// The estimator of the map's photons (`pass_photons` 0 and `samples` 0: automatic).
+    estimator: Estimator,
 }
 
 impl Context {
@@ -178,7 +183,113 @@ impl Context {
             history: Vec::new(),
             last_run: None,
             last_render: None,
+            estimator: Estimator::DEFAULT,
         })
+    }
+
+    /// The estimator the map is made with, its automatic settings resolved for the scene.
+    pub fn estimator(&self) -> Estimator {
+        match self.estimator {
+            Estimator::Photons => Estimator::Photons,
+            Estimator::LightSampling {
+                samples,
+                pass_photons,
+            } => {
+                let samples = if samples == 0 {
+                    direct::DEFAULT_SAMPLES
+                } else {
+                    samples
+                };
+                let pass_photons = if pass_photons == 0 {
+                    direct::auto_pass_photons(
+                        self.lit_slots(),
+                        self.scene.slot_count(),
+                        self.scene.meshes.iter().any(|m| m.exitance.is_some()),
+                        samples,
+                    )
+                } else {
+                    pass_photons
+                };
+                Estimator::LightSampling {
+                    samples,
+                    pass_photons,
+                }
+            }
+        }
+    }
+
+    /// Map slots of vertices with area of meshes that are not sensors: vertices no
+    /// triangle uses and sensors do not change the automatic settings.
+    fn lit_slots(&self) -> usize {
+        if let Some(p) = &self.prepared {
+            return p
+                .scene
+                .meshes
+                .iter()
+                .filter(|m| m.slot_base.is_some() && !m.sensor)
+                .map(|m| m.vertex_area.iter().filter(|&&a| a > 0.0).count() * m.sides())
+                .sum();
+        }
+        self.scene
+            .meshes
+            .iter()
+            .filter(|m| m.record && !m.sensor)
+            .map(|m| {
+                let mut used = vec![false; m.positions.len()];
+                for t in &m.triangles {
+                    let [a, b, c] = t.map(|i| glam::DVec3::from(m.positions[i as usize]));
+                    if (b - a).cross(c - a).length_squared() > 0.0 {
+                        t.iter().for_each(|&i| used[i as usize] = true);
+                    }
+                }
+                used.iter().filter(|&&u| u).count() * if m.two_sided { 2 } else { 1 }
+            })
+            .sum()
+    }
+
+    /// Chooses the estimator of the next runs (checked, and only while the map is empty
+    /// or when it is the map's).
+    pub fn set_estimator(&mut self, e: Estimator) -> Result<()> {
+        if let Estimator::LightSampling {
+            samples,
+            pass_photons,
+        } = e
+        {
+            if samples > direct::MAX_SAMPLES {
+                bail!(
+                    ImapErrInvalidArgument,
+                    "params.direct_samples = {samples} is more than {}",
+                    direct::MAX_SAMPLES
+                );
+            }
+            let chunks = self.scene.slot_count().div_ceil(direct::CHUNK_SLOTS) as u64;
+            if pass_photons != 0 && pass_photons < chunks {
+                bail!(
+                    ImapErrInvalidArgument,
+                    "params.direct_pass_photons = {pass_photons} is below the {chunks} chunks of {} vertex sides a pass has in this scene (0 chooses)",
+                    direct::CHUNK_SLOTS
+                );
+            }
+        }
+        if e == self.estimator {
+            return Ok(());
+        }
+        let was = self.estimator();
+        let old = std::mem::replace(&mut self.estimator, e);
+        if self.estimator() == was {
+            return Ok(());
+        }
+        if self.photons() > 0 {
+            self.estimator = old;
+            bail!(
+                ImapErrOutOfOrder,
+                "params.estimator: the map holds {} photons made with {}; call imap_reset before changing the estimator",
+                self.photons(),
+                was.name()
+            );
+        }
+        self.map = None;
+        Ok(())
     }
 
     pub fn config(&self) -> &Config {
@@ -245,7 +356,15 @@ impl Context {
     /// Bytes the context holds or will hold for its scene and map (`memory` model).
     pub fn memory_estimate(&self) -> u64 {
         let (scene, transient) = memory::scene_bytes(&self.scene);
-        let map = memory::map_bytes(self.map_cells(self.scene.slot_count()), self.bands() as u64);
+        let cells = self.map_cells(self.scene.slot_count());
+        let mut map = memory::map_bytes(cells, self.bands() as u64);
+        if self.estimator.is_light_sampling() {
+            for m in self.scene.meshes.iter().filter(|m| m.record) {
+                let c = self.map_cells(m.positions.len() * if m.two_sided { 2 } else { 1 });
+                let corners = (m.triangles.len(), m.positions.len());
+                map = map.saturating_add(memory::direct_bytes(corners, c, self.bands() as u64));
+            }
+        }
         scene.saturating_add(transient).saturating_add(map)
     }
 
@@ -282,11 +401,27 @@ impl Context {
         Ok(self.scene.materials.len() as u32 - 1)
     }
 
+    /// Bytes a run's buffers take on `threads` threads with the configured scheduler.
+    fn run_transient(&self, threads: usize) -> u64 {
+        let nb = self.bands();
+        match self.config.scheduler {
+            SchedulerKind::Classic => sched::classic::run_bytes(threads, nb),
+            SchedulerKind::Dynamic => sched::dynamic::run_bytes(threads, nb, &self.config.dynamic),
+            SchedulerKind::TraceOnly => 0,
+        }
+    }
+
     pub fn add_mesh(&mut self, desc: &MeshDesc) -> Result<u32> {
         self.check_unlocked("add a mesh")?;
-        // Everything the mesh costs follows from its counts: refuse before copying.
+        // Everything the mesh costs follows from its counts: refuse before copying. A
+        // scene admitted must also leave room for a run's buffers.
         let (held, transient) = memory::desc_bytes(desc);
-        let map = memory::map_bytes(self.map_cells(desc.map_slots()), self.bands() as u64);
+        let transient = transient.saturating_add(self.run_transient(self.worker_threads()));
+        let cells = self.map_cells(desc.map_slots());
+        let mut map = memory::map_bytes(cells, self.bands() as u64);
+        if self.estimator.is_light_sampling() && desc.map_slots() > 0 {
+            map = map.saturating_add(memory::direct_desc_bytes(desc, cells, self.bands() as u64));
+        }
         self.check_budget(
             self.memory_estimate(),
             held.saturating_add(transient).saturating_add(map),
@@ -464,6 +599,7 @@ impl Context {
                 scene,
                 accel,
                 sensors,
+                direct: None,
             });
         }
         Ok(())
@@ -472,12 +608,17 @@ impl Context {
     fn prepare(&mut self) -> Result<()> {
         self.prepare_scene()?;
         if self.map.is_none() {
-            self.map = Some(IMap::try_new(
+            self.map = Some(IMap::try_new_with(
                 self.scene.slot_count(),
                 self.bands(),
                 self.scene.layer_layout(),
+                self.estimator.is_light_sampling(),
             )?);
             self.region_tally = RegionTally::default();
+        }
+        let p = self.prepared.as_mut().expect("prepared above");
+        if self.estimator.is_light_sampling() && p.direct.is_none() {
+            p.direct = Some(DirectPlan::new(&p.scene));
         }
         if self.stats.absorbed.len() != self.scene.meshes.len() {
             self.stats = PathStats::new(self.scene.meshes.len());
@@ -490,17 +631,16 @@ impl Context {
     /// stop cut short are traced again, whole, by the next run.
     pub fn run(&mut self, params: &mut RunParams) -> Result<Report> {
         check_run_params(params)?;
+        if let Some(e) = params.estimator {
+            self.set_estimator(e)?;
+        }
         let region_weights = match &params.region {
             Some(t) => self.region_weights(t)?,
             None => Vec::new(),
         };
         let threads = self.worker_threads();
         let nb = self.bands();
-        let transient = match self.config.scheduler {
-            SchedulerKind::Classic => sched::classic::run_bytes(threads, nb),
-            SchedulerKind::Dynamic => sched::dynamic::run_bytes(threads, nb, &self.config.dynamic),
-            SchedulerKind::TraceOnly => 0,
-        };
+        let transient = self.run_transient(threads);
         let held = self.memory_estimate();
         self.check_budget(
             held,
@@ -512,8 +652,30 @@ impl Context {
             .saturating_sub(held.saturating_add(transient));
         self.prepare()?;
         let plan = photons::continue_plan(&self.traced, params.photons, &params.selection);
+        let estimator = self.estimator();
         let prepared = self.prepared.as_ref().expect("prepared above");
         let map = self.map.as_mut().expect("allocated above");
+        let direct_acc = map.direct().cloned();
+        let sampler = match (estimator, &direct_acc, &prepared.direct) {
+            (
+                Estimator::LightSampling {
+                    samples,
+                    pass_photons,
+                },
+                Some(acc),
+                Some(plan),
+            ) if self.config.scheduler != SchedulerKind::TraceOnly => Some(DirectSampler {
+                plan,
+                scene: &prepared.scene,
+                accel: &prepared.accel,
+                acc,
+                seed: self.config.seed,
+                samples,
+                pass_photons,
+                unit_m: self.config.unit_m,
+            }),
+            _ => None,
+        };
         let regions = RegionShared::new(threads, prepared.scene.regions.count, nb);
         let rc = RunContext {
             regions: &regions,
@@ -528,6 +690,7 @@ impl Context {
                 seed: self.config.seed,
                 unit_m: self.config.unit_m,
                 max_events: params.max_path_events,
+                direct: sampler.as_ref(),
             },
             scene: &prepared.scene,
             threads,

@@ -78,6 +78,7 @@ impl Context {
             seed: self.config.seed,
             unit_m: self.config.unit_m,
             max_events: params.max_path_events,
+            direct: None,
         };
         let (image, report, lost) = render::render(&eye, fwd, params, threads, self.config.seed);
         self.last_render = Some(report.clone());

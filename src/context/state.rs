@@ -17,6 +17,7 @@ use super::Context;
 use crate::error::{bail, Error, ImapStatus, Result};
 use crate::imap::Readout;
 use crate::sched::{push_history, Progress, RangeSet};
+use crate::transport::direct::Estimator;
 use crate::transport::PathStats;
 use std::fmt::Write as _;
 use std::io::Write;
@@ -127,12 +128,42 @@ struct Dims {
     slots: u64,
     meshes: u32,
     regions: u64,
+    /// The estimator: samples per vertex per pass and photons per pass of light sampling;
+    /// both 0 for photons only.
+    samples: u32,
+    pass_photons: u64,
 }
 
 impl Dims {
-    /// Accumulators of the map: per cell, one per band and the sum of squares.
+    /// Accumulators of the map: per cell, one per band and the sum of squares, and with
+    /// light sampling the direct record (bands, sum of squares, pass count).
     fn values(&self) -> u64 {
-        self.slots * self.per_slot as u64 * (self.bands as u64 + 1)
+        let cells = self.slots * self.per_slot as u64;
+        let direct = if self.samples > 0 {
+            cells * (self.bands as u64 + 3)
+        } else {
+            0
+        };
+        cells * (self.bands as u64 + 1) + direct
+    }
+
+    fn estimator(&self) -> Estimator {
+        if self.samples == 0 {
+            Estimator::Photons
+        } else {
+            Estimator::LightSampling {
+                samples: self.samples,
+                pass_photons: self.pass_photons,
+            }
+        }
+    }
+
+    fn same_but_estimator(&self, o: &Dims) -> bool {
+        Dims {
+            samples: o.samples,
+            pass_photons: o.pass_photons,
+            ..*self
+        } == *o
     }
 }
 
@@ -327,6 +358,8 @@ fn parse_with(b: &[u8], verify: bool) -> Result<StateFile<'_>> {
         slots: r.u64("slots")?,
         meshes: r.u32("meshes")?,
         regions: r.u64("regions")?,
+        samples: r.u32("estimator")?,
+        pass_photons: r.u64("estimator")?,
     };
     let ranges = r.u64("photon ranges")?;
     if ranges > (body.len() / 16) as u64 {
@@ -435,7 +468,16 @@ fn io_error(path: &Path, what: &str, e: std::io::Error) -> Error {
 
 impl Context {
     fn dims(&self) -> Dims {
+        let (samples, pass_photons) = match self.estimator() {
+            Estimator::Photons => (0, 0),
+            Estimator::LightSampling {
+                samples,
+                pass_photons,
+            } => (samples, pass_photons),
+        };
         Dims {
+            samples,
+            pass_photons,
             bands: self.bands() as u32,
             per_slot: self.scene.layer_layout().per_slot() as u32,
             slots: self.scene.slot_count() as u64,
@@ -477,6 +519,8 @@ impl Context {
         h.u64(dims.slots);
         h.u32(dims.meshes);
         h.u64(dims.regions);
+        h.u32(dims.samples);
+        h.u64(dims.pass_photons);
         h.u64(self.traced.ranges().len() as u64);
         for r in self.traced.ranges() {
             h.u64(r.start);
@@ -603,8 +647,9 @@ impl Context {
         result
     }
 
-    /// Checks a state against this context: same fingerprint and dimensions.
-    fn check_state(&self, s: &StateFile) -> Result<()> {
+    /// Checks a state against this context: same fingerprint and dimensions (but for the
+    /// estimator when the state is to replace the map: `adopt`).
+    fn check_state(&self, s: &StateFile, adopt: bool) -> Result<()> {
         let mine = self.fingerprint();
         if s.fingerprint != mine {
             bail!(
@@ -614,7 +659,18 @@ impl Context {
                 s.fingerprint.differences(&mine)
             );
         }
-        let dims = self.dims();
+        let mut dims = self.dims();
+        if s.dims.same_but_estimator(&dims) && s.dims != dims {
+            if !adopt {
+                bail!(
+                    ImapErrStateMismatch,
+                    "the state's map was made with {}, this context's with {}",
+                    s.dims.estimator().name(),
+                    dims.estimator().name()
+                );
+            }
+            dims = s.dims;
+        }
         if s.dims != dims {
             bail!(
                 ImapErrStateMismatch,
@@ -651,15 +707,24 @@ impl Context {
     pub fn load_state<'b>(&mut self, bytes: &'b [u8]) -> Result<&'b [u8]> {
         let s = parse(bytes)?;
         self.prepare()?;
-        self.check_state(&s)?;
+        self.check_state(&s, true)?;
         if !s.has_map() {
             bail!(
                 ImapErrInvalidArgument,
                 "the state was written without its map (IMAP_STATE_NO_MAP): it can only be merged into a context whose map already holds its accumulators"
             );
         }
+        if s.dims.estimator() != self.estimator() {
+            // The state's map replaces this one: take its estimator.
+            let old = (self.estimator, self.map.take());
+            self.estimator = s.dims.estimator();
+            if let Err(e) = self.prepare() {
+                (self.estimator, self.map) = old;
+                return Err(e);
+            }
+        }
         let map = self.map.as_mut().expect("prepared");
-        for (v, x) in map.raw_mut().iter_mut().zip(s.map_values()) {
+        for (v, x) in map.values_mut().zip(s.map_values()) {
             *v = x;
         }
         let mut stats = s.stats;
@@ -685,7 +750,7 @@ impl Context {
     pub fn merge_state<'b>(&mut self, bytes: &'b [u8]) -> Result<&'b [u8]> {
         let s = parse(bytes)?;
         self.prepare()?;
-        self.check_state(&s)?;
+        self.check_state(&s, false)?;
         for r in s.traced.ranges() {
             if let Some(both) = self.traced.overlap(r) {
                 bail!(
@@ -697,7 +762,7 @@ impl Context {
             }
         }
         let map = self.map.as_mut().expect("prepared");
-        for (v, x) in map.raw_mut().iter_mut().zip(s.map_values()) {
+        for (v, x) in map.values_mut().zip(s.map_values()) {
             *v += x;
         }
         self.stats.merge(&s.stats);

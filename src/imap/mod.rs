@@ -22,17 +22,20 @@
 //! progress readout during a dynamic run takes the same locks, and reads with relaxed
 //! atomic loads. No access to a slot is ever concurrent with a write to it.
 
+pub mod direct;
 mod photon;
 pub(crate) mod readout;
 pub mod regions;
 pub mod stats;
 
-pub use photon::{BufferedHit, PhotonBuffer, PhotonOut, FULL};
+pub use direct::DirectAcc;
+pub use photon::{shares, BufferedHit, PhotonBuffer, PhotonOut, FULL, WEIGHTED};
 pub use readout::Readout;
 pub(crate) use readout::NO_DATA_REL_ERROR;
 
 use crate::error::{Error, ImapStatus, Result};
 use std::sync::atomic::{AtomicU64, Ordering::Relaxed};
+use std::sync::Arc;
 
 /// Most light groups a map can keep as layers (group ids 0 … `MAX_LIGHT_GROUPS` − 1): a
 /// buffered hit names its layer in one byte, the direct layer included.
@@ -108,6 +111,9 @@ pub struct IMap {
     stride: usize,
     layout: LayerLayout,
     data: Vec<AtomicU64>,
+    /// The light-sampling estimator's direct accumulators (one record per cell), shared
+    /// with the calculating threads during a run; None for the photons-only estimator.
+    direct: Option<Arc<DirectAcc>>,
 }
 
 impl IMap {
@@ -115,6 +121,17 @@ impl IMap {
     /// allocation failure instead of aborting. Cells are indexed by u32 in the run's
     /// buffers: a map of more cells is refused.
     pub fn try_new(slots: usize, bands: usize, layout: LayerLayout) -> Result<Self> {
+        Self::try_new_with(slots, bands, layout, false)
+    }
+
+    /// `try_new`, with the direct accumulators of the light-sampling estimator when
+    /// `direct`.
+    pub fn try_new_with(
+        slots: usize,
+        bands: usize,
+        layout: LayerLayout,
+        direct: bool,
+    ) -> Result<Self> {
         let stride = bands + 1;
         let cells = slots
             .checked_mul(layout.per_slot())
@@ -140,11 +157,17 @@ impl IMap {
             )
         })?;
         data.resize_with(len, || AtomicU64::new(0));
+        let direct = if direct {
+            Some(Arc::new(DirectAcc::try_new(cells, bands)?))
+        } else {
+            None
+        };
         Ok(IMap {
             bands,
             stride,
             layout,
             data,
+            direct,
         })
     }
 
@@ -163,7 +186,25 @@ impl IMap {
 
     /// Bytes of the accumulators.
     pub fn bytes(&self) -> u64 {
-        self.data.len() as u64 * 8
+        (self.data.len() + self.direct.as_ref().map_or(0, |d| d.len())) as u64 * 8
+    }
+
+    /// The direct accumulators (light-sampling estimator), if the map has them.
+    #[inline]
+    pub fn direct(&self) -> Option<&Arc<DirectAcc>> {
+        self.direct.as_ref()
+    }
+
+    /// The direct accumulators for exclusive access (no run in progress).
+    pub(crate) fn direct_mut(&mut self) -> Option<&mut DirectAcc> {
+        self.direct
+            .as_mut()
+            .map(|d| Arc::get_mut(d).expect("no run holds the direct accumulators"))
+    }
+
+    /// Accumulators in all: the photon part and the direct part.
+    pub fn value_count(&self) -> usize {
+        self.data.len() + self.direct.as_ref().map_or(0, |d| d.len())
     }
 
     /// Whether sorting a portion by vertex before applying it pays: only when the map does
@@ -186,8 +227,26 @@ impl IMap {
 
     /// Every accumulator, in storage order (per cell: the band sums, then the sum of
     /// squares), for a caller that holds the map while no run writes it.
+    /// The direct accumulators follow the photon ones.
     pub(crate) fn values(&self) -> impl Iterator<Item = f64> + '_ {
-        self.data.iter().map(|a| f64::from_bits(a.load(Relaxed)))
+        self.data
+            .iter()
+            .map(|a| f64::from_bits(a.load(Relaxed)))
+            .chain(self.direct.iter().flat_map(|d| d.values()))
+    }
+
+    /// Every accumulator, photon part then direct part, mutably (exclusive access).
+    pub(crate) fn values_mut(&mut self) -> impl Iterator<Item = &mut f64> + '_ {
+        let IMap { data, direct, .. } = self;
+        // SAFETY: AtomicU64 has the layout of f64; `&mut self` makes the access exclusive.
+        let photon =
+            unsafe { std::slice::from_raw_parts_mut(data.as_mut_ptr() as *mut f64, data.len()) };
+        let direct = direct.as_mut().map(|d| {
+            Arc::get_mut(d)
+                .expect("no run holds the direct accumulators")
+                .raw_mut()
+        });
+        photon.iter_mut().chain(direct.into_iter().flatten())
     }
 
     /// Every accumulator as one mutable array (`values` order; exclusive access).
@@ -339,6 +398,9 @@ impl IMap {
 
     pub fn clear(&mut self) {
         self.data.iter_mut().for_each(|x| *x.get_mut() = 0);
+        if let Some(d) = self.direct_mut() {
+            d.clear();
+        }
     }
 }
 

@@ -20,6 +20,27 @@ const MERGE_AFTER: usize = 4096;
 
 /// `BufferedHit::band` of a full-colour hit.
 pub const FULL: u16 = u16::MAX;
+/// `BufferedHit::band` of a full-colour hit whose three vertices' shares are scaled by
+/// weights (a direct deposit of the light-sampling estimator): the colour arena holds the
+/// colour and then the three weights.
+pub const WEIGHTED: u16 = u16::MAX - 1;
+
+/// The per-vertex shares of a hit at (u, v): barycentric weights, times the hit's weights
+/// when it has them (`WEIGHTED`; `extra` holds them after the colour).
+#[inline]
+pub fn shares(band: u16, u: f32, v: f32, extra: &[f32]) -> [f64; 3] {
+    let (u, v) = (u as f64, v as f64);
+    let w = [1.0 - u - v, u, v];
+    if band == WEIGHTED {
+        [
+            w[0] * extra[0] as f64,
+            w[1] * extra[1] as f64,
+            w[2] * extra[2] as f64,
+        ]
+    } else {
+        w
+    }
+}
 
 /// A hit of a buffered photon on a recording surface.
 #[derive(Clone, Copy, Debug)]
@@ -54,7 +75,8 @@ impl BufferedHit {
 /// Where a finished photon's deposits go (the scheduler's portions).
 pub trait PhotonOut {
     /// A hit, with the map cells of its triangle's vertices (`BufferedHit::cells`) and its
-    /// colour (`bands` values, or one value for a collapsed photon).
+    /// colour (`bands` values, one value for a collapsed photon, or for `WEIGHTED` the
+    /// `bands` values and the three vertices' weights: `shares`).
     fn hit(&mut self, hit: &BufferedHit, cells: [usize; 3], colour: &[f32]);
     /// The cross terms of the photon's squared contribution to map cell `cell`
     /// (`LayerLayout::cell`).
@@ -122,7 +144,7 @@ impl PhotonBuffer {
         self.direct = None;
     }
 
-    /// Records a hit of the current photon.
+    /// Records a hit of the current photon (with its vertices' weights, if any).
     #[inline]
     pub fn deposit(
         &mut self,
@@ -131,8 +153,14 @@ impl PhotonBuffer {
         u: f32,
         v: f32,
         colour: &Colour,
+        weights: Option<[f32; 3]>,
     ) {
         self.energy = colour.energy();
+        // The share of the photon the hit's vertices receive in all (1 unless weighted).
+        let kept = weights.map_or(1.0, |w| {
+            let (u, v) = (u as f64, v as f64);
+            (1.0 - u - v) * w[0] as f64 + u * w[1] as f64 + v * w[2] as f64
+        });
         if let Some(r) = &scene.regions.meshes[mesh as usize] {
             let material = scene.meshes[mesh as usize].material(prim as usize);
             let ids = [
@@ -142,8 +170,11 @@ impl PhotonBuffer {
             for id in ids.into_iter().flatten() {
                 let s = self.regions.slot(id, self.bands);
                 match colour.band() {
-                    Some(b) => s[b] += colour.values()[b],
-                    None => s.iter_mut().zip(colour.values()).for_each(|(a, c)| *a += c),
+                    Some(b) => s[b] += colour.values()[b] * kept,
+                    None => s
+                        .iter_mut()
+                        .zip(colour.values())
+                        .for_each(|(a, c)| *a += c * kept),
                 }
             }
         }
@@ -156,7 +187,13 @@ impl PhotonBuffer {
             None => {
                 self.colours
                     .extend(colour.values().iter().map(|&c| c as f32));
-                FULL
+                match weights {
+                    Some(w) => {
+                        self.colours.extend(w);
+                        WEIGHTED
+                    }
+                    None => FULL,
+                }
             }
         };
         let hit = BufferedHit {
@@ -183,16 +220,16 @@ impl PhotonBuffer {
     fn fold(&mut self, scene: &PreparedScene) {
         let nb = self.bands;
         for h in &self.hits {
-            let (u, v) = (h.u as f64, h.v as f64);
-            for (cell, w) in h.cells(scene).into_iter().zip([1.0 - u - v, u, v]) {
+            let c = h.colour_at as usize;
+            let w = shares(h.band, h.u, h.v, self.colours.get(c + nb..).unwrap_or(&[]));
+            for (cell, w) in h.cells(scene).into_iter().zip(w) {
                 let next = self.folded_values.len();
                 let at = *self.folded.entry(cell as u32).or_insert(next);
                 if at == next {
                     self.folded_values.resize(next + nb, 0.0);
                 }
                 let values = &mut self.folded_values[at..at + nb];
-                let c = h.colour_at as usize;
-                if h.band == FULL {
+                if h.band >= WEIGHTED {
                     for (x, &c) in values.iter_mut().zip(&self.colours[c..c + nb]) {
                         *x += w * c as f64;
                     }
@@ -236,13 +273,19 @@ impl PhotonBuffer {
             return;
         }
         let e = self.energy;
+        let nb = self.bands;
         for h in &self.hits {
-            let (u, v) = (h.u as f64, h.v as f64);
             let cells = h.cells(scene);
-            self.squares.add(cells, [(1.0 - u - v) * e, u * e, v * e]);
             let c = h.colour_at as usize;
-            let n = if h.band == FULL { self.bands } else { 1 };
-            out.hit(h, cells, &self.colours[c..c + n]);
+            let n = match h.band {
+                FULL => nb,
+                WEIGHTED => nb + 3,
+                _ => 1,
+            };
+            let colour = &self.colours[c..c + n];
+            let w = shares(h.band, h.u, h.v, colour.get(nb..).unwrap_or(&[]));
+            self.squares.add(cells, w.map(|w| w * e));
+            out.hit(h, cells, colour);
         }
         self.squares
             .drain_cross_terms(|slot, s2| out.square(slot, s2));

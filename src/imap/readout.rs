@@ -35,12 +35,45 @@ pub struct Readout<'a> {
 }
 
 impl Readout<'_> {
+    /// Photon units per watt of direct flux: N·B/Φ.
     #[inline]
-    fn value(&self, slot: usize, band: usize) -> f64 {
+    fn units_per_watt(&self) -> f64 {
+        if self.scene.total_power > 0.0 {
+            self.photons as f64 * self.map.bands() as f64 / self.scene.total_power
+        } else {
+            0.0
+        }
+    }
+
+    /// The cells of a slot's value: its group layers, or the one layer read.
+    #[inline]
+    fn cells(&self, slot: usize) -> std::ops::Range<usize> {
+        let layout = self.map.layout();
         match self.layer {
+            None => {
+                let first = layout.cell(slot, 0);
+                first..first + layout.groups as usize
+            }
+            Some(l) => {
+                let c = layout.cell(slot, l);
+                c..c + 1
+            }
+        }
+    }
+
+    /// A slot's value in `band`, photon units: the photons' deposits plus, with the
+    /// light-sampling estimator, the direct estimate (its mean over passes) converted.
+    #[inline]
+    pub(crate) fn value(&self, slot: usize, band: usize) -> f64 {
+        let photons = match self.layer {
             None => self.map.value(slot, band),
             Some(l) => self.map.layer_value(slot, l, band),
-        }
+        };
+        let Some(d) = self.map.direct() else {
+            return photons;
+        };
+        let direct: f64 = self.cells(slot).map(|c| d.band_mean(c, band).0).sum();
+        photons + direct * self.units_per_watt()
     }
 
     /// Watts per unit of band value.
@@ -99,7 +132,20 @@ impl Readout<'_> {
             Some(l) => self.map.layer_scalar(slot, l),
         };
         let n = self.photons.max(1) as f64;
-        (std_error(s, q, n), s)
+        let sigma = std_error(s, q, n);
+        let Some(d) = self.map.direct() else {
+            return (sigma, s);
+        };
+        // The direct part: independent of the photons, so the variances add.
+        let k = self.units_per_watt();
+        let cells = self.cells(slot);
+        let (mean, var, passes) = d.scalar_of(cells.clone(), cells.len() > 1);
+        let total = s + mean * k;
+        if passes == 0.0 && total > 0.0 {
+            // No pass has reached the vertex yet: its direct part is unknown.
+            return (total, total);
+        }
+        ((sigma * sigma + var * k * k).sqrt(), total)
     }
 
     /// Relative standard error of every vertex of `mesh` on `side`, into `out`.

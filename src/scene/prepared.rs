@@ -391,9 +391,10 @@ impl PreparedScene {
     }
 
     /// Samples an emitter and a photon's first ray: (emitter index, origin, direction,
-    /// weight). The weight multiplies the photon's colour: 1 but for aimed lights (`Aim`),
-    /// whose photons carry their light's flux share in the cone.
-    pub fn emit(&self, rng: &mut PhotonRng) -> (usize, DVec3, DVec3, f64) {
+    /// weight, cos). The weight multiplies the photon's colour: 1 but for aimed lights
+    /// (`Aim`), whose photons carry their light's flux share in the cone. `cos` is the
+    /// cosine of the direction to an emitting mesh's normal (1 for lights).
+    pub fn emit(&self, rng: &mut PhotonRng) -> (usize, DVec3, DVec3, f64, f64) {
         let e = self.emitter_table.sample(rng.uniform());
         let em = &self.emitters[e];
         match &em.kind {
@@ -404,11 +405,11 @@ impl PreparedScene {
                     let w = a
                         .weight
                         .unwrap_or_else(|| shape.intensity_per_watt(d) * a.solid_angle);
-                    (e, em.position, d, w)
+                    (e, em.position, d, w, 1.0)
                 }
                 None => {
                     let (at, d) = shape.sample(rng);
-                    (e, em.position + at, d, 1.0)
+                    (e, em.position + at, d, 1.0, 1.0)
                 }
             },
             EmitterKind::Mesh {
@@ -427,7 +428,7 @@ impl PreparedScene {
                     n = -n;
                 }
                 let d = warp::cosine_hemisphere(n, rng.uniform(), rng.uniform());
-                (e, p + n * self.offset_at(p), d, 1.0)
+                (e, p + n * self.offset_at(p), d, 1.0, d.dot(n))
             }
         }
     }

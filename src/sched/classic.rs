@@ -10,7 +10,7 @@
 //! value instead of a full colour, and the hand-over is a pointer move on a channel.
 
 use super::{Counters, Monitor, PhotonSource, RunContext, RunOutcome, RunParams, StopGuard};
-use crate::imap::{BufferedHit, IMap, PhotonBuffer, PhotonOut, FULL};
+use crate::imap::{shares, BufferedHit, IMap, PhotonBuffer, PhotonOut, WEIGHTED};
 use crate::scene::PreparedScene;
 use crate::transport::{Colour, HitSink, PathStats};
 use crossbeam::channel::{self, Receiver, RecvTimeoutError, Sender};
@@ -163,7 +163,21 @@ impl PhotonOut for PortionSink<'_> {
 impl HitSink for PortionSink<'_> {
     fn deposit(&mut self, mesh: u32, prim: u32, side: u8, u: f32, v: f32, colour: &Colour) {
         self.photon
-            .deposit(self.scene, (mesh, prim, side), u, v, colour);
+            .deposit(self.scene, (mesh, prim, side), u, v, colour, None);
+    }
+
+    fn deposit_weighted(
+        &mut self,
+        mesh: u32,
+        prim: u32,
+        side: u8,
+        u: f32,
+        v: f32,
+        colour: &Colour,
+        w: [f32; 3],
+    ) {
+        self.photon
+            .deposit(self.scene, (mesh, prim, side), u, v, colour, Some(w));
     }
 
     fn begin_photon(&mut self, emitter: usize) {
@@ -195,16 +209,21 @@ fn accumulate(map: &mut IMap, scene: &PreparedScene, p: &Portion) {
     for r in &p.recs {
         let mesh = &scene.meshes[(r.key >> 32) as usize];
         let tri = mesh.triangles[(r.key & 0xFFFF_FFFF) as usize];
-        let (u, v) = (r.u as f64, r.v as f64);
-        let w = [1.0 - u - v, u, v];
         let at = r.colour_at as usize;
+        let nb = map.bands();
+        let extra = if r.band == WEIGHTED {
+            &p.colours[at + nb..at + nb + 3]
+        } else {
+            &[]
+        };
+        let w = shares(r.band, r.u, r.v, extra);
         for (&vertex, &w) in tri.iter().zip(&w) {
             let slot = mesh
                 .slot(vertex, r.side as usize)
                 .expect("deposit on a recording mesh");
             let slot = layers.cell(slot, r.layer);
-            if r.band == FULL {
-                map.add_colour(slot, w, &p.colours[at..at + map.bands()]);
+            if r.band >= WEIGHTED {
+                map.add_colour(slot, w, &p.colours[at..at + nb]);
             } else {
                 map.add_band(slot, w, r.band as usize, p.colours[at]);
             }

@@ -10,7 +10,7 @@
 use super::groups::GroupTable;
 use super::{Counters, Monitor, PhotonSource, RunContext, RunOutcome, RunParams};
 use crate::error::{bail, Result};
-use crate::imap::{BufferedHit, IMap, PhotonBuffer, PhotonOut, Readout, FULL};
+use crate::imap::{shares, BufferedHit, IMap, PhotonBuffer, PhotonOut, Readout, FULL, WEIGHTED};
 use crate::scene::PreparedScene;
 use crate::transport::{Colour, HitSink, PathStats};
 use crossbeam::channel::{self, Receiver, RecvTimeoutError, Sender, TryRecvError};
@@ -381,9 +381,15 @@ impl<'a> GroupSink<'a> {
 impl PhotonOut for GroupSink<'_> {
     fn hit(&mut self, h: &BufferedHit, cells: [usize; 3], colour: &[f32]) {
         self.hit += 1;
-        let (u, v) = (h.u as f64, h.v as f64);
-        for (cell, w) in cells.into_iter().zip([1.0 - u - v, u, v]) {
-            self.contribute(cell, w, h.band, colour);
+        let nb = self.shared.map.bands();
+        let (band, colour, w) = if h.band == WEIGHTED {
+            let w = shares(h.band, h.u, h.v, &colour[nb..]);
+            (FULL, &colour[..nb], w)
+        } else {
+            (h.band, colour, shares(h.band, h.u, h.v, &[]))
+        };
+        for (cell, w) in cells.into_iter().zip(w) {
+            self.contribute(cell, w, band, colour);
         }
     }
 
@@ -404,7 +410,21 @@ impl PhotonOut for GroupSink<'_> {
 impl HitSink for GroupSink<'_> {
     fn deposit(&mut self, mesh: u32, prim: u32, side: u8, u: f32, v: f32, colour: &Colour) {
         self.photon
-            .deposit(self.shared.scene, (mesh, prim, side), u, v, colour);
+            .deposit(self.shared.scene, (mesh, prim, side), u, v, colour, None);
+    }
+
+    fn deposit_weighted(
+        &mut self,
+        mesh: u32,
+        prim: u32,
+        side: u8,
+        u: f32,
+        v: f32,
+        colour: &Colour,
+        w: [f32; 3],
+    ) {
+        self.photon
+            .deposit(self.shared.scene, (mesh, prim, side), u, v, colour, Some(w));
     }
 
     fn begin_photon(&mut self, emitter: usize) {

@@ -101,6 +101,10 @@ pub struct RunParams<'a> {
     /// Which photon indices the run may trace (default: all; ranges and shards for runs
     /// split over processes).
     pub selection: Selection,
+    /// The estimator (`transport::direct`); None: the one the map's photons were made
+    /// with, or light sampling for an empty map. A map holds the photons of one estimator:
+    /// another one needs a reset first.
+    pub estimator: Option<crate::transport::direct::Estimator>,
 }
 
 impl Default for RunParams<'_> {
@@ -115,6 +119,7 @@ impl Default for RunParams<'_> {
             max_path_events: 1 << 20,
             progress: None,
             selection: Selection::ALL,
+            estimator: None,
         }
     }
 }

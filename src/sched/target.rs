@@ -159,7 +159,9 @@ fn uniformity_error(
         if (slot - base) % sides != side || a <= 0.0 {
             return;
         }
-        let l: f64 = (0..map.bands()).map(|b| map.value(slot, b) * eff[b]).sum();
+        let l: f64 = (0..map.bands())
+            .map(|b| readout.value(slot, b) * eff[b])
+            .sum();
         lux[v] = l / a;
         sigma[v] = lux[v] * readout.slot_rel_error(slot);
     });

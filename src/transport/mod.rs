@@ -6,6 +6,7 @@
 //! albedo), never by a silent depth cut: the safety limit on events reports what it drops.
 
 mod colour;
+pub mod direct;
 
 pub use colour::{collapse_weights, Colour};
 
@@ -24,6 +25,22 @@ pub trait HitSink {
     /// A photon of colour `colour` arrived on `side` (0 front, 1 back) of triangle `prim`
     /// of mesh `mesh` at barycentric coordinates (u, v).
     fn deposit(&mut self, mesh: u32, prim: u32, side: u8, u: f32, v: f32, colour: &Colour);
+
+    /// `deposit` with the triangle's three vertices' shares scaled by `w` (the
+    /// light-sampling estimator's weights of a direct deposit, `direct`).
+    #[allow(clippy::too_many_arguments)]
+    fn deposit_weighted(
+        &mut self,
+        mesh: u32,
+        prim: u32,
+        side: u8,
+        u: f32,
+        v: f32,
+        colour: &Colour,
+        _w: [f32; 3],
+    ) {
+        self.deposit(mesh, prim, side, u, v, colour);
+    }
 
     /// Whether the sink wants `surface` calls (renders do; i-map sinks compile them out).
     const SURFACES: bool = false;
@@ -160,6 +177,10 @@ pub struct Tracer<'a> {
     pub unit_m: f64,
     /// Safety limit on surface events per path.
     pub max_events: u32,
+    /// The light-sampling estimator's direct passes: photons then deposit only indirect
+    /// light (from their second surface event on), and each photon that ends does its
+    /// share of the passes (`direct`). None: photons deposit everything.
+    pub direct: Option<&'a direct::DirectSampler<'a>>,
 }
 
 /// The medium a photon travels in: air, or the inside of a dielectric mesh.
@@ -176,6 +197,14 @@ struct Emission {
     weight: f64,
     /// Its energy in photon units before the weight: what its light emitted.
     energy: f64,
+}
+
+/// Where a photon left its light (for the weights of its direct deposits).
+struct Origin {
+    emitter: usize,
+    y: DVec3,
+    /// Cosine at an emitting mesh (1 for lights).
+    cos_y: f64,
 }
 
 /// How a photon's path ended, for the tallies that are kept only for whole photons.
@@ -237,6 +266,9 @@ impl Tracer<'_> {
         stats.hits += hits;
         stats.emitted += emission.energy;
         sink.end_photon();
+        if let Some(d) = self.direct {
+            d.photon_done(k);
+        }
         true
     }
 
@@ -250,7 +282,7 @@ impl Tracer<'_> {
     ) -> (PathEnd, Emission) {
         let mut rng = PhotonRng::new(self.seed, k);
         // Emit: choose a light by power, then a point and a direction on it.
-        let (emitter, org, dir, weight) = self.scene.emit(&mut rng);
+        let (emitter, org, dir, weight, cos_y) = self.scene.emit(&mut rng);
         colour.reset(&self.scene.emitters[emitter].colour);
         let emission = Emission {
             emitter,
@@ -264,8 +296,13 @@ impl Tracer<'_> {
                 return (PathEnd::Escaped, emission);
             }
         }
+        let from = Origin {
+            emitter,
+            y: org,
+            cos_y,
+        };
         (
-            self.follow(org, dir, &mut rng, colour, sink, hits, stop),
+            self.follow(&from, dir, &mut rng, colour, sink, hits, stop),
             emission,
         )
     }
@@ -274,7 +311,7 @@ impl Tracer<'_> {
     #[allow(clippy::too_many_arguments)]
     fn follow<S: HitSink>(
         &self,
-        org: DVec3,
+        from: &Origin,
         mut dir: DVec3,
         rng: &mut PhotonRng,
         colour: &mut Colour,
@@ -283,7 +320,7 @@ impl Tracer<'_> {
         stop: &AtomicBool,
     ) -> PathEnd {
         // A light far outside the geometry: start where the ray meets its bounding sphere.
-        let Some(mut org) = self.scene.enter(org, dir) else {
+        let Some(mut org) = self.scene.enter(from.y, dir) else {
             return PathEnd::Escaped;
         };
         let mut medium: Option<Medium> = None;
@@ -311,6 +348,9 @@ impl Tracer<'_> {
                 }
             }
 
+            // With light sampling at the vertices, deposits before the first surface
+            // event is over are direct light: weighted against the light samples.
+            let weigh = self.direct.filter(|_| event == 0);
             if let Some(sensors) = self.sensors {
                 // Sensors on the segment, up to and including the surface it ends on (a
                 // sensor laid on a floor sees the light arriving there).
@@ -322,7 +362,23 @@ impl Tracer<'_> {
                     let mesh = &self.scene.meshes[c.mesh as usize];
                     let front = dir.dot(mesh.normals[c.prim as usize].as_dvec3()) < 0.0;
                     if front || mesh.two_sided {
-                        sink.deposit(c.mesh, c.prim, u8::from(!front), c.u, c.v, colour);
+                        let side = u8::from(!front);
+                        match weigh {
+                            Some(d) => {
+                                let w = d.photon_weights(
+                                    from.emitter,
+                                    from.y,
+                                    from.cos_y,
+                                    dir,
+                                    c.mesh,
+                                    c.prim,
+                                    c.u,
+                                    c.v,
+                                );
+                                sink.deposit_weighted(c.mesh, c.prim, side, c.u, c.v, colour, w);
+                            }
+                            None => sink.deposit(c.mesh, c.prim, side, c.u, c.v, colour),
+                        }
                     }
                 });
             }
@@ -340,7 +396,23 @@ impl Tracer<'_> {
 
             // Deposit on the hit triangle's vertices (the sink applies barycentric weights).
             if mesh.slot_base.is_some() && (front || mesh.two_sided) {
-                sink.deposit(hit.mesh, hit.prim, u8::from(!front), hit.u, hit.v, colour);
+                let side = u8::from(!front);
+                match weigh {
+                    Some(d) => {
+                        let w = d.photon_weights(
+                            from.emitter,
+                            from.y,
+                            from.cos_y,
+                            dir,
+                            hit.mesh,
+                            hit.prim,
+                            hit.u,
+                            hit.v,
+                        );
+                        sink.deposit_weighted(hit.mesh, hit.prim, side, hit.u, hit.v, colour, w);
+                    }
+                    None => sink.deposit(hit.mesh, hit.prim, side, hit.u, hit.v, colour),
+                }
             }
             if event == 0 {
                 sink.direct_done();

@@ -187,17 +187,24 @@ pub fn photons(base: u64) -> u64 {
     ((base as f64) * s).max(1000.0) as u64
 }
 
+/// Runs `n` photons with no callback, with the photons-only estimator (the first paper's:
+/// for tests of what photons do).
+pub fn run_photons_only(ctx: &mut Context, n: u64) -> imap::Report {
+    ctx.run(&mut imap::RunParams {
+        photons: n,
+        progress_interval_s: 1.0,
+        estimator: Some(imap::Estimator::Photons),
+        ..Default::default()
+    })
+    .expect("run")
+}
+
 /// Runs `n` photons with no callback.
 pub fn run_photons(ctx: &mut Context, n: u64) -> imap::Report {
     let mut params = imap::RunParams {
-        region: None,
         photons: n,
-        time_budget_s: 0.0,
-        target_rel_error: 0.0,
         progress_interval_s: 1.0,
-        max_path_events: 1 << 20,
-        selection: Default::default(),
-        progress: None,
+        ..Default::default()
     };
     ctx.run(&mut params).expect("run")
 }
