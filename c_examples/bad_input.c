@@ -467,6 +467,23 @@ int main(void) {
     expect("accumulators", imap_map_accumulators(ctx, &acc, &acc_n), IMAP_OK, ctx);
     expect("accumulators: count NULL", imap_map_accumulators(ctx, &acc, NULL), IMAP_ERR_NULL_POINTER, ctx);
     if (acc == NULL || acc_n == 0) printf("FAIL no accumulators\n"), failures++;
+    expect("direct accumulators", imap_map_direct_accumulators(ctx, &acc, &acc_n), IMAP_OK, ctx);
+    expect("direct accumulators: data NULL", imap_map_direct_accumulators(ctx, NULL, &acc_n),
+           IMAP_ERR_NULL_POINTER, ctx);
+    if (acc == NULL || acc_n == 0) printf("FAIL no direct accumulators (light sampling)\n"), failures++;
+    /* Estimators: an unknown one, tuning for photons only, too few photons per pass, and
+       another estimator than the map's photons (out of order); nothing changes. */
+    run.estimator = 7;
+    expect("run with estimator 7", imap_run(ctx, &run, NULL, 0), IMAP_ERR_INVALID_ARGUMENT, ctx);
+    run.estimator = IMAP_ESTIMATOR_PHOTONS, run.direct_samples = 8;
+    expect("photons with direct samples", imap_run(ctx, &run, NULL, 0), IMAP_ERR_INVALID_ARGUMENT, ctx);
+    run.estimator = IMAP_ESTIMATOR_LIGHT_SAMPLING, run.direct_samples = 0, run.direct_pass_photons = 1;
+    expect("one photon per pass", imap_run(ctx, &run, NULL, 0), IMAP_ERR_INVALID_ARGUMENT, ctx);
+    run.direct_pass_photons = 0, run.direct_samples = 100000;
+    expect("100000 direct samples", imap_run(ctx, &run, NULL, 0), IMAP_ERR_INVALID_ARGUMENT, ctx);
+    run.direct_samples = 0, run.estimator = IMAP_ESTIMATOR_PHOTONS;
+    expect("another estimator than the map's", imap_run(ctx, &run, NULL, 0), IMAP_ERR_OUT_OF_ORDER, ctx);
+    run.estimator = IMAP_ESTIMATOR_DEFAULT;
     free(st);
     imap_destroy(ctx);
     imap_destroy(NULL);

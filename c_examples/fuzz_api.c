@@ -335,6 +335,11 @@ int main(int argc, char **argv) {
                 p.shard_index = below(5);
                 p.shard_block = chance(0.7) ? 0 : (chance(0.5) ? 64 * below(10) : below(1000));
             }
+            if (chance(0.1)) { /* an estimator, sometimes bad or another than the map's */
+                p.estimator = below(4);
+                p.direct_samples = chance(0.6) ? 0 : (chance(0.9) ? below(33) : below(100000));
+                p.direct_pass_photons = chance(0.6) ? 0 : (chance(0.5) ? below(64) : below(200000));
+            }
             if (p.photons == 0 && !(p.time_budget_s > 0 && p.time_budget_s < 0.1)) p.photons = 500;
             if (chance(0.03)) p.struct_size = below(50);
             ImapReport r;
@@ -602,7 +607,8 @@ int main(int argc, char **argv) {
                 default: {
                     double *acc = NULL;
                     uint64_t n = 0;
-                    s = imap_map_accumulators(into, chance(0.03) ? NULL : &acc, &n);
+                    s = chance(0.5) ? imap_map_accumulators(into, chance(0.03) ? NULL : &acc, &n)
+                                    : imap_map_direct_accumulators(into, chance(0.03) ? NULL : &acc, &n);
                     break;
                 }
                 }

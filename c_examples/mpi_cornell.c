@@ -46,11 +46,8 @@ static void run_shard(ImapContext *ctx, uint64_t photons, int shard, int shards)
     CHECK(imap_run(ctx, &run, &rep, sizeof rep));
 }
 
-/* Sums the map accumulators of every rank into rank 0's, in pieces an int can count. */
-static void reduce_maps(ImapContext *ctx, int rank) {
-    double *data = NULL;
-    uint64_t count = 0;
-    CHECK(imap_map_accumulators(ctx, &data, &count));
+/* Sums an array of every rank into rank 0's, in pieces an int can count. */
+static void reduce_array(double *data, uint64_t count, int rank) {
     const uint64_t piece = 1u << 27;
     for (uint64_t at = 0; at < count; at += piece) {
         int n = (int)(count - at < piece ? count - at : piece);
@@ -59,6 +56,17 @@ static void reduce_maps(ImapContext *ctx, int rank) {
         else
             MPI_Reduce(data + at, NULL, n, MPI_DOUBLE, MPI_SUM, 0, MPI_COMM_WORLD);
     }
+}
+
+/* Sums the map accumulators of every rank into rank 0's: the photons' and, with light
+   sampling (the default estimator), the direct records. */
+static void reduce_maps(ImapContext *ctx, int rank) {
+    double *data = NULL;
+    uint64_t count = 0;
+    CHECK(imap_map_accumulators(ctx, &data, &count));
+    reduce_array(data, count, rank);
+    CHECK(imap_map_direct_accumulators(ctx, &data, &count));
+    reduce_array(data, count, rank);
 }
 
 /* Gathers every rank's ledger (its state without the map) at rank 0, which merges them. */

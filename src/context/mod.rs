@@ -201,12 +201,7 @@ impl Context {
                     samples
                 };
                 let pass_photons = if pass_photons == 0 {
-                    direct::auto_pass_photons(
-                        self.lit_slots(),
-                        self.scene.slot_count(),
-                        self.scene.meshes.iter().any(|m| m.exitance.is_some()),
-                        samples,
-                    )
+                    direct::auto_pass_photons(self.lit_slots(), self.scene.slot_count(), samples)
                 } else {
                     pass_photons
                 };
@@ -673,6 +668,7 @@ impl Context {
                 samples,
                 pass_photons,
                 unit_m: self.config.unit_m,
+                gain: direct::LIGHT_SAMPLE_GAIN,
             }),
             _ => None,
         };

@@ -405,7 +405,7 @@ fn parse_with(b: &[u8], verify: bool) -> Result<StateFile<'_>> {
         escaped_photons: r.u64("energy tally")?,
         dropped: r.f64("energy tally")?,
         dropped_photons: r.u64("energy tally")?,
-        bands: Default::default(),
+        ..Default::default()
     };
     for b in &mut stats.bands {
         *b = r.counted_f64s("band tally")?;
@@ -839,6 +839,19 @@ impl Context {
     pub fn map_accumulators(&mut self) -> Result<&mut [f64]> {
         self.prepare()?;
         Ok(self.map.as_mut().expect("prepared").raw_mut())
+    }
+
+    /// The light-sampling estimator's direct records as one contiguous array (empty with
+    /// photons only): per map cell the band sums, the sum of squares, the pass count and
+    /// the sum of squares of the slot's total. Summed over contexts like
+    /// `map_accumulators`.
+    pub fn direct_accumulators(&mut self) -> Result<&mut [f64]> {
+        self.prepare()?;
+        let map = self.map.as_mut().expect("prepared");
+        Ok(match map.direct_mut() {
+            Some(d) => d.raw_mut(),
+            None => &mut [],
+        })
     }
 }
 

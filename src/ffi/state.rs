@@ -239,7 +239,9 @@ pub unsafe extern "C" fn imap_state_info(
 /// (the merge's history point reads the summed map). The pointer stays valid until the
 /// scene changes, `imap_destroy`; read or write it only between calls on the context (never
 /// during imap_run). Returns IMAP_ERR_NULL_POINTER, IMAP_ERR_NO_GEOMETRY /
-/// IMAP_ERR_NO_LIGHT, IMAP_ERR_BUSY. (Since 0.2.2.)
+/// IMAP_ERR_NO_LIGHT, IMAP_ERR_BUSY. With the light-sampling estimator
+/// (`IMAP_ESTIMATOR_LIGHT_SAMPLING`, the default) the map has a second array,
+/// `imap_map_direct_accumulators`: sum it the same way. (Since 0.2.2.)
 ///
 /// # Safety
 /// `ctx` is a live handle; `data` and `count` are writable.
@@ -254,6 +256,36 @@ pub unsafe extern "C" fn imap_map_accumulators(
         super::check_out("count", count)?;
         let a = c.map_accumulators()?;
         let (p, n) = (a.as_mut_ptr(), a.len() as u64);
+        write_out("data", data, p)?;
+        write_out("count", count, n)
+    })
+}
+
+/// The light-sampling estimator's direct records as one contiguous array of `*count`
+/// doubles owned by the context (`*count` = 0 and `*data` NULL with
+/// `IMAP_ESTIMATOR_PHOTONS`): per map cell the band sums, the sum of squares, the pass
+/// count and the sum of squares of the vertex's total over light groups. Sum it over
+/// ranks exactly like `imap_map_accumulators` (both, before merging the ledgers); the
+/// estimator is the one of the next run or of the photons the map holds. Same validity
+/// and errors as `imap_map_accumulators`. (Since 0.2.2.)
+///
+/// # Safety
+/// `ctx` is a live handle; `data` and `count` are writable.
+#[no_mangle]
+pub unsafe extern "C" fn imap_map_direct_accumulators(
+    ctx: *mut ImapContext,
+    data: *mut *mut f64,
+    count: *mut u64,
+) -> ImapStatus {
+    with_context(ctx, |c| {
+        super::check_out("data", data)?;
+        super::check_out("count", count)?;
+        let a = c.direct_accumulators()?;
+        let (p, n) = if a.is_empty() {
+            (std::ptr::null_mut(), 0)
+        } else {
+            (a.as_mut_ptr(), a.len() as u64)
+        };
         write_out("data", data, p)?;
         write_out("count", count, n)
     })

@@ -93,6 +93,9 @@ pub trait PhotonOut {
 pub struct PhotonBuffer {
     bands: usize,
     energy: f64,
+    /// Whether the photon's energy changed along its path (a weighted first bounce): its
+    /// hits' squares then take each hit's own energy.
+    varying: bool,
     hits: Vec<BufferedHit>,
     colours: Vec<f32>,
     /// Folded hits: map cell → offset of its `bands` values in `folded_values`.
@@ -119,6 +122,7 @@ impl PhotonBuffer {
         PhotonBuffer {
             bands,
             energy: 0.0,
+            varying: false,
             hits: Vec::new(),
             colours: Vec::new(),
             folded: HashMap::new(),
@@ -155,7 +159,13 @@ impl PhotonBuffer {
         colour: &Colour,
         weights: Option<[f32; 3]>,
     ) {
-        self.energy = colour.energy();
+        let e = colour.energy();
+        if self.hits.is_empty() && self.folded.is_empty() {
+            self.varying = false;
+        } else if e != self.energy {
+            self.varying = true;
+        }
+        self.energy = e;
         // The share of the photon the hit's vertices receive in all (1 unless weighted).
         let kept = weights.map_or(1.0, |w| {
             let (u, v) = (u as f64, v as f64);
@@ -284,6 +294,12 @@ impl PhotonBuffer {
             };
             let colour = &self.colours[c..c + n];
             let w = shares(h.band, h.u, h.v, colour.get(nb..).unwrap_or(&[]));
+            let e = if self.varying {
+                // This hit's energy: its colour's band mean.
+                colour[..n.min(nb)].iter().map(|&x| x as f64).sum::<f64>() / nb as f64
+            } else {
+                e
+            };
             self.squares.add(cells, w.map(|w| w * e));
             out.hit(h, cells, colour);
         }

@@ -7,6 +7,8 @@ pub struct Colour {
     c: Vec<f64>,
     band: Option<usize>,
     energy: f64,
+    /// `energy` at emission (after an aimed light's weight).
+    emitted: f64,
 }
 
 impl Colour {
@@ -15,6 +17,7 @@ impl Colour {
             c: vec![1.0; bands],
             band: None,
             energy: 1.0,
+            emitted: 1.0,
         }
     }
 
@@ -23,6 +26,7 @@ impl Colour {
         self.c.copy_from_slice(emitted);
         self.band = None;
         self.energy = self.mean();
+        self.emitted = self.energy;
     }
 
     /// Scales the photon by `w` (an aimed photon's weight): its colour and its energy,
@@ -32,12 +36,24 @@ impl Colour {
         self.energy *= w;
     }
 
+    /// Marks the current energy as the photon's energy at emission (after an aimed
+    /// light's weight).
+    pub fn emitted_now(&mut self) {
+        self.emitted = self.energy;
+    }
+
     /// The photon's energy in photon units as it left its emitter: the band mean, which
     /// every event keeps (1 with a single light; the emitter's power share over its
     /// selection probability in general).
     #[inline]
     pub fn energy(&self) -> f64 {
         self.energy
+    }
+
+    /// The energy the photon left its emitter with (before any weighted bounce).
+    #[inline]
+    pub fn energy_at_emission(&self) -> f64 {
+        self.emitted
     }
 
     /// Per-band values (all bands; after a collapse only `band()` is non-zero).

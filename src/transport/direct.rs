@@ -7,9 +7,7 @@
 //! area, then the vertex's barycentric coordinate from its Beta(2, 2) marginal by the
 //! inverse CDF λ = ½ − sin(asin(1 − 2u)/3), the other two split uniformly), a light is
 //! chosen by power (the photons' table), a point on it by area, and a shadow ray decides
-//! visibility. For emitting meshes a second, cosine-distributed ray from x is combined
-//! with the light sample by multiple importance sampling (power heuristic), which keeps
-//! the variance bounded where an emitter fills much of the hemisphere.
+//! visibility.
 //!
 //! Every estimate is unbiased. The samples of one vertex in one *pass* are the first
 //! `samples` points of an Owen-scrambled Sobol sequence (`sobol_burley`) whose scramble is
@@ -24,15 +22,16 @@
 //! Photons bring the direct part too, and the two are combined by multiple importance
 //! sampling over the pair (point x on the surface, point y on the light): a photon's first
 //! deposit (and sensor crossings before its first surface event) is weighted, per vertex,
-//! by w_P = P² / (P² + L² + C²), and a light sample of vertex v by w_L = L² / (…) (the
-//! cosine ray by w_C), where P = R·p(x | y) is the photons' density of landing at x per
-//! pass (p: the light's direction density at y times cos θx / r²), L = G·S·λv(x)/Av the
-//! light samples' (λv the vertex's hat at x, Av its area, G = `LIGHT_SAMPLE_GAIN`) and
-//! C = L·(the cosine ray's density over the light sample's). The weights add up to 1 at
-//! every (x, y), so the sum is unbiased whatever they are; they hand the direct light to
-//! photons where light sampling is poor (a narrow spot or beam, a vertex whose support is
-//! large against its distance to the light) and to the light samples everywhere else.
-//! Photon deposits after the first surface event are the indirect part, weight 1.
+//! by w_P = P² / (P² + L²), and a light sample of vertex v by w_L = L² / (P² + L²), where
+//! P = R·p(x | y) is the photons' density of landing at x per pass (p: the light's
+//! direction density at y times cos θx / r²) and L = G·S·λv(x)/Av the light samples' (λv
+//! the vertex's hat at x, Av its area, G = `LIGHT_SAMPLE_GAIN`). The weights add up to 1
+//! at every (x, y), so the sum is unbiased whatever they are; they hand the direct light
+//! to photons where light sampling is poor (a narrow spot or beam; a vertex whose support
+//! is large against its distance to the light, or right next to an emitting surface: the
+//! photons play the part a cosine-distributed ray from x would, which was measured and cost
+//! more than it brought, BENCHMARKS.md) and to the light samples everywhere else. Photon
+//! deposits after the first surface event are the indirect part, weight 1.
 
 use crate::accel::Accel;
 use crate::imap::DirectAcc;
@@ -48,9 +47,11 @@ pub const DEFAULT_SAMPLES: u32 = 4;
 /// Most samples per vertex per pass (the Sobol sequence's length).
 pub const MAX_SAMPLES: u32 = 1 << 16;
 /// How much more a stratified light sample counts than a photon landing at the same point
-/// in the multiple-importance weights (`mis`): any positive value keeps the map unbiased;
-/// this one was the fastest to a given error on the benchmark scenes (BENCHMARKS.md).
-pub const LIGHT_SAMPLE_GAIN: f64 = 8.0;
+/// in the multiple-importance weights: any positive value keeps the map unbiased. A light
+/// sample of smooth direct light has a small variance, a photon's landing in a vertex's
+/// support the variance of a count; the balance of sample densities alone handed the
+/// direct light of coarse calculation grids to photons (BENCHMARKS.md).
+pub const LIGHT_SAMPLE_GAIN: f64 = 64.0;
 
 /// Which estimator a map is made with.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -94,10 +95,10 @@ impl Estimator {
 /// have area and are not sensors: a pass's shadow rays about half as many as its photons (whose paths take
 /// several rays each: measured best on the benchmark scenes, BENCHMARKS.md), at least one
 /// photon per chunk, a multiple of 64.
-pub fn auto_pass_photons(lit: usize, slots: usize, area_lights: bool, samples: u32) -> u64 {
-    let rays = lit as u64 * samples as u64 * if area_lights { 2 } else { 1 };
+pub fn auto_pass_photons(lit: usize, slots: usize, samples: u32) -> u64 {
+    let rays = lit as u64 * samples as u64;
     let chunks = slots.div_ceil(CHUNK_SLOTS) as u64;
-    (rays / 2).max(chunks).max(64).div_ceil(64) * 64
+    (rays * 2).max(chunks).max(64).div_ceil(64) * 64
 }
 
 /// A vertex's triangles with their area shares, per recording mesh (CSR).
@@ -121,14 +122,17 @@ pub struct DirectPlan {
     /// The passes' order of the map's slots: (first index in that order, mesh), meshes
     /// that are not sensors first, so sensors leave every other mesh's passes as they are.
     bases: Vec<(usize, u32)>,
-    /// The emitter of each emitting mesh, and that mesh's area (scene units²).
-    mesh_emitter: Vec<Option<(u32, f64)>>,
-    /// Whether any emitter is a mesh (then cosine rays are combined by MIS).
-    pub area_lights: bool,
     pub slots: usize,
     /// Chunks of a pass (C).
     pub chunks: u64,
+    /// How many times a run's samples per pass a sensor's vertex takes: calculation grids
+    /// are few points with large supports, which a few samples per pass serve poorly; their
+    /// passes may take up to a quarter of the other vertices' (1 to `MAX_SENSOR_FACTOR`).
+    pub sensor_factor: u32,
 }
+
+/// Most samples per pass a sensor's vertex takes, in run samples (`sensor_factor`).
+pub const MAX_SENSOR_FACTOR: u32 = 64;
 
 impl DirectPlan {
     pub fn new(scene: &PreparedScene) -> Self {
@@ -193,16 +197,6 @@ impl DirectPlan {
                 })
             })
             .collect();
-        let mut mesh_emitter = vec![None; scene.meshes.len()];
-        let mut area_lights = false;
-        for (e, em) in scene.emitters.iter().enumerate() {
-            if let EmitterKind::Mesh { mesh, .. } = &em.kind {
-                let m = &scene.meshes[*mesh];
-                let area: f64 = (0..m.triangles.len()).map(|t| m.area(t)).sum();
-                mesh_emitter[*mesh] = Some((e as u32, area));
-                area_lights = true;
-            }
-        }
         let slots = scene.slots;
         let border = scene
             .meshes
@@ -229,14 +223,27 @@ impl DirectPlan {
                 Some(border)
             })
             .collect();
+        let lit = |sensor: bool| -> usize {
+            scene
+                .meshes
+                .iter()
+                .filter(|m| m.slot_base.is_some() && m.sensor == sensor)
+                .map(|m| m.vertex_area.iter().filter(|&&a| a > 0.0).count() * m.sides())
+                .sum()
+        };
+        let (others, sensors) = (lit(false), lit(true));
+        let sensor_factor = if sensors == 0 {
+            1
+        } else {
+            (others / (4 * sensors)).clamp(1, MAX_SENSOR_FACTOR as usize) as u32
+        };
         DirectPlan {
             border,
             adjacency,
             bases,
-            mesh_emitter,
-            area_lights,
             slots,
             chunks: slots.div_ceil(CHUNK_SLOTS) as u64,
+            sensor_factor,
         }
     }
 
@@ -263,6 +270,8 @@ pub struct DirectSampler<'a> {
     pub samples: u32,
     pub pass_photons: u64,
     pub unit_m: f64,
+    /// `LIGHT_SAMPLE_GAIN`.
+    pub gain: f64,
 }
 
 #[inline]
@@ -285,56 +294,47 @@ fn hat_coordinate(u: f64) -> f64 {
     (0.5 - ((1.0 - 2.0 * u).asin() / 3.0).sin()).clamp(0.0, 1.0)
 }
 
-/// The photon side of the weights at a point: P and the cosine ray's factor (C = L·c).
-#[derive(Clone, Copy, Debug)]
-struct Densities {
-    photon: f64,
-    cosine: f64,
-}
-
+/// The power heuristic's weight of the strategy of density `a` against one of `b`.
 #[inline]
-fn power(a: f64, b: f64, c: f64) -> f64 {
-    let (a2, s) = (a * a, a * a + b * b + c * c);
-    if s > 0.0 && s.is_finite() {
-        a2 / s
-    } else {
-        // Degenerate (a density of 0 or ∞ everywhere): the first strategy takes all.
-        if a > 0.0 || (b == 0.0 && c == 0.0) {
-            1.0
-        } else {
-            0.0
-        }
+fn power(a: f64, b: f64) -> f64 {
+    if a == b {
+        // Both 0 or both ∞ (degenerate): halves, which still add up to 1.
+        return 0.5;
     }
+    if a.is_infinite() || b == 0.0 {
+        return 1.0;
+    }
+    if b.is_infinite() || a == 0.0 {
+        return 0.0;
+    }
+    let r = b / a;
+    1.0 / (1.0 + r * r)
 }
 
 impl DirectSampler<'_> {
     /// The photons' density P (per pass) of landing at x from y on emitter `e` along unit
     /// `dir` (from y to x), r² = |x − y|², cos θx = `cos_x`, and for an emitting mesh
-    /// cos θy = `cos_y` and the cosine ray's factor.
+    /// cos θy = `cos_y`.
     #[inline]
-    fn densities(&self, e: usize, dir: DVec3, r2: f64, cos_x: f64, cos_y: f64) -> Densities {
-        let scene = self.scene;
-        let em = &scene.emitters[e];
+    fn photon_density(&self, e: usize, dir: DVec3, r2: f64, cos_x: f64, cos_y: f64) -> f64 {
         let r = self.pass_photons as f64;
-        match &em.kind {
-            EmitterKind::Light(LightShape::Beam { aperture, .. }) => Densities {
-                photon: r * cos_x / aperture.area(),
-                cosine: 0.0,
-            },
-            EmitterKind::Light(shape) => Densities {
-                photon: r * shape.intensity_per_watt(dir) * cos_x / r2,
-                cosine: 0.0,
-            },
-            EmitterKind::Mesh {
-                mesh, two_sided, ..
-            } => {
+        match &self.scene.emitters[e].kind {
+            EmitterKind::Light(LightShape::Beam { aperture, .. }) => r * cos_x / aperture.area(),
+            EmitterKind::Light(shape) => r * shape.intensity_per_watt(dir) * cos_x / r2,
+            EmitterKind::Mesh { two_sided, .. } => {
                 let sides = if *two_sided { 2.0 } else { 1.0 };
-                let area = self.plan.mesh_emitter[*mesh].map_or(0.0, |m| m.1);
-                Densities {
-                    photon: r * cos_y * cos_x / (PI * sides * r2),
-                    cosine: cos_x * cos_y * area / (PI * r2 * scene.emitter_table.pdf(e)),
-                }
+                r * cos_y * cos_x / (PI * sides * r2)
             }
+        }
+    }
+
+    /// Samples per pass of a vertex of `mesh`.
+    #[inline]
+    fn samples_of(&self, mesh: &crate::scene::PreparedMesh) -> u32 {
+        if mesh.sensor {
+            (self.samples * self.plan.sensor_factor).min(MAX_SAMPLES)
+        } else {
+            self.samples
         }
     }
 
@@ -345,7 +345,7 @@ impl DirectSampler<'_> {
         let a = mesh.vertex_area[v];
         let border = self.plan.border[mi].as_ref().is_some_and(|b| b[v]);
         if a > 0.0 && !border {
-            LIGHT_SAMPLE_GAIN * self.samples as f64 * hat / a
+            self.gain * self.samples_of(mesh) as f64 * hat / a
         } else {
             0.0
         }
@@ -370,13 +370,13 @@ impl DirectSampler<'_> {
         let x = m.point(prim as usize, u, v);
         let n = m.normals[prim as usize].as_dvec3();
         let cos_x = dir.dot(n).abs();
-        let d = self.densities(e, dir, (x - y).length_squared(), cos_x, cos_y.abs());
+        let p = self.photon_density(e, dir, (x - y).length_squared(), cos_x, cos_y.abs());
         let (u, v) = (u as f64, v as f64);
         let tri = m.triangles[prim as usize];
         let mut w = [1.0f32; 3];
         for (k, hat) in [1.0 - u - v, u, v].into_iter().enumerate() {
             let l = self.light_density(mesh as usize, tri[k] as usize, hat);
-            w[k] = power(d.photon, l, l * d.cosine) as f32;
+            w[k] = power(p, l) as f32;
         }
         w
     }
@@ -411,7 +411,7 @@ impl DirectSampler<'_> {
             let samples = if self.plan.border[mi].as_ref().is_some_and(|b| b[v]) {
                 0
             } else {
-                self.samples
+                self.samples_of(mesh)
             };
             sums[..nb * groups].fill(0.0);
             let seed = scramble(self.seed, pass, i);
@@ -445,13 +445,9 @@ impl DirectSampler<'_> {
                     l,
                 };
                 self.light_sample(&at, a[3], [b[0], b[1], b[2]], sums, nb);
-                if self.plan.area_lights {
-                    let c = sobol_burley::sample_4d(i, 2, seed).map(f64::from);
-                    self.cosine_sample(&at, c[0], c[1], sums, nb);
-                }
             }
             // Irradiance (W/m²) times the vertex's area (m²): the pass's flux estimate.
-            let k = area * unit2 / self.samples as f64;
+            let k = area * unit2 / samples.max(1) as f64;
             let (per_group, total) = sums.split_at_mut(nb * groups);
             total.fill(0.0);
             for g in 0..groups {
@@ -530,8 +526,7 @@ impl DirectSampler<'_> {
                 if self.visible(x, q).is_none() {
                     return;
                 }
-                let d = self.densities(e, *axis, t * t, cos_x, 1.0);
-                let mis = power(at.l, d.photon, 0.0);
+                let mis = power(at.l, self.photon_density(e, *axis, t * t, cos_x, 1.0));
                 self.add(e, mis * cos_x / aperture.area(), sums, nb);
             }
             EmitterKind::Light(shape) => {
@@ -547,8 +542,7 @@ impl DirectSampler<'_> {
                     return;
                 }
                 let r2 = (at.on - y).length_squared();
-                let d = self.densities(e, -dir, r2, cos_x, 1.0);
-                let mis = power(at.l, d.photon, 0.0);
+                let mis = power(at.l, self.photon_density(e, -dir, r2, cos_x, 1.0));
                 let g = shape.intensity_per_watt(-dir) * cos_x / (r * r);
                 self.add(e, mis * g, sums, nb);
             }
@@ -575,45 +569,11 @@ impl DirectSampler<'_> {
                     return;
                 }
                 let sides = if *two_sided { 2.0 } else { 1.0 };
-                let d = self.densities(e, -dir, (at.on - y).length_squared(), cos_x, cos_y);
-                let mis = power(at.l, d.photon, at.l * d.cosine);
+                let r2 = (at.on - y).length_squared();
+                let mis = power(at.l, self.photon_density(e, -dir, r2, cos_x, cos_y));
                 self.add(e, mis * cos_x * cos_y / (PI * sides * r * r), sums, nb);
             }
         }
-    }
-
-    /// One cosine-distributed ray from `at`: the light it finds on an emitting mesh.
-    fn cosine_sample(&self, at: &Point, u1: f64, u2: f64, sums: &mut [f64], nb: usize) {
-        let scene = self.scene;
-        let (x, n) = (at.x, at.n);
-        let dir = warp::cosine_hemisphere(n, u1, u2);
-        let Some(hit) = self.accel.intersect(x, dir) else {
-            return;
-        };
-        let Some((e, area)) = self.plan.mesh_emitter[hit.mesh as usize] else {
-            return;
-        };
-        let e = e as usize;
-        let EmitterKind::Mesh { two_sided, .. } = &scene.emitters[e].kind else {
-            return;
-        };
-        let m = &scene.meshes[hit.mesh as usize];
-        let ny = m.normals[hit.prim as usize].as_dvec3();
-        let mut cos_y = -dir.dot(ny);
-        if *two_sided {
-            cos_y = cos_y.abs();
-        }
-        let cos_x = dir.dot(n);
-        if cos_y <= 0.0 || cos_x <= 0.0 {
-            return;
-        }
-        let sides = if *two_sided { 2.0 } else { 1.0 };
-        let y = m.point(hit.prim as usize, hit.u, hit.v);
-        let d = self.densities(e, -dir, (at.on - y).length_squared(), cos_x, cos_y);
-        let mis = power(at.l * d.cosine, d.photon, at.l);
-        // π L, with L the mesh's radiance per unit of its colour over its selection.
-        let p_sel = scene.emitter_table.pdf(e);
-        self.add(e, mis * p_sel / (area * sides), sums, nb);
     }
 }
 

@@ -100,7 +100,24 @@ pub struct PathStats {
     /// count, so the bands sum to the totals above): emitted, absorbed, escaped, dropped.
     /// Sized on the first photon.
     pub bands: [Vec<f64>; 4],
+    /// The photon in flight's absorption at a weighted first bounce (`Tracer::direct`),
+    /// added to the tallies when its path ends.
+    pub(crate) first: FirstBounce,
 }
+
+/// What a photon left at its weighted bounces (light sampling: the photon goes on with the
+/// reflected share of its colour), tallied when its path ends.
+#[derive(Clone, Debug, Default)]
+pub(crate) struct FirstBounce {
+    /// (mesh, energy it absorbed), per weighted bounce.
+    meshes: Vec<(u32, f64)>,
+    /// Per band: Σ (before − after) over the weighted bounces.
+    delta: Vec<f64>,
+}
+
+/// With light sampling, bounces do not end paths while the photon keeps at least this
+/// share of its energy (Russian roulette takes over below it).
+pub const WEIGHTED_BOUNCES_DOWN_TO: f64 = 0.5;
 
 /// Indices of `PathStats::bands`.
 pub const BAND_EMITTED: usize = 0;
@@ -231,10 +248,11 @@ impl Tracer<'_> {
         stop: &AtomicBool,
     ) -> bool {
         let mut hits = 0u64;
-        let (end, emission) = self.trace_path(k, colour, sink, &mut hits, stop);
+        let (end, emission) = self.trace_path(k, colour, sink, &mut hits, stop, &mut stats.first);
         let e = colour.mean();
         let band_end = match end {
             PathEnd::Aborted => {
+                stats.first.meshes.clear();
                 sink.abort_photon();
                 return false;
             }
@@ -255,6 +273,20 @@ impl Tracer<'_> {
         };
         let emitted = &self.scene.emitters[emission.emitter].colour;
         stats.tally_bands(band_end, emitted, colour.values());
+        if !stats.first.meshes.is_empty() {
+            // The shares weighted bounces absorbed (the photon went on with the rest).
+            for &(m, e) in &stats.first.meshes {
+                stats.absorbed[m as usize] += e;
+            }
+            stats.first.meshes.clear();
+            let k = 1.0 / stats.first.delta.len() as f64;
+            for (a, d) in stats.bands[BAND_ABSORBED]
+                .iter_mut()
+                .zip(&stats.first.delta)
+            {
+                *a += d * k;
+            }
+        }
         if emission.weight != 1.0 {
             // An aimed photon: its light sent the rest of its flux outside the cone, where
             // it met nothing.
@@ -279,6 +311,7 @@ impl Tracer<'_> {
         sink: &mut S,
         hits: &mut u64,
         stop: &AtomicBool,
+        first: &mut FirstBounce,
     ) -> (PathEnd, Emission) {
         let mut rng = PhotonRng::new(self.seed, k);
         // Emit: choose a light by power, then a point and a direction on it.
@@ -292,6 +325,7 @@ impl Tracer<'_> {
         sink.begin_photon(emitter);
         if weight != 1.0 {
             colour.scale(weight);
+            colour.emitted_now();
             if weight == 0.0 {
                 return (PathEnd::Escaped, emission);
             }
@@ -302,7 +336,7 @@ impl Tracer<'_> {
             cos_y,
         };
         (
-            self.follow(&from, dir, &mut rng, colour, sink, hits, stop),
+            self.follow(&from, dir, &mut rng, colour, sink, hits, stop, first),
             emission,
         )
     }
@@ -318,12 +352,18 @@ impl Tracer<'_> {
         sink: &mut S,
         hits: &mut u64,
         stop: &AtomicBool,
+        first: &mut FirstBounce,
     ) -> PathEnd {
         // A light far outside the geometry: start where the ray meets its bounding sphere.
         let Some(mut org) = self.scene.enter(from.y, dir) else {
             return PathEnd::Escaped;
         };
         let mut medium: Option<Medium> = None;
+        first.meshes.clear();
+        if self.direct.is_some() {
+            first.delta.clear();
+            first.delta.resize(colour.values().len(), 0.0);
+        }
 
         for event in 0..self.max_events {
             // A long path must not hold up a stop: look at the flag now and then.
@@ -459,13 +499,55 @@ impl Tracer<'_> {
 
             // Opaque or translucent surface: choose the event by colour-weighted albedos,
             // spending no per-band work on events this material cannot have.
-            let u = rng.uniform();
+            let mut u = rng.uniform();
+            // With light sampling the first bounce does not end paths: the photon goes on
+            // with the reflected (or transmitted) share of its colour, so every photon
+            // brings indirect light (the photons' whole task then); what the surface
+            // absorbed is tallied when the path ends.
+            let weigh_bounce = self.direct.is_some()
+                && colour.mean() >= WEIGHTED_BOUNCES_DOWN_TO * colour.energy_at_emission();
+            let mut survive = 1.0;
+            if weigh_bounce {
+                survive = material
+                    .events
+                    .iter()
+                    .zip([
+                        &material.diffuse_reflect,
+                        &material.specular_reflect,
+                        &material.diffuse_transmit,
+                    ])
+                    .filter(|(on, _)| **on)
+                    .map(|(_, k)| colour.weighted_mean(k))
+                    .sum::<f64>();
+                if survive.is_nan() || survive <= 0.0 {
+                    return PathEnd::Absorbed(hit.mesh);
+                }
+                u *= survive;
+                first.meshes.push((hit.mesh, colour.mean()));
+                for (d, c) in first.delta.iter_mut().zip(colour.values()) {
+                    *d += c;
+                }
+            }
+            // After a weighted bounce: the colour is scaled by the survival share and the
+            // absorbed share is recorded.
+            let bounced = |colour: &mut Colour, first: &mut FirstBounce| {
+                if weigh_bounce {
+                    colour.scale(survive);
+                    if let Some(last) = first.meshes.last_mut() {
+                        last.1 -= colour.mean();
+                    }
+                    for (d, c) in first.delta.iter_mut().zip(colour.values()) {
+                        *d -= c;
+                    }
+                }
+            };
             let mut cumulative = 0.0;
             if material.events[0] {
                 let p = colour.weighted_mean(&material.diffuse_reflect);
                 cumulative += p;
                 if u < cumulative {
                     colour.reweight(&material.diffuse_reflect, p);
+                    bounced(colour, first);
                     dir = warp::cosine_hemisphere(n_in, rng.uniform(), rng.uniform());
                     org = p_hit + n_in * eps;
                     continue;
@@ -476,6 +558,7 @@ impl Tracer<'_> {
                 cumulative += p;
                 if u < cumulative {
                     colour.reweight(&material.specular_reflect, p);
+                    bounced(colour, first);
                     dir = reflect(dir, n_in);
                     org = p_hit + n_in * eps;
                     continue;
@@ -486,12 +569,20 @@ impl Tracer<'_> {
                 cumulative += p;
                 if u < cumulative {
                     colour.reweight(&material.diffuse_transmit, p);
+                    bounced(colour, first);
                     dir = warp::cosine_hemisphere(-n_in, rng.uniform(), rng.uniform());
                     org = p_hit - n_in * eps;
                     continue;
                 }
             }
-            // Absorbed: the path ends here.
+            // Absorbed: the path ends here (after a weighted bounce only by rounding: then
+            // nothing was taken from the colour and the photon ends here whole).
+            if weigh_bounce {
+                first.meshes.pop();
+                for (d, c) in first.delta.iter_mut().zip(colour.values()) {
+                    *d -= c;
+                }
+            }
             return PathEnd::Absorbed(hit.mesh);
         }
         PathEnd::Dropped

@@ -1,0 +1,311 @@
+//! The light-sampling estimator (issue 16) against analytic answers, with every light type:
+//! a black plate (so everything is direct light) under a point, spot, cosine, collimated
+//! beam and an emitting square; each vertex reads the hat average of the analytic
+//! irradiance within its error (largest |z| bounded; mean |z| ≈ √(2/π) ≈ 0.8: the error
+//! estimate is calibrated). A narrow spot whose footprint is smaller than the plate's
+//! triangles stays unbiased (the photons take its direct light). In a closed grey room the
+//! map agrees with the photons-only estimator's (indirect light included); the same seed
+//! gives the same map for any thread count and scheduler; a map holds one estimator.
+
+mod common;
+
+use common::*;
+use imap::photometry::Spectrum;
+use imap::scene::light::{Amount, LightDesc, LightKind};
+use imap::{Config, Context, Estimator, ImapStatus, MeshDesc, RunParams, SchedulerKind};
+use std::f64::consts::PI;
+
+const H: f64 = 1.0;
+const POWER: f64 = 12.0;
+
+fn cfg(seed: u64) -> Config {
+    Config {
+        seed,
+        threads: 2,
+        ..Default::default()
+    }
+}
+
+/// A black 1 m plate at z = 0 of 12 × 12 cells.
+fn plate(ctx: &mut Context) -> (u32, Geometry) {
+    let black = lambert(ctx, 0.0);
+    let g = grid(12, -0.5, 0.5, -0.5, 0.5, 0.0);
+    (ctx.add_mesh(&g.desc(black)).unwrap(), g)
+}
+
+fn run(ctx: &mut Context, n: u64, e: Estimator) -> imap::Report {
+    ctx.run(&mut RunParams {
+        photons: n,
+        progress_interval_s: 1.0,
+        estimator: Some(e),
+        ..Default::default()
+    })
+    .unwrap()
+}
+
+/// Largest and mean |z| of the map against `exact` (hat averages), over vertices where the
+/// exact value is above `floor` of its largest.
+fn z_scores(ctx: &Context, id: u32, g: &Geometry, exact: &dyn Fn([f64; 3]) -> f64) -> (f64, f64) {
+    let nv = g.vertex_count();
+    let (mut e, mut rel) = (vec![0.0; nv], vec![0.0; nv]);
+    ctx.irradiance(id, 0, 0, &mut e).unwrap();
+    ctx.rel_error(id, 0, &mut rel).unwrap();
+    let want: Vec<f64> = (0..nv).map(|v| hat_average(g, v, exact)).collect();
+    let top = want.iter().cloned().fold(0.0, f64::max);
+    let (mut worst, mut sum, mut k) = (0.0f64, 0.0, 0.0);
+    for v in 0..nv {
+        if want[v] > 1e-3 * top {
+            let z = (e[v] - want[v]) / (rel[v] * e[v]);
+            worst = worst.max(z.abs());
+            sum += z.abs();
+            k += 1.0;
+        }
+    }
+    (worst, sum / k)
+}
+
+fn light(ctx: &mut Context, kind: LightKind, position: [f64; 3]) {
+    ctx.add_light_desc(&LightDesc {
+        kind,
+        position,
+        amount: Amount::WattsPerBand(vec![POWER]),
+        spectrum: Spectrum::Equal,
+    })
+    .unwrap();
+}
+
+#[test]
+fn every_light_type_reads_its_analytic_irradiance() {
+    let r2 = |p: [f64; 3], l: [f64; 3]| {
+        (p[0] - l[0]).powi(2) + (p[1] - l[1]).powi(2) + (p[2] - l[2]).powi(2)
+    };
+    let at = [0.1, -0.2, H];
+    let point = move |p: [f64; 3]| {
+        let r2 = r2(p, at);
+        POWER / (4.0 * PI) * H / (r2 * r2.sqrt())
+    };
+    let half = 60f64.to_radians();
+    let spot = move |p: [f64; 3]| {
+        let r2 = r2(p, at);
+        let cos = H / r2.sqrt();
+        if cos >= half.cos() {
+            POWER / (2.0 * PI * (1.0 - half.cos())) * cos / r2
+        } else {
+            0.0
+        }
+    };
+    let cosine = move |p: [f64; 3]| {
+        let r2 = r2(p, at);
+        POWER / PI * H * H / (r2 * r2)
+    };
+    // A 0.6 m disk beam straight down: E = Φ / A inside.
+    let beam = |p: [f64; 3]| {
+        if p[0] * p[0] + p[1] * p[1] <= 0.09 {
+            POWER / (PI * 0.09)
+        } else {
+            0.0
+        }
+    };
+    let down = [0.0, 0.0, -1.0];
+    let cases: Vec<(&str, LightKind, &dyn Fn([f64; 3]) -> f64)> = vec![
+        ("point", LightKind::Point, &point),
+        (
+            "spot",
+            LightKind::Spot {
+                direction: down,
+                half_angle_rad: half,
+            },
+            &spot,
+        ),
+        ("cosine", LightKind::Cosine { direction: down }, &cosine),
+        (
+            "beam",
+            LightKind::Beam {
+                direction: down,
+                disk: true,
+                size: [0.6, 0.6],
+                up: [0.0, 1.0, 0.0],
+            },
+            &beam,
+        ),
+    ];
+    for (what, kind, exact) in cases {
+        let mut ctx = context(cfg(5));
+        let (id, g) = plate(&mut ctx);
+        let position = if what == "beam" { [0.0, 0.0, H] } else { at };
+        light(&mut ctx, kind, position);
+        run(&mut ctx, photons(400_000), Estimator::DEFAULT);
+        let (worst, mean) = z_scores(&ctx, id, &g, exact);
+        eprintln!("{what}: largest |z| {worst:.2}, mean |z| {mean:.2}");
+        // The beam's edge crosses triangles: the photons take those vertices (a step in
+        // the field), the rest is light sampling; every vertex within its error.
+        assert!(worst < 4.5, "{what}: largest |z| {worst}");
+        assert!((0.6..1.05).contains(&mean), "{what}: mean |z| {mean}");
+    }
+    // An emitting square 0.4 m wide at H facing down: Lambert's polygon formula.
+    let mut ctx = context(cfg(6));
+    let (id, g) = plate(&mut ctx);
+    let black = lambert(&mut ctx, 0.0);
+    let lamp = grid(1, -0.2, 0.2, -0.2, 0.2, H).flipped();
+    let m = 50.0;
+    ctx.add_mesh(&MeshDesc {
+        record: false,
+        exitance: Some(&[m]),
+        ..lamp.desc(black)
+    })
+    .unwrap();
+    run(&mut ctx, photons(400_000), Estimator::DEFAULT);
+    let square = [
+        [-0.2, -0.2, H],
+        [0.2, -0.2, H],
+        [0.2, 0.2, H],
+        [-0.2, 0.2, H],
+    ];
+    let exact = |x: [f64; 3]| polygon_irradiance(x, [0.0, 0.0, 1.0], &square, m / PI);
+    let (worst, mean) = z_scores(&ctx, id, &g, &exact);
+    eprintln!("emitting square: largest |z| {worst:.2}, mean |z| {mean:.2}");
+    assert!(worst < 4.5 && (0.6..1.05).contains(&mean), "{worst} {mean}");
+}
+
+/// A spot of 0.5° whose footprint is smaller than the plate's triangles: light samples
+/// would almost never find it, the weights give it to the photons; the flux onto the plate
+/// is the spot's, over independent seeds.
+#[test]
+fn a_narrow_spot_stays_unbiased() {
+    let mut fluxes = Vec::new();
+    for seed in 0..8 {
+        let mut ctx = context(cfg(100 + seed));
+        let (id, g) = plate(&mut ctx);
+        ctx.add_spot_light([0.03, 0.02, H], [0.0, 0.0, -1.0], 0.5f64.to_radians(), &[POWER])
+            .unwrap();
+        run(&mut ctx, photons(20_000), Estimator::DEFAULT);
+        let mut e = vec![0.0; g.vertex_count()];
+        ctx.irradiance(id, 0, 0, &mut e).unwrap();
+        fluxes.push(
+            e.iter()
+                .zip(vertex_areas(&g))
+                .map(|(e, a)| e * a)
+                .sum::<f64>(),
+        );
+    }
+    let n = fluxes.len() as f64;
+    let mean = fluxes.iter().sum::<f64>() / n;
+    let sd = (fluxes.iter().map(|f| (f - mean).powi(2)).sum::<f64>() / (n - 1.0)).sqrt();
+    eprintln!(
+        "narrow spot: flux {mean:.6} ± {:.2e} W (sd {sd:.2e}) vs {POWER}",
+        sd / n.sqrt()
+    );
+    assert!(
+        (mean - POWER).abs() <= 4.0 * sd / n.sqrt() + 1e-9 * POWER,
+        "{fluxes:?}"
+    );
+    assert!(sd < 0.01 * POWER, "{fluxes:?}");
+}
+
+/// A closed grey room: light sampling and photons only give the same map within their
+/// errors (z-scores of the difference with rms ≈ 1), indirect light included.
+#[test]
+fn light_sampling_and_photons_only_agree_in_a_grey_room() {
+    let build = |seed| {
+        let mut ctx = context(cfg(seed));
+        let grey = lambert(&mut ctx, 0.6);
+        let id = ctx
+            .add_mesh(&cuboid([0.0; 3], [1.0; 3], 6, true).desc(grey))
+            .unwrap();
+        ctx.add_point_light([0.3, 0.6, 0.8], &[10.0]).unwrap();
+        (ctx, id)
+    };
+    let (mut a, ida) = build(1);
+    let (mut b, idb) = build(2);
+    run(&mut a, photons(1_000_000), Estimator::DEFAULT);
+    run(&mut b, photons(1_000_000), Estimator::Photons);
+    let nv = a.vertex_count(ida).unwrap();
+    let read = |c: &Context, id| {
+        let (mut e, mut r) = (vec![0.0; nv], vec![0.0; nv]);
+        c.irradiance(id, 0, 0, &mut e).unwrap();
+        c.rel_error(id, 0, &mut r).unwrap();
+        (e, r)
+    };
+    let ((ea, ra), (eb, rb)) = (read(&a, ida), read(&b, idb));
+    let mut z2 = 0.0;
+    for v in 0..nv {
+        let s = ((ea[v] * ra[v]).powi(2) + (eb[v] * rb[v]).powi(2)).sqrt();
+        z2 += ((ea[v] - eb[v]) / s).powi(2);
+    }
+    let rms = (z2 / nv as f64).sqrt();
+    eprintln!("grey room: rms z of the difference {rms:.2} over {nv} vertices");
+    assert!((0.75..1.3).contains(&rms), "rms z {rms}");
+    // Light sampling's error at the same photon count is below the photons' (direct light
+    // dominates a room lit by a point light).
+    let mean = |r: &[f64]| r.iter().sum::<f64>() / r.len() as f64;
+    assert!(mean(&ra) < mean(&rb), "{} vs {}", mean(&ra), mean(&rb));
+}
+
+#[test]
+fn the_same_seed_gives_the_same_map_with_any_scheduler_and_thread_count() {
+    let build = |threads, scheduler| {
+        let mut ctx = context(Config {
+            seed: 3,
+            threads,
+            scheduler,
+            ..Default::default()
+        });
+        let grey = lambert(&mut ctx, 0.5);
+        let id = ctx
+            .add_mesh(&cuboid([0.0; 3], [1.0; 3], 5, true).desc(grey))
+            .unwrap();
+        let black = lambert(&mut ctx, 0.0);
+        let lamp = grid(1, 0.4, 0.6, 0.4, 0.6, 0.95).flipped();
+        ctx.add_mesh(&MeshDesc {
+            record: false,
+            exitance: Some(&[200.0]),
+            ..lamp.desc(black)
+        })
+        .unwrap();
+        run(&mut ctx, 200_000, Estimator::DEFAULT);
+        let nv = ctx.vertex_count(id).unwrap();
+        let mut e = vec![0.0; nv];
+        ctx.irradiance(id, 0, 1, &mut e).unwrap();
+        e
+    };
+    let reference = build(1, SchedulerKind::Dynamic);
+    for (t, s) in [(3, SchedulerKind::Dynamic), (2, SchedulerKind::Classic)] {
+        assert_maps_agree(&build(t, s), &reference, &format!("{t} threads, {s:?}"));
+    }
+}
+
+#[test]
+fn a_map_holds_one_estimator() {
+    let mut ctx = context(cfg(1));
+    let (_, _) = plate(&mut ctx);
+    ctx.add_point_light([0.0, 0.0, 1.0], &[1.0]).unwrap();
+    run(&mut ctx, 10_000, Estimator::DEFAULT);
+    let e = ctx
+        .run(&mut RunParams {
+            photons: 1000,
+            estimator: Some(Estimator::Photons),
+            ..Default::default()
+        })
+        .unwrap_err();
+    assert_eq!(e.status, ImapStatus::ImapErrOutOfOrder);
+    assert!(e.message.contains("params.estimator"), "{e}");
+    // The map is as it was; after a reset the other estimator runs.
+    assert_eq!(ctx.report().photons, 10_000);
+    ctx.reset();
+    run(&mut ctx, 1000, Estimator::Photons);
+    assert_eq!(ctx.estimator(), Estimator::Photons);
+    // Too few photons per pass for the scene's vertices is refused, naming the field.
+    ctx.reset();
+    let e = ctx
+        .run(&mut RunParams {
+            photons: 1000,
+            estimator: Some(Estimator::LightSampling {
+                samples: 4,
+                pass_photons: 1,
+            }),
+            ..Default::default()
+        })
+        .unwrap_err();
+    assert_eq!(e.status, ImapStatus::ImapErrInvalidArgument);
+    assert!(e.message.contains("direct_pass_photons"), "{e}");
+}
