@@ -107,7 +107,8 @@ fn every_light_type_reads_its_analytic_irradiance() {
         }
     };
     let down = [0.0, 0.0, -1.0];
-    let cases: Vec<(&str, LightKind, &dyn Fn([f64; 3]) -> f64)> = vec![
+    type Field<'a> = &'a dyn Fn([f64; 3]) -> f64;
+    let cases: Vec<(&str, LightKind, Field)> = vec![
         ("point", LightKind::Point, &point),
         (
             "spot",
