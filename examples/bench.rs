@@ -98,7 +98,7 @@ fn measure(ctx: &mut Context, kind: SchedulerKind, threads: usize, seconds: f64)
         progress_interval_s: seconds,
         max_path_events: 1 << 20,
         selection: Default::default(),
-        estimator: None,
+        estimator: Some(imap::Estimator::Photons),
         progress: None,
     };
     ctx.run(&mut p).expect("run")

@@ -177,8 +177,13 @@ fn a_narrow_spot_stays_unbiased() {
     for seed in 0..8 {
         let mut ctx = context(cfg(100 + seed));
         let (id, g) = plate(&mut ctx);
-        ctx.add_spot_light([0.03, 0.02, H], [0.0, 0.0, -1.0], 0.5f64.to_radians(), &[POWER])
-            .unwrap();
+        ctx.add_spot_light(
+            [0.03, 0.02, H],
+            [0.0, 0.0, -1.0],
+            0.5f64.to_radians(),
+            &[POWER],
+        )
+        .unwrap();
         run(&mut ctx, photons(20_000), Estimator::DEFAULT);
         let mut e = vec![0.0; g.vertex_count()];
         ctx.irradiance(id, 0, 0, &mut e).unwrap();
