@@ -2233,12 +2233,28 @@ enum ImapStatus imap_state_info(const void *buffer, size_t size, uint64_t *photo
  * (the merge's history point reads the summed map). The pointer stays valid until the
  * scene changes, `imap_destroy`; read or write it only between calls on the context (never
  * during imap_run). Returns IMAP_ERR_NULL_POINTER, IMAP_ERR_NO_GEOMETRY /
- * IMAP_ERR_NO_LIGHT, IMAP_ERR_BUSY. (Since 0.2.2.)
+ * IMAP_ERR_NO_LIGHT, IMAP_ERR_BUSY. With the light-sampling estimator
+ * (`IMAP_ESTIMATOR_LIGHT_SAMPLING`, the default) the map has a second array,
+ * `imap_map_direct_accumulators`: sum it the same way. (Since 0.2.2.)
  *
  * # Safety
  * `ctx` is a live handle; `data` and `count` are writable.
  */
 enum ImapStatus imap_map_accumulators(struct ImapContext *ctx, double **data, uint64_t *count);
+
+/**
+ * The light-sampling estimator's direct records as one contiguous array of `*count`
+ * doubles owned by the context (`*count` = 0 and `*data` NULL with
+ * `IMAP_ESTIMATOR_PHOTONS`): per map cell the band sums, the sum of squares, the pass
+ * count and the sum of squares of the vertex's total over light groups. Sum it over
+ * ranks exactly like `imap_map_accumulators` (both, before merging the ledgers); the
+ * estimator is the one of the next run or of the photons the map holds. Same validity
+ * and errors as `imap_map_accumulators`. (Since 0.2.2.)
+ *
+ * # Safety
+ * `ctx` is a live handle; `data` and `count` are writable.
+ */
+enum ImapStatus imap_map_direct_accumulators(struct ImapContext *ctx, double **data, uint64_t *count);
 
 #ifdef __cplusplus
 }  // extern "C"

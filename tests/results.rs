@@ -145,7 +145,12 @@ fn sensors_change_no_other_map() {
         let ra = run_photons(&mut a, 200_000);
         let rb = run_photons(&mut b, 200_000);
         assert_eq!(ra.hits, rb.hits, "sensors are not hits");
-        assert_eq!(ra.absorbed_w, rb.absorbed_w);
+        assert!(
+            (ra.absorbed_w - rb.absorbed_w).abs() <= 1e-12 * ra.absorbed_w,
+            "{} vs {}",
+            ra.absorbed_w,
+            rb.absorbed_w
+        );
         let (ma, mb) = (maps(&a, &ids), maps(&b, &ids));
         for (x, y) in ma.iter().zip(&mb) {
             assert!(
@@ -246,7 +251,9 @@ fn a_uniform_field_reads_its_true_minimum_and_uniformity() {
             spectrum: Spectrum::Equal,
         })
         .unwrap();
-        run_photons(&mut ctx, 60_000);
+        // Photons only: the test is about the bias of the minimum of noisy values, and light
+        // sampling leaves a uniform beam's field nearly without noise.
+        run_photons_only(&mut ctx, 60_000);
         let s = ctx.region_stats(id, 0, None).unwrap();
         let e = s.extremes.unwrap();
         let z = |x: imap::imap::stats::Estimate, truth: f64| (x.value - truth).abs() / x.sigma;
@@ -319,7 +326,13 @@ fn parts_add_up_to_their_mesh() {
     ctx.irradiance(id, 0, 0, &mut e).unwrap();
     ctx.vertex_areas(id, &mut area).unwrap();
     let from_vertices: f64 = e.iter().zip(&area).map(|(e, a)| e * a).sum();
-    assert!((from_vertices / all.flux_w[0].value - 1.0).abs() < 1e-9);
+    // To the rounding of the buffered colours (f32): a bounce that keeps a share of the
+    // photon (light sampling) leaves colours that f32 does not hold exactly.
+    assert!(
+        (from_vertices / all.flux_w[0].value - 1.0).abs() < 1e-7,
+        "{from_vertices} vs {}",
+        all.flux_w[0].value
+    );
     let e = ctx.region_stats(id, 0, Some(99)).unwrap_err();
     assert_eq!(e.status, imap::ImapStatus::ImapErrIndexOutOfRange);
 }
