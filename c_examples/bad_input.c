@@ -477,8 +477,8 @@ int main(void) {
     expect("run with estimator 7", imap_run(ctx, &run, NULL, 0), IMAP_ERR_INVALID_ARGUMENT, ctx);
     run.estimator = IMAP_ESTIMATOR_PHOTONS, run.direct_samples = 8;
     expect("photons with direct samples", imap_run(ctx, &run, NULL, 0), IMAP_ERR_INVALID_ARGUMENT, ctx);
-    run.estimator = IMAP_ESTIMATOR_LIGHT_SAMPLING, run.direct_samples = 0, run.direct_pass_photons = 1;
-    expect("one photon per pass", imap_run(ctx, &run, NULL, 0), IMAP_ERR_INVALID_ARGUMENT, ctx);
+    run.estimator = IMAP_ESTIMATOR_LIGHT_SAMPLING, run.direct_samples = 0, run.direct_pass_photons = 4096;
+    expect("other photons per pass than the map's", imap_run(ctx, &run, NULL, 0), IMAP_ERR_OUT_OF_ORDER, ctx);
     run.direct_pass_photons = 0, run.direct_samples = 100000;
     expect("100000 direct samples", imap_run(ctx, &run, NULL, 0), IMAP_ERR_INVALID_ARGUMENT, ctx);
     run.direct_samples = 0, run.estimator = IMAP_ESTIMATOR_PHOTONS;

@@ -603,7 +603,10 @@ int main(int argc, char **argv) {
                 switch (below(4)) {
                 case 0: s = imap_state_load(into, chance(0.03) ? NULL : st, size); break;
                 case 1: s = imap_state_merge(into, st, size); break;
-                case 2: s = imap_state_info(st, size, NULL, NULL, NULL); break;
+                case 2: /* no context: its message is the thread's */
+                    s = imap_state_info(st, size, NULL, NULL, NULL);
+                    into = NULL;
+                    break;
                 default: {
                     double *acc = NULL;
                     uint64_t n = 0;

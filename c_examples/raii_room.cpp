@@ -153,7 +153,9 @@ int main() {
         double want_direct = lit.light_lumens(lum) / area;
         std::printf("walls: direct %.6f lx (Φv/A = %.6f), indirect %.3f lx\n", mean_direct, want_direct,
                     mean_lux - mean_direct);
-        if (std::fabs(mean_direct / want_direct - 1) > 1e-6 || lit.light_group_layers() != 0) return 1;
+        // Exact with photons only; light sampling (the default estimator) estimates the
+        // direct light by shadow rays, which agree to well within their error here.
+        if (std::fabs(mean_direct / want_direct - 1) > 1e-3 || lit.light_group_layers() != 0) return 1;
     } catch (const std::exception& e) {
         std::fprintf(stderr, "error: %s\n", e.what());
         return 1;
