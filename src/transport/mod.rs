@@ -216,6 +216,26 @@ struct Emission {
     energy: f64,
 }
 
+/// A deposit on (mesh, prim, side) at barycentric (u, v) of a photon going along `dir`:
+/// weighted against the light samples (`direct`) when it is direct light.
+#[inline]
+fn deposit<S: HitSink>(
+    sink: &mut S,
+    weigh: Option<(&direct::DirectSampler, &Origin)>,
+    (mesh, prim, side): (u32, u32, u8),
+    (u, v): (f32, f32),
+    dir: DVec3,
+    colour: &Colour,
+) {
+    match weigh {
+        Some((d, from)) => {
+            let w = d.photon_weights(from.emitter, from.y, from.cos_y, dir, mesh, prim, u, v);
+            sink.deposit_weighted(mesh, prim, side, u, v, colour, w);
+        }
+        None => sink.deposit(mesh, prim, side, u, v, colour),
+    }
+}
+
 /// Where a photon left its light (for the weights of its direct deposits).
 struct Origin {
     emitter: usize,
@@ -390,7 +410,7 @@ impl Tracer<'_> {
 
             // With light sampling at the vertices, deposits before the first surface
             // event is over are direct light: weighted against the light samples.
-            let weigh = self.direct.filter(|_| event == 0);
+            let weigh = self.direct.filter(|_| event == 0).map(|d| (d, from));
             if let Some(sensors) = self.sensors {
                 // Sensors on the segment, up to and including the surface it ends on (a
                 // sensor laid on a floor sees the light arriving there).
@@ -403,22 +423,7 @@ impl Tracer<'_> {
                     let front = dir.dot(mesh.normals[c.prim as usize].as_dvec3()) < 0.0;
                     if front || mesh.two_sided {
                         let side = u8::from(!front);
-                        match weigh {
-                            Some(d) => {
-                                let w = d.photon_weights(
-                                    from.emitter,
-                                    from.y,
-                                    from.cos_y,
-                                    dir,
-                                    c.mesh,
-                                    c.prim,
-                                    c.u,
-                                    c.v,
-                                );
-                                sink.deposit_weighted(c.mesh, c.prim, side, c.u, c.v, colour, w);
-                            }
-                            None => sink.deposit(c.mesh, c.prim, side, c.u, c.v, colour),
-                        }
+                        deposit(sink, weigh, (c.mesh, c.prim, side), (c.u, c.v), dir, colour);
                     }
                 });
             }
@@ -437,22 +442,8 @@ impl Tracer<'_> {
             // Deposit on the hit triangle's vertices (the sink applies barycentric weights).
             if mesh.slot_base.is_some() && (front || mesh.two_sided) {
                 let side = u8::from(!front);
-                match weigh {
-                    Some(d) => {
-                        let w = d.photon_weights(
-                            from.emitter,
-                            from.y,
-                            from.cos_y,
-                            dir,
-                            hit.mesh,
-                            hit.prim,
-                            hit.u,
-                            hit.v,
-                        );
-                        sink.deposit_weighted(hit.mesh, hit.prim, side, hit.u, hit.v, colour, w);
-                    }
-                    None => sink.deposit(hit.mesh, hit.prim, side, hit.u, hit.v, colour),
-                }
+                let at = (hit.mesh, hit.prim, side);
+                deposit(sink, weigh, at, (hit.u, hit.v), dir, colour);
             }
             if event == 0 {
                 sink.direct_done();
