@@ -1259,7 +1259,9 @@ typedef struct ImapRunParams {
   uint32_t estimator;
   /**
    * Light sampling: samples per vertex per pass (stratified: an Owen-scrambled Sobol
-   * set of its own per vertex and pass; at most 65536); 0 = 4.
+   * set of its own per vertex and pass; at most 1024); 0 = 4. Vertices of sensor meshes
+   * take up to 64 times as many (at most 1024), so that their passes cost at most a
+   * quarter of the others'.
    */
   uint32_t direct_samples;
   /**

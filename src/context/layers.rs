@@ -91,10 +91,13 @@ impl Context {
         if extra == 0 {
             return Ok(());
         }
-        let bytes = super::memory::map_bytes(
-            (self.scene.slot_count() as u64).saturating_mul(extra),
-            self.scene.bands.count() as u64,
-        );
+        let cells = (self.scene.slot_count() as u64).saturating_mul(extra);
+        let bands = self.scene.bands.count() as u64;
+        let mut bytes = super::memory::map_bytes(cells, bands);
+        if self.estimator.is_light_sampling() {
+            // The direct records of the new cells (bands, two sums of squares, a count).
+            bytes = bytes.saturating_add(cells.saturating_mul(bands + 3).saturating_mul(8));
+        }
         self.check_budget(
             self.memory_estimate(),
             bytes,

@@ -153,7 +153,9 @@ pub struct ImapRunParams {
     /// otherwise). The estimator is part of a state's settings.
     pub estimator: u32,
     /// Light sampling: samples per vertex per pass (stratified: an Owen-scrambled Sobol
-    /// set of its own per vertex and pass; at most 65536); 0 = 4.
+    /// set of its own per vertex and pass; at most 1024); 0 = 4. Vertices of sensor meshes
+    /// take up to 64 times as many (at most 1024), so that their passes cost at most a
+    /// quarter of the others'.
     pub direct_samples: u32,
     /// Light sampling: photons per pass (each vertex gets one pass of `direct_samples`
     /// samples per this many photons; photon k does its share of pass k / this, so the

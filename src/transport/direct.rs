@@ -44,8 +44,10 @@ use std::f64::consts::PI;
 pub const CHUNK_SLOTS: usize = 16;
 /// Samples per vertex per pass unless a run says.
 pub const DEFAULT_SAMPLES: u32 = 4;
-/// Most samples per vertex per pass (the Sobol sequence's length).
-pub const MAX_SAMPLES: u32 = 1 << 16;
+/// Most samples per vertex per pass, a sensor's included: a photon's share of a pass (16
+/// vertices) then takes at most ~16 k shadow rays, a few milliseconds, which a stop or a
+/// cancel waits for at worst.
+pub const MAX_SAMPLES: u32 = 1024;
 /// How much more a stratified light sample counts than a photon landing at the same point
 /// in the multiple-importance weights: any positive value keeps the map unbiased. A light
 /// sample of smooth direct light has a small variance, a photon's landing in a vertex's
