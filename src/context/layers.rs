@@ -95,8 +95,8 @@ impl Context {
         let bands = self.scene.bands.count() as u64;
         let mut bytes = super::memory::map_bytes(cells, bands);
         if self.estimator.is_light_sampling() {
-            // The direct records of the new cells (bands, two sums of squares, a count).
-            bytes = bytes.saturating_add(cells.saturating_mul(bands + 3).saturating_mul(8));
+            // The direct records of the new cells.
+            bytes = bytes.saturating_add(super::memory::direct_record_bytes(cells, bands));
         }
         self.check_budget(
             self.memory_estimate(),

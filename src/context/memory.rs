@@ -78,10 +78,13 @@ pub fn map_bytes(slots: u64, bands: u64) -> u64 {
 /// pass count), per triangle corner its adjacency entry, per vertex its list's start.
 pub fn direct_bytes((triangles, vertices): (usize, usize), cells: u64, bands: u64) -> u64 {
     let adjacency = 3 * triangles as u64 * 8 + 4 * (vertices as u64 + 1);
-    cells
-        .saturating_mul(bands + 3)
-        .saturating_mul(8)
-        .saturating_add(adjacency)
+    direct_record_bytes(cells, bands).saturating_add(adjacency)
+}
+
+/// Bytes of `cells` cells' direct records (`imap::DirectAcc`: bands, two sums of squares,
+/// the pass count).
+pub fn direct_record_bytes(cells: u64, bands: u64) -> u64 {
+    cells.saturating_mul(bands + 3).saturating_mul(8)
 }
 
 /// `direct_bytes` of a mesh about to be added.

@@ -213,33 +213,13 @@ impl Context {
         }
     }
 
-    /// Map slots of vertices with area of meshes that are not sensors: vertices no
-    /// triangle uses and sensors do not change the automatic settings.
+    /// Map slots light sampling visits outside sensors (`direct::lit_slots`): vertices no
+    /// triangle uses and sensors do not change the automatic settings. Before the scene is
+    /// prepared (only an empty map's estimator is resolved then), every slot.
     fn lit_slots(&self) -> usize {
-        if let Some(p) = &self.prepared {
-            return p
-                .scene
-                .meshes
-                .iter()
-                .filter(|m| m.slot_base.is_some() && !m.sensor)
-                .map(|m| m.vertex_area.iter().filter(|&&a| a > 0.0).count() * m.sides())
-                .sum();
-        }
-        self.scene
-            .meshes
-            .iter()
-            .filter(|m| m.record && !m.sensor)
-            .map(|m| {
-                let mut used = vec![false; m.positions.len()];
-                for t in &m.triangles {
-                    let [a, b, c] = t.map(|i| glam::DVec3::from(m.positions[i as usize]));
-                    if (b - a).cross(c - a).length_squared() > 0.0 {
-                        t.iter().for_each(|&i| used[i as usize] = true);
-                    }
-                }
-                used.iter().filter(|&&u| u).count() * if m.two_sided { 2 } else { 1 }
-            })
-            .sum()
+        self.prepared.as_ref().map_or(self.scene.slot_count(), |p| {
+            direct::lit_slots(&p.scene, false)
+        })
     }
 
     /// Chooses the estimator of the next runs (checked, and only while the map is empty
@@ -257,7 +237,7 @@ impl Context {
                     direct::MAX_SAMPLES
                 );
             }
-            let chunks = self.scene.slot_count().div_ceil(direct::CHUNK_SLOTS) as u64;
+            let chunks = direct::chunks(self.scene.slot_count());
             if pass_photons != 0 && pass_photons < chunks {
                 bail!(
                     ImapErrInvalidArgument,
@@ -668,7 +648,6 @@ impl Context {
                 samples,
                 pass_photons,
                 unit_m: self.config.unit_m,
-                gain: direct::LIGHT_SAMPLE_GAIN,
             }),
             _ => None,
         };

@@ -312,8 +312,7 @@ impl Context {
                         continue;
                     }
                     let k = w / a;
-                    let first = layout.cell(slot, 0);
-                    let cells = first..first + layout.groups as usize;
+                    let cells = layout.cells(slot, None);
                     let (mean, v_scalar, _) = d.scalar_of(cells.clone(), cells.len() > 1);
                     let mut l = 0.0;
                     for b in 0..nb {

@@ -251,14 +251,7 @@ pub unsafe extern "C" fn imap_map_accumulators(
     data: *mut *mut f64,
     count: *mut u64,
 ) -> ImapStatus {
-    with_context(ctx, |c| {
-        super::check_out("data", data)?;
-        super::check_out("count", count)?;
-        let a = c.map_accumulators()?;
-        let (p, n) = (a.as_mut_ptr(), a.len() as u64);
-        write_out("data", data, p)?;
-        write_out("count", count, n)
-    })
+    with_context(ctx, |c| out_array(data, count, || c.map_accumulators()))
 }
 
 /// The light-sampling estimator's direct records as one contiguous array of `*count`
@@ -277,16 +270,24 @@ pub unsafe extern "C" fn imap_map_direct_accumulators(
     data: *mut *mut f64,
     count: *mut u64,
 ) -> ImapStatus {
-    with_context(ctx, |c| {
-        super::check_out("data", data)?;
-        super::check_out("count", count)?;
-        let a = c.direct_accumulators()?;
-        let (p, n) = if a.is_empty() {
-            (std::ptr::null_mut(), 0)
-        } else {
-            (a.as_mut_ptr(), a.len() as u64)
-        };
-        write_out("data", data, p)?;
-        write_out("count", count, n)
-    })
+    with_context(ctx, |c| out_array(data, count, || c.direct_accumulators()))
+}
+
+/// Hands out an array the context owns (`get`, called once the out-pointers are checked):
+/// its first element (NULL when empty) and its length.
+fn out_array<'a>(
+    data: *mut *mut f64,
+    count: *mut u64,
+    get: impl FnOnce() -> Result<&'a mut [f64]>,
+) -> Result<()> {
+    super::check_out("data", data)?;
+    super::check_out("count", count)?;
+    let a = get()?;
+    let p = if a.is_empty() {
+        std::ptr::null_mut()
+    } else {
+        a.as_mut_ptr()
+    };
+    write_out("data", data, p)?;
+    write_out("count", count, a.len() as u64)
 }

@@ -119,16 +119,10 @@ impl DirectAcc {
         }
     }
 
-    /// The band mean of cell `cell`'s estimate (W), its variance (W²) and the pass count.
-    /// With fewer than two passes the variance is unknown and taken as the square of the
-    /// estimate (a relative error of 100 %).
-    #[inline]
-    pub fn scalar(&self, cell: usize) -> (f64, f64, f64) {
-        self.scalar_of(cell..cell + 1, false)
-    }
-
-    /// `scalar` of the sum of the cells `cells` (a slot's group layers, the first holding
-    /// the squares of the total: `total`).
+    /// The band mean of the estimate (W) of the sum of cells `cells` (one cell, or a slot's
+    /// group layers, whose first holds the squares of their total: `total`), its variance
+    /// (W²) and the pass count. With fewer than two passes the variance is unknown and
+    /// taken as the square of the estimate (a relative error of 100 %).
     #[inline]
     pub fn scalar_of(&self, cells: std::ops::Range<usize>, total: bool) -> (f64, f64, f64) {
         let first = cells.start * self.stride();

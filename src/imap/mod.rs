@@ -93,6 +93,22 @@ impl LayerLayout {
         slot * self.per_slot() + layer as usize
     }
 
+    /// The cells a value of `slot` sums: its group layers (`layer` None: the combined
+    /// value), or the one layer `layer`.
+    #[inline]
+    pub fn cells(self, slot: usize, layer: Option<u8>) -> std::ops::Range<usize> {
+        match layer {
+            None => {
+                let first = self.cell(slot, 0);
+                first..first + self.groups as usize
+            }
+            Some(l) => {
+                let c = self.cell(slot, l);
+                c..c + 1
+            }
+        }
+    }
+
     /// The slot a cell belongs to.
     #[inline]
     pub fn slot_of(self, cell: usize) -> usize {
@@ -380,8 +396,8 @@ impl IMap {
         if self.layout == LayerLayout::SINGLE {
             return self.cell_value(slot, band);
         }
-        let first = self.layout.cell(slot, 0);
-        (first..first + self.layout.groups as usize)
+        self.layout
+            .cells(slot, None)
             .map(|c| self.cell_value(c, band))
             .sum()
     }
@@ -392,8 +408,8 @@ impl IMap {
         if self.layout == LayerLayout::SINGLE {
             return self.cell_scalar(slot);
         }
-        let first = self.layout.cell(slot, 0);
-        (first..first + self.layout.groups as usize)
+        self.layout
+            .cells(slot, None)
             .map(|c| self.cell_scalar(c))
             .fold((0.0, 0.0), |(s, q), (a, b)| (s + a, q + b))
     }

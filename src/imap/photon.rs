@@ -166,12 +166,9 @@ impl PhotonBuffer {
             self.varying = true;
         }
         self.energy = e;
-        // The share of the photon the hit's vertices receive in all (1 unless weighted).
-        let kept = weights.map_or(1.0, |w| {
-            let (u, v) = (u as f64, v as f64);
-            (1.0 - u - v) * w[0] as f64 + u * w[1] as f64 + v * w[2] as f64
-        });
         if let Some(r) = &scene.regions.meshes[mesh as usize] {
+            // The share of the photon the hit's vertices receive in all (1 unless weighted).
+            let kept: f64 = weights.map_or(1.0, |w| shares(WEIGHTED, u, v, &w).iter().sum());
             let material = scene.meshes[mesh as usize].material(prim as usize);
             let ids = [
                 Some(r.mesh_region(side as usize)),

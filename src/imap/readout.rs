@@ -45,22 +45,6 @@ impl Readout<'_> {
         }
     }
 
-    /// The cells of a slot's value: its group layers, or the one layer read.
-    #[inline]
-    fn cells(&self, slot: usize) -> std::ops::Range<usize> {
-        let layout = self.map.layout();
-        match self.layer {
-            None => {
-                let first = layout.cell(slot, 0);
-                first..first + layout.groups as usize
-            }
-            Some(l) => {
-                let c = layout.cell(slot, l);
-                c..c + 1
-            }
-        }
-    }
-
     /// A slot's value in `band`, photon units: the photons' deposits plus, with the
     /// light-sampling estimator, the direct estimate (its mean over passes) converted.
     #[inline]
@@ -72,7 +56,8 @@ impl Readout<'_> {
         let Some(d) = self.map.direct() else {
             return photons;
         };
-        let direct: f64 = self.cells(slot).map(|c| d.band_mean(c, band).0).sum();
+        let cells = self.map.layout().cells(slot, self.layer);
+        let direct: f64 = cells.map(|c| d.band_mean(c, band).0).sum();
         photons + direct * self.units_per_watt()
     }
 
@@ -138,7 +123,7 @@ impl Readout<'_> {
         };
         // The direct part: independent of the photons, so the variances add.
         let k = self.units_per_watt();
-        let cells = self.cells(slot);
+        let cells = self.map.layout().cells(slot, self.layer);
         let (mean, var, passes) = d.scalar_of(cells.clone(), cells.len() > 1);
         let total = s + mean * k;
         if passes == 0.0 && total > 0.0 {

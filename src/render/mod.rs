@@ -234,7 +234,7 @@ struct ForwardSink<'m> {
 impl HitSink for ForwardSink<'_> {
     const SURFACES: bool = true;
 
-    fn deposit(&mut self, _: u32, _: u32, _: u8, _: f32, _: f32, _: &Colour) {}
+    fn deposit(&mut self, _: (u32, u32, u8), _: (f32, f32), _: &Colour, _: Option<[f32; 3]>) {}
 
     #[inline]
     fn surface(&mut self, ev: &SurfaceEvent, colour: &Colour) {

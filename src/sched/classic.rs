@@ -161,23 +161,14 @@ impl PhotonOut for PortionSink<'_> {
 }
 
 impl HitSink for PortionSink<'_> {
-    fn deposit(&mut self, mesh: u32, prim: u32, side: u8, u: f32, v: f32, colour: &Colour) {
-        self.photon
-            .deposit(self.scene, (mesh, prim, side), u, v, colour, None);
-    }
-
-    fn deposit_weighted(
+    fn deposit(
         &mut self,
-        mesh: u32,
-        prim: u32,
-        side: u8,
-        u: f32,
-        v: f32,
+        at: (u32, u32, u8),
+        (u, v): (f32, f32),
         colour: &Colour,
-        w: [f32; 3],
+        weights: Option<[f32; 3]>,
     ) {
-        self.photon
-            .deposit(self.scene, (mesh, prim, side), u, v, colour, Some(w));
+        self.photon.deposit(self.scene, at, u, v, colour, weights);
     }
 
     fn begin_photon(&mut self, emitter: usize) {

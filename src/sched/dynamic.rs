@@ -408,23 +408,15 @@ impl PhotonOut for GroupSink<'_> {
 }
 
 impl HitSink for GroupSink<'_> {
-    fn deposit(&mut self, mesh: u32, prim: u32, side: u8, u: f32, v: f32, colour: &Colour) {
-        self.photon
-            .deposit(self.shared.scene, (mesh, prim, side), u, v, colour, None);
-    }
-
-    fn deposit_weighted(
+    fn deposit(
         &mut self,
-        mesh: u32,
-        prim: u32,
-        side: u8,
-        u: f32,
-        v: f32,
+        at: (u32, u32, u8),
+        (u, v): (f32, f32),
         colour: &Colour,
-        w: [f32; 3],
+        weights: Option<[f32; 3]>,
     ) {
         self.photon
-            .deposit(self.shared.scene, (mesh, prim, side), u, v, colour, Some(w));
+            .deposit(self.shared.scene, at, u, v, colour, weights);
     }
 
     fn begin_photon(&mut self, emitter: usize) {

@@ -9,7 +9,7 @@ struct Discard;
 
 impl HitSink for Discard {
     #[inline]
-    fn deposit(&mut self, _: u32, _: u32, _: u8, _: f32, _: f32, _: &Colour) {}
+    fn deposit(&mut self, _: (u32, u32, u8), _: (f32, f32), _: &Colour, _: Option<[f32; 3]>) {}
 }
 
 /// Traces until a stop criterion is met; the map is not touched.

@@ -98,9 +98,24 @@ impl Estimator {
 /// several rays each: measured best on the benchmark scenes, BENCHMARKS.md), at least one
 /// photon per chunk, a multiple of 64.
 pub fn auto_pass_photons(lit: usize, slots: usize, samples: u32) -> u64 {
+    let chunks = chunks(slots);
     let rays = lit as u64 * samples as u64;
-    let chunks = slots.div_ceil(CHUNK_SLOTS) as u64;
     (rays * 2).max(chunks).max(64).div_ceil(64) * 64
+}
+
+/// Chunks of a pass (C) over `slots` map slots.
+pub fn chunks(slots: usize) -> u64 {
+    slots.div_ceil(CHUNK_SLOTS) as u64
+}
+
+/// Map slots with area (those passes visit) of the sensor meshes, or of the others.
+pub fn lit_slots(scene: &PreparedScene, sensors: bool) -> usize {
+    scene
+        .meshes
+        .iter()
+        .filter(|m| m.slot_base.is_some() && m.sensor == sensors)
+        .map(|m| m.vertex_area.iter().filter(|&&a| a > 0.0).count() * m.sides())
+        .sum()
 }
 
 /// A vertex's triangles with their area shares, per recording mesh (CSR).
@@ -225,15 +240,7 @@ impl DirectPlan {
                 Some(border)
             })
             .collect();
-        let lit = |sensor: bool| -> usize {
-            scene
-                .meshes
-                .iter()
-                .filter(|m| m.slot_base.is_some() && m.sensor == sensor)
-                .map(|m| m.vertex_area.iter().filter(|&&a| a > 0.0).count() * m.sides())
-                .sum()
-        };
-        let (others, sensors) = (lit(false), lit(true));
+        let (others, sensors) = (lit_slots(scene, false), lit_slots(scene, true));
         let sensor_factor = if sensors == 0 {
             1
         } else {
@@ -244,7 +251,7 @@ impl DirectPlan {
             adjacency,
             bases,
             slots,
-            chunks: slots.div_ceil(CHUNK_SLOTS) as u64,
+            chunks: chunks(slots),
             sensor_factor,
         }
     }
@@ -272,8 +279,6 @@ pub struct DirectSampler<'a> {
     pub samples: u32,
     pub pass_photons: u64,
     pub unit_m: f64,
-    /// `LIGHT_SAMPLE_GAIN`.
-    pub gain: f64,
 }
 
 #[inline]
@@ -330,24 +335,26 @@ impl DirectSampler<'_> {
         }
     }
 
-    /// Samples per pass of a vertex of `mesh`.
+    /// Samples per pass of vertex `v` of mesh `mi`: a sensor's take `sensor_factor` times
+    /// the run's; a border vertex's none (`DirectPlan::border`).
     #[inline]
-    fn samples_of(&self, mesh: &crate::scene::PreparedMesh) -> u32 {
-        if mesh.sensor {
+    fn samples_at(&self, mi: usize, v: usize) -> u32 {
+        if self.plan.border[mi].as_ref().is_some_and(|b| b[v]) {
+            0
+        } else if self.scene.meshes[mi].sensor {
             (self.samples * self.plan.sensor_factor).min(MAX_SAMPLES)
         } else {
             self.samples
         }
     }
 
-    /// The light samples' density L of vertex `v` of `mesh` at a point where its hat is `hat`.
+    /// The light samples' density L of vertex `v` of mesh `mi` at a point where its hat is
+    /// `hat`.
     #[inline]
     fn light_density(&self, mi: usize, v: usize, hat: f64) -> f64 {
-        let mesh = &self.scene.meshes[mi];
-        let a = mesh.vertex_area[v];
-        let border = self.plan.border[mi].as_ref().is_some_and(|b| b[v]);
-        if a > 0.0 && !border {
-            self.gain * self.samples_of(mesh) as f64 * hat / a
+        let a = self.scene.meshes[mi].vertex_area[v];
+        if a > 0.0 {
+            LIGHT_SAMPLE_GAIN * self.samples_at(mi, v) as f64 * hat / a
         } else {
             0.0
         }
@@ -408,13 +415,8 @@ impl DirectSampler<'_> {
             if area <= 0.0 {
                 continue;
             }
-            // A border vertex's direct light is the photons' (`border`): its passes are
-            // empty, but counted.
-            let samples = if self.plan.border[mi].as_ref().is_some_and(|b| b[v]) {
-                0
-            } else {
-                self.samples_of(mesh)
-            };
+            // A border vertex's passes are empty, but counted.
+            let samples = self.samples_at(mi, v);
             sums[..nb * groups].fill(0.0);
             let seed = scramble(self.seed, pass, i);
             let adj = self.plan.adjacency[mi].as_ref().expect("recording mesh");

@@ -23,24 +23,16 @@ const STOP_POLL_EVENTS: u32 = 256;
 /// Where the tracer sends the photon's hits on recording surfaces.
 pub trait HitSink {
     /// A photon of colour `colour` arrived on `side` (0 front, 1 back) of triangle `prim`
-    /// of mesh `mesh` at barycentric coordinates (u, v).
-    fn deposit(&mut self, mesh: u32, prim: u32, side: u8, u: f32, v: f32, colour: &Colour);
-
-    /// `deposit` with the triangle's three vertices' shares scaled by `w` (the
-    /// light-sampling estimator's weights of a direct deposit, `direct`).
-    #[allow(clippy::too_many_arguments)]
-    fn deposit_weighted(
+    /// of mesh `mesh` at barycentric coordinates (u, v); with `weights`, the triangle's
+    /// three vertices' shares are scaled by them (the light-sampling estimator's weights
+    /// of a direct deposit, `direct`).
+    fn deposit(
         &mut self,
-        mesh: u32,
-        prim: u32,
-        side: u8,
-        u: f32,
-        v: f32,
+        at: (u32, u32, u8),
+        uv: (f32, f32),
         colour: &Colour,
-        _w: [f32; 3],
-    ) {
-        self.deposit(mesh, prim, side, u, v, colour);
-    }
+        weights: Option<[f32; 3]>,
+    );
 
     /// Whether the sink wants `surface` calls (renders do; i-map sinks compile them out).
     const SURFACES: bool = false;
@@ -100,15 +92,15 @@ pub struct PathStats {
     /// count, so the bands sum to the totals above): emitted, absorbed, escaped, dropped.
     /// Sized on the first photon.
     pub bands: [Vec<f64>; 4],
-    /// The photon in flight's absorption at a weighted first bounce (`Tracer::direct`),
+    /// The photon in flight's absorption at its weighted bounces (`Tracer::direct`),
     /// added to the tallies when its path ends.
-    pub(crate) first: FirstBounce,
+    pub(crate) bounces: WeightedBounces,
 }
 
 /// What a photon left at its weighted bounces (light sampling: the photon goes on with the
 /// reflected share of its colour), tallied when its path ends.
 #[derive(Clone, Debug, Default)]
-pub(crate) struct FirstBounce {
+pub(crate) struct WeightedBounces {
     /// (mesh, energy it absorbed), per weighted bounce.
     meshes: Vec<(u32, f64)>,
     /// Per band: Σ (before − after) over the weighted bounces.
@@ -222,18 +214,14 @@ struct Emission {
 fn deposit<S: HitSink>(
     sink: &mut S,
     weigh: Option<(&direct::DirectSampler, &Origin)>,
-    (mesh, prim, side): (u32, u32, u8),
+    at: (u32, u32, u8),
     (u, v): (f32, f32),
     dir: DVec3,
     colour: &Colour,
 ) {
-    match weigh {
-        Some((d, from)) => {
-            let w = d.photon_weights(from.emitter, from.y, from.cos_y, dir, mesh, prim, u, v);
-            sink.deposit_weighted(mesh, prim, side, u, v, colour, w);
-        }
-        None => sink.deposit(mesh, prim, side, u, v, colour),
-    }
+    let weights =
+        weigh.map(|(d, o)| d.photon_weights(o.emitter, o.y, o.cos_y, dir, at.0, at.1, u, v));
+    sink.deposit(at, (u, v), colour, weights);
 }
 
 /// Where a photon left its light (for the weights of its direct deposits).
@@ -268,11 +256,11 @@ impl Tracer<'_> {
         stop: &AtomicBool,
     ) -> bool {
         let mut hits = 0u64;
-        let (end, emission) = self.trace_path(k, colour, sink, &mut hits, stop, &mut stats.first);
+        let (end, emission) = self.trace_path(k, colour, sink, &mut hits, stop, &mut stats.bounces);
         let e = colour.mean();
         let band_end = match end {
             PathEnd::Aborted => {
-                stats.first.meshes.clear();
+                stats.bounces.meshes.clear();
                 sink.abort_photon();
                 return false;
             }
@@ -293,16 +281,16 @@ impl Tracer<'_> {
         };
         let emitted = &self.scene.emitters[emission.emitter].colour;
         stats.tally_bands(band_end, emitted, colour.values());
-        if !stats.first.meshes.is_empty() {
+        if !stats.bounces.meshes.is_empty() {
             // The shares weighted bounces absorbed (the photon went on with the rest).
-            for &(m, e) in &stats.first.meshes {
+            for &(m, e) in &stats.bounces.meshes {
                 stats.absorbed[m as usize] += e;
             }
-            stats.first.meshes.clear();
-            let k = 1.0 / stats.first.delta.len() as f64;
+            stats.bounces.meshes.clear();
+            let k = 1.0 / stats.bounces.delta.len() as f64;
             for (a, d) in stats.bands[BAND_ABSORBED]
                 .iter_mut()
-                .zip(&stats.first.delta)
+                .zip(&stats.bounces.delta)
             {
                 *a += d * k;
             }
@@ -331,7 +319,7 @@ impl Tracer<'_> {
         sink: &mut S,
         hits: &mut u64,
         stop: &AtomicBool,
-        first: &mut FirstBounce,
+        bounces: &mut WeightedBounces,
     ) -> (PathEnd, Emission) {
         let mut rng = PhotonRng::new(self.seed, k);
         // Emit: choose a light by power, then a point and a direction on it.
@@ -356,7 +344,7 @@ impl Tracer<'_> {
             cos_y,
         };
         (
-            self.follow(&from, dir, &mut rng, colour, sink, hits, stop, first),
+            self.follow(&from, dir, &mut rng, colour, sink, hits, stop, bounces),
             emission,
         )
     }
@@ -372,17 +360,17 @@ impl Tracer<'_> {
         sink: &mut S,
         hits: &mut u64,
         stop: &AtomicBool,
-        first: &mut FirstBounce,
+        bounces: &mut WeightedBounces,
     ) -> PathEnd {
         // A light far outside the geometry: start where the ray meets its bounding sphere.
         let Some(mut org) = self.scene.enter(from.y, dir) else {
             return PathEnd::Escaped;
         };
         let mut medium: Option<Medium> = None;
-        first.meshes.clear();
+        bounces.meshes.clear();
         if self.direct.is_some() {
-            first.delta.clear();
-            first.delta.resize(colour.values().len(), 0.0);
+            bounces.delta.clear();
+            bounces.delta.resize(colour.values().len(), 0.0);
         }
 
         for event in 0..self.max_events {
@@ -514,20 +502,20 @@ impl Tracer<'_> {
                     return PathEnd::Absorbed(hit.mesh);
                 }
                 u *= survive;
-                first.meshes.push((hit.mesh, colour.mean()));
-                for (d, c) in first.delta.iter_mut().zip(colour.values()) {
+                bounces.meshes.push((hit.mesh, colour.mean()));
+                for (d, c) in bounces.delta.iter_mut().zip(colour.values()) {
                     *d += c;
                 }
             }
             // After a weighted bounce: the colour is scaled by the survival share and the
             // absorbed share is recorded.
-            let bounced = |colour: &mut Colour, first: &mut FirstBounce| {
+            let bounced = |colour: &mut Colour, bounces: &mut WeightedBounces| {
                 if weigh_bounce {
                     colour.scale(survive);
-                    if let Some(last) = first.meshes.last_mut() {
+                    if let Some(last) = bounces.meshes.last_mut() {
                         last.1 -= colour.mean();
                     }
-                    for (d, c) in first.delta.iter_mut().zip(colour.values()) {
+                    for (d, c) in bounces.delta.iter_mut().zip(colour.values()) {
                         *d -= c;
                     }
                 }
@@ -538,7 +526,7 @@ impl Tracer<'_> {
                 cumulative += p;
                 if u < cumulative {
                     colour.reweight(&material.diffuse_reflect, p);
-                    bounced(colour, first);
+                    bounced(colour, bounces);
                     dir = warp::cosine_hemisphere(n_in, rng.uniform(), rng.uniform());
                     org = p_hit + n_in * eps;
                     continue;
@@ -549,7 +537,7 @@ impl Tracer<'_> {
                 cumulative += p;
                 if u < cumulative {
                     colour.reweight(&material.specular_reflect, p);
-                    bounced(colour, first);
+                    bounced(colour, bounces);
                     dir = reflect(dir, n_in);
                     org = p_hit + n_in * eps;
                     continue;
@@ -560,7 +548,7 @@ impl Tracer<'_> {
                 cumulative += p;
                 if u < cumulative {
                     colour.reweight(&material.diffuse_transmit, p);
-                    bounced(colour, first);
+                    bounced(colour, bounces);
                     dir = warp::cosine_hemisphere(-n_in, rng.uniform(), rng.uniform());
                     org = p_hit - n_in * eps;
                     continue;
@@ -569,8 +557,8 @@ impl Tracer<'_> {
             // Absorbed: the path ends here (after a weighted bounce only by rounding: then
             // nothing was taken from the colour and the photon ends here whole).
             if weigh_bounce {
-                first.meshes.pop();
-                for (d, c) in first.delta.iter_mut().zip(colour.values()) {
+                bounces.meshes.pop();
+                for (d, c) in bounces.delta.iter_mut().zip(colour.values()) {
                     *d -= c;
                 }
             }
