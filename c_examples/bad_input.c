@@ -473,6 +473,8 @@ int main(void) {
     if (acc == NULL || acc_n == 0) printf("FAIL no direct accumulators (light sampling)\n"), failures++;
     /* Estimators: an unknown one, tuning for photons only, too few photons per pass, and
        another estimator than the map's photons (out of order); nothing changes. */
+    run.estimator = 4;
+    expect("run with estimator 4", imap_run(ctx, &run, NULL, 0), IMAP_ERR_INVALID_ARGUMENT, ctx);
     run.estimator = 7;
     expect("run with estimator 7", imap_run(ctx, &run, NULL, 0), IMAP_ERR_INVALID_ARGUMENT, ctx);
     run.estimator = IMAP_ESTIMATOR_PHOTONS, run.direct_samples = 8;
@@ -483,6 +485,8 @@ int main(void) {
     expect("100000 direct samples", imap_run(ctx, &run, NULL, 0), IMAP_ERR_INVALID_ARGUMENT, ctx);
     run.direct_samples = 0, run.estimator = IMAP_ESTIMATOR_PHOTONS;
     expect("another estimator than the map's", imap_run(ctx, &run, NULL, 0), IMAP_ERR_OUT_OF_ORDER, ctx);
+    run.estimator = IMAP_ESTIMATOR_GATHER;
+    expect("gathering on a light-sampling map", imap_run(ctx, &run, NULL, 0), IMAP_ERR_OUT_OF_ORDER, ctx);
     run.estimator = IMAP_ESTIMATOR_DEFAULT;
     free(st);
     imap_destroy(ctx);

@@ -336,7 +336,7 @@ int main(int argc, char **argv) {
                 p.shard_block = chance(0.7) ? 0 : (chance(0.5) ? 64 * below(10) : below(1000));
             }
             if (chance(0.1)) { /* an estimator, sometimes bad or another than the map's */
-                p.estimator = below(4);
+                p.estimator = below(5);
                 p.direct_samples = chance(0.6) ? 0 : (chance(0.9) ? below(33) : below(100000));
                 p.direct_pass_photons = chance(0.6) ? 0 : (chance(0.5) ? below(64) : below(200000));
             }

@@ -406,6 +406,12 @@
 #define IMAP_ESTIMATOR_LIGHT_SAMPLING 2
 
 /**
+ * `ImapRunParams::estimator`: light sampling, and the passes gather diffusely reflected
+ * light too. (Since 0.2.2.)
+ */
+#define IMAP_ESTIMATOR_GATHER 3
+
+/**
  * `ImapMaterial::ior_model`: not a dielectric.
  */
 #define IMAP_IOR_NONE 0
@@ -1247,29 +1253,36 @@ typedef struct ImapRunParams {
   /**
    * How the map is estimated (since 0.2.2): `IMAP_ESTIMATOR_DEFAULT` (0: the estimator
    * of the photons the map holds, light sampling for an empty map),
-   * `IMAP_ESTIMATOR_PHOTONS` (the first paper's method: photons deposit everything) or
+   * `IMAP_ESTIMATOR_PHOTONS` (the first paper's method: photons deposit everything),
    * `IMAP_ESTIMATOR_LIGHT_SAMPLING` (direct light by shadow rays from points spread over
    * each vertex's support to points on the lights, chosen by power, with multiple
-   * importance sampling for emitting meshes; photons then bring the indirect part).
-   * Both are unbiased and give the same map in expectation; light sampling reaches a
-   * given error several times sooner where direct light dominates. A map holds the
-   * photons of one estimator: changing it needs `imap_reset` (IMAP_ERR_OUT_OF_ORDER
+   * importance sampling against the photons; photons then bring the indirect part) or
+   * `IMAP_ESTIMATOR_GATHER` (light sampling, and the passes also gather diffusely
+   * reflected light by paths from the vertices with a light sample at every diffuse
+   * surface they meet, combined with the photons' by multiple importance sampling;
+   * photons alone bring light through dielectrics and light whose first surface event
+   * is specular). All are unbiased and give the same map in expectation; light sampling
+   * reaches a given error several times sooner where direct light dominates; gathering
+   * is fastest on finely meshed scenes of moderate reflectance and slower than light
+   * sampling alone on coarse, highly reflective ones (docs/estimators.md). A map holds
+   * the photons of one estimator: changing it needs `imap_reset` (IMAP_ERR_OUT_OF_ORDER
    * otherwise). The estimator is part of a state's settings.
    */
   uint32_t estimator;
   /**
-   * Light sampling: samples per vertex per pass (stratified: an Owen-scrambled Sobol
-   * set of its own per vertex and pass; at most 1024); 0 = 4. Vertices of sensor meshes
-   * take up to 64 times as many (at most 1024), so that their passes cost at most a
-   * quarter of the others'.
+   * Light sampling and gathering: samples per vertex per pass (stratified: an
+   * Owen-scrambled Sobol set of its own per vertex and pass; at most 1024); 0 = 4 (16
+   * when gathering). Vertices of sensor meshes take 4 times as many (at most 1024), on
+   * passes of their own whose work is an eighth of the others' per photon.
    */
   uint32_t direct_samples;
   /**
-   * Light sampling: photons per pass (each vertex gets one pass of `direct_samples`
-   * samples per this many photons; photon k does its share of pass k / this, so the
-   * direct part belongs to photon indices like the rest of the map); at least the
-   * vertex sides over 16; 0 = chosen from the scene (about half as many shadow rays as
-   * photons).
+   * Light sampling and gathering: photons per pass (each vertex gets one pass of
+   * `direct_samples` samples per this many photons; photon k does its share of pass
+   * k / this, so the passes belong to photon indices like the rest of the map); at least
+   * the vertex sides over 16; 0 = chosen from the scene (light sampling: about half as
+   * many samples as photons; gathering: one photon per 64 samples, per 4 in scenes with
+   * specular surfaces or dielectrics).
    */
   uint64_t direct_pass_photons;
 } ImapRunParams;
@@ -2236,7 +2249,8 @@ enum ImapStatus imap_state_info(const void *buffer, size_t size, uint64_t *photo
  * scene changes, `imap_destroy`; read or write it only between calls on the context (never
  * during imap_run). Returns IMAP_ERR_NULL_POINTER, IMAP_ERR_NO_GEOMETRY /
  * IMAP_ERR_NO_LIGHT, IMAP_ERR_BUSY. With the light-sampling estimator
- * (`IMAP_ESTIMATOR_LIGHT_SAMPLING`, the default) the map has a second array,
+ * (`IMAP_ESTIMATOR_LIGHT_SAMPLING`, the default, or `IMAP_ESTIMATOR_GATHER`) the map has a
+ * second array,
  * `imap_map_direct_accumulators`: sum it the same way. (Since 0.2.2.)
  *
  * # Safety
@@ -2245,9 +2259,10 @@ enum ImapStatus imap_state_info(const void *buffer, size_t size, uint64_t *photo
 enum ImapStatus imap_map_accumulators(struct ImapContext *ctx, double **data, uint64_t *count);
 
 /**
- * The light-sampling estimator's direct records as one contiguous array of `*count`
- * doubles owned by the context (`*count` = 0 and `*data` NULL with
- * `IMAP_ESTIMATOR_PHOTONS`): per map cell the band sums, the sum of squares, the pass
+ * The light-sampling estimator's records of its passes (direct light, and gathered light
+ * with `IMAP_ESTIMATOR_GATHER`) as one contiguous array of `*count` doubles owned by the
+ * context (`*count` = 0 and `*data` NULL with `IMAP_ESTIMATOR_PHOTONS`): per map cell the
+ * band sums, the sum of squares, the pass
  * count and the sum of squares of the vertex's total over light groups. Sum it over
  * ranks exactly like `imap_map_accumulators` (both, before merging the ledgers); the
  * estimator is the one of the next run or of the photons the map holds. Same validity

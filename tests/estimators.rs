@@ -6,6 +6,11 @@
 //! triangles stays unbiased (the photons take its direct light). In a closed grey room the
 //! map agrees with the photons-only estimator's (indirect light included); the same seed
 //! gives the same map for any thread count and scheduler; a map holds one estimator.
+//! Gathering: every light type again, the integrating sphere's mean irradiance
+//! Φ / (A (1 − ρ)), and agreement with photons only in a room of every material (coloured
+//! walls, a mirror, two-sided translucent paper, absorbing dispersive glass; a point, a spot
+//! and an emitting panel), where light through the glass and off the mirror stays the
+//! photons' and the rest is shared by multiple importance sampling; states keep it.
 
 mod common;
 
@@ -50,7 +55,11 @@ fn z_scores(ctx: &Context, id: u32, g: &Geometry, exact: &dyn Fn([f64; 3]) -> f6
     let (mut e, mut rel) = (vec![0.0; nv], vec![0.0; nv]);
     ctx.irradiance(id, 0, 0, &mut e).unwrap();
     ctx.rel_error(id, 0, &mut rel).unwrap();
-    let want: Vec<f64> = (0..nv).map(|v| hat_average(g, v, exact)).collect();
+    // A fine quadrature: the beam's edge is a step, which the 48 × 48 centroid rule misses
+    // by more than the gathering runs' errors at the vertices it crosses.
+    let want: Vec<f64> = (0..nv)
+        .map(|v| hat_average_with(g, v, 192, |x, _| exact(x)))
+        .collect();
     let top = want.iter().cloned().fold(0.0, f64::max);
     let (mut worst, mut sum, mut k) = (0.0f64, 0.0, 0.0);
     for v in 0..nv {
@@ -63,6 +72,18 @@ fn z_scores(ctx: &Context, id: u32, g: &Geometry, exact: &dyn Fn([f64; 3]) -> f6
     }
     (worst, sum / k)
 }
+
+/// Gathering on a plate with light sampling's automatic settings there (4 samples per
+/// pass, 1408 photons per pass): the plate is black, so this checks that gathering leaves
+/// the direct light and the photons' share of it as they are. (With gathering's own
+/// settings, one photon per 64 samples, a beam's vertices read up to 5.7 σ off at 40 000
+/// photons: the photons' sliver of the weights near each support's rim is then a handful
+/// of landings, whose variance estimate is poor; noted for issue 16.)
+const GATHER_PLATE: Estimator = Estimator::LightSampling {
+    samples: 4,
+    pass_photons: 1408,
+    gather: true,
+};
 
 fn light(ctx: &mut Context, kind: LightKind, position: [f64; 3]) {
     ctx.add_light_desc(&LightDesc {
@@ -130,12 +151,16 @@ fn every_light_type_reads_its_analytic_irradiance() {
             &beam,
         ),
     ];
-    for (what, kind, exact) in cases {
+    for ((what, kind, exact), est) in cases
+        .iter()
+        .flat_map(|c| [(c.clone(), Estimator::DEFAULT), (c.clone(), GATHER_PLATE)])
+    {
         let mut ctx = context(cfg(5));
         let (id, g) = plate(&mut ctx);
         let position = if what == "beam" { [0.0, 0.0, H] } else { at };
         light(&mut ctx, kind, position);
-        run(&mut ctx, photons(400_000), Estimator::DEFAULT);
+        run(&mut ctx, photons(400_000), est);
+        let what = format!("{what} ({})", ctx.estimator().name());
         let (worst, mean) = z_scores(&ctx, id, &g, exact);
         eprintln!("{what}: largest |z| {worst:.2}, mean |z| {mean:.2}");
         // The beam's edge crosses triangles: the photons take those vertices (a step in
@@ -144,28 +169,33 @@ fn every_light_type_reads_its_analytic_irradiance() {
         assert!((0.6..1.05).contains(&mean), "{what}: mean |z| {mean}");
     }
     // An emitting square 0.4 m wide at H facing down: Lambert's polygon formula.
-    let mut ctx = context(cfg(6));
-    let (id, g) = plate(&mut ctx);
-    let black = lambert(&mut ctx, 0.0);
-    let lamp = grid(1, -0.2, 0.2, -0.2, 0.2, H).flipped();
-    let m = 50.0;
-    ctx.add_mesh(&MeshDesc {
-        record: false,
-        exitance: Some(&[m]),
-        ..lamp.desc(black)
-    })
-    .unwrap();
-    run(&mut ctx, photons(400_000), Estimator::DEFAULT);
-    let square = [
-        [-0.2, -0.2, H],
-        [0.2, -0.2, H],
-        [0.2, 0.2, H],
-        [-0.2, 0.2, H],
-    ];
-    let exact = |x: [f64; 3]| polygon_irradiance(x, [0.0, 0.0, 1.0], &square, m / PI);
-    let (worst, mean) = z_scores(&ctx, id, &g, &exact);
-    eprintln!("emitting square: largest |z| {worst:.2}, mean |z| {mean:.2}");
-    assert!(worst < 4.5 && (0.6..1.05).contains(&mean), "{worst} {mean}");
+    for est in [Estimator::DEFAULT, GATHER_PLATE] {
+        let mut ctx = context(cfg(6));
+        let (id, g) = plate(&mut ctx);
+        let black = lambert(&mut ctx, 0.0);
+        let lamp = grid(1, -0.2, 0.2, -0.2, 0.2, H).flipped();
+        let m = 50.0;
+        ctx.add_mesh(&MeshDesc {
+            record: false,
+            exitance: Some(&[m]),
+            ..lamp.desc(black)
+        })
+        .unwrap();
+        run(&mut ctx, photons(400_000), est);
+        let square = [
+            [-0.2, -0.2, H],
+            [0.2, -0.2, H],
+            [0.2, 0.2, H],
+            [-0.2, 0.2, H],
+        ];
+        let exact = |x: [f64; 3]| polygon_irradiance(x, [0.0, 0.0, 1.0], &square, m / PI);
+        let (worst, mean) = z_scores(&ctx, id, &g, &exact);
+        eprintln!(
+            "emitting square ({}): largest |z| {worst:.2}, mean |z| {mean:.2}",
+            ctx.estimator().name()
+        );
+        assert!(worst < 4.5 && (0.6..1.05).contains(&mean), "{worst} {mean}");
+    }
 }
 
 /// A spot of 0.5° whose footprint is smaller than the plate's triangles: light samples
@@ -249,34 +279,46 @@ fn light_sampling_and_photons_only_agree_in_a_grey_room() {
 
 #[test]
 fn the_same_seed_gives_the_same_map_with_any_scheduler_and_thread_count() {
-    let build = |threads, scheduler| {
-        let mut ctx = context(Config {
-            seed: 3,
-            threads,
-            scheduler,
-            ..Default::default()
-        });
-        let grey = lambert(&mut ctx, 0.5);
-        let id = ctx
-            .add_mesh(&cuboid([0.0; 3], [1.0; 3], 5, true).desc(grey))
+    for est in [Estimator::DEFAULT, Estimator::GATHER] {
+        let build = |threads, scheduler| {
+            let mut ctx = context(Config {
+                seed: 3,
+                threads,
+                scheduler,
+                ..Default::default()
+            });
+            let grey = lambert(&mut ctx, 0.5);
+            let id = ctx
+                .add_mesh(&cuboid([0.0; 3], [1.0; 3], 5, true).desc(grey))
+                .unwrap();
+            let black = lambert(&mut ctx, 0.0);
+            let lamp = grid(1, 0.4, 0.6, 0.4, 0.6, 0.95).flipped();
+            ctx.add_mesh(&MeshDesc {
+                record: false,
+                exitance: Some(&[200.0]),
+                ..lamp.desc(black)
+            })
             .unwrap();
-        let black = lambert(&mut ctx, 0.0);
-        let lamp = grid(1, 0.4, 0.6, 0.4, 0.6, 0.95).flipped();
-        ctx.add_mesh(&MeshDesc {
-            record: false,
-            exitance: Some(&[200.0]),
-            ..lamp.desc(black)
-        })
-        .unwrap();
-        run(&mut ctx, 200_000, Estimator::DEFAULT);
-        let nv = ctx.vertex_count(id).unwrap();
-        let mut e = vec![0.0; nv];
-        ctx.irradiance(id, 0, 1, &mut e).unwrap();
-        e
-    };
-    let reference = build(1, SchedulerKind::Dynamic);
-    for (t, s) in [(3, SchedulerKind::Dynamic), (2, SchedulerKind::Classic)] {
-        assert_maps_agree(&build(t, s), &reference, &format!("{t} threads, {s:?}"));
+            // Gathering's passes come a hundred times as often per photon.
+            let n = if est == Estimator::GATHER {
+                10_000
+            } else {
+                200_000
+            };
+            run(&mut ctx, n, est);
+            let nv = ctx.vertex_count(id).unwrap();
+            let mut e = vec![0.0; nv];
+            ctx.irradiance(id, 0, 1, &mut e).unwrap();
+            e
+        };
+        let reference = build(1, SchedulerKind::Dynamic);
+        for (t, s) in [(3, SchedulerKind::Dynamic), (2, SchedulerKind::Classic)] {
+            assert_maps_agree(
+                &build(t, s),
+                &reference,
+                &format!("{}: {t} threads, {s:?}", est.name()),
+            );
+        }
     }
 }
 
@@ -308,10 +350,145 @@ fn a_map_holds_one_estimator() {
             estimator: Some(Estimator::LightSampling {
                 samples: 4,
                 pass_photons: 1,
+                gather: false,
             }),
             ..Default::default()
         })
         .unwrap_err();
     assert_eq!(e.status, ImapStatus::ImapErrInvalidArgument);
     assert!(e.message.contains("direct_pass_photons"), "{e}");
+}
+
+/// z-scores of the difference of two maps (`whole_map`-like: per value its estimate and
+/// relative error): (rms, mean, count) over values both estimate (relative error < 1).
+fn difference_z(a: &[(f64, f64)], b: &[(f64, f64)]) -> (f64, f64, usize) {
+    let (mut z2, mut z1, mut n) = (0.0, 0.0, 0);
+    for (&(ea, ra), &(eb, rb)) in a.iter().zip(b) {
+        if ea <= 0.0 || eb <= 0.0 || ra >= 1.0 || rb >= 1.0 {
+            continue;
+        }
+        let s = ((ea * ra).powi(2) + (eb * rb).powi(2)).sqrt();
+        let z = (ea - eb) / s;
+        z2 += z * z;
+        z1 += z;
+        n += 1;
+    }
+    ((z2 / n as f64).sqrt(), z1 / n as f64, n)
+}
+
+/// Every band and side of every recording mesh: (irradiance, relative error) per value.
+fn map_values(ctx: &Context, ids: &[u32]) -> Vec<(f64, f64)> {
+    let mut all = Vec::new();
+    for &m in ids {
+        let n = ctx.vertex_count(m).unwrap();
+        let sides = if ctx.scene().meshes[m as usize].two_sided {
+            2
+        } else {
+            1
+        };
+        for side in 0..sides {
+            let mut err = vec![0.0; n];
+            ctx.rel_error(m, side, &mut err).unwrap();
+            for band in 0..ctx.scene().bands.count() as u32 {
+                let mut e = vec![0.0; n];
+                ctx.irradiance(m, side, band, &mut e).unwrap();
+                all.extend(e.into_iter().zip(err.iter().copied()));
+            }
+        }
+    }
+    all
+}
+
+/// Gathering and photons only agree in a closed grey room and in a room of every material:
+/// the gathering paths stop at dielectrics and light whose first surface event is specular
+/// or through glass stays the photons' (a wrong partition would double or drop it: a bias of
+/// many σ at the vertices it reaches).
+#[test]
+fn gathering_and_photons_only_agree() {
+    let grey = |seed| {
+        let mut ctx = context(cfg(seed));
+        let grey = lambert(&mut ctx, 0.6);
+        let id = ctx
+            .add_mesh(&cuboid([0.0; 3], [1.0; 3], 6, true).desc(grey))
+            .unwrap();
+        ctx.add_point_light([0.3, 0.6, 0.8], &[10.0]).unwrap();
+        (ctx, vec![id])
+    };
+    let mixed = |seed| mixed_room(cfg(seed));
+    type Build<'a> = &'a dyn Fn(u64) -> (Context, Vec<u32>);
+    let cases: [(&str, Build, u64, u64); 2] = [
+        ("grey room", &grey, 100_000, 1_000_000),
+        ("room of every material", &mixed, 200_000, 2_000_000),
+    ];
+    for (what, build, n_gather, n_photons) in cases {
+        let (mut a, ids) = build(1);
+        let (mut b, _) = build(2);
+        run(&mut a, photons(n_gather), Estimator::GATHER);
+        run(&mut b, photons(n_photons), Estimator::Photons);
+        let (rms, mean, n) = difference_z(&map_values(&a, &ids), &map_values(&b, &ids));
+        eprintln!("{what}: rms z of the difference {rms:.2}, mean z {mean:.3} over {n} values");
+        assert!((0.7..1.3).contains(&rms), "{what}: rms z {rms}");
+        assert!(mean.abs() < 0.2, "{what}: mean z {mean}");
+    }
+}
+
+/// The integrating sphere with gathering: the area-weighted mean irradiance is
+/// Φ / (A (1 − ρ)) (A: the polyhedron's area), over independent seeds.
+#[test]
+fn gathering_reads_the_integrating_sphere() {
+    let rho = 0.8;
+    let power = 10.0;
+    let mut means = Vec::new();
+    let mut expected = 0.0;
+    for seed in 0..4 {
+        let mut ctx = context(cfg(40 + seed));
+        let wall = lambert(&mut ctx, rho);
+        let g = sphere_inward(1.0, 3);
+        let id = ctx.add_mesh(&g.desc(wall)).unwrap();
+        ctx.add_point_light([0.2, -0.1, 0.3], &[power]).unwrap();
+        run(&mut ctx, photons(20_000), Estimator::GATHER);
+        let mut e = vec![0.0; g.vertex_count()];
+        ctx.irradiance(id, 0, 0, &mut e).unwrap();
+        let area = vertex_areas(&g);
+        let total: f64 = area.iter().sum();
+        expected = power / (total * (1.0 - rho));
+        means.push(e.iter().zip(&area).map(|(e, a)| e * a).sum::<f64>() / total);
+    }
+    let n = means.len() as f64;
+    let mean = means.iter().sum::<f64>() / n;
+    let sd = (means.iter().map(|m| (m - mean).powi(2)).sum::<f64>() / (n - 1.0)).sqrt();
+    eprintln!("integrating sphere, ρ = {rho}: mean E {mean:.5} (sd {sd:.5} per seed), expected {expected:.5}");
+    assert!(
+        (mean - expected).abs() <= 4.0 * sd / n.sqrt() + 1e-9 * expected,
+        "{means:?} vs {expected}"
+    );
+    assert!(sd < 0.01 * expected, "{means:?}");
+}
+
+/// A state keeps the gathering estimator: a load adopts it, a merge with a light-sampling
+/// state is refused naming both.
+#[test]
+fn states_keep_the_gathering_estimator() {
+    let build = |seed| {
+        let mut ctx = context(cfg(seed));
+        let grey = lambert(&mut ctx, 0.5);
+        ctx.add_mesh(&cuboid([0.0; 3], [1.0; 3], 3, true).desc(grey))
+            .unwrap();
+        ctx.add_point_light([0.5, 0.5, 0.8], &[1.0]).unwrap();
+        ctx
+    };
+    let mut a = build(1);
+    run(&mut a, 20_000, Estimator::GATHER);
+    let bytes = a.state_bytes(0, &[]).unwrap();
+    let mut b = build(1);
+    b.load_state(&bytes).unwrap();
+    assert_eq!(b.estimator(), a.estimator());
+    assert!(matches!(
+        b.estimator(),
+        Estimator::LightSampling { gather: true, .. }
+    ));
+    let mut c = build(1);
+    run(&mut c, 20_000, Estimator::DEFAULT);
+    let e = c.merge_state(&bytes).unwrap_err();
+    assert!(e.message.contains("gathering"), "{e}");
 }

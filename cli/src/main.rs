@@ -58,7 +58,8 @@ struct RunOptions {
     #[arg(long)]
     scheduler: Option<String>,
     /// "light-sampling" (default: direct light by shadow rays from the vertices, photons
-    /// for the indirect part) or "photons" (photons only, the first paper's method).
+    /// for the indirect part), "gather" (light sampling, and paths from the vertices gather
+    /// diffusely reflected light too) or "photons" (photons only, the first paper's method).
     #[arg(long)]
     estimator: Option<String>,
     /// Seed of the random streams.
@@ -226,9 +227,10 @@ fn apply_options(settings: &mut Settings, opts: &RunOptions) {
 fn estimator(name: &str) -> Result<imap::Estimator> {
     match name {
         "light-sampling" => Ok(imap::Estimator::DEFAULT),
+        "gather" => Ok(imap::Estimator::GATHER),
         "photons" => Ok(imap::Estimator::Photons),
         other => Err(CliError(format!(
-            "estimator \"{other}\": use \"light-sampling\" or \"photons\""
+            "estimator \"{other}\": use \"light-sampling\", \"gather\" or \"photons\""
         ))),
     }
 }

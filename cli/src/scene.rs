@@ -126,8 +126,9 @@ pub struct RunSettings {
     #[serde(default = "yes")]
     pub aim_lights: bool,
     /// "light-sampling" (default: direct light by shadow rays from the vertices, photons
-    /// for the indirect part) or "photons" (photons bring everything: the first paper's
-    /// method). Both are unbiased.
+    /// for the indirect part), "gather" (light sampling, and paths from the vertices gather
+    /// diffusely reflected light too) or "photons" (photons bring everything: the first
+    /// paper's method). All are unbiased.
     #[serde(default = "default_estimator")]
     pub estimator: String,
 }

@@ -194,20 +194,31 @@ impl Context {
             Estimator::LightSampling {
                 samples,
                 pass_photons,
+                gather,
             } => {
-                let samples = if samples == 0 {
-                    direct::DEFAULT_SAMPLES
-                } else {
-                    samples
+                let samples = match (samples, gather) {
+                    (0, false) => direct::DEFAULT_SAMPLES,
+                    (0, true) => direct::GATHER_SAMPLES,
+                    _ => samples,
                 };
                 let pass_photons = if pass_photons == 0 {
-                    direct::auto_pass_photons(self.lit_slots(), self.scene.slot_count(), samples)
+                    direct::auto_pass_photons(
+                        self.lit_slots(),
+                        self.scene.slot_count(),
+                        samples,
+                        gather,
+                        self.scene
+                            .materials
+                            .iter()
+                            .any(|m| m.events[1] || m.dielectric.is_some()),
+                    )
                 } else {
                     pass_photons
                 };
                 Estimator::LightSampling {
                     samples,
                     pass_photons,
+                    gather,
                 }
             }
         }
@@ -228,6 +239,7 @@ impl Context {
         if let Estimator::LightSampling {
             samples,
             pass_photons,
+            ..
         } = e
         {
             if samples > direct::MAX_SAMPLES {
@@ -636,6 +648,7 @@ impl Context {
                 Estimator::LightSampling {
                     samples,
                     pass_photons,
+                    gather,
                 },
                 Some(acc),
                 Some(plan),
@@ -647,7 +660,16 @@ impl Context {
                 seed: self.config.seed,
                 samples,
                 pass_photons,
+                sensor_pass_photons: direct::sensor_pass_photons(
+                    pass_photons,
+                    samples,
+                    plan.lit,
+                    plan.chunks[1],
+                ),
                 unit_m: self.config.unit_m,
+                materials: &self.scene.materials,
+                gather,
+                max_events: params.max_path_events,
             }),
             _ => None,
         };

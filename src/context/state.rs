@@ -120,6 +120,10 @@ impl Fingerprint {
     }
 }
 
+/// The bit of `Dims::samples` that says the passes gather indirect light (samples per
+/// pass are at most `direct::MAX_SAMPLES`).
+const GATHER_BIT: u32 = 1 << 31;
+
 /// The map's dimensions a state was written for.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 struct Dims {
@@ -128,8 +132,8 @@ struct Dims {
     slots: u64,
     meshes: u32,
     regions: u64,
-    /// The estimator: samples per vertex per pass and photons per pass of light sampling;
-    /// both 0 for photons only.
+    /// The estimator: samples per vertex per pass (`GATHER_BIT` set when the passes
+    /// gather) and photons per pass of light sampling; both 0 for photons only.
     samples: u32,
     pass_photons: u64,
 }
@@ -152,8 +156,9 @@ impl Dims {
             Estimator::Photons
         } else {
             Estimator::LightSampling {
-                samples: self.samples,
+                samples: self.samples & !GATHER_BIT,
                 pass_photons: self.pass_photons,
+                gather: self.samples & GATHER_BIT != 0,
             }
         }
     }
@@ -473,7 +478,8 @@ impl Context {
             Estimator::LightSampling {
                 samples,
                 pass_photons,
-            } => (samples, pass_photons),
+                gather,
+            } => (samples | if gather { GATHER_BIT } else { 0 }, pass_photons),
         };
         Dims {
             samples,

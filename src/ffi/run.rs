@@ -143,25 +143,32 @@ pub struct ImapRunParams {
     pub shard_block: u64,
     /// How the map is estimated (since 0.2.2): `IMAP_ESTIMATOR_DEFAULT` (0: the estimator
     /// of the photons the map holds, light sampling for an empty map),
-    /// `IMAP_ESTIMATOR_PHOTONS` (the first paper's method: photons deposit everything) or
+    /// `IMAP_ESTIMATOR_PHOTONS` (the first paper's method: photons deposit everything),
     /// `IMAP_ESTIMATOR_LIGHT_SAMPLING` (direct light by shadow rays from points spread over
     /// each vertex's support to points on the lights, chosen by power, with multiple
-    /// importance sampling for emitting meshes; photons then bring the indirect part).
-    /// Both are unbiased and give the same map in expectation; light sampling reaches a
-    /// given error several times sooner where direct light dominates. A map holds the
-    /// photons of one estimator: changing it needs `imap_reset` (IMAP_ERR_OUT_OF_ORDER
+    /// importance sampling against the photons; photons then bring the indirect part) or
+    /// `IMAP_ESTIMATOR_GATHER` (light sampling, and the passes also gather diffusely
+    /// reflected light by paths from the vertices with a light sample at every diffuse
+    /// surface they meet, combined with the photons' by multiple importance sampling;
+    /// photons alone bring light through dielectrics and light whose first surface event
+    /// is specular). All are unbiased and give the same map in expectation; light sampling
+    /// reaches a given error several times sooner where direct light dominates; gathering
+    /// is fastest on finely meshed scenes of moderate reflectance and slower than light
+    /// sampling alone on coarse, highly reflective ones (docs/estimators.md). A map holds
+    /// the photons of one estimator: changing it needs `imap_reset` (IMAP_ERR_OUT_OF_ORDER
     /// otherwise). The estimator is part of a state's settings.
     pub estimator: u32,
-    /// Light sampling: samples per vertex per pass (stratified: an Owen-scrambled Sobol
-    /// set of its own per vertex and pass; at most 1024); 0 = 4. Vertices of sensor meshes
-    /// take up to 64 times as many (at most 1024), so that their passes cost at most a
-    /// quarter of the others'.
+    /// Light sampling and gathering: samples per vertex per pass (stratified: an
+    /// Owen-scrambled Sobol set of its own per vertex and pass; at most 1024); 0 = 4 (16
+    /// when gathering). Vertices of sensor meshes take 4 times as many (at most 1024), on
+    /// passes of their own whose work is an eighth of the others' per photon.
     pub direct_samples: u32,
-    /// Light sampling: photons per pass (each vertex gets one pass of `direct_samples`
-    /// samples per this many photons; photon k does its share of pass k / this, so the
-    /// direct part belongs to photon indices like the rest of the map); at least the
-    /// vertex sides over 16; 0 = chosen from the scene (about half as many shadow rays as
-    /// photons).
+    /// Light sampling and gathering: photons per pass (each vertex gets one pass of
+    /// `direct_samples` samples per this many photons; photon k does its share of pass
+    /// k / this, so the passes belong to photon indices like the rest of the map); at least
+    /// the vertex sides over 16; 0 = chosen from the scene (light sampling: about half as
+    /// many samples as photons; gathering: one photon per 64 samples, per 4 in scenes with
+    /// specular surfaces or dielectrics).
     pub direct_pass_photons: u64,
 }
 
@@ -172,6 +179,9 @@ pub const IMAP_ESTIMATOR_PHOTONS: u32 = 1;
 /// `ImapRunParams::estimator`: direct light by light sampling at the vertices, photons for
 /// the indirect part. (Since 0.2.2.)
 pub const IMAP_ESTIMATOR_LIGHT_SAMPLING: u32 = 2;
+/// `ImapRunParams::estimator`: light sampling, and the passes gather diffusely reflected
+/// light too. (Since 0.2.2.)
+pub const IMAP_ESTIMATOR_GATHER: u32 = 3;
 
 // SAFETY: repr(C), u32 struct_size first, numbers, an Option<fn> and a raw pointer.
 unsafe impl Versioned for ImapRunParams {
@@ -208,22 +218,28 @@ unsafe impl Versioned for ImapRunParams {
     }
 }
 
-/// The estimator of C run parameters (None: the map's).
-fn estimator(p: &ImapRunParams) -> Result<Option<Estimator>> {
-    let ls = Estimator::LightSampling {
+/// The estimator of C run parameters (None: the map's, `current`, which settings given
+/// with `IMAP_ESTIMATOR_DEFAULT` tune).
+fn estimator(p: &ImapRunParams, current: Estimator) -> Result<Option<Estimator>> {
+    let ls = |gather| Estimator::LightSampling {
         samples: p.direct_samples,
         pass_photons: p.direct_pass_photons,
+        gather,
     };
     let tuned = p.direct_samples != 0 || p.direct_pass_photons != 0;
     Ok(match p.estimator {
-        IMAP_ESTIMATOR_DEFAULT if tuned => Some(ls),
+        IMAP_ESTIMATOR_DEFAULT if tuned => Some(ls(matches!(
+            current,
+            Estimator::LightSampling { gather: true, .. }
+        ))),
         IMAP_ESTIMATOR_DEFAULT => None,
         IMAP_ESTIMATOR_PHOTONS if tuned => bail!(
             ImapErrInvalidArgument,
-            "params.direct_samples / direct_pass_photons are for IMAP_ESTIMATOR_LIGHT_SAMPLING, not IMAP_ESTIMATOR_PHOTONS"
+            "params.direct_samples / direct_pass_photons are for IMAP_ESTIMATOR_LIGHT_SAMPLING and IMAP_ESTIMATOR_GATHER, not IMAP_ESTIMATOR_PHOTONS"
         ),
         IMAP_ESTIMATOR_PHOTONS => Some(Estimator::Photons),
-        IMAP_ESTIMATOR_LIGHT_SAMPLING => Some(ls),
+        IMAP_ESTIMATOR_LIGHT_SAMPLING => Some(ls(false)),
+        IMAP_ESTIMATOR_GATHER => Some(ls(true)),
         e => bail!(
             ImapErrInvalidArgument,
             "params.estimator = {e} is not an IMAP_ESTIMATOR_* value"
@@ -467,7 +483,7 @@ pub unsafe extern "C" fn imap_run(
                 None
             },
             selection: selection(&p),
-            estimator: estimator(&p)?,
+            estimator: estimator(&p, c.estimator())?,
         };
         let r = c.run(&mut rp)?;
         if !report.is_null() {

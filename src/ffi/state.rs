@@ -240,7 +240,8 @@ pub unsafe extern "C" fn imap_state_info(
 /// scene changes, `imap_destroy`; read or write it only between calls on the context (never
 /// during imap_run). Returns IMAP_ERR_NULL_POINTER, IMAP_ERR_NO_GEOMETRY /
 /// IMAP_ERR_NO_LIGHT, IMAP_ERR_BUSY. With the light-sampling estimator
-/// (`IMAP_ESTIMATOR_LIGHT_SAMPLING`, the default) the map has a second array,
+/// (`IMAP_ESTIMATOR_LIGHT_SAMPLING`, the default, or `IMAP_ESTIMATOR_GATHER`) the map has a
+/// second array,
 /// `imap_map_direct_accumulators`: sum it the same way. (Since 0.2.2.)
 ///
 /// # Safety
@@ -254,9 +255,10 @@ pub unsafe extern "C" fn imap_map_accumulators(
     with_context(ctx, |c| out_array(data, count, || c.map_accumulators()))
 }
 
-/// The light-sampling estimator's direct records as one contiguous array of `*count`
-/// doubles owned by the context (`*count` = 0 and `*data` NULL with
-/// `IMAP_ESTIMATOR_PHOTONS`): per map cell the band sums, the sum of squares, the pass
+/// The light-sampling estimator's records of its passes (direct light, and gathered light
+/// with `IMAP_ESTIMATOR_GATHER`) as one contiguous array of `*count` doubles owned by the
+/// context (`*count` = 0 and `*data` NULL with `IMAP_ESTIMATOR_PHOTONS`): per map cell the
+/// band sums, the sum of squares, the pass
 /// count and the sum of squares of the vertex's total over light groups. Sum it over
 /// ranks exactly like `imap_map_accumulators` (both, before merging the ledgers); the
 /// estimator is the one of the next run or of the photons the map holds. Same validity

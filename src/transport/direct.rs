@@ -32,20 +32,31 @@
 //! photons play the part a cosine-distributed ray from x would, which was measured and cost
 //! more than it brought, BENCHMARKS.md) and to the light samples everywhere else. Photon
 //! deposits after the first surface event are the indirect part, weight 1.
+//!
+//! With `gather` each sample's point x also starts a gathering path (`gather`) that takes a
+//! light sample at every diffuse surface z it meets: the light → z → … → x paths whose
+//! first surface event z is diffuse and that meet no dielectric. Photons on such paths
+//! weight their deposits against it by the same power heuristic, p being their landing
+//! density at z (`landing_density`) and L the samples' density at x times `GATHER_GAIN`;
+//! photons bring the rest (caustics) alone (`Tracer::follow`).
 
+use super::{reflect, Colour, WEIGHTED_BOUNCES_DOWN_TO};
 use crate::accel::Accel;
 use crate::imap::DirectAcc;
-use crate::sampling::warp;
-use crate::scene::{EmitterKind, LightShape, PreparedScene};
+use crate::sampling::{warp, PhotonRng};
+use crate::scene::{EmitterKind, LightShape, Material, PreparedScene};
 use glam::DVec3;
 use std::f64::consts::PI;
 
 /// Map slots per chunk of a pass: the direct work photon k takes on.
 pub const CHUNK_SLOTS: usize = 16;
-/// Samples per vertex per pass unless a run says.
+/// Samples per vertex per pass unless a run says: light sampling alone, and gathering
+/// (whose paths' integrand is rougher: more samples per pass stratify it better).
 pub const DEFAULT_SAMPLES: u32 = 4;
+pub const GATHER_SAMPLES: u32 = 16;
 /// Most samples per vertex per pass, a sensor's included: a photon's share of a pass (16
-/// vertices) then takes at most ~16 k shadow rays, a few milliseconds, which a stop or a
+/// vertices) then takes at most ~16 k shadow rays, a few milliseconds (gathering: as many
+/// paths of at most `GATHER_DEPTH` surfaces, a few more on average), which a stop or a
 /// cancel waits for at worst.
 pub const MAX_SAMPLES: u32 = 1024;
 /// How much more a stratified light sample counts than a photon landing at the same point
@@ -54,18 +65,30 @@ pub const MAX_SAMPLES: u32 = 1024;
 /// support the variance of a count; the balance of sample densities alone handed the
 /// direct light of coarse calculation grids to photons (BENCHMARKS.md).
 pub const LIGHT_SAMPLE_GAIN: f64 = 64.0;
+/// The same for a gathering path's light sample at a surface z against a photon whose first
+/// surface event was at z (`DirectSampler::gather`): measured on the benchmark room, where
+/// 2 to 32 gave the same time to 1 % (BENCHMARKS.md).
+pub const GATHER_GAIN: f64 = 8.0;
+/// Most surfaces a gathering path takes a light sample at: light that reaches x after more
+/// surface events than this is the photons' alone (a photon's deposit after its
+/// `GATHER_DEPTH`-th surface event keeps weight 1), so a path in a box of mirrors ends.
+pub const GATHER_DEPTH: u32 = 32;
 
 /// Which estimator a map is made with.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Estimator {
     /// Photons deposit everything they bring (the first paper's method).
     Photons,
-    /// Direct light by light sampling at the vertices, photons the indirect part.
+    /// Direct light by light sampling at the vertices, photons the indirect part; with
+    /// `gather`, the passes gather the diffusely reflected light too (`DirectSampler::
+    /// gather`), combined with the photons' by multiple importance sampling.
     LightSampling {
-        /// Samples per vertex per pass.
+        /// Samples per vertex per pass (0: automatic).
         samples: u32,
-        /// Photons per pass (R).
+        /// Photons per pass (R; 0: automatic).
         pass_photons: u64,
+        /// Whether the passes gather indirect light.
+        gather: bool,
     },
 }
 
@@ -74,6 +97,13 @@ impl Estimator {
     pub const DEFAULT: Estimator = Estimator::LightSampling {
         samples: 0,
         pass_photons: 0,
+        gather: false,
+    };
+    /// Light sampling and gathering with automatic settings.
+    pub const GATHER: Estimator = Estimator::LightSampling {
+        samples: 0,
+        pass_photons: 0,
+        gather: true,
     };
 
     pub fn is_light_sampling(&self) -> bool {
@@ -86,21 +116,63 @@ impl Estimator {
             Estimator::LightSampling {
                 samples,
                 pass_photons,
+                gather,
             } => format!(
-                "light sampling ({samples} samples per vertex per pass, {pass_photons} photons per pass)"
+                "light sampling{} ({samples} samples per vertex per pass, {pass_photons} photons per pass)",
+                if *gather { " and gathering" } else { "" }
             ),
         }
     }
 }
 
 /// Photons per pass when a run does not say, for a map of `slots` slots of which `lit`
-/// have area and are not sensors: a pass's shadow rays about half as many as its photons (whose paths take
-/// several rays each: measured best on the benchmark scenes, BENCHMARKS.md), at least one
-/// photon per chunk, a multiple of 64.
-pub fn auto_pass_photons(lit: usize, slots: usize, samples: u32) -> u64 {
-    let chunks = chunks(slots);
+/// have area and are not sensors, at least one photon per chunk, a multiple of 64.
+/// Light sampling alone: a pass's shadow rays about half as many as its photons (whose
+/// paths take several rays each). Gathering: one photon per `SAMPLES_PER_PHOTON` samples
+/// (light samples and gathering paths bring direct and diffusely reflected light far
+/// cheaper than photons, which keep what they do best: narrow beams, light near its
+/// source), or per `CAUSTIC_SAMPLES_PER_PHOTON` when the scene has `caustics` (specular
+/// reflectance or dielectrics: light through them is the photons' alone). Measured best
+/// on the benchmark scenes (BENCHMARKS.md).
+pub fn auto_pass_photons(
+    lit: usize,
+    slots: usize,
+    samples: u32,
+    gather: bool,
+    caustics: bool,
+) -> u64 {
     let rays = lit as u64 * samples as u64;
-    (rays * 2).max(chunks).max(64).div_ceil(64) * 64
+    let r = match (gather, caustics) {
+        (false, _) => rays * 2,
+        (true, false) => rays / SAMPLES_PER_PHOTON,
+        (true, true) => rays / CAUSTIC_SAMPLES_PER_PHOTON,
+    };
+    r.max(chunks(slots)).max(64).div_ceil(64) * 64
+}
+
+/// Samples of a pass per photon of `auto_pass_photons` (measured on the benchmark room,
+/// BENCHMARKS.md).
+pub const SAMPLES_PER_PHOTON: u64 = 64;
+/// The same in a scene with specular surfaces or dielectrics.
+pub const CAUSTIC_SAMPLES_PER_PHOTON: u64 = 4;
+/// Samples per pass of a sensor's vertex, in run samples: calculation grids are few points
+/// with large supports.
+pub const SENSOR_SAMPLES: u32 = 4;
+/// The sensors' passes take this share of the work of the other vertices' per photon:
+/// sensors run on their own schedule of passes (`sensor_pass_photons`), so a calculation
+/// grid converges in many short passes and changes no other vertex's.
+pub const SENSOR_SHARE: f64 = 0.125;
+
+/// Photons per pass of the sensors' passes, for `pass_photons` per pass of the other
+/// vertices, `samples` per vertex per pass and the plan's lit slots and chunks.
+pub fn sensor_pass_photons(pass_photons: u64, samples: u32, lit: [usize; 2], chunks: u64) -> u64 {
+    if lit[0] == 0 || lit[1] == 0 {
+        return pass_photons.max(chunks);
+    }
+    let sensor_samples = (samples * SENSOR_SAMPLES).min(MAX_SAMPLES) as f64;
+    let r = pass_photons as f64 * (lit[1] as f64 * sensor_samples)
+        / (lit[0] as f64 * samples as f64 * SENSOR_SHARE);
+    (r as u64).max(chunks).max(1)
 }
 
 /// Chunks of a pass (C) over `slots` map slots.
@@ -140,16 +212,13 @@ pub struct DirectPlan {
     /// that are not sensors first, so sensors leave every other mesh's passes as they are.
     bases: Vec<(usize, u32)>,
     pub slots: usize,
-    /// Chunks of a pass (C).
-    pub chunks: u64,
-    /// How many times a run's samples per pass a sensor's vertex takes: calculation grids
-    /// are few points with large supports, which a few samples per pass serve poorly; their
-    /// passes may take up to a quarter of the other vertices' (1 to `MAX_SENSOR_FACTOR`).
-    pub sensor_factor: u32,
+    /// Slots of the passes' order that are not sensors' (sensors' follow them).
+    pub regular: usize,
+    /// Chunks of a pass (C): of the other vertices, of the sensors'.
+    pub chunks: [u64; 2],
+    /// Lit slots (`lit_slots`): of the other vertices, of the sensors'.
+    pub lit: [usize; 2],
 }
-
-/// Most samples per pass a sensor's vertex takes, in run samples (`sensor_factor`).
-pub const MAX_SENSOR_FACTOR: u32 = 64;
 
 impl DirectPlan {
     pub fn new(scene: &PreparedScene) -> Self {
@@ -240,19 +309,18 @@ impl DirectPlan {
                 Some(border)
             })
             .collect();
-        let (others, sensors) = (lit_slots(scene, false), lit_slots(scene, true));
-        let sensor_factor = if sensors == 0 {
-            1
-        } else {
-            (others / (4 * sensors)).clamp(1, MAX_SENSOR_FACTOR as usize) as u32
-        };
+        let regular = bases
+            .iter()
+            .find(|b| scene.meshes[b.1 as usize].sensor)
+            .map_or(slots, |b| b.0);
         DirectPlan {
             border,
             adjacency,
             bases,
             slots,
-            chunks: chunks(slots),
-            sensor_factor,
+            regular,
+            chunks: [chunks(regular), chunks(slots - regular)],
+            lit: [lit_slots(scene, false), lit_slots(scene, true)],
         }
     }
 
@@ -278,7 +346,40 @@ pub struct DirectSampler<'a> {
     pub seed: u64,
     pub samples: u32,
     pub pass_photons: u64,
+    /// Photons per pass of the sensors' passes (`sensor_pass_photons`).
+    pub sensor_pass_photons: u64,
     pub unit_m: f64,
+    pub materials: &'a [Material],
+    /// Whether the passes gather indirect light (`gather`).
+    pub gather: bool,
+    /// Safety limit on a gathering path's surface events (the tracer's; at most
+    /// `GATHER_DEPTH`).
+    pub max_events: u32,
+}
+
+/// First Sobol dimension of a sample's gathering path (0 to 7: the direct sample's).
+const GATHER_DIM: u32 = 8;
+/// Sobol dimensions a gathering path takes before it goes on with a random stream.
+const SOBOL_DIMS: u32 = 32;
+
+/// The numbers of one sample: Owen-scrambled Sobol dimensions, then a random stream.
+struct SampleDims {
+    index: u32,
+    seed: u32,
+    dim: u32,
+    rng: PhotonRng,
+}
+
+impl SampleDims {
+    #[inline]
+    fn next(&mut self) -> f64 {
+        if self.dim < SOBOL_DIMS {
+            self.dim += 1;
+            f64::from(sobol_burley::sample(self.index, self.dim - 1, self.seed))
+        } else {
+            self.rng.uniform()
+        }
+    }
 }
 
 #[inline]
@@ -319,96 +420,131 @@ fn power(a: f64, b: f64) -> f64 {
 }
 
 impl DirectSampler<'_> {
-    /// The photons' density P (per pass) of landing at x from y on emitter `e` along unit
-    /// `dir` (from y to x), r² = |x − y|², cos θx = `cos_x`, and for an emitting mesh
-    /// cos θy = `cos_y`.
+    /// The density p of one photon's landing at x from y on emitter `e` along unit `dir`
+    /// (from y to x), r² = |x − y|², cos θx = `cos_x`, and for an emitting mesh cos θy =
+    /// `cos_y` (P = R·p per pass; `light_density` holds the 1/R).
     #[inline]
     fn photon_density(&self, e: usize, dir: DVec3, r2: f64, cos_x: f64, cos_y: f64) -> f64 {
-        let r = self.pass_photons as f64;
         match &self.scene.emitters[e].kind {
-            EmitterKind::Light(LightShape::Beam { aperture, .. }) => r * cos_x / aperture.area(),
-            EmitterKind::Light(shape) => r * shape.intensity_per_watt(dir) * cos_x / r2,
+            EmitterKind::Light(LightShape::Beam { aperture, .. }) => cos_x / aperture.area(),
+            EmitterKind::Light(shape) => shape.intensity_per_watt(dir) * cos_x / r2,
             EmitterKind::Mesh { two_sided, .. } => {
                 let sides = if *two_sided { 2.0 } else { 1.0 };
-                r * cos_y * cos_x / (PI * sides * r2)
+                cos_y * cos_x / (PI * sides * r2)
             }
         }
     }
 
-    /// Samples per pass of vertex `v` of mesh `mi`: a sensor's take `sensor_factor` times
+    /// Samples per pass of vertex `v` of mesh `mi`: a sensor's take `SENSOR_SAMPLES` times
     /// the run's; a border vertex's none (`DirectPlan::border`).
     #[inline]
     fn samples_at(&self, mi: usize, v: usize) -> u32 {
         if self.plan.border[mi].as_ref().is_some_and(|b| b[v]) {
             0
         } else if self.scene.meshes[mi].sensor {
-            (self.samples * self.plan.sensor_factor).min(MAX_SAMPLES)
+            (self.samples * SENSOR_SAMPLES).min(MAX_SAMPLES)
         } else {
             self.samples
         }
     }
 
-    /// The light samples' density L of vertex `v` of mesh `mi` at a point where its hat is
-    /// `hat`.
+    /// The samples' density of vertex `v` of mesh `mi` at a point where its hat is `hat`,
+    /// over the photons per pass of the vertex's schedule (R): compared with one photon's
+    /// density, as L against P = R·p (times a gain).
     #[inline]
     fn light_density(&self, mi: usize, v: usize, hat: f64) -> f64 {
-        let a = self.scene.meshes[mi].vertex_area[v];
+        let m = &self.scene.meshes[mi];
+        let a = m.vertex_area[v];
         if a > 0.0 {
-            LIGHT_SAMPLE_GAIN * self.samples_at(mi, v) as f64 * hat / a
+            let r = if m.sensor {
+                self.sensor_pass_photons
+            } else {
+                self.pass_photons
+            };
+            self.samples_at(mi, v) as f64 * hat / (a * r as f64)
         } else {
             0.0
         }
     }
 
-    /// The weights of a photon's direct deposit at barycentric (u, v) of triangle `prim`
-    /// of recording mesh `mesh`, from emitter `e`'s point `y` along unit `dir`, for the
-    /// triangle's three vertices. `cos_y`: the photon's cosine at an emitting mesh.
-    #[allow(clippy::too_many_arguments)]
-    pub fn photon_weights(
+    /// The density p of one photon from emitter `e`'s point `y` (cosine `cos_y` there for
+    /// an emitting mesh) along unit `dir` landing at `z` (geometric normal `n`). `dir` is
+    /// the photon's own: recomputed from z, which holds the f32 barycentric coordinates'
+    /// rounding, it could leave a narrow spot's cone.
+    #[inline]
+    pub fn landing_density(
         &self,
         e: usize,
         y: DVec3,
         cos_y: f64,
         dir: DVec3,
+        z: DVec3,
+        n: DVec3,
+    ) -> f64 {
+        let r2 = (z - y).length_squared();
+        self.photon_density(e, dir, r2, dir.dot(n).abs(), cos_y.abs())
+    }
+
+    /// The weights of a photon's deposit at barycentric (u, v) of triangle `prim` of
+    /// recording mesh `mesh` for the triangle's three vertices, against the light samples
+    /// (`gain` `LIGHT_SAMPLE_GAIN`: direct light, `p` the photon's landing density there) or
+    /// the gathering paths (`GATHER_GAIN`: `p` its landing density at its first surface
+    /// event).
+    pub fn vertex_weights(
+        &self,
+        p: f64,
+        gain: f64,
         mesh: u32,
         prim: u32,
         u: f32,
         v: f32,
     ) -> [f32; 3] {
         let m = &self.scene.meshes[mesh as usize];
-        let x = m.point(prim as usize, u, v);
-        let n = m.normals[prim as usize].as_dvec3();
-        let cos_x = dir.dot(n).abs();
-        let p = self.photon_density(e, dir, (x - y).length_squared(), cos_x, cos_y.abs());
         let (u, v) = (u as f64, v as f64);
         let tri = m.triangles[prim as usize];
         let mut w = [1.0f32; 3];
         for (k, hat) in [1.0 - u - v, u, v].into_iter().enumerate() {
-            let l = self.light_density(mesh as usize, tri[k] as usize, hat);
+            let l = gain * self.light_density(mesh as usize, tri[k] as usize, hat);
             w[k] = power(p, l) as f32;
         }
         w
     }
 
-    /// Photon `k`'s share of the direct passes (nothing for most photons).
+    /// Photon `k`'s share of the passes (nothing for most photons): chunk k mod R of pass
+    /// ⌊k / R⌋ of the vertices that are not sensors', and the same on the sensors' own
+    /// schedule.
     pub fn photon_done(&self, k: u64) {
+        let plan = self.plan;
         let j = k % self.pass_photons;
-        if j >= self.plan.chunks {
-            return;
+        if j < plan.chunks[0] {
+            let lo = j as usize * CHUNK_SLOTS;
+            self.chunk(
+                k / self.pass_photons,
+                lo..(lo + CHUNK_SLOTS).min(plan.regular),
+            );
         }
-        let mut sums = Vec::new();
-        let sums = &mut sums;
-        let pass = k / self.pass_photons;
+        let j = k % self.sensor_pass_photons;
+        if j < plan.chunks[1] {
+            let lo = plan.regular + j as usize * CHUNK_SLOTS;
+            self.chunk(
+                k / self.sensor_pass_photons,
+                lo..(lo + CHUNK_SLOTS).min(plan.slots),
+            );
+        }
+    }
+
+    /// Pass `pass` of the slots `range` of the passes' order.
+    fn chunk(&self, pass: u64, range: std::ops::Range<usize>) {
         let scene = self.scene;
         let nb = scene.emitters.first().map_or(0, |e| e.colour.len());
         let layers = scene.layers;
         let groups = layers.groups as usize;
-        sums.clear();
-        sums.resize(nb * (groups + 1), 0.0);
-        let lo = j as usize * CHUNK_SLOTS;
-        let hi = (lo + CHUNK_SLOTS).min(self.plan.slots);
+        // Per group: the direct sums, then the gathered (indirect) sums; then a total.
+        let mut sums = vec![0.0; nb * (2 * groups + 1)];
+        let white = vec![1.0; nb];
+        let mut through = Colour::new(nb);
         let unit2 = self.unit_m * self.unit_m;
-        for i in lo..hi {
+        for i in range {
             let (mi, v, side, slot) = self.plan.locate(scene, i);
             let mesh = &scene.meshes[mi];
             let area = mesh.vertex_area[v];
@@ -417,13 +553,14 @@ impl DirectSampler<'_> {
             }
             // A border vertex's passes are empty, but counted.
             let samples = self.samples_at(mi, v);
-            sums[..nb * groups].fill(0.0);
+            sums[..2 * nb * groups].fill(0.0);
             let seed = scramble(self.seed, pass, i);
             let adj = self.plan.adjacency[mi].as_ref().expect("recording mesh");
             let list = adj.first[v] as usize..adj.first[v + 1] as usize;
-            for i in 0..samples {
-                let a = sobol_burley::sample_4d(i, 0, seed).map(f64::from);
-                let b = sobol_burley::sample_4d(i, 1, seed).map(f64::from);
+            let (direct, gathered) = sums.split_at_mut(nb * groups);
+            for s in 0..samples {
+                let a = sobol_burley::sample_4d(s, 0, seed).map(f64::from);
+                let b = sobol_burley::sample_4d(s, 1, seed).map(f64::from);
                 // The point on the support: a triangle by area, then the hat's density.
                 let k = list.start
                     + adj.cdf[list.clone()]
@@ -441,48 +578,209 @@ impl DirectSampler<'_> {
                 if side == 1 {
                     n = -n;
                 }
-                let l = self.light_density(mi, v, lv);
+                let density = self.light_density(mi, v, lv);
                 let at = Point {
                     on: x,
                     x: x + n * scene.offset_at(x),
                     n,
-                    l,
+                    l: LIGHT_SAMPLE_GAIN * density,
                 };
-                self.light_sample(&at, a[3], [b[0], b[1], b[2]], sums, nb);
+                if let Some((e, g)) = self.sample_light(&at, a[3], [b[0], b[1], b[2]]) {
+                    self.add(e, g, None, direct, nb);
+                }
+                if self.gather {
+                    let index = (pass.wrapping_mul(self.plan.slots as u64) + i as u64)
+                        .wrapping_mul(MAX_SAMPLES as u64)
+                        .wrapping_add(s as u64);
+                    let mut dims = SampleDims {
+                        index: s,
+                        seed,
+                        dim: GATHER_DIM,
+                        rng: PhotonRng::new(self.seed ^ 0x2545_F491_4F6C_DD1D, index),
+                    };
+                    through.reset(&white);
+                    let l = GATHER_GAIN * density;
+                    self.gather(&at, l, &mut dims, &mut through, gathered, nb);
+                }
             }
             // Irradiance (W/m²) times the vertex's area (m²): the pass's flux estimate.
             let k = area * unit2 / samples.max(1) as f64;
-            let (per_group, total) = sums.split_at_mut(nb * groups);
+            let (parts, total) = sums.split_at_mut(2 * nb * groups);
+            let (direct, gathered) = parts.split_at_mut(nb * groups);
             total.fill(0.0);
             for g in 0..groups {
-                let s = &mut per_group[g * nb..(g + 1) * nb];
-                s.iter_mut().for_each(|x| *x *= k);
-                for (t, x) in total.iter_mut().zip(s.iter()) {
+                let d = &mut direct[g * nb..(g + 1) * nb];
+                d.iter_mut().for_each(|x| *x *= k);
+                for (t, x) in total.iter_mut().zip(d.iter()) {
                     *t += x;
                 }
-                self.acc.add_pass(layers.cell(slot, g as u8), s);
+            }
+            if let Some(dl) = layers.direct_layer() {
+                // The direct layer: the direct sums alone.
+                self.acc.add_pass(layers.cell(slot, dl), total);
+            }
+            let mut sum = 0.0;
+            for g in 0..groups {
+                let d = &mut direct[g * nb..(g + 1) * nb];
+                for (x, y) in d.iter_mut().zip(&gathered[g * nb..(g + 1) * nb]) {
+                    *x += y * k;
+                    sum += *x;
+                }
+                self.acc.add_pass(layers.cell(slot, g as u8), d);
             }
             if groups > 1 {
-                let m = total.iter().sum::<f64>() / nb as f64;
+                let m = sum / nb as f64;
                 self.acc.add_total_square(layers.cell(slot, 0), m * m);
-            }
-            if let Some(d) = layers.direct_layer() {
-                self.acc.add_pass(layers.cell(slot, d), total);
             }
         }
     }
 
-    /// Adds `weight` (W/m² per unit of the emitter's colour) of emitter `e` to `sums`.
+    /// Adds `weight` (W/m² per unit of the emitter's colour) of emitter `e` to `sums`,
+    /// per band times `through` (a gathering path's throughput) and `k` (the reflectance
+    /// or transmittance that sends the light on), when given.
     #[inline]
-    fn add(&self, e: usize, weight: f64, sums: &mut [f64], nb: usize) {
+    fn add(
+        &self,
+        e: usize,
+        weight: f64,
+        path: Option<(&Colour, &[f64])>,
+        sums: &mut [f64],
+        nb: usize,
+    ) {
         if !(weight > 0.0 && weight.is_finite()) {
             return;
         }
         let em = &self.scene.emitters[e];
         let g = em.layer as usize;
         let k = weight * self.scene.total_power / nb as f64 / (self.unit_m * self.unit_m);
-        for (s, c) in sums[g * nb..(g + 1) * nb].iter_mut().zip(&em.colour) {
-            *s += k * c;
+        let s = &mut sums[g * nb..(g + 1) * nb];
+        match path {
+            None => {
+                for (s, c) in s.iter_mut().zip(&em.colour) {
+                    *s += k * c;
+                }
+            }
+            Some((through, coefficient)) => {
+                for (((s, c), t), r) in s
+                    .iter_mut()
+                    .zip(&em.colour)
+                    .zip(through.values())
+                    .zip(coefficient)
+                {
+                    *s += k * c * t * r;
+                }
+            }
+        }
+    }
+
+    /// The indirect light at a sample's point `at`, added to `sums` (W/m² per group): a
+    /// path from x, cosine-distributed over the side (so its estimate of the irradiance is
+    /// π times the radiance it finds), that at each surface it meets takes a light sample
+    /// for the diffusely reflected and transmitted light toward x and goes on as a photon
+    /// would (the same events, weighted while it keeps half its throughput, then Russian
+    /// roulette). It ends at a dielectric: light through smooth interfaces (caustics) stays
+    /// the photons' (`Tracer::follow` keeps those deposits), as does light whose first
+    /// surface event was specular.
+    #[allow(clippy::too_many_arguments)]
+    fn gather(
+        &self,
+        at: &Point,
+        l: f64,
+        d: &mut SampleDims,
+        t: &mut Colour,
+        sums: &mut [f64],
+        nb: usize,
+    ) {
+        let scene = self.scene;
+        let mut dir = warp::cosine_hemisphere(at.n, d.next(), d.next());
+        let mut org = at.x;
+        for _ in 0..self.max_events.min(GATHER_DEPTH) {
+            let Some(hit) = self.accel.intersect(org, dir) else {
+                return;
+            };
+            let mesh = &scene.meshes[hit.mesh as usize];
+            let prim = hit.prim as usize;
+            let material = &self.materials[mesh.material(prim) as usize];
+            if material.dielectric.is_some() {
+                return;
+            }
+            let ng = mesh.normals[prim].as_dvec3();
+            let n_in = if dir.dot(ng) < 0.0 { ng } else { -ng };
+            let p = mesh.point(prim, hit.u, hit.v);
+            let eps = scene.offset_at(p);
+            // Light scattered diffusely toward x: reflected from the side the path arrived
+            // on, transmitted from the other.
+            for (on, k, n) in [
+                (material.events[0], &material.diffuse_reflect, n_in),
+                (material.events[2], &material.diffuse_transmit, -n_in),
+            ] {
+                if !on {
+                    continue;
+                }
+                let y = Point {
+                    on: p,
+                    x: p + n * eps,
+                    n,
+                    l,
+                };
+                let u = d.next();
+                let w = [d.next(), d.next(), d.next()];
+                if let Some((e, g)) = self.sample_light(&y, u, w) {
+                    self.add(e, g, Some((t, k)), sums, nb);
+                }
+            }
+            // Go on as a photon would.
+            let mut u = d.next();
+            let events = [
+                &material.diffuse_reflect,
+                &material.specular_reflect,
+                &material.diffuse_transmit,
+            ];
+            let possible = || {
+                events
+                    .iter()
+                    .enumerate()
+                    .filter(|(i, _)| material.events[*i])
+            };
+            let weigh = t.mean() >= WEIGHTED_BOUNCES_DOWN_TO;
+            let mut survive = 1.0;
+            if weigh {
+                survive = possible().map(|(_, k)| t.weighted_mean(k)).sum::<f64>();
+                if survive.is_nan() || survive <= 0.0 {
+                    return;
+                }
+                u *= survive;
+            }
+            let mut cumulative = 0.0;
+            let mut chosen = None;
+            for (i, k) in possible() {
+                let p = t.weighted_mean(k);
+                cumulative += p;
+                if u < cumulative {
+                    t.reweight(k, p);
+                    chosen = Some(i);
+                    break;
+                }
+            }
+            if weigh {
+                t.scale(survive);
+            }
+            let (u1, u2) = (d.next(), d.next());
+            match chosen {
+                Some(0) => {
+                    dir = warp::cosine_hemisphere(n_in, u1, u2);
+                    org = p + n_in * eps;
+                }
+                Some(1) => {
+                    dir = reflect(dir, n_in);
+                    org = p + n_in * eps;
+                }
+                Some(_) => {
+                    dir = warp::cosine_hemisphere(-n_in, u1, u2);
+                    org = p - n_in * eps;
+                }
+                None => return,
+            }
         }
     }
 
@@ -510,8 +808,10 @@ impl DirectSampler<'_> {
         Some((dir, r))
     }
 
-    /// One light sample at `at`.
-    fn light_sample(&self, at: &Point, u: f64, w: [f64; 3], sums: &mut [f64], nb: usize) {
+    /// One light sample at `at`: the emitter and its irradiance at x per unit of its
+    /// colour (W/m² before `add`'s conversion), MIS-weighted against photons unless
+    /// `at.l` is infinite.
+    fn sample_light(&self, at: &Point, u: f64, w: [f64; 3]) -> Option<(usize, f64)> {
         let scene = self.scene;
         let (x, n) = (at.x, at.n);
         let e = scene.emitter_table.sample(u);
@@ -521,34 +821,30 @@ impl DirectSampler<'_> {
                 let cos_x = -axis.dot(n);
                 let t = (x - em.position).dot(*axis);
                 if cos_x <= 0.0 || t <= 0.0 {
-                    return;
+                    return None;
                 }
                 let q = x - *axis * t;
                 if !aperture.contains(q - em.position) {
-                    return;
+                    return None;
                 }
-                if self.visible(x, q).is_none() {
-                    return;
-                }
+                self.visible(x, q)?;
                 let mis = power(at.l, self.photon_density(e, *axis, t * t, cos_x, 1.0));
-                self.add(e, mis * cos_x / aperture.area(), sums, nb);
+                Some((e, mis * cos_x / aperture.area()))
             }
             EmitterKind::Light(shape) => {
                 let y = match shape.aperture() {
                     Some(a) => em.position + a.sample(w[0], w[1]),
                     None => em.position,
                 };
-                let Some((dir, r)) = self.visible(x, y) else {
-                    return;
-                };
+                let (dir, r) = self.visible(x, y)?;
                 let cos_x = dir.dot(n);
                 if cos_x <= 0.0 {
-                    return;
+                    return None;
                 }
                 let r2 = (at.on - y).length_squared();
                 let mis = power(at.l, self.photon_density(e, -dir, r2, cos_x, 1.0));
                 let g = shape.intensity_per_watt(-dir) * cos_x / (r * r);
-                self.add(e, mis * g, sums, nb);
+                Some((e, mis * g))
             }
             EmitterKind::Mesh {
                 mesh,
@@ -561,21 +857,19 @@ impl DirectSampler<'_> {
                 let (b1, b2) = warp::uniform_triangle(w[0], w[1]);
                 let y = a + (b - a) * b1 + (c - a) * b2;
                 let ny = m.normals[t].as_dvec3();
-                let Some((dir, r)) = self.visible(x, y) else {
-                    return;
-                };
+                let (dir, r) = self.visible(x, y)?;
                 let cos_x = dir.dot(n);
                 let mut cos_y = -dir.dot(ny);
                 if *two_sided {
                     cos_y = cos_y.abs();
                 }
                 if cos_x <= 0.0 || cos_y <= 0.0 {
-                    return;
+                    return None;
                 }
                 let sides = if *two_sided { 2.0 } else { 1.0 };
                 let r2 = (at.on - y).length_squared();
                 let mis = power(at.l, self.photon_density(e, -dir, r2, cos_x, cos_y));
-                self.add(e, mis * cos_x * cos_y / (PI * sides * r * r), sums, nb);
+                Some((e, mis * cos_x * cos_y / (PI * sides * r * r)))
             }
         }
     }

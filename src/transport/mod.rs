@@ -208,19 +208,46 @@ struct Emission {
     energy: f64,
 }
 
-/// A deposit on (mesh, prim, side) at barycentric (u, v) of a photon going along `dir`:
-/// weighted against the light samples (`direct`) when it is direct light.
+/// How a photon's deposits are weighted under the light-sampling estimator.
+#[derive(Clone, Copy)]
+enum Weigh<'d> {
+    /// Photons deposit everything (photons only, or light that is neither kind below).
+    Not,
+    /// Direct light: weighted against the light samples.
+    Direct(&'d direct::DirectSampler<'d>, &'d Origin),
+    /// Light the passes gather too: weighted against them (`p`: the photon's landing
+    /// density at its first surface event).
+    Gathered(&'d direct::DirectSampler<'d>, f64),
+}
+
+/// A deposit on (mesh, prim, side) at barycentric (u, v) of a photon going along `dir`,
+/// weighted as `weigh` says.
 #[inline]
 fn deposit<S: HitSink>(
     sink: &mut S,
-    weigh: Option<(&direct::DirectSampler, &Origin)>,
+    weigh: Weigh,
     at: (u32, u32, u8),
     (u, v): (f32, f32),
     dir: DVec3,
     colour: &Colour,
 ) {
-    let weights =
-        weigh.map(|(d, o)| d.photon_weights(o.emitter, o.y, o.cos_y, dir, at.0, at.1, u, v));
+    let weights = match weigh {
+        Weigh::Not => None,
+        Weigh::Direct(d, o) => {
+            let m = &d.scene.meshes[at.0 as usize];
+            let x = m.point(at.1 as usize, u, v);
+            let n = m.normals[at.1 as usize].as_dvec3();
+            let p = d.landing_density(o.emitter, o.y, o.cos_y, dir, x, n);
+            Some(d.vertex_weights(p, direct::LIGHT_SAMPLE_GAIN, at.0, at.1, u, v))
+        }
+        Weigh::Gathered(d, p) => {
+            let w = d.vertex_weights(p, direct::GATHER_GAIN, at.0, at.1, u, v);
+            if w == [0.0; 3] {
+                return;
+            }
+            Some(w)
+        }
+    };
     sink.deposit(at, (u, v), colour, weights);
 }
 
@@ -367,6 +394,11 @@ impl Tracer<'_> {
             return PathEnd::Escaped;
         };
         let mut medium: Option<Medium> = None;
+        // Whether the passes gather what the photon brings from here on: its first surface
+        // event was a diffuse one and it has met no dielectric since (the paths a gathering
+        // path from a vertex follows back to its light sample, `direct::DirectSampler::gather`).
+        let mut gathered = None;
+        let gathering = self.direct.filter(|d| d.gather);
         bounces.meshes.clear();
         if self.direct.is_some() {
             bounces.delta.clear();
@@ -398,7 +430,15 @@ impl Tracer<'_> {
 
             // With light sampling at the vertices, deposits before the first surface
             // event is over are direct light: weighted against the light samples.
-            let weigh = self.direct.filter(|_| event == 0).map(|d| (d, from));
+            let weigh = match (self.direct, gathering) {
+                (Some(d), _) if event == 0 => Weigh::Direct(d, from),
+                // A deposit after `event` surface events (the first diffuse): a gathering
+                // path from x takes its light sample at its `event`-th surface.
+                (_, Some(d)) if gathered.is_some() && event <= direct::GATHER_DEPTH => {
+                    Weigh::Gathered(d, gathered.unwrap_or(0.0))
+                }
+                _ => Weigh::Not,
+            };
             if let Some(sensors) = self.sensors {
                 // Sensors on the segment, up to and including the surface it ends on (a
                 // sensor laid on a floor sees the light arriving there).
@@ -439,6 +479,11 @@ impl Tracer<'_> {
 
             let p_hit = mesh.point(prim, hit.u, hit.v);
             let eps = self.scene.offset_at(p_hit);
+            // The photon's landing density at its first surface event (the gathering
+            // paths' weights against it), if its event there is diffuse.
+            let landing = gathering
+                .filter(|_| event == 0)
+                .map(|d| d.landing_density(from.emitter, from.y, from.cos_y, dir, p_hit, ng));
             let material_id = mesh.material(prim);
             let material = &self.materials[material_id as usize];
             if S::SURFACES {
@@ -454,6 +499,7 @@ impl Tracer<'_> {
             }
 
             if let Some(d) = &material.dielectric {
+                gathered = None;
                 // Smooth dielectric interface: Fresnel reflection or Snell refraction.
                 if d.dispersive {
                     colour.collapse(rng.uniform());
@@ -527,6 +573,7 @@ impl Tracer<'_> {
                 if u < cumulative {
                     colour.reweight(&material.diffuse_reflect, p);
                     bounced(colour, bounces);
+                    gathered = gathered.or(landing);
                     dir = warp::cosine_hemisphere(n_in, rng.uniform(), rng.uniform());
                     org = p_hit + n_in * eps;
                     continue;
@@ -549,6 +596,7 @@ impl Tracer<'_> {
                 if u < cumulative {
                     colour.reweight(&material.diffuse_transmit, p);
                     bounced(colour, bounces);
+                    gathered = gathered.or(landing);
                     dir = warp::cosine_hemisphere(-n_in, rng.uniform(), rng.uniform());
                     org = p_hit - n_in * eps;
                     continue;

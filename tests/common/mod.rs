@@ -349,7 +349,17 @@ pub fn hat_average(g: &Geometry, v: usize, e: impl Fn([f64; 3]) -> f64) -> f64 {
 /// `hat_average` of a field that depends on the point and the unit normal of the face it
 /// lies on (e.g. I·cosθ/r² on a polyhedron).
 pub fn hat_average_faces(g: &Geometry, v: usize, e: impl Fn([f64; 3], [f64; 3]) -> f64) -> f64 {
-    let m = 48;
+    hat_average_with(g, v, 48, e)
+}
+
+/// `hat_average_faces` on an m × m subdivision of each triangle (a field with a step, e.g. a
+/// beam's edge, needs a fine one: the centroid rule's error there is of order 1/m).
+pub fn hat_average_with(
+    g: &Geometry,
+    v: usize,
+    m: usize,
+    e: impl Fn([f64; 3], [f64; 3]) -> f64,
+) -> f64 {
     let (mut num, mut den) = (0.0, 0.0);
     for t in g.indices.chunks_exact(3) {
         let Some(k) = t.iter().position(|&i| i as usize == v) else {
