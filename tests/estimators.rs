@@ -224,18 +224,7 @@ fn a_narrow_spot_stays_unbiased() {
                 .sum::<f64>(),
         );
     }
-    let n = fluxes.len() as f64;
-    let mean = fluxes.iter().sum::<f64>() / n;
-    let sd = (fluxes.iter().map(|f| (f - mean).powi(2)).sum::<f64>() / (n - 1.0)).sqrt();
-    eprintln!(
-        "narrow spot: flux {mean:.6} ± {:.2e} W (sd {sd:.2e}) vs {POWER}",
-        sd / n.sqrt()
-    );
-    assert!(
-        (mean - POWER).abs() <= 4.0 * sd / n.sqrt() + 1e-9 * POWER,
-        "{fluxes:?}"
-    );
-    assert!(sd < 0.01 * POWER, "{fluxes:?}");
+    assert_seed_mean(&fluxes, POWER, "narrow spot: flux (W)");
 }
 
 /// A closed grey room: light sampling and photons only give the same map within their
@@ -376,29 +365,6 @@ fn difference_z(a: &[(f64, f64)], b: &[(f64, f64)]) -> (f64, f64, usize) {
     ((z2 / n as f64).sqrt(), z1 / n as f64, n)
 }
 
-/// Every band and side of every recording mesh: (irradiance, relative error) per value.
-fn map_values(ctx: &Context, ids: &[u32]) -> Vec<(f64, f64)> {
-    let mut all = Vec::new();
-    for &m in ids {
-        let n = ctx.vertex_count(m).unwrap();
-        let sides = if ctx.scene().meshes[m as usize].two_sided {
-            2
-        } else {
-            1
-        };
-        for side in 0..sides {
-            let mut err = vec![0.0; n];
-            ctx.rel_error(m, side, &mut err).unwrap();
-            for band in 0..ctx.scene().bands.count() as u32 {
-                let mut e = vec![0.0; n];
-                ctx.irradiance(m, side, band, &mut e).unwrap();
-                all.extend(e.into_iter().zip(err.iter().copied()));
-            }
-        }
-    }
-    all
-}
-
 /// Gathering and photons only agree in a closed grey room and in a room of every material:
 /// the gathering paths stop at dielectrics and light whose first surface event is specular
 /// or through glass stays the photons' (a wrong partition would double or drop it: a bias of
@@ -425,7 +391,7 @@ fn gathering_and_photons_only_agree() {
         let (mut b, _) = build(2);
         run(&mut a, photons(n_gather), Estimator::GATHER);
         run(&mut b, photons(n_photons), Estimator::Photons);
-        let (rms, mean, n) = difference_z(&map_values(&a, &ids), &map_values(&b, &ids));
+        let (rms, mean, n) = difference_z(&map_with_errors(&a, &ids), &map_with_errors(&b, &ids));
         eprintln!("{what}: rms z of the difference {rms:.2}, mean z {mean:.3} over {n} values");
         assert!((0.7..1.3).contains(&rms), "{what}: rms z {rms}");
         assert!(mean.abs() < 0.2, "{what}: mean z {mean}");
@@ -454,15 +420,11 @@ fn gathering_reads_the_integrating_sphere() {
         expected = power / (total * (1.0 - rho));
         means.push(e.iter().zip(&area).map(|(e, a)| e * a).sum::<f64>() / total);
     }
-    let n = means.len() as f64;
-    let mean = means.iter().sum::<f64>() / n;
-    let sd = (means.iter().map(|m| (m - mean).powi(2)).sum::<f64>() / (n - 1.0)).sqrt();
-    eprintln!("integrating sphere, ρ = {rho}: mean E {mean:.5} (sd {sd:.5} per seed), expected {expected:.5}");
-    assert!(
-        (mean - expected).abs() <= 4.0 * sd / n.sqrt() + 1e-9 * expected,
-        "{means:?} vs {expected}"
+    assert_seed_mean(
+        &means,
+        expected,
+        &format!("integrating sphere, ρ = {rho}: mean irradiance (W/m²)"),
     );
-    assert!(sd < 0.01 * expected, "{means:?}");
 }
 
 /// A state keeps the gathering estimator: a load adopts it, a merge with a light-sampling

@@ -298,8 +298,17 @@ pub fn mixed_room(config: Config) -> (Context, Vec<u32>) {
     (ctx, ids)
 }
 
-/// Every band and side of every recording mesh, in one vector.
+/// Every band and side of every recording mesh, in one vector (each value followed by its
+/// vertex's relative error).
 pub fn whole_map(ctx: &Context, ids: &[u32]) -> Vec<f64> {
+    map_with_errors(ctx, ids)
+        .into_iter()
+        .flat_map(|(e, r)| [e, r])
+        .collect()
+}
+
+/// Every band and side of every recording mesh: (irradiance, relative error) per value.
+pub fn map_with_errors(ctx: &Context, ids: &[u32]) -> Vec<(f64, f64)> {
     let mut all = Vec::new();
     for &m in ids {
         let n = ctx.vertex_count(m).unwrap();
@@ -309,17 +318,33 @@ pub fn whole_map(ctx: &Context, ids: &[u32]) -> Vec<f64> {
             1
         };
         for side in 0..sides {
+            let mut err = vec![0.0; n];
+            ctx.rel_error(m, side, &mut err).unwrap();
             for band in 0..ctx.scene().bands.count() as u32 {
                 let mut e = vec![0.0; n];
                 ctx.irradiance(m, side, band, &mut e).unwrap();
-                all.extend(e);
+                all.extend(e.into_iter().zip(err.iter().copied()));
             }
-            let mut err = vec![0.0; n];
-            ctx.rel_error(m, side, &mut err).unwrap();
-            all.extend(err);
         }
     }
     all
+}
+
+/// The mean of per-seed results `values` equals `expected` within 4 standard errors (their
+/// spread), and they spread by less than 1 % of it.
+pub fn assert_seed_mean(values: &[f64], expected: f64, what: &str) {
+    let n = values.len() as f64;
+    let mean = values.iter().sum::<f64>() / n;
+    let sd = (values.iter().map(|f| (f - mean).powi(2)).sum::<f64>() / (n - 1.0)).sqrt();
+    eprintln!(
+        "{what}: {mean:.6} ± {:.2e} (sd {sd:.2e} per seed) vs {expected:.6}",
+        sd / n.sqrt()
+    );
+    assert!(
+        (mean - expected).abs() <= 4.0 * sd / n.sqrt() + 1e-9 * expected.abs(),
+        "{what}: {values:?} vs {expected}"
+    );
+    assert!(sd < 0.01 * expected.abs(), "{what}: {values:?}");
 }
 
 pub fn assert_maps_agree(a: &[f64], b: &[f64], what: &str) {
