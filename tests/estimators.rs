@@ -227,43 +227,33 @@ fn a_narrow_spot_stays_unbiased() {
     assert_seed_mean(&fluxes, POWER, "narrow spot: flux (W)");
 }
 
+/// A closed grey room (ρ = 0.6, 6 × 6 cells a face) lit by a point light.
+fn grey_room(seed: u64) -> (Context, Vec<u32>) {
+    let mut ctx = context(cfg(seed));
+    let grey = lambert(&mut ctx, 0.6);
+    let id = ctx
+        .add_mesh(&cuboid([0.0; 3], [1.0; 3], 6, true).desc(grey))
+        .unwrap();
+    ctx.add_point_light([0.3, 0.6, 0.8], &[10.0]).unwrap();
+    (ctx, vec![id])
+}
+
 /// A closed grey room: light sampling and photons only give the same map within their
 /// errors (z-scores of the difference with rms ≈ 1), indirect light included.
 #[test]
 fn light_sampling_and_photons_only_agree_in_a_grey_room() {
-    let build = |seed| {
-        let mut ctx = context(cfg(seed));
-        let grey = lambert(&mut ctx, 0.6);
-        let id = ctx
-            .add_mesh(&cuboid([0.0; 3], [1.0; 3], 6, true).desc(grey))
-            .unwrap();
-        ctx.add_point_light([0.3, 0.6, 0.8], &[10.0]).unwrap();
-        (ctx, id)
-    };
-    let (mut a, ida) = build(1);
-    let (mut b, idb) = build(2);
+    let (mut a, ids) = grey_room(1);
+    let (mut b, _) = grey_room(2);
     run(&mut a, photons(1_000_000), Estimator::DEFAULT);
     run(&mut b, photons(1_000_000), Estimator::Photons);
-    let nv = a.vertex_count(ida).unwrap();
-    let read = |c: &Context, id| {
-        let (mut e, mut r) = (vec![0.0; nv], vec![0.0; nv]);
-        c.irradiance(id, 0, 0, &mut e).unwrap();
-        c.rel_error(id, 0, &mut r).unwrap();
-        (e, r)
-    };
-    let ((ea, ra), (eb, rb)) = (read(&a, ida), read(&b, idb));
-    let mut z2 = 0.0;
-    for v in 0..nv {
-        let s = ((ea[v] * ra[v]).powi(2) + (eb[v] * rb[v]).powi(2)).sqrt();
-        z2 += ((ea[v] - eb[v]) / s).powi(2);
-    }
-    let rms = (z2 / nv as f64).sqrt();
-    eprintln!("grey room: rms z of the difference {rms:.2} over {nv} vertices");
+    let (ma, mb) = (map_with_errors(&a, &ids), map_with_errors(&b, &ids));
+    let (rms, mean_z, n) = difference_z(&ma, &mb);
+    eprintln!("grey room: rms z of the difference {rms:.2}, mean z {mean_z:.3} over {n} values");
     assert!((0.75..1.3).contains(&rms), "rms z {rms}");
     // Light sampling's error at the same photon count is below the photons' (direct light
     // dominates a room lit by a point light).
-    let mean = |r: &[f64]| r.iter().sum::<f64>() / r.len() as f64;
-    assert!(mean(&ra) < mean(&rb), "{} vs {}", mean(&ra), mean(&rb));
+    let mean = |m: &[(f64, f64)]| m.iter().map(|x| x.1).sum::<f64>() / m.len() as f64;
+    assert!(mean(&ma) < mean(&mb), "{} vs {}", mean(&ma), mean(&mb));
 }
 
 #[test]
@@ -371,19 +361,10 @@ fn difference_z(a: &[(f64, f64)], b: &[(f64, f64)]) -> (f64, f64, usize) {
 /// many σ at the vertices it reaches).
 #[test]
 fn gathering_and_photons_only_agree() {
-    let grey = |seed| {
-        let mut ctx = context(cfg(seed));
-        let grey = lambert(&mut ctx, 0.6);
-        let id = ctx
-            .add_mesh(&cuboid([0.0; 3], [1.0; 3], 6, true).desc(grey))
-            .unwrap();
-        ctx.add_point_light([0.3, 0.6, 0.8], &[10.0]).unwrap();
-        (ctx, vec![id])
-    };
     let mixed = |seed| mixed_room(cfg(seed));
     type Build<'a> = &'a dyn Fn(u64) -> (Context, Vec<u32>);
     let cases: [(&str, Build, u64, u64); 2] = [
-        ("grey room", &grey, 100_000, 1_000_000),
+        ("grey room", &grey_room, 100_000, 1_000_000),
         ("room of every material", &mixed, 200_000, 2_000_000),
     ];
     for (what, build, n_gather, n_photons) in cases {
