@@ -435,3 +435,98 @@ fn states_keep_the_gathering_estimator() {
     let e = c.merge_state(&bytes).unwrap_err();
     assert!(e.message.contains("gathering"), "{e}");
 }
+
+/// Gathering with everything a map can keep: two light groups and the direct layer, a
+/// tallied plate of two materials (its border vertices leave their light to the photons),
+/// a sensor grid on its own passes. The groups add up to the map; the direct layer, the
+/// parts' fluxes and the grid agree with photons only within their errors.
+#[test]
+fn gathering_keeps_groups_the_direct_layer_parts_and_sensors() {
+    let build = |seed| {
+        let mut ctx = context(cfg(seed));
+        let grey = lambert(&mut ctx, 0.5);
+        let dark = lambert(&mut ctx, 0.2);
+        let black = lambert(&mut ctx, 0.0);
+        let room = ctx
+            .add_mesh(&cuboid([-1.0, -1.0, 0.0], [1.0, 1.0, 2.0], 4, true).desc(grey))
+            .unwrap();
+        let g = grid(6, -0.6, 0.6, -0.6, 0.6, 0.3);
+        let tm: Vec<u32> = (0..g.indices.len() / 3)
+            .map(|t| if t % 12 < 6 { grey } else { dark })
+            .collect();
+        let plate = ctx
+            .add_mesh(&MeshDesc {
+                triangle_materials: Some(&tm),
+                tally: true,
+                ..g.desc(grey)
+            })
+            .unwrap();
+        let s = grid(4, -0.8, 0.8, -0.8, 0.8, 1.0);
+        let sensor = ctx
+            .add_mesh(&MeshDesc {
+                sensor: true,
+                ..s.desc(black)
+            })
+            .unwrap();
+        let p = ctx.add_point_light([0.2, -0.3, 1.7], &[8.0]).unwrap();
+        let q = ctx
+            .add_spot_light([-0.5, 0.4, 1.9], [0.3, -0.2, -1.0], 0.6, &[5.0])
+            .unwrap();
+        ctx.set_light_group(p, 0).unwrap();
+        ctx.set_light_group(q, 1).unwrap();
+        ctx.set_layers(imap::LayerRequest {
+            groups: true,
+            direct: true,
+        })
+        .unwrap();
+        (ctx, [room, plate, sensor], [grey, dark])
+    };
+    let (mut a, ids, mats) = build(1);
+    let (mut b, _, _) = build(2);
+    run(&mut a, photons(60_000), Estimator::GATHER);
+    run(&mut b, photons(1_500_000), Estimator::Photons);
+    let layer = |c: &Context, m: u32, l: imap::Layer| {
+        let n = c.vertex_count(m).unwrap();
+        let (mut e, mut r) = (vec![0.0; n], vec![0.0; n]);
+        c.irradiance_layer(m, 0, 0, l, &mut e).unwrap();
+        c.rel_error_layer(m, 0, l, &mut r).unwrap();
+        e.into_iter().zip(r).collect::<Vec<_>>()
+    };
+    for &m in &ids {
+        // The groups add up to the map.
+        let all = layer(&a, m, imap::Layer::Combined);
+        let (g0, g1) = (
+            layer(&a, m, imap::Layer::Group(0)),
+            layer(&a, m, imap::Layer::Group(1)),
+        );
+        for v in 0..all.len() {
+            let sum = g0[v].0 + g1[v].0;
+            assert!(
+                (sum - all[v].0).abs() <= 1e-9 * all[v].0.max(1e-30),
+                "mesh {m} vertex {v}"
+            );
+        }
+        for l in [imap::Layer::Combined, imap::Layer::Direct] {
+            let (rms, mean, n) = difference_z(&layer(&a, m, l), &layer(&b, m, l));
+            eprintln!("mesh {m}, {l:?}: rms z {rms:.2}, mean z {mean:.3} over {n} vertices");
+            assert!((0.6..1.4).contains(&rms), "mesh {m} {l:?}: rms z {rms}");
+            assert!(
+                mean.abs() < 4.0 / (n as f64).sqrt(),
+                "mesh {m} {l:?}: mean z {mean}"
+            );
+        }
+    }
+    for part in [None, Some(mats[0]), Some(mats[1])] {
+        let (x, y) = (
+            a.region_stats(ids[1], 0, part).unwrap(),
+            b.region_stats(ids[1], 0, part).unwrap(),
+        );
+        let (fx, fy) = (&x.flux_w[0], &y.flux_w[0]);
+        let z = (fx.value - fy.value) / fx.sigma.hypot(fy.sigma);
+        eprintln!(
+            "plate {part:?}: {:.5} ± {:.5} W (gathering) vs {:.5} ± {:.5} W: z {z:.2}",
+            fx.value, fx.sigma, fy.value, fy.sigma
+        );
+        assert!(x.exact_errors && z.abs() < 4.0, "plate {part:?}: z {z}");
+    }
+}
