@@ -1418,7 +1418,15 @@ typedef struct ImapMaterial {
   /**
    * `IMAP_IOR_*`. Anything but NONE makes a smooth dielectric (Fresnel reflection and
    * Snell refraction; the three coefficients below must then be 0). Its mesh should be
-   * closed with normals pointing out; the outside is air (n = 1).
+   * closed with normals pointing out; the outside is air (n = 1). Illumination maps
+   * carry polarisation through dielectric interfaces (since 0.2.2): light leaves its
+   * source unpolarised, each interface reflects and transmits its s and p parts by their
+   * own Fresnel coefficients (a Mueller matrix on the photon's Stokes vector, phase
+   * included beyond the critical angle), so a slab transmits what polarised Fresnel
+   * with incoherent multiple reflections gives at every angle (0.4 % more at 45°,
+   * 1.5 % at 60°, 3.9 % at 75° for n = 1.52 than an unpolarised model); Lambertian and
+   * specular-coefficient surfaces depolarise. The renderer's backward paths use the
+   * unpolarised reflectance (R_s + R_p)/2.
    */
   uint32_t ior_model;
   /**

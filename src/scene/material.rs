@@ -180,9 +180,153 @@ pub fn fresnel_dielectric(cos_i: f64, n1: f64, n2: f64) -> f64 {
     0.5 * (rs * rs + rp * rp)
 }
 
+/// Fresnel amplitude coefficients (r_s, r_p) as complex numbers (re, im), for a ray going
+/// from index `n1` into `n2` with `cos_i` = cosine of the incidence angle (> 0), in the
+/// convention of `fresnel_dielectric` (|r_s|² + |r_p|² over 2 is its value). Beyond the
+/// critical angle both have modulus 1 and differ in phase.
+pub fn fresnel_amplitudes(cos_i: f64, n1: f64, n2: f64) -> ([f64; 2], [f64; 2]) {
+    let eta = n1 / n2;
+    let sin_t2 = eta * eta * (1.0 - cos_i * cos_i).max(0.0);
+    if sin_t2 < 1.0 {
+        let cos_t = (1.0 - sin_t2).sqrt();
+        let rs = (n1 * cos_i - n2 * cos_t) / (n1 * cos_i + n2 * cos_t);
+        let rp = (n2 * cos_i - n1 * cos_t) / (n2 * cos_i + n1 * cos_t);
+        return ([rs, 0.0], [rp, 0.0]);
+    }
+    // cos θt = i·k: r = (a − i·b) / (a + i·b) = ((a² − b²) − 2i·a·b) / (a² + b²).
+    let k = (sin_t2 - 1.0).sqrt();
+    let ratio = |a: f64, b: f64| {
+        let d = a * a + b * b;
+        [(a * a - b * b) / d, -2.0 * a * b / d]
+    };
+    (ratio(n1 * cos_i, n2 * k), ratio(n2 * cos_i, n1 * k))
+}
+
+/// The polarisation of a photon as a normalised Stokes vector (Q, U, V over I) in the
+/// frame of `s`, a unit vector perpendicular to its direction (Q = 1: all its power
+/// oscillates along `s`, Q = −1: perpendicular to it). Light leaves its source
+/// unpolarised; smooth dielectric interfaces polarise it (Fresnel's s and p coefficients as
+/// a Mueller matrix, `reflect_probability` and `after`); diffuse and coefficient (mirror)
+/// surfaces depolarise it.
+#[derive(Clone, Copy, Debug)]
+pub struct Polarisation {
+    pub s: glam::DVec3,
+    pub q: f64,
+    pub u: f64,
+    pub v: f64,
+}
+
+impl Polarisation {
+    /// At an interface whose plane of incidence has unit normal `s_hat` (perpendicular to
+    /// the direction), with amplitude coefficients (r_s, r_p) from `fresnel_amplitudes`:
+    /// the probability of reflection for this state, and a function applying the chosen
+    /// outcome. `state` None is unpolarised light.
+    pub fn reflect_probability(
+        state: &Option<Polarisation>,
+        s_hat: glam::DVec3,
+        dir: glam::DVec3,
+        rs: [f64; 2],
+        rp: [f64; 2],
+    ) -> (f64, [f64; 3]) {
+        let (r_s, r_p) = (rs[0] * rs[0] + rs[1] * rs[1], rp[0] * rp[0] + rp[1] * rp[1]);
+        // The state in the plane of incidence's frame: rotated by the angle from s to s_hat.
+        let quv = match state {
+            None => [0.0; 3],
+            Some(p) => {
+                let (c, sn) = (p.s.dot(s_hat), p.s.cross(s_hat).dot(dir));
+                let (c2, s2) = (c * c - sn * sn, 2.0 * sn * c);
+                [p.q * c2 + p.u * s2, -p.q * s2 + p.u * c2, p.v]
+            }
+        };
+        (0.5 * (r_s + r_p) + 0.5 * (r_s - r_p) * quv[0], quv)
+    }
+
+    /// The state after the interface: `reflected` or transmitted, `quv` and `p_reflect` from
+    /// `reflect_probability`, in the frame of `s_hat` (still perpendicular to the new
+    /// direction: it lies in the plane of incidence).
+    pub fn after(
+        s_hat: glam::DVec3,
+        quv: [f64; 3],
+        p_reflect: f64,
+        reflected: bool,
+        rs: [f64; 2],
+        rp: [f64; 2],
+    ) -> Polarisation {
+        let (r_s, r_p) = (rs[0] * rs[0] + rs[1] * rs[1], rp[0] * rp[0] + rp[1] * rp[1]);
+        let [q, u, v] = quv;
+        let (a, b, c, d, p) = if reflected {
+            // r_s·conj(r_p): its real part keeps U and V, its imaginary part turns one
+            // into the other (total internal reflection's phase difference).
+            let re = rs[0] * rp[0] + rs[1] * rp[1];
+            let im = rs[1] * rp[0] - rs[0] * rp[1];
+            (0.5 * (r_s + r_p), 0.5 * (r_s - r_p), re, im, p_reflect)
+        } else {
+            let (t_s, t_p) = (1.0 - r_s, 1.0 - r_p);
+            (
+                0.5 * (t_s + t_p),
+                0.5 * (t_s - t_p),
+                (t_s * t_p).max(0.0).sqrt(),
+                0.0,
+                1.0 - p_reflect,
+            )
+        };
+        let k = if p > 0.0 { 1.0 / p } else { 0.0 };
+        Polarisation {
+            s: s_hat,
+            q: ((b + a * q) * k).clamp(-1.0, 1.0),
+            u: (c * u + d * v) * k,
+            v: (-d * u + c * v) * k,
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn fresnel_amplitudes_agree_with_the_unpolarised_reflectance() {
+        for (cos_i, n1, n2) in [
+            (1.0, 1.0, 1.5),
+            (0.7, 1.0, 1.52),
+            (0.2, 1.0, 1.52),
+            (0.9, 1.5, 1.0),
+            (0.5, 1.5, 1.0),
+        ] {
+            let (rs, rp) = fresnel_amplitudes(cos_i, n1, n2);
+            let r = 0.5 * (rs[0] * rs[0] + rs[1] * rs[1] + rp[0] * rp[0] + rp[1] * rp[1]);
+            assert!(
+                (r - fresnel_dielectric(cos_i, n1, n2)).abs() < 1e-12,
+                "{cos_i} {n1} {n2}"
+            );
+        }
+        // Beyond the critical angle: both moduli 1, phases differ.
+        let (rs, rp) = fresnel_amplitudes(0.3, 1.5, 1.0);
+        assert!(
+            (rs[0].hypot(rs[1]) - 1.0).abs() < 1e-12 && (rp[0].hypot(rp[1]) - 1.0).abs() < 1e-12
+        );
+        assert!((rs[1] - rp[1]).abs() > 0.1);
+        // Light polarised along s at Brewster's angle (r_p = 0) reflects R_s; along p, nothing.
+        let tb = 1.5f64.atan();
+        let (rs, rp) = fresnel_amplitudes(tb.cos(), 1.0, 1.5);
+        assert!(rp[0].abs() < 1e-12);
+        let dir = glam::DVec3::new(tb.sin(), 0.0, -tb.cos());
+        let s_hat = glam::DVec3::Y;
+        for (q, want) in [(1.0, rs[0] * rs[0]), (-1.0, 0.0)] {
+            let state = Some(Polarisation {
+                s: s_hat,
+                q,
+                u: 0.0,
+                v: 0.0,
+            });
+            let (p, _) = Polarisation::reflect_probability(&state, s_hat, dir, rs, rp);
+            assert!((p - want).abs() < 1e-12, "{q}: {p} vs {want}");
+        }
+        // Unpolarised light reflected at Brewster's angle is polarised along s.
+        let (p, quv) = Polarisation::reflect_probability(&None, s_hat, dir, rs, rp);
+        let after = Polarisation::after(s_hat, quv, p, true, rs, rp);
+        assert!((after.q - 1.0).abs() < 1e-12);
+    }
 
     #[test]
     fn fresnel_at_normal_incidence_and_brewster() {

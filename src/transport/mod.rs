@@ -12,7 +12,7 @@ pub use colour::{collapse_weights, Colour};
 
 use crate::accel::Accel;
 use crate::sampling::{warp, PhotonRng};
-use crate::scene::material::fresnel_dielectric;
+use crate::scene::material::{fresnel_amplitudes, Polarisation};
 use crate::scene::{Material, PreparedScene};
 use glam::DVec3;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -394,6 +394,9 @@ impl Tracer<'_> {
             return PathEnd::Escaped;
         };
         let mut medium: Option<Medium> = None;
+        // Unpolarised until a dielectric interface (`Polarisation`); diffuse and
+        // coefficient (mirror) surfaces depolarise.
+        let mut pol: Option<Polarisation> = None;
         // Whether the passes gather what the photon brings from here on: its first surface
         // event was a diffuse one and it has met no dielectric since (the paths a gathering
         // path from a vertex follows back to its light sample, `direct::DirectSampler::gather`).
@@ -507,8 +510,28 @@ impl Tracer<'_> {
                 let n = d.ior[colour.band().unwrap_or(0)];
                 let (n1, n2) = if front { (1.0, n) } else { (n, 1.0) };
                 let cos_i = (-dir.dot(n_in)).clamp(0.0, 1.0);
-                let r = fresnel_dielectric(cos_i, n1, n2);
-                if rng.uniform() < r {
+                // Polarisation: the s and p parts reflect by their own Fresnel
+                // coefficients, so the photon's state decides the reflectance and the
+                // outcome changes the state (a slab's second face sees light the first
+                // one polarised). At normal incidence s and p are the same.
+                let (rs, rp) = fresnel_amplitudes(cos_i, n1, n2);
+                let s_hat = dir.cross(n_in);
+                let s_len = s_hat.length();
+                let (r, turn) = if s_len > 1e-9 {
+                    let s_hat = s_hat / s_len;
+                    let (r, quv) = Polarisation::reflect_probability(&pol, s_hat, dir, rs, rp);
+                    (r, Some((s_hat, quv)))
+                } else {
+                    (
+                        0.5 * (rs[0] * rs[0] + rs[1] * rs[1] + rp[0] * rp[0] + rp[1] * rp[1]),
+                        None,
+                    )
+                };
+                let reflected = rng.uniform() < r;
+                if let Some((s_hat, quv)) = turn {
+                    pol = Some(Polarisation::after(s_hat, quv, r, reflected, rs, rp));
+                }
+                if reflected {
                     dir = reflect(dir, n_in);
                     org = p_hit + n_in * eps;
                 } else {
@@ -524,6 +547,7 @@ impl Tracer<'_> {
 
             // Opaque or translucent surface: choose the event by colour-weighted albedos,
             // spending no per-band work on events this material cannot have.
+            pol = None;
             let mut u = rng.uniform();
             // With light sampling the first bounce does not end paths: the photon goes on
             // with the reflected (or transmitted) share of its colour, so every photon
