@@ -166,35 +166,36 @@ impl Material {
     }
 }
 
-/// Unpolarised Fresnel reflectance for a ray going from index `n1` into `n2` with
-/// `cos_i` = cosine of the incidence angle (> 0). Returns 1 for total internal reflection.
-pub fn fresnel_dielectric(cos_i: f64, n1: f64, n2: f64) -> f64 {
+/// Real Fresnel amplitude coefficients (r_s, r_p) for a ray going from index `n1` into
+/// `n2` with `cos_i` = cosine of the incidence angle (> 0); None beyond the critical angle.
+fn real_amplitudes(cos_i: f64, n1: f64, n2: f64) -> Option<(f64, f64)> {
     let eta = n1 / n2;
     let sin_t2 = eta * eta * (1.0 - cos_i * cos_i).max(0.0);
     if sin_t2 >= 1.0 {
-        return 1.0;
+        return None;
     }
     let cos_t = (1.0 - sin_t2).sqrt();
     let rs = (n1 * cos_i - n2 * cos_t) / (n1 * cos_i + n2 * cos_t);
     let rp = (n2 * cos_i - n1 * cos_t) / (n2 * cos_i + n1 * cos_t);
-    0.5 * (rs * rs + rp * rp)
+    Some((rs, rp))
 }
 
-/// Fresnel amplitude coefficients (r_s, r_p) as complex numbers (re, im), for a ray going
-/// from index `n1` into `n2` with `cos_i` = cosine of the incidence angle (> 0), in the
-/// convention of `fresnel_dielectric` (|r_s|² + |r_p|² over 2 is its value). Beyond the
-/// critical angle both have modulus 1 and differ in phase.
+/// Unpolarised Fresnel reflectance for a ray going from index `n1` into `n2` with
+/// `cos_i` = cosine of the incidence angle (> 0). Returns 1 for total internal reflection.
+pub fn fresnel_dielectric(cos_i: f64, n1: f64, n2: f64) -> f64 {
+    real_amplitudes(cos_i, n1, n2).map_or(1.0, |(rs, rp)| 0.5 * (rs * rs + rp * rp))
+}
+
+/// Fresnel amplitude coefficients (r_s, r_p) as complex numbers (re, im), in the convention
+/// of `fresnel_dielectric` (|r_s|² + |r_p|² over 2 is its value). Beyond the critical angle
+/// both have modulus 1 and differ in phase.
 pub fn fresnel_amplitudes(cos_i: f64, n1: f64, n2: f64) -> ([f64; 2], [f64; 2]) {
-    let eta = n1 / n2;
-    let sin_t2 = eta * eta * (1.0 - cos_i * cos_i).max(0.0);
-    if sin_t2 < 1.0 {
-        let cos_t = (1.0 - sin_t2).sqrt();
-        let rs = (n1 * cos_i - n2 * cos_t) / (n1 * cos_i + n2 * cos_t);
-        let rp = (n2 * cos_i - n1 * cos_t) / (n2 * cos_i + n1 * cos_t);
+    if let Some((rs, rp)) = real_amplitudes(cos_i, n1, n2) {
         return ([rs, 0.0], [rp, 0.0]);
     }
     // cos θt = i·k: r = (a − i·b) / (a + i·b) = ((a² − b²) − 2i·a·b) / (a² + b²).
-    let k = (sin_t2 - 1.0).sqrt();
+    let eta = n1 / n2;
+    let k = (eta * eta * (1.0 - cos_i * cos_i) - 1.0).max(0.0).sqrt();
     let ratio = |a: f64, b: f64| {
         let d = a * a + b * b;
         [(a * a - b * b) / d, -2.0 * a * b / d]
@@ -202,11 +203,17 @@ pub fn fresnel_amplitudes(cos_i: f64, n1: f64, n2: f64) -> ([f64; 2], [f64; 2]) 
     (ratio(n1 * cos_i, n2 * k), ratio(n2 * cos_i, n1 * k))
 }
 
+/// |r|² of a complex amplitude.
+#[inline]
+fn power(r: [f64; 2]) -> f64 {
+    r[0] * r[0] + r[1] * r[1]
+}
+
 /// The polarisation of a photon as a normalised Stokes vector (Q, U, V over I) in the
 /// frame of `s`, a unit vector perpendicular to its direction (Q = 1: all its power
 /// oscillates along `s`, Q = −1: perpendicular to it). Light leaves its source
-/// unpolarised; smooth dielectric interfaces polarise it (Fresnel's s and p coefficients as
-/// a Mueller matrix, `reflect_probability` and `after`); diffuse and coefficient (mirror)
+/// unpolarised (None); smooth dielectric interfaces polarise it (Fresnel's s and p
+/// coefficients as a Mueller matrix, `interface`); diffuse and coefficient (mirror)
 /// surfaces depolarise it.
 #[derive(Clone, Copy, Debug)]
 pub struct Polarisation {
@@ -217,19 +224,42 @@ pub struct Polarisation {
 }
 
 impl Polarisation {
-    /// At an interface whose plane of incidence has unit normal `s_hat` (perpendicular to
-    /// the direction), with amplitude coefficients (r_s, r_p) from `fresnel_amplitudes`:
-    /// the probability of reflection for this state, and a function applying the chosen
-    /// outcome. `state` None is unpolarised light.
-    pub fn reflect_probability(
+    /// A photon going along unit `dir` meets a smooth interface (unit normal `n_in` on its
+    /// side, incidence cosine `cos_i`, from index `n1` into `n2`) in polarisation `state`:
+    /// reflects when `u` (uniform in [0, 1)) is below its reflectance, and `state` becomes
+    /// the reflected or transmitted light's. Returns whether it reflected.
+    pub fn interface(
+        state: &mut Option<Polarisation>,
+        dir: glam::DVec3,
+        n_in: glam::DVec3,
+        cos_i: f64,
+        n1: f64,
+        n2: f64,
+        u: f64,
+    ) -> bool {
+        let (rs, rp) = fresnel_amplitudes(cos_i, n1, n2);
+        let s_hat = dir.cross(n_in);
+        let len = s_hat.length();
+        if len <= 1e-9 {
+            // Normal incidence: s and p are the same, the state does not change.
+            return u < 0.5 * (power(rs) + power(rp));
+        }
+        let s_hat = s_hat / len;
+        let (r, quv) = Self::reflectance(state, s_hat, dir, rs, rp);
+        let reflected = u < r;
+        *state = Some(Self::after(s_hat, quv, r, reflected, rs, rp));
+        reflected
+    }
+
+    /// The reflectance of `state` at an interface whose plane of incidence has unit normal
+    /// `s_hat`, and the state's (Q, U, V) in that frame (rotated from `s` to `s_hat`).
+    fn reflectance(
         state: &Option<Polarisation>,
         s_hat: glam::DVec3,
         dir: glam::DVec3,
         rs: [f64; 2],
         rp: [f64; 2],
     ) -> (f64, [f64; 3]) {
-        let (r_s, r_p) = (rs[0] * rs[0] + rs[1] * rs[1], rp[0] * rp[0] + rp[1] * rp[1]);
-        // The state in the plane of incidence's frame: rotated by the angle from s to s_hat.
         let quv = match state {
             None => [0.0; 3],
             Some(p) => {
@@ -238,13 +268,14 @@ impl Polarisation {
                 [p.q * c2 + p.u * s2, -p.q * s2 + p.u * c2, p.v]
             }
         };
+        let (r_s, r_p) = (power(rs), power(rp));
         (0.5 * (r_s + r_p) + 0.5 * (r_s - r_p) * quv[0], quv)
     }
 
-    /// The state after the interface: `reflected` or transmitted, `quv` and `p_reflect` from
-    /// `reflect_probability`, in the frame of `s_hat` (still perpendicular to the new
+    /// The state after the interface, `reflected` or transmitted, from `reflectance`'s
+    /// `quv` and `p_reflect`, in the frame of `s_hat` (still perpendicular to the new
     /// direction: it lies in the plane of incidence).
-    pub fn after(
+    fn after(
         s_hat: glam::DVec3,
         quv: [f64; 3],
         p_reflect: f64,
@@ -252,7 +283,7 @@ impl Polarisation {
         rs: [f64; 2],
         rp: [f64; 2],
     ) -> Polarisation {
-        let (r_s, r_p) = (rs[0] * rs[0] + rs[1] * rs[1], rp[0] * rp[0] + rp[1] * rp[1]);
+        let (r_s, r_p) = (power(rs), power(rp));
         let [q, u, v] = quv;
         let (a, b, c, d, p) = if reflected {
             // r_s·conj(r_p): its real part keeps U and V, its imaginary part turns one
@@ -294,7 +325,7 @@ mod tests {
             (0.5, 1.5, 1.0),
         ] {
             let (rs, rp) = fresnel_amplitudes(cos_i, n1, n2);
-            let r = 0.5 * (rs[0] * rs[0] + rs[1] * rs[1] + rp[0] * rp[0] + rp[1] * rp[1]);
+            let r = 0.5 * (power(rs) + power(rp));
             assert!(
                 (r - fresnel_dielectric(cos_i, n1, n2)).abs() < 1e-12,
                 "{cos_i} {n1} {n2}"
@@ -319,11 +350,11 @@ mod tests {
                 u: 0.0,
                 v: 0.0,
             });
-            let (p, _) = Polarisation::reflect_probability(&state, s_hat, dir, rs, rp);
+            let (p, _) = Polarisation::reflectance(&state, s_hat, dir, rs, rp);
             assert!((p - want).abs() < 1e-12, "{q}: {p} vs {want}");
         }
         // Unpolarised light reflected at Brewster's angle is polarised along s.
-        let (p, quv) = Polarisation::reflect_probability(&None, s_hat, dir, rs, rp);
+        let (p, quv) = Polarisation::reflectance(&None, s_hat, dir, rs, rp);
         let after = Polarisation::after(s_hat, quv, p, true, rs, rp);
         assert!((after.q - 1.0).abs() < 1e-12);
     }

@@ -12,7 +12,7 @@ pub use colour::{collapse_weights, Colour};
 
 use crate::accel::Accel;
 use crate::sampling::{warp, PhotonRng};
-use crate::scene::material::{fresnel_amplitudes, Polarisation};
+use crate::scene::material::Polarisation;
 use crate::scene::{Material, PreparedScene};
 use glam::DVec3;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -433,13 +433,11 @@ impl Tracer<'_> {
 
             // With light sampling at the vertices, deposits before the first surface
             // event is over are direct light: weighted against the light samples.
-            let weigh = match (self.direct, gathering) {
-                (Some(d), _) if event == 0 => Weigh::Direct(d, from),
+            let weigh = match (self.direct, gathering, gathered) {
+                (Some(d), _, _) if event == 0 => Weigh::Direct(d, from),
                 // A deposit after `event` surface events (the first diffuse): a gathering
                 // path from x takes its light sample at its `event`-th surface.
-                (_, Some(d)) if gathered.is_some() && event <= direct::GATHER_DEPTH => {
-                    Weigh::Gathered(d, gathered.unwrap_or(0.0))
-                }
+                (_, Some(d), Some(p)) if event <= direct::GATHER_DEPTH => Weigh::Gathered(d, p),
                 _ => Weigh::Not,
             };
             if let Some(sensors) = self.sensors {
@@ -483,10 +481,12 @@ impl Tracer<'_> {
             let p_hit = mesh.point(prim, hit.u, hit.v);
             let eps = self.scene.offset_at(p_hit);
             // The photon's landing density at its first surface event (the gathering
-            // paths' weights against it), if its event there is diffuse.
-            let landing = gathering
-                .filter(|_| event == 0)
-                .map(|d| d.landing_density(from.emitter, from.y, from.cos_y, dir, p_hit, ng));
+            // paths' weights against it), taken when its event there is diffuse.
+            let landing = || {
+                gathering
+                    .filter(|_| event == 0)
+                    .map(|d| d.landing_density(from.emitter, from.y, from.cos_y, dir, p_hit, ng))
+            };
             let material_id = mesh.material(prim);
             let material = &self.materials[material_id as usize];
             if S::SURFACES {
@@ -513,24 +513,9 @@ impl Tracer<'_> {
                 // Polarisation: the s and p parts reflect by their own Fresnel
                 // coefficients, so the photon's state decides the reflectance and the
                 // outcome changes the state (a slab's second face sees light the first
-                // one polarised). At normal incidence s and p are the same.
-                let (rs, rp) = fresnel_amplitudes(cos_i, n1, n2);
-                let s_hat = dir.cross(n_in);
-                let s_len = s_hat.length();
-                let (r, turn) = if s_len > 1e-9 {
-                    let s_hat = s_hat / s_len;
-                    let (r, quv) = Polarisation::reflect_probability(&pol, s_hat, dir, rs, rp);
-                    (r, Some((s_hat, quv)))
-                } else {
-                    (
-                        0.5 * (rs[0] * rs[0] + rs[1] * rs[1] + rp[0] * rp[0] + rp[1] * rp[1]),
-                        None,
-                    )
-                };
-                let reflected = rng.uniform() < r;
-                if let Some((s_hat, quv)) = turn {
-                    pol = Some(Polarisation::after(s_hat, quv, r, reflected, rs, rp));
-                }
+                // one polarised).
+                let reflected =
+                    Polarisation::interface(&mut pol, dir, n_in, cos_i, n1, n2, rng.uniform());
                 if reflected {
                     dir = reflect(dir, n_in);
                     org = p_hit + n_in * eps;
@@ -597,7 +582,7 @@ impl Tracer<'_> {
                 if u < cumulative {
                     colour.reweight(&material.diffuse_reflect, p);
                     bounced(colour, bounces);
-                    gathered = gathered.or(landing);
+                    gathered = gathered.or_else(landing);
                     dir = warp::cosine_hemisphere(n_in, rng.uniform(), rng.uniform());
                     org = p_hit + n_in * eps;
                     continue;
@@ -620,7 +605,7 @@ impl Tracer<'_> {
                 if u < cumulative {
                     colour.reweight(&material.diffuse_transmit, p);
                     bounced(colour, bounces);
-                    gathered = gathered.or(landing);
+                    gathered = gathered.or_else(landing);
                     dir = warp::cosine_hemisphere(-n_in, rng.uniform(), rng.uniform());
                     org = p_hit - n_in * eps;
                     continue;
