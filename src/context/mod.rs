@@ -16,6 +16,7 @@ use crate::imap::IMap;
 use crate::photometry::{BandPhotometry, PhotometricData, Spectrum};
 use crate::render::RenderReport;
 use crate::scene::light::{Distribution, LightDesc, Placement};
+use crate::scene::sky::{SkyDesc, SkyKind, SunDesc};
 use crate::scene::{Bands, Light, Material, MaterialDesc, Mesh, MeshDesc, PreparedScene, Scene};
 use crate::sched::dynamic::DynamicParams;
 use crate::sched::{
@@ -438,6 +439,38 @@ impl Context {
         self.add_light(l)
     }
 
+    /// Adds a sky or environment (`scene::sky`): a uniform sky, a CIE standard general
+    /// sky or an equirectangular image. Its photons enter through the scene's bounding
+    /// sphere.
+    pub fn add_sky(&mut self, desc: &SkyDesc) -> Result<u32> {
+        self.check_unlocked("add a sky")?;
+        let l = Light::sky(desc, &self.scene.bands)?;
+        self.add_light(l)
+    }
+
+    /// Adds an environment from a Radiance HDR or OpenEXR file: `desc` as `add_sky`, its
+    /// kind replaced by the file's image.
+    pub fn add_sky_file(&mut self, path: &std::path::Path, desc: &SkyDesc) -> Result<u32> {
+        self.check_unlocked("add a sky")?;
+        let (width, height, rgb) = crate::scene::sky::read_image(path)?;
+        let desc = SkyDesc {
+            kind: SkyKind::Image {
+                width,
+                height,
+                rgb: std::sync::Arc::new(rgb),
+            },
+            ..desc.clone()
+        };
+        self.add_sky(&desc)
+    }
+
+    /// Adds the sun: a uniformly bright disk of 0.53°.
+    pub fn add_sun(&mut self, desc: &SunDesc) -> Result<u32> {
+        self.check_unlocked("add the sun")?;
+        let l = Light::sun(desc, &self.scene.bands)?;
+        self.add_light(l)
+    }
+
     /// Adds a goniometric luminaire from photometric data.
     pub fn add_luminaire(
         &mut self,
@@ -500,8 +533,10 @@ impl Context {
         )
     }
 
-    /// Radiant flux per band (W) of light `id`, and its luminous flux (lm).
-    pub fn light_flux(&self, id: u32) -> Result<(&[f64], f64)> {
+    /// Radiant flux per band (W) of light `id`, and its luminous flux (lm); of a sky or
+    /// the sun, the irradiance per band (W/m²) and illuminance (lx) it gives an
+    /// unobstructed horizontal plane.
+    pub fn light_flux(&self, id: u32) -> Result<(Vec<f64>, f64)> {
         let Some(l) = self.scene.lights.get(id as usize) else {
             bail!(
                 ImapErrIndexOutOfRange,
@@ -509,7 +544,9 @@ impl Context {
                 self.scene.lights.len()
             );
         };
-        Ok((&l.power, self.photometry.luminous(&l.power)))
+        let w = l.reported_flux();
+        let lm = self.photometry.luminous(&w);
+        Ok((w, lm))
     }
 
     /// What a watt in each band is worth in lumens and X, Y, Z.

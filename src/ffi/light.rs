@@ -654,7 +654,9 @@ fn table_from_c(t: &ImapPhotometry) -> Result<PhotometricData> {
 
 /// The radiant flux per band (W) of light `id` into `out_w[0 .. band count)` (NULL with
 /// count 0 to skip), and its luminous flux (lm) into `*out_lm` (NULL to skip). For a
-/// luminaire: what its placement emits (factors, TILT and `lumens` applied).
+/// luminaire: what its placement emits (factors, TILT and `lumens` applied). For a sky or
+/// the sun (Since 0.2.2): the irradiance per band (W/m²) and illuminance (lx) it gives an
+/// unobstructed horizontal plane (its flux into a scene depends on the scene's size).
 ///
 /// Returns IMAP_ERR_NULL_POINTER, IMAP_ERR_INDEX_OUT_OF_RANGE, IMAP_ERR_BUFFER_TOO_SMALL,
 /// IMAP_ERR_BUSY.
@@ -673,7 +675,7 @@ pub unsafe extern "C" fn imap_get_light_flux(
     with_context(ctx, |c| {
         let (w, lm) = c.light_flux(id)?;
         if !out_w.is_null() || count > 0 {
-            copy_bands(out_w, count, w)?;
+            copy_bands(out_w, count, &w)?;
         }
         write_optional(out_lm, lm)
     })

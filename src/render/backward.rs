@@ -11,11 +11,13 @@ use super::camera::Camera;
 use crate::accel::Accel;
 use crate::sampling::{warp, PhotonRng};
 use crate::scene::material::fresnel_dielectric;
+use crate::scene::sky::DistantPart;
 use crate::scene::{EmitterKind, LightShape, Material, PreparedScene, Scene};
 use crate::transport::{collapse_weights, reflect, refract};
 use glam::DVec3;
 use std::f64::consts::PI;
 use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
 
 /// What a light gives in the render's units, per band.
 #[derive(Debug)]
@@ -44,6 +46,8 @@ pub struct EyeTracer<'a> {
     /// Whether any material transmits diffusely (only then are BTDF weights kept).
     pub transmit: bool,
     lights: Vec<LightValue>,
+    /// The distant sources, for paths that leave the scene (`EmitterKind::Distant`).
+    distant: Vec<Arc<DistantPart>>,
     /// Emitter index of each mesh that emits.
     emitter_of_mesh: Vec<Option<u32>>,
     has_mesh_emitters: bool,
@@ -73,7 +77,9 @@ impl<'a> EyeTracer<'a> {
             .iter()
             .enumerate()
             .map(|(e, em)| match &em.kind {
-                EmitterKind::Light(_) => LightValue::Power(source.lights[e].power.clone()),
+                EmitterKind::Light(_) | EmitterKind::Distant { .. } => {
+                    LightValue::Power(em.power.clone())
+                }
                 EmitterKind::Mesh { mesh, .. } => {
                     emitter_of_mesh[*mesh] = Some(e as u32);
                     let m = &scene.meshes[*mesh];
@@ -97,6 +103,14 @@ impl<'a> EyeTracer<'a> {
             initial_radius,
             transmit: source.materials.iter().any(|m| m.events[2]),
             has_mesh_emitters: emitter_of_mesh.iter().any(Option::is_some),
+            distant: scene
+                .emitters
+                .iter()
+                .filter_map(|em| match &em.kind {
+                    EmitterKind::Distant { part, .. } => Some(part.clone()),
+                    _ => None,
+                })
+                .collect(),
             lights,
             emitter_of_mesh,
         }
@@ -161,6 +175,19 @@ impl<'a> EyeTracer<'a> {
             }
             stats.rays += 1;
             let Some(hit) = self.accel.intersect(org, dir) else {
+                // The sky (and the sun) seen directly or through specular surfaces.
+                for part in &self.distant {
+                    let f = part.value(dir);
+                    if f > 0.0 {
+                        for ((d, b), l) in buf.direct[d0..]
+                            .iter_mut()
+                            .zip(beta.iter())
+                            .zip(&part.per_band)
+                        {
+                            *d += b * l * f;
+                        }
+                    }
+                }
                 return;
             };
             path_len += hit.t;
@@ -396,6 +423,22 @@ impl<'a> EyeTracer<'a> {
                         let k = cos.abs() / pl * pl * pl / (pl * pl + pb * pb);
                         for ((o, w), l) in out.iter_mut().zip(w).zip(radiance) {
                             *o += w * l * k;
+                        }
+                    }
+                }
+            }
+            (EmitterKind::Distant { part, radius }, LightValue::Power(power)) => {
+                let (wi, weight) = part.sample([u1, u2, u3]);
+                let cos = wi.dot(n_in);
+                if let (true, Some((w, _))) = (weight > 0.0, side(cos)) {
+                    let org = p + n_in * (eps * cos.signum());
+                    stats.rays += 1;
+                    // Nothing lies beyond the bounding sphere: 2R from any point inside.
+                    if !self.accel.occluded(org, wi, 2.5 * radius) {
+                        let cross = PI * radius * radius * self.unit_m * self.unit_m;
+                        let k = weight * cos.abs() / (cross * pe);
+                        for ((o, w), pw) in out.iter_mut().zip(w).zip(power) {
+                            *o += w * pw * k;
                         }
                     }
                 }

@@ -7,6 +7,7 @@
 //! opening). docs/photometry.md states the conversions.
 
 use super::bands::Bands;
+use super::sky::{Distant, SkyDesc, SunDesc};
 use crate::error::{bail, check_coordinates, check_finite, check_finite_scalar, Result};
 use crate::photometry::colour::{spectrum_bands, BandPhotometry};
 use crate::photometry::{Goniometric, Opening, PhotometricData, PhotometricType, Spectrum};
@@ -28,6 +29,10 @@ pub enum LightShape {
     Beam { axis: DVec3, aperture: Aperture },
     /// A goniometric luminaire.
     Luminaire(Arc<Luminaire>),
+    /// A sky, an environment image or the sun, infinitely far (`super::sky`). Its light's
+    /// `power` is per m² of cross-section: the flux through the scene's bounding sphere
+    /// follows from the sphere (`PreparedScene`).
+    Distant(Arc<Distant>),
 }
 
 /// A flat disk, ellipse or rectangle: centre ± `u` ± `v` (half-extent vectors, scene
@@ -562,6 +567,40 @@ impl Light {
         })
     }
 
+    /// A sky or environment (`super::sky`).
+    pub fn sky(desc: &SkyDesc, bands: &Bands) -> Result<Self> {
+        Ok(Self::distant(Distant::sky(desc, bands)?))
+    }
+
+    /// The sun (`super::sky`).
+    pub fn sun(desc: &SunDesc, bands: &Bands) -> Result<Self> {
+        Ok(Self::distant(Distant::sun(desc, bands)?))
+    }
+
+    fn distant(d: Distant) -> Self {
+        let mut power = vec![0.0; d.parts[0].per_band.len()];
+        for p in &d.parts {
+            for (o, x) in power.iter_mut().zip(&p.per_band) {
+                *o += x * p.integral;
+            }
+        }
+        Light {
+            position: DVec3::ZERO,
+            shape: LightShape::Distant(Arc::new(d)),
+            power,
+            group: 0,
+        }
+    }
+
+    /// What `imap_light_flux` reports: radiant flux per band, W, or for a distant light
+    /// the irradiance per band it gives an unobstructed horizontal plane, W/m².
+    pub fn reported_flux(&self) -> Vec<f64> {
+        match &self.shape {
+            LightShape::Distant(d) => d.horizontal(),
+            _ => self.power.clone(),
+        }
+    }
+
     /// Total radiant flux, W.
     pub fn watts(&self) -> f64 {
         self.power.iter().sum()
@@ -626,7 +665,7 @@ impl LightShape {
                 }
             }
             LightShape::Cosine { axis } => d.dot(*axis).max(0.0) / PI,
-            LightShape::Beam { .. } => 0.0,
+            LightShape::Beam { .. } | LightShape::Distant(_) => 0.0,
             LightShape::Luminaire(l) => l.candela(d) * l.inv_flux,
         }
     }
@@ -655,6 +694,7 @@ impl LightShape {
                 };
                 (at, l.direction(phi, theta))
             }
+            LightShape::Distant(_) => unreachable!("distant lights are emitted by the scene"),
         }
     }
 

@@ -6,6 +6,7 @@ pub mod light;
 pub mod material;
 pub mod mesh;
 mod prepared;
+pub mod sky;
 
 use crate::imap::LayerLayout;
 pub use bands::Bands;

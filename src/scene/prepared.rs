@@ -2,12 +2,14 @@
 //! areas, per-vertex area shares, the map's slot layout, and the light-selection table.
 
 use super::mesh::triangle_area;
+use super::sky::DistantPart;
 use super::{LightShape, Mesh, Scene};
 use crate::error::{bail, try_collect, try_filled, Error, ImapStatus, Result};
 use crate::imap::regions::RegionLayout;
 use crate::imap::LayerLayout;
 use crate::sampling::{warp, AliasTable, PhotonRng};
 use glam::{DVec3, Vec3};
+use std::sync::Arc;
 
 /// Largest area-weighted relative distortion that f32 rounding of a mesh's vertices may
 /// cause before the scene is refused (`IMAP_ERR_PRECISION`): 0.1 %.
@@ -76,6 +78,9 @@ impl PreparedMesh {
 pub enum EmitterKind {
     /// A light: point, spot, cosine, beam or goniometric luminaire.
     Light(LightShape),
+    /// A distant source (one channel of a sky, or the sun): photons start on a disk of
+    /// `radius` (the bounding sphere's, scene units) perpendicular to their direction.
+    Distant { part: Arc<DistantPart>, radius: f64 },
     /// A self-emitting mesh: triangles chosen by area, Lambertian emission.
     Mesh {
         mesh: usize,
@@ -97,6 +102,8 @@ pub struct Emitter {
     /// Colour of an emitted photon: per-band power share times the band count, scaled by
     /// the emitter's power share over its selection probability (mean 1 with one emitter).
     pub colour: Vec<f64>,
+    /// Radiant flux per band, W (a distant source's: through the bounding sphere).
+    pub power: Vec<f64>,
     /// The map layer its photons write (its light group when groups are kept, else 0).
     pub layer: u8,
     /// Where a point-like light's photons are aimed (`Aim`), if they are.
@@ -244,7 +251,39 @@ impl PreparedScene {
             let total: f64 = power.iter().sum();
             (power.iter().map(|p| p * nb / total).collect(), total)
         };
+        let sphere = sphere_radius(enter_radius, radius);
         for (i, l) in scene.lights.iter().enumerate() {
+            if let LightShape::Distant(d) = &l.shape {
+                // Flux through the bounding sphere: π R² ∫ L dω per band.
+                let cross = std::f64::consts::PI * sphere * sphere * unit2;
+                for part in &d.parts {
+                    let power: Vec<f64> = part
+                        .per_band
+                        .iter()
+                        .map(|x| x * part.integral * cross)
+                        .collect();
+                    let (colour, total) = colour_of(&power);
+                    if !(total > 0.0 && total.is_finite()) {
+                        bail!(
+                            ImapErrInvalidArgument,
+                            "light {i}: its flux into the scene's bounding sphere (radius {sphere:e} scene units) is {total} W: not a usable power"
+                        );
+                    }
+                    emitters.push(Emitter {
+                        kind: EmitterKind::Distant {
+                            part: part.clone(),
+                            radius: sphere,
+                        },
+                        position: DVec3::ZERO,
+                        colour,
+                        power,
+                        layer: layer_of(l.group),
+                        aim: None,
+                    });
+                    powers.push(total);
+                }
+                continue;
+            }
             let (colour, total) = colour_of(&l.power);
             if !(total > 0.0 && total.is_finite()) {
                 bail!(
@@ -256,6 +295,7 @@ impl PreparedScene {
                 kind: EmitterKind::Light(l.shape.clone()),
                 position: l.position - origin,
                 colour,
+                power: l.power.clone(),
                 layer: layer_of(l.group),
                 aim: None,
             });
@@ -294,6 +334,7 @@ impl PreparedScene {
                 },
                 position: DVec3::ZERO,
                 colour,
+                power,
                 layer: layer_of(m.light_group),
                 aim: None,
             });
@@ -356,7 +397,7 @@ impl PreparedScene {
     /// included: rays that miss it meet nothing.
     #[inline]
     fn sphere_radius(&self) -> f64 {
-        self.enter_radius * 1.01 + self.offset_at(DVec3::ZERO)
+        sphere_radius(self.enter_radius, self.radius)
     }
 
     /// Where a ray from `org` along unit `dir` (local units) can first meet the geometry:
@@ -412,6 +453,14 @@ impl PreparedScene {
                     (e, em.position + at, d, 1.0, 1.0)
                 }
             },
+            EmitterKind::Distant { part, radius } => {
+                let (toward, w) = part.sample([rng.uniform(), rng.uniform(), rng.uniform()]);
+                let (t, b) = warp::basis(toward);
+                let r = radius * rng.uniform().sqrt();
+                let phi = 2.0 * std::f64::consts::PI * rng.uniform();
+                let org = toward * (radius * 1.001) + t * (r * phi.cos()) + b * (r * phi.sin());
+                (e, org, -toward, w, 1.0)
+            }
             EmitterKind::Mesh {
                 mesh,
                 triangles,
@@ -432,6 +481,13 @@ impl PreparedScene {
             }
         }
     }
+}
+
+/// `PreparedScene::sphere_radius` of a scene of `enter_radius` and `radius` (its
+/// `offset_at` the origin included).
+#[inline]
+fn sphere_radius(enter_radius: f64, radius: f64) -> f64 {
+    enter_radius * 1.01 + 4e-6 * 1e-4 * radius
 }
 
 /// The bounding box of the vertices triangles use in the meshes `keep` accepts; None when

@@ -427,6 +427,18 @@ impl DirectSampler<'_> {
     fn photon_density(&self, e: usize, dir: DVec3, r2: f64, cos_x: f64, cos_y: f64) -> f64 {
         match &self.scene.emitters[e].kind {
             EmitterKind::Light(LightShape::Beam { aperture, .. }) => cos_x / aperture.area(),
+            EmitterKind::Distant { part, radius } => {
+                // Against the light samples' directions (`sample_light`): a sky's are half
+                // by its radiance, half cosine-distributed.
+                let toward = -dir;
+                let ratio = if part.is_sky() {
+                    let p = part.pdf(toward);
+                    p / (0.5 * p + 0.5 * cos_x / PI)
+                } else {
+                    1.0
+                };
+                cos_x * ratio / (PI * radius * radius)
+            }
             EmitterKind::Light(shape) => shape.intensity_per_watt(dir) * cos_x / r2,
             EmitterKind::Mesh { two_sided, .. } => {
                 let sides = if *two_sided { 2.0 } else { 1.0 };
@@ -830,6 +842,37 @@ impl DirectSampler<'_> {
                 self.visible(x, q)?;
                 let mis = power(at.l, self.photon_density(e, *axis, t * t, cos_x, 1.0));
                 Some((e, mis * cos_x / aperture.area()))
+            }
+            EmitterKind::Distant { part, radius } => {
+                // A sky: half the samples by its radiance, half cosine-distributed over the
+                // side (a room lit through a window sees a part of the sky its radiance
+                // rarely picks); one-sample MIS by the mixture's density. The sun: by its
+                // disk.
+                let (toward, q) = if part.is_sky() {
+                    let toward = if w[0] < 0.5 {
+                        part.sample([2.0 * w[0], w[1], w[2]]).0
+                    } else {
+                        warp::cosine_hemisphere(n, 2.0 * w[0] - 1.0, w[1])
+                    };
+                    let cos = toward.dot(n).max(0.0);
+                    (toward, 0.5 * part.pdf(toward) + 0.5 * cos / PI)
+                } else {
+                    let toward = part.sample(w).0;
+                    (toward, part.pdf(toward))
+                };
+                let cos_x = toward.dot(n);
+                let f = part.value(toward);
+                if cos_x <= 0.0 || f <= 0.0 || q <= 0.0 {
+                    return None;
+                }
+                // Nothing lies beyond the bounding sphere: 2R from any point inside.
+                if self.accel.occluded(x, toward, 2.5 * radius) {
+                    return None;
+                }
+                let mis = power(at.l, self.photon_density(e, -toward, 1.0, cos_x, 1.0));
+                // L cos / q per watt of the source (π R² ∫ L dω).
+                let g = f * cos_x / (q * part.integral * PI * radius * radius);
+                Some((e, mis * g))
             }
             EmitterKind::Light(shape) => {
                 let y = match shape.aperture() {

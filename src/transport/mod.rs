@@ -13,7 +13,7 @@ pub use colour::{collapse_weights, Colour};
 use crate::accel::Accel;
 use crate::sampling::{warp, PhotonRng};
 use crate::scene::material::Polarisation;
-use crate::scene::{Material, PreparedScene};
+use crate::scene::{EmitterKind, Material, PreparedScene};
 use glam::DVec3;
 use std::sync::atomic::{AtomicBool, Ordering};
 
@@ -350,8 +350,26 @@ impl Tracer<'_> {
     ) -> (PathEnd, Emission) {
         let mut rng = PhotonRng::new(self.seed, k);
         // Emit: choose a light by power, then a point and a direction on it.
-        let (emitter, org, dir, weight, cos_y) = self.scene.emit(&mut rng);
+        let (emitter, org, dir, mut weight, cos_y) = self.scene.emit(&mut rng);
         colour.reset(&self.scene.emitters[emitter].colour);
+        if let EmitterKind::Distant { .. } = self.scene.emitters[emitter].kind {
+            // A distant photon's weight is its share of the source's radiance (mean 1): it
+            // emits that much, none of it escaping at emission.
+            colour.scale(weight);
+            colour.emitted_now();
+            if weight == 0.0 {
+                sink.begin_photon(emitter);
+                return (
+                    PathEnd::Escaped,
+                    Emission {
+                        emitter,
+                        weight: 1.0,
+                        energy: 0.0,
+                    },
+                );
+            }
+            weight = 1.0;
+        }
         let emission = Emission {
             emitter,
             weight,

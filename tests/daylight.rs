@@ -1,0 +1,516 @@
+//! Daylight and environment light (issue 17) against analytic answers, with every
+//! estimator (photons only, light sampling, gathering):
+//! - a uniform sky of radiance L over an open black plane gives E = πL on it, at any scene
+//!   scale and position; a uniform sphere lights both sides of a two-sided plane;
+//! - a uniform sky through a square roof opening lights the floor of a black room by the
+//!   view factor to the opening (Lambert's polygon formula);
+//! - CIE standard general skies through the opening (CIE 171:2006 TC 5.9's set-up: the
+//!   sky component under an unglazed roof opening): each floor vertex reads the integral of
+//!   the sky's luminance over the opening, computed here from the ISO 15469 formula by
+//!   quadrature over the opening's area;
+//! - the sun's patch on the floor lies where the sun's angles put it and has E = E_n cos θ;
+//! - HDR environment files (Radiance RGBE and OpenEXR) read back as the sky they hold.
+
+mod common;
+
+use common::*;
+use imap::photometry::Spectrum;
+use imap::scene::sky::{SkyAmount, SkyDesc, SkyKind, SunDesc};
+use imap::{Config, Context, Estimator, MeshDesc, RunParams};
+use std::f64::consts::PI;
+
+fn cfg(seed: u64) -> Config {
+    Config {
+        seed,
+        threads: 2,
+        ..Default::default()
+    }
+}
+
+fn run(ctx: &mut Context, n: u64, e: Estimator) -> imap::Report {
+    ctx.run(&mut RunParams {
+        photons: n,
+        progress_interval_s: 1.0,
+        estimator: Some(e),
+        ..Default::default()
+    })
+    .unwrap()
+}
+
+const ESTIMATORS: [Estimator; 3] = [Estimator::Photons, Estimator::DEFAULT, Estimator::GATHER];
+
+/// (value, relative error) of every vertex of mesh `id` on `side`, band 0.
+fn values(ctx: &Context, id: u32, side: u32) -> Vec<(f64, f64)> {
+    let n = ctx.vertex_count(id).unwrap();
+    let (mut e, mut r) = (vec![0.0; n], vec![0.0; n]);
+    ctx.irradiance(id, side, 0, &mut e).unwrap();
+    ctx.rel_error(id, side, &mut r).unwrap();
+    e.into_iter().zip(r).collect()
+}
+
+/// Asserts each value agrees with `want` (largest |z| < 5, mean |z| near √(2/π) ≈ 0.8:
+/// the error estimate is calibrated), skipping vertices where `want` is None.
+fn assert_z(got: &[(f64, f64)], want: &[Option<f64>], what: &str) {
+    let (mut worst, mut sum, mut k) = (0.0f64, 0.0, 0usize);
+    let (mut got_sum, mut want_sum) = (0.0, 0.0);
+    let mut at = String::new();
+    for ((e, r), w) in got.iter().zip(want) {
+        let Some(w) = w else { continue };
+        if *w == 0.0 {
+            assert_eq!(*e, 0.0, "{what}: a vertex the light cannot reach reads {e}");
+            continue;
+        }
+        let z = (e - w) / (r * e).max(1e-300);
+        if z.abs() > worst {
+            at = format!("vertex {k}: {e:.5e} ± {:.2e} vs {w:.5e}", r * e);
+        }
+        worst = worst.max(z.abs());
+        sum += z.abs();
+        k += 1;
+        got_sum += e;
+        want_sum += w;
+    }
+    let mean = sum / k as f64;
+    eprintln!(
+        "{what}: {k} vertices, largest |z| {worst:.2} ({at}), mean |z| {mean:.2}, Σ got / Σ want {:.5}",
+        got_sum / want_sum
+    );
+    assert!(k > 0, "{what}: nothing compared");
+    assert!(worst < 5.0, "{what}: largest |z| {worst}");
+    assert!(mean > 0.4 && mean < 1.3, "{what}: mean |z| {mean}");
+}
+
+fn uniform_sky(radiance: f64, sphere: bool) -> SkyDesc {
+    SkyDesc {
+        kind: SkyKind::Uniform { sphere },
+        amount: SkyAmount::Radiance(radiance),
+        spectrum: Spectrum::Equal,
+        ..SkyDesc::default()
+    }
+}
+
+#[test]
+fn a_uniform_sky_gives_pi_l_on_an_open_plane_at_any_scale_and_place() {
+    // 3 W/(m² sr) over the three bands, 1 per band: E = π per band.
+    let l = 3.0;
+    for (unit_m, offset, estimator) in [
+        (1.0, [0.0; 3], Estimator::Photons),
+        (0.01, [250.0, -40.0, 7.0], Estimator::DEFAULT),
+        (1000.0, [0.0, 0.0, -3.0], Estimator::GATHER),
+    ] {
+        let mut ctx = context(Config { unit_m, ..cfg(3) });
+        let black = lambert(&mut ctx, 0.0);
+        let g = grid(6, -1.0, 1.0, -1.0, 1.0, 0.0).translated(offset);
+        let id = ctx.add_mesh(&g.desc(black)).unwrap();
+        ctx.add_sky(&uniform_sky(l, false)).unwrap();
+        run(&mut ctx, photons(200_000), estimator);
+        let want = vec![Some(PI); g.vertex_count()];
+        assert_z(
+            &values(&ctx, id, 0),
+            &want,
+            &format!("uniform sky, unit {unit_m} m, {estimator:?}"),
+        );
+    }
+    // A uniform sphere of radiance lights both sides of a two-sided plane.
+    let mut ctx = context(cfg(4));
+    let black = lambert(&mut ctx, 0.0);
+    let g = grid(4, -1.0, 1.0, -1.0, 1.0, 0.0);
+    let id = ctx
+        .add_mesh(&MeshDesc {
+            two_sided: true,
+            ..g.desc(black)
+        })
+        .unwrap();
+    ctx.add_sky(&uniform_sky(l, true)).unwrap();
+    run(&mut ctx, photons(200_000), Estimator::DEFAULT);
+    let want = vec![Some(PI); g.vertex_count()];
+    for side in 0..2 {
+        assert_z(
+            &values(&ctx, id, side),
+            &want,
+            &format!("uniform sphere, side {side}"),
+        );
+    }
+}
+
+/// A closed black room (2 × 2 m, 1 m high) whose roof has a 1 m square opening centred
+/// over the floor; the floor (16 × 16 cells) records. Returns the context and the floor.
+fn roof_room(seed: u64) -> (Context, u32, Geometry) {
+    let mut ctx = context(cfg(seed));
+    let black = lambert(&mut ctx, 0.0);
+    let floor = grid(16, -1.0, 1.0, -1.0, 1.0, 0.0);
+    let id = ctx.add_mesh(&floor.desc(black)).unwrap();
+    let quad = |p: [[f64; 3]; 4]| Geometry {
+        positions: p.iter().flatten().copied().collect(),
+        indices: vec![0, 1, 2, 0, 2, 3],
+    };
+    let h = HEIGHT;
+    let parts = [
+        // Walls.
+        quad([
+            [-1.0, -1.0, 0.0],
+            [1.0, -1.0, 0.0],
+            [1.0, -1.0, h],
+            [-1.0, -1.0, h],
+        ]),
+        quad([
+            [-1.0, 1.0, 0.0],
+            [1.0, 1.0, 0.0],
+            [1.0, 1.0, h],
+            [-1.0, 1.0, h],
+        ]),
+        quad([
+            [-1.0, -1.0, 0.0],
+            [-1.0, 1.0, 0.0],
+            [-1.0, 1.0, h],
+            [-1.0, -1.0, h],
+        ]),
+        quad([
+            [1.0, -1.0, 0.0],
+            [1.0, 1.0, 0.0],
+            [1.0, 1.0, h],
+            [1.0, -1.0, h],
+        ]),
+        // The roof around the opening [−0.5, 0.5]².
+        grid_rect(1, 1, [-1.0, 1.0], [0.5, 1.0], h),
+        grid_rect(1, 1, [-1.0, 1.0], [-1.0, -0.5], h),
+        grid_rect(1, 1, [-1.0, -0.5], [-0.5, 0.5], h),
+        grid_rect(1, 1, [0.5, 1.0], [-0.5, 0.5], h),
+    ];
+    for p in &parts {
+        ctx.add_mesh(&MeshDesc {
+            record: false,
+            ..p.desc(black)
+        })
+        .unwrap();
+    }
+    (ctx, id, floor)
+}
+
+const HEIGHT: f64 = 1.0;
+
+const OPENING: [[f64; 3]; 4] = [
+    [-0.5, -0.5, HEIGHT],
+    [0.5, -0.5, HEIGHT],
+    [0.5, 0.5, HEIGHT],
+    [-0.5, 0.5, HEIGHT],
+];
+
+#[test]
+fn a_uniform_sky_through_a_roof_opening_gives_the_view_factor() {
+    for (seed, estimator) in ESTIMATORS.into_iter().enumerate() {
+        let (mut ctx, id, floor) = roof_room(10 + seed as u64);
+        ctx.add_sky(&uniform_sky(3.0, false)).unwrap();
+        run(&mut ctx, photons(400_000), estimator);
+        // The floor's corners and edges see the opening too; every vertex is compared.
+        let want: Vec<Option<f64>> = (0..floor.vertex_count())
+            .map(|v| {
+                Some(hat_average_with(&floor, v, 12, |x, _| {
+                    polygon_irradiance(x, [0.0, 0.0, 1.0], &OPENING, 1.0)
+                }))
+            })
+            .collect();
+        assert_z(
+            &values(&ctx, id, 0),
+            &want,
+            &format!("uniform sky through the roof, {estimator:?}"),
+        );
+    }
+}
+
+/// The CIE standard general sky's L/L_z (ISO 15469:2004), written out from the standard:
+/// gradation φ(Z) = 1 + a exp(b / cos Z), indicatrix f(χ) = 1 + c (exp(dχ) − exp(dπ/2)) +
+/// e cos² χ, L/L_z = f(χ) φ(Z) / (f(Z_s) φ(0)).
+fn cie_luminance(abcde: [f64; 5], dir: [f64; 3], sun: [f64; 3]) -> f64 {
+    let [a, b, c, d, e] = abcde;
+    let cz = dir[2];
+    if cz <= 0.0 {
+        return 0.0;
+    }
+    let phi = |cz: f64| 1.0 + a * (b / cz).exp();
+    let f =
+        |chi: f64| 1.0 + c * ((d * chi).exp() - (d * PI / 2.0).exp()) + e * chi.cos() * chi.cos();
+    let chi = dot(dir, sun).clamp(-1.0, 1.0).acos();
+    let zs = sun[2].clamp(-1.0, 1.0).acos();
+    f(chi) * phi(cz) / (f(zs) * phi(1.0))
+}
+
+/// Irradiance at floor point x from the sky seen through the opening: ∫ L(ω) cos θ dω as an
+/// integral over the opening's area (cos θ_x cos θ_y / r² dA), n × n midpoints.
+fn through_opening(x: [f64; 3], n: usize, l: &dyn Fn([f64; 3]) -> f64) -> f64 {
+    let mut s = 0.0;
+    let da = 1.0 / (n * n) as f64;
+    for i in 0..n {
+        for j in 0..n {
+            let y = [
+                -0.5 + (i as f64 + 0.5) / n as f64,
+                -0.5 + (j as f64 + 0.5) / n as f64,
+                HEIGHT,
+            ];
+            let d = sub(y, x);
+            let r2 = dot(d, d);
+            let r = r2.sqrt();
+            let dir = [d[0] / r, d[1] / r, d[2] / r];
+            // Both cosines are dir·z: the floor and the opening are horizontal.
+            s += l(dir) * dir[2] * dir[2] / r2 * da;
+        }
+    }
+    s
+}
+
+#[test]
+fn cie_skies_through_a_roof_opening_give_the_sky_integral() {
+    // (type, sun azimuth from north toward east, sun zenith angle), degrees; north +y,
+    // east +x. Overcast, intermediate and clear skies with the sun to the south-west, low
+    // in the east and high.
+    let cases = [
+        (1u32, 0.0, 45.0, Estimator::DEFAULT),
+        (3, 0.0, 45.0, Estimator::Photons),
+        (7, 225.0, 35.0, Estimator::DEFAULT),
+        (12, 225.0, 35.0, Estimator::GATHER),
+        (15, 80.0, 60.0, Estimator::DEFAULT),
+    ];
+    for (k, &(kind, az, zen, estimator)) in cases.iter().enumerate() {
+        let (mut ctx, id, floor) = roof_room(20 + k as u64);
+        let lz = 5000.0;
+        ctx.add_sky(&SkyDesc {
+            kind: SkyKind::Cie {
+                kind,
+                sun_azimuth_deg: az,
+                sun_zenith_deg: zen,
+            },
+            amount: SkyAmount::Luminance(lz),
+            spectrum: Spectrum::Equal,
+            ..SkyDesc::default()
+        })
+        .unwrap();
+        run(&mut ctx, photons(300_000), estimator);
+        let (a, z) = (f64::to_radians(az), f64::to_radians(zen));
+        let sun = [z.sin() * a.sin(), z.sin() * a.cos(), z.cos()];
+        let abcde = imap::scene::sky::CIE_SKY_PARAMETERS[kind as usize - 1];
+        // Luminance per band of an equal-energy spectrum whose luminance is L_z: the
+        // context's efficacies give the band radiance.
+        let eff: f64 = ctx.photometry().luminous(&[1.0, 1.0, 1.0]);
+        let band_radiance = lz / eff;
+        let want: Vec<Option<f64>> = (0..floor.vertex_count())
+            .map(|v| {
+                Some(
+                    hat_average_with(&floor, v, 4, |x, _| {
+                        through_opening(x, 24, &|d| cie_luminance(abcde, d, sun))
+                    }) * band_radiance,
+                )
+            })
+            .collect();
+        assert_z(
+            &values(&ctx, id, 0),
+            &want,
+            &format!("CIE sky type {kind}, sun {az}°/{zen}°, {estimator:?}"),
+        );
+    }
+}
+
+#[test]
+fn the_sun_patch_lies_where_the_sun_puts_it_with_en_cos_theta() {
+    // The sun at azimuth 200° (south-south-west), zenith 20°, E_n = 900 W/m² over the
+    // bands. Its patch: the opening moved by 1 m · tan 20° away from the sun (wholly on
+    // the floor).
+    let (az, zen) = (200f64.to_radians(), 20f64.to_radians());
+    let toward = [zen.sin() * az.sin(), zen.sin() * az.cos(), zen.cos()];
+    let shift = [
+        -HEIGHT * toward[0] / toward[2],
+        -HEIGHT * toward[1] / toward[2],
+    ];
+    let en = 900.0;
+    for (seed, estimator) in ESTIMATORS.into_iter().enumerate() {
+        let (mut ctx, id, floor) = roof_room(30 + seed as u64);
+        ctx.add_sun(&SunDesc {
+            azimuth_deg: 200.0,
+            zenith_deg: 20.0,
+            amount: SkyAmount::NormalIrradiance(en),
+            spectrum: Spectrum::Equal,
+            zenith: [0.0, 0.0, 1.0],
+            north: [0.0, 1.0, 0.0],
+        })
+        .unwrap();
+        run(&mut ctx, photons(200_000), estimator);
+        // A vertex's support reaches 0.125 m; the penumbra is 1 m · tan 0.265° / cos 20°
+        // ≈ 0.5 cm wide: vertices whose support is wholly inside the patch read
+        // E_n cos θ / 3 per band, wholly outside nothing; the rest are not compared.
+        let e_band = en * zen.cos() / 3.0;
+        let want: Vec<Option<f64>> = (0..floor.vertex_count())
+            .map(|v| {
+                let p = floor.vertex(v);
+                let d = (p[0] - shift[0]).abs().max((p[1] - shift[1]).abs());
+                if d < 0.5 - 0.125 - 0.01 {
+                    Some(e_band)
+                } else if d > 0.5 + 0.125 + 0.01 {
+                    Some(0.0)
+                } else {
+                    None
+                }
+            })
+            .collect();
+        assert!(want.iter().filter(|w| **w == Some(e_band)).count() >= 16);
+        assert_z(
+            &values(&ctx, id, 0),
+            &want,
+            &format!("sun patch, {estimator:?}"),
+        );
+        // Everything the patch holds: its flux is E_n cos θ × 1 m² (the hat averages over
+        // the floor add up to it).
+        let got = values(&ctx, id, 0);
+        let areas = vertex_areas(&floor);
+        let flux: f64 = got.iter().zip(&areas).map(|((e, _), a)| e * a).sum();
+        assert!(
+            (flux / e_band - 1.0).abs() < 0.02,
+            "{estimator:?}: patch flux {flux} vs {e_band}"
+        );
+    }
+}
+
+#[test]
+fn hdr_environment_files_read_back_as_the_sky_they_hold() {
+    // An equirectangular image bright (2, 1, 0.5) above the horizon, black below: a
+    // uniform coloured sky. Written as Radiance RGBE and as OpenEXR, loaded through the
+    // file reader, it lights an open plane with E = π × (2, 1, 0.5) × scale.
+    let (w, h) = (64u32, 32u32);
+    let mut rgb = Vec::with_capacity((w * h * 3) as usize);
+    for y in 0..h {
+        for _ in 0..w {
+            let c = if y < h / 2 {
+                [2.0f32, 1.0, 0.5]
+            } else {
+                [0.0; 3]
+            };
+            rgb.extend(c);
+        }
+    }
+    let dir = tempdir();
+    let img = image::Rgb32FImage::from_raw(w, h, rgb.clone()).unwrap();
+    let hdr = dir.join("sky.hdr");
+    let exr = dir.join("sky.exr");
+    image::DynamicImage::ImageRgb32F(img.clone())
+        .save_with_format(&hdr, image::ImageFormat::Hdr)
+        .unwrap();
+    image::DynamicImage::ImageRgb32F(img)
+        .save_with_format(&exr, image::ImageFormat::OpenExr)
+        .unwrap();
+    for (k, path) in [hdr, exr].iter().enumerate() {
+        let mut ctx = context(cfg(40 + k as u64));
+        let black = lambert(&mut ctx, 0.0);
+        let g = grid(4, -1.0, 1.0, -1.0, 1.0, 0.0);
+        let id = ctx.add_mesh(&g.desc(black)).unwrap();
+        ctx.add_sky_file(
+            path,
+            &SkyDesc {
+                amount: SkyAmount::Scale(1.5),
+                rotation_deg: 77.0,
+                ..SkyDesc::default()
+            },
+        )
+        .unwrap();
+        run(
+            &mut ctx,
+            photons(400_000),
+            [Estimator::DEFAULT, Estimator::GATHER][k],
+        );
+        let n = g.vertex_count();
+        // Each band's light comes from its own channel's photons and light samples, so a
+        // vertex's error (of the bands' sum) is checked on the sum; each band's total
+        // over the plane within 1.5 %.
+        let mut total = vec![0.0; n];
+        for (band, c) in [2.0, 1.0, 0.5].into_iter().enumerate() {
+            let mut e = vec![0.0; n];
+            ctx.irradiance(id, 0, band as u32, &mut e).unwrap();
+            let mean = e.iter().sum::<f64>() / n as f64;
+            // RGBE keeps 8 bits of mantissa: 2, 1 and 0.5 are exact in it.
+            let want = PI * c * 1.5;
+            eprintln!(
+                "{} band {band}: mean {mean:.4} vs {want:.4}",
+                path.display()
+            );
+            assert!(
+                (mean / want - 1.0).abs() < 0.015,
+                "{}: band {band}",
+                path.display()
+            );
+            total.iter_mut().zip(&e).for_each(|(t, x)| *t += x);
+        }
+        let mut r = vec![0.0; n];
+        ctx.rel_error(id, 0, &mut r).unwrap();
+        let got: Vec<(f64, f64)> = total.into_iter().zip(r).collect();
+        let want = vec![Some(PI * 3.5 * 1.5); n];
+        assert_z(&got, &want, &format!("{} all bands", path.display()));
+    }
+    // A file that is not an environment image is refused naming it.
+    let mut ctx = context(cfg(1));
+    let bogus = dir.join("sky.txt");
+    std::fs::write(&bogus, "not an image").unwrap();
+    let e = ctx.add_sky_file(&bogus, &SkyDesc::default()).unwrap_err();
+    assert!(e.to_string().contains("sky.txt"), "{e}");
+    let e = ctx
+        .add_sky_file(&dir.join("missing.hdr"), &SkyDesc::default())
+        .unwrap_err();
+    assert_eq!(e.status, imap::ImapStatus::ImapErrIo, "{e}");
+}
+
+/// A fresh directory under the target's temporary folder.
+fn tempdir() -> std::path::PathBuf {
+    let d = std::env::temp_dir().join(format!("imap-daylight-{}", std::process::id()));
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+#[test]
+fn distant_light_keeps_its_energy_balance_and_light_groups() {
+    // Sky + sun in a black room: every photon is absorbed or escapes; the report's
+    // emitted flux is π R² ∫ L dω of each through the bounding sphere, and the two lights'
+    // groups add up to the map.
+    let (mut ctx, id, _) = roof_room(50);
+    let sky = ctx.add_sky(&uniform_sky(3.0, false)).unwrap();
+    let sun = ctx
+        .add_sun(&SunDesc {
+            azimuth_deg: 180.0,
+            zenith_deg: 10.0,
+            amount: SkyAmount::NormalIrradiance(300.0),
+            spectrum: Spectrum::Equal,
+            zenith: [0.0, 0.0, 1.0],
+            north: [0.0, 1.0, 0.0],
+        })
+        .unwrap();
+    // Reported "flux": the horizontal irradiance each gives an open plane.
+    let (w, _) = ctx.light_flux(sky).unwrap();
+    assert!((w.iter().sum::<f64>() - 3.0 * PI).abs() < 1e-9, "{w:?}");
+    let (w, _) = ctx.light_flux(sun).unwrap();
+    assert!((w.iter().sum::<f64>() - 300.0 * 10f64.to_radians().cos()).abs() < 1e-9);
+    ctx.set_light_group(sun, 1).unwrap();
+    ctx.set_layers(imap::scene::LayerRequest {
+        groups: true,
+        direct: false,
+    })
+    .unwrap();
+    let report = run(&mut ctx, photons(100_000), Estimator::DEFAULT);
+    let b = &report;
+    let total = b.absorbed_w + b.escaped_w + b.dropped_w;
+    assert!(
+        (total / b.emitted_w - 1.0).abs() < 1e-9,
+        "emitted {} vs absorbed {} + escaped {} + dropped {}",
+        b.emitted_w,
+        b.absorbed_w,
+        b.escaped_w,
+        b.dropped_w
+    );
+    let n = ctx.vertex_count(id).unwrap();
+    let mut all = vec![0.0; n];
+    ctx.irradiance(id, 0, 0, &mut all).unwrap();
+    let mut sum = vec![0.0; n];
+    for g in 0..2 {
+        let mut e = vec![0.0; n];
+        ctx.irradiance_layer(id, 0, 0, imap::Layer::Group(g), &mut e)
+            .unwrap();
+        sum.iter_mut().zip(&e).for_each(|(s, x)| *s += x);
+    }
+    for (a, s) in all.iter().zip(&sum) {
+        assert!((a - s).abs() <= 1e-9 * a.abs().max(1e-12), "{a} vs {s}");
+    }
+}
