@@ -379,6 +379,48 @@ int main(void) {
     ImapLight zero_light;
     memset(&zero_light, 0, sizeof zero_light);
     expect("zeroed ImapLight", imap_add_light(ctx, &zero_light, NULL, &id), IMAP_ERR_INVALID_ARGUMENT, ctx);
+    /* Skies and the sun (Since 0.2.2): each bad field is named; the context keeps going. */
+    ImapSky sky;
+    imap_sky_default(&sky, sizeof sky);
+    expect("sky amount 0", imap_add_sky(ctx, &sky, NULL, &id), IMAP_ERR_INVALID_ARGUMENT, ctx);
+    sky.amount = 1000, sky.unit = 9;
+    expect("sky unit 9", imap_add_sky(ctx, &sky, NULL, &id), IMAP_ERR_INVALID_ARGUMENT, ctx);
+    sky.unit = IMAP_SKY_UNIT_SCALE;
+    expect("scale for a uniform sky", imap_add_sky(ctx, &sky, NULL, &id), IMAP_ERR_INVALID_ARGUMENT, ctx);
+    sky.unit = IMAP_SKY_UNIT_LUMINANCE, sky.kind = IMAP_SKY_CIE, sky.cie_type = 16;
+    expect("CIE sky type 16", imap_add_sky(ctx, &sky, NULL, &id), IMAP_ERR_INVALID_ARGUMENT, ctx);
+    sky.cie_type = 12, sky.sun_zenith_deg = 95;
+    expect("CIE sun below the horizon", imap_add_sky(ctx, &sky, NULL, &id), IMAP_ERR_INVALID_ARGUMENT, ctx);
+    sky.sun_zenith_deg = 30, sky.north[0] = 0, sky.north[1] = 0, sky.north[2] = 5;
+    expect("north along the zenith", imap_add_sky(ctx, &sky, NULL, &id), IMAP_ERR_INVALID_ARGUMENT, ctx);
+    sky.north[1] = 1, sky.north[2] = 0, sky.kind = IMAP_SKY_IMAGE, sky.image_width = 4, sky.image_height = 2;
+    expect("image sky without pixels", imap_add_sky(ctx, &sky, NULL, &id), IMAP_ERR_NULL_POINTER, ctx);
+    float pixels[24] = {0};
+    pixels[5] = NAN;
+    sky.image_rgb = pixels, sky.unit = IMAP_SKY_UNIT_SCALE, sky.amount = 1;
+    expect("image sky with a NaN pixel", imap_add_sky(ctx, &sky, NULL, &id), IMAP_ERR_NON_FINITE, ctx);
+    pixels[5] = 0;
+    expect("black image sky", imap_add_sky(ctx, &sky, NULL, &id), IMAP_ERR_NO_LIGHT, ctx);
+    expect("sky file that does not exist", imap_add_sky_file(ctx, "/nonexistent/sky.hdr", &sky, &id), IMAP_ERR_IO, ctx);
+    expect("sky file NULL", imap_add_sky_file(ctx, NULL, &sky, &id), IMAP_ERR_NULL_POINTER, ctx);
+    ImapSun sun;
+    imap_sun_default(&sun, sizeof sun);
+    sun.amount = 80000, sun.unit = IMAP_UNIT_CD;
+    expect("sun in candela", imap_add_sun(ctx, &sun, NULL, &id), IMAP_ERR_INVALID_ARGUMENT, ctx);
+    sun.unit = IMAP_UNIT_LX, sun.zenith_deg = NAN;
+    expect("sun zenith NaN", imap_add_sun(ctx, &sun, NULL, &id), IMAP_ERR_NON_FINITE, ctx);
+    ImapSunTime when;
+    imap_sun_time_default(&when, sizeof when);
+    double az, zen;
+    when.month = 13;
+    expect("sun position in month 13", imap_sun_position(&when, &az, &zen), IMAP_ERR_INVALID_ARGUMENT, NULL);
+    when.month = 6;
+    expect("sun position without outputs", imap_sun_position(&when, NULL, &zen), IMAP_ERR_NULL_POINTER, NULL);
+    expect("sun position", imap_sun_position(&when, &az, &zen), IMAP_OK, NULL);
+    if (!(zen > 23 && zen < 24)) {
+        printf("FAIL: the sun at noon UTC on 21 June at 0 N 0 E stands %.3f deg from the zenith (the tropic: ~23.4)\n", zen);
+        failures++;
+    }
     /* The context still works: a luminaire of 1000 cd cos-like, lux under it. */
     uint32_t lum;
     spec.kind = IMAP_SPECTRUM_BLACKBODY, spec.cct_k = 3000;

@@ -444,7 +444,10 @@ int main(int argc, char **argv) {
             what = "imap_*_default";
             static unsigned char buf[4096];
             size_t size = chance(0.5) ? below(4096) : below(200);
-            switch (below(10)) {
+            switch (below(13)) {
+            case 10: s = imap_sky_default((ImapSky *)(void *)buf, size); break;
+            case 11: s = imap_sun_default((ImapSun *)(void *)buf, size); break;
+            case 12: s = imap_sun_time_default((ImapSunTime *)(void *)buf, size); break;
             case 6: s = imap_light_default((ImapLight *)(void *)buf, size); break;
             case 7: s = imap_spectrum_default((ImapSpectrum *)(void *)buf, size); break;
             case 8: s = imap_luminaire_default((ImapLuminaire *)(void *)buf, size); break;
@@ -618,6 +621,48 @@ int main(int argc, char **argv) {
                 ctx = into;
             }
             free(st);
+            break;
+        }
+        case 20: { /* a sky, an image environment or the sun, with hostile fields */
+            what = "imap_add_sky/sun";
+            static float pixels[8 * 4 * 3];
+            ImapSpectrum sp;
+            double table[16];
+            hostile_spectrum(&sp, table);
+            if (chance(0.3)) {
+                ImapSun sun;
+                imap_sun_default(&sun, sizeof sun);
+                sun.unit = below(8);
+                sun.amount = chance(0.7) ? 1000 * uniform() + 1 : hostile(1000);
+                sun.azimuth_deg = chance(0.7) ? 360 * uniform() : hostile(180);
+                sun.zenith_deg = chance(0.7) ? 90 * uniform() : hostile(45);
+                if (chance(0.1)) sun.north[below(3)] = hostile(1);
+                if (chance(0.03)) sun.struct_size = below(200);
+                s = imap_add_sun(ctx, chance(0.02) ? NULL : &sun, chance(0.5) ? NULL : &sp, chance(0.02) ? NULL : &id);
+                break;
+            }
+            ImapSky sky;
+            imap_sky_default(&sky, sizeof sky);
+            sky.kind = below(5);
+            sky.unit = below(6);
+            sky.cie_type = below(17);
+            sky.amount = chance(0.7) ? 1000 * uniform() + 1 : hostile(1000);
+            sky.sun_azimuth_deg = chance(0.8) ? 360 * uniform() : hostile(180);
+            sky.sun_zenith_deg = chance(0.8) ? 90 * uniform() : hostile(45);
+            sky.rotation_deg = chance(0.8) ? 0 : hostile(10);
+            if (chance(0.1)) sky.zenith[below(3)] = hostile(1);
+            for (int k = 0; k < 8 * 4 * 3; k++) pixels[k] = chance(0.95) ? (float)uniform() : (float)hostile(1);
+            sky.image_rgb = chance(0.05) ? NULL : pixels;
+            /* Hostile sizes stay within the pixels passed (the contract the library
+               cannot check), or come with no pixels at all. */
+            sky.image_width = chance(0.9) ? 8 : below(9);
+            sky.image_height = chance(0.9) ? 4 : below(5);
+            if (chance(0.03)) sky.image_rgb = NULL, sky.image_width = (size_t)-1 / 2, sky.image_height = 7;
+            if (chance(0.03)) sky.struct_size = below(200);
+            if (chance(0.1))
+                s = imap_add_sky_file(ctx, chance(0.5) ? "/nonexistent.hdr" : "CMakeLists.txt", &sky, &id);
+            else
+                s = imap_add_sky(ctx, chance(0.02) ? NULL : &sky, chance(0.5) ? NULL : &sp, chance(0.02) ? NULL : &id);
             break;
         }
         case 14: /* destroy and create, sometimes */

@@ -466,6 +466,57 @@
 #define IMAP_MESH_SKIP_DEGENERATE 16
 
 /**
+ * Uniform radiance over the upper hemisphere. (Since 0.2.2.)
+ */
+#define IMAP_SKY_UNIFORM 0
+
+/**
+ * Uniform radiance over every direction (an environment lighting from below too).
+ * (Since 0.2.2.)
+ */
+#define IMAP_SKY_UNIFORM_SPHERE 1
+
+/**
+ * A CIE standard general sky (ISO 15469 / CIE S 011), `cie_type` 1–15, with the sun at
+ * `sun_azimuth_deg`, `sun_zenith_deg`. (Since 0.2.2.)
+ */
+#define IMAP_SKY_CIE 2
+
+/**
+ * An equirectangular image (`image_rgb`, or a file given to `imap_add_sky_file`).
+ * (Since 0.2.2.)
+ */
+#define IMAP_SKY_IMAGE 3
+
+/**
+ * A sky's amount: its radiance over all bands, W/(m² sr) (a CIE sky's at the zenith).
+ * (Since 0.2.2.)
+ */
+#define IMAP_SKY_UNIT_RADIANCE 0
+
+/**
+ * Its luminance, cd/m² (a CIE sky's at the zenith). (Since 0.2.2.)
+ */
+#define IMAP_SKY_UNIT_LUMINANCE 1
+
+/**
+ * The irradiance it gives an unobstructed horizontal plane, W/m² over all bands.
+ * (Since 0.2.2.)
+ */
+#define IMAP_SKY_UNIT_HORIZONTAL_W_PER_M2 2
+
+/**
+ * The illuminance it gives an unobstructed horizontal plane, lx. (Since 0.2.2.)
+ */
+#define IMAP_SKY_UNIT_HORIZONTAL_LX 3
+
+/**
+ * An image's pixel values times `amount` are radiance per channel, W/(m² sr).
+ * (Since 0.2.2.)
+ */
+#define IMAP_SKY_UNIT_SCALE 4
+
+/**
  * `imap_state_write` flag: leave the map's accumulators out (an MPI rank's "ledger": the
  * caller sums the maps itself, see `imap_map_accumulators`). (Since 0.2.2.)
  */
@@ -1495,6 +1546,111 @@ typedef struct ImapMesh {
   uint32_t material;
 } ImapMesh;
 
+/**
+ * A sky or environment. Initialise with `imap_sky_default(&s, sizeof s)`: a uniform sky
+ * (amount 0 cd/m²: set it), zenith +z, north +y, not rotated. (Since 0.2.2.)
+ *
+ * Directions: azimuths are measured from `north` toward east (`north` × `zenith`),
+ * zenith angles from `zenith`. An image is equirectangular: its rows run from the zenith
+ * (top) to the nadir, its columns over azimuths with the centre column toward north and
+ * east to the right of it (as seen from inside); each pixel's value is the radiance over
+ * its solid angle. Its photons enter through the scene's bounding sphere, so the sky
+ * lights any scene exactly whatever its size and position.
+ */
+typedef struct ImapSky {
+  uint32_t struct_size;
+  /**
+   * `IMAP_SKY_*`.
+   */
+  uint32_t kind;
+  /**
+   * CIE: the sky type, 1–15.
+   */
+  uint32_t cie_type;
+  /**
+   * `IMAP_SKY_UNIT_*` of `amount`. Uniform and CIE skies: RADIANCE, LUMINANCE or a
+   * horizontal amount; images: SCALE or a horizontal amount.
+   */
+  uint32_t unit;
+  /**
+   * How bright, in `unit`.
+   */
+  double amount;
+  /**
+   * CIE: the sun's azimuth (degrees from north toward east) and zenith angle (0–90°).
+   */
+  double sun_azimuth_deg;
+  double sun_zenith_deg;
+  /**
+   * The sky's zenith and north in scene coordinates (any length but 0; north's part
+   * along the zenith is ignored).
+   */
+  double zenith[3];
+  double north[3];
+  /**
+   * Turns the sky about the zenith, degrees toward east (−360 to 360).
+   */
+  double rotation_deg;
+  /**
+   * IMAGE (imap_add_sky): `image_width × image_height` linear RGB triples, rows from
+   * the zenith down. The library copies them.
+   */
+  const float *image_rgb;
+  size_t image_width;
+  size_t image_height;
+} ImapSky;
+
+/**
+ * The sun: a uniformly bright disk of 0.53°. Initialise with `imap_sun_default(&s,
+ * sizeof s)`: due south at 45° zenith angle, `unit` IMAP_UNIT_LX, amount 0 (set it),
+ * zenith +z, north +y. (Since 0.2.2.)
+ */
+typedef struct ImapSun {
+  uint32_t struct_size;
+  /**
+   * `IMAP_UNIT_LX` (direct normal illuminance) or `IMAP_UNIT_W_PER_M2` (direct normal
+   * irradiance over all bands).
+   */
+  uint32_t unit;
+  double amount;
+  /**
+   * Degrees from north toward east; the zenith angle 0–90° (`imap_sun_position` gives
+   * both for a date, time and place).
+   */
+  double azimuth_deg;
+  double zenith_deg;
+  /**
+   * As `ImapSky`.
+   */
+  double zenith[3];
+  double north[3];
+} ImapSun;
+
+/**
+ * A moment and a place for `imap_sun_position`. Initialise with
+ * `imap_sun_time_default(&t, sizeof t)` (2000-06-21 12:00 UTC at 0° N 0° E, sea level).
+ * (Since 0.2.2.)
+ */
+typedef struct ImapSunTime {
+  uint32_t struct_size;
+  int32_t year;
+  uint32_t month;
+  uint32_t day;
+  uint32_t hour;
+  uint32_t minute;
+  double second;
+  /**
+   * Local time's offset from UTC, hours (+1 for CET).
+   */
+  double utc_offset_hours;
+  /**
+   * Degrees north, degrees east, metres above sea level.
+   */
+  double latitude_deg;
+  double longitude_deg;
+  double elevation_m;
+} ImapSunTime;
+
 #ifdef __cplusplus
 extern "C" {
 #endif // __cplusplus
@@ -1764,7 +1920,9 @@ enum ImapStatus imap_add_luminaire_table(struct ImapContext *ctx, const struct I
 /**
  * The radiant flux per band (W) of light `id` into `out_w[0 .. band count)` (NULL with
  * count 0 to skip), and its luminous flux (lm) into `*out_lm` (NULL to skip). For a
- * luminaire: what its placement emits (factors, TILT and `lumens` applied).
+ * luminaire: what its placement emits (factors, TILT and `lumens` applied). For a sky or
+ * the sun (Since 0.2.2): the irradiance per band (W/m²) and illuminance (lx) it gives an
+ * unobstructed horizontal plane (its flux into a scene depends on the scene's size).
  *
  * Returns IMAP_ERR_NULL_POINTER, IMAP_ERR_INDEX_OUT_OF_RANGE, IMAP_ERR_BUFFER_TOO_SMALL,
  * IMAP_ERR_BUSY.
@@ -2143,6 +2301,86 @@ enum ImapStatus imap_add_point_light(struct ImapContext *ctx, const double *posi
  * As `imap_add_point_light`; `direction` points to 3 doubles.
  */
 enum ImapStatus imap_add_spot_light(struct ImapContext *ctx, const double *position, const double *direction, double half_angle_rad, const double *power, size_t power_count, uint32_t *out_id);
+
+/**
+ * Fills `size` bytes at `out` with a sky's defaults (see `ImapSky`). (Since 0.2.2.)
+ *
+ * # Safety
+ * `out` is NULL or points to `size` writable bytes.
+ */
+enum ImapStatus imap_sky_default(struct ImapSky *out, size_t size);
+
+/**
+ * Fills `size` bytes at `out` with the sun's defaults (see `ImapSun`). (Since 0.2.2.)
+ *
+ * # Safety
+ * `out` is NULL or points to `size` writable bytes.
+ */
+enum ImapStatus imap_sun_default(struct ImapSun *out, size_t size);
+
+/**
+ * Fills `size` bytes at `out` with a `ImapSunTime`'s defaults. (Since 0.2.2.)
+ *
+ * # Safety
+ * `out` is NULL or points to `size` writable bytes.
+ */
+enum ImapStatus imap_sun_time_default(struct ImapSunTime *out, size_t size);
+
+/**
+ * Adds a sky or environment (`ImapSky`) in `spectrum` (NULL: CIE D65; an image has its
+ * own colours and ignores it); `*out_id` receives its light id (a light group can be set
+ * on it like any light's). Works with every estimator and the renderer.
+ * `imap_get_light_flux` reports the irradiance and illuminance it gives an unobstructed
+ * horizontal plane.
+ *
+ * Returns IMAP_ERR_NULL_POINTER, IMAP_ERR_NON_FINITE (naming the field, or the pixel),
+ * IMAP_ERR_INVALID_ARGUMENT (naming the field: an unknown kind or unit, a unit the kind
+ * cannot take, a CIE type outside 1–15, a sun below the horizon, north parallel to the
+ * zenith, an amount ≤ 0), IMAP_ERR_NO_LIGHT (a black image), IMAP_ERR_BUSY. The context
+ * is unchanged on any error. (Since 0.2.2.)
+ *
+ * # Safety
+ * `ctx` is a live handle; `sky` points to an initialised `ImapSky` whose image (kind
+ * IMAGE) holds `3 × image_width × image_height` floats; `spectrum` is NULL or
+ * initialised; `out_id` is writable.
+ */
+enum ImapStatus imap_add_sky(struct ImapContext *ctx, const struct ImapSky *sky, const struct ImapSpectrum *spectrum, uint32_t *out_id);
+
+/**
+ * Adds an environment from an equirectangular Radiance HDR (.hdr, .pic) or OpenEXR
+ * (.exr) file at NUL-terminated `path` (recognised by content), oriented and scaled by
+ * `sky` (its kind and image fields are ignored; `unit` SCALE or a horizontal amount).
+ * Returns IMAP_ERR_IO (the file cannot be read), IMAP_ERR_PARSE (not such an image; the
+ * message names the file), and as `imap_add_sky`. (Since 0.2.2.)
+ *
+ * # Safety
+ * As `imap_add_sky`; `path` is NUL-terminated.
+ */
+enum ImapStatus imap_add_sky_file(struct ImapContext *ctx, const char *path, const struct ImapSky *sky, uint32_t *out_id);
+
+/**
+ * Adds the sun (`ImapSun`) in `spectrum` (NULL: CIE D65). Returns as `imap_add_sky`
+ * (IMAP_ERR_INVALID_ARGUMENT for a unit other than LX or W_PER_M2). (Since 0.2.2.)
+ *
+ * # Safety
+ * `ctx` is a live handle; `sun` points to an initialised `ImapSun`; `spectrum` is NULL or
+ * initialised; `out_id` is writable.
+ */
+enum ImapStatus imap_add_sun(struct ImapContext *ctx, const struct ImapSun *sun, const struct ImapSpectrum *spectrum, uint32_t *out_id);
+
+/**
+ * The sun's apparent position at a local date and time and a place: azimuth (degrees from
+ * north toward east) into `*out_azimuth_deg`, zenith angle (degrees; above 90 when it is
+ * below the horizon) into `*out_zenith_deg`. NREL's Solar Position Algorithm (±0.0003°,
+ * years −2000 to 6000), ΔT estimated from the date, refraction of a standard atmosphere.
+ * Returns IMAP_ERR_NULL_POINTER, IMAP_ERR_NON_FINITE, IMAP_ERR_INVALID_ARGUMENT (naming
+ * the field: a date that does not exist, a latitude outside ±90°, …). Thread-safe.
+ * (Since 0.2.2.)
+ *
+ * # Safety
+ * `time` points to an initialised `ImapSunTime`; the outputs are writable.
+ */
+enum ImapStatus imap_sun_position(const struct ImapSunTime *time, double *out_azimuth_deg, double *out_zenith_deg);
 
 /**
  * Writes everything the context has accumulated — the map's sums and squares in every

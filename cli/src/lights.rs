@@ -24,7 +24,7 @@ pub struct SpectrumSettings {
 }
 
 impl SpectrumSettings {
-    fn resolve(&self, what: &str) -> Result<LightSpectrum> {
+    pub fn resolve(&self, what: &str) -> Result<LightSpectrum> {
         let given = [
             self.spectrum.is_some(),
             self.rgb.is_some(),

@@ -2,6 +2,7 @@
 //! error-against-time history.
 
 mod cornell;
+mod daylight;
 mod diag;
 mod gltf_in;
 mod grids;

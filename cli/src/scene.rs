@@ -210,6 +210,12 @@ pub struct Settings {
     pub lights: Vec<LightSettings>,
     #[serde(default, rename = "luminaire")]
     pub luminaires: Vec<LuminaireSettings>,
+    #[serde(default)]
+    pub sky: Option<crate::daylight::SkySettings>,
+    #[serde(default)]
+    pub environment: Option<crate::daylight::EnvironmentSettings>,
+    #[serde(default)]
+    pub sun: Option<crate::daylight::SunSettings>,
     /// The settings file's folder: luminaire files are relative to it.
     #[serde(skip)]
     pub base_dir: std::path::PathBuf,
@@ -487,6 +493,14 @@ pub fn load(path: &Path, settings: &Settings) -> Result<(Context, LoadedScene)> 
     lights::add_luminaires(
         &mut ctx,
         &settings.luminaires,
+        &settings.base_dir,
+        &mut placed,
+    )?;
+    crate::daylight::add_daylight(
+        &mut ctx,
+        settings.sky.as_ref(),
+        settings.environment.as_ref(),
+        settings.sun.as_ref(),
         &settings.base_dir,
         &mut placed,
     )?;

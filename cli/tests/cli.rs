@@ -791,3 +791,58 @@ spacing = 0.25
     ]);
     assert!(e.contains("[[grid]]"), "{e}");
 }
+
+#[test]
+fn a_sky_and_the_sun_light_an_open_plane_by_their_horizontal_amounts() {
+    // A CIE clear sky of 10 000 lx horizontal and the sun at 60° from the zenith with
+    // 80 000 lx normal to it: an open black plane reads 10 000 + 40 000 lx everywhere.
+    // The sun by date and place: Berlin at 13:00 CEST on 21 June stands 29.1° from the
+    // zenith, nearly due south. Bad daylight settings are one line naming the field.
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let obj = write(
+        d,
+        "plane.obj",
+        "mtllib p.mtl\nusemtl black\nv -1 -1 0\nv 1 -1 0\nv 1 1 0\nv -1 1 0\nf 1 2 3\nf 1 3 4\n",
+    );
+    write(d, "p.mtl", "newmtl black\nKd 0 0 0\n");
+    let toml = write(
+        d,
+        "sky.toml",
+        "[sky]\nkind = \"cie\"\ncie_type = 12\nhorizontal_illuminance = 10000\n\
+         [sun]\nazimuth_deg = 200\nzenith_deg = 60\nnormal_illuminance = 80000\n",
+    );
+    let out = d.join("out");
+    let o = common::run_photons(&obj, &toml, &out, 40_000);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let report = read_report(&out);
+    let lux = &report["meshes"][0]["illuminance_lx"];
+    let mean = lux["mean"].as_f64().unwrap();
+    assert!((mean / 50_000.0 - 1.0).abs() < 0.01, "{mean}");
+    let lights = report["lights"].as_array().unwrap();
+    assert_eq!(lights.len(), 2);
+    assert!((lights[1]["lumens"].as_f64().unwrap() - 40_000.0).abs() < 1e-6);
+
+    let toml = write(
+        d,
+        "date.toml",
+        "[sun]\ndate = \"2026-06-21 13:00\"\nutc_offset_hours = 2\nlatitude_deg = 52.52\n\
+         longitude_deg = 13.40\nnormal_irradiance = 800\n",
+    );
+    let o = common::run_photons(&obj, &toml, &d.join("out2"), 10_000);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let report = read_report(&d.join("out2"));
+    let name = report["lights"][0]["name"].as_str().unwrap().to_string();
+    assert!(name.contains("zenith 29.1"), "{name}");
+    for (bad, says) in [
+        ("[sun]\ndate = \"21.6.2026 13:00\"\nlatitude_deg = 1\nlongitude_deg = 1\nnormal_illuminance = 1\n", "YYYY-MM-DD"),
+        ("[sun]\nazimuth_deg = 1\nzenith_deg = 1\n", "normal_illuminance"),
+        ("[sky]\nkind = \"cie\"\ncie_type = 12\nluminance = 1000\n", "needs its sun"),
+        ("[sky]\nkind = \"perez\"\nluminance = 1000\n", "perez"),
+        ("[environment]\nfile = \"nowhere.hdr\"\nscale = 1\n", "nowhere.hdr"),
+    ] {
+        let toml = write(d, "bad.toml", bad);
+        let e = fails(&["run", &obj, "--config", &toml, "--photons", "100"]);
+        assert!(e.contains(says), "{bad}: {e}");
+    }
+}

@@ -322,7 +322,7 @@ pub unsafe extern "C" fn imap_photometry_default(
     boundary(None, || write_defaults(out, size))
 }
 
-fn spectrum_from_c(s: *const ImapSpectrum) -> Result<Spectrum> {
+pub(super) fn spectrum_from_c(s: *const ImapSpectrum) -> Result<Spectrum> {
     if s.is_null() {
         return Ok(Spectrum::Equal);
     }

@@ -18,6 +18,7 @@ mod render;
 mod results;
 mod run;
 mod scene;
+mod sky;
 mod state;
 
 pub use context::*;
@@ -27,6 +28,7 @@ pub use render::*;
 pub use results::*;
 pub use run::*;
 pub use scene::*;
+pub use sky::*;
 pub use state::*;
 
 use crate::context::Context;

@@ -15,7 +15,7 @@ pub const IMAP_STATE_FORMAT_VERSION: u32 = 1;
 const _: () = assert!(IMAP_STATE_FORMAT_VERSION == state::FORMAT_VERSION);
 
 /// A path from a NUL-terminated C string (bytes as the system takes them).
-fn path_arg<'a>(name: &str, p: *const c_char) -> Result<&'a Path> {
+pub(super) fn path_arg<'a>(name: &str, p: *const c_char) -> Result<&'a Path> {
     if p.is_null() {
         bail!(ImapErrNullPointer, "{name} is NULL");
     }

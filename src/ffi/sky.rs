@@ -1,0 +1,398 @@
+//! Skies, environment images and the sun through the C ABI (Since 0.2.2).
+
+use super::light::spectrum_from_c;
+use super::scene::add_with;
+use super::state::path_arg;
+use super::{boundary, read_versioned, slice, write_defaults, write_out, ImapContext, Versioned};
+use crate::error::{bail, ImapStatus, Result};
+use crate::photometry::Spectrum;
+use crate::scene::sky::{self, SkyAmount, SkyDesc, SkyKind, SunDesc, SunTime};
+use std::ffi::c_char;
+use std::sync::Arc;
+
+/// Uniform radiance over the upper hemisphere. (Since 0.2.2.)
+pub const IMAP_SKY_UNIFORM: u32 = 0;
+/// Uniform radiance over every direction (an environment lighting from below too).
+/// (Since 0.2.2.)
+pub const IMAP_SKY_UNIFORM_SPHERE: u32 = 1;
+/// A CIE standard general sky (ISO 15469 / CIE S 011), `cie_type` 1–15, with the sun at
+/// `sun_azimuth_deg`, `sun_zenith_deg`. (Since 0.2.2.)
+pub const IMAP_SKY_CIE: u32 = 2;
+/// An equirectangular image (`image_rgb`, or a file given to `imap_add_sky_file`).
+/// (Since 0.2.2.)
+pub const IMAP_SKY_IMAGE: u32 = 3;
+
+/// A sky's amount: its radiance over all bands, W/(m² sr) (a CIE sky's at the zenith).
+/// (Since 0.2.2.)
+pub const IMAP_SKY_UNIT_RADIANCE: u32 = 0;
+/// Its luminance, cd/m² (a CIE sky's at the zenith). (Since 0.2.2.)
+pub const IMAP_SKY_UNIT_LUMINANCE: u32 = 1;
+/// The irradiance it gives an unobstructed horizontal plane, W/m² over all bands.
+/// (Since 0.2.2.)
+pub const IMAP_SKY_UNIT_HORIZONTAL_W_PER_M2: u32 = 2;
+/// The illuminance it gives an unobstructed horizontal plane, lx. (Since 0.2.2.)
+pub const IMAP_SKY_UNIT_HORIZONTAL_LX: u32 = 3;
+/// An image's pixel values times `amount` are radiance per channel, W/(m² sr).
+/// (Since 0.2.2.)
+pub const IMAP_SKY_UNIT_SCALE: u32 = 4;
+
+/// A sky or environment. Initialise with `imap_sky_default(&s, sizeof s)`: a uniform sky
+/// (amount 0 cd/m²: set it), zenith +z, north +y, not rotated. (Since 0.2.2.)
+///
+/// Directions: azimuths are measured from `north` toward east (`north` × `zenith`),
+/// zenith angles from `zenith`. An image is equirectangular: its rows run from the zenith
+/// (top) to the nadir, its columns over azimuths with the centre column toward north and
+/// east to the right of it (as seen from inside); each pixel's value is the radiance over
+/// its solid angle. Its photons enter through the scene's bounding sphere, so the sky
+/// lights any scene exactly whatever its size and position.
+#[repr(C)]
+#[derive(Clone, Copy, Debug)]
+pub struct ImapSky {
+    pub struct_size: u32,
+    /// `IMAP_SKY_*`.
+    pub kind: u32,
+    /// CIE: the sky type, 1–15.
+    pub cie_type: u32,
+    /// `IMAP_SKY_UNIT_*` of `amount`. Uniform and CIE skies: RADIANCE, LUMINANCE or a
+    /// horizontal amount; images: SCALE or a horizontal amount.
+    pub unit: u32,
+    /// How bright, in `unit`.
+    pub amount: f64,
+    /// CIE: the sun's azimuth (degrees from north toward east) and zenith angle (0–90°).
+    pub sun_azimuth_deg: f64,
+    pub sun_zenith_deg: f64,
+    /// The sky's zenith and north in scene coordinates (any length but 0; north's part
+    /// along the zenith is ignored).
+    pub zenith: [f64; 3],
+    pub north: [f64; 3],
+    /// Turns the sky about the zenith, degrees toward east (−360 to 360).
+    pub rotation_deg: f64,
+    /// IMAGE (imap_add_sky): `image_width × image_height` linear RGB triples, rows from
+    /// the zenith down. The library copies them.
+    pub image_rgb: *const f32,
+    pub image_width: usize,
+    pub image_height: usize,
+}
+
+// SAFETY: repr(C), u32 struct_size first, numbers and raw pointers only.
+unsafe impl Versioned for ImapSky {
+    const NAME: &'static str = "ImapSky";
+    const INIT: &'static str = "imap_sky_default";
+    fn defaults() -> Self {
+        let d = SkyDesc::default();
+        ImapSky {
+            struct_size: std::mem::size_of::<Self>() as u32,
+            kind: IMAP_SKY_UNIFORM,
+            cie_type: 0,
+            unit: IMAP_SKY_UNIT_LUMINANCE,
+            amount: 0.0,
+            sun_azimuth_deg: 180.0,
+            sun_zenith_deg: 45.0,
+            zenith: d.zenith,
+            north: d.north,
+            rotation_deg: 0.0,
+            image_rgb: std::ptr::null(),
+            image_width: 0,
+            image_height: 0,
+        }
+    }
+}
+
+/// The sun: a uniformly bright disk of 0.53°. Initialise with `imap_sun_default(&s,
+/// sizeof s)`: due south at 45° zenith angle, `unit` IMAP_UNIT_LX, amount 0 (set it),
+/// zenith +z, north +y. (Since 0.2.2.)
+#[repr(C)]
+#[derive(Clone, Copy, Debug)]
+pub struct ImapSun {
+    pub struct_size: u32,
+    /// `IMAP_UNIT_LX` (direct normal illuminance) or `IMAP_UNIT_W_PER_M2` (direct normal
+    /// irradiance over all bands).
+    pub unit: u32,
+    pub amount: f64,
+    /// Degrees from north toward east; the zenith angle 0–90° (`imap_sun_position` gives
+    /// both for a date, time and place).
+    pub azimuth_deg: f64,
+    pub zenith_deg: f64,
+    /// As `ImapSky`.
+    pub zenith: [f64; 3],
+    pub north: [f64; 3],
+}
+
+// SAFETY: repr(C), u32 struct_size first, numbers only.
+unsafe impl Versioned for ImapSun {
+    const NAME: &'static str = "ImapSun";
+    const INIT: &'static str = "imap_sun_default";
+    fn defaults() -> Self {
+        ImapSun {
+            struct_size: std::mem::size_of::<Self>() as u32,
+            unit: super::light::IMAP_UNIT_LX,
+            amount: 0.0,
+            azimuth_deg: 180.0,
+            zenith_deg: 45.0,
+            zenith: [0.0, 0.0, 1.0],
+            north: [0.0, 1.0, 0.0],
+        }
+    }
+}
+
+/// A moment and a place for `imap_sun_position`. Initialise with
+/// `imap_sun_time_default(&t, sizeof t)` (2000-06-21 12:00 UTC at 0° N 0° E, sea level).
+/// (Since 0.2.2.)
+#[repr(C)]
+#[derive(Clone, Copy, Debug)]
+pub struct ImapSunTime {
+    pub struct_size: u32,
+    pub year: i32,
+    pub month: u32,
+    pub day: u32,
+    pub hour: u32,
+    pub minute: u32,
+    pub second: f64,
+    /// Local time's offset from UTC, hours (+1 for CET).
+    pub utc_offset_hours: f64,
+    /// Degrees north, degrees east, metres above sea level.
+    pub latitude_deg: f64,
+    pub longitude_deg: f64,
+    pub elevation_m: f64,
+}
+
+// SAFETY: repr(C), u32 struct_size first, numbers only.
+unsafe impl Versioned for ImapSunTime {
+    const NAME: &'static str = "ImapSunTime";
+    const INIT: &'static str = "imap_sun_time_default";
+    fn defaults() -> Self {
+        ImapSunTime {
+            struct_size: std::mem::size_of::<Self>() as u32,
+            year: 2000,
+            month: 6,
+            day: 21,
+            hour: 12,
+            minute: 0,
+            second: 0.0,
+            utc_offset_hours: 0.0,
+            latitude_deg: 0.0,
+            longitude_deg: 0.0,
+            elevation_m: 0.0,
+        }
+    }
+}
+
+/// Fills `size` bytes at `out` with a sky's defaults (see `ImapSky`). (Since 0.2.2.)
+///
+/// # Safety
+/// `out` is NULL or points to `size` writable bytes.
+#[no_mangle]
+pub unsafe extern "C" fn imap_sky_default(out: *mut ImapSky, size: usize) -> ImapStatus {
+    boundary(None, || write_defaults(out, size))
+}
+
+/// Fills `size` bytes at `out` with the sun's defaults (see `ImapSun`). (Since 0.2.2.)
+///
+/// # Safety
+/// `out` is NULL or points to `size` writable bytes.
+#[no_mangle]
+pub unsafe extern "C" fn imap_sun_default(out: *mut ImapSun, size: usize) -> ImapStatus {
+    boundary(None, || write_defaults(out, size))
+}
+
+/// Fills `size` bytes at `out` with a `ImapSunTime`'s defaults. (Since 0.2.2.)
+///
+/// # Safety
+/// `out` is NULL or points to `size` writable bytes.
+#[no_mangle]
+pub unsafe extern "C" fn imap_sun_time_default(out: *mut ImapSunTime, size: usize) -> ImapStatus {
+    boundary(None, || write_defaults(out, size))
+}
+
+/// The sky's spectrum: NULL means CIE D65 (daylight).
+fn daylight_spectrum(s: *const super::light::ImapSpectrum) -> Result<Spectrum> {
+    if s.is_null() {
+        Ok(Spectrum::CieD65)
+    } else {
+        spectrum_from_c(s)
+    }
+}
+
+fn sky_from_c(s: &ImapSky, image: bool) -> Result<SkyDesc> {
+    let x = s.amount;
+    let amount = match s.unit {
+        IMAP_SKY_UNIT_RADIANCE => SkyAmount::Radiance(x),
+        IMAP_SKY_UNIT_LUMINANCE => SkyAmount::Luminance(x),
+        IMAP_SKY_UNIT_HORIZONTAL_W_PER_M2 => SkyAmount::HorizontalIrradiance(x),
+        IMAP_SKY_UNIT_HORIZONTAL_LX => SkyAmount::HorizontalIlluminance(x),
+        IMAP_SKY_UNIT_SCALE => SkyAmount::Scale(x),
+        u => bail!(
+            ImapErrInvalidArgument,
+            "sky.unit = {u} is not an IMAP_SKY_UNIT_* value (0–4)"
+        ),
+    };
+    let kind = match s.kind {
+        _ if image => SkyKind::Uniform { sphere: false },
+        IMAP_SKY_UNIFORM => SkyKind::Uniform { sphere: false },
+        IMAP_SKY_UNIFORM_SPHERE => SkyKind::Uniform { sphere: true },
+        IMAP_SKY_CIE => SkyKind::Cie {
+            kind: s.cie_type,
+            sun_azimuth_deg: s.sun_azimuth_deg,
+            sun_zenith_deg: s.sun_zenith_deg,
+        },
+        IMAP_SKY_IMAGE => {
+            let n = s
+                .image_width
+                .checked_mul(s.image_height)
+                .and_then(|n| n.checked_mul(3))
+                .filter(|&n| n > 0)
+                .ok_or_else(|| {
+                    crate::error::Error::new(
+                        ImapStatus::ImapErrInvalidArgument,
+                        format!(
+                            "sky.image_width × image_height = {} × {}: not a usable image size",
+                            s.image_width, s.image_height
+                        ),
+                    )
+                })?;
+            let rgb = slice("sky.image_rgb", s.image_rgb, n)?;
+            SkyKind::Image {
+                width: s.image_width,
+                height: s.image_height,
+                rgb: Arc::new(rgb.to_vec()),
+            }
+        }
+        k => bail!(
+            ImapErrInvalidArgument,
+            "sky.kind = {k} is not an IMAP_SKY_* value (0–3)"
+        ),
+    };
+    Ok(SkyDesc {
+        kind,
+        amount,
+        spectrum: Spectrum::CieD65,
+        zenith: s.zenith,
+        north: s.north,
+        rotation_deg: s.rotation_deg,
+    })
+}
+
+/// Adds a sky or environment (`ImapSky`) in `spectrum` (NULL: CIE D65; an image has its
+/// own colours and ignores it); `*out_id` receives its light id (a light group can be set
+/// on it like any light's). Works with every estimator and the renderer.
+/// `imap_get_light_flux` reports the irradiance and illuminance it gives an unobstructed
+/// horizontal plane.
+///
+/// Returns IMAP_ERR_NULL_POINTER, IMAP_ERR_NON_FINITE (naming the field, or the pixel),
+/// IMAP_ERR_INVALID_ARGUMENT (naming the field: an unknown kind or unit, a unit the kind
+/// cannot take, a CIE type outside 1–15, a sun below the horizon, north parallel to the
+/// zenith, an amount ≤ 0), IMAP_ERR_NO_LIGHT (a black image), IMAP_ERR_BUSY. The context
+/// is unchanged on any error. (Since 0.2.2.)
+///
+/// # Safety
+/// `ctx` is a live handle; `sky` points to an initialised `ImapSky` whose image (kind
+/// IMAGE) holds `3 × image_width × image_height` floats; `spectrum` is NULL or
+/// initialised; `out_id` is writable.
+#[no_mangle]
+pub unsafe extern "C" fn imap_add_sky(
+    ctx: *mut ImapContext,
+    sky: *const ImapSky,
+    spectrum: *const super::light::ImapSpectrum,
+    out_id: *mut u32,
+) -> ImapStatus {
+    add_with(ctx, out_id, |c| {
+        let s = read_versioned("sky", sky)?;
+        let mut desc = sky_from_c(&s, false)?;
+        desc.spectrum = daylight_spectrum(spectrum)?;
+        c.add_sky(&desc)
+    })
+}
+
+/// Adds an environment from an equirectangular Radiance HDR (.hdr, .pic) or OpenEXR
+/// (.exr) file at NUL-terminated `path` (recognised by content), oriented and scaled by
+/// `sky` (its kind and image fields are ignored; `unit` SCALE or a horizontal amount).
+/// Returns IMAP_ERR_IO (the file cannot be read), IMAP_ERR_PARSE (not such an image; the
+/// message names the file), and as `imap_add_sky`. (Since 0.2.2.)
+///
+/// # Safety
+/// As `imap_add_sky`; `path` is NUL-terminated.
+#[no_mangle]
+pub unsafe extern "C" fn imap_add_sky_file(
+    ctx: *mut ImapContext,
+    path: *const c_char,
+    sky: *const ImapSky,
+    out_id: *mut u32,
+) -> ImapStatus {
+    add_with(ctx, out_id, |c| {
+        let path = path_arg("path", path)?;
+        let s = read_versioned("sky", sky)?;
+        let desc = sky_from_c(&s, true)?;
+        c.add_sky_file(path, &desc)
+    })
+}
+
+/// Adds the sun (`ImapSun`) in `spectrum` (NULL: CIE D65). Returns as `imap_add_sky`
+/// (IMAP_ERR_INVALID_ARGUMENT for a unit other than LX or W_PER_M2). (Since 0.2.2.)
+///
+/// # Safety
+/// `ctx` is a live handle; `sun` points to an initialised `ImapSun`; `spectrum` is NULL or
+/// initialised; `out_id` is writable.
+#[no_mangle]
+pub unsafe extern "C" fn imap_add_sun(
+    ctx: *mut ImapContext,
+    sun: *const ImapSun,
+    spectrum: *const super::light::ImapSpectrum,
+    out_id: *mut u32,
+) -> ImapStatus {
+    add_with(ctx, out_id, |c| {
+        let s = read_versioned("sun", sun)?;
+        let amount = match s.unit {
+            super::light::IMAP_UNIT_LX => SkyAmount::NormalIlluminance(s.amount),
+            super::light::IMAP_UNIT_W_PER_M2 => SkyAmount::NormalIrradiance(s.amount),
+            u => bail!(
+                ImapErrInvalidArgument,
+                "sun.unit = {u}: the sun takes IMAP_UNIT_LX or IMAP_UNIT_W_PER_M2 (its direct normal illuminance or irradiance)"
+            ),
+        };
+        c.add_sun(&SunDesc {
+            azimuth_deg: s.azimuth_deg,
+            zenith_deg: s.zenith_deg,
+            amount,
+            spectrum: daylight_spectrum(spectrum)?,
+            zenith: s.zenith,
+            north: s.north,
+        })
+    })
+}
+
+/// The sun's apparent position at a local date and time and a place: azimuth (degrees from
+/// north toward east) into `*out_azimuth_deg`, zenith angle (degrees; above 90 when it is
+/// below the horizon) into `*out_zenith_deg`. NREL's Solar Position Algorithm (±0.0003°,
+/// years −2000 to 6000), ΔT estimated from the date, refraction of a standard atmosphere.
+/// Returns IMAP_ERR_NULL_POINTER, IMAP_ERR_NON_FINITE, IMAP_ERR_INVALID_ARGUMENT (naming
+/// the field: a date that does not exist, a latitude outside ±90°, …). Thread-safe.
+/// (Since 0.2.2.)
+///
+/// # Safety
+/// `time` points to an initialised `ImapSunTime`; the outputs are writable.
+#[no_mangle]
+pub unsafe extern "C" fn imap_sun_position(
+    time: *const ImapSunTime,
+    out_azimuth_deg: *mut f64,
+    out_zenith_deg: *mut f64,
+) -> ImapStatus {
+    boundary(None, || {
+        super::check_out("out_azimuth_deg", out_azimuth_deg)?;
+        super::check_out("out_zenith_deg", out_zenith_deg)?;
+        let t = read_versioned("time", time)?;
+        let (a, z) = sky::sun_position(&SunTime {
+            year: t.year,
+            month: t.month,
+            day: t.day,
+            hour: t.hour,
+            minute: t.minute,
+            second: t.second,
+            utc_offset_hours: t.utc_offset_hours,
+            latitude_deg: t.latitude_deg,
+            longitude_deg: t.longitude_deg,
+            elevation_m: t.elevation_m,
+        })?;
+        write_out("out_azimuth_deg", out_azimuth_deg, a)?;
+        write_out("out_zenith_deg", out_zenith_deg, z)
+    })
+}
