@@ -258,6 +258,41 @@ fn palette(ctx: &mut Context, count: usize) -> Result<Vec<u32>> {
         .collect()
 }
 
+/// A generated HDR environment, 256 × 128 linear RGB, like a photographed clear sky: a
+/// bluish CIE type 12 sky (sun at azimuth 135°, 40° from the zenith), the sun's disk
+/// widened to 2° and ~10⁴ times brighter than the sky next to it, and a dim brown ground
+/// below the horizon.
+pub fn vehicle_sky() -> (usize, usize, Vec<f32>) {
+    use std::f64::consts::PI;
+    let (w, h) = (256usize, 128usize);
+    let (sa, sz) = (135f64.to_radians(), 40f64.to_radians());
+    // Directions with azimuth from north (+y) toward east (+x), as the sky frame's default.
+    let dir = |a: f64, z: f64| [z.sin() * a.sin(), z.sin() * a.cos(), z.cos()];
+    let sun = dir(sa, sz);
+    let mut rgb = Vec::with_capacity(w * h * 3);
+    for i in 0..h {
+        let z = (i as f64 + 0.5) / h as f64 * PI;
+        for j in 0..w {
+            // The centre column looks north.
+            let a = -PI + (j as f64 + 0.5) / w as f64 * 2.0 * PI;
+            let d = dir(a, z);
+            let chi = (d[0] * sun[0] + d[1] * sun[1] + d[2] * sun[2])
+                .clamp(-1.0, 1.0)
+                .acos();
+            let px = if z >= PI / 2.0 {
+                [0.05, 0.04, 0.03]
+            } else if chi < 1f64.to_radians() {
+                [2.0e3, 1.9e3, 1.7e3]
+            } else {
+                let l = crate::scene::sky::cie_luminance(12, z, chi, sz);
+                [0.6 * l, 0.8 * l, 1.2 * l]
+            };
+            rgb.extend(px.map(|v| v as f32));
+        }
+    }
+    (w, h, rgb)
+}
+
 /// Builds scene `kind` at `scale` into `ctx` (which must have no meshes yet).
 pub fn build(ctx: &mut Context, kind: SceneKind, scale: f64) -> Result<Built> {
     let (objects, triangles, parts, _, lights) = kind.paper();
@@ -479,6 +514,18 @@ pub fn build(ctx: &mut Context, kind: SceneKind, scale: f64) -> Result<Built> {
                 lamp.sphere([-6.0 + 2.0 * k as f64, 3.5, 3.0], 0.1, 4, 0);
                 lamp.add(ctx, &[mats[198 + k]], false, Some(&warm), &mut built)?;
             }
+            // The paper's HDR environment (not counted among its 7 lights): a generated
+            // equirectangular sky (`vehicle_sky`) giving 100 W/m² on open ground.
+            let (w, h, rgb) = vehicle_sky();
+            ctx.add_sky(&crate::scene::sky::SkyDesc {
+                kind: crate::scene::sky::SkyKind::Image {
+                    width: w,
+                    height: h,
+                    rgb: std::sync::Arc::new(rgb),
+                },
+                amount: crate::scene::sky::SkyAmount::HorizontalIrradiance(100.0),
+                ..Default::default()
+            })?;
         }
         SceneKind::Dispersion => {
             // A dark room; two small lamps shine into a large dense-flint prism that throws

@@ -514,3 +514,152 @@ fn distant_light_keeps_its_energy_balance_and_light_groups() {
         assert!((a - s).abs() <= 1e-9 * a.abs().max(1e-12), "{a} vs {s}");
     }
 }
+
+#[test]
+fn the_renderer_sees_the_sky_and_a_floor_lit_by_it_and_the_sun() {
+    // An open grey floor (ρ = 0.5) under a uniform sky of 1 W/(m² sr) per band and the sun
+    // at 40° (E_n = 3 W/m² per band): every floor pixel shows ρ (π L + E_n cos 40°) / π;
+    // a camera looking up shows the sky's L itself in every pixel.
+    use imap::{CameraDesc, RenderMethod, RenderParams};
+    let mut ctx = context(cfg(60));
+    let rho = 0.5;
+    let grey = lambert(&mut ctx, rho);
+    ctx.add_mesh(&grid(8, -4.0, 4.0, -4.0, 4.0, 0.0).desc(grey))
+        .unwrap();
+    ctx.add_sky(&uniform_sky(3.0, false)).unwrap();
+    ctx.add_sun(&SunDesc {
+        azimuth_deg: 30.0,
+        zenith_deg: 40.0,
+        amount: SkyAmount::NormalIrradiance(9.0),
+        spectrum: Spectrum::Equal,
+        zenith: [0.0, 0.0, 1.0],
+        north: [0.0, 1.0, 0.0],
+    })
+    .unwrap();
+    let mut params = RenderParams {
+        method: RenderMethod::Synchronous,
+        group_threads: 1,
+        remask_phases: 0,
+        forward_per_pass: 0,
+        initial_radius: 0.0,
+        alpha: 0.0,
+        passes: 64,
+        time_budget_s: 0.0,
+        target_rel_error: 0.0,
+        progress_interval_s: 0.05,
+        max_path_events: 10_000,
+        progress: None,
+    };
+    let cam = |z: f64, dz: f64| CameraDesc {
+        position: [0.0, 0.0, z],
+        direction: [0.0, 0.0, dz],
+        up: [0.0, 1.0, 0.0],
+        fov_y_deg: 60.0,
+        width: 32,
+        height: 32,
+    };
+    let want = rho * (PI + 3.0 * 40f64.to_radians().cos()) / PI;
+    let (img, _) = ctx.render(&cam(3.0, -1.0), &mut params).unwrap();
+    let nb = img.bands;
+    let (mut dev, mut est) = (0.0f64, 0.0f64);
+    for p in 0..(32 * 32) {
+        let v = img.radiance[p * nb..][..nb].iter().sum::<f64>() / nb as f64;
+        dev += ((v - want) / want).powi(2);
+        est += img.rel_error[p].powi(2);
+    }
+    let (dev, est) = ((dev / 1024.0).sqrt(), (est / 1024.0).sqrt());
+    eprintln!("floor under sky and sun: rms deviation {dev:.2e}, estimated {est:.2e}");
+    assert!(est < 0.05 && dev < 1.5 * est + 1e-3, "{dev} vs {est}");
+    let (img, _) = ctx.render(&cam(1.0, 1.0), &mut params).unwrap();
+    for p in 0..(32 * 32) {
+        for b in 0..nb {
+            let v = img.radiance[p * nb + b];
+            assert!((v - 1.0).abs() < 1e-9, "sky pixel {p} band {b}: {v}");
+        }
+    }
+}
+
+/// Fresnel reflectances (s, p) from air into glass of index `n` at incidence cos `c`.
+fn fresnel_sp(c: f64, n: f64) -> (f64, f64) {
+    let s = (1.0 - c * c).sqrt();
+    let ct = (1.0 - (s / n).powi(2)).sqrt();
+    let rs = ((c - n * ct) / (c + n * ct)).powi(2);
+    let rp = ((ct - n * c) / (ct + n * c)).powi(2);
+    (rs, rp)
+}
+
+#[test]
+fn a_glazed_roof_opening_passes_the_sky_by_the_glass_transmittance() {
+    // CIE 171:2006 TC 5.10's set-up: the roof opening of the room above glazed with a clear
+    // 2 mm pane (n = 1.52, no absorption), under CIE sky type 1. Each floor vertex under
+    // the opening reads the sky integral of the unglazed test with each direction weighted
+    // by the pane's transmittance, multiple reflections included and polarisation
+    // resolved: T = ½ [(1 − R_s)/(1 + R_s) + (1 − R_p)/(1 + R_p)] at the incidence angle
+    // (the pane's faces are parallel, so light leaves it along the direction it came).
+    // Light through glass is the photons' with every estimator.
+    let n_glass = 1.52;
+    let (mut ctx, id, floor) = roof_room(70);
+    let glass = ctx
+        .add_material(&imap::MaterialDesc {
+            ior: Some(imap::IorModel::Constant(n_glass)),
+            ..Default::default()
+        })
+        .unwrap();
+    let pane = cuboid([-0.5, -0.5, HEIGHT - 0.002], [0.5, 0.5, HEIGHT], 1, false);
+    ctx.add_mesh(&MeshDesc {
+        record: false,
+        ..pane.desc(glass)
+    })
+    .unwrap();
+    let lz = 5000.0;
+    ctx.add_sky(&SkyDesc {
+        kind: SkyKind::Cie {
+            kind: 1,
+            sun_azimuth_deg: 180.0,
+            sun_zenith_deg: 45.0,
+        },
+        amount: SkyAmount::Luminance(lz),
+        spectrum: Spectrum::Equal,
+        ..SkyDesc::default()
+    })
+    .unwrap();
+    run(&mut ctx, photons(1_500_000), Estimator::DEFAULT);
+    let sun = [0.0, -(45f64.to_radians().sin()), 45f64.to_radians().cos()];
+    let abcde = imap::scene::sky::CIE_SKY_PARAMETERS[0];
+    let band_radiance = lz / ctx.photometry().luminous(&[1.0, 1.0, 1.0]);
+    let transmit = |d: [f64; 3]| {
+        let (rs, rp) = fresnel_sp(d[2], n_glass);
+        0.5 * ((1.0 - rs) / (1.0 + rs) + (1.0 - rp) / (1.0 + rp))
+    };
+    // The vertices under the opening and a cell around it.
+    let want: Vec<Option<f64>> = (0..floor.vertex_count())
+        .map(|v| {
+            let p = floor.vertex(v);
+            (p[0].abs() <= 0.625 && p[1].abs() <= 0.625).then(|| {
+                hat_average_with(&floor, v, 4, |x, _| {
+                    through_opening(x, 24, &|d| cie_luminance(abcde, d, sun) * transmit(d))
+                }) * band_radiance
+            })
+        })
+        .collect();
+    assert_z(
+        &values(&ctx, id, 0),
+        &want,
+        "glazed roof opening, CIE sky 1",
+    );
+    // The pane's share: against the unglazed sky component it passes 91–92 % here.
+    let got = values(&ctx, id, 0);
+    let (mut glazed, mut open) = (0.0, 0.0);
+    for (v, w) in want.iter().enumerate() {
+        if w.is_some() {
+            glazed += got[v].0;
+            let x = floor.vertex(v);
+            open += through_opening(x, 24, &|d| cie_luminance(abcde, d, sun)) * band_radiance;
+        }
+    }
+    eprintln!(
+        "glazed / open sky component under the opening: {:.4}",
+        glazed / open
+    );
+    assert!((0.88..0.93).contains(&(glazed / open)), "{}", glazed / open);
+}

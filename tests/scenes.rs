@@ -49,7 +49,7 @@ fn scenes_have_the_paper_statistics_and_run() {
             assert_eq!(b.parts, parts);
         }
         let r = run_photons(&mut ctx, 20_000);
-        // Vehicle is an open scene (the paper lit it with an HDR environment too): many
+        // Vehicle is an open scene lit by its HDR environment as in the paper: many
         // photons escape, so ask only that most of the work is tracing.
         assert!(r.hits > 5_000, "{}: {} hits", kind.name(), r.hits);
         assert!(

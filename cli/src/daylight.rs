@@ -11,11 +11,16 @@ use imap::Context;
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 
-fn default_zenith() -> [f64; 3] {
-    [0.0, 0.0, 1.0]
-}
-fn default_north() -> [f64; 3] {
-    [0.0, 1.0, 0.0]
+/// The sky's zenith and north: as given, else the settings' up axis and a horizontal
+/// north (+y when up is ±z or ±x, −z when up is ±y: the model's "into the screen").
+fn frame(zenith: Option<[f64; 3]>, north: Option<[f64; 3]>, up: [f64; 3]) -> ([f64; 3], [f64; 3]) {
+    let z = zenith.unwrap_or(up);
+    let n = north.unwrap_or(if up[1] != 0.0 {
+        [0.0, 0.0, -1.0]
+    } else {
+        [0.0, 1.0, 0.0]
+    });
+    (z, n)
 }
 
 /// `[sky]`: `kind = "uniform" | "uniform_sphere" | "cie"` (with `cie_type` 1–15), one
@@ -43,10 +48,12 @@ pub struct SkySettings {
     /// W/m² on an unobstructed horizontal plane.
     #[serde(default)]
     pub horizontal_irradiance: Option<f64>,
-    #[serde(default = "default_zenith")]
-    pub zenith: [f64; 3],
-    #[serde(default = "default_north")]
-    pub north: [f64; 3],
+    /// Default: the settings' `up_axis`.
+    #[serde(default)]
+    pub zenith: Option<[f64; 3]>,
+    /// Default: +y, or −z when `up_axis` is y.
+    #[serde(default)]
+    pub north: Option<[f64; 3]>,
     #[serde(default)]
     pub rotation_deg: f64,
     #[serde(flatten)]
@@ -65,10 +72,12 @@ pub struct EnvironmentSettings {
     pub horizontal_illuminance: Option<f64>,
     #[serde(default)]
     pub horizontal_irradiance: Option<f64>,
-    #[serde(default = "default_zenith")]
-    pub zenith: [f64; 3],
-    #[serde(default = "default_north")]
-    pub north: [f64; 3],
+    /// Default: the settings' `up_axis`.
+    #[serde(default)]
+    pub zenith: Option<[f64; 3]>,
+    /// Default: +y, or −z when `up_axis` is y.
+    #[serde(default)]
+    pub north: Option<[f64; 3]>,
     #[serde(default)]
     pub rotation_deg: f64,
 }
@@ -97,10 +106,12 @@ pub struct SunSettings {
     pub normal_illuminance: Option<f64>,
     #[serde(default)]
     pub normal_irradiance: Option<f64>,
-    #[serde(default = "default_zenith")]
-    pub zenith: [f64; 3],
-    #[serde(default = "default_north")]
-    pub north: [f64; 3],
+    /// Default: the settings' `up_axis`.
+    #[serde(default)]
+    pub zenith: Option<[f64; 3]>,
+    /// Default: +y, or −z when `up_axis` is y.
+    #[serde(default)]
+    pub north: Option<[f64; 3]>,
     #[serde(flatten)]
     pub colour: SpectrumSettings,
 }
@@ -188,6 +199,7 @@ pub fn add_daylight(
     environment: Option<&EnvironmentSettings>,
     sun: Option<&SunSettings>,
     base_dir: &Path,
+    up: [f64; 3],
     out: &mut Vec<PlacedLight>,
 ) -> Result<()> {
     let sun_at = sun.map(sun_angles).transpose()?;
@@ -244,13 +256,14 @@ pub fn add_daylight(
                 ),
             ],
         )?;
+        let (zenith, north) = frame(s.zenith, s.north, up);
         let id = ctx
             .add_sky(&SkyDesc {
                 kind,
                 amount,
                 spectrum: spectrum(&s.colour, what)?,
-                zenith: s.zenith,
-                north: s.north,
+                zenith,
+                north,
                 rotation_deg: s.rotation_deg,
             })
             .map_err(|e| CliError(format!("{what}: {}", printable(&e.message))))?;
@@ -275,13 +288,14 @@ pub fn add_daylight(
             ],
         )?;
         let path = base_dir.join(&e.file);
+        let (zenith, north) = frame(e.zenith, e.north, up);
         let id = ctx
             .add_sky_file(
                 &path,
                 &SkyDesc {
                     amount,
-                    zenith: e.zenith,
-                    north: e.north,
+                    zenith,
+                    north,
                     rotation_deg: e.rotation_deg,
                     ..SkyDesc::default()
                 },
@@ -309,14 +323,15 @@ pub fn add_daylight(
                 ),
             ],
         )?;
+        let (zenith, north) = frame(s.zenith, s.north, up);
         let id = ctx
             .add_sun(&SunDesc {
                 azimuth_deg: a,
                 zenith_deg: z,
                 amount,
                 spectrum: spectrum(&s.colour, what)?,
-                zenith: s.zenith,
-                north: s.north,
+                zenith,
+                north,
             })
             .map_err(|e| CliError(format!("{what}: {}", printable(&e.message))))?;
         push(ctx, id, format!("sun (azimuth {a:.2}°, zenith {z:.2}°)"))?;

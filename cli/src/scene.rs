@@ -502,6 +502,7 @@ pub fn load(path: &Path, settings: &Settings) -> Result<(Context, LoadedScene)> 
         settings.environment.as_ref(),
         settings.sun.as_ref(),
         &settings.base_dir,
+        settings.up()?,
         &mut placed,
     )?;
     let grids = crate::grids::add_grids(&mut ctx, &settings.grids, settings.unit_m.unwrap_or(1.0))?;

@@ -809,7 +809,7 @@ fn a_sky_and_the_sun_light_an_open_plane_by_their_horizontal_amounts() {
     let toml = write(
         d,
         "sky.toml",
-        "[sky]\nkind = \"cie\"\ncie_type = 12\nhorizontal_illuminance = 10000\n\
+        "up_axis = \"z\"\n[sky]\nkind = \"cie\"\ncie_type = 12\nhorizontal_illuminance = 10000\n\
          [sun]\nazimuth_deg = 200\nzenith_deg = 60\nnormal_illuminance = 80000\n",
     );
     let out = d.join("out");
@@ -826,7 +826,7 @@ fn a_sky_and_the_sun_light_an_open_plane_by_their_horizontal_amounts() {
     let toml = write(
         d,
         "date.toml",
-        "[sun]\ndate = \"2026-06-21 13:00\"\nutc_offset_hours = 2\nlatitude_deg = 52.52\n\
+        "up_axis = \"z\"\n[sun]\ndate = \"2026-06-21 13:00\"\nutc_offset_hours = 2\nlatitude_deg = 52.52\n\
          longitude_deg = 13.40\nnormal_irradiance = 800\n",
     );
     let o = common::run_photons(&obj, &toml, &d.join("out2"), 10_000);
@@ -834,6 +834,27 @@ fn a_sky_and_the_sun_light_an_open_plane_by_their_horizontal_amounts() {
     let report = read_report(&d.join("out2"));
     let name = report["lights"][0]["name"].as_str().unwrap().to_string();
     assert!(name.contains("zenith 29.1"), "{name}");
+    // A y-up model (the default up_axis): the sky's zenith is +y.
+    let obj_y = write(
+        d,
+        "plane_y.obj",
+        "mtllib p.mtl\nusemtl black\nv -1 0 1\nv 1 0 1\nv 1 0 -1\nv -1 0 -1\nf 1 2 3\nf 1 3 4\n",
+    );
+    let toml = write(
+        d,
+        "uniform.toml",
+        "[sky]\nkind = \"uniform\"\nluminance = 1000\n",
+    );
+    let o = common::run_photons(&obj_y, &toml, &d.join("out3"), 20_000);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let report = read_report(&d.join("out3"));
+    let mean = report["meshes"][0]["illuminance_lx"]["mean"]
+        .as_f64()
+        .unwrap();
+    assert!(
+        (mean / (1000.0 * std::f64::consts::PI) - 1.0).abs() < 0.01,
+        "{mean}"
+    );
     for (bad, says) in [
         ("[sun]\ndate = \"21.6.2026 13:00\"\nlatitude_deg = 1\nlongitude_deg = 1\nnormal_illuminance = 1\n", "YYYY-MM-DD"),
         ("[sun]\nazimuth_deg = 1\nzenith_deg = 1\n", "normal_illuminance"),

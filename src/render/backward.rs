@@ -428,15 +428,41 @@ impl<'a> EyeTracer<'a> {
                 }
             }
             (EmitterKind::Distant { part, radius }, LightValue::Power(power)) => {
-                let (wi, weight) = part.sample([u1, u2, u3]);
+                // A sky: half by its radiance, half cosine-distributed on the side the
+                // weights favour (one-sample MIS by the mixture's density, as the map's
+                // light samples); the sun: over its disk.
+                let (wi, q) = if part.is_sky() {
+                    let n = if rng.uniform() < p_reflect {
+                        n_in
+                    } else {
+                        -n_in
+                    };
+                    let wi = if u1 < 0.5 {
+                        part.sample([2.0 * u1, u2, u3]).0
+                    } else {
+                        warp::cosine_hemisphere(n, 2.0 * u1 - 1.0, u2)
+                    };
+                    let cos = wi.dot(n_in);
+                    let side_p = if cos > 0.0 {
+                        p_reflect
+                    } else {
+                        1.0 - p_reflect
+                    };
+                    (wi, 0.5 * part.pdf(wi) + 0.5 * side_p * cos.abs() / PI)
+                } else {
+                    let wi = part.sample([u1, u2, u3]).0;
+                    (wi, part.pdf(wi))
+                };
+                let f = part.value(wi);
                 let cos = wi.dot(n_in);
-                if let (true, Some((w, _))) = (weight > 0.0, side(cos)) {
+                if let (true, Some((w, _))) = (f > 0.0 && q > 0.0, side(cos)) {
                     let org = p + n_in * (eps * cos.signum());
                     stats.rays += 1;
                     // Nothing lies beyond the bounding sphere: 2R from any point inside.
                     if !self.accel.occluded(org, wi, 2.5 * radius) {
+                        // L cos / q, with L = power / (π R² ∫f) × f per band.
                         let cross = PI * radius * radius * self.unit_m * self.unit_m;
-                        let k = weight * cos.abs() / (cross * pe);
+                        let k = f * cos.abs() / (q * part.integral * cross * pe);
                         for ((o, w), pw) in out.iter_mut().zip(w).zip(power) {
                             *o += w * pw * k;
                         }

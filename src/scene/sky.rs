@@ -183,6 +183,18 @@ impl fmt::Debug for DistantPart {
     }
 }
 
+/// L/L_z of CIE standard general sky `kind` (1–15) at an element of zenith angle `z`
+/// and angular distance `chi` from the sun, the sun at zenith angle `zs` (radians); 0
+/// below the horizon.
+pub fn cie_luminance(kind: u32, z: f64, chi: f64, zs: f64) -> f64 {
+    let p = &CIE_SKY_PARAMETERS[(kind.clamp(1, 15) - 1) as usize];
+    let cz = z.cos();
+    if cz <= 0.0 {
+        return 0.0;
+    }
+    cie_relative(p, cz, chi, zs)
+}
+
 /// The CIE sky's L/L_z at zenith angle `z` (cos `cz`) and angle `chi` from the sun, for
 /// the sun at zenith angle `zs`.
 fn cie_relative(p: &[f64; 5], cz: f64, chi: f64, zs: f64) -> f64 {
