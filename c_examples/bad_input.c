@@ -395,6 +395,10 @@ int main(void) {
     expect("north along the zenith", imap_add_sky(ctx, &sky, NULL, &id), IMAP_ERR_INVALID_ARGUMENT, ctx);
     sky.north[1] = 1, sky.north[2] = 0, sky.kind = IMAP_SKY_IMAGE, sky.image_width = 4, sky.image_height = 2;
     expect("image sky without pixels", imap_add_sky(ctx, &sky, NULL, &id), IMAP_ERR_NULL_POINTER, ctx);
+    sky.image_width = 65536, sky.image_height = 65536;
+    expect("a 4-gigapixel image sky (refused before it is read)", imap_add_sky(ctx, &sky, NULL, &id),
+           IMAP_ERR_MEMORY_BUDGET, ctx);
+    sky.image_width = 4, sky.image_height = 2;
     float pixels[24] = {0};
     pixels[5] = NAN;
     sky.image_rgb = pixels, sky.unit = IMAP_SKY_UNIT_SCALE, sky.amount = 1;

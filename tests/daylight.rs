@@ -442,6 +442,25 @@ fn hdr_environment_files_read_back_as_the_sky_they_hold() {
         let want = vec![Some(PI * 3.5 * 1.5); n];
         assert_z(&got, &want, &format!("{} all bands", path.display()));
     }
+    // An image past the memory budget is refused before it is copied, naming it; the
+    // context is unchanged.
+    let mut small = context(Config {
+        memory_budget: 8 << 20,
+        ..cfg(1)
+    });
+    let big = SkyDesc {
+        kind: SkyKind::Image {
+            width: 1024,
+            height: 512,
+            rgb: std::sync::Arc::new(vec![1.0; 1024 * 512 * 3]),
+        },
+        amount: SkyAmount::Scale(1.0),
+        ..SkyDesc::default()
+    };
+    let e = small.add_sky(&big).unwrap_err();
+    assert_eq!(e.status, imap::ImapStatus::ImapErrMemoryBudget, "{e}");
+    assert!(e.to_string().contains("1024 × 512"), "{e}");
+    assert!(small.scene().lights.is_empty());
     // A file that is not an environment image is refused naming it.
     let mut ctx = context(cfg(1));
     let bogus = dir.join("sky.txt");

@@ -61,11 +61,36 @@ fn held_mesh_bytes(m: &Mesh) -> (u64, u64) {
 /// Bytes the scene's meshes take once prepared (held), and the most any one of them needs
 /// on top while it is being prepared.
 pub fn scene_bytes(scene: &Scene) -> (u64, u64) {
-    scene
+    let (held, transient) = scene
         .meshes
         .iter()
         .map(held_mesh_bytes)
-        .fold((0, 0), |(h, t), (mh, mt)| (h.saturating_add(mh), t.max(mt)))
+        .fold((0u64, 0u64), |(h, t), (mh, mt)| {
+            (h.saturating_add(mh), t.max(mt))
+        });
+    let skies: u64 = scene
+        .lights
+        .iter()
+        .filter_map(|l| match &l.shape {
+            crate::scene::LightShape::Distant(d) => Some(d.image_pixels()),
+            _ => None,
+        })
+        .map(|px| SKY_HELD_PER_CHANNEL_PIXEL.saturating_mul(px))
+        .fold(0, u64::saturating_add);
+    (held.saturating_add(skies), transient)
+}
+
+/// Bytes an environment image holds per channel and pixel: its value (f32) and its
+/// sampling table's entry (probability, alias, density).
+pub const SKY_HELD_PER_CHANNEL_PIXEL: u64 = 4 + 20;
+
+/// Bytes adding an environment image of `pixels` pixels takes: held (three channels), and
+/// while it is built (the RGB copy, the channels, the table's weights and work lists).
+pub fn sky_image_bytes(pixels: u64) -> (u64, u64) {
+    (
+        pixels.saturating_mul(3 * SKY_HELD_PER_CHANNEL_PIXEL),
+        pixels.saturating_mul(12 + 12 + 8 + 16),
+    )
 }
 
 /// Bytes of a map of `slots` slots and `bands` bands.

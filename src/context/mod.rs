@@ -444,8 +444,23 @@ impl Context {
     /// sphere.
     pub fn add_sky(&mut self, desc: &SkyDesc) -> Result<u32> {
         self.check_unlocked("add a sky")?;
+        if let SkyKind::Image { width, height, .. } = &desc.kind {
+            self.check_sky_image(*width, *height)?;
+        }
         let l = Light::sky(desc, &self.scene.bands)?;
         self.add_light(l)
+    }
+
+    /// Refuses an environment image of `width` × `height` pixels that would take the
+    /// context past its memory budget (IMAP_ERR_MEMORY_BUDGET), before anything is copied.
+    pub fn check_sky_image(&self, width: usize, height: usize) -> Result<()> {
+        let px = (width as u64).saturating_mul(height as u64);
+        let (held, transient) = memory::sky_image_bytes(px);
+        self.check_budget(
+            self.memory_estimate(),
+            held.saturating_add(transient),
+            &format!("the environment image ({width} × {height} pixels)"),
+        )
     }
 
     /// Adds an environment from a Radiance HDR or OpenEXR file: `desc` as `add_sky`, its

@@ -4,6 +4,7 @@ use super::light::spectrum_from_c;
 use super::scene::add_with;
 use super::state::path_arg;
 use super::{boundary, read_versioned, slice, write_defaults, write_out, ImapContext, Versioned};
+use crate::context::Context;
 use crate::error::{bail, ImapStatus, Result};
 use crate::photometry::Spectrum;
 use crate::scene::sky::{self, SkyAmount, SkyDesc, SkyKind, SunDesc, SunTime};
@@ -213,7 +214,7 @@ fn daylight_spectrum(s: *const super::light::ImapSpectrum) -> Result<Spectrum> {
     }
 }
 
-fn sky_from_c(s: &ImapSky, image: bool) -> Result<SkyDesc> {
+fn sky_from_c(c: &Context, s: &ImapSky, image: bool) -> Result<SkyDesc> {
     let x = s.amount;
     let amount = match s.unit {
         IMAP_SKY_UNIT_RADIANCE => SkyAmount::Radiance(x),
@@ -250,6 +251,7 @@ fn sky_from_c(s: &ImapSky, image: bool) -> Result<SkyDesc> {
                         ),
                     )
                 })?;
+            c.check_sky_image(s.image_width, s.image_height)?;
             let rgb = slice("sky.image_rgb", s.image_rgb, n)?;
             SkyKind::Image {
                 width: s.image_width,
@@ -281,8 +283,10 @@ fn sky_from_c(s: &ImapSky, image: bool) -> Result<SkyDesc> {
 /// Returns IMAP_ERR_NULL_POINTER, IMAP_ERR_NON_FINITE (naming the field, or the pixel),
 /// IMAP_ERR_INVALID_ARGUMENT (naming the field: an unknown kind or unit, a unit the kind
 /// cannot take, a CIE type outside 1–15, a sun below the horizon, north parallel to the
-/// zenith, an amount ≤ 0), IMAP_ERR_NO_LIGHT (a black image), IMAP_ERR_BUSY. The context
-/// is unchanged on any error. (Since 0.2.2.)
+/// zenith, an amount ≤ 0), IMAP_ERR_NO_LIGHT (a black image), IMAP_ERR_MEMORY_BUDGET (an
+/// image that would take the context past its budget, refused before it is copied: about
+/// 120 bytes per pixel while it is added, 72 held), IMAP_ERR_BUSY. The context is
+/// unchanged on any error. (Since 0.2.2.)
 ///
 /// # Safety
 /// `ctx` is a live handle; `sky` points to an initialised `ImapSky` whose image (kind
@@ -297,7 +301,7 @@ pub unsafe extern "C" fn imap_add_sky(
 ) -> ImapStatus {
     add_with(ctx, out_id, |c| {
         let s = read_versioned("sky", sky)?;
-        let mut desc = sky_from_c(&s, false)?;
+        let mut desc = sky_from_c(c, &s, false)?;
         desc.spectrum = daylight_spectrum(spectrum)?;
         c.add_sky(&desc)
     })
@@ -321,7 +325,7 @@ pub unsafe extern "C" fn imap_add_sky_file(
     add_with(ctx, out_id, |c| {
         let path = path_arg("path", path)?;
         let s = read_versioned("sky", sky)?;
-        let desc = sky_from_c(&s, true)?;
+        let desc = sky_from_c(c, &s, true)?;
         c.add_sky_file(path, &desc)
     })
 }

@@ -168,11 +168,11 @@ impl fmt::Debug for DistantPart {
                 values,
                 rotation,
             } => {
-                let bytes: Vec<u8> = values.iter().flat_map(|v| v.to_le_bytes()).collect();
-                d.field(
-                    "image",
-                    &(width, height, rotation, xxhash_rust::xxh3::xxh3_64(&bytes)),
-                )
+                let mut h = xxhash_rust::xxh3::Xxh3::new();
+                for v in values.iter() {
+                    h.update(&v.to_le_bytes());
+                }
+                d.field("image", &(width, height, rotation, h.digest()))
             }
             Radiance::Sun {
                 axis,
@@ -522,6 +522,17 @@ pub struct Distant {
 }
 
 impl Distant {
+    /// Pixels over the parts' images (0 for analytic skies and the sun).
+    pub fn image_pixels(&self) -> u64 {
+        self.parts
+            .iter()
+            .map(|p| match &p.radiance {
+                Radiance::Image { values, .. } => values.len() as u64,
+                _ => 0,
+            })
+            .sum()
+    }
+
     /// Irradiance per band on an unobstructed horizontal plane, W/m².
     pub fn horizontal(&self) -> Vec<f64> {
         let nb = self.parts[0].per_band.len();

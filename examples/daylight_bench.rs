@@ -1,0 +1,294 @@
+//! Time to a given *actual* error under daylight: a black room (2 × 2 m, 1 m high, its
+//! 16 × 16-cell floor recorded) lit through a 1 m square roof opening by a CIE standard
+//! general sky (type 12, clear, the sun's position shaping it at azimuth 225°, zenith 35°;
+//! no sun disk). The exact floor irradiance is the sky's luminance integrated over the
+//! opening (quadrature, averaged over each vertex's hat), so no reference run is needed.
+//! The estimators — photons only, light sampling (a sky's samples half by its radiance,
+//! half cosine-distributed), gathering — run side by side in segments; after each the
+//! floor's actual error (irradiance-weighted mean of |E − E_exact| / E_exact) is compared
+//! with the estimate, and the times at which it first reaches 5 %, 2 % and 1 % are
+//! interpolated (log-log).
+//!
+//! `--open` leaves the walls and roof out: the floor then receives the sky's whole
+//! horizontal irradiance.
+//!
+//!     cargo run --release --example daylight_bench -- [--threads 2] [--max-seconds 20]
+//!         [--cie-type 12] [--open]
+
+use imap::photometry::Spectrum;
+use imap::scene::sky::{cie_luminance, SkyAmount, SkyDesc, SkyKind};
+use imap::{Config, Context, Estimator, MaterialDesc, MeshDesc, RunParams};
+use std::time::Instant;
+
+const N: usize = 16;
+const HEIGHT: f64 = 1.0;
+
+fn arg<T: std::str::FromStr>(name: &str, default: T) -> T {
+    let a: Vec<String> = std::env::args().collect();
+    a.iter()
+        .position(|x| x == name)
+        .and_then(|i| a.get(i + 1))
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(default)
+}
+
+fn quad(ctx: &mut Context, m: u32, p: [[f64; 3]; 4]) {
+    let pos: Vec<f64> = p.iter().flatten().copied().collect();
+    ctx.add_mesh(&MeshDesc {
+        record: false,
+        ..MeshDesc::new(&pos, &[0, 1, 2, 0, 2, 3], m)
+    })
+    .unwrap();
+}
+
+/// The room (`open`: the floor alone); returns the floor's id, its vertex positions and
+/// triangles.
+fn room(ctx: &mut Context, open: bool) -> (u32, Vec<[f64; 3]>, Vec<u32>) {
+    let black = ctx.add_material(&MaterialDesc::default()).unwrap();
+    let (mut pos, mut idx) = (Vec::new(), Vec::new());
+    for j in 0..=N {
+        for i in 0..=N {
+            pos.extend([
+                -1.0 + 2.0 * i as f64 / N as f64,
+                -1.0 + 2.0 * j as f64 / N as f64,
+                0.0,
+            ]);
+        }
+    }
+    let id = |i: usize, j: usize| (j * (N + 1) + i) as u32;
+    for j in 0..N {
+        for i in 0..N {
+            idx.extend([
+                id(i, j),
+                id(i + 1, j),
+                id(i + 1, j + 1),
+                id(i, j),
+                id(i + 1, j + 1),
+                id(i, j + 1),
+            ]);
+        }
+    }
+    let floor = ctx.add_mesh(&MeshDesc::new(&pos, &idx, black)).unwrap();
+    let verts = pos.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
+    if open {
+        return (floor, verts, idx);
+    }
+    let h = HEIGHT;
+    quad(
+        ctx,
+        black,
+        [
+            [-1.0, -1.0, 0.0],
+            [1.0, -1.0, 0.0],
+            [1.0, -1.0, h],
+            [-1.0, -1.0, h],
+        ],
+    );
+    quad(
+        ctx,
+        black,
+        [
+            [-1.0, 1.0, 0.0],
+            [1.0, 1.0, 0.0],
+            [1.0, 1.0, h],
+            [-1.0, 1.0, h],
+        ],
+    );
+    quad(
+        ctx,
+        black,
+        [
+            [-1.0, -1.0, 0.0],
+            [-1.0, 1.0, 0.0],
+            [-1.0, 1.0, h],
+            [-1.0, -1.0, h],
+        ],
+    );
+    quad(
+        ctx,
+        black,
+        [
+            [1.0, -1.0, 0.0],
+            [1.0, 1.0, 0.0],
+            [1.0, 1.0, h],
+            [1.0, -1.0, h],
+        ],
+    );
+    for (x, y) in [
+        ([-1.0, 1.0], [0.5, 1.0]),
+        ([-1.0, 1.0], [-1.0, -0.5]),
+        ([-1.0, -0.5], [-0.5, 0.5]),
+        ([0.5, 1.0], [-0.5, 0.5]),
+    ] {
+        quad(
+            ctx,
+            black,
+            [
+                [x[0], y[0], h],
+                [x[1], y[0], h],
+                [x[1], y[1], h],
+                [x[0], y[1], h],
+            ],
+        );
+    }
+    (floor, verts, idx)
+}
+
+/// E at floor point x from the sky through the opening, per unit zenith luminance.
+fn through_opening(x: [f64; 3], kind: u32, sun: [f64; 3], zs: f64) -> f64 {
+    let n = 32;
+    let mut s = 0.0;
+    for i in 0..n {
+        for j in 0..n {
+            let y = [
+                -0.5 + (i as f64 + 0.5) / n as f64,
+                -0.5 + (j as f64 + 0.5) / n as f64,
+                HEIGHT,
+            ];
+            let d = [y[0] - x[0], y[1] - x[1], y[2] - x[2]];
+            let r2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+            let r = r2.sqrt();
+            let dir = [d[0] / r, d[1] / r, d[2] / r];
+            let chi = (dir[0] * sun[0] + dir[1] * sun[1] + dir[2] * sun[2])
+                .clamp(-1.0, 1.0)
+                .acos();
+            s += cie_luminance(kind, dir[2].acos(), chi, zs) * dir[2] * dir[2] / r2;
+        }
+    }
+    s / (n * n) as f64
+}
+
+/// The hat average of `e` at vertex v (a 6 × 6 sub-grid per adjacent triangle).
+fn hat(verts: &[[f64; 3]], idx: &[u32], v: usize, e: &dyn Fn([f64; 3]) -> f64) -> f64 {
+    let (mut num, mut den) = (0.0, 0.0);
+    for t in idx.chunks_exact(3) {
+        let Some(k) = t.iter().position(|&i| i as usize == v) else {
+            continue;
+        };
+        let p: Vec<[f64; 3]> = (0..3).map(|j| verts[t[(k + j) % 3] as usize]).collect();
+        let m = 6;
+        let (mut sum, mut cnt) = (0.0, 0.0);
+        for i in 0..m {
+            for j in 0..m - i {
+                let (b1, b2) = (
+                    (i as f64 + 1.0 / 3.0) / m as f64,
+                    (j as f64 + 1.0 / 3.0) / m as f64,
+                );
+                let w0 = 1.0 - b1 - b2;
+                let x = [0, 1, 2].map(|c| w0 * p[0][c] + b1 * p[1][c] + b2 * p[2][c]);
+                sum += e(x) * w0;
+                cnt += 1.0;
+            }
+        }
+        num += sum / cnt;
+        den += 1.0 / 3.0;
+    }
+    num / den
+}
+
+fn main() {
+    let threads: usize = arg("--threads", 2);
+    let max_s: f64 = arg("--max-seconds", 20.0);
+    let kind: u32 = arg("--cie-type", 12);
+    let open = std::env::args().any(|a| a == "--open");
+    let (sa, sz) = (225f64.to_radians(), 35f64.to_radians());
+    let sun = [sz.sin() * sa.sin(), sz.sin() * sa.cos(), sz.cos()];
+    let lz = 5000.0;
+    println!(
+        "# daylight bench: CIE sky type {kind} {}, {threads} threads, up to {max_s} s each",
+        if open {
+            "over an open floor"
+        } else {
+            "through a 1 m roof opening"
+        }
+    );
+    println!(
+        "{:10} {:>9} {:>9} {:>9} {:>12} {:>10}",
+        "estimator", "t(5%)", "t(2%)", "t(1%)", "final err", "act/est"
+    );
+    for (name, est) in [
+        ("photons", Estimator::Photons),
+        ("ls", Estimator::DEFAULT),
+        ("gather", Estimator::GATHER),
+    ] {
+        let mut ctx = Context::new(Config {
+            threads,
+            seed: 7,
+            ..Default::default()
+        })
+        .unwrap();
+        let (floor, verts, idx) = room(&mut ctx, open);
+        let sky = ctx
+            .add_sky(&SkyDesc {
+                kind: SkyKind::Cie {
+                    kind,
+                    sun_azimuth_deg: 225.0,
+                    sun_zenith_deg: 35.0,
+                },
+                amount: SkyAmount::Luminance(lz),
+                spectrum: Spectrum::Equal,
+                ..SkyDesc::default()
+            })
+            .unwrap();
+        let band = lz / ctx.photometry().luminous(&[1.0, 1.0, 1.0]);
+        let exact: Vec<f64> = if open {
+            // The whole sky: its horizontal irradiance, band 0.
+            vec![ctx.light_flux(sky).unwrap().0[0]; verts.len()]
+        } else {
+            (0..verts.len())
+                .map(|v| hat(&verts, &idx, v, &|x| through_opening(x, kind, sun, sz)) * band)
+                .collect()
+        };
+        let nv = verts.len();
+        let (mut e, mut rel) = (vec![0.0; nv], vec![0.0; nv]);
+        let start = Instant::now();
+        let mut chunk = 20_000u64;
+        let mut prev: Option<(f64, f64)> = None;
+        let mut hit: [Option<f64>; 3] = [None; 3];
+        let targets = [0.05, 0.02, 0.01];
+        let (mut err, mut ratio) = (f64::NAN, f64::NAN);
+        while start.elapsed().as_secs_f64() < max_s && hit[2].is_none() {
+            ctx.run(&mut RunParams {
+                photons: chunk,
+                progress_interval_s: 10.0,
+                estimator: Some(est),
+                ..Default::default()
+            })
+            .unwrap();
+            let t = start.elapsed().as_secs_f64();
+            ctx.irradiance(floor, 0, 0, &mut e).unwrap();
+            ctx.rel_error(floor, 0, &mut rel).unwrap();
+            let (mut num, mut den, mut est_num) = (0.0, 0.0, 0.0);
+            for v in 0..nv {
+                num += (e[v] - exact[v]).abs();
+                den += exact[v];
+                est_num += rel[v] * e[v];
+            }
+            err = num / den;
+            ratio = num / est_num;
+            for (k, &target) in targets.iter().enumerate() {
+                if hit[k].is_none() && err <= target {
+                    // Interpolate log-log between the previous segment and this one.
+                    hit[k] = Some(match prev {
+                        Some((t0, e0)) if e0 > target => {
+                            let f = (e0 / target).ln() / (e0 / err).ln();
+                            (t0.ln() + f * (t / t0).ln()).exp()
+                        }
+                        _ => t,
+                    });
+                }
+            }
+            prev = Some((t, err));
+            chunk = chunk.saturating_mul(3) / 2;
+        }
+        let show = |h: Option<f64>| h.map_or(format!("> {max_s:.0}"), |t| format!("{t:.2}"));
+        println!(
+            "{name:10} {:>9} {:>9} {:>9} {:>11.2}% {:>10.2}",
+            show(hit[0]),
+            show(hit[1]),
+            show(hit[2]),
+            100.0 * err,
+            ratio
+        );
+    }
+}
