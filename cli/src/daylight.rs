@@ -210,6 +210,7 @@ pub fn add_daylight(
             position: [0.0; 3],
             lumens: lm,
             watts: w.iter().sum(),
+            distant: true,
         });
         Ok(())
     };

@@ -162,8 +162,12 @@ const MAX_PLACED: u64 = 100_000;
 pub struct PlacedLight {
     pub name: String,
     pub position: [f64; 3],
+    /// lm and W; of a sky or the sun (`distant`): lx and W/m² on an open horizontal plane.
     pub lumens: f64,
     pub watts: f64,
+    /// A sky, an environment or the sun: infinitely far, no position.
+    #[serde(skip_serializing_if = "std::ops::Not::not")]
+    pub distant: bool,
 }
 
 fn unit_amount(unit: &str, x: f64, what: &str) -> Result<Amount> {
@@ -254,6 +258,7 @@ pub fn add_lights(
             position: l.position,
             lumens: lm,
             watts: w.iter().sum(),
+            distant: false,
         });
     }
     Ok(())
@@ -367,6 +372,7 @@ pub fn add_luminaires(
                 position: p,
                 lumens: lm,
                 watts: w.iter().sum(),
+                distant: false,
             });
         }
     }

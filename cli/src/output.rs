@@ -440,7 +440,7 @@ pub fn default_camera(scene: &LoadedScene, up: [f64; 3]) -> CameraSettings {
     let mut horizontal = (front + 0.3 * side).normalize();
     let mut lit = DVec3::ZERO;
     let mut power = 0.0;
-    for l in &scene.lights {
+    for l in scene.lights.iter().filter(|l| !l.distant) {
         lit += l.watts * DVec3::from(l.position);
         power += l.watts;
     }

@@ -822,6 +822,7 @@ fn a_sky_and_the_sun_light_an_open_plane_by_their_horizontal_amounts() {
     let lights = report["lights"].as_array().unwrap();
     assert_eq!(lights.len(), 2);
     assert!((lights[1]["lumens"].as_f64().unwrap() - 40_000.0).abs() < 1e-6);
+    assert_eq!(lights[1]["distant"], true);
 
     let toml = write(
         d,
