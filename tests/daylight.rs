@@ -16,26 +16,8 @@ mod common;
 use common::*;
 use imap::photometry::Spectrum;
 use imap::scene::sky::{SkyAmount, SkyDesc, SkyKind, SunDesc};
-use imap::{Config, Context, Estimator, MeshDesc, RunParams};
+use imap::{Config, Context, Estimator, MeshDesc};
 use std::f64::consts::PI;
-
-fn cfg(seed: u64) -> Config {
-    Config {
-        seed,
-        threads: 2,
-        ..Default::default()
-    }
-}
-
-fn run(ctx: &mut Context, n: u64, e: Estimator) -> imap::Report {
-    ctx.run(&mut RunParams {
-        photons: n,
-        progress_interval_s: 1.0,
-        estimator: Some(e),
-        ..Default::default()
-    })
-    .unwrap()
-}
 
 const ESTIMATORS: [Estimator; 3] = [Estimator::Photons, Estimator::DEFAULT, Estimator::GATHER];
 
@@ -98,12 +80,15 @@ fn a_uniform_sky_gives_pi_l_on_an_open_plane_at_any_scale_and_place() {
         (0.01, [250.0, -40.0, 7.0], Estimator::DEFAULT),
         (1000.0, [0.0, 0.0, -3.0], Estimator::GATHER),
     ] {
-        let mut ctx = context(Config { unit_m, ..cfg(3) });
+        let mut ctx = context(Config {
+            unit_m,
+            ..seeded(3)
+        });
         let black = lambert(&mut ctx, 0.0);
         let g = grid(6, -1.0, 1.0, -1.0, 1.0, 0.0).translated(offset);
         let id = ctx.add_mesh(&g.desc(black)).unwrap();
         ctx.add_sky(&uniform_sky(l, false)).unwrap();
-        run(&mut ctx, photons(200_000), estimator);
+        run_with(&mut ctx, photons(200_000), estimator);
         let want = vec![Some(PI); g.vertex_count()];
         assert_z(
             &values(&ctx, id, 0),
@@ -112,7 +97,7 @@ fn a_uniform_sky_gives_pi_l_on_an_open_plane_at_any_scale_and_place() {
         );
     }
     // A uniform sphere of radiance lights both sides of a two-sided plane.
-    let mut ctx = context(cfg(4));
+    let mut ctx = context(seeded(4));
     let black = lambert(&mut ctx, 0.0);
     let g = grid(4, -1.0, 1.0, -1.0, 1.0, 0.0);
     let id = ctx
@@ -122,7 +107,7 @@ fn a_uniform_sky_gives_pi_l_on_an_open_plane_at_any_scale_and_place() {
         })
         .unwrap();
     ctx.add_sky(&uniform_sky(l, true)).unwrap();
-    run(&mut ctx, photons(200_000), Estimator::DEFAULT);
+    run_with(&mut ctx, photons(200_000), Estimator::DEFAULT);
     let want = vec![Some(PI); g.vertex_count()];
     for side in 0..2 {
         assert_z(
@@ -136,7 +121,7 @@ fn a_uniform_sky_gives_pi_l_on_an_open_plane_at_any_scale_and_place() {
 /// A closed black room (2 × 2 m, 1 m high) whose roof has a 1 m square opening centred
 /// over the floor; the floor (16 × 16 cells) records. Returns the context and the floor.
 fn roof_room(seed: u64) -> (Context, u32, Geometry) {
-    let mut ctx = context(cfg(seed));
+    let mut ctx = context(seeded(seed));
     let black = lambert(&mut ctx, 0.0);
     let floor = grid(16, -1.0, 1.0, -1.0, 1.0, 0.0);
     let id = ctx.add_mesh(&floor.desc(black)).unwrap();
@@ -201,7 +186,7 @@ fn a_uniform_sky_through_a_roof_opening_gives_the_view_factor() {
     for (seed, estimator) in ESTIMATORS.into_iter().enumerate() {
         let (mut ctx, id, floor) = roof_room(10 + seed as u64);
         ctx.add_sky(&uniform_sky(3.0, false)).unwrap();
-        run(&mut ctx, photons(400_000), estimator);
+        run_with(&mut ctx, photons(400_000), estimator);
         // The floor's corners and edges see the opening too; every vertex is compared.
         let want: Vec<Option<f64>> = (0..floor.vertex_count())
             .map(|v| {
@@ -284,7 +269,7 @@ fn cie_skies_through_a_roof_opening_give_the_sky_integral() {
             ..SkyDesc::default()
         })
         .unwrap();
-        run(&mut ctx, photons(300_000), estimator);
+        run_with(&mut ctx, photons(300_000), estimator);
         let (a, z) = (f64::to_radians(az), f64::to_radians(zen));
         let sun = [z.sin() * a.sin(), z.sin() * a.cos(), z.cos()];
         let abcde = imap::scene::sky::CIE_SKY_PARAMETERS[kind as usize - 1];
@@ -332,7 +317,7 @@ fn the_sun_patch_lies_where_the_sun_puts_it_with_en_cos_theta() {
             north: [0.0, 1.0, 0.0],
         })
         .unwrap();
-        run(&mut ctx, photons(200_000), estimator);
+        run_with(&mut ctx, photons(200_000), estimator);
         // A vertex's support reaches 0.125 m; the penumbra is 1 m · tan 0.265° / cos 20°
         // ≈ 0.5 cm wide: vertices whose support is wholly inside the patch read
         // E_n cos θ / 3 per band, wholly outside nothing; the rest are not compared.
@@ -396,7 +381,7 @@ fn hdr_environment_files_read_back_as_the_sky_they_hold() {
         .save_with_format(&exr, image::ImageFormat::OpenExr)
         .unwrap();
     for (k, path) in [hdr, exr].iter().enumerate() {
-        let mut ctx = context(cfg(40 + k as u64));
+        let mut ctx = context(seeded(40 + k as u64));
         let black = lambert(&mut ctx, 0.0);
         let g = grid(4, -1.0, 1.0, -1.0, 1.0, 0.0);
         let id = ctx.add_mesh(&g.desc(black)).unwrap();
@@ -409,7 +394,7 @@ fn hdr_environment_files_read_back_as_the_sky_they_hold() {
             },
         )
         .unwrap();
-        run(
+        run_with(
             &mut ctx,
             photons(400_000),
             [Estimator::DEFAULT, Estimator::GATHER][k],
@@ -446,7 +431,7 @@ fn hdr_environment_files_read_back_as_the_sky_they_hold() {
     // context is unchanged.
     let mut small = context(Config {
         memory_budget: 8 << 20,
-        ..cfg(1)
+        ..seeded(1)
     });
     let big = SkyDesc {
         kind: SkyKind::Image {
@@ -462,7 +447,7 @@ fn hdr_environment_files_read_back_as_the_sky_they_hold() {
     assert!(e.to_string().contains("1024 × 512"), "{e}");
     assert!(small.scene().lights.is_empty());
     // A file that is not an environment image is refused naming it.
-    let mut ctx = context(cfg(1));
+    let mut ctx = context(seeded(1));
     let bogus = dir.join("sky.txt");
     std::fs::write(&bogus, "not an image").unwrap();
     let e = ctx.add_sky_file(&bogus, &SkyDesc::default()).unwrap_err();
@@ -508,7 +493,7 @@ fn distant_light_keeps_its_energy_balance_and_light_groups() {
         direct: false,
     })
     .unwrap();
-    let report = run(&mut ctx, photons(100_000), Estimator::DEFAULT);
+    let report = run_with(&mut ctx, photons(100_000), Estimator::DEFAULT);
     let b = &report;
     let total = b.absorbed_w + b.escaped_w + b.dropped_w;
     assert!(
@@ -540,7 +525,7 @@ fn the_renderer_sees_the_sky_and_a_floor_lit_by_it_and_the_sun() {
     // at 40° (E_n = 3 W/m² per band): every floor pixel shows ρ (π L + E_n cos 40°) / π;
     // a camera looking up shows the sky's L itself in every pixel.
     use imap::{CameraDesc, RenderMethod, RenderParams};
-    let mut ctx = context(cfg(60));
+    let mut ctx = context(seeded(60));
     let rho = 0.5;
     let grey = lambert(&mut ctx, rho);
     ctx.add_mesh(&grid(8, -4.0, 4.0, -4.0, 4.0, 0.0).desc(grey))
@@ -642,7 +627,7 @@ fn a_glazed_roof_opening_passes_the_sky_by_the_glass_transmittance() {
         ..SkyDesc::default()
     })
     .unwrap();
-    run(&mut ctx, photons(1_500_000), Estimator::DEFAULT);
+    run_with(&mut ctx, photons(1_500_000), Estimator::DEFAULT);
     let sun = [0.0, -(45f64.to_radians().sin()), 45f64.to_radians().cos()];
     let abcde = imap::scene::sky::CIE_SKY_PARAMETERS[0];
     let band_radiance = lz / ctx.photometry().luminous(&[1.0, 1.0, 1.0]);

@@ -23,29 +23,11 @@ use std::f64::consts::PI;
 const H: f64 = 1.0;
 const POWER: f64 = 12.0;
 
-fn cfg(seed: u64) -> Config {
-    Config {
-        seed,
-        threads: 2,
-        ..Default::default()
-    }
-}
-
 /// A black 1 m plate at z = 0 of 12 × 12 cells.
 fn plate(ctx: &mut Context) -> (u32, Geometry) {
     let black = lambert(ctx, 0.0);
     let g = grid(12, -0.5, 0.5, -0.5, 0.5, 0.0);
     (ctx.add_mesh(&g.desc(black)).unwrap(), g)
-}
-
-fn run(ctx: &mut Context, n: u64, e: Estimator) -> imap::Report {
-    ctx.run(&mut RunParams {
-        photons: n,
-        progress_interval_s: 1.0,
-        estimator: Some(e),
-        ..Default::default()
-    })
-    .unwrap()
 }
 
 /// Largest and mean |z| of the map against `exact` (hat averages), over vertices where the
@@ -155,11 +137,11 @@ fn every_light_type_reads_its_analytic_irradiance() {
         .iter()
         .flat_map(|c| [(c.clone(), Estimator::DEFAULT), (c.clone(), GATHER_PLATE)])
     {
-        let mut ctx = context(cfg(5));
+        let mut ctx = context(seeded(5));
         let (id, g) = plate(&mut ctx);
         let position = if what == "beam" { [0.0, 0.0, H] } else { at };
         light(&mut ctx, kind, position);
-        run(&mut ctx, photons(400_000), est);
+        run_with(&mut ctx, photons(400_000), est);
         let what = format!("{what} ({})", ctx.estimator().name());
         let (worst, mean) = z_scores(&ctx, id, &g, exact);
         eprintln!("{what}: largest |z| {worst:.2}, mean |z| {mean:.2}");
@@ -170,7 +152,7 @@ fn every_light_type_reads_its_analytic_irradiance() {
     }
     // An emitting square 0.4 m wide at H facing down: Lambert's polygon formula.
     for est in [Estimator::DEFAULT, GATHER_PLATE] {
-        let mut ctx = context(cfg(6));
+        let mut ctx = context(seeded(6));
         let (id, g) = plate(&mut ctx);
         let black = lambert(&mut ctx, 0.0);
         let lamp = grid(1, -0.2, 0.2, -0.2, 0.2, H).flipped();
@@ -181,7 +163,7 @@ fn every_light_type_reads_its_analytic_irradiance() {
             ..lamp.desc(black)
         })
         .unwrap();
-        run(&mut ctx, photons(400_000), est);
+        run_with(&mut ctx, photons(400_000), est);
         let square = [
             [-0.2, -0.2, H],
             [0.2, -0.2, H],
@@ -205,7 +187,7 @@ fn every_light_type_reads_its_analytic_irradiance() {
 fn a_narrow_spot_stays_unbiased() {
     let mut fluxes = Vec::new();
     for seed in 0..8 {
-        let mut ctx = context(cfg(100 + seed));
+        let mut ctx = context(seeded(100 + seed));
         let (id, g) = plate(&mut ctx);
         ctx.add_spot_light(
             [0.03, 0.02, H],
@@ -214,7 +196,7 @@ fn a_narrow_spot_stays_unbiased() {
             &[POWER],
         )
         .unwrap();
-        run(&mut ctx, photons(20_000), Estimator::DEFAULT);
+        run_with(&mut ctx, photons(20_000), Estimator::DEFAULT);
         let mut e = vec![0.0; g.vertex_count()];
         ctx.irradiance(id, 0, 0, &mut e).unwrap();
         fluxes.push(
@@ -229,7 +211,7 @@ fn a_narrow_spot_stays_unbiased() {
 
 /// A closed grey room (ρ = 0.6, 6 × 6 cells a face) lit by a point light.
 fn grey_room(seed: u64) -> (Context, Vec<u32>) {
-    let mut ctx = context(cfg(seed));
+    let mut ctx = context(seeded(seed));
     let grey = lambert(&mut ctx, 0.6);
     let id = ctx
         .add_mesh(&cuboid([0.0; 3], [1.0; 3], 6, true).desc(grey))
@@ -244,8 +226,8 @@ fn grey_room(seed: u64) -> (Context, Vec<u32>) {
 fn light_sampling_and_photons_only_agree_in_a_grey_room() {
     let (mut a, ids) = grey_room(1);
     let (mut b, _) = grey_room(2);
-    run(&mut a, photons(1_000_000), Estimator::DEFAULT);
-    run(&mut b, photons(1_000_000), Estimator::Photons);
+    run_with(&mut a, photons(1_000_000), Estimator::DEFAULT);
+    run_with(&mut b, photons(1_000_000), Estimator::Photons);
     let (ma, mb) = (map_with_errors(&a, &ids), map_with_errors(&b, &ids));
     let (rms, mean_z, n) = difference_z(&ma, &mb);
     eprintln!("grey room: rms z of the difference {rms:.2}, mean z {mean_z:.3} over {n} values");
@@ -284,7 +266,7 @@ fn the_same_seed_gives_the_same_map_with_any_scheduler_and_thread_count() {
             } else {
                 200_000
             };
-            run(&mut ctx, n, est);
+            run_with(&mut ctx, n, est);
             let nv = ctx.vertex_count(id).unwrap();
             let mut e = vec![0.0; nv];
             ctx.irradiance(id, 0, 1, &mut e).unwrap();
@@ -303,10 +285,10 @@ fn the_same_seed_gives_the_same_map_with_any_scheduler_and_thread_count() {
 
 #[test]
 fn a_map_holds_one_estimator() {
-    let mut ctx = context(cfg(1));
+    let mut ctx = context(seeded(1));
     let (_, _) = plate(&mut ctx);
     ctx.add_point_light([0.0, 0.0, 1.0], &[1.0]).unwrap();
-    run(&mut ctx, 10_000, Estimator::DEFAULT);
+    run_with(&mut ctx, 10_000, Estimator::DEFAULT);
     let e = ctx
         .run(&mut RunParams {
             photons: 1000,
@@ -319,7 +301,7 @@ fn a_map_holds_one_estimator() {
     // The map is as it was; after a reset the other estimator runs.
     assert_eq!(ctx.report().photons, 10_000);
     ctx.reset();
-    run(&mut ctx, 1000, Estimator::Photons);
+    run_with(&mut ctx, 1000, Estimator::Photons);
     assert_eq!(ctx.estimator(), Estimator::Photons);
     // Too few photons per pass for the scene's vertices is refused, naming the field.
     ctx.reset();
@@ -361,7 +343,7 @@ fn difference_z(a: &[(f64, f64)], b: &[(f64, f64)]) -> (f64, f64, usize) {
 /// many σ at the vertices it reaches).
 #[test]
 fn gathering_and_photons_only_agree() {
-    let mixed = |seed| mixed_room(cfg(seed));
+    let mixed = |seed| mixed_room(seeded(seed));
     type Build<'a> = &'a dyn Fn(u64) -> (Context, Vec<u32>);
     let cases: [(&str, Build, u64, u64); 2] = [
         ("grey room", &grey_room, 100_000, 1_000_000),
@@ -370,8 +352,8 @@ fn gathering_and_photons_only_agree() {
     for (what, build, n_gather, n_photons) in cases {
         let (mut a, ids) = build(1);
         let (mut b, _) = build(2);
-        run(&mut a, photons(n_gather), Estimator::GATHER);
-        run(&mut b, photons(n_photons), Estimator::Photons);
+        run_with(&mut a, photons(n_gather), Estimator::GATHER);
+        run_with(&mut b, photons(n_photons), Estimator::Photons);
         let (rms, mean, n) = difference_z(&map_with_errors(&a, &ids), &map_with_errors(&b, &ids));
         eprintln!("{what}: rms z of the difference {rms:.2}, mean z {mean:.3} over {n} values");
         assert!((0.7..1.3).contains(&rms), "{what}: rms z {rms}");
@@ -388,12 +370,12 @@ fn gathering_reads_the_integrating_sphere() {
     let mut means = Vec::new();
     let mut expected = 0.0;
     for seed in 0..4 {
-        let mut ctx = context(cfg(40 + seed));
+        let mut ctx = context(seeded(40 + seed));
         let wall = lambert(&mut ctx, rho);
         let g = sphere_inward(1.0, 3);
         let id = ctx.add_mesh(&g.desc(wall)).unwrap();
         ctx.add_point_light([0.2, -0.1, 0.3], &[power]).unwrap();
-        run(&mut ctx, photons(20_000), Estimator::GATHER);
+        run_with(&mut ctx, photons(20_000), Estimator::GATHER);
         let mut e = vec![0.0; g.vertex_count()];
         ctx.irradiance(id, 0, 0, &mut e).unwrap();
         let area = vertex_areas(&g);
@@ -413,7 +395,7 @@ fn gathering_reads_the_integrating_sphere() {
 #[test]
 fn states_keep_the_gathering_estimator() {
     let build = |seed| {
-        let mut ctx = context(cfg(seed));
+        let mut ctx = context(seeded(seed));
         let grey = lambert(&mut ctx, 0.5);
         ctx.add_mesh(&cuboid([0.0; 3], [1.0; 3], 3, true).desc(grey))
             .unwrap();
@@ -421,7 +403,7 @@ fn states_keep_the_gathering_estimator() {
         ctx
     };
     let mut a = build(1);
-    run(&mut a, 20_000, Estimator::GATHER);
+    run_with(&mut a, 20_000, Estimator::GATHER);
     let bytes = a.state_bytes(0, &[]).unwrap();
     let mut b = build(1);
     b.load_state(&bytes).unwrap();
@@ -431,7 +413,7 @@ fn states_keep_the_gathering_estimator() {
         Estimator::LightSampling { gather: true, .. }
     ));
     let mut c = build(1);
-    run(&mut c, 20_000, Estimator::DEFAULT);
+    run_with(&mut c, 20_000, Estimator::DEFAULT);
     let e = c.merge_state(&bytes).unwrap_err();
     assert!(e.message.contains("gathering"), "{e}");
 }
@@ -443,7 +425,7 @@ fn states_keep_the_gathering_estimator() {
 #[test]
 fn gathering_keeps_groups_the_direct_layer_parts_and_sensors() {
     let build = |seed| {
-        let mut ctx = context(cfg(seed));
+        let mut ctx = context(seeded(seed));
         let grey = lambert(&mut ctx, 0.5);
         let dark = lambert(&mut ctx, 0.2);
         let black = lambert(&mut ctx, 0.0);
@@ -483,8 +465,8 @@ fn gathering_keeps_groups_the_direct_layer_parts_and_sensors() {
     };
     let (mut a, ids, mats) = build(1);
     let (mut b, _, _) = build(2);
-    run(&mut a, photons(60_000), Estimator::GATHER);
-    run(&mut b, photons(1_500_000), Estimator::Photons);
+    run_with(&mut a, photons(60_000), Estimator::GATHER);
+    run_with(&mut b, photons(1_500_000), Estimator::Photons);
     let layer = |c: &Context, m: u32, l: imap::Layer| {
         let n = c.vertex_count(m).unwrap();
         let (mut e, mut r) = (vec![0.0; n], vec![0.0; n]);

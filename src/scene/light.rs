@@ -304,7 +304,7 @@ fn perpendicular(name: &str, r: [f64; 3], axis: DVec3, axis_name: &str) -> Resul
 
 /// Radiant flux per band of `spectrum` scaled so that its total is `flux` in the amount's
 /// kind (radiant W or luminous lm).
-fn scale_spectrum(
+pub(crate) fn scale_spectrum(
     spectrum: &Spectrum,
     bands: &Bands,
     flux: f64,

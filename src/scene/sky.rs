@@ -566,26 +566,7 @@ fn per_band(
     photometric: bool,
     denominator: f64,
 ) -> Result<Vec<f64>> {
-    spectrum.validate(bands)?;
-    let rel = spectrum_bands(spectrum, bands);
-    let norm = if photometric {
-        BandPhotometry::new(bands).luminous(&rel)
-    } else {
-        rel.iter().sum()
-    };
-    if !(norm > 0.0 && norm.is_finite()) {
-        bail!(
-            ImapErrInvalidArgument,
-            "the spectrum has no {} in the context's bands",
-            if photometric {
-                "visible power"
-            } else {
-                "power"
-            }
-        );
-    }
-    let k = x / (norm * denominator);
-    let out: Vec<f64> = rel.iter().map(|r| r * k).collect();
+    let out = super::light::scale_spectrum(spectrum, bands, x / denominator, photometric)?;
     if out.iter().any(|v| !v.is_finite()) {
         bail!(
             ImapErrInvalidArgument,

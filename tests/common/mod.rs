@@ -199,6 +199,26 @@ pub fn run_photons_only(ctx: &mut Context, n: u64) -> imap::Report {
     .expect("run")
 }
 
+/// A two-thread config with `seed`.
+pub fn seeded(seed: u64) -> Config {
+    Config {
+        seed,
+        threads: 2,
+        ..Default::default()
+    }
+}
+
+/// Runs `n` photons with estimator `e`, no callback.
+pub fn run_with(ctx: &mut Context, n: u64, e: imap::Estimator) -> imap::Report {
+    ctx.run(&mut imap::RunParams {
+        photons: n,
+        progress_interval_s: 1.0,
+        estimator: Some(e),
+        ..Default::default()
+    })
+    .expect("run")
+}
+
 /// Runs `n` photons with no callback.
 pub fn run_photons(ctx: &mut Context, n: u64) -> imap::Report {
     let mut params = imap::RunParams {
