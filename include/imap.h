@@ -2336,8 +2336,10 @@ enum ImapStatus imap_sun_time_default(struct ImapSunTime *out, size_t size);
  * Returns IMAP_ERR_NULL_POINTER, IMAP_ERR_NON_FINITE (naming the field, or the pixel),
  * IMAP_ERR_INVALID_ARGUMENT (naming the field: an unknown kind or unit, a unit the kind
  * cannot take, a CIE type outside 1–15, a sun below the horizon, north parallel to the
- * zenith, an amount ≤ 0), IMAP_ERR_NO_LIGHT (a black image), IMAP_ERR_BUSY. The context
- * is unchanged on any error. (Since 0.2.2.)
+ * zenith, an amount ≤ 0), IMAP_ERR_NO_LIGHT (a black image), IMAP_ERR_MEMORY_BUDGET (an
+ * image that would take the context past its budget, refused before it is copied: about
+ * 120 bytes per pixel while it is added, 72 held), IMAP_ERR_BUSY. The context is
+ * unchanged on any error. (Since 0.2.2.)
  *
  * # Safety
  * `ctx` is a live handle; `sky` points to an initialised `ImapSky` whose image (kind
