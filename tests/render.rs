@@ -584,3 +584,79 @@ fn floor_under_a_luminaire_and_a_beam() {
         "rms relative deviation {dev} against the estimate {est}"
     );
 }
+
+/// The path tracer (`Context::path_trace`, the renderer's independent reference) against
+/// the same analytic answers: the integrating sphere's L = ρE/π (indirect light carried by
+/// the paths' own bounces, no photons) and the floor under a point light. Its per-pixel
+/// error estimate is calibrated, and a seed gives the same image on 1 and 3 threads.
+#[test]
+fn the_path_tracer_reference_agrees_with_analytic_answers() {
+    let mut ctx = context(Config {
+        threads: 2,
+        seed: 9,
+        ..Default::default()
+    });
+    let rho = 0.6;
+    let wall = lambert(&mut ctx, rho);
+    let g = sphere_inward(1.0, 5);
+    ctx.add_mesh(&g.desc(wall)).unwrap();
+    let power = 10.0;
+    ctx.add_point_light([0.0; 3], &[power]).unwrap();
+    let area: f64 = vertex_areas(&g).iter().sum();
+    let truth = rho * (power / (4.0 * PI) + rho * power / ((1.0 - rho) * area)) / PI;
+    let cam = CameraDesc {
+        position: [0.0, -0.5, 0.0],
+        direction: [0.0, 1.0, 0.2],
+        up: [0.0, 0.0, 1.0],
+        fov_y_deg: 60.0,
+        width: 32,
+        height: 32,
+    };
+    let img = ctx.path_trace(&cam, 256, 10_000).unwrap();
+    let truths: Vec<(usize, f64)> = (0..32 * 32).map(|p| (p, truth)).collect();
+    let (dev, est) = compare(&img, &truths, false);
+    let mean = img.radiance.iter().step_by(3).sum::<f64>() / 1024.0;
+    eprintln!(
+        "path tracer, integrating sphere: mean {mean:.5} truth {truth:.5} ({:+.3} %), rms dev {dev:.4}, est {est:.4}",
+        (mean / truth - 1.0) * 100.0
+    );
+    assert!(
+        (mean / truth - 1.0).abs() < 3.0 * est / 32.0 + 2e-3,
+        "{mean} vs {truth}"
+    );
+    assert!(dev < 1.5 * est && dev > 0.6 * est, "{dev} vs {est}");
+    let mut one = context(Config {
+        threads: 3,
+        seed: 9,
+        ..Default::default()
+    });
+    let wall = lambert(&mut one, rho);
+    one.add_mesh(&g.desc(wall)).unwrap();
+    one.add_point_light([0.0; 3], &[power]).unwrap();
+    let again = one.path_trace(&cam, 256, 10_000).unwrap();
+    assert_eq!(again.radiance, img.radiance, "the same seed on 3 threads");
+
+    // The floor under a point light: direct light only.
+    let mut ctx = context(Config {
+        threads: 2,
+        ..Default::default()
+    });
+    let m = lambert(&mut ctx, 0.5);
+    ctx.add_mesh(&grid(8, -4.0, 4.0, -4.0, 4.0, 0.0).desc(m))
+        .unwrap();
+    ctx.add_point_light([0.0, 0.0, 1.0], &[4.0 * PI]).unwrap();
+    let cam = looking_down(3.0);
+    let img = ctx.path_trace(&cam, 16, 10_000).unwrap();
+    let mut truths = Vec::new();
+    for y in 0..48 {
+        for x in 0..48 {
+            let p = floor_point(&cam, x, y).unwrap();
+            let d2 = p[0] * p[0] + p[1] * p[1] + 1.0;
+            truths.push(((y * 48 + x) as usize, 0.5 / PI / (d2 * d2.sqrt())));
+        }
+    }
+    let (dev, est) = compare(&img, &truths, false);
+    eprintln!("path tracer, point light on a floor: rms deviation {dev:.2e}, estimated {est:.2e}");
+    assert!(dev < 1.5 * est + 1e-3, "{dev} vs {est}");
+    assert!(ctx.path_trace(&cam, 0, 10).is_err());
+}

@@ -22,6 +22,109 @@ impl Context {
         }
     }
 
+    /// Renders the camera's view by plain path tracing, `samples` paths per pixel on the
+    /// worker threads: an independent, unbiased reference for the photon-map renderer (its
+    /// own code paths but the scene, the camera and `direct_light`'s light sampling; no
+    /// photons, no radii). Deterministic for a seed, whatever the thread count. Rust API
+    /// only. Light of point-like lights and the sun through specular surfaces (their
+    /// caustics) cannot be path traced and is missing.
+    pub fn path_trace(
+        &mut self,
+        camera: &CameraDesc,
+        samples: u32,
+        max_events: u32,
+    ) -> Result<Image> {
+        if samples == 0 || max_events == 0 {
+            bail!(
+                ImapErrInvalidArgument,
+                "samples = {samples}, max_events = {max_events}: both must be positive"
+            );
+        }
+        self.prepare_scene()?;
+        let prepared = self.prepared.as_ref().expect("prepared above");
+        let cam = Camera::new(camera, prepared.scene.origin)?;
+        let eye = EyeTracer::new(
+            &self.scene,
+            &prepared.scene,
+            &prepared.accel,
+            &cam,
+            max_events,
+            0.0,
+        );
+        let nb = self.scene.bands.count();
+        let pixels = cam.pixels();
+        let threads = self.worker_threads().max(1);
+        let seed = self.config.seed ^ 0x7A7E_5EED_0000_0001;
+        // Each thread takes every `threads`-th pixel: (pixel, mean per band, rel. error).
+        let parts: Vec<Vec<(usize, Vec<f64>, f64)>> = std::thread::scope(|sc| {
+            let handles: Vec<_> = (0..threads)
+                .map(|t| {
+                    let eye = &eye;
+                    sc.spawn(move || {
+                        let mut got = Vec::new();
+                        let (mut beta, mut scratch) = (Vec::new(), Vec::new());
+                        let mut stats = crate::render::backward::EyeStats::default();
+                        let mut one = vec![0.0; nb];
+                        for p in (t..pixels).step_by(threads) {
+                            let mut sum = vec![0.0; nb];
+                            let (mut s1, mut s2) = (0.0, 0.0);
+                            for s in 0..samples {
+                                let mut rng = crate::sampling::PhotonRng::new(
+                                    seed,
+                                    ((p as u64) << 32) | s as u64,
+                                );
+                                one.fill(0.0);
+                                eye.path_sample(
+                                    p as u32,
+                                    &mut rng,
+                                    &mut one,
+                                    &mut beta,
+                                    &mut scratch,
+                                    &mut stats,
+                                );
+                                let m = one.iter().sum::<f64>() / nb as f64;
+                                s1 += m;
+                                s2 += m * m;
+                                sum.iter_mut().zip(&one).for_each(|(a, x)| *a += x);
+                            }
+                            let n = samples as f64;
+                            let mean = s1 / n;
+                            let var = ((s2 / n - mean * mean).max(0.0)) / (n - 1.0).max(1.0);
+                            let rel = if mean > 0.0 { var.sqrt() / mean } else { 0.0 };
+                            got.push((p, sum.iter().map(|x| x / n).collect(), rel));
+                        }
+                        got
+                    })
+                })
+                .collect();
+            handles
+                .into_iter()
+                .map(|h| h.join().unwrap_or_default())
+                .collect()
+        });
+        let mut radiance = vec![0.0; pixels * nb];
+        let mut rel_error = vec![0.0; pixels];
+        let mut done = 0;
+        for (p, v, r) in parts.into_iter().flatten() {
+            radiance[p * nb..(p + 1) * nb].copy_from_slice(&v);
+            rel_error[p] = r;
+            done += 1;
+        }
+        if done != pixels {
+            bail!(
+                ImapErrThreadLost,
+                "a path-tracing thread was lost: {done} of {pixels} pixels rendered"
+            );
+        }
+        Ok(Image {
+            width: camera.width,
+            height: camera.height,
+            bands: nb,
+            radiance,
+            rel_error,
+        })
+    }
+
     /// The report of the last render since the last reset.
     pub fn render_report(&self) -> Option<&RenderReport> {
         self.last_render.as_ref()

@@ -305,6 +305,169 @@ impl<'a> EyeTracer<'a> {
         stats.dropped += 1;
     }
 
+    /// One sample of pixel `pixel`'s radiance by plain path tracing (no photons: the
+    /// independent, unbiased reference `Context::path_trace` renders), added to `out` (per
+    /// band). At each diffuse vertex the direct light is `direct_light`'s (a light sample
+    /// and a BSDF sample, MIS-weighted); the path goes on by cosine sampling with Russian
+    /// roulette. Emission and the sky count where a path meets them directly from the
+    /// camera or through specular surfaces only (after a diffuse vertex without a specular
+    /// one since, `direct_light` has them). Light from point-like lights and the sun through
+    /// specular surfaces (caustics of delta lights) cannot be path traced and is missing.
+    pub fn path_sample(
+        &self,
+        pixel: u32,
+        rng: &mut PhotonRng,
+        out: &mut [f64],
+        beta: &mut Vec<f64>,
+        scratch: &mut Vec<f64>,
+        stats: &mut EyeStats,
+    ) {
+        let nb = self.bands;
+        beta.clear();
+        beta.resize(nb, 1.0);
+        let mut band: Option<usize> = None;
+        let w = self.camera.desc.width;
+        let mut dir = self
+            .camera
+            .ray(pixel % w, pixel / w, rng.uniform(), rng.uniform());
+        stats.paths += 1;
+        let Some(mut org) = self.scene.enter(self.camera.origin, dir) else {
+            return;
+        };
+        let mut medium: Option<u32> = None;
+        // Whether emission met now is counted: before the first diffuse vertex, or through
+        // specular surfaces since the last one.
+        let mut counts = true;
+        let mut diffuse_vertices = 0u32;
+        for _ in 0..self.max_events {
+            stats.rays += 1;
+            let Some(hit) = self.accel.intersect(org, dir) else {
+                if counts {
+                    for part in &self.distant {
+                        let f = part.value(dir);
+                        if f > 0.0 {
+                            for ((o, b), l) in out.iter_mut().zip(beta.iter()).zip(&part.per_band) {
+                                *o += b * l * f;
+                            }
+                        }
+                    }
+                }
+                return;
+            };
+            if let Some(m) = medium {
+                if let Some(alpha) = self.materials[m as usize]
+                    .dielectric
+                    .as_ref()
+                    .and_then(|d| d.absorption_per_m.as_ref())
+                {
+                    let dist_m = hit.t * self.unit_m;
+                    for (b, a) in beta.iter_mut().zip(alpha) {
+                        *b *= (-a * dist_m).exp();
+                    }
+                }
+            }
+            let mesh = &self.scene.meshes[hit.mesh as usize];
+            let prim = hit.prim as usize;
+            let ng = mesh.normals[prim].as_dvec3();
+            let front = dir.dot(ng) < 0.0;
+            let n_in = if front { ng } else { -ng };
+            if counts {
+                if let Some((_, radiance, _, _)) = self.emission(hit.mesh, ng, dir) {
+                    for ((o, b), l) in out.iter_mut().zip(beta.iter()).zip(radiance) {
+                        *o += b * l;
+                    }
+                }
+            }
+            let p_hit = mesh.point(prim, hit.u, hit.v);
+            let eps = self.scene.offset_at(p_hit);
+            let material_id = mesh.material(prim);
+            let material = &self.materials[material_id as usize];
+            if let Some(d) = &material.dielectric {
+                if d.dispersive && band.is_none() {
+                    band = Some(collapse_weights(beta, rng.uniform()));
+                }
+                let n = d.ior[band.unwrap_or(0)];
+                let (n1, n2) = if front { (1.0, n) } else { (n, 1.0) };
+                let cos_i = (-dir.dot(n_in)).clamp(0.0, 1.0);
+                if rng.uniform() < fresnel_dielectric(cos_i, n1, n2) {
+                    dir = reflect(dir, n_in);
+                    org = p_hit + n_in * eps;
+                } else {
+                    dir = refract(dir, n_in, cos_i, n1 / n2);
+                    org = p_hit - n_in * eps;
+                    medium = front.then_some(material_id);
+                }
+                counts = true;
+                continue;
+            }
+            let wd: f64 = (0..nb)
+                .map(|b| beta[b] * (material.diffuse_reflect[b] + material.diffuse_transmit[b]))
+                .sum();
+            let ws: f64 = if material.events[1] {
+                (0..nb)
+                    .map(|b| beta[b] * material.specular_reflect[b])
+                    .sum()
+            } else {
+                0.0
+            };
+            if wd + ws <= 0.0 {
+                return;
+            }
+            let pd = wd / (wd + ws);
+            if rng.uniform() >= pd {
+                let ps = 1.0 - pd;
+                for (b, k) in beta.iter_mut().zip(&material.specular_reflect) {
+                    *b *= k / ps;
+                }
+                dir = reflect(dir, n_in);
+                org = p_hit + n_in * eps;
+                counts = true;
+                continue;
+            }
+            // A diffuse vertex: its direct light, then on by cosine sampling.
+            scratch.clear();
+            scratch.extend(
+                beta.iter()
+                    .zip(&material.diffuse_reflect)
+                    .map(|(b, k)| b * k / (pd * PI)),
+            );
+            scratch.extend(
+                beta.iter()
+                    .zip(&material.diffuse_transmit)
+                    .map(|(b, k)| b * k / (pd * PI)),
+            );
+            let (wr, wt) = scratch.split_at(nb);
+            let wt = (self.transmit && wt.iter().any(|&x| x > 0.0)).then_some(wt);
+            self.direct_light(p_hit, n_in, eps, wr, wt, rng, out, stats);
+            let sr: f64 = (0..nb).map(|b| beta[b] * material.diffuse_reflect[b]).sum();
+            let st: f64 = (0..nb)
+                .map(|b| beta[b] * material.diffuse_transmit[b])
+                .sum();
+            let reflect_side = rng.uniform() * (sr + st) < sr;
+            let (k, p_side, n) = if reflect_side {
+                (&material.diffuse_reflect, sr / (sr + st), n_in)
+            } else {
+                (&material.diffuse_transmit, st / (sr + st), -n_in)
+            };
+            for (b, k) in beta.iter_mut().zip(k) {
+                *b *= k / (pd * p_side);
+            }
+            dir = warp::cosine_hemisphere(n, rng.uniform(), rng.uniform());
+            org = p_hit + n * eps;
+            counts = false;
+            diffuse_vertices += 1;
+            // Russian roulette after two diffuse vertices, by the path's largest weight.
+            if diffuse_vertices >= 2 {
+                let q = beta.iter().cloned().fold(0.0, f64::max).min(0.95);
+                if q <= 0.0 || rng.uniform() >= q {
+                    return;
+                }
+                beta.iter_mut().for_each(|b| *b /= q);
+            }
+        }
+        stats.dropped += 1;
+    }
+
     /// Direct light at a diffuse point: one light sample and (with emitting meshes) one
     /// BSDF sample, weighted by the power heuristic. `w_r`/`w_t`: path weight × BRDF/BTDF.
     #[allow(clippy::too_many_arguments)]
