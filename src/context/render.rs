@@ -1,7 +1,9 @@
 //! The context's camera renders (the second system).
 
+use super::Layer;
 use super::{check_threads, Context};
 use crate::error::{bail, check_finite_scalar, Error, ImapStatus, Result};
+use crate::render::backward::{MapIndirect, MeshIndirect};
 use crate::render::{self, Camera, CameraDesc, EyeTracer, Image, RenderParams, RenderReport};
 use crate::transport::Tracer;
 
@@ -34,6 +36,91 @@ impl Context {
         samples: u32,
         max_events: u32,
     ) -> Result<Image> {
+        self.trace_pixels(camera, samples, max_events, false)
+    }
+
+    /// Renders the camera's view by final gathering from the illumination map (issue 18,
+    /// experimental; Rust API only): path tracing as `path_trace`, ended at each path's
+    /// second diffuse vertex on a recorded mesh, where the direct light is sampled and the
+    /// rest of the light arriving there is the map's (combined minus direct layer,
+    /// interpolated over the triangle). Needs a map with the direct layer
+    /// (`LayerRequest::direct`) and photons in it; surfaces the map does not record are
+    /// traced on. Each pixel's error adds the map's error of what it read (taken as fully
+    /// correlated) to the samples' own.
+    pub fn render_final_gather(
+        &mut self,
+        camera: &CameraDesc,
+        samples: u32,
+        max_events: u32,
+    ) -> Result<Image> {
+        self.trace_pixels(camera, samples, max_events, true)
+    }
+
+    /// The map's indirect irradiance per recorded vertex side, with its relative error.
+    fn map_indirect(&self) -> Result<MapIndirect> {
+        if !self.scene.layers.direct {
+            bail!(
+                ImapErrOutOfOrder,
+                "final gathering reads the map's indirect light: keep the direct layer (set_layers with direct) and run the map first"
+            );
+        }
+        if self.photons() == 0 {
+            bail!(
+                ImapErrOutOfOrder,
+                "final gathering reads the illumination map: run it first"
+            );
+        }
+        let nb = self.scene.bands.count();
+        let mut meshes = Vec::new();
+        for (i, m) in self.scene.meshes.iter().enumerate() {
+            if !m.record {
+                meshes.push(None);
+                continue;
+            }
+            let nv = m.positions.len();
+            let sides = if m.two_sided { 2 } else { 1 };
+            let mut irradiance = vec![0.0; nv * sides * nb];
+            let mut rel_error = vec![0.0; nv * sides];
+            let (mut all, mut dir) = (vec![0.0; nv], vec![0.0; nv]);
+            let (mut r_all, mut r_dir) = (vec![0.0; nv], vec![0.0; nv]);
+            for side in 0..sides {
+                let s = side as u32;
+                self.rel_error(i as u32, s, &mut r_all)?;
+                self.rel_error_layer(i as u32, s, Layer::Direct, &mut r_dir)?;
+                let (mut m_all, mut m_dir) = (vec![0.0; nv], vec![0.0; nv]);
+                for b in 0..nb {
+                    self.irradiance(i as u32, s, b as u32, &mut all)?;
+                    self.irradiance_layer(i as u32, s, b as u32, Layer::Direct, &mut dir)?;
+                    for v in 0..nv {
+                        let x = (all[v] - dir[v]).max(0.0);
+                        irradiance[(v * sides + side) * nb + b] = x;
+                        m_all[v] += all[v] / nb as f64;
+                        m_dir[v] += dir[v] / nb as f64;
+                    }
+                }
+                for v in 0..nv {
+                    // The difference's error: both parts' errors, taken as independent.
+                    let ind = m_all[v] - m_dir[v];
+                    let sigma = (m_all[v] * r_all[v]).hypot(m_dir[v] * r_dir[v]);
+                    rel_error[v * sides + side] = if ind > 0.0 { sigma / ind } else { 0.0 };
+                }
+            }
+            meshes.push(Some(MeshIndirect {
+                sides,
+                irradiance,
+                rel_error,
+            }));
+        }
+        Ok(MapIndirect { meshes })
+    }
+
+    fn trace_pixels(
+        &mut self,
+        camera: &CameraDesc,
+        samples: u32,
+        max_events: u32,
+        gather: bool,
+    ) -> Result<Image> {
         if samples == 0 || max_events == 0 {
             bail!(
                 ImapErrInvalidArgument,
@@ -41,9 +128,14 @@ impl Context {
             );
         }
         self.prepare_scene()?;
+        let map = if gather {
+            Some(self.map_indirect()?)
+        } else {
+            None
+        };
         let prepared = self.prepared.as_ref().expect("prepared above");
         let cam = Camera::new(camera, prepared.scene.origin)?;
-        let eye = EyeTracer::new(
+        let mut eye = EyeTracer::new(
             &self.scene,
             &prepared.scene,
             &prepared.accel,
@@ -51,6 +143,7 @@ impl Context {
             max_events,
             0.0,
         );
+        eye.map = map.as_ref();
         let nb = self.scene.bands.count();
         let pixels = cam.pixels();
         let threads = self.worker_threads().max(1);
@@ -67,7 +160,7 @@ impl Context {
                         let mut one = vec![0.0; nb];
                         for p in (t..pixels).step_by(threads) {
                             let mut sum = vec![0.0; nb];
-                            let (mut s1, mut s2) = (0.0, 0.0);
+                            let (mut s1, mut s2, mut map_err) = (0.0, 0.0, 0.0);
                             for s in 0..samples {
                                 let mut rng = crate::sampling::PhotonRng::new(
                                     seed,
@@ -80,6 +173,7 @@ impl Context {
                                     &mut one,
                                     &mut beta,
                                     &mut scratch,
+                                    &mut map_err,
                                     &mut stats,
                                 );
                                 let m = one.iter().sum::<f64>() / nb as f64;
@@ -90,7 +184,8 @@ impl Context {
                             let n = samples as f64;
                             let mean = s1 / n;
                             let var = ((s2 / n - mean * mean).max(0.0)) / (n - 1.0).max(1.0);
-                            let rel = if mean > 0.0 { var.sqrt() / mean } else { 0.0 };
+                            let sigma = var.sqrt().hypot(map_err / n);
+                            let rel = if mean > 0.0 { sigma / mean } else { 0.0 };
                             got.push((p, sum.iter().map(|x| x / n).collect(), rel));
                         }
                         got

@@ -51,6 +51,27 @@ pub struct EyeTracer<'a> {
     /// Emitter index of each mesh that emits.
     emitter_of_mesh: Vec<Option<u32>>,
     has_mesh_emitters: bool,
+    /// The illumination map's indirect irradiance, for paths ended at their second
+    /// diffuse vertex (`path_sample`); None: plain path tracing.
+    pub map: Option<&'a MapIndirect>,
+}
+
+/// The illumination map's indirect irradiance (combined minus direct layer) at every
+/// recorded vertex side, with its error: what `path_sample` reads at a path's second
+/// diffuse vertex instead of tracing it on.
+#[derive(Debug, Default)]
+pub struct MapIndirect {
+    /// Per prepared mesh: None when it does not record.
+    pub meshes: Vec<Option<MeshIndirect>>,
+}
+
+#[derive(Debug)]
+pub struct MeshIndirect {
+    pub sides: usize,
+    /// W/m² per band at ((vertex · sides + side) · bands + band).
+    pub irradiance: Vec<f64>,
+    /// Its standard error over the band mean, relative to the band mean, per vertex side.
+    pub rel_error: Vec<f64>,
 }
 
 /// Tallies of the backward pass.
@@ -113,6 +134,7 @@ impl<'a> EyeTracer<'a> {
                 .collect(),
             lights,
             emitter_of_mesh,
+            map: None,
         }
     }
 
@@ -313,6 +335,9 @@ impl<'a> EyeTracer<'a> {
     /// camera or through specular surfaces only (after a diffuse vertex without a specular
     /// one since, `direct_light` has them). Light from point-like lights and the sun through
     /// specular surfaces (caustics of delta lights) cannot be path traced and is missing.
+    /// With `map`, a path ends at its second diffuse vertex on a recorded mesh with the
+    /// map's indirect light there (`map_err` adds the map's error of what it read).
+    #[allow(clippy::too_many_arguments)]
     pub fn path_sample(
         &self,
         pixel: u32,
@@ -320,6 +345,7 @@ impl<'a> EyeTracer<'a> {
         out: &mut [f64],
         beta: &mut Vec<f64>,
         scratch: &mut Vec<f64>,
+        map_err: &mut f64,
         stats: &mut EyeStats,
     ) {
         let nb = self.bands;
@@ -439,6 +465,24 @@ impl<'a> EyeTracer<'a> {
             let (wr, wt) = scratch.split_at(nb);
             let wt = (self.transmit && wt.iter().any(|&x| x > 0.0)).then_some(wt);
             self.direct_light(p_hit, n_in, eps, wr, wt, rng, out, stats);
+            if diffuse_vertices >= 1 {
+                // The second diffuse vertex: the map's indirect light here, and the end.
+                let side = if front { 0 } else { 1 };
+                if let Some(e) = self.map_indirect(hit.mesh, prim, hit.u, hit.v, side, wt.is_some())
+                {
+                    // Reflection reads the side the path came from, transmission the other.
+                    let (mut c, mut rel) = (0.0, 0.0f64);
+                    for (w, (irr, r)) in std::iter::once(wr).chain(wt).zip(&e) {
+                        for ((o, w), x) in out.iter_mut().zip(w).zip(irr) {
+                            *o += w * x;
+                            c += w * x;
+                        }
+                        rel = rel.max(*r);
+                    }
+                    *map_err += c / nb as f64 * rel;
+                    return;
+                }
+            }
             let sr: f64 = (0..nb).map(|b| beta[b] * material.diffuse_reflect[b]).sum();
             let st: f64 = (0..nb)
                 .map(|b| beta[b] * material.diffuse_transmit[b])
@@ -466,6 +510,43 @@ impl<'a> EyeTracer<'a> {
             }
         }
         stats.dropped += 1;
+    }
+
+    /// The map's indirect irradiance per band and its relative error at barycentric (u, v)
+    /// of triangle `prim` of mesh `mesh` on `side` — and, when `both`, on the other side
+    /// too (for diffuse transmission) — or None where the map has none.
+    fn map_indirect(
+        &self,
+        mesh: u32,
+        prim: usize,
+        u: f32,
+        v: f32,
+        side: usize,
+        both: bool,
+    ) -> Option<Vec<(Vec<f64>, f64)>> {
+        let m = self.map?.meshes.get(mesh as usize)?.as_ref()?;
+        let nb = self.bands;
+        let tri = self.scene.meshes[mesh as usize].triangles[prim];
+        let (u, v) = (u as f64, v as f64);
+        let bary = [1.0 - u - v, u, v];
+        let sides: &[usize] = if both { &[side, 1 - side] } else { &[side] };
+        let mut out = Vec::with_capacity(sides.len());
+        for &s in sides {
+            if s >= m.sides {
+                return None;
+            }
+            let mut e = vec![0.0; nb];
+            let mut r = 0.0;
+            for (k, &vert) in tri.iter().enumerate() {
+                let slot = vert as usize * m.sides + s;
+                for (x, y) in e.iter_mut().zip(&m.irradiance[slot * nb..(slot + 1) * nb]) {
+                    *x += bary[k] * y;
+                }
+                r += bary[k] * m.rel_error[slot];
+            }
+            out.push((e, r));
+        }
+        Some(out)
     }
 
     /// Direct light at a diffuse point: one light sample and (with emitting meshes) one
