@@ -169,21 +169,25 @@ fn px(img: &Image, p: usize) -> f64 {
         / img.bands as f64
 }
 
-/// Per region: (RMS relative error against the reference with the reference's noise taken
-/// out, RMS estimated, mean signed relative error).
-fn compare(img: &Image, reference: &Image, region: &[usize]) -> [(f64, f64, f64); 3] {
-    let mut acc = [(0.0, 0.0, 0.0, 0.0); 3];
+/// Per region, then away from the emitter (interior, edges and corners) and the whole
+/// image: (RMS relative error against the reference with the reference's noise taken out,
+/// RMS estimated, mean signed relative error).
+fn compare(img: &Image, reference: &Image, region: &[usize]) -> [(f64, f64, f64); 5] {
+    let mut acc = [(0.0, 0.0, 0.0, 0.0); 5];
     for (p, &r) in region.iter().enumerate() {
         let truth = px(reference, p);
         if truth <= 0.0 {
             continue;
         }
         let d = px(img, p) / truth - 1.0;
-        let a = &mut acc[r];
-        a.0 += d * d - reference.rel_error[p].powi(2);
-        a.1 += img.rel_error[p].powi(2);
-        a.2 += d;
-        a.3 += 1.0;
+        let away = if r < 2 { Some(3) } else { None };
+        for k in [Some(r), away, Some(4)].into_iter().flatten() {
+            let a = &mut acc[k];
+            a.0 += d * d - reference.rel_error[p].powi(2);
+            a.1 += img.rel_error[p].powi(2);
+            a.2 += d;
+            a.3 += 1.0;
+        }
     }
     acc.map(|(d2, e2, d, n)| ((d2 / n).max(0.0).sqrt(), (e2 / n).sqrt(), d / n))
 }
@@ -222,23 +226,28 @@ fn main() {
         100.0 * ref_err
     );
     println!(
-        "{:10} {:>8} {:>8}   {:>22} {:>22} {:>22}",
+        "{:10} {:>8} {:>8}   {:>22} {:>22} {:>22} {:>15} {:>15}",
         "method",
         "setting",
         "time s",
         "interior rms/est/mean %",
         "edges rms/est/mean %",
-        "emitter rms/est/mean %"
+        "emitter rms/est/mean %",
+        "away rms/est %",
+        "all rms/est %"
     );
-    let show = |name: &str, setting: String, secs: f64, c: [(f64, f64, f64); 3]| {
+    let show = |name: &str, setting: String, secs: f64, c: [(f64, f64, f64); 5]| {
         let f = |(a, e, m): (f64, f64, f64)| {
             format!("{:6.2} {:6.2} {:+6.2}", 100.0 * a, 100.0 * e, 100.0 * m)
         };
+        let g = |(a, e, _): (f64, f64, f64)| format!("{:7.2} {:7.2}", 100.0 * a, 100.0 * e);
         println!(
-            "{name:10} {setting:>8} {secs:>8.1}   {:>22} {:>22} {:>22}",
+            "{name:10} {setting:>8} {secs:>8.1}   {:>22} {:>22} {:>22} {:>15} {:>15}",
             f(c[0]),
             f(c[1]),
-            f(c[2])
+            f(c[2]),
+            g(c[3]),
+            g(c[4])
         );
     };
     let mut budget = 1.0;
