@@ -74,6 +74,23 @@ pub struct MeshIndirect {
     pub rel_error: Vec<f64>,
 }
 
+/// Where an eye path meets a surface: the point, the normal on the side it came from, the
+/// offset for new rays, whether it hit the front, and the material.
+struct Surface {
+    p: DVec3,
+    n_in: DVec3,
+    eps: f64,
+    front: bool,
+    material: u32,
+}
+
+/// What an eye path does at a surface (`EyeTracer::surface_step`).
+enum Step {
+    Specular,
+    Diffuse(f64),
+    End,
+}
+
 /// Tallies of the backward pass.
 #[derive(Clone, Debug, Default)]
 pub struct EyeStats {
@@ -213,18 +230,7 @@ impl<'a> EyeTracer<'a> {
                 return;
             };
             path_len += hit.t;
-            if let Some(m) = medium {
-                if let Some(alpha) = self.materials[m as usize]
-                    .dielectric
-                    .as_ref()
-                    .and_then(|d| d.absorption_per_m.as_ref())
-                {
-                    let dist_m = hit.t * self.unit_m;
-                    for (b, a) in beta.iter_mut().zip(alpha) {
-                        *b *= (-a * dist_m).exp();
-                    }
-                }
-            }
+            self.absorb(medium, hit.t, beta);
             let mesh = &self.scene.meshes[hit.mesh as usize];
             let prim = hit.prim as usize;
             let ng = mesh.normals[prim].as_dvec3();
@@ -241,48 +247,20 @@ impl<'a> EyeTracer<'a> {
             let material_id = mesh.material(prim);
             let material = &self.materials[material_id as usize];
 
-            if let Some(d) = &material.dielectric {
-                if d.dispersive && band.is_none() {
-                    band = Some(collapse_weights(beta, rng.uniform()));
-                }
-                let n = d.ior[band.unwrap_or(0)];
-                let (n1, n2) = if front { (1.0, n) } else { (n, 1.0) };
-                let cos_i = (-dir.dot(n_in)).clamp(0.0, 1.0);
-                if rng.uniform() < fresnel_dielectric(cos_i, n1, n2) {
-                    dir = reflect(dir, n_in);
-                    org = p_hit + n_in * eps;
-                } else {
-                    dir = refract(dir, n_in, cos_i, n1 / n2);
-                    org = p_hit - n_in * eps;
-                    medium = front.then_some(material_id);
-                }
-                continue;
-            }
-
-            // Diffuse (reflection and transmission) or specular, chosen by weighted albedo.
-            let wd: f64 = (0..nb)
-                .map(|b| beta[b] * (material.diffuse_reflect[b] + material.diffuse_transmit[b]))
-                .sum();
-            let ws: f64 = if material.events[1] {
-                (0..nb)
-                    .map(|b| beta[b] * material.specular_reflect[b])
-                    .sum()
-            } else {
-                0.0
+            let at = Surface {
+                p: p_hit,
+                n_in,
+                eps,
+                front,
+                material: material_id,
             };
-            if wd + ws <= 0.0 {
-                return;
-            }
-            let pd = wd / (wd + ws);
-            if rng.uniform() >= pd {
-                let ps = 1.0 - pd;
-                for (b, k) in beta.iter_mut().zip(&material.specular_reflect) {
-                    *b *= k / ps;
-                }
-                dir = reflect(dir, n_in);
-                org = p_hit + n_in * eps;
-                continue;
-            }
+            let pd =
+                match self.surface_step(&at, &mut dir, &mut org, &mut medium, &mut band, beta, rng)
+                {
+                    Step::Specular => continue,
+                    Step::End => return,
+                    Step::Diffuse(pd) => pd,
+                };
             // The first diffuse vertex: direct light here, and a backward photon.
             let p0 = buf.w_reflect.len();
             buf.w_reflect.extend(
@@ -380,18 +358,7 @@ impl<'a> EyeTracer<'a> {
                 }
                 return;
             };
-            if let Some(m) = medium {
-                if let Some(alpha) = self.materials[m as usize]
-                    .dielectric
-                    .as_ref()
-                    .and_then(|d| d.absorption_per_m.as_ref())
-                {
-                    let dist_m = hit.t * self.unit_m;
-                    for (b, a) in beta.iter_mut().zip(alpha) {
-                        *b *= (-a * dist_m).exp();
-                    }
-                }
-            }
+            self.absorb(medium, hit.t, beta);
             let mesh = &self.scene.meshes[hit.mesh as usize];
             let prim = hit.prim as usize;
             let ng = mesh.normals[prim].as_dvec3();
@@ -408,48 +375,23 @@ impl<'a> EyeTracer<'a> {
             let eps = self.scene.offset_at(p_hit);
             let material_id = mesh.material(prim);
             let material = &self.materials[material_id as usize];
-            if let Some(d) = &material.dielectric {
-                if d.dispersive && band.is_none() {
-                    band = Some(collapse_weights(beta, rng.uniform()));
-                }
-                let n = d.ior[band.unwrap_or(0)];
-                let (n1, n2) = if front { (1.0, n) } else { (n, 1.0) };
-                let cos_i = (-dir.dot(n_in)).clamp(0.0, 1.0);
-                if rng.uniform() < fresnel_dielectric(cos_i, n1, n2) {
-                    dir = reflect(dir, n_in);
-                    org = p_hit + n_in * eps;
-                } else {
-                    dir = refract(dir, n_in, cos_i, n1 / n2);
-                    org = p_hit - n_in * eps;
-                    medium = front.then_some(material_id);
-                }
-                counts = true;
-                continue;
-            }
-            let wd: f64 = (0..nb)
-                .map(|b| beta[b] * (material.diffuse_reflect[b] + material.diffuse_transmit[b]))
-                .sum();
-            let ws: f64 = if material.events[1] {
-                (0..nb)
-                    .map(|b| beta[b] * material.specular_reflect[b])
-                    .sum()
-            } else {
-                0.0
+            let at = Surface {
+                p: p_hit,
+                n_in,
+                eps,
+                front,
+                material: material_id,
             };
-            if wd + ws <= 0.0 {
-                return;
-            }
-            let pd = wd / (wd + ws);
-            if rng.uniform() >= pd {
-                let ps = 1.0 - pd;
-                for (b, k) in beta.iter_mut().zip(&material.specular_reflect) {
-                    *b *= k / ps;
-                }
-                dir = reflect(dir, n_in);
-                org = p_hit + n_in * eps;
-                counts = true;
-                continue;
-            }
+            let pd =
+                match self.surface_step(&at, &mut dir, &mut org, &mut medium, &mut band, beta, rng)
+                {
+                    Step::Specular => {
+                        counts = true;
+                        continue;
+                    }
+                    Step::End => return,
+                    Step::Diffuse(pd) => pd,
+                };
             // A diffuse vertex: its direct light, then on by cosine sampling.
             scratch.clear();
             scratch.extend(
@@ -547,6 +489,85 @@ impl<'a> EyeTracer<'a> {
             out.push((e, r));
         }
         Some(out)
+    }
+
+    /// Beer–Lambert over `t` scene units inside `medium` (a dielectric's id), if absorbing.
+    #[inline]
+    fn absorb(&self, medium: Option<u32>, t: f64, beta: &mut [f64]) {
+        if let Some(alpha) = medium.and_then(|m| {
+            self.materials[m as usize]
+                .dielectric
+                .as_ref()
+                .and_then(|d| d.absorption_per_m.as_ref())
+        }) {
+            let dist_m = t * self.unit_m;
+            for (b, a) in beta.iter_mut().zip(alpha) {
+                *b *= (-a * dist_m).exp();
+            }
+        }
+    }
+
+    /// An eye path's event at a surface: a dielectric reflects or refracts it (Fresnel;
+    /// a dispersive one first collapses it to one band) and a mirror reflects it — both
+    /// move `dir`/`org` on (`Step::Specular`) — or the diffuse event is chosen with its
+    /// probability (`Step::Diffuse(pd)`, `beta` not yet weighted), or nothing is left
+    /// (`Step::End`). Diffuse and specular are chosen by their weighted albedos.
+    #[allow(clippy::too_many_arguments)]
+    #[inline]
+    fn surface_step(
+        &self,
+        at: &Surface,
+        dir: &mut DVec3,
+        org: &mut DVec3,
+        medium: &mut Option<u32>,
+        band: &mut Option<usize>,
+        beta: &mut [f64],
+        rng: &mut PhotonRng,
+    ) -> Step {
+        let material = &self.materials[at.material as usize];
+        let n_in = at.n_in;
+        if let Some(d) = &material.dielectric {
+            if d.dispersive && band.is_none() {
+                *band = Some(collapse_weights(beta, rng.uniform()));
+            }
+            let n = d.ior[band.unwrap_or(0)];
+            let (n1, n2) = if at.front { (1.0, n) } else { (n, 1.0) };
+            let cos_i = (-dir.dot(n_in)).clamp(0.0, 1.0);
+            if rng.uniform() < fresnel_dielectric(cos_i, n1, n2) {
+                *dir = reflect(*dir, n_in);
+                *org = at.p + n_in * at.eps;
+            } else {
+                *dir = refract(*dir, n_in, cos_i, n1 / n2);
+                *org = at.p - n_in * at.eps;
+                *medium = at.front.then_some(at.material);
+            }
+            return Step::Specular;
+        }
+        let nb = self.bands;
+        let wd: f64 = (0..nb)
+            .map(|b| beta[b] * (material.diffuse_reflect[b] + material.diffuse_transmit[b]))
+            .sum();
+        let ws: f64 = if material.events[1] {
+            (0..nb)
+                .map(|b| beta[b] * material.specular_reflect[b])
+                .sum()
+        } else {
+            0.0
+        };
+        if wd + ws <= 0.0 {
+            return Step::End;
+        }
+        let pd = wd / (wd + ws);
+        if rng.uniform() >= pd {
+            let ps = 1.0 - pd;
+            for (b, k) in beta.iter_mut().zip(&material.specular_reflect) {
+                *b *= k / ps;
+            }
+            *dir = reflect(*dir, n_in);
+            *org = at.p + n_in * at.eps;
+            return Step::Specular;
+        }
+        Step::Diffuse(pd)
     }
 
     /// Direct light at a diffuse point: one light sample and (with emitting meshes) one
