@@ -195,13 +195,8 @@ impl<'a> EyeTracer<'a> {
         beta.clear();
         beta.resize(nb, 1.0);
         let mut band: Option<usize> = None;
-        let w = self.camera.desc.width;
-        let mut dir = self
-            .camera
-            .ray(pixel % w, pixel / w, rng.uniform(), rng.uniform());
         stats.paths += 1;
-        // A camera far outside the geometry: start where the ray meets its bounding sphere.
-        let Some(mut org) = self.scene.enter(self.camera.origin, dir) else {
+        let Some((mut dir, mut org)) = self.camera_ray(pixel, rng) else {
             return;
         };
         let mut path_len = (org - self.camera.origin).length();
@@ -215,18 +210,7 @@ impl<'a> EyeTracer<'a> {
             stats.rays += 1;
             let Some(hit) = self.accel.intersect(org, dir) else {
                 // The sky (and the sun) seen directly or through specular surfaces.
-                for part in &self.distant {
-                    let f = part.value(dir);
-                    if f > 0.0 {
-                        for ((d, b), l) in buf.direct[d0..]
-                            .iter_mut()
-                            .zip(beta.iter())
-                            .zip(&part.per_band)
-                        {
-                            *d += b * l * f;
-                        }
-                    }
-                }
+                self.add_sky(dir, beta, &mut buf.direct[d0..]);
                 return;
             };
             path_len += hit.t;
@@ -330,12 +314,8 @@ impl<'a> EyeTracer<'a> {
         beta.clear();
         beta.resize(nb, 1.0);
         let mut band: Option<usize> = None;
-        let w = self.camera.desc.width;
-        let mut dir = self
-            .camera
-            .ray(pixel % w, pixel / w, rng.uniform(), rng.uniform());
         stats.paths += 1;
-        let Some(mut org) = self.scene.enter(self.camera.origin, dir) else {
+        let Some((mut dir, mut org)) = self.camera_ray(pixel, rng) else {
             return;
         };
         let mut medium: Option<u32> = None;
@@ -347,14 +327,7 @@ impl<'a> EyeTracer<'a> {
             stats.rays += 1;
             let Some(hit) = self.accel.intersect(org, dir) else {
                 if counts {
-                    for part in &self.distant {
-                        let f = part.value(dir);
-                        if f > 0.0 {
-                            for ((o, b), l) in out.iter_mut().zip(beta.iter()).zip(&part.per_band) {
-                                *o += b * l * f;
-                            }
-                        }
-                    }
+                    self.add_sky(dir, beta, out);
                 }
                 return;
             };
@@ -489,6 +462,30 @@ impl<'a> EyeTracer<'a> {
             out.push((e, r));
         }
         Some(out)
+    }
+
+    /// A camera ray through `pixel` (jittered) and where it starts: at the camera, or where
+    /// it enters the bounding sphere of a scene far away (None: it misses it).
+    #[inline]
+    fn camera_ray(&self, pixel: u32, rng: &mut PhotonRng) -> Option<(DVec3, DVec3)> {
+        let w = self.camera.desc.width;
+        let dir = self
+            .camera
+            .ray(pixel % w, pixel / w, rng.uniform(), rng.uniform());
+        Some((dir, self.scene.enter(self.camera.origin, dir)?))
+    }
+
+    /// The radiance of the distant sources along `dir`, times `beta`, added to `out`.
+    #[inline]
+    fn add_sky(&self, dir: DVec3, beta: &[f64], out: &mut [f64]) {
+        for part in &self.distant {
+            let f = part.value(dir);
+            if f > 0.0 {
+                for ((o, b), l) in out.iter_mut().zip(beta).zip(&part.per_band) {
+                    *o += b * l * f;
+                }
+            }
+        }
     }
 
     /// Beer–Lambert over `t` scene units inside `medium` (a dielectric's id), if absorbing.
