@@ -780,11 +780,11 @@ impl Distant {
             }
             a => bail!(
                 ImapErrInvalidArgument,
-                "a {} sky cannot be given by its {}: {}",
+                "{} cannot be given by its {}: {}",
                 match desc.kind {
-                    SkyKind::Uniform { .. } => "uniform",
-                    SkyKind::Cie { .. } => "CIE",
-                    SkyKind::Image { .. } => "image",
+                    SkyKind::Uniform { .. } => "a uniform sky",
+                    SkyKind::Cie { .. } => "a CIE sky",
+                    SkyKind::Image { .. } => "an image sky",
                 },
                 a.name(),
                 if image {
