@@ -24,7 +24,7 @@
 //!         [--ref-seconds 60] [--max-seconds 40] [--scenes room,cornell]
 //!         [--samples 0] [--pass-photons 0] [--estimators photons,ls,gather]
 
-use imap::scenes::cornell_box;
+use imap::scenes::{cornell_box, grey_room, GREY_ROOM_EMITTER_Z, GREY_ROOM_EXITANCE};
 use imap::{Config, Context, Estimator, Layer, LayerRequest, MaterialDesc, MeshDesc, RunParams};
 use std::f64::consts::PI;
 
@@ -98,56 +98,19 @@ struct Scene {
     room: Option<(Vec<f64>, Vec<u32>)>,
 }
 
-const ROOM_EMITTER_Z: f64 = 0.98;
-const ROOM_EXITANCE: f64 = 2500.0;
+const ROOM_EMITTER_Z: f64 = GREY_ROOM_EMITTER_Z;
+const ROOM_EXITANCE: f64 = GREY_ROOM_EXITANCE;
 
 fn room(config: Config) -> Scene {
     let mut ctx = Context::new(config).unwrap();
-    let grey = ctx
-        .add_material(&MaterialDesc {
-            diffuse_reflect: vec![0.5],
-            ..Default::default()
-        })
-        .unwrap();
-    let black = ctx.add_material(&MaterialDesc::default()).unwrap();
-    let (mut p, mut t) = (Vec::new(), Vec::new());
-    let n = 40;
-    // Six inward faces of the unit cube (normal u × v).
-    let (x, y, z) = ([1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]);
-    quad([0.0; 3], x, y, n, &mut p, &mut t); // floor, +z
-    quad(z, y, x, n, &mut p, &mut t); // ceiling, −z
-    quad([0.0; 3], z, x, n, &mut p, &mut t); // y = 0, +y
-    quad(y, x, z, n, &mut p, &mut t); // y = 1, −y
-    quad([0.0; 3], y, z, n, &mut p, &mut t); // x = 0, +x
-    quad(x, z, y, n, &mut p, &mut t); // x = 1, −x
-    let walls = ctx.add_mesh(&MeshDesc::new(&p, &t, grey)).unwrap();
-    let (mut lp, mut lt) = (Vec::new(), Vec::new());
-    let (a, b) = (0.4, 0.6);
-    quad(
-        [a, a, ROOM_EMITTER_Z],
-        [0.0, b - a, 0.0],
-        [b - a, 0.0, 0.0],
-        1,
-        &mut lp,
-        &mut lt,
-    );
-    ctx.add_mesh(&MeshDesc {
-        record: false,
-        exitance: Some(&[ROOM_EXITANCE]),
-        ..MeshDesc::new(&lp, &lt, black)
-    })
-    .unwrap();
-    let grid = floor_grid(&mut ctx, [0.05, 0.95], 0.001, 1.0, black);
-    let z = ROOM_EMITTER_Z;
+    let r = grey_room(&mut ctx, 40).unwrap();
+    let grid = floor_grid(&mut ctx, [0.05, 0.95], 0.001, 1.0, r.black);
     Scene {
         ctx,
-        meshes: vec![walls],
+        meshes: vec![r.walls],
         grid,
-        emitter: Some((
-            [[a, a, z], [b, a, z], [b, b, z], [a, b, z]],
-            ROOM_EXITANCE / PI,
-        )),
-        room: Some((p, t)),
+        emitter: Some((r.emitter, ROOM_EXITANCE / PI)),
+        room: Some((r.positions, r.indices)),
     }
 }
 

@@ -20,9 +20,10 @@
 //!     cargo run --release --example render_regions -- [--threads 2] [--size 128]
 //!         [--reference-spp 4096] [--max-seconds 64] [--map-seconds 4]
 
+use imap::scenes::{grey_room, GREY_ROOM_EMITTER_Z};
 use imap::{
-    CameraDesc, Config, Context, Estimator, Image, LayerRequest, MaterialDesc, MeshDesc,
-    RenderMethod, RenderParams, RunParams,
+    CameraDesc, Config, Context, Estimator, Image, LayerRequest, RenderMethod, RenderParams,
+    RunParams,
 };
 use std::time::Instant;
 
@@ -35,26 +36,7 @@ fn arg<T: std::str::FromStr>(name: &str, default: T) -> T {
         .unwrap_or(default)
 }
 
-fn quad(o: [f64; 3], u: [f64; 3], v: [f64; 3], n: usize, pos: &mut Vec<f64>, idx: &mut Vec<u32>) {
-    let base = (pos.len() / 3) as u32;
-    for j in 0..=n {
-        for i in 0..=n {
-            let (s, t) = (i as f64 / n as f64, j as f64 / n as f64);
-            for k in 0..3 {
-                pos.push(o[k] + s * u[k] + t * v[k]);
-            }
-        }
-    }
-    let w = n as u32 + 1;
-    for j in 0..n as u32 {
-        for i in 0..n as u32 {
-            let a = base + j * w + i;
-            idx.extend([a, a + 1, a + w + 1, a, a + w + 1, a + w]);
-        }
-    }
-}
-
-const EMITTER_Z: f64 = 0.98;
+const EMITTER_Z: f64 = GREY_ROOM_EMITTER_Z;
 
 fn room(threads: usize, seed: u64) -> Context {
     let mut ctx = Context::new(Config {
@@ -63,38 +45,7 @@ fn room(threads: usize, seed: u64) -> Context {
         ..Default::default()
     })
     .unwrap();
-    let grey = ctx
-        .add_material(&MaterialDesc {
-            diffuse_reflect: vec![0.5],
-            ..Default::default()
-        })
-        .unwrap();
-    let black = ctx.add_material(&MaterialDesc::default()).unwrap();
-    let (mut p, mut t) = (Vec::new(), Vec::new());
-    let n = 40;
-    let (x, y, z) = ([1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]);
-    quad([0.0; 3], x, y, n, &mut p, &mut t);
-    quad(z, y, x, n, &mut p, &mut t);
-    quad([0.0; 3], z, x, n, &mut p, &mut t);
-    quad(y, x, z, n, &mut p, &mut t);
-    quad([0.0; 3], y, z, n, &mut p, &mut t);
-    quad(x, z, y, n, &mut p, &mut t);
-    ctx.add_mesh(&MeshDesc::new(&p, &t, grey)).unwrap();
-    let (mut lp, mut lt) = (Vec::new(), Vec::new());
-    quad(
-        [0.4, 0.4, EMITTER_Z],
-        [0.0, 0.2, 0.0],
-        [0.2, 0.0, 0.0],
-        1,
-        &mut lp,
-        &mut lt,
-    );
-    ctx.add_mesh(&MeshDesc {
-        record: false,
-        exitance: Some(&[2500.0]),
-        ..MeshDesc::new(&lp, &lt, black)
-    })
-    .unwrap();
+    grey_room(&mut ctx, 40).unwrap();
     ctx
 }
 

@@ -258,6 +258,87 @@ fn palette(ctx: &mut Context, count: usize) -> Result<Vec<u32>> {
         .collect()
 }
 
+/// Height of the grey room's emitter (`grey_room`), just under its ceiling.
+pub const GREY_ROOM_EMITTER_Z: f64 = 0.98;
+/// Exitance of the grey room's emitter, W/m² per band.
+pub const GREY_ROOM_EXITANCE: f64 = 2500.0;
+
+/// The benchmark room of the time-to-accuracy issues (16 and 18): its recorded walls'
+/// mesh with their positions and triangles (for analytic answers), and the emitter's
+/// corners.
+pub struct GreyRoom {
+    pub walls: u32,
+    /// The emitter's black material (for further black surfaces).
+    pub black: u32,
+    pub positions: Vec<f64>,
+    pub indices: Vec<u32>,
+    pub emitter: [[f64; 3]; 4],
+}
+
+/// Builds the grey room into `ctx`: the unit cube's six inward faces as one recorded mesh
+/// of ρ = 0.5 (each face `n` × `n` cells), and a black 0.2 m square emitter facing down at
+/// `GREY_ROOM_EMITTER_Z`, exitance `GREY_ROOM_EXITANCE`, not recorded.
+pub fn grey_room(ctx: &mut Context, n: usize) -> Result<GreyRoom> {
+    let grey = ctx.add_material(&MaterialDesc {
+        diffuse_reflect: vec![0.5],
+        ..Default::default()
+    })?;
+    let black = ctx.add_material(&MaterialDesc::default())?;
+    // An n × n grid o + s·u + t·v with normal u × v.
+    let quad = |o: [f64; 3],
+                u: [f64; 3],
+                v: [f64; 3],
+                n: usize,
+                pos: &mut Vec<f64>,
+                idx: &mut Vec<u32>| {
+        let base = (pos.len() / 3) as u32;
+        for j in 0..=n {
+            for i in 0..=n {
+                let (s, t) = (i as f64 / n as f64, j as f64 / n as f64);
+                pos.extend((0..3).map(|k| o[k] + s * u[k] + t * v[k]));
+            }
+        }
+        let w = n as u32 + 1;
+        for j in 0..n as u32 {
+            for i in 0..n as u32 {
+                let a = base + j * w + i;
+                idx.extend([a, a + 1, a + w + 1, a, a + w + 1, a + w]);
+            }
+        }
+    };
+    let (mut p, mut t) = (Vec::new(), Vec::new());
+    let (x, y, z) = ([1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]);
+    quad([0.0; 3], x, y, n, &mut p, &mut t); // floor, +z
+    quad(z, y, x, n, &mut p, &mut t); // ceiling, −z
+    quad([0.0; 3], z, x, n, &mut p, &mut t); // y = 0, +y
+    quad(y, x, z, n, &mut p, &mut t); // y = 1, −y
+    quad([0.0; 3], y, z, n, &mut p, &mut t); // x = 0, +x
+    quad(x, z, y, n, &mut p, &mut t); // x = 1, −x
+    let walls = ctx.add_mesh(&MeshDesc::new(&p, &t, grey))?;
+    let (a, b, h) = (0.4, 0.6, GREY_ROOM_EMITTER_Z);
+    let (mut lp, mut lt) = (Vec::new(), Vec::new());
+    quad(
+        [a, a, h],
+        [0.0, b - a, 0.0],
+        [b - a, 0.0, 0.0],
+        1,
+        &mut lp,
+        &mut lt,
+    );
+    ctx.add_mesh(&MeshDesc {
+        record: false,
+        exitance: Some(&[GREY_ROOM_EXITANCE]),
+        ..MeshDesc::new(&lp, &lt, black)
+    })?;
+    Ok(GreyRoom {
+        walls,
+        black,
+        positions: p,
+        indices: t,
+        emitter: [[a, a, h], [b, a, h], [b, b, h], [a, b, h]],
+    })
+}
+
 /// A generated HDR environment, 256 × 128 linear RGB, like a photographed clear sky: a
 /// bluish CIE type 12 sky (sun at azimuth 135°, 40° from the zenith), the sun's disk
 /// widened to 2° and ~10⁴ times brighter than the sky next to it, and a dim brown ground

@@ -45,6 +45,38 @@ fn compare(img: &Image, truth: &[(usize, f64)], band_mean: bool) -> (f64, f64) {
     ((dev / n).sqrt(), (est / n).sqrt())
 }
 
+/// A closed sphere (ρ = 0.6, radius 1) with a 10 W point light at its centre, on
+/// `threads` threads: the context and every wall point's L = ρE/π, E = Φ/4πR² +
+/// ρΦ/((1−ρ)A).
+fn integrating_sphere(threads: usize, seed: u64) -> (Context, f64) {
+    let mut ctx = context(Config {
+        threads,
+        seed,
+        ..Default::default()
+    });
+    let rho = 0.6;
+    let wall = lambert(&mut ctx, rho);
+    let g = sphere_inward(1.0, 5);
+    ctx.add_mesh(&g.desc(wall)).unwrap();
+    let power = 10.0;
+    ctx.add_point_light([0.0; 3], &[power]).unwrap();
+    let area: f64 = vertex_areas(&g).iter().sum();
+    let e = power / (4.0 * PI) + rho * power / ((1.0 - rho) * area);
+    (ctx, rho * e / PI)
+}
+
+/// A `size`² camera inside the integrating sphere.
+fn sphere_camera(size: u32) -> CameraDesc {
+    CameraDesc {
+        position: [0.0, -0.5, 0.0],
+        direction: [0.0, 1.0, 0.2],
+        up: [0.0, 0.0, 1.0],
+        fov_y_deg: 60.0,
+        width: size,
+        height: size,
+    }
+}
+
 /// Closed sphere (ρ uniform) with a point light at its centre: every wall point has
 /// E = Φ/(4πR²) direct plus ρΦ/((1−ρ)A) indirect (uniform over a sphere), so every pixel
 /// of a camera inside shows L = ρE/π: direct light by light sampling, the indirect part by
@@ -56,28 +88,8 @@ fn integrating_sphere_radiance_is_rho_e_over_pi() {
         RenderMethod::Asynchronous,
         RenderMethod::SemiSynchronous,
     ] {
-        let mut ctx = context(Config {
-            threads: 2,
-            seed: 5,
-            ..Default::default()
-        });
-        let rho = 0.6;
-        let wall = lambert(&mut ctx, rho);
-        let g = sphere_inward(1.0, 5);
-        ctx.add_mesh(&g.desc(wall)).unwrap();
-        let power = 10.0;
-        ctx.add_point_light([0.0; 3], &[power]).unwrap();
-        let area: f64 = vertex_areas(&g).iter().sum();
-        let e = power / (4.0 * PI) + rho * power / ((1.0 - rho) * area);
-        let truth = rho * e / PI;
-        let cam = CameraDesc {
-            position: [0.0, -0.5, 0.0],
-            direction: [0.0, 1.0, 0.2],
-            up: [0.0, 0.0, 1.0],
-            fov_y_deg: 60.0,
-            width: 64,
-            height: 64,
-        };
+        let (mut ctx, truth) = integrating_sphere(2, 5);
+        let cam = sphere_camera(64);
         let mut p = params(method, 24);
         p.forward_per_pass = 4 * 64 * 64;
         let (img, rep) = render(&mut ctx, &cam, &mut p);
@@ -131,22 +143,20 @@ fn floor_point(cam: &CameraDesc, x: u32, y: u32) -> Option<[f64; 3]> {
     (t > 0.0).then(|| [0, 1, 2].map(|k| cam.position[k] + t * d[k]))
 }
 
-/// A point light over a Lambertian floor: direct light only (nothing to interreflect), by
-/// light sampling: L = ρ/π · I·h/d³ per pixel.
-#[test]
-fn floor_under_a_point_light() {
+/// A grey floor (ρ = 0.5) 1 m under a point light of 1 W/sr, the camera looking down from
+/// 3 m, and every pixel's truth L = ρ/π · I·h/d³.
+fn floor_with_point_light() -> (Context, CameraDesc, Vec<(usize, f64)>) {
     let mut ctx = context(Config {
         threads: 2,
         ..Default::default()
     });
     let rho = 0.5;
     let m = lambert(&mut ctx, rho);
-    let g = grid(8, -4.0, 4.0, -4.0, 4.0, 0.0);
-    ctx.add_mesh(&g.desc(m)).unwrap();
+    ctx.add_mesh(&grid(8, -4.0, 4.0, -4.0, 4.0, 0.0).desc(m))
+        .unwrap();
     let h = 1.0;
     ctx.add_point_light([0.0, 0.0, h], &[4.0 * PI]).unwrap();
     let cam = looking_down(3.0);
-    let (img, _) = render(&mut ctx, &cam, &mut params(RenderMethod::Synchronous, 16));
     let mut truths = Vec::new();
     for y in 0..48 {
         for x in 0..48 {
@@ -155,6 +165,15 @@ fn floor_under_a_point_light() {
             truths.push(((y * 48 + x) as usize, rho / PI * h / (d2 * d2.sqrt())));
         }
     }
+    (ctx, cam, truths)
+}
+
+/// A point light over a Lambertian floor: direct light only (nothing to interreflect), by
+/// light sampling: L = ρ/π · I·h/d³ per pixel.
+#[test]
+fn floor_under_a_point_light() {
+    let (mut ctx, cam, truths) = floor_with_point_light();
+    let (img, _) = render(&mut ctx, &cam, &mut params(RenderMethod::Synchronous, 16));
     let (dev, est) = compare(&img, &truths, false);
     eprintln!("point light on a floor: rms deviation {dev:.2e}, estimated {est:.2e}");
     // The only noise is where in its pixel a ray lands; the estimate must see it.
@@ -591,27 +610,8 @@ fn floor_under_a_luminaire_and_a_beam() {
 /// error estimate is calibrated, and a seed gives the same image on 1 and 3 threads.
 #[test]
 fn the_path_tracer_reference_agrees_with_analytic_answers() {
-    let mut ctx = context(Config {
-        threads: 2,
-        seed: 9,
-        ..Default::default()
-    });
-    let rho = 0.6;
-    let wall = lambert(&mut ctx, rho);
-    let g = sphere_inward(1.0, 5);
-    ctx.add_mesh(&g.desc(wall)).unwrap();
-    let power = 10.0;
-    ctx.add_point_light([0.0; 3], &[power]).unwrap();
-    let area: f64 = vertex_areas(&g).iter().sum();
-    let truth = rho * (power / (4.0 * PI) + rho * power / ((1.0 - rho) * area)) / PI;
-    let cam = CameraDesc {
-        position: [0.0, -0.5, 0.0],
-        direction: [0.0, 1.0, 0.2],
-        up: [0.0, 0.0, 1.0],
-        fov_y_deg: 60.0,
-        width: 32,
-        height: 32,
-    };
+    let (mut ctx, truth) = integrating_sphere(2, 9);
+    let cam = sphere_camera(32);
     let img = ctx.path_trace(&cam, 256, 10_000).unwrap();
     let truths: Vec<(usize, f64)> = (0..32 * 32).map(|p| (p, truth)).collect();
     let (dev, est) = compare(&img, &truths, false);
@@ -625,36 +625,13 @@ fn the_path_tracer_reference_agrees_with_analytic_answers() {
         "{mean} vs {truth}"
     );
     assert!(dev < 1.5 * est && dev > 0.6 * est, "{dev} vs {est}");
-    let mut one = context(Config {
-        threads: 3,
-        seed: 9,
-        ..Default::default()
-    });
-    let wall = lambert(&mut one, rho);
-    one.add_mesh(&g.desc(wall)).unwrap();
-    one.add_point_light([0.0; 3], &[power]).unwrap();
+    let (mut one, _) = integrating_sphere(3, 9);
     let again = one.path_trace(&cam, 256, 10_000).unwrap();
     assert_eq!(again.radiance, img.radiance, "the same seed on 3 threads");
 
     // The floor under a point light: direct light only.
-    let mut ctx = context(Config {
-        threads: 2,
-        ..Default::default()
-    });
-    let m = lambert(&mut ctx, 0.5);
-    ctx.add_mesh(&grid(8, -4.0, 4.0, -4.0, 4.0, 0.0).desc(m))
-        .unwrap();
-    ctx.add_point_light([0.0, 0.0, 1.0], &[4.0 * PI]).unwrap();
-    let cam = looking_down(3.0);
+    let (mut ctx, cam, truths) = floor_with_point_light();
     let img = ctx.path_trace(&cam, 16, 10_000).unwrap();
-    let mut truths = Vec::new();
-    for y in 0..48 {
-        for x in 0..48 {
-            let p = floor_point(&cam, x, y).unwrap();
-            let d2 = p[0] * p[0] + p[1] * p[1] + 1.0;
-            truths.push(((y * 48 + x) as usize, 0.5 / PI / (d2 * d2.sqrt())));
-        }
-    }
     let (dev, est) = compare(&img, &truths, false);
     eprintln!("path tracer, point light on a floor: rms deviation {dev:.2e}, estimated {est:.2e}");
     assert!(dev < 1.5 * est + 1e-3, "{dev} vs {est}");

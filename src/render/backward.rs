@@ -78,6 +78,8 @@ pub struct MeshIndirect {
 /// offset for new rays, whether it hit the front, and the material.
 struct Surface {
     p: DVec3,
+    /// The triangle's geometric normal.
+    ng: DVec3,
     n_in: DVec3,
     eps: f64,
     front: bool,
@@ -215,29 +217,11 @@ impl<'a> EyeTracer<'a> {
             };
             path_len += hit.t;
             self.absorb(medium, hit.t, beta);
-            let mesh = &self.scene.meshes[hit.mesh as usize];
-            let prim = hit.prim as usize;
-            let ng = mesh.normals[prim].as_dvec3();
-            let front = dir.dot(ng) < 0.0;
-            let n_in = if front { ng } else { -ng };
+            let at = self.surface(&hit, dir);
             // Emission seen directly or through specular surfaces.
-            if let Some((_, radiance, _, _)) = self.emission(hit.mesh, ng, dir) {
-                for ((d, b), l) in buf.direct[d0..].iter_mut().zip(beta.iter()).zip(radiance) {
-                    *d += b * l;
-                }
-            }
-            let p_hit = mesh.point(prim, hit.u, hit.v);
-            let eps = self.scene.offset_at(p_hit);
-            let material_id = mesh.material(prim);
-            let material = &self.materials[material_id as usize];
-
-            let at = Surface {
-                p: p_hit,
-                n_in,
-                eps,
-                front,
-                material: material_id,
-            };
+            self.add_emission(hit.mesh, at.ng, dir, beta, &mut buf.direct[d0..]);
+            let (p_hit, n_in, eps) = (at.p, at.n_in, at.eps);
+            let material = &self.materials[at.material as usize];
             let pd =
                 match self.surface_step(&at, &mut dir, &mut org, &mut medium, &mut band, beta, rng)
                 {
@@ -332,29 +316,12 @@ impl<'a> EyeTracer<'a> {
                 return;
             };
             self.absorb(medium, hit.t, beta);
-            let mesh = &self.scene.meshes[hit.mesh as usize];
-            let prim = hit.prim as usize;
-            let ng = mesh.normals[prim].as_dvec3();
-            let front = dir.dot(ng) < 0.0;
-            let n_in = if front { ng } else { -ng };
+            let at = self.surface(&hit, dir);
             if counts {
-                if let Some((_, radiance, _, _)) = self.emission(hit.mesh, ng, dir) {
-                    for ((o, b), l) in out.iter_mut().zip(beta.iter()).zip(radiance) {
-                        *o += b * l;
-                    }
-                }
+                self.add_emission(hit.mesh, at.ng, dir, beta, out);
             }
-            let p_hit = mesh.point(prim, hit.u, hit.v);
-            let eps = self.scene.offset_at(p_hit);
-            let material_id = mesh.material(prim);
-            let material = &self.materials[material_id as usize];
-            let at = Surface {
-                p: p_hit,
-                n_in,
-                eps,
-                front,
-                material: material_id,
-            };
+            let (p_hit, n_in, eps, front) = (at.p, at.n_in, at.eps, at.front);
+            let material = &self.materials[at.material as usize];
             let pd =
                 match self.surface_step(&at, &mut dir, &mut org, &mut medium, &mut band, beta, rng)
                 {
@@ -383,8 +350,14 @@ impl<'a> EyeTracer<'a> {
             if diffuse_vertices >= 1 {
                 // The second diffuse vertex: the map's indirect light here, and the end.
                 let side = if front { 0 } else { 1 };
-                if let Some(e) = self.map_indirect(hit.mesh, prim, hit.u, hit.v, side, wt.is_some())
-                {
+                if let Some(e) = self.map_indirect(
+                    hit.mesh,
+                    hit.prim as usize,
+                    hit.u,
+                    hit.v,
+                    side,
+                    wt.is_some(),
+                ) {
                     // Reflection reads the side the path came from, transmission the other.
                     let (mut c, mut rel) = (0.0, 0.0f64);
                     for (w, (irr, r)) in std::iter::once(wr).chain(wt).zip(&e) {
@@ -462,6 +435,35 @@ impl<'a> EyeTracer<'a> {
             out.push((e, r));
         }
         Some(out)
+    }
+
+    /// The surface an eye path travelling along `dir` meets at `hit`.
+    #[inline]
+    fn surface(&self, hit: &crate::accel::Hit, dir: DVec3) -> Surface {
+        let mesh = &self.scene.meshes[hit.mesh as usize];
+        let prim = hit.prim as usize;
+        let ng = mesh.normals[prim].as_dvec3();
+        let front = dir.dot(ng) < 0.0;
+        let p = mesh.point(prim, hit.u, hit.v);
+        Surface {
+            p,
+            ng,
+            n_in: if front { ng } else { -ng },
+            eps: self.scene.offset_at(p),
+            front,
+            material: mesh.material(prim),
+        }
+    }
+
+    /// The emission of mesh `mesh` (normal `ng`) seen along `dir`, times `beta`, added to
+    /// `out` (nothing when it does not emit toward `dir`).
+    #[inline]
+    fn add_emission(&self, mesh: u32, ng: DVec3, dir: DVec3, beta: &[f64], out: &mut [f64]) {
+        if let Some((_, radiance, _, _)) = self.emission(mesh, ng, dir) {
+            for ((o, b), l) in out.iter_mut().zip(beta).zip(radiance) {
+                *o += b * l;
+            }
+        }
     }
 
     /// A camera ray through `pixel` (jittered) and where it starts: at the camera, or where

@@ -667,7 +667,7 @@ impl Distant {
                         rgb[i]
                     );
                 }
-                let channels: Vec<Vec<f32>> = (0..3)
+                let mut channels: Vec<Vec<f32>> = (0..3)
                     .map(|c| rgb.iter().skip(c).step_by(3).copied().collect())
                     .collect();
                 let grey = channels[0] == channels[1] && channels[1] == channels[2];
@@ -679,7 +679,7 @@ impl Distant {
                         .collect()
                 };
                 for c in used {
-                    let values = Arc::new(channels[c].clone());
+                    let values = Arc::new(std::mem::take(&mut channels[c]));
                     if values.iter().all(|&v| v == 0.0) {
                         continue;
                     }
