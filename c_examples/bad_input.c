@@ -324,6 +324,24 @@ int main(void) {
     for (int i = 0; i < 4; i++)
         if (!(err[i] > 0 && err[i] < 0.2)) printf("FAIL vertex %d relative error %g\n", i, err[i]), failures++;
 
+    /* Final gathering reads and extends the map: 2000 photons before each of 3 passes
+     * beyond what it holds. A forward_per_pass below what the map holds adds none. */
+    ImapRenderParams fg;
+    imap_render_params_default(&fg, sizeof fg);
+    fg.method = IMAP_RENDER_FINAL_GATHER, fg.passes = 3, fg.forward_per_pass = r2.photons + 2000;
+    expect("final gathering", imap_render(ctx, &cam, &fg, img, 192, img_err, 64, &rr, sizeof rr), IMAP_OK, ctx);
+    ImapReport r3;
+    imap_get_report(ctx, &r3, sizeof r3);
+    if (rr.forward_photons != r3.photons - r2.photons || r3.photons != 3 * (r2.photons + 2000) || rr.passes != 3 ||
+        !(fabs(img[(4 * 8 + 4) * 3] / centre - 1) < 0.1))
+        printf("FAIL final gathering: %.1f passes, map %llu -> %llu photons, centre pixel %g want about %g\n", rr.passes,
+               (unsigned long long)r2.photons, (unsigned long long)r3.photons, img[(4 * 8 + 4) * 3], centre),
+            failures++;
+    fg.forward_per_pass = 1;
+    expect("final gathering on the map as it is", imap_render(ctx, &cam, &fg, img, 192, NULL, 0, &rr, sizeof rr), IMAP_OK,
+           ctx);
+    if (rr.forward_photons != 0) printf("FAIL final gathering added %llu photons\n", (unsigned long long)rr.forward_photons), failures++;
+
     /* Reset unlocks the scene. */
     expect("imap_reset", imap_reset(ctx), IMAP_OK, ctx);
     expect("mesh added after reset", imap_add_mesh(ctx, &mesh, &id), IMAP_OK, ctx);

@@ -395,7 +395,7 @@ int main(int argc, char **argv) {
             if (chance(0.1)) cam.up[below(3)] = hostile(1);
             if (chance(0.1)) cam.fov_y_deg = hostile(60);
             if (chance(0.05)) cam.width = below(2) ? 0 : 20000;
-            rp.method = chance(0.95) ? below(3) : 3 + below(5);
+            rp.method = chance(0.95) ? below(4) : 4 + below(5);
             rp.passes = 1 + below(2);
             if (chance(0.1)) rp.initial_radius = hostile(0.1);
             if (chance(0.1)) rp.alpha = hostile(0.5);

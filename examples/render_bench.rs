@@ -11,6 +11,11 @@
 //!     cargo run --release --example render_bench -- [--threads 1,2] [--seconds 10]
 //!         [--reference-seconds 120] [--size 256] [--group-threads 1]
 //!         [--methods sync,async,semi] [--reps 1]
+//!
+//! `--methods` may add `fg` (final gathering from the map, issue 18; not the paper's): its
+//! accuracy is measured against the same semi-synchronous reference, whose edges read low
+//! (BENCHMARKS.md, "The renderer per region"), so its deviation there is partly the
+//! reference's.
 
 use imap::render::RenderReport;
 use imap::scenes::{cornell_box, cornell_camera};
@@ -66,7 +71,8 @@ fn parse() -> Args {
                         "sync" => RenderMethod::Synchronous,
                         "async" => RenderMethod::Asynchronous,
                         "semi" => RenderMethod::SemiSynchronous,
-                        _ => panic!("unknown method {m} (sync, async, semi)"),
+                        "fg" => RenderMethod::FinalGather,
+                        _ => panic!("unknown method {m} (sync, async, semi, fg)"),
                     })
                     .collect()
             }
@@ -81,6 +87,7 @@ fn name(m: RenderMethod) -> &'static str {
         RenderMethod::Synchronous => "sync",
         RenderMethod::Asynchronous => "async",
         RenderMethod::SemiSynchronous => "semi",
+        RenderMethod::FinalGather => "fg",
     }
 }
 

@@ -13,18 +13,15 @@
 //! method's own estimate, the mean signed error (a bias shows as a mean far from 0 beside
 //! a small RMS), and the time.
 //!
-//! Then final gathering from the illumination map (`Context::render_final_gather`): the
-//! map run first with the gathering estimator and its direct layer for `--map-seconds`
-//! (its time is counted), then paths ended at their second diffuse vertex.
+//! Then final gathering (`RenderMethod::FinalGather`) at the same budgets, each from an
+//! empty context (the render runs the map itself): as is (light sampling, no direct
+//! layer), and with the direct layer kept.
 //!
 //!     cargo run --release --example render_regions -- [--threads 2] [--size 128]
-//!         [--reference-spp 4096] [--max-seconds 64] [--map-seconds 4]
+//!         [--reference-spp 4096] [--max-seconds 64] [--final-gather-only] [--verbose]
 
 use imap::scenes::{grey_room, GREY_ROOM_EMITTER_Z};
-use imap::{
-    CameraDesc, Config, Context, Estimator, Image, LayerRequest, RenderMethod, RenderParams,
-    RunParams,
-};
+use imap::{CameraDesc, Config, Context, Image, LayerRequest, RenderMethod, RenderParams};
 use std::time::Instant;
 
 fn arg<T: std::str::FromStr>(name: &str, default: T) -> T {
@@ -148,6 +145,8 @@ fn main() {
     let size: u32 = arg("--size", 128);
     let ref_spp: u32 = arg("--reference-spp", 4096);
     let max_s: f64 = arg("--max-seconds", 64.0);
+    let verbose = std::env::args().any(|a| a == "--verbose");
+    let only_fg = std::env::args().any(|a| a == "--final-gather-only");
     let cam = CameraDesc {
         position: [0.5, 0.01, 0.1],
         direction: [0.0, 1.0, 0.25],
@@ -202,7 +201,7 @@ fn main() {
         );
     };
     let mut budget = 1.0;
-    while budget <= max_s {
+    while budget <= max_s && !only_fg {
         let mut ctx = room(threads, 7);
         let mut p = RenderParams {
             method: RenderMethod::SemiSynchronous,
@@ -228,50 +227,58 @@ fn main() {
         );
         budget *= 2.0;
     }
-    // Final gathering from the map: the map first (gathering estimator with its direct
-    // layer, `--map-seconds`), then paths ended at their second diffuse vertex.
-    let map_s: f64 = arg("--map-seconds", 4.0);
-    let mut ctx = room(threads, 7);
-    ctx.set_layers(LayerRequest {
-        groups: false,
-        direct: true,
-    })
-    .unwrap();
-    let t = Instant::now();
-    let rep = ctx
-        .run(&mut RunParams {
-            photons: 0,
-            time_budget_s: map_s,
-            progress_interval_s: 1.0,
-            estimator: Some(Estimator::GATHER),
-            ..Default::default()
-        })
-        .unwrap();
-    let map_time = t.elapsed().as_secs_f64();
-    println!(
-        "# map for final gathering: {:.1} s, {} photons, global error {:.3} %",
-        map_time,
-        rep.photons,
-        100.0 * rep.rel_error
-    );
-    let mut spp = 8;
-    loop {
-        let t = Instant::now();
-        let img = ctx.render_final_gather(&cam, spp, 10_000).unwrap();
-        let secs = t.elapsed().as_secs_f64();
-        show(
-            "gather",
-            format!("{spp} spp"),
-            map_time + secs,
-            compare(&img, &reference, &region),
-        );
-        if secs * 2.0 > max_s {
-            break;
+    // Final gathering (`RenderMethod::FinalGather`) from an empty context: the render runs
+    // the map itself (light sampling), balancing its time against the eye paths'; and with
+    // the direct layer kept ("+direct": the map's indirect part is read, the direct light
+    // sampled at the second vertex).
+    for variant in ["fg", "fg+direct"] {
+        let mut budget = 1.0;
+        while budget <= max_s {
+            let mut ctx = room(threads, 7);
+            let t = Instant::now();
+            if variant != "fg" {
+                ctx.set_layers(LayerRequest {
+                    groups: false,
+                    direct: true,
+                })
+                .unwrap();
+            }
+            let mut p = RenderParams {
+                method: RenderMethod::FinalGather,
+                group_threads: 1,
+                remask_phases: 0,
+                forward_per_pass: 0,
+                initial_radius: 0.0,
+                alpha: 0.0,
+                passes: 0,
+                time_budget_s: budget - t.elapsed().as_secs_f64(),
+                target_rel_error: 0.0,
+                progress_interval_s: 1.0,
+                max_path_events: 10_000,
+                progress: None,
+            };
+            let (img, rep) = ctx.render(&cam, &mut p).unwrap();
+            show(
+                variant,
+                format!("{budget} s"),
+                t.elapsed().as_secs_f64(),
+                compare(&img, &reference, &region),
+            );
+            if verbose {
+                println!(
+                    "#   {:.0} spp, map {:.2} s ({} photons), eye {:.2} s, est {:.2} %",
+                    rep.passes,
+                    rep.time_forward_s,
+                    ctx.report().photons,
+                    rep.time_backward_s,
+                    100.0 * rep.rel_error
+                );
+            }
+            budget *= 2.0;
         }
-        spp *= 2;
     }
     let mut spp = 8;
-    loop {
+    while !only_fg && spp <= ref_spp {
         let mut ctx = room(threads, 7);
         let t = Instant::now();
         let img = ctx.path_trace(&cam, spp, 10_000).unwrap();

@@ -325,6 +325,25 @@
 #define IMAP_RENDER_SEMI_SYNC 2
 
 /**
+ * Final gathering from the illumination map (Since 0.2.2): path-traced eye paths that end
+ * at their second diffuse vertex on a recorded mesh and read the context's map there (its
+ * whole irradiance; with the direct layer kept, its indirect part, and the direct light is
+ * sampled there). No photon-map radius, so no blur and no bias at edges and corners; each
+ * pixel's error includes the map's. **The render extends the context's map** (it runs it
+ * in slices between passes, starting it when empty), so the map is there to read
+ * afterwards. `forward_per_pass` > 0: before pass k the map holds at least (k + 1) ×
+ * forward_per_pass photons, and the image is the same for a seed on any thread count
+ * (up to rounding); 0: the map's time is balanced against the eye paths' by their
+ * measured errors. `group_threads`, `remask_phases`, `initial_radius` and `alpha` are not
+ * used. Surfaces that do not record are path traced on. Caustics of point-like lights
+ * seen directly (light → specular surfaces → diffuse → camera) come from photons traced
+ * through the specular surfaces and connected to the camera (scenes with such lights and
+ * specular surfaces only); seen through a specular surface, or after a surface that is
+ * both diffuse and specular, they are missing.
+ */
+#define IMAP_RENDER_FINAL_GATHER 3
+
+/**
  * `part` argument of the region functions: the whole mesh side, all its materials.
  */
 #define IMAP_ALL_PARTS UINT32_MAX
@@ -1020,11 +1039,13 @@ typedef struct ImapRenderParams {
    */
   uint32_t max_path_events;
   /**
-   * Forward photons per pass over the image (0 = one per pixel).
+   * Forward photons per pass over the image (0 = one per pixel). Final gathering: the
+   * map's photons per pass (`IMAP_RENDER_FINAL_GATHER`; 0 = balanced by time).
    */
   uint64_t forward_per_pass;
   /**
-   * Stop after this many samples per pixel, on average (0 = no limit).
+   * Stop after this many samples per pixel, on average (0 = no limit; final gathering:
+   * every pixel).
    */
   uint64_t passes;
   /**
@@ -1082,7 +1103,8 @@ typedef struct ImapRenderReport {
   uint32_t groups;
   uint32_t threads_per_group;
   /**
-   * Group phases completed; each adds one sample to the pixels of its group's mask.
+   * Group phases completed; each adds one sample to the pixels of its group's mask
+   * (final gathering: batches of passes between slices of the map).
    */
   uint64_t phases;
   /**
@@ -1095,12 +1117,14 @@ typedef struct ImapRenderReport {
   uint64_t backward_paths;
   uint64_t backward_rays;
   /**
-   * Forward photons from the lights and the rays they traced.
+   * Forward photons from the lights and the rays they traced (final gathering: the
+   * photons the render added to the map; rays 0).
    */
   uint64_t forward_photons;
   uint64_t forward_rays;
   /**
-   * Forward photon hits that fell within a backward photon's radius.
+   * Forward photon hits that fell within a backward photon's radius (final gathering:
+   * the caustic photons traced).
    */
   uint64_t gathers;
   /**
@@ -1119,7 +1143,8 @@ typedef struct ImapRenderReport {
   /**
    * Seconds summed over groups (each measured by its leader thread): backward paths,
    * building the maps, forward photons, closing the maps (tracing on while other groups
-   * still read them), finalizing the phase's samples.
+   * still read them), finalizing the phase's samples. Final gathering: the eye paths,
+   * reading the map's values, running the map, the caustic photons (`time_close_s`).
    */
   double time_backward_s;
   double time_build_s;
@@ -1139,11 +1164,13 @@ typedef struct ImapRenderReport {
    */
   uint64_t gate_violations;
   /**
-   * Largest backward-photon-map memory of one group, bytes.
+   * Largest backward-photon-map memory of one group, bytes (final gathering: the copy
+   * of the map's values it reads).
    */
   uint64_t map_bytes_per_group;
   /**
-   * Pixel stores, bytes (one per thread for the asynchronous method).
+   * Pixel stores, bytes (one per thread for the asynchronous method; final gathering:
+   * with the caustics' per-pixel sums).
    */
   uint64_t pixel_bytes;
   /**
@@ -2021,9 +2048,11 @@ enum ImapStatus imap_render_params_default(struct ImapRenderParams *out, size_t 
 /**
  * Renders what `camera` sees: radiance (luminance per band) in W/(m²·sr) — the lights'
  * power unit per m² (`ImapConfig::unit_m`) per steradian — by stochastic progressive
- * backward photon mapping, until a stop criterion of `params` is met. Blocks the calling
+ * backward photon mapping (or, with `IMAP_RENDER_FINAL_GATHER`, final gathering from the
+ * illumination map), until a stop criterion of `params` is met. Blocks the calling
  * thread, which runs the progress callback. Uses the context's scene, thread count and
- * seed; neither reads nor changes the illumination map. Every call starts a new image.
+ * seed; the photon-map methods neither read nor change the illumination map, final
+ * gathering reads and extends it. Every call starts a new image.
  *
  * `out_radiance` receives `width × height × bands` doubles, pixel by pixel from the top
  * left, row by row, the bands of a pixel together (`radiance_count` must be at least

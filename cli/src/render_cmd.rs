@@ -1,5 +1,6 @@
-//! `imap render`: the camera image of a model through libimap's renderer (backward photon
-//! maps with progressive radius reduction; the second paper's three parallel methods),
+//! `imap render`: the camera image of a model through libimap's renderer (final gathering
+//! from the illumination map by default; or backward photon maps with progressive radius
+//! reduction, the second paper's three parallel methods),
 //! written as a tone-mapped PNG, as radiance (PFM, linear, W/(m²·sr) per RGB channel) with
 //! each pixel's relative error, and with the error history and its plot.
 
@@ -13,7 +14,7 @@ use std::path::{Path, PathBuf};
 #[derive(Clone, Debug, Default, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct RenderSettings {
-    /// "semi-synchronous" (default), "synchronous" or "asynchronous".
+    /// "final-gathering" (default), "semi-synchronous", "synchronous" or "asynchronous".
     #[serde(default)]
     pub method: Option<String>,
     /// Passes over the image (0 = no limit).
@@ -42,7 +43,7 @@ pub struct RenderOptions {
     /// Output folder (created if missing).
     #[arg(long, short, default_value = "imap-render")]
     pub out: PathBuf,
-    /// "semi-synchronous" (default), "synchronous" or "asynchronous".
+    /// "final-gathering" (default), "semi-synchronous", "synchronous" or "asynchronous".
     #[arg(long)]
     pub method: Option<String>,
     /// Image size, WIDTHxHEIGHT (overrides the camera's).
@@ -83,12 +84,13 @@ pub fn parse_size(s: &str) -> std::result::Result<(u32, u32), String> {
 
 fn method(name: Option<&str>) -> Result<imap::RenderMethod> {
     Ok(
-        match name.unwrap_or("semi-synchronous").to_ascii_lowercase().as_str() {
+        match name.unwrap_or("final-gathering").to_ascii_lowercase().as_str() {
+            "final-gathering" | "final-gather" | "gather" => imap::RenderMethod::FinalGather,
             "semi-synchronous" | "semisynchronous" | "semi" => imap::RenderMethod::SemiSynchronous,
             "synchronous" | "sync" => imap::RenderMethod::Synchronous,
             "asynchronous" | "async" => imap::RenderMethod::Asynchronous,
             m => fail!(
-                "render method \"{}\": use \"semi-synchronous\", \"synchronous\" or \"asynchronous\"",
+                "render method \"{}\": use \"final-gathering\", \"semi-synchronous\", \"synchronous\" or \"asynchronous\"",
                 crate::diag::printable(m)
             ),
         },
@@ -251,6 +253,7 @@ pub fn render(
         "wall_s": report.wall_s,
         "threads": report.threads,
         "forward_photons": report.forward_photons,
+        "map_photons": ctx.report().photons,
         "backward_paths": report.backward_paths,
         "history": history,
         "outputs": outputs,

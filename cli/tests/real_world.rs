@@ -513,6 +513,49 @@ fn render_writes_png_pfm_and_history_with_the_right_radiance() {
         serde_json::from_str(&std::fs::read_to_string(out.join("render.json")).unwrap()).unwrap();
     assert_eq!(report["method"], "Synchronous");
     assert!(!report["history"].as_array().unwrap().is_empty());
+    // Final gathering (the default without a [render] method): the same floor, and the
+    // map it ran is in the report.
+    let plain = write(
+        d.path(),
+        "fg.toml",
+        settings.replace("method = \"synchronous\"\n", ""),
+    );
+    let fg = d.path().join("fg");
+    let o = imap(&[
+        "render",
+        &obj,
+        "--config",
+        &plain,
+        "--size",
+        "33x33",
+        "--passes",
+        "256",
+        "--threads",
+        "2",
+        "--quiet",
+        "--out",
+        fg.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(fg.join("render.json")).unwrap()).unwrap();
+    assert_eq!(report["method"], "FinalGather");
+    assert!(report["map_photons"].as_u64().unwrap() > 0);
+    let (w, _, _, px) = read_pfm(&fg.join("radiance.pfm"));
+    let (_, _, _, err) = read_pfm(&fg.join("rel_error.pfm"));
+    let (mut sum, mut rel) = (0.0, 0.0);
+    for y in 15..18 {
+        for x in 15..18 {
+            sum += px[3 * (y * w + x) + 1] as f64;
+            rel += err[y * w + x] as f64;
+        }
+    }
+    let got = sum / 9.0;
+    let sigma = expected * rel / 9.0 / 3.0;
+    assert!(
+        (got / expected - 1.0).abs() < 0.02 + 4.0 * sigma / expected,
+        "final gathering: {got} vs {expected} (σ {sigma})"
+    );
     // A bad method and size are named.
     let o = imap(&["render", &obj, "--config", &toml, "--method", "fast"]);
     assert_eq!(o.status.code(), Some(2));

@@ -4,8 +4,18 @@ use super::Layer;
 use super::{check_threads, Context};
 use crate::error::{bail, check_finite_scalar, Error, ImapStatus, Result};
 use crate::render::backward::{MapIndirect, MeshIndirect};
-use crate::render::{self, Camera, CameraDesc, EyeTracer, Image, RenderParams, RenderReport};
+use crate::render::gather::{self, Batch, Caustics, GatherError, GatherStore, Schedule};
+use crate::render::{
+    self, Camera, CameraDesc, EyeStats, EyeTracer, Image, RenderMethod, RenderParams, RenderReport,
+};
+use crate::scene::EmitterKind;
+use crate::sched::{
+    duration_s, push_history, Progress, RunParams, StopReason, MIN_PROGRESS_INTERVAL_S,
+};
 use crate::transport::Tracer;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Mutex;
+use std::time::Instant;
 
 impl Context {
     /// Renders the camera's view (camera luminance by backward photon maps). Independent of
@@ -36,40 +46,20 @@ impl Context {
         samples: u32,
         max_events: u32,
     ) -> Result<Image> {
-        self.trace_pixels(camera, samples, max_events, false)
+        self.trace_pixels(camera, samples, max_events)
     }
 
-    /// Renders the camera's view by final gathering from the illumination map (issue 18,
-    /// experimental; Rust API only): path tracing as `path_trace`, ended at each path's
-    /// second diffuse vertex on a recorded mesh, where the direct light is sampled and the
-    /// rest of the light arriving there is the map's (combined minus direct layer,
-    /// interpolated over the triangle). Needs a map with the direct layer
-    /// (`LayerRequest::direct`) and photons in it; surfaces the map does not record are
-    /// traced on. Each pixel's error adds the map's error of what it read (taken as fully
-    /// correlated) to the samples' own.
-    pub fn render_final_gather(
-        &mut self,
-        camera: &CameraDesc,
-        samples: u32,
-        max_events: u32,
-    ) -> Result<Image> {
-        self.trace_pixels(camera, samples, max_events, true)
-    }
-
-    /// The map's indirect irradiance per recorded vertex side, with its relative error.
+    /// What final gathering reads from the map per recorded vertex side, with its relative
+    /// error: the indirect irradiance (combined minus the direct layer) when the direct
+    /// layer is kept, else the whole irradiance (`MapIndirect::combined`).
     fn map_indirect(&self) -> Result<MapIndirect> {
-        if !self.scene.layers.direct {
-            bail!(
-                ImapErrOutOfOrder,
-                "final gathering reads the map's indirect light: keep the direct layer (set_layers with direct) and run the map first"
-            );
-        }
         if self.photons() == 0 {
             bail!(
                 ImapErrOutOfOrder,
                 "final gathering reads the illumination map: run it first"
             );
         }
+        let direct = self.scene.layers.direct;
         let nb = self.scene.bands.count();
         let mut meshes = Vec::new();
         for (i, m) in self.scene.meshes.iter().enumerate() {
@@ -86,11 +76,15 @@ impl Context {
             for side in 0..sides {
                 let s = side as u32;
                 self.rel_error(i as u32, s, &mut r_all)?;
-                self.rel_error_layer(i as u32, s, Layer::Direct, &mut r_dir)?;
+                if direct {
+                    self.rel_error_layer(i as u32, s, Layer::Direct, &mut r_dir)?;
+                }
                 let (mut m_all, mut m_dir) = (vec![0.0; nv], vec![0.0; nv]);
                 for b in 0..nb {
                     self.irradiance(i as u32, s, b as u32, &mut all)?;
-                    self.irradiance_layer(i as u32, s, b as u32, Layer::Direct, &mut dir)?;
+                    if direct {
+                        self.irradiance_layer(i as u32, s, b as u32, Layer::Direct, &mut dir)?;
+                    }
                     for v in 0..nv {
                         let x = (all[v] - dir[v]).max(0.0);
                         irradiance[(v * sides + side) * nb + b] = x;
@@ -111,7 +105,10 @@ impl Context {
                 rel_error,
             }));
         }
-        Ok(MapIndirect { meshes })
+        Ok(MapIndirect {
+            meshes,
+            combined: !direct,
+        })
     }
 
     fn trace_pixels(
@@ -119,7 +116,6 @@ impl Context {
         camera: &CameraDesc,
         samples: u32,
         max_events: u32,
-        gather: bool,
     ) -> Result<Image> {
         if samples == 0 || max_events == 0 {
             bail!(
@@ -128,14 +124,9 @@ impl Context {
             );
         }
         self.prepare_scene()?;
-        let map = if gather {
-            Some(self.map_indirect()?)
-        } else {
-            None
-        };
         let prepared = self.prepared.as_ref().expect("prepared above");
         let cam = Camera::new(camera, prepared.scene.origin)?;
-        let mut eye = EyeTracer::new(
+        let eye = EyeTracer::new(
             &self.scene,
             &prepared.scene,
             &prepared.accel,
@@ -143,81 +134,39 @@ impl Context {
             max_events,
             0.0,
         );
-        eye.map = map.as_ref();
         let nb = self.scene.bands.count();
         let pixels = cam.pixels();
         let threads = self.worker_threads().max(1);
-        let seed = self.config.seed ^ 0x7A7E_5EED_0000_0001;
-        // Each thread takes every `threads`-th pixel: (pixel, mean per band, rel. error).
-        let parts: Vec<Vec<(usize, Vec<f64>, f64)>> = std::thread::scope(|sc| {
-            let handles: Vec<_> = (0..threads)
-                .map(|t| {
-                    let eye = &eye;
-                    sc.spawn(move || {
-                        let mut got = Vec::new();
-                        let (mut beta, mut scratch) = (Vec::new(), Vec::new());
-                        let mut stats = crate::render::backward::EyeStats::default();
-                        let mut one = vec![0.0; nb];
-                        for p in (t..pixels).step_by(threads) {
-                            let mut sum = vec![0.0; nb];
-                            let (mut s1, mut s2, mut map_err) = (0.0, 0.0, 0.0);
-                            for s in 0..samples {
-                                let mut rng = crate::sampling::PhotonRng::new(
-                                    seed,
-                                    ((p as u64) << 32) | s as u64,
-                                );
-                                one.fill(0.0);
-                                eye.path_sample(
-                                    p as u32,
-                                    &mut rng,
-                                    &mut one,
-                                    &mut beta,
-                                    &mut scratch,
-                                    &mut map_err,
-                                    &mut stats,
-                                );
-                                let m = one.iter().sum::<f64>() / nb as f64;
-                                s1 += m;
-                                s2 += m * m;
-                                sum.iter_mut().zip(&one).for_each(|(a, x)| *a += x);
-                            }
-                            let n = samples as f64;
-                            let mean = s1 / n;
-                            let var = ((s2 / n - mean * mean).max(0.0)) / (n - 1.0).max(1.0);
-                            let sigma = var.sqrt().hypot(map_err / n);
-                            let rel = if mean > 0.0 { sigma / mean } else { 0.0 };
-                            got.push((p, sum.iter().map(|x| x / n).collect(), rel));
-                        }
-                        got
-                    })
-                })
-                .collect();
-            handles
-                .into_iter()
-                .map(|h| h.join().unwrap_or_default())
-                .collect()
-        });
-        let mut radiance = vec![0.0; pixels * nb];
-        let mut rel_error = vec![0.0; pixels];
-        let mut done = 0;
-        for (p, v, r) in parts.into_iter().flatten() {
-            radiance[p * nb..(p + 1) * nb].copy_from_slice(&v);
-            rel_error[p] = r;
-            done += 1;
+        let store = GatherStore::new(pixels, nb, threads);
+        let stop = AtomicBool::new(false);
+        let batch = Batch {
+            up_to: samples,
+            deadline: None,
+            stop: &stop,
+            map_photons: 0,
+        };
+        let tick = std::time::Duration::from_secs(3600);
+        let (_, lost) = gather::passes(
+            &eye,
+            &store,
+            self.config.seed,
+            threads,
+            &batch,
+            tick,
+            &mut || false,
+        );
+        if let Some(why) = lost {
+            bail!(ImapErrThreadLost, "{why}");
         }
-        if done != pixels {
-            bail!(
-                ImapErrThreadLost,
-                "a path-tracing thread was lost: {done} of {pixels} pixels rendered"
-            );
-        }
-        Ok(Image {
+        let mut image = Image {
             width: camera.width,
             height: camera.height,
             bands: nb,
-            radiance,
-            rel_error,
-        })
+            radiance: vec![0.0; pixels * nb],
+            rel_error: vec![0.0; pixels],
+        };
+        store.estimate(&Schedule::default(), None, Some(&mut image));
+        Ok(image)
     }
 
     /// The report of the last render since the last reset.
@@ -234,6 +183,9 @@ impl Context {
     ) -> Result<(Image, RenderReport, Option<Error>)> {
         check_render_params(params)?;
         self.prepare_scene()?;
+        if params.method == RenderMethod::FinalGather {
+            return self.render_gather(camera, params);
+        }
         let prepared = self.prepared.as_ref().expect("prepared above");
         let cam = Camera::new(camera, prepared.scene.origin)?;
         let r = params.initial_radius;
@@ -287,6 +239,491 @@ impl Context {
             )
         });
         Ok((image, report, lost))
+    }
+}
+
+/// Shortest and longest slice of a final-gathering render between decisions, s.
+const SLICE_MIN_S: f64 = 0.05;
+const SLICE_MAX_S: f64 = 4.0;
+/// Each part of a final-gathering render (eye paths, caustics) keeps at least this share
+/// of its time, whatever their errors say (a part whose error is 0 so far, or a scene where
+/// one part has nothing to do, must not stall the others).
+const MIN_SHARE: f64 = 0.1;
+/// A final-gathering render's slices grow with it: this share of the time so far.
+const SLICE_SHARE: f64 = 0.25;
+/// The first map slice of a render that finds the map empty (at most a tenth of a time
+/// budget), s.
+const FIRST_MAP_S: f64 = 0.5;
+
+/// The monitor of a final-gathering render: progress ticks, the history, the callback and
+/// the stop criteria.
+struct GatherMonitor<'p, 'a> {
+    params: &'p mut RenderParams<'a>,
+    start: Instant,
+    interval: std::time::Duration,
+    next_tick: Option<Instant>,
+    history: Vec<Progress>,
+    stop: Option<StopReason>,
+}
+
+impl GatherMonitor<'_, '_> {
+    /// A progress point; calls the callback and checks the criteria. True: stop.
+    fn tick(&mut self, err: &GatherError, photons: u64, paths: u64) -> bool {
+        let p = Progress {
+            region_rel_error: 0.0,
+            elapsed_s: self.start.elapsed().as_secs_f64(),
+            photons,
+            hits: paths,
+            rel_error: err.rel_error,
+        };
+        push_history(&mut self.history, p);
+        let mut why = None;
+        if let Some(cb) = self.params.progress.as_mut() {
+            if !cb(&p) {
+                why = Some(StopReason::Cancelled);
+            }
+        }
+        why = why.or(self.criteria(err, p.elapsed_s));
+        if why.is_some() {
+            self.stop = self.stop.or(why);
+        }
+        self.stop.is_some()
+    }
+
+    /// The time and error criteria (the passes are checked between steps).
+    fn criteria(&self, err: &GatherError, elapsed_s: f64) -> Option<StopReason> {
+        let p = &*self.params;
+        if p.time_budget_s > 0.0 && elapsed_s >= p.time_budget_s {
+            Some(StopReason::TimeBudget)
+        } else if p.target_rel_error > 0.0
+            && err.min_samples >= 2
+            && err.rel_error <= p.target_rel_error
+        {
+            Some(StopReason::TargetError)
+        } else {
+            None
+        }
+    }
+
+    fn due(&self) -> bool {
+        self.next_tick.is_none_or(|t| Instant::now() >= t)
+    }
+
+    fn ticked(&mut self, took: std::time::Duration) {
+        self.next_tick = Instant::now().checked_add(self.interval.max(took.mul_f64(20.0)));
+    }
+}
+
+/// What a final-gathering render does next.
+enum GatherStep {
+    /// Run the map: this many photons (0: for `secs` seconds).
+    Map { photons: u64, secs: f64 },
+    /// Trace this many caustic rounds.
+    Caustic(u64),
+    /// A batch of eye passes.
+    Eye,
+}
+
+impl Context {
+    /// `RenderMethod::FinalGather`: eye passes alternated with runs of the context's map
+    /// (which the render extends) and, when the scene has point-like lights and specular
+    /// surfaces, rounds of caustic photons, until a stop criterion.
+    fn render_gather(
+        &mut self,
+        camera: &CameraDesc,
+        params: &mut RenderParams,
+    ) -> Result<(Image, RenderReport, Option<Error>)> {
+        let start = Instant::now();
+        let origin = self.prepared.as_ref().expect("prepared").scene.origin;
+        let cam = Camera::new(camera, origin)?;
+        let threads = self.worker_threads().max(1);
+        let nb = self.scene.bands.count();
+        let pixels = cam.pixels();
+        let slots: usize = self
+            .scene
+            .meshes
+            .iter()
+            .filter(|m| m.record)
+            .map(|m| m.positions.len() * if m.two_sided { 2 } else { 1 })
+            .sum();
+        // Caustics of point-like lights: only where there are both.
+        let delta: Vec<bool> = {
+            let prepared = &self.prepared.as_ref().expect("prepared").scene;
+            prepared
+                .emitters
+                .iter()
+                .map(|e| matches!(e.kind, EmitterKind::Light(_)))
+                .collect()
+        };
+        let specular = self
+            .scene
+            .materials
+            .iter()
+            .any(|m| m.dielectric.is_some() || m.events[1]);
+        let with_caustics = specular && delta.iter().any(|&d| d);
+        let read_bytes = (slots * (nb + 1) * 8) as u64;
+        let caustic_bytes = if with_caustics {
+            Caustics::bytes(pixels, nb) as u64
+        } else {
+            0
+        };
+        let store_bytes = GatherStore::bytes(pixels, nb) as u64;
+        self.check_budget(
+            self.memory_estimate(),
+            store_bytes + read_bytes + caustic_bytes,
+            &format!(
+                "the render (final gathering, {pixels} pixels × {nb} bands, the map's {slots} vertex sides read)"
+            ),
+        )?;
+        let records = slots > 0;
+        let fixed = params.forward_per_pass;
+        let max_events = params.max_path_events;
+        let store = GatherStore::new(pixels, nb, threads);
+        let caustics = with_caustics.then(|| Mutex::new(Caustics::new(pixels, nb)));
+        let seed = self.config.seed;
+        let end = (params.time_budget_s > 0.0)
+            .then(|| crate::sched::deadline(start, params.time_budget_s))
+            .flatten();
+        let photons_before = self.photons();
+        let interval = duration_s(params.progress_interval_s.max(MIN_PROGRESS_INTERVAL_S));
+        let mut mon = GatherMonitor {
+            params,
+            start,
+            interval,
+            next_tick: start.checked_add(interval),
+            history: Vec::new(),
+            stop: None,
+        };
+        let mut map: Option<MapIndirect> = None;
+        let mut map_frozen = !records;
+        let (mut t_eye, mut t_map, mut t_read, mut t_caustic) = (0.0f64, 0.0, 0.0, 0.0f64);
+        let mut stats = EyeStats::default();
+        let mut err = GatherError {
+            rel_error: crate::imap::NO_DATA_REL_ERROR,
+            ..Default::default()
+        };
+        let mut lost: Option<Error> = None;
+        let mut batches = 0u64;
+        let mut schedule = Schedule::default();
+        let stop_flag = AtomicBool::new(false);
+        let rounds = |c: &Option<Mutex<Caustics>>| {
+            c.as_ref()
+                .map_or(0, |c| c.lock().unwrap_or_else(|e| e.into_inner()).rounds())
+        };
+        loop {
+            let now = start.elapsed().as_secs_f64();
+            let left = end.map(|e| e.saturating_duration_since(Instant::now()).as_secs_f64());
+            if left.is_some_and(|l| l <= 0.0) {
+                mon.stop = mon.stop.or(Some(StopReason::TimeBudget));
+            }
+            if mon.stop.is_some() {
+                break;
+            }
+            let slice = (SLICE_SHARE * now)
+                .clamp(SLICE_MIN_S, SLICE_MAX_S)
+                .min(left.unwrap_or(f64::MAX));
+            let done_rounds = rounds(&caustics);
+            let pass = err.min_samples as u64;
+            let passes_done = mon.params.passes > 0 && pass >= mon.params.passes;
+            if fixed > 0 && passes_done {
+                mon.stop = Some(StopReason::PhotonCount);
+                break;
+            }
+            let step = if fixed > 0 {
+                // Before pass k (from 0) the map holds at least (k + 1) · fixed photons and
+                // the caustics have k + 1 rounds.
+                let want = (pass + 1).saturating_mul(fixed);
+                let have = self.photons();
+                if !map_frozen && have < want {
+                    GatherStep::Map {
+                        photons: want - have,
+                        secs: 0.0,
+                    }
+                } else if with_caustics && done_rounds < pass + 1 {
+                    GatherStep::Caustic(pass + 1 - done_rounds)
+                } else {
+                    GatherStep::Eye
+                }
+            } else if !map_frozen && self.photons() == 0 {
+                GatherStep::Map {
+                    photons: 0,
+                    secs: first_map_s(mon.params.time_budget_s).min(left.unwrap_or(f64::MAX)),
+                }
+            } else if with_caustics && done_rounds < 2 {
+                GatherStep::Caustic(threads.max(2) as u64)
+            } else if batches == 0 {
+                GatherStep::Eye
+            } else if passes_done {
+                // Every pixel has its passes: the caustics at least one round per pass.
+                if with_caustics && done_rounds < pass {
+                    GatherStep::Caustic(pass - done_rounds)
+                } else {
+                    GatherStep::Eye
+                }
+            } else if t_eye < MIN_SHARE * now {
+                GatherStep::Eye
+            } else if with_caustics && t_caustic < MIN_SHARE * now {
+                GatherStep::Caustic(threads as u64)
+            } else {
+                // Each part's error² falls as 1/(its time): the next slice goes where it
+                // buys the most, the largest error² per second spent so far.
+                let eye = err.eye_var / t_eye.max(1e-3);
+                let photons = self.photons().max(1) as f64;
+                let map_rate = if map_frozen {
+                    0.0
+                } else {
+                    err.map_per_photon / photons / self.elapsed_s.max(1e-3)
+                };
+                let caustic = if with_caustics {
+                    err.caustic_var / t_caustic.max(1e-3)
+                } else {
+                    0.0
+                };
+                if map_rate > eye && map_rate >= caustic {
+                    GatherStep::Map {
+                        photons: 0,
+                        secs: slice,
+                    }
+                } else if caustic > eye {
+                    let per_round = t_caustic / done_rounds.max(1) as f64 * threads as f64;
+                    let n = (slice * threads as f64 / per_round.max(1e-6)) as u64;
+                    GatherStep::Caustic(n.clamp(threads as u64, 1 << 20))
+                } else {
+                    GatherStep::Eye
+                }
+            };
+            if passes_done && matches!(step, GatherStep::Eye) {
+                // Every pixel has its passes, and the map and the caustics have their
+                // shares of the time.
+                mon.stop = Some(StopReason::PhotonCount);
+                break;
+            }
+            match step {
+                GatherStep::Map { photons, secs } => {
+                    let t0 = Instant::now();
+                    let before = self.photons();
+                    let until = end;
+                    let mut in_time = |_: &Progress| until.is_none_or(|e| Instant::now() < e);
+                    let r = self.run(&mut RunParams {
+                        photons,
+                        time_budget_s: if photons > 0 {
+                            left.unwrap_or(0.0)
+                        } else {
+                            secs
+                        },
+                        progress_interval_s: 0.05,
+                        max_path_events: max_events,
+                        progress: Some(&mut in_time),
+                        ..Default::default()
+                    });
+                    t_map += t0.elapsed().as_secs_f64();
+                    match r {
+                        Ok(_) => {}
+                        Err(e) if e.status == ImapStatus::ImapErrThreadLost => {
+                            lost = Some(e);
+                            break;
+                        }
+                        Err(e) if self.photons() == 0 => return Err(e),
+                        // The map cannot grow (its photon selection is spent, a budget): the
+                        // render goes on with the map as it is.
+                        Err(_) => map_frozen = true,
+                    }
+                    if self.photons() == before {
+                        map_frozen = true;
+                    }
+                    map = None;
+                    continue;
+                }
+                GatherStep::Caustic(n) => {
+                    let prepared = self.prepared.as_ref().expect("prepared above");
+                    let eye = EyeTracer::new(
+                        &self.scene,
+                        &prepared.scene,
+                        &prepared.accel,
+                        &cam,
+                        max_events,
+                        0.0,
+                    );
+                    let fwd = Tracer {
+                        scene: &prepared.scene,
+                        accel: &prepared.accel,
+                        sensors: None,
+                        materials: &self.scene.materials,
+                        bands: nb,
+                        seed,
+                        unit_m: self.config.unit_m,
+                        max_events,
+                        direct: None,
+                    };
+                    let t0 = Instant::now();
+                    stop_flag.store(false, Ordering::Relaxed);
+                    let c = caustics.as_ref().expect("with caustics");
+                    let (_, gone) = gather::caustic_rounds(
+                        &eye,
+                        &fwd,
+                        &delta,
+                        c,
+                        done_rounds,
+                        n,
+                        threads,
+                        &stop_flag,
+                    );
+                    t_caustic += t0.elapsed().as_secs_f64();
+                    if let Some(why) = gone {
+                        lost = Some(thread_lost(why));
+                        break;
+                    }
+                    err = store.estimate(&schedule, caustics.as_ref(), None);
+                    self.gather_tick(&mut mon, &err, stats.paths);
+                    continue;
+                }
+                GatherStep::Eye => {}
+            }
+            if map.is_none() && records {
+                let t0 = Instant::now();
+                map = Some(self.map_indirect()?);
+                t_read += t0.elapsed().as_secs_f64();
+            }
+            // A batch of eye passes.
+            let prepared = self.prepared.as_ref().expect("prepared above");
+            let mut eye = EyeTracer::new(
+                &self.scene,
+                &prepared.scene,
+                &prepared.accel,
+                &cam,
+                max_events,
+                0.0,
+            );
+            eye.map = map.as_ref();
+            let up_to = if fixed > 0 {
+                err.min_samples.saturating_add(1)
+            } else {
+                match mon.params.passes {
+                    0 => u32::MAX,
+                    p => u32::try_from(p).unwrap_or(u32::MAX),
+                }
+            };
+            let batch_end = if fixed > 0 {
+                end
+            } else {
+                Instant::now()
+                    .checked_add(duration_s(slice))
+                    .map(|b| end.map_or(b, |e| e.min(b)))
+            };
+            stop_flag.store(false, Ordering::Relaxed);
+            let batch = Batch {
+                up_to,
+                deadline: batch_end,
+                stop: &stop_flag,
+                map_photons: if records { self.photons() } else { 0 },
+            };
+            let photons_now = batch.map_photons;
+            let samples_before = store.samples();
+            let t0 = Instant::now();
+            let (tally, gone) =
+                gather::passes(&eye, &store, seed, threads, &batch, interval, &mut || {
+                    if !mon.due() {
+                        return false;
+                    }
+                    let t1 = Instant::now();
+                    let mut now = schedule.clone();
+                    now.add(photons_now, store.samples() - samples_before);
+                    let e = store.estimate(&now, caustics.as_ref(), None);
+                    let stop = mon.tick(&e, photons_now, e.samples);
+                    mon.ticked(t1.elapsed());
+                    stop
+                });
+            t_eye += t0.elapsed().as_secs_f64();
+            batches += 1;
+            stats.paths += tally.stats.paths;
+            stats.rays += tally.stats.rays;
+            stats.dropped += tally.stats.dropped;
+            if let Some(why) = gone {
+                lost = Some(thread_lost(why));
+                break;
+            }
+            schedule.add(photons_now, store.samples() - samples_before);
+            err = store.estimate(&schedule, caustics.as_ref(), None);
+            self.gather_tick(&mut mon, &err, stats.paths);
+            if tally.stats.paths == 0 && map_frozen && mon.stop.is_none() && !tally.cut {
+                // Nothing left to do (cannot happen with a criterion set): stop.
+                mon.stop = Some(StopReason::PhotonCount);
+            }
+        }
+        let wall_s = start.elapsed().as_secs_f64();
+        let mut image = Image {
+            width: camera.width,
+            height: camera.height,
+            bands: nb,
+            radiance: vec![0.0; pixels * nb],
+            rel_error: vec![0.0; pixels],
+        };
+        let err = store.estimate(&schedule, caustics.as_ref(), Some(&mut image));
+        let last = Progress {
+            region_rel_error: 0.0,
+            elapsed_s: wall_s,
+            photons: self.photons(),
+            hits: stats.paths,
+            rel_error: err.rel_error,
+        };
+        push_history(&mut mon.history, last);
+        if let Some(cb) = mon.params.progress.as_mut() {
+            cb(&last);
+        }
+        let report = RenderReport {
+            threads,
+            groups: 1,
+            threads_per_group: threads,
+            phases: batches,
+            passes: err.samples as f64 / pixels as f64,
+            backward_paths: stats.paths,
+            backward_rays: stats.rays,
+            forward_photons: self.photons() - photons_before,
+            gathers: rounds(&caustics) * gather::CAUSTIC_ROUND,
+            wall_s,
+            stop: Some(mon.stop.unwrap_or(StopReason::PhotonCount)),
+            rel_error: err.rel_error,
+            time_backward_s: t_eye,
+            time_build_s: t_read,
+            time_forward_s: t_map,
+            time_close_s: t_caustic,
+            dropped_paths: stats.dropped,
+            map_bytes_per_group: read_bytes,
+            pixel_bytes: store_bytes + caustic_bytes,
+            total_bytes: read_bytes + store_bytes + caustic_bytes,
+            history: mon.history,
+            ..Default::default()
+        };
+        self.last_render = Some(report.clone());
+        Ok((image, report, lost))
+    }
+
+    /// After a step of a final-gathering render: the stop criteria, and a progress point
+    /// when one is due.
+    fn gather_tick(&self, mon: &mut GatherMonitor, err: &GatherError, paths: u64) {
+        let why = mon.criteria(err, mon.start.elapsed().as_secs_f64());
+        mon.stop = mon.stop.or(why);
+        if mon.stop.is_none() && mon.due() {
+            let t1 = Instant::now();
+            mon.tick(err, self.photons(), paths);
+            mon.ticked(t1.elapsed());
+        }
+    }
+}
+
+fn thread_lost(why: String) -> Error {
+    Error::new(
+        ImapStatus::ImapErrThreadLost,
+        format!("{why}; the render was stopped and its image holds what was rendered until then"),
+    )
+}
+
+/// The first map slice of a render that finds the map empty, s.
+fn first_map_s(time_budget_s: f64) -> f64 {
+    if time_budget_s > 0.0 {
+        FIRST_MAP_S.min(0.1 * time_budget_s)
+    } else {
+        FIRST_MAP_S
     }
 }
 

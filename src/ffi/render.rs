@@ -22,6 +22,22 @@ pub const IMAP_RENDER_ASYNC: u32 = 1;
 /// maps, and lock-free access to the other groups' maps through their active-thread
 /// counters.
 pub const IMAP_RENDER_SEMI_SYNC: u32 = 2;
+/// Final gathering from the illumination map (Since 0.2.2): path-traced eye paths that end
+/// at their second diffuse vertex on a recorded mesh and read the context's map there (its
+/// whole irradiance; with the direct layer kept, its indirect part, and the direct light is
+/// sampled there). No photon-map radius, so no blur and no bias at edges and corners; each
+/// pixel's error includes the map's. **The render extends the context's map** (it runs it
+/// in slices between passes, starting it when empty), so the map is there to read
+/// afterwards. `forward_per_pass` > 0: before pass k the map holds at least (k + 1) ×
+/// forward_per_pass photons, and the image is the same for a seed on any thread count
+/// (up to rounding); 0: the map's time is balanced against the eye paths' by their
+/// measured errors. `group_threads`, `remask_phases`, `initial_radius` and `alpha` are not
+/// used. Surfaces that do not record are path traced on. Caustics of point-like lights
+/// seen directly (light → specular surfaces → diffuse → camera) come from photons traced
+/// through the specular surfaces and connected to the camera (scenes with such lights and
+/// specular surfaces only); seen through a specular surface, or after a surface that is
+/// both diffuse and specular, they are missing.
+pub const IMAP_RENDER_FINAL_GATHER: u32 = 3;
 
 /// A pinhole camera, in scene units. Pixel rows run from the top of the image down.
 /// Initialise with `imap_camera_default(&c, sizeof c)`.
@@ -78,9 +94,11 @@ pub struct ImapRenderParams {
     /// Safety limit on surface events per path (≥ 1); longer paths are dropped and counted
     /// in `ImapRenderReport::dropped_paths`.
     pub max_path_events: u32,
-    /// Forward photons per pass over the image (0 = one per pixel).
+    /// Forward photons per pass over the image (0 = one per pixel). Final gathering: the
+    /// map's photons per pass (`IMAP_RENDER_FINAL_GATHER`; 0 = balanced by time).
     pub forward_per_pass: u64,
-    /// Stop after this many samples per pixel, on average (0 = no limit).
+    /// Stop after this many samples per pixel, on average (0 = no limit; final gathering:
+    /// every pixel).
     pub passes: u64,
     /// First gathering radius, scene units (0 = four pixel footprints at the first
     /// diffuse vertex); otherwise between 1e-6 and 2 times the scene's bounding radius.
@@ -140,17 +158,20 @@ pub struct ImapRenderReport {
     pub threads: u32,
     pub groups: u32,
     pub threads_per_group: u32,
-    /// Group phases completed; each adds one sample to the pixels of its group's mask.
+    /// Group phases completed; each adds one sample to the pixels of its group's mask
+    /// (final gathering: batches of passes between slices of the map).
     pub phases: u64,
     /// Samples per pixel, averaged over the image.
     pub passes: f64,
     /// Backward paths (pixel samples) and the rays they traced (shadow rays included).
     pub backward_paths: u64,
     pub backward_rays: u64,
-    /// Forward photons from the lights and the rays they traced.
+    /// Forward photons from the lights and the rays they traced (final gathering: the
+    /// photons the render added to the map; rays 0).
     pub forward_photons: u64,
     pub forward_rays: u64,
-    /// Forward photon hits that fell within a backward photon's radius.
+    /// Forward photon hits that fell within a backward photon's radius (final gathering:
+    /// the caustic photons traced).
     pub gathers: u64,
     /// Backward paths dropped at `max_path_events`.
     pub dropped_paths: u64,
@@ -161,7 +182,8 @@ pub struct ImapRenderReport {
     pub rel_error: f64,
     /// Seconds summed over groups (each measured by its leader thread): backward paths,
     /// building the maps, forward photons, closing the maps (tracing on while other groups
-    /// still read them), finalizing the phase's samples.
+    /// still read them), finalizing the phase's samples. Final gathering: the eye paths,
+    /// reading the map's values, running the map, the caustic photons (`time_close_s`).
     pub time_backward_s: f64,
     pub time_build_s: f64,
     pub time_forward_s: f64,
@@ -173,9 +195,11 @@ pub struct ImapRenderReport {
     pub close_retries: u64,
     /// Joins that found maps being rebuilt; the counter protocol keeps this 0.
     pub gate_violations: u64,
-    /// Largest backward-photon-map memory of one group, bytes.
+    /// Largest backward-photon-map memory of one group, bytes (final gathering: the copy
+    /// of the map's values it reads).
     pub map_bytes_per_group: u64,
-    /// Pixel stores, bytes (one per thread for the asynchronous method).
+    /// Pixel stores, bytes (one per thread for the asynchronous method; final gathering:
+    /// with the caustics' per-pixel sums).
     pub pixel_bytes: u64,
     /// All maps and pixel stores, bytes.
     pub total_bytes: u64,
@@ -253,9 +277,11 @@ fn render_report_to_c(r: &RenderReport) -> ImapRenderReport {
 
 /// Renders what `camera` sees: radiance (luminance per band) in W/(m²·sr) — the lights'
 /// power unit per m² (`ImapConfig::unit_m`) per steradian — by stochastic progressive
-/// backward photon mapping, until a stop criterion of `params` is met. Blocks the calling
+/// backward photon mapping (or, with `IMAP_RENDER_FINAL_GATHER`, final gathering from the
+/// illumination map), until a stop criterion of `params` is met. Blocks the calling
 /// thread, which runs the progress callback. Uses the context's scene, thread count and
-/// seed; neither reads nor changes the illumination map. Every call starts a new image.
+/// seed; the photon-map methods neither read nor change the illumination map, final
+/// gathering reads and extends it. Every call starts a new image.
 ///
 /// `out_radiance` receives `width × height × bands` doubles, pixel by pixel from the top
 /// left, row by row, the bands of a pixel together (`radiance_count` must be at least
@@ -296,9 +322,10 @@ pub unsafe extern "C" fn imap_render(
             IMAP_RENDER_SYNC => RenderMethod::Synchronous,
             IMAP_RENDER_ASYNC => RenderMethod::Asynchronous,
             IMAP_RENDER_SEMI_SYNC => RenderMethod::SemiSynchronous,
+            IMAP_RENDER_FINAL_GATHER => RenderMethod::FinalGather,
             m => bail!(
                 ImapErrInvalidArgument,
-                "params.method = {m} is not IMAP_RENDER_SYNC, _ASYNC or _SEMI_SYNC"
+                "params.method = {m} is not IMAP_RENDER_SYNC, _ASYNC, _SEMI_SYNC or _FINAL_GATHER"
             ),
         };
         let pixels = cam.width as usize * cam.height as usize;

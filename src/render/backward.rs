@@ -63,6 +63,9 @@ pub struct EyeTracer<'a> {
 pub struct MapIndirect {
     /// Per prepared mesh: None when it does not record.
     pub meshes: Vec<Option<MeshIndirect>>,
+    /// The values are the map's whole irradiance, direct light included (a map without the
+    /// direct layer): a path ending on them samples no direct light there.
+    pub combined: bool,
 }
 
 #[derive(Debug)]
@@ -72,6 +75,15 @@ pub struct MeshIndirect {
     pub irradiance: Vec<f64>,
     /// Its standard error over the band mean, relative to the band mean, per vertex side.
     pub rel_error: Vec<f64>,
+}
+
+/// A vertex side a final-gathering sample read from the map, and the map's standard error
+/// of what it read (band-mean radiance, the pixel's units).
+#[derive(Clone, Copy, Debug)]
+pub struct MapRead {
+    /// (mesh << 40) | (vertex · sides + side).
+    pub key: u64,
+    pub sigma: f64,
 }
 
 /// Where an eye path meets a surface: the point, the normal on the side it came from, the
@@ -282,7 +294,7 @@ impl<'a> EyeTracer<'a> {
     /// one since, `direct_light` has them). Light from point-like lights and the sun through
     /// specular surfaces (caustics of delta lights) cannot be path traced and is missing.
     /// With `map`, a path ends at its second diffuse vertex on a recorded mesh with the
-    /// map's indirect light there (`map_err` adds the map's error of what it read).
+    /// map's light there (`reads` gets the vertices it read, with their errors).
     #[allow(clippy::too_many_arguments)]
     pub fn path_sample(
         &self,
@@ -291,7 +303,7 @@ impl<'a> EyeTracer<'a> {
         out: &mut [f64],
         beta: &mut Vec<f64>,
         scratch: &mut Vec<f64>,
-        map_err: &mut f64,
+        reads: &mut Vec<MapRead>,
         stats: &mut EyeStats,
     ) {
         let nb = self.bands;
@@ -346,30 +358,16 @@ impl<'a> EyeTracer<'a> {
             );
             let (wr, wt) = scratch.split_at(nb);
             let wt = (self.transmit && wt.iter().any(|&x| x > 0.0)).then_some(wt);
-            self.direct_light(p_hit, n_in, eps, wr, wt, rng, out, stats);
-            if diffuse_vertices >= 1 {
-                // The second diffuse vertex: the map's indirect light here, and the end.
-                let side = if front { 0 } else { 1 };
-                if let Some(e) = self.map_indirect(
-                    hit.mesh,
-                    hit.prim as usize,
-                    hit.u,
-                    hit.v,
-                    side,
-                    wt.is_some(),
-                ) {
-                    // Reflection reads the side the path came from, transmission the other.
-                    let (mut c, mut rel) = (0.0, 0.0f64);
-                    for (w, (irr, r)) in std::iter::once(wr).chain(wt).zip(&e) {
-                        for ((o, w), x) in out.iter_mut().zip(w).zip(irr) {
-                            *o += w * x;
-                            c += w * x;
-                        }
-                        rel = rel.max(*r);
-                    }
-                    *map_err += c / nb as f64 * rel;
-                    return;
-                }
+            // The second diffuse vertex on a recorded mesh: the map's light here, and the end.
+            let side = if front { 0 } else { 1 };
+            let read = diffuse_vertices >= 1 && self.map_has(hit.mesh, side, wt.is_some());
+            if !read || !self.map.is_some_and(|m| m.combined) {
+                self.direct_light(p_hit, n_in, eps, wr, wt, rng, out, stats);
+            }
+            if read {
+                let (prim, uv) = (hit.prim as usize, (hit.u, hit.v));
+                self.map_read(hit.mesh, prim, uv, side, wr, wt, out, reads);
+                return;
             }
             let sr: f64 = (0..nb).map(|b| beta[b] * material.diffuse_reflect[b]).sum();
             let st: f64 = (0..nb)
@@ -400,41 +398,108 @@ impl<'a> EyeTracer<'a> {
         stats.dropped += 1;
     }
 
-    /// The map's indirect irradiance per band and its relative error at barycentric (u, v)
-    /// of triangle `prim` of mesh `mesh` on `side` — and, when `both`, on the other side
-    /// too (for diffuse transmission) — or None where the map has none.
-    fn map_indirect(
+    /// A caustic photon of colour `colour` (W per band: each value times `flux`) landing at
+    /// `z` (normal `n_in` on its side) on a surface of material `m`, seen by the camera: the
+    /// pixel that sees z and what the landing adds to its radiance — the diffuse reflection
+    /// (or transmission) toward the eye, spread over the pixel's footprint. None when the
+    /// camera does not see z.
+    pub(crate) fn caustic_splat(
+        &self,
+        z: DVec3,
+        n_in: DVec3,
+        m: &Material,
+        colour: &[f64],
+        flux: f64,
+    ) -> Option<(u32, Vec<f64>)> {
+        let to = self.camera.origin - z;
+        let dist = to.length();
+        if dist <= 0.0 {
+            return None;
+        }
+        let dir = to / dist;
+        let c = dir.dot(n_in);
+        let (k, n) = if c > 0.0 {
+            (&m.diffuse_reflect, n_in)
+        } else if m.events[2] {
+            (&m.diffuse_transmit, -n_in)
+        } else {
+            return None;
+        };
+        let (pixel, cos_c) = self.camera.project(z)?;
+        let eps = self.scene.offset_at(z);
+        if dist <= eps || self.accel.occluded(z + n * eps, dir, dist - eps) {
+            return None;
+        }
+        // Radiance over the pixel: (k/π) Φ cos θz / (d² cos³ θc · pixel area at unit
+        // distance), d in metres.
+        let d_m = dist * self.unit_m;
+        let g = c.abs() / (d_m * d_m * cos_c.powi(3) * self.camera.pixel_area()) / PI * flux;
+        Some((
+            pixel,
+            colour.iter().zip(k).map(|(c, k)| c * k * g).collect(),
+        ))
+    }
+
+    /// Whether the map holds light for side `side` of mesh `mesh` (and the other side too
+    /// when `both`, for diffuse transmission).
+    fn map_has(&self, mesh: u32, side: usize, both: bool) -> bool {
+        let Some(m) = self
+            .map
+            .and_then(|map| map.meshes.get(mesh as usize))
+            .and_then(Option::as_ref)
+        else {
+            return false;
+        };
+        side < m.sides && (!both || 1 - side < m.sides)
+    }
+
+    /// Adds the map's light at barycentric (u, v) of triangle `prim` of mesh `mesh` to
+    /// `out`: the reflected part (weights `wr`) from side `side`, the transmitted part
+    /// (`wt`) from the other. `reads` gets each vertex read and its error in `out`'s
+    /// band-mean units (`MapRead`). The caller checked `map_has`.
+    #[allow(clippy::too_many_arguments)]
+    fn map_read(
         &self,
         mesh: u32,
         prim: usize,
-        u: f32,
-        v: f32,
+        (u, v): (f32, f32),
         side: usize,
-        both: bool,
-    ) -> Option<Vec<(Vec<f64>, f64)>> {
-        let m = self.map?.meshes.get(mesh as usize)?.as_ref()?;
+        wr: &[f64],
+        wt: Option<&[f64]>,
+        out: &mut [f64],
+        reads: &mut Vec<MapRead>,
+    ) {
+        let Some(m) = self
+            .map
+            .and_then(|map| map.meshes.get(mesh as usize))
+            .and_then(Option::as_ref)
+        else {
+            return;
+        };
         let nb = self.bands;
         let tri = self.scene.meshes[mesh as usize].triangles[prim];
         let (u, v) = (u as f64, v as f64);
         let bary = [1.0 - u - v, u, v];
-        let sides: &[usize] = if both { &[side, 1 - side] } else { &[side] };
-        let mut out = Vec::with_capacity(sides.len());
-        for &s in sides {
-            if s >= m.sides {
-                return None;
-            }
-            let mut e = vec![0.0; nb];
-            let mut r = 0.0;
+        let sides = [Some((side, wr)), wt.map(|w| (1 - side, w))];
+        for (s, w) in sides.into_iter().flatten() {
             for (k, &vert) in tri.iter().enumerate() {
                 let slot = vert as usize * m.sides + s;
-                for (x, y) in e.iter_mut().zip(&m.irradiance[slot * nb..(slot + 1) * nb]) {
-                    *x += bary[k] * y;
+                let mut c = 0.0;
+                for ((o, w), e) in out
+                    .iter_mut()
+                    .zip(w)
+                    .zip(&m.irradiance[slot * nb..(slot + 1) * nb])
+                {
+                    let x = bary[k] * w * e;
+                    *o += x;
+                    c += x;
                 }
-                r += bary[k] * m.rel_error[slot];
+                reads.push(MapRead {
+                    key: ((mesh as u64) << 40) | slot as u64,
+                    sigma: c / nb as f64 * m.rel_error[slot],
+                });
             }
-            out.push((e, r));
         }
-        Some(out)
     }
 
     /// The surface an eye path travelling along `dir` meets at `hit`.

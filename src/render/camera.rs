@@ -98,6 +98,32 @@ impl Camera {
         (self.forward + self.right * sx + self.up * sy).normalize()
     }
 
+    /// The pixel that sees point `p` (local scene units) and the cosine between its ray and
+    /// the viewing direction, or None when `p` is behind the camera or outside the image.
+    #[inline]
+    pub fn project(&self, p: DVec3) -> Option<(u32, f64)> {
+        let d = p - self.origin;
+        let z = d.dot(self.forward);
+        if z <= 0.0 {
+            return None;
+        }
+        let sx = d.dot(self.right) / z / (self.tan_half * self.aspect);
+        let sy = d.dot(self.up) / z / self.tan_half;
+        let x = (sx + 1.0) * 0.5 * self.desc.width as f64;
+        let y = (1.0 - sy) * 0.5 * self.desc.height as f64;
+        if !(x >= 0.0 && y >= 0.0 && x < self.desc.width as f64 && y < self.desc.height as f64) {
+            return None;
+        }
+        let pixel = y as u32 * self.desc.width + x as u32;
+        Some((pixel, z / d.length()))
+    }
+
+    /// A pixel's area on the image plane at unit distance from the eye.
+    pub fn pixel_area(&self) -> f64 {
+        let a = 2.0 * self.tan_half / self.desc.height as f64;
+        a * a
+    }
+
     /// Angular size of a pixel at the image centre (radians): a surface at distance d shows
     /// a pixel footprint of about d times this.
     pub fn pixel_angle(&self) -> f64 {
@@ -108,6 +134,34 @@ impl Camera {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// `project` is the inverse of `ray`: a point along a pixel's ray projects back to that
+    /// pixel, with the cosine of the ray to the axis.
+    #[test]
+    fn project_inverts_ray() {
+        let cam = Camera::new(
+            &CameraDesc {
+                position: [1.0, 2.0, 3.0],
+                direction: [0.3, -1.0, 0.2],
+                up: [0.0, 0.0, 1.0],
+                fov_y_deg: 70.0,
+                width: 40,
+                height: 30,
+            },
+            DVec3::new(0.5, 0.0, 0.0),
+        )
+        .unwrap();
+        for (x, y) in [(0, 0), (39, 29), (17, 5), (3, 28)] {
+            let d = cam.ray(x, y, 0.25, 0.75);
+            let (p, cos) = cam.project(cam.origin + 7.0 * d).unwrap();
+            assert_eq!(p, y * 40 + x);
+            assert!((cos - d.dot(cam.forward)).abs() < 1e-12);
+        }
+        assert!(cam.project(cam.origin - cam.forward).is_none());
+        assert!(cam
+            .project(cam.origin + cam.forward + 10.0 * cam.up)
+            .is_none());
+    }
 
     fn desc() -> CameraDesc {
         CameraDesc {

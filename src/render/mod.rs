@@ -25,6 +25,7 @@ pub mod backward;
 pub mod bmap;
 pub mod camera;
 pub mod gate;
+pub mod gather;
 
 pub use backward::{EyeStats, EyeTracer};
 pub use camera::{Camera, CameraDesc};
@@ -53,6 +54,9 @@ pub enum RenderMethod {
     Synchronous,
     Asynchronous,
     SemiSynchronous,
+    /// Final gathering from the illumination map (`gather`): path-traced eye paths that
+    /// read the map at their second diffuse vertex; the render extends the map as it goes.
+    FinalGather,
 }
 
 /// What a render is asked to do.
@@ -678,7 +682,7 @@ fn layout(
 ) -> (usize, usize, bool, usize) {
     let threads = threads.max(1);
     match method {
-        RenderMethod::Synchronous => (threads, 1, false, 1),
+        RenderMethod::Synchronous | RenderMethod::FinalGather => (threads, 1, false, 1),
         RenderMethod::Asynchronous => (1, threads, false, threads),
         RenderMethod::SemiSynchronous => {
             let k = group_threads.clamp(1, threads);

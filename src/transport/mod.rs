@@ -41,6 +41,12 @@ pub trait HitSink {
     /// arrival.
     fn surface(&mut self, _event: &SurfaceEvent, _colour: &Colour) {}
 
+    /// After `surface`: whether the photon's path is still of use to the sink (false ends
+    /// it there, counted as escaped; a render's sink that wants only some paths).
+    fn wants_more(&self) -> bool {
+        true
+    }
+
     /// Called when photon tracing starts, with its emitter (`PreparedScene::emitters`).
     fn begin_photon(&mut self, _emitter: usize) {}
 
@@ -517,6 +523,9 @@ impl Tracer<'_> {
                     },
                     colour,
                 );
+                if !sink.wants_more() {
+                    return PathEnd::Escaped;
+                }
             }
 
             if let Some(d) = &material.dielectric {
