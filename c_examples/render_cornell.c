@@ -1,16 +1,18 @@
 /*
  * The Cornell box rendered through libimap's C API (camera luminance by backward photon
- * maps, imap_render), written as a PFM image (linear radiance, W/(m²·sr)).
+ * maps, or final gathering from the illumination map, imap_render), written as a PFM image
+ * (linear radiance, W/(m²·sr)).
  *
- *   render_cornell [out.pfm=cornell.pfm] [seconds=10] [semi|sync|async] [width=256]
+ *   render_cornell [out.pfm=cornell.pfm] [seconds=10] [semi|sync|async|fg] [width=256]
  *                  [height=256] [band_count=3] [target_rel_error=0]
  *
  * The camera looks through the open front of the box from (278, 273, −800) mm. It prints
  * the accuracy history and the report, and checks what physics demands, exiting non-zero
  * otherwise: a pixel that sees the lamp shows exactly its radiance M/π (a Lambertian
  * emitter of exitance M, nothing reflected); the floor is redder next to the red wall and
- * greener next to the green one (colour bleeding, carried by the forward photons); the
- * error estimate falls; no thread ever read maps being rebuilt.
+ * greener next to the green one (colour bleeding, carried by the forward photons or read
+ * from the map); the error estimate falls; no thread ever read maps being rebuilt. With
+ * fg the walls record, and the render runs the map itself.
  */
 #include "cornell_scene.h"
 
@@ -73,9 +75,11 @@ int main(int argc, char **argv) {
     cornell_config(&cfg, bands);
     CHECK(imap_create(&cfg, &ctx));
 
-    /* The box open at the front; nothing records (a render needs no illumination map). */
+    /* The box open at the front; nothing records (the photon-map methods need no
+     * illumination map), except for final gathering, which reads it. */
+    int fg = strcmp(method, "fg") == 0;
     Cornell box;
-    cornell_build(ctx, &box, bands, 0, 0, 8);
+    cornell_build(ctx, &box, bands, 0, fg, 8);
 
     ImapCamera cam;
     imap_camera_default(&cam, sizeof cam);
@@ -88,7 +92,8 @@ int main(int argc, char **argv) {
 
     ImapRenderParams rp;
     CHECK(imap_render_params_default(&rp, sizeof rp));
-    rp.method = strcmp(method, "sync") == 0    ? IMAP_RENDER_SYNC
+    rp.method = fg                             ? IMAP_RENDER_FINAL_GATHER
+                : strcmp(method, "sync") == 0  ? IMAP_RENDER_SYNC
                 : strcmp(method, "async") == 0 ? IMAP_RENDER_ASYNC
                                                : IMAP_RENDER_SEMI_SYNC;
     rp.time_budget_s = seconds;

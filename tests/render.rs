@@ -80,13 +80,15 @@ fn sphere_camera(size: u32) -> CameraDesc {
 /// Closed sphere (ρ uniform) with a point light at its centre: every wall point has
 /// E = Φ/(4πR²) direct plus ρΦ/((1−ρ)A) indirect (uniform over a sphere), so every pixel
 /// of a camera inside shows L = ρE/π: direct light by light sampling, the indirect part by
-/// forward photons gathered in backward photon maps.
+/// forward photons gathered in backward photon maps (final gathering: read from the map
+/// the render runs, 16 384 photons a pass).
 #[test]
 fn integrating_sphere_radiance_is_rho_e_over_pi() {
     for method in [
         RenderMethod::Synchronous,
         RenderMethod::Asynchronous,
         RenderMethod::SemiSynchronous,
+        RenderMethod::FinalGather,
     ] {
         let (mut ctx, truth) = integrating_sphere(2, 5);
         let cam = sphere_camera(64);
