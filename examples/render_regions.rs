@@ -18,7 +18,8 @@
 //! layer), and with the direct layer kept.
 //!
 //!     cargo run --release --example render_regions -- [--threads 2] [--size 128]
-//!         [--reference-spp 4096] [--max-seconds 64] [--final-gather-only] [--verbose]
+//!         [--reference-spp 4096] [--max-seconds 64] [--final-gather-only | --semi-only]
+//!         [--verbose]
 
 use imap::scenes::{grey_room, GREY_ROOM_EMITTER_Z};
 use imap::{CameraDesc, Config, Context, Image, LayerRequest, RenderMethod, RenderParams};
@@ -147,6 +148,7 @@ fn main() {
     let max_s: f64 = arg("--max-seconds", 64.0);
     let verbose = std::env::args().any(|a| a == "--verbose");
     let only_fg = std::env::args().any(|a| a == "--final-gather-only");
+    let only_semi = std::env::args().any(|a| a == "--semi-only");
     let cam = CameraDesc {
         position: [0.5, 0.01, 0.1],
         direction: [0.0, 1.0, 0.25],
@@ -231,7 +233,7 @@ fn main() {
     // the map itself (light sampling), balancing its time against the eye paths'; and with
     // the direct layer kept ("+direct": the map's indirect part is read, the direct light
     // sampled at the second vertex).
-    for variant in ["fg", "fg+direct"] {
+    for variant in ["fg", "fg+direct"].into_iter().filter(|_| !only_semi) {
         let mut budget = 1.0;
         while budget <= max_s {
             let mut ctx = room(threads, 7);
@@ -278,7 +280,7 @@ fn main() {
         }
     }
     let mut spp = 8;
-    while !only_fg && spp <= ref_spp {
+    while !only_fg && !only_semi && spp <= ref_spp {
         let mut ctx = room(threads, 7);
         let t = Instant::now();
         let img = ctx.path_trace(&cam, spp, 10_000).unwrap();

@@ -1137,7 +1137,8 @@ typedef struct ImapRenderReport {
   double wall_s;
   /**
    * Estimated global relative error of the image: RMS of the pixels' standard errors
-   * over their mean luminance.
+   * over their mean luminance (the photon-map methods: each pixel's with a first-order
+   * estimate of its boundary bias near edges and corners, docs/rendering.md).
    */
   double rel_error;
   /**
@@ -2057,7 +2058,8 @@ enum ImapStatus imap_render_params_default(struct ImapRenderParams *out, size_t 
  * `out_radiance` receives `width × height × bands` doubles, pixel by pixel from the top
  * left, row by row, the bands of a pixel together (`radiance_count` must be at least
  * that). `out_rel_error` (may be NULL) receives `width × height` relative standard
- * errors of each pixel's band-mean radiance (1 where nothing was seen). `report` (may be
+ * errors of each pixel's band-mean radiance (1 where nothing was seen; the photon-map
+ * methods' include the pixel's estimated boundary bias). `report` (may be
  * NULL) receives the report (`report_size` = `sizeof(ImapRenderReport)`), which
  * `imap_get_render_report` also keeps.
  *

@@ -178,7 +178,8 @@ pub struct ImapRenderReport {
     /// Wall time, s.
     pub wall_s: f64,
     /// Estimated global relative error of the image: RMS of the pixels' standard errors
-    /// over their mean luminance.
+    /// over their mean luminance (the photon-map methods: each pixel's with a first-order
+    /// estimate of its boundary bias near edges and corners, docs/rendering.md).
     pub rel_error: f64,
     /// Seconds summed over groups (each measured by its leader thread): backward paths,
     /// building the maps, forward photons, closing the maps (tracing on while other groups
@@ -286,7 +287,8 @@ fn render_report_to_c(r: &RenderReport) -> ImapRenderReport {
 /// `out_radiance` receives `width × height × bands` doubles, pixel by pixel from the top
 /// left, row by row, the bands of a pixel together (`radiance_count` must be at least
 /// that). `out_rel_error` (may be NULL) receives `width × height` relative standard
-/// errors of each pixel's band-mean radiance (1 where nothing was seen). `report` (may be
+/// errors of each pixel's band-mean radiance (1 where nothing was seen; the photon-map
+/// methods' include the pixel's estimated boundary bias). `report` (may be
 /// NULL) receives the report (`report_size` = `sizeof(ImapRenderReport)`), which
 /// `imap_get_render_report` also keeps.
 ///

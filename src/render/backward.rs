@@ -196,6 +196,7 @@ impl<'a> EyeTracer<'a> {
         pixel: u32,
         rng: &mut PhotonRng,
         r2_pixel: f64,
+        probe: bool,
         buf: &mut SampleBuf,
         beta: &mut Vec<f64>,
         stats: &mut EyeStats,
@@ -279,6 +280,11 @@ impl<'a> EyeTracer<'a> {
                 r2: r2 as f32,
                 n: n_in.as_vec3(),
                 entry,
+            });
+            buf.coverage.push(if probe {
+                self.coverage(pixel, p_hit, n_in, eps, r2.sqrt(), stats) as f32
+            } else {
+                f32::NAN
             });
             return;
         }
@@ -396,6 +402,74 @@ impl<'a> EyeTracer<'a> {
             }
         }
         stats.dropped += 1;
+    }
+
+    /// The share of the disc of radius `r` about `p` (normal `n`, ray offset `eps`) that its
+    /// surface covers — where photons can land to be gathered. Rays along the surface in
+    /// `COVERAGE_RAYS` stratified directions (randomly turned, from a stream of the pixel
+    /// and the radius: the path's own random numbers are left alone) stop at a wall (a
+    /// surface the gathering would not take photons from: normals less alike than
+    /// `SAME_SURFACE_COS`); one that meets a surface like its own (a concave surface curving
+    /// up) counts whole; one that meets nothing looks for the surface under its end (down to
+    /// r: a convex surface falls away by r²/2R) and, if there is none (an open edge), under
+    /// points bisected toward the centre. The disc's area is Σ (π/M) tᵢ², its share
+    /// Σ (tᵢ/r)²/M.
+    fn coverage(
+        &self,
+        pixel: u32,
+        p: DVec3,
+        n: DVec3,
+        eps: f64,
+        r: f64,
+        stats: &mut EyeStats,
+    ) -> f64 {
+        const COVERAGE_RAYS: usize = 8;
+        if r <= 4.0 * eps {
+            return 1.0;
+        }
+        let same = super::bmap::SAME_SURFACE_COS as f64;
+        let t1 = n.any_orthonormal_vector();
+        let t2 = n.cross(t1);
+        let mut rng = PhotonRng::new(0xC0E5_A6E0_0000_0007 ^ pixel as u64, r.to_bits());
+        let turn = rng.uniform();
+        let lift = p + n * (2.0 * eps);
+        let mut rays = 0u64;
+        // Whether a surface is under the point `t` along `d`.
+        let mut under = |d: DVec3, t: f64| {
+            rays += 1;
+            self.accel.occluded(lift + d * t, -n, r)
+        };
+        let mut share = 0.0;
+        for i in 0..COVERAGE_RAYS {
+            let a = 2.0 * PI * (i as f64 + turn) / COVERAGE_RAYS as f64;
+            let d = t1 * a.cos() + t2 * a.sin();
+            let mut t = r;
+            let mut open = true;
+            if let Some(h) = self.accel.intersect(lift, d) {
+                if h.t < r {
+                    let nh = self.scene.meshes[h.mesh as usize].normals[h.prim as usize].as_dvec3();
+                    if nh.dot(n).abs() <= same {
+                        t = h.t;
+                    }
+                    open = false;
+                }
+            }
+            if open && !under(d, r) {
+                let (mut lo, mut hi) = (0.0, r);
+                for _ in 0..3 {
+                    let mid = 0.5 * (lo + hi);
+                    if under(d, mid) {
+                        lo = mid;
+                    } else {
+                        hi = mid;
+                    }
+                }
+                t = lo;
+            }
+            share += (t / r).powi(2);
+        }
+        stats.rays += COVERAGE_RAYS as u64 + rays;
+        share / COVERAGE_RAYS as f64
     }
 
     /// A caustic photon of colour `colour` (W per band: each value times `flux`) landing at

@@ -54,6 +54,9 @@ pub struct SampleBuf {
     pub w_reflect: Vec<f64>,
     /// Path weight × BTDF per band (only in scenes with diffuse transmission).
     pub w_transmit: Vec<f64>,
+    /// Per photon: the share of its gathering disc its surface covers (`EyeTracer::
+    /// coverage`), NaN where it was not probed this phase.
+    pub coverage: Vec<f32>,
 }
 
 impl SampleBuf {
@@ -63,12 +66,14 @@ impl SampleBuf {
         self.photons.clear();
         self.w_reflect.clear();
         self.w_transmit.clear();
+        self.coverage.clear();
     }
 
     pub fn bytes(&self) -> usize {
         self.pixels.capacity() * 4
             + (self.direct.capacity() + self.w_reflect.capacity() + self.w_transmit.capacity()) * 8
             + self.photons.capacity() * std::mem::size_of::<BackwardPhoton>()
+            + self.coverage.capacity() * 4
     }
 }
 
@@ -92,7 +97,7 @@ pub struct BackwardMap {
 
 /// Cosine between the normals of a forward photon's surface side and a backward photon's
 /// above which they are taken to be on the same surface side.
-const SAME_SURFACE_COS: f32 = 0.9;
+pub(crate) const SAME_SURFACE_COS: f32 = 0.9;
 
 impl BackwardMap {
     pub fn new(bands: usize, transmit: bool) -> Self {
@@ -123,6 +128,7 @@ impl BackwardMap {
             }));
             s.w_reflect.extend_from_slice(&b.w_reflect);
             s.w_transmit.extend_from_slice(&b.w_transmit);
+            s.coverage.extend_from_slice(&b.coverage);
             b.clear();
         }
         self.photon_of.clear();
@@ -146,7 +152,7 @@ impl BackwardMap {
     /// index, the photon, direct, reflected, transmitted and accumulated values per band,
     /// and the grid (a photon is listed in up to 8 cells, two buckets per photon).
     pub fn bytes_per_entry(bands: usize) -> usize {
-        4 + 4 + std::mem::size_of::<BackwardPhoton>() + 4 * 8 * bands + 8 * 4 + 2 * 4
+        4 + 4 + std::mem::size_of::<BackwardPhoton>() + 4 * 8 * bands + 8 * 4 + 2 * 4 + 4
     }
 
     /// Bytes held (capacity), for the memory report.
@@ -201,7 +207,7 @@ impl BackwardMap {
 
     /// Entry `e`'s sample after the forward step: its pixel, its luminance per band (direct
     /// plus gathered, the latter times `scale / r²`) into `out`, and its photon's radius².
-    pub fn sample(&self, e: usize, scale: f64, out: &mut [f64]) -> (u32, Option<f64>) {
+    pub fn sample(&self, e: usize, scale: f64, out: &mut [f64]) -> (u32, Option<Gathered>) {
         let nb = self.bands;
         out.copy_from_slice(&self.samples.direct[e * nb..][..nb]);
         let i = self.photon_of[e];
@@ -210,11 +216,31 @@ impl BackwardMap {
         }
         let r2 = self.samples.photons[i as usize].r2 as f64;
         let k = scale / r2;
+        let mut gathered = 0.0;
         for (o, a) in out.iter_mut().zip(self.accumulated(i as usize)) {
-            *o += load_f64(a) * k;
+            let x = load_f64(a) * k;
+            *o += x;
+            gathered += x;
         }
-        (self.samples.pixels[e], Some(r2))
+        let coverage = self.samples.coverage.get(i as usize).copied();
+        (
+            self.samples.pixels[e],
+            Some(Gathered {
+                r2,
+                value: gathered / nb as f64,
+                coverage: coverage.unwrap_or(f32::NAN),
+            }),
+        )
     }
+}
+
+/// What a sample's backward photon gathered: its radius², the band mean of the gathered
+/// radiance, and its disc's coverage if probed (NaN if not).
+#[derive(Clone, Copy, Debug)]
+pub struct Gathered {
+    pub r2: f64,
+    pub value: f64,
+    pub coverage: f32,
 }
 
 /// A spatial hash of backward photons: each photon is listed in every cell its gathering
@@ -318,6 +344,12 @@ pub struct PixelStore {
     sumsq: Vec<AtomicU64>,
     count: Vec<AtomicU32>,
     r2: Vec<AtomicU64>,
+    /// Sum over samples of the boundary bias of the gathered part (band mean): what the
+    /// part of the disc its surface does not cover would have added, (1 − f)/f × gathered,
+    /// f the pixel's latest probed coverage.
+    bias: Vec<AtomicU64>,
+    /// The pixel's latest probed coverage (f32 bits; 1 before any probe).
+    cover: Vec<AtomicU32>,
 }
 
 impl PixelStore {
@@ -329,11 +361,15 @@ impl PixelStore {
             sumsq: zeros(pixels),
             count: (0..pixels).map(|_| AtomicU32::new(0)).collect(),
             r2: zeros(pixels),
+            bias: zeros(pixels),
+            cover: (0..pixels)
+                .map(|_| AtomicU32::new(1f32.to_bits()))
+                .collect(),
         }
     }
 
     pub fn bytes(pixels: usize, bands: usize) -> usize {
-        pixels * (bands * 8 + 8 + 4 + 8)
+        pixels * (bands * 8 + 8 + 4 + 8 + 8 + 4)
     }
 
     /// The pixel's current gathering radius², 0 before its first sample with a photon.
@@ -348,9 +384,33 @@ impl PixelStore {
         self.count[pixel].load(Ordering::Relaxed)
     }
 
-    /// Adds one sample `value` (per band) to `pixel`; `r2_used` is the radius² its photon
-    /// gathered with (None when the path found no diffuse surface).
-    pub fn add_sample(&self, pixel: usize, value: &[f64], r2_used: Option<f64>, alpha: f64) {
+    /// Whether the next sample of `pixel` should probe its disc's coverage: its first
+    /// four, then at every power of two (the radius shrinks slowly; a handful of probes
+    /// follow it).
+    #[inline]
+    pub fn probe(&self, pixel: usize) -> bool {
+        let n = self.count(pixel);
+        n < 4 || n.is_power_of_two()
+    }
+
+    /// Adds one sample `value` (per band) to `pixel`; `gathered` is what its photon
+    /// gathered (None when the path found no diffuse surface).
+    pub fn add_sample(&self, pixel: usize, value: &[f64], gathered: Option<Gathered>, alpha: f64) {
+        if let Some(g) = gathered {
+            let mut f = g.coverage;
+            if f.is_nan() {
+                f = f32::from_bits(self.cover[pixel].load(Ordering::Relaxed));
+            } else {
+                self.cover[pixel].store(f.to_bits(), Ordering::Relaxed);
+            }
+            let f = (f as f64).clamp(0.05, 1.0);
+            let b = &self.bias[pixel];
+            b.store(
+                (load_f64(b) + g.value * (1.0 - f) / f).to_bits(),
+                Ordering::Relaxed,
+            );
+        }
+        let r2_used = gathered.map(|g| g.r2);
         let nb = self.bands;
         let mut mean = 0.0;
         for (a, v) in self.sum[pixel * nb..][..nb].iter().zip(value) {
@@ -369,6 +429,11 @@ impl PixelStore {
     }
 
     /// Adds this store's (count, per-band sums, sum of squares) of `pixel` to the arguments.
+    /// Adds this store's boundary-bias sum of `pixel` to `bias`.
+    pub fn read_bias(&self, pixel: usize, bias: &mut f64) {
+        *bias += load_f64(&self.bias[pixel]);
+    }
+
     pub fn read(&self, pixel: usize, n: &mut u64, sum: &mut [f64], sumsq: &mut f64) {
         *n += self.count(pixel) as u64;
         for (s, a) in sum
@@ -437,11 +502,31 @@ mod tests {
     #[test]
     fn pixel_radius_shrinks_by_the_progressive_rule() {
         let s = PixelStore::new(1, 2);
-        s.add_sample(0, &[1.0, 3.0], Some(1.0), 2.0 / 3.0);
+        let g = |r2: f64, value: f64, coverage: f32| {
+            Some(Gathered {
+                r2,
+                value,
+                coverage,
+            })
+        };
+        s.add_sample(0, &[1.0, 3.0], g(1.0, 0.6, 1.0), 2.0 / 3.0);
         assert!((s.r2(0) - (1.0 + 2.0 / 3.0) / 2.0).abs() < 1e-15);
-        s.add_sample(0, &[3.0, 5.0], Some(s.r2(0)), 2.0 / 3.0);
+        s.add_sample(0, &[3.0, 5.0], g(s.r2(0), 0.6, f32::NAN), 2.0 / 3.0);
         let (mut n, mut sum, mut q) = (0, [0.0; 2], 0.0);
         s.read(0, &mut n, &mut sum, &mut q);
         assert_eq!((n, sum, q), (2, [4.0, 8.0], 4.0 + 16.0));
+        // Full coverage: no boundary bias. A disc half covered: its gathered part again.
+        let mut b = 0.0;
+        s.read_bias(0, &mut b);
+        assert_eq!(b, 0.0);
+        s.add_sample(0, &[3.0, 5.0], g(s.r2(0), 0.5, 0.5), 2.0 / 3.0);
+        s.add_sample(0, &[3.0, 5.0], g(s.r2(0), 0.25, f32::NAN), 2.0 / 3.0);
+        s.read_bias(0, &mut b);
+        assert!((b - 0.75).abs() < 1e-12, "{b}");
+        // Probes at samples 1–4, then at powers of two: the 5th sample (count 4) probes,
+        // the 6th does not.
+        assert!(s.probe(0));
+        s.add_sample(0, &[3.0, 5.0], None, 2.0 / 3.0);
+        assert!(!s.probe(0));
     }
 }

@@ -469,6 +469,7 @@ impl Engine<'_> {
                             pixel,
                             &mut rng,
                             store.r2(p),
+                            store.probe(p),
                             &mut buf,
                             &mut beta,
                             &mut es,
@@ -599,8 +600,8 @@ impl Engine<'_> {
                 let k = self.threads_per_group;
                 let chunk = e.div_ceil(k);
                 for i in (tid * chunk)..((tid + 1) * chunk).min(e) {
-                    let (pixel, r2) = own.sample(i, scale, &mut value);
-                    store.add_sample(pixel as usize, &value, r2, self.alpha);
+                    let (pixel, gathered) = own.sample(i, scale, &mut value);
+                    store.add_sample(pixel as usize, &value, gathered, self.alpha);
                 }
             }
             if !grp.barrier.wait(poison) {
@@ -626,15 +627,18 @@ impl Engine<'_> {
         let mut sum = vec![0.0; nb];
         let (mut var_sum, mut mean_sum, mut covered) = (0.0, 0.0, true);
         for p in 0..pixels {
-            let (mut n, mut q) = (0u64, 0.0);
+            let (mut n, mut q, mut bias) = (0u64, 0.0, 0.0);
             sum.iter_mut().for_each(|s| *s = 0.0);
             for s in &self.stores {
                 s.read(p, &mut n, &mut sum, &mut q);
+                s.read_bias(p, &mut bias);
             }
             let nf = n.max(1) as f64;
             let m = sum.iter().sum::<f64>() / (nb as f64 * nf);
+            // The samples' spread, and the boundary bias they all share (`PixelStore`).
+            let bias = bias / nf;
             let se2 = if n >= 2 {
-                ((q - nf * m * m) / (nf - 1.0)).max(0.0) / nf
+                ((q - nf * m * m) / (nf - 1.0)).max(0.0) / nf + bias * bias
             } else {
                 covered = false;
                 f64::INFINITY
