@@ -36,6 +36,24 @@ fn arg<T: std::str::FromStr>(name: &str, default: T) -> T {
 
 const EMITTER_Z: f64 = GREY_ROOM_EMITTER_Z;
 
+/// A render of `method` for `seconds`, defaults otherwise.
+fn params(method: RenderMethod, seconds: f64) -> RenderParams<'static> {
+    RenderParams {
+        method,
+        group_threads: 1,
+        remask_phases: 0,
+        forward_per_pass: 0,
+        initial_radius: 0.0,
+        alpha: 0.0,
+        passes: 0,
+        time_budget_s: seconds,
+        target_rel_error: 0.0,
+        progress_interval_s: 1.0,
+        max_path_events: 10_000,
+        progress: None,
+    }
+}
+
 fn room(threads: usize, seed: u64) -> Context {
     let mut ctx = Context::new(Config {
         threads,
@@ -205,20 +223,7 @@ fn main() {
     let mut budget = 1.0;
     while budget <= max_s && !only_fg {
         let mut ctx = room(threads, 7);
-        let mut p = RenderParams {
-            method: RenderMethod::SemiSynchronous,
-            group_threads: 1,
-            remask_phases: 0,
-            forward_per_pass: 0,
-            initial_radius: 0.0,
-            alpha: 0.0,
-            passes: 0,
-            time_budget_s: budget,
-            target_rel_error: 0.0,
-            progress_interval_s: 1.0,
-            max_path_events: 10_000,
-            progress: None,
-        };
+        let mut p = params(RenderMethod::SemiSynchronous, budget);
         let t = Instant::now();
         let (img, _) = ctx.render(&cam, &mut p).unwrap();
         show(
@@ -245,20 +250,10 @@ fn main() {
                 })
                 .unwrap();
             }
-            let mut p = RenderParams {
-                method: RenderMethod::FinalGather,
-                group_threads: 1,
-                remask_phases: 0,
-                forward_per_pass: 0,
-                initial_radius: 0.0,
-                alpha: 0.0,
-                passes: 0,
-                time_budget_s: budget - t.elapsed().as_secs_f64(),
-                target_rel_error: 0.0,
-                progress_interval_s: 1.0,
-                max_path_events: 10_000,
-                progress: None,
-            };
+            let mut p = params(
+                RenderMethod::FinalGather,
+                budget - t.elapsed().as_secs_f64(),
+            );
             let (img, rep) = ctx.render(&cam, &mut p).unwrap();
             show(
                 variant,

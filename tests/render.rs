@@ -658,6 +658,18 @@ fn furnace(threads: usize, seed: u64) -> Context {
     ctx
 }
 
+/// Inside the furnace looking into a corner, 32 × 32.
+fn furnace_camera() -> CameraDesc {
+    CameraDesc {
+        position: [0.3, 0.3, 0.3],
+        direction: [1.0, 1.0, 1.0],
+        up: [0.0, 0.0, 1.0],
+        fov_y_deg: 70.0,
+        width: 32,
+        height: 32,
+    }
+}
+
 /// Per region of a furnace render (interior; within 0.08 of two walls: edges and the
 /// corner it looks into): (pixels, RMS of actual/estimated error, mean signed relative
 /// error, its standard error).
@@ -699,14 +711,7 @@ fn furnace_regions(img: &Image, cam: &CameraDesc) -> [(f64, f64, f64, f64); 2] {
 /// schedule (photons per pass), which gives the same image on 1 and 3 threads.
 #[test]
 fn final_gathering_has_no_edge_bias_in_a_furnace() {
-    let cam = CameraDesc {
-        position: [0.3, 0.3, 0.3],
-        direction: [1.0, 1.0, 1.0],
-        up: [0.0, 0.0, 1.0],
-        fov_y_deg: 70.0,
-        width: 32,
-        height: 32,
-    };
+    let cam = furnace_camera();
     let check = |img: &Image, what: &str| {
         let regions = furnace_regions(img, &cam);
         for (k, (n, rms_z, mean, se)) in regions.into_iter().enumerate() {
@@ -898,14 +903,7 @@ fn final_gathering_shows_the_caustic_of_a_point_light() {
 /// the edges' figure is 2.2).
 #[test]
 fn the_photon_map_estimate_includes_the_boundary_bias() {
-    let cam = CameraDesc {
-        position: [0.3, 0.3, 0.3],
-        direction: [1.0, 1.0, 1.0],
-        up: [0.0, 0.0, 1.0],
-        fov_y_deg: 70.0,
-        width: 32,
-        height: 32,
-    };
+    let cam = furnace_camera();
     let mut ctx = furnace(2, 6);
     let mut p = params(RenderMethod::SemiSynchronous, 32);
     p.initial_radius = 0.1;

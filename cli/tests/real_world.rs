@@ -422,6 +422,20 @@ fn ply_vertex_colours_and_stl() {
     assert!(stderr(&o).contains(".gltf"), "{}", stderr(&o));
 }
 
+/// The mean green radiance of a 33 × 33 render's 3 × 3 centre pixels (the PFM's rows run
+/// from the bottom: the centre is the centre either way) and the sum of their relative
+/// errors.
+fn centre_green(px: &[f32], err: &[f32], w: usize) -> (f64, f64) {
+    let (mut sum, mut rel) = (0.0, 0.0);
+    for y in 15..18 {
+        for x in 15..18 {
+            sum += px[3 * (y * w + x) + 1] as f64;
+            rel += err[y * w + x] as f64;
+        }
+    }
+    (sum / 9.0, rel)
+}
+
 fn read_pfm(path: &Path) -> (usize, usize, usize, Vec<f32>) {
     let b = std::fs::read(path).unwrap();
     let mut lines = b.splitn(4, |&c| c == b'\n');
@@ -460,24 +474,28 @@ fn render_writes_png_pfm_and_history_with_the_right_radiance() {
     );
     let settings = "up_axis = \"z\"\n[[light]]\nkind = \"point\"\nposition = [0.0, 0.0, 1.0]\npower = 10\n[camera]\nposition = [0.0, 0.0, 3.0]\nlook_at = [0.0, 0.0, 0.0]\nup = [0.0, 1.0, 0.0]\nfov_deg = 40\n[render]\nmethod = \"synchronous\"\n";
     let toml = write(d.path(), "r.toml", settings);
+    // 33 × 33 pixels, 256 passes, 2 threads, seed 1, into `out`.
+    let render_to = |config: &str, out: &Path| {
+        imap(&[
+            "render",
+            &obj,
+            "--config",
+            config,
+            "--size",
+            "33x33",
+            "--passes",
+            "256",
+            "--threads",
+            "2",
+            "--seed",
+            "1",
+            "--quiet",
+            "--out",
+            out.to_str().unwrap(),
+        ])
+    };
     let out = d.path().join("render");
-    let o = imap(&[
-        "render",
-        &obj,
-        "--config",
-        &toml,
-        "--size",
-        "33x33",
-        "--passes",
-        "256",
-        "--threads",
-        "2",
-        "--seed",
-        "1",
-        "--quiet",
-        "--out",
-        out.to_str().unwrap(),
-    ]);
+    let o = render_to(&toml, &out);
     assert!(o.status.success(), "{}", stderr(&o));
     for f in [
         "render.png",
@@ -492,17 +510,7 @@ fn render_writes_png_pfm_and_history_with_the_right_radiance() {
     assert_eq!((w, h, c), (33, 33, 3));
     let (_, _, c1, err) = read_pfm(&out.join("rel_error.pfm"));
     assert_eq!(c1, 1);
-    // The 3 × 3 pixels at the centre (the PFM's rows run from the bottom: the centre is
-    // the centre either way), green channel.
-    let mut sum = 0.0;
-    let mut rel = 0.0;
-    for y in 15..18 {
-        for x in 15..18 {
-            sum += px[3 * (y * w + x) + 1] as f64;
-            rel += err[y * w + x] as f64;
-        }
-    }
-    let got = sum / 9.0;
+    let (got, rel) = centre_green(&px, &err, w);
     let expected = 0.5 * 10.0 / (4.0 * std::f64::consts::PI) / std::f64::consts::PI;
     let sigma = expected * rel / 9.0 / 3.0; // the mean of 9 pixels' errors, ~independent
     assert!(
@@ -521,21 +529,7 @@ fn render_writes_png_pfm_and_history_with_the_right_radiance() {
         settings.replace("method = \"synchronous\"\n", ""),
     );
     let fg = d.path().join("fg");
-    let o = imap(&[
-        "render",
-        &obj,
-        "--config",
-        &plain,
-        "--size",
-        "33x33",
-        "--passes",
-        "256",
-        "--threads",
-        "2",
-        "--quiet",
-        "--out",
-        fg.to_str().unwrap(),
-    ]);
+    let o = render_to(&plain, &fg);
     assert!(o.status.success(), "{}", stderr(&o));
     let report: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(fg.join("render.json")).unwrap()).unwrap();
@@ -543,14 +537,7 @@ fn render_writes_png_pfm_and_history_with_the_right_radiance() {
     assert!(report["map_photons"].as_u64().unwrap() > 0);
     let (w, _, _, px) = read_pfm(&fg.join("radiance.pfm"));
     let (_, _, _, err) = read_pfm(&fg.join("rel_error.pfm"));
-    let (mut sum, mut rel) = (0.0, 0.0);
-    for y in 15..18 {
-        for x in 15..18 {
-            sum += px[3 * (y * w + x) + 1] as f64;
-            rel += err[y * w + x] as f64;
-        }
-    }
-    let got = sum / 9.0;
+    let (got, rel) = centre_green(&px, &err, w);
     let sigma = expected * rel / 9.0 / 3.0;
     assert!(
         (got / expected - 1.0).abs() < 0.02 + 4.0 * sigma / expected,

@@ -124,16 +124,9 @@ impl Context {
             );
         }
         self.prepare_scene()?;
-        let prepared = self.prepared.as_ref().expect("prepared above");
-        let cam = Camera::new(camera, prepared.scene.origin)?;
-        let eye = EyeTracer::new(
-            &self.scene,
-            &prepared.scene,
-            &prepared.accel,
-            &cam,
-            max_events,
-            0.0,
-        );
+        let origin = self.prepared.as_ref().expect("prepared above").scene.origin;
+        let cam = Camera::new(camera, origin)?;
+        let eye = self.eye_tracer(&cam, max_events, 0.0);
         let nb = self.scene.bands.count();
         let pixels = cam.pixels();
         let threads = self.worker_threads().max(1);
@@ -158,15 +151,44 @@ impl Context {
         if let Some(why) = lost {
             bail!(ImapErrThreadLost, "{why}");
         }
-        let mut image = Image {
-            width: camera.width,
-            height: camera.height,
-            bands: nb,
-            radiance: vec![0.0; pixels * nb],
-            rel_error: vec![0.0; pixels],
-        };
+        let mut image = Image::new(camera.width, camera.height, nb);
         store.estimate(&Schedule::default(), None, Some(&mut image));
         Ok(image)
+    }
+
+    /// The eye paths' tracer for `cam` on the prepared scene (no fixed first radius).
+    fn eye_tracer<'a>(
+        &'a self,
+        cam: &'a Camera,
+        max_events: u32,
+        initial_radius: f64,
+    ) -> EyeTracer<'a> {
+        let prepared = self.prepared.as_ref().expect("prepared before a render");
+        EyeTracer::new(
+            &self.scene,
+            &prepared.scene,
+            &prepared.accel,
+            cam,
+            max_events,
+            initial_radius,
+        )
+    }
+
+    /// A render's forward photon tracer: it records nothing (sensors are left out, and
+    /// cameras do not see them: they are not in `accel`).
+    fn render_tracer(&self, max_events: u32) -> Tracer<'_> {
+        let prepared = self.prepared.as_ref().expect("prepared before a render");
+        Tracer {
+            scene: &prepared.scene,
+            accel: &prepared.accel,
+            sensors: None,
+            materials: &self.scene.materials,
+            bands: self.scene.bands.count(),
+            seed: self.config.seed,
+            unit_m: self.config.unit_m,
+            max_events,
+            direct: None,
+        }
     }
 
     /// The report of the last render since the last reset.
@@ -209,27 +231,8 @@ impl Context {
                 params.method
             ),
         )?;
-        let eye = EyeTracer::new(
-            &self.scene,
-            &prepared.scene,
-            &prepared.accel,
-            &cam,
-            params.max_path_events,
-            params.initial_radius,
-        );
-        // The render's photons record nothing: sensors are left out (and cameras do not see
-        // them: they are not in `accel`).
-        let fwd = Tracer {
-            scene: &prepared.scene,
-            accel: &prepared.accel,
-            sensors: None,
-            materials: &self.scene.materials,
-            bands: nb,
-            seed: self.config.seed,
-            unit_m: self.config.unit_m,
-            max_events: params.max_path_events,
-            direct: None,
-        };
+        let eye = self.eye_tracer(&cam, params.max_path_events, params.initial_radius);
+        let fwd = self.render_tracer(params.max_path_events);
         let (image, report, lost) = render::render(&eye, fwd, params, threads, self.config.seed);
         self.last_render = Some(report.clone());
         let lost = lost.map(|why| {
@@ -535,26 +538,8 @@ impl Context {
                     continue;
                 }
                 GatherStep::Caustic(n) => {
-                    let prepared = self.prepared.as_ref().expect("prepared above");
-                    let eye = EyeTracer::new(
-                        &self.scene,
-                        &prepared.scene,
-                        &prepared.accel,
-                        &cam,
-                        max_events,
-                        0.0,
-                    );
-                    let fwd = Tracer {
-                        scene: &prepared.scene,
-                        accel: &prepared.accel,
-                        sensors: None,
-                        materials: &self.scene.materials,
-                        bands: nb,
-                        seed,
-                        unit_m: self.config.unit_m,
-                        max_events,
-                        direct: None,
-                    };
+                    let eye = self.eye_tracer(&cam, max_events, 0.0);
+                    let fwd = self.render_tracer(max_events);
                     let t0 = Instant::now();
                     stop_flag.store(false, Ordering::Relaxed);
                     let c = caustics.as_ref().expect("with caustics");
@@ -585,15 +570,7 @@ impl Context {
                 t_read += t0.elapsed().as_secs_f64();
             }
             // A batch of eye passes.
-            let prepared = self.prepared.as_ref().expect("prepared above");
-            let mut eye = EyeTracer::new(
-                &self.scene,
-                &prepared.scene,
-                &prepared.accel,
-                &cam,
-                max_events,
-                0.0,
-            );
+            let mut eye = self.eye_tracer(&cam, max_events, 0.0);
             eye.map = map.as_ref();
             let up_to = if fixed > 0 {
                 err.min_samples.saturating_add(1)
@@ -651,13 +628,7 @@ impl Context {
             }
         }
         let wall_s = start.elapsed().as_secs_f64();
-        let mut image = Image {
-            width: camera.width,
-            height: camera.height,
-            bands: nb,
-            radiance: vec![0.0; pixels * nb],
-            rel_error: vec![0.0; pixels],
-        };
+        let mut image = Image::new(camera.width, camera.height, nb);
         let err = store.estimate(&schedule, caustics.as_ref(), Some(&mut image));
         let last = Progress {
             region_rel_error: 0.0,

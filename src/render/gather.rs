@@ -301,125 +301,140 @@ pub fn passes(
     }
     let items = (batch.up_to - first_pass) as u64 * nc as u64;
     let next = AtomicU64::new(0);
-    let finished = AtomicUsize::new(0);
-    let lost: Mutex<Option<String>> = Mutex::new(None);
     let tally = Mutex::new(EyeStats::default());
     let seed = seed ^ GATHER_DOMAIN;
     let nb = store.bands;
     let mut cut = false;
+    let work = |_: usize| {
+        let mut stats = EyeStats::default();
+        let (mut beta, mut scratch) = (Vec::new(), Vec::new());
+        let mut one = vec![0.0; nb];
+        let mut reads = Vec::new();
+        let scale = (batch.map_photons as f64).sqrt();
+        while !batch.stop.load(Ordering::Relaxed) {
+            let i = next.fetch_add(1, Ordering::Relaxed);
+            if i >= items {
+                break;
+            }
+            let target = first_pass + (i / nc as u64) as u32 + 1;
+            let mut c = store.chunks[(i % nc as u64) as usize]
+                .lock()
+                .unwrap_or_else(|e| e.into_inner());
+            let first = c.first;
+            let before = stats.paths;
+            // Every pixel of the chunk up to `target` samples (an item of a later pass may
+            // have taken the lock first and done this one's).
+            let mut k = 0;
+            while k < c.n.len() {
+                if c.n[k] >= target {
+                    k += 1;
+                    continue;
+                }
+                let p = first + k;
+                let mut rng = PhotonRng::new(seed, ((p as u64) << 32) | c.n[k] as u64);
+                one.fill(0.0);
+                reads.clear();
+                eye.path_sample(
+                    p as u32,
+                    &mut rng,
+                    &mut one,
+                    &mut beta,
+                    &mut scratch,
+                    &mut reads,
+                    &mut stats,
+                );
+                let m = one.iter().sum::<f64>() / nb as f64;
+                c.s1[k] += m;
+                c.s2[k] += m * m;
+                for r in &reads {
+                    let (b, sign) = bucket(r.key);
+                    c.sketch[k * SKETCH + b] += sign * r.sigma * scale;
+                }
+                c.n[k] += 1;
+                for (a, x) in c.sum[k * nb..(k + 1) * nb].iter_mut().zip(&one) {
+                    *a += x;
+                }
+            }
+            store
+                .samples
+                .fetch_add(stats.paths - before, Ordering::Relaxed);
+        }
+        let mut t = tally.lock().unwrap_or_else(|e| e.into_inner());
+        t.paths += stats.paths;
+        t.rays += stats.rays;
+        t.dropped += stats.dropped;
+    };
+    let mut next_tick = Instant::now().checked_add(tick);
+    let lost = run_workers("imap-gather", threads, batch.stop, work, || {
+        if batch.stop.load(Ordering::Relaxed) {
+            cut = true;
+            return;
+        }
+        let now = Instant::now();
+        if batch.deadline.is_some_and(|d| now >= d) {
+            cut = true;
+            batch.stop.store(true, Ordering::Relaxed);
+            return;
+        }
+        if next_tick.is_some_and(|t| now >= t) {
+            let t0 = Instant::now();
+            if monitor() {
+                cut = true;
+                batch.stop.store(true, Ordering::Relaxed);
+            }
+            // The next tick: one interval on, or later when the monitor was slow.
+            next_tick = Instant::now().checked_add(tick.max(t0.elapsed().mul_f64(20.0)));
+        }
+    });
+    let stats = tally.into_inner().unwrap_or_else(|e| e.into_inner());
+    (BatchTally { stats, cut }, lost)
+}
+
+/// Runs `work(t)` on `threads` scoped worker threads named `name-t`; the calling thread
+/// calls `idle` every 2 ms until they have all finished. A worker that panics (or cannot
+/// be started) raises `stop` and its message is returned.
+fn run_workers(
+    name: &str,
+    threads: usize,
+    stop: &AtomicBool,
+    work: impl Fn(usize) + Sync,
+    mut idle: impl FnMut(),
+) -> Option<String> {
+    let finished = AtomicUsize::new(0);
+    let lost: Mutex<Option<String>> = Mutex::new(None);
+    let lose = |why: String| {
+        *lost.lock().unwrap_or_else(|e| e.into_inner()) = Some(why);
+        stop.store(true, Ordering::Relaxed);
+    };
     std::thread::scope(|s| {
         let mut spawned = 0;
         for t in 0..threads.max(1) {
-            let (next, finished, lost, tally) = (&next, &finished, &lost, &tally);
+            let (work, finished, lose) = (&work, &finished, &lose);
             let r = std::thread::Builder::new()
-                .name(format!("imap-gather-{t}"))
+                .name(format!("{name}-{t}"))
                 .spawn_scoped(s, move || {
                     crate::error::quiet_thread();
                     let r = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
                         crate::fault::at(crate::fault::Point::Render);
-                        let mut stats = EyeStats::default();
-                        let (mut beta, mut scratch) = (Vec::new(), Vec::new());
-                        let mut one = vec![0.0; nb];
-                        let mut reads = Vec::new();
-                        let scale = (batch.map_photons as f64).sqrt();
-                        while !batch.stop.load(Ordering::Relaxed) {
-                            let i = next.fetch_add(1, Ordering::Relaxed);
-                            if i >= items {
-                                break;
-                            }
-                            let target = first_pass + (i / nc as u64) as u32 + 1;
-                            let mut c = store.chunks[(i % nc as u64) as usize]
-                                .lock()
-                                .unwrap_or_else(|e| e.into_inner());
-                            let first = c.first;
-                            let before = stats.paths;
-                            // Every pixel of the chunk up to `target` samples (an item of a
-                            // later pass may have taken the lock first and done this one's).
-                            let mut k = 0;
-                            while k < c.n.len() {
-                                if c.n[k] >= target {
-                                    k += 1;
-                                    continue;
-                                }
-                                let p = first + k;
-                                let mut rng =
-                                    PhotonRng::new(seed, ((p as u64) << 32) | c.n[k] as u64);
-                                one.fill(0.0);
-                                reads.clear();
-                                eye.path_sample(
-                                    p as u32,
-                                    &mut rng,
-                                    &mut one,
-                                    &mut beta,
-                                    &mut scratch,
-                                    &mut reads,
-                                    &mut stats,
-                                );
-                                let m = one.iter().sum::<f64>() / nb as f64;
-                                c.s1[k] += m;
-                                c.s2[k] += m * m;
-                                for r in &reads {
-                                    let (b, sign) = bucket(r.key);
-                                    c.sketch[k * SKETCH + b] += sign * r.sigma * scale;
-                                }
-                                c.n[k] += 1;
-                                for (a, x) in c.sum[k * nb..(k + 1) * nb].iter_mut().zip(&one) {
-                                    *a += x;
-                                }
-                            }
-                            store
-                                .samples
-                                .fetch_add(stats.paths - before, Ordering::Relaxed);
-                        }
-                        let mut t = tally.lock().unwrap_or_else(|e| e.into_inner());
-                        t.paths += stats.paths;
-                        t.rays += stats.rays;
-                        t.dropped += stats.dropped;
+                        work(t)
                     }));
                     if let Err(e) = r {
                         let msg = crate::error::panic_message(&*e);
-                        *lost.lock().unwrap_or_else(|e| e.into_inner()) =
-                            Some(format!("render thread {t} panicked: {msg}"));
-                        batch.stop.store(true, Ordering::Relaxed);
+                        lose(format!("render thread {t} panicked: {msg}"));
                     }
                     finished.fetch_add(1, Ordering::Release);
                 });
             match r {
                 Ok(_) => spawned += 1,
-                Err(e) => {
-                    *lost.lock().unwrap_or_else(|e| e.into_inner()) =
-                        Some(format!("could not start a render thread: {e}"));
-                    batch.stop.store(true, Ordering::Relaxed);
-                }
+                Err(e) => lose(format!("could not start a render thread: {e}")),
             }
         }
-        let mut next_tick = Instant::now().checked_add(tick);
         while finished.load(Ordering::Acquire) < spawned {
-            std::thread::sleep(Duration::from_millis(2).min(tick));
-            if batch.stop.load(Ordering::Relaxed) {
-                cut = true;
-                continue;
-            }
-            let now = Instant::now();
-            if batch.deadline.is_some_and(|d| now >= d) {
-                cut = true;
-                batch.stop.store(true, Ordering::Relaxed);
-                continue;
-            }
-            if next_tick.is_some_and(|t| now >= t) {
-                let t0 = Instant::now();
-                if monitor() {
-                    cut = true;
-                    batch.stop.store(true, Ordering::Relaxed);
-                }
-                // The next tick: one interval on, or later when the monitor was slow.
-                next_tick = Instant::now().checked_add(tick.max(t0.elapsed().mul_f64(20.0)));
-            }
+            std::thread::sleep(Duration::from_millis(2));
+            idle();
         }
     });
-    let stats = tally.into_inner().unwrap_or_else(|e| e.into_inner());
-    let lost = lost.into_inner().unwrap_or_else(|e| e.into_inner());
-    (BatchTally { stats, cut }, lost)
+    lost.into_inner().unwrap_or_else(|e| e.into_inner())
 }
 
 /// Photons per round of caustic light tracing (`Caustics`).
@@ -564,68 +579,46 @@ pub fn caustic_rounds(
 ) -> (u64, Option<String>) {
     let next = AtomicU64::new(0);
     let done = AtomicU64::new(0);
-    let lost: Mutex<Option<String>> = Mutex::new(None);
     let fwd = Tracer {
         seed: fwd.seed ^ CAUSTIC_DOMAIN,
         ..*fwd
     };
     let flux = eye.scene.total_power / (eye.bands as f64 * CAUSTIC_ROUND as f64);
-    std::thread::scope(|s| {
-        for t in 0..threads.max(1) {
-            let (next, done, lost, fwd) = (&next, &done, &lost, &fwd);
-            let r = std::thread::Builder::new()
-                .name(format!("imap-caustic-{t}"))
-                .spawn_scoped(s, move || {
-                    crate::error::quiet_thread();
-                    let r = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
-                        crate::fault::at(crate::fault::Point::Render);
-                        let mut colour = Colour::new(eye.bands);
-                        let mut stats = PathStats::new(eye.scene.meshes.len());
-                        loop {
-                            let i = next.fetch_add(1, Ordering::Relaxed);
-                            if i >= count || stop.load(Ordering::Relaxed) {
-                                break;
-                            }
-                            let round = first + i;
-                            let mut sink = CausticSink {
-                                eye,
-                                delta,
-                                flux,
-                                alive: false,
-                                splats: Vec::new(),
-                            };
-                            let mut whole = true;
-                            for k in 0..CAUSTIC_ROUND {
-                                let id = round * CAUSTIC_ROUND + k;
-                                if !fwd.trace(id, &mut colour, &mut sink, &mut stats, stop) {
-                                    whole = false;
-                                    break;
-                                }
-                            }
-                            if whole {
-                                caustics
-                                    .lock()
-                                    .unwrap_or_else(|e| e.into_inner())
-                                    .add_round(sink.splats);
-                                done.fetch_add(1, Ordering::Relaxed);
-                            }
-                        }
-                    }));
-                    if let Err(e) = r {
-                        let msg = crate::error::panic_message(&*e);
-                        *lost.lock().unwrap_or_else(|e| e.into_inner()) =
-                            Some(format!("render thread {t} panicked: {msg}"));
-                        stop.store(true, Ordering::Relaxed);
-                    }
-                });
-            if let Err(e) = r {
-                *lost.lock().unwrap_or_else(|e| e.into_inner()) =
-                    Some(format!("could not start a render thread: {e}"));
-                stop.store(true, Ordering::Relaxed);
+    let work = |_: usize| {
+        let mut colour = Colour::new(eye.bands);
+        let mut stats = PathStats::new(eye.scene.meshes.len());
+        loop {
+            let i = next.fetch_add(1, Ordering::Relaxed);
+            if i >= count || stop.load(Ordering::Relaxed) {
+                break;
+            }
+            let round = first + i;
+            let mut sink = CausticSink {
+                eye,
+                delta,
+                flux,
+                alive: false,
+                splats: Vec::new(),
+            };
+            let whole = (0..CAUSTIC_ROUND).all(|k| {
+                fwd.trace(
+                    round * CAUSTIC_ROUND + k,
+                    &mut colour,
+                    &mut sink,
+                    &mut stats,
+                    stop,
+                )
+            });
+            if whole {
+                caustics
+                    .lock()
+                    .unwrap_or_else(|e| e.into_inner())
+                    .add_round(sink.splats);
+                done.fetch_add(1, Ordering::Relaxed);
             }
         }
-    });
-    let lost = lost.into_inner().unwrap_or_else(|e| e.into_inner());
+    };
+    let lost = run_workers("imap-caustic", threads, stop, work, || {});
     (done.load(Ordering::Relaxed), lost)
 }
 

@@ -135,6 +135,21 @@ pub struct Image {
     pub rel_error: Vec<f64>,
 }
 
+impl Image {
+    /// A black image of `width × height` pixels and `bands` bands, every pixel's error
+    /// still to be filled.
+    pub fn new(width: u32, height: u32, bands: usize) -> Self {
+        let pixels = width as usize * height as usize;
+        Image {
+            width,
+            height,
+            bands,
+            radiance: vec![0.0; pixels * bands],
+            rel_error: vec![0.0; pixels],
+        }
+    }
+}
+
 /// A barrier that gives up (returns false) when the render is poisoned by a lost thread.
 struct Barrier {
     n: usize,
@@ -872,13 +887,7 @@ pub fn render(
         }
     });
     let wall_s = start.elapsed().as_secs_f64();
-    let mut image = Image {
-        width: desc.width,
-        height: desc.height,
-        bands: nb,
-        radiance: vec![0.0; pixels * nb],
-        rel_error: vec![0.0; pixels],
-    };
+    let mut image = Image::new(desc.width, desc.height, nb);
     let rel_error = engine.estimate(Some(&mut image));
     let t = &engine.totals;
     let last = Progress {
