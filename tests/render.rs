@@ -778,6 +778,22 @@ fn final_gathering_has_no_edge_bias_in_a_furnace() {
     );
     check(&img, "map run by the render");
     let (again, _) = render(&mut furnace(1, 4), &cam, &mut p);
+    // A shard's map (photons of shard 1 of 2) is read as it is: continuing it with every
+    // photon would take the other shard's indices.
+    let mut shard = furnace(2, 4);
+    let rep = shard
+        .run(&mut imap::RunParams {
+            photons: photons(20_000),
+            progress_interval_s: 1.0,
+            selection: imap::Selection::shard(1, 2),
+            ..Default::default()
+        })
+        .unwrap();
+    let mut q = params(RenderMethod::FinalGather, 4);
+    q.forward_per_pass = 1 << 20;
+    let (_, r) = render(&mut shard, &cam, &mut q);
+    assert_eq!(r.forward_photons, 0);
+    assert_eq!(shard.report().photons, rep.photons);
     let worst = again
         .radiance
         .iter()

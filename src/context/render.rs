@@ -398,7 +398,15 @@ impl Context {
             stop: None,
         };
         let mut map: Option<MapIndirect> = None;
-        let mut map_frozen = !records;
+        // The render extends a map that is empty or holds photons 0..N: one that holds a
+        // shard's or a range's photons is read as it is (continuing it with every photon
+        // would take other shards' indices and count them twice in a merge).
+        let sequential = match self.traced.ranges() {
+            [] => true,
+            [r] => r.start == 0,
+            _ => false,
+        };
+        let mut map_frozen = !records || !sequential;
         let (mut t_eye, mut t_map, mut t_read, mut t_caustic) = (0.0f64, 0.0, 0.0, 0.0f64);
         let mut stats = EyeStats::default();
         let mut err = GatherError {
