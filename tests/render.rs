@@ -794,6 +794,19 @@ fn final_gathering_has_no_edge_bias_in_a_furnace() {
     let (_, r) = render(&mut shard, &cam, &mut q);
     assert_eq!(r.forward_photons, 0);
     assert_eq!(shard.report().photons, rep.photons);
+    // A long map slice still answers the callback: a render asked for 2^40 photons a pass
+    // stops when its callback says so, soon.
+    let mut long = furnace(2, 4);
+    let t0 = std::time::Instant::now();
+    let mut cancel = |p: &imap::Progress| p.elapsed_s < 0.3;
+    let mut q = RenderParams {
+        forward_per_pass: 1 << 40,
+        progress: Some(&mut cancel),
+        ..params(RenderMethod::FinalGather, 4)
+    };
+    let (_, r) = render(&mut long, &cam, &mut q);
+    assert_eq!(r.stop, Some(imap::StopReason::Cancelled));
+    assert!(t0.elapsed().as_secs_f64() < 5.0, "{:?}", t0.elapsed());
     let worst = again
         .radiance
         .iter()

@@ -514,7 +514,22 @@ impl Context {
                     let t0 = Instant::now();
                     let before = self.photons();
                     let until = end;
-                    let mut in_time = |_: &Progress| until.is_none_or(|e| Instant::now() < e);
+                    let paths = stats.paths;
+                    // The map's progress points carry on the render's: its callback (which
+                    // may cancel) and its time budget still rule during a slice.
+                    let mut in_time = |p: &Progress| {
+                        if until.is_some_and(|e| Instant::now() >= e) {
+                            return false;
+                        }
+                        if mon.due() {
+                            let t1 = Instant::now();
+                            if mon.tick(&err, p.photons, paths) {
+                                return false;
+                            }
+                            mon.ticked(t1.elapsed());
+                        }
+                        true
+                    };
                     let r = self.run(&mut RunParams {
                         photons,
                         time_budget_s: if photons > 0 {
