@@ -255,6 +255,11 @@ pub fn vertex_areas(g: &Geometry) -> Vec<f64> {
 /// and absorbing glass, a spot and a point light and an emitting panel. Returns the context
 /// and the recording meshes' ids.
 pub fn mixed_room(config: Config) -> (Context, Vec<u32>) {
+    mixed_room_lit(config, true)
+}
+
+/// `mixed_room`, with its point-like lights or lit by its emitting panel alone.
+pub fn mixed_room_lit(config: Config, point_lights: bool) -> (Context, Vec<u32>) {
     let mut ctx = context(config);
     let bands = ctx.scene().bands.count();
     let ramp = |a: f64, b: f64| -> Vec<f64> {
@@ -311,10 +316,12 @@ pub fn mixed_room(config: Config) -> (Context, Vec<u32>) {
     let exitance = ramp(50.0, 20.0);
     lamp.exitance = Some(&exitance);
     ctx.add_mesh(&lamp).unwrap();
-    ctx.add_point_light([1.0, -1.0, 2.0], &ramp(5.0, 9.0))
-        .unwrap();
-    ctx.add_spot_light([-1.0, 1.0, 2.5], [0.2, 0.1, -1.0], 0.4, &[3.0])
-        .unwrap();
+    if point_lights {
+        ctx.add_point_light([1.0, -1.0, 2.0], &ramp(5.0, 9.0))
+            .unwrap();
+        ctx.add_spot_light([-1.0, 1.0, 2.5], [0.2, 0.1, -1.0], 0.4, &[3.0])
+            .unwrap();
+    }
     (ctx, ids)
 }
 
