@@ -28,7 +28,8 @@ pub const IMAP_RENDER_SEMI_SYNC: u32 = 2;
 /// sampled there). No photon-map radius, so no blur and no bias at edges and corners; each
 /// pixel's error includes the map's. **The render extends the context's map** (it runs it
 /// in slices between passes, starting it when empty), so the map is there to read
-/// afterwards; a map holding a shard's or a range's photons (not 0..N) is read as it is. `forward_per_pass` > 0: before pass k the map holds at least (k + 1) ×
+/// afterwards; a map holding a shard's or a range's photons (not 0..N) is read as it is.
+/// `forward_per_pass` > 0: before pass k the map holds at least (k + 1) ×
 /// forward_per_pass photons, and the image is the same for a seed on any thread count
 /// (up to rounding); 0: the map's time is balanced against the eye paths' by their
 /// measured errors. `group_threads`, `remask_phases`, `initial_radius` and `alpha` are not
