@@ -15,6 +15,9 @@
 //!     cargo run --release --example daylight_bench -- [--threads 2] [--max-seconds 20]
 //!         [--cie-type 12] [--open]
 
+mod common;
+
+use common::arg;
 use imap::photometry::Spectrum;
 use imap::scene::sky::{cie_luminance, SkyAmount, SkyDesc, SkyKind};
 use imap::{Config, Context, Estimator, MaterialDesc, MeshDesc, RunParams};
@@ -22,15 +25,6 @@ use std::time::Instant;
 
 const N: usize = 16;
 const HEIGHT: f64 = 1.0;
-
-fn arg<T: std::str::FromStr>(name: &str, default: T) -> T {
-    let a: Vec<String> = std::env::args().collect();
-    a.iter()
-        .position(|x| x == name)
-        .and_then(|i| a.get(i + 1))
-        .and_then(|v| v.parse().ok())
-        .unwrap_or(default)
-}
 
 fn quad(ctx: &mut Context, m: u32, p: [[f64; 3]; 4]) {
     let pos: Vec<f64> = p.iter().flatten().copied().collect();

@@ -21,18 +21,12 @@
 //!         [--reference-spp 4096] [--max-seconds 64] [--final-gather-only | --semi-only]
 //!         [--verbose]
 
+mod common;
+
+use common::arg;
 use imap::scenes::{grey_room, GREY_ROOM_EMITTER_Z};
 use imap::{CameraDesc, Config, Context, Image, LayerRequest, RenderMethod, RenderParams};
 use std::time::Instant;
-
-fn arg<T: std::str::FromStr>(name: &str, default: T) -> T {
-    let a: Vec<String> = std::env::args().collect();
-    a.iter()
-        .position(|x| x == name)
-        .and_then(|i| a.get(i + 1))
-        .and_then(|v| v.parse().ok())
-        .unwrap_or(default)
-}
 
 const EMITTER_Z: f64 = GREY_ROOM_EMITTER_Z;
 

@@ -21,6 +21,18 @@ use std::f64::consts::PI;
 
 const ESTIMATORS: [Estimator; 3] = [Estimator::Photons, Estimator::DEFAULT, Estimator::GATHER];
 
+/// The sun of an equal-energy spectrum at `azimuth_deg`/`zenith_deg` over a z-up scene,
+/// direct normal irradiance `en` W/m² over all bands.
+fn equal_sun(azimuth_deg: f64, zenith_deg: f64, en: f64) -> SunDesc {
+    SunDesc {
+        azimuth_deg,
+        zenith_deg,
+        amount: SkyAmount::NormalIrradiance(en),
+        spectrum: Spectrum::Equal,
+        ..SunDesc::default()
+    }
+}
+
 /// (value, relative error) of every vertex of mesh `id` on `side`, band 0.
 fn values(ctx: &Context, id: u32, side: u32) -> Vec<(f64, f64)> {
     let n = ctx.vertex_count(id).unwrap();
@@ -308,15 +320,7 @@ fn the_sun_patch_lies_where_the_sun_puts_it_with_en_cos_theta() {
     let en = 900.0;
     for (seed, estimator) in ESTIMATORS.into_iter().enumerate() {
         let (mut ctx, id, floor) = roof_room(30 + seed as u64);
-        ctx.add_sun(&SunDesc {
-            azimuth_deg: 200.0,
-            zenith_deg: 20.0,
-            amount: SkyAmount::NormalIrradiance(en),
-            spectrum: Spectrum::Equal,
-            zenith: [0.0, 0.0, 1.0],
-            north: [0.0, 1.0, 0.0],
-        })
-        .unwrap();
+        ctx.add_sun(&equal_sun(200.0, 20.0, en)).unwrap();
         run_with(&mut ctx, photons(200_000), estimator);
         // A vertex's support reaches 0.125 m; the penumbra is 1 m · tan 0.265° / cos 20°
         // ≈ 0.5 cm wide: vertices whose support is wholly inside the patch read
@@ -472,16 +476,7 @@ fn distant_light_keeps_its_energy_balance_and_light_groups() {
     // groups add up to the map.
     let (mut ctx, id, _) = roof_room(50);
     let sky = ctx.add_sky(&uniform_sky(3.0, false)).unwrap();
-    let sun = ctx
-        .add_sun(&SunDesc {
-            azimuth_deg: 180.0,
-            zenith_deg: 10.0,
-            amount: SkyAmount::NormalIrradiance(300.0),
-            spectrum: Spectrum::Equal,
-            zenith: [0.0, 0.0, 1.0],
-            north: [0.0, 1.0, 0.0],
-        })
-        .unwrap();
+    let sun = ctx.add_sun(&equal_sun(180.0, 10.0, 300.0)).unwrap();
     // Reported "flux": the horizontal irradiance each gives an open plane.
     let (w, _) = ctx.light_flux(sky).unwrap();
     assert!((w.iter().sum::<f64>() - 3.0 * PI).abs() < 1e-9, "{w:?}");
@@ -531,15 +526,7 @@ fn the_renderer_sees_the_sky_and_a_floor_lit_by_it_and_the_sun() {
     ctx.add_mesh(&grid(8, -4.0, 4.0, -4.0, 4.0, 0.0).desc(grey))
         .unwrap();
     ctx.add_sky(&uniform_sky(3.0, false)).unwrap();
-    ctx.add_sun(&SunDesc {
-        azimuth_deg: 30.0,
-        zenith_deg: 40.0,
-        amount: SkyAmount::NormalIrradiance(9.0),
-        spectrum: Spectrum::Equal,
-        zenith: [0.0, 0.0, 1.0],
-        north: [0.0, 1.0, 0.0],
-    })
-    .unwrap();
+    ctx.add_sun(&equal_sun(30.0, 40.0, 9.0)).unwrap();
     let mut params = RenderParams {
         method: RenderMethod::Synchronous,
         group_threads: 1,

@@ -6,16 +6,15 @@ use crate::error::{bail, check_finite_scalar, Error, ImapStatus, Result};
 use crate::render::backward::{MapIndirect, MeshIndirect};
 use crate::render::gather::{self, Batch, Caustics, GatherError, GatherStore, Schedule};
 use crate::render::{
-    self, Camera, CameraDesc, EyeStats, EyeTracer, Image, RenderMethod, RenderParams, RenderReport,
+    self, Camera, CameraDesc, EyeStats, EyeTracer, Image, Monitor, RenderMethod, RenderParams,
+    RenderReport,
 };
 use crate::scene::EmitterKind;
-use crate::sched::{
-    duration_s, push_history, Progress, RunParams, StopReason, MIN_PROGRESS_INTERVAL_S,
-};
+use crate::sched::{duration_s, Progress, RunParams, StopReason};
 use crate::transport::Tracer;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Mutex;
-use std::time::Instant;
+use std::time::{Duration, Instant};
 
 impl Context {
     /// Renders the camera's view (camera luminance by backward photon maps). Independent of
@@ -258,62 +257,14 @@ const SLICE_SHARE: f64 = 0.25;
 /// budget), s.
 const FIRST_MAP_S: f64 = 0.5;
 
-/// The monitor of a final-gathering render: progress ticks, the history, the callback and
-/// the stop criteria.
-struct GatherMonitor<'p, 'a> {
-    params: &'p mut RenderParams<'a>,
-    start: Instant,
-    interval: std::time::Duration,
-    next_tick: Option<Instant>,
-    history: Vec<Progress>,
-    stop: Option<StopReason>,
-}
-
-impl GatherMonitor<'_, '_> {
-    /// A progress point; calls the callback and checks the criteria. True: stop.
-    fn tick(&mut self, err: &GatherError, photons: u64, paths: u64) -> bool {
-        let p = Progress {
-            region_rel_error: 0.0,
-            elapsed_s: self.start.elapsed().as_secs_f64(),
-            photons,
-            hits: paths,
-            rel_error: err.rel_error,
-        };
-        push_history(&mut self.history, p);
-        let mut why = None;
-        if let Some(cb) = self.params.progress.as_mut() {
-            if !cb(&p) {
-                why = Some(StopReason::Cancelled);
-            }
-        }
-        why = why.or(self.criteria(err, p.elapsed_s));
-        if why.is_some() {
-            self.stop = self.stop.or(why);
-        }
-        self.stop.is_some()
-    }
-
-    /// The time and error criteria (the passes are checked between steps).
-    fn criteria(&self, err: &GatherError, elapsed_s: f64) -> Option<StopReason> {
-        let p = &*self.params;
-        if p.time_budget_s > 0.0 && elapsed_s >= p.time_budget_s {
-            Some(StopReason::TimeBudget)
-        } else if p.target_rel_error > 0.0
-            && err.min_samples >= 2
-            && err.rel_error <= p.target_rel_error
-        {
-            Some(StopReason::TargetError)
-        } else {
-            None
-        }
-    }
-
-    fn due(&self) -> bool {
-        self.next_tick.is_none_or(|t| Instant::now() >= t)
-    }
-
-    fn ticked(&mut self, took: std::time::Duration) {
-        self.next_tick = Instant::now().checked_add(self.interval.max(took.mul_f64(20.0)));
+/// A final-gathering render's progress point.
+fn gather_point(start: Instant, err: &GatherError, photons: u64, paths: u64) -> Progress {
+    Progress {
+        region_rel_error: 0.0,
+        elapsed_s: start.elapsed().as_secs_f64(),
+        photons,
+        hits: paths,
+        rel_error: err.rel_error,
     }
 }
 
@@ -388,15 +339,8 @@ impl Context {
             .then(|| crate::sched::deadline(start, params.time_budget_s))
             .flatten();
         let photons_before = self.photons();
-        let interval = duration_s(params.progress_interval_s.max(MIN_PROGRESS_INTERVAL_S));
-        let mut mon = GatherMonitor {
-            params,
-            start,
-            interval,
-            next_tick: start.checked_add(interval),
-            history: Vec::new(),
-            stop: None,
-        };
+        let mut mon = Monitor::new(params, start);
+        let interval = mon.interval();
         let mut map: Option<MapIndirect> = None;
         // The render extends a map that is empty or holds photons 0..N: one that holds a
         // shard's or a range's photons is read as it is (continuing it with every photon
@@ -417,10 +361,8 @@ impl Context {
         let mut batches = 0u64;
         let mut schedule = Schedule::default();
         let stop_flag = AtomicBool::new(false);
-        let rounds = |c: &Option<Mutex<Caustics>>| {
-            c.as_ref()
-                .map_or(0, |c| c.lock().unwrap_or_else(|e| e.into_inner()).rounds())
-        };
+        // Caustic rounds traced whole, and the next round's index.
+        let (mut done_rounds, mut next_round) = (0u64, 0u64);
         loop {
             let now = start.elapsed().as_secs_f64();
             let left = end.map(|e| e.saturating_duration_since(Instant::now()).as_secs_f64());
@@ -433,7 +375,6 @@ impl Context {
             let slice = (SLICE_SHARE * now)
                 .clamp(SLICE_MIN_S, SLICE_MAX_S)
                 .min(left.unwrap_or(f64::MAX));
-            let done_rounds = rounds(&caustics);
             let pass = err.min_samples as u64;
             let passes_done = mon.params.passes > 0 && pass >= mon.params.passes;
             if fixed > 0 && passes_done {
@@ -521,14 +462,12 @@ impl Context {
                         if until.is_some_and(|e| Instant::now() >= e) {
                             return false;
                         }
-                        if mon.due() {
-                            let t1 = Instant::now();
-                            if mon.tick(&err, p.photons, paths) {
-                                return false;
-                            }
-                            mon.ticked(t1.elapsed());
-                        }
-                        true
+                        !(mon.due()
+                            && mon.tick(
+                                gather_point(start, &err, p.photons, paths),
+                                err.min_samples >= 2,
+                                Duration::ZERO,
+                            ))
                     };
                     let r = self.run(&mut RunParams {
                         photons,
@@ -566,16 +505,11 @@ impl Context {
                     let t0 = Instant::now();
                     stop_flag.store(false, Ordering::Relaxed);
                     let c = caustics.as_ref().expect("with caustics");
-                    let (_, gone) = gather::caustic_rounds(
-                        &eye,
-                        &fwd,
-                        &delta,
-                        c,
-                        done_rounds,
-                        n,
-                        threads,
-                        &stop_flag,
+                    let (whole, gone) = gather::caustic_rounds(
+                        &eye, &fwd, &delta, c, next_round, n, threads, &stop_flag,
                     );
+                    done_rounds += whole;
+                    next_round += n;
                     t_caustic += t0.elapsed().as_secs_f64();
                     if let Some(why) = gone {
                         lost = Some(thread_lost(why));
@@ -629,9 +563,8 @@ impl Context {
                     let mut now = schedule.clone();
                     now.add(photons_now, store.samples() - samples_before);
                     let e = store.estimate(&now, caustics.as_ref(), None);
-                    let stop = mon.tick(&e, photons_now, e.samples);
-                    mon.ticked(t1.elapsed());
-                    stop
+                    let p = gather_point(start, &e, photons_now, e.samples);
+                    mon.tick(p, e.min_samples >= 2, t1.elapsed())
                 });
             t_eye += t0.elapsed().as_secs_f64();
             batches += 1;
@@ -660,10 +593,7 @@ impl Context {
             hits: stats.paths,
             rel_error: err.rel_error,
         };
-        push_history(&mut mon.history, last);
-        if let Some(cb) = mon.params.progress.as_mut() {
-            cb(&last);
-        }
+        mon.finish(last);
         let report = RenderReport {
             threads,
             groups: 1,
@@ -673,7 +603,7 @@ impl Context {
             backward_paths: stats.paths,
             backward_rays: stats.rays,
             forward_photons: self.photons() - photons_before,
-            gathers: rounds(&caustics) * gather::CAUSTIC_ROUND,
+            gathers: done_rounds * gather::CAUSTIC_ROUND,
             wall_s,
             stop: Some(mon.stop.unwrap_or(StopReason::PhotonCount)),
             rel_error: err.rel_error,
@@ -694,13 +624,13 @@ impl Context {
 
     /// After a step of a final-gathering render: the stop criteria, and a progress point
     /// when one is due.
-    fn gather_tick(&self, mon: &mut GatherMonitor, err: &GatherError, paths: u64) {
-        let why = mon.criteria(err, mon.start.elapsed().as_secs_f64());
+    fn gather_tick(&self, mon: &mut Monitor, err: &GatherError, paths: u64) {
+        let settled = err.min_samples >= 2;
+        let why = mon.criteria(err.rel_error, settled, mon.start.elapsed().as_secs_f64());
         mon.stop = mon.stop.or(why);
         if mon.stop.is_none() && mon.due() {
-            let t1 = Instant::now();
-            mon.tick(err, self.photons(), paths);
-            mon.ticked(t1.elapsed());
+            let p = gather_point(mon.start, err, self.photons(), paths);
+            mon.tick(p, settled, Duration::ZERO);
         }
     }
 }

@@ -207,13 +207,10 @@ impl<'a> EyeTracer<'a> {
         buf.pixels.push(pixel);
         let d0 = buf.direct.len();
         buf.direct.resize(d0 + nb, 0.0);
-        beta.clear();
-        beta.resize(nb, 1.0);
-        let mut band: Option<usize> = None;
-        stats.paths += 1;
-        let Some((mut dir, mut org)) = self.camera_ray(pixel, rng) else {
+        let Some((mut dir, mut org)) = self.start_path(pixel, rng, beta, stats) else {
             return;
         };
+        let mut band: Option<usize> = None;
         let mut path_len = (org - self.camera.origin).length();
         let mut medium: Option<u32> = None;
 
@@ -313,13 +310,10 @@ impl<'a> EyeTracer<'a> {
         stats: &mut EyeStats,
     ) {
         let nb = self.bands;
-        beta.clear();
-        beta.resize(nb, 1.0);
-        let mut band: Option<usize> = None;
-        stats.paths += 1;
-        let Some((mut dir, mut org)) = self.camera_ray(pixel, rng) else {
+        let Some((mut dir, mut org)) = self.start_path(pixel, rng, beta, stats) else {
             return;
         };
+        let mut band: Option<usize> = None;
         let mut medium: Option<u32> = None;
         // Whether emission met now is counted: before the first diffuse vertex, or through
         // specular surfaces since the last one.
@@ -603,6 +597,22 @@ impl<'a> EyeTracer<'a> {
                 *o += b * l;
             }
         }
+    }
+
+    /// A new eye path through `pixel`: unit weight in every band, counted, and its first
+    /// ray (None when the camera ray is not usable).
+    #[inline]
+    fn start_path(
+        &self,
+        pixel: u32,
+        rng: &mut PhotonRng,
+        beta: &mut Vec<f64>,
+        stats: &mut EyeStats,
+    ) -> Option<(DVec3, DVec3)> {
+        beta.clear();
+        beta.resize(self.bands, 1.0);
+        stats.paths += 1;
+        self.camera_ray(pixel, rng)
     }
 
     /// A camera ray through `pixel` (jittered) and where it starts: at the camera, or where

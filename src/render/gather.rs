@@ -23,7 +23,7 @@ const GATHER_DOMAIN: u64 = 0x7A7E_5EED_0000_0001;
 const MAX_CHUNK: usize = 256;
 
 /// Buckets of a pixel's sketch of the map's error (`Chunk::sketch`).
-pub const SKETCH: usize = 8;
+const SKETCH: usize = 8;
 
 /// The accumulators of a run of pixels.
 struct Chunk {
@@ -473,10 +473,6 @@ impl Caustics {
             sq: vec![0.0; pixels],
             rounds: 0,
         }
-    }
-
-    pub fn rounds(&self) -> u64 {
-        self.rounds
     }
 
     /// Adds a round's landings: (pixel, radiance per band), in any order (sorted here, so

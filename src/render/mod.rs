@@ -150,6 +150,78 @@ impl Image {
     }
 }
 
+/// A render's progress points (on the calling thread): the history, the callback and the
+/// time and error criteria, at `progress_interval_s` (lengthened while an estimate would
+/// take more than a twentieth of it).
+pub(crate) struct Monitor<'p, 'a> {
+    pub params: &'p mut RenderParams<'a>,
+    pub start: Instant,
+    interval: Duration,
+    next_tick: Option<Instant>,
+    pub history: Vec<Progress>,
+    pub stop: Option<StopReason>,
+}
+
+impl<'p, 'a> Monitor<'p, 'a> {
+    pub fn new(params: &'p mut RenderParams<'a>, start: Instant) -> Self {
+        let interval = duration_s(params.progress_interval_s.max(MIN_PROGRESS_INTERVAL_S));
+        Monitor {
+            params,
+            start,
+            interval,
+            next_tick: start.checked_add(interval),
+            history: Vec::new(),
+            stop: None,
+        }
+    }
+
+    pub fn interval(&self) -> Duration {
+        self.interval
+    }
+
+    /// Whether a progress point is due.
+    pub fn due(&self) -> bool {
+        self.next_tick.is_none_or(|t| Instant::now() >= t)
+    }
+
+    /// Records progress point `p` (its estimate took `took`), calls the callback, checks the
+    /// criteria (the error only when `settled`: every pixel has an estimate) and schedules
+    /// the next point. True: stop.
+    pub fn tick(&mut self, p: Progress, settled: bool, took: Duration) -> bool {
+        push_history(&mut self.history, p);
+        let mut why = None;
+        if let Some(cb) = self.params.progress.as_mut() {
+            if !cb(&p) {
+                why = Some(StopReason::Cancelled);
+            }
+        }
+        why = why.or(self.criteria(p.rel_error, settled, p.elapsed_s));
+        self.stop = self.stop.or(why);
+        self.next_tick = Instant::now().checked_add(self.interval.max(took.mul_f64(20.0)));
+        self.stop.is_some()
+    }
+
+    /// The time and error criteria.
+    pub fn criteria(&self, rel_error: f64, settled: bool, elapsed_s: f64) -> Option<StopReason> {
+        let p = &*self.params;
+        if p.time_budget_s > 0.0 && elapsed_s >= p.time_budget_s {
+            Some(StopReason::TimeBudget)
+        } else if p.target_rel_error > 0.0 && settled && rel_error <= p.target_rel_error {
+            Some(StopReason::TargetError)
+        } else {
+            None
+        }
+    }
+
+    /// The last progress point: recorded and given to the callback.
+    pub fn finish(&mut self, last: Progress) {
+        push_history(&mut self.history, last);
+        if let Some(cb) = self.params.progress.as_mut() {
+            cb(&last);
+        }
+    }
+}
+
 /// A barrier that gives up (returns false) when the render is poisoned by a lost thread.
 struct Barrier {
     n: usize,
@@ -808,9 +880,8 @@ pub fn render(
     let start = Instant::now();
     let finished = AtomicUsize::new(0);
     let lost: Mutex<Option<String>> = Mutex::new(None);
-    let mut history = Vec::new();
-    let mut stop = None;
-    let interval = duration_s(params.progress_interval_s.max(MIN_PROGRESS_INTERVAL_S));
+    let mut mon = Monitor::new(params, start);
+    let interval = mon.interval();
     std::thread::scope(|s| {
         let mut spawned = 0;
         for gi in 0..g {
@@ -845,7 +916,6 @@ pub fn render(
             }
         }
         // The monitor.
-        let mut next = start.checked_add(interval);
         while finished.load(Ordering::Acquire) < spawned {
             std::thread::sleep(Duration::from_millis(2).min(interval));
             let now = Instant::now();
@@ -853,35 +923,16 @@ pub fn render(
                 continue;
             }
             // The time budget is checked at every wake-up, not only at progress ticks.
-            if params.time_budget_s > 0.0
-                && now.duration_since(start).as_secs_f64() >= params.time_budget_s
-            {
-                stop = Some(StopReason::TimeBudget);
+            if let Some(why) = mon.criteria(1.0, false, now.duration_since(start).as_secs_f64()) {
+                mon.stop = Some(why);
                 engine.stop.store(true, Ordering::Relaxed);
                 continue;
             }
-            if next.is_none_or(|t| now < t) {
+            if !mon.due() {
                 continue;
             }
             let p = progress_of(&engine, start);
-            // The next tick: one interval on, or later when the estimate was slow.
-            let gap = interval.max(now.elapsed().mul_f64(20.0));
-            next = Instant::now().checked_add(gap);
-            push_history(&mut history, p);
-            let mut why = None;
-            if let Some(cb) = params.progress.as_mut() {
-                if !cb(&p) {
-                    why = Some(StopReason::Cancelled);
-                }
-            }
-            if params.time_budget_s > 0.0 && p.elapsed_s >= params.time_budget_s {
-                why = why.or(Some(StopReason::TimeBudget));
-            }
-            if params.target_rel_error > 0.0 && p.rel_error <= params.target_rel_error {
-                why = why.or(Some(StopReason::TargetError));
-            }
-            if why.is_some() {
-                stop = why;
+            if mon.tick(p, true, now.elapsed()) {
                 engine.stop.store(true, Ordering::Relaxed);
             }
         }
@@ -897,11 +948,8 @@ pub fn render(
         hits: t.backward_paths.load(Ordering::Relaxed),
         rel_error,
     };
-    push_history(&mut history, last);
-    if let Some(cb) = params.progress.as_mut() {
-        cb(&last);
-    }
-    let stop = stop.unwrap_or(StopReason::PhotonCount);
+    mon.finish(last);
+    let stop = mon.stop.unwrap_or(StopReason::PhotonCount);
     let mut report = RenderReport {
         threads: g * k,
         groups: g,
@@ -919,7 +967,7 @@ pub fn render(
         gate_violations: t.violations.load(Ordering::Relaxed),
         dropped_paths: t.dropped_paths.load(Ordering::Relaxed),
         pixel_bytes: (stores * PixelStore::bytes(pixels, nb)) as u64,
-        history,
+        history: mon.history,
         ..Default::default()
     };
     let mut samples = 0u64;

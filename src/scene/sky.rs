@@ -515,6 +515,20 @@ pub struct SunDesc {
     pub north: [f64; 3],
 }
 
+impl Default for SunDesc {
+    /// The sun at the zenith of a z-up scene (north +y), D65, no amount yet.
+    fn default() -> Self {
+        SunDesc {
+            azimuth_deg: 0.0,
+            zenith_deg: 0.0,
+            amount: SkyAmount::NormalIrradiance(0.0),
+            spectrum: Spectrum::CieD65,
+            zenith: [0.0, 0.0, 1.0],
+            north: [0.0, 1.0, 0.0],
+        }
+    }
+}
+
 /// A distant light: one part per colour channel (one for everything but a colour image).
 #[derive(Debug)]
 pub struct Distant {
@@ -1149,9 +1163,7 @@ mod tests {
                 azimuth_deg: 180.0,
                 zenith_deg: 60.0,
                 amount: SkyAmount::NormalIlluminance(80_000.0),
-                spectrum: Spectrum::CieD65,
-                zenith: [0.0, 0.0, 1.0],
-                north: [0.0, 1.0, 0.0],
+                ..SunDesc::default()
             },
             &b,
         )
