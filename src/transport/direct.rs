@@ -361,12 +361,16 @@ pub struct DirectSampler<'a> {
 const GATHER_DIM: u32 = 8;
 /// Sobol dimensions a gathering path takes before it goes on with a random stream.
 const SOBOL_DIMS: u32 = 32;
+// `SampleDims` draws the Sobol dimensions in sets of four.
+const _: () = assert!(GATHER_DIM % 4 == 0 && SOBOL_DIMS % 4 == 0);
 
-/// The numbers of one sample: Owen-scrambled Sobol dimensions, then a random stream.
+/// The numbers of one sample: Owen-scrambled Sobol dimensions, four at a time
+/// (`sample_4d`, the same numbers as one by one), then a random stream.
 struct SampleDims {
     index: u32,
     seed: u32,
     dim: u32,
+    four: [f32; 4],
     rng: PhotonRng,
 }
 
@@ -374,8 +378,12 @@ impl SampleDims {
     #[inline]
     fn next(&mut self) -> f64 {
         if self.dim < SOBOL_DIMS {
+            let k = (self.dim % 4) as usize;
+            if k == 0 {
+                self.four = sobol_burley::sample_4d(self.index, self.dim / 4, self.seed);
+            }
             self.dim += 1;
-            f64::from(sobol_burley::sample(self.index, self.dim - 1, self.seed))
+            f64::from(self.four[k])
         } else {
             self.rng.uniform()
         }
@@ -617,6 +625,7 @@ impl DirectSampler<'_> {
                         index: s,
                         seed,
                         dim: GATHER_DIM,
+                        four: [0.0; 4],
                         rng: PhotonRng::new(self.seed ^ 0x2545_F491_4F6C_DD1D, index),
                     };
                     through.reset(&white);
