@@ -167,12 +167,28 @@ pub const SENSOR_SHARE: f64 = 0.125;
 /// vertices, `samples` per vertex per pass and the plan's lit slots and chunks.
 pub fn sensor_pass_photons(pass_photons: u64, samples: u32, lit: [usize; 2], chunks: u64) -> u64 {
     if lit[0] == 0 || lit[1] == 0 {
-        return pass_photons.max(chunks);
+        return pass_photons.max(2 * chunks).max(1);
     }
     let sensor_samples = (samples * SENSOR_SAMPLES).min(MAX_SAMPLES) as f64;
     let r = pass_photons as f64 * (lit[1] as f64 * sensor_samples)
         / (lit[0] as f64 * samples as f64 * SENSOR_SHARE);
-    (r as u64).max(chunks).max(1)
+    (r as u64).max(2 * chunks).max(1)
+}
+
+/// The sensors' pass and chunk photon `k` computes, if any, for `rs` photons per sensor
+/// pass (at least 2·`c`) and `c` chunks: passes 0 and 1 at once (photons 0 … 2c − 1: a
+/// grid has two passes, so an error estimate, from the start), then pass q + 1 at photons
+/// q·rs … q·rs + c − 1.
+#[inline]
+pub fn sensor_pass(k: u64, rs: u64, c: u64) -> Option<(u64, u64)> {
+    let (q, j) = (k / rs, k % rs);
+    if j < c {
+        Some((if q == 0 { 0 } else { q + 1 }, j))
+    } else if q == 0 && j < 2 * c {
+        Some((1, j - c))
+    } else {
+        None
+    }
 }
 
 /// Chunks of a pass (C) over `slots` map slots.
@@ -541,7 +557,7 @@ impl DirectSampler<'_> {
 
     /// Photon `k`'s share of the passes (nothing for most photons): chunk k mod R of pass
     /// ⌊k / R⌋ of the vertices that are not sensors', and the same on the sensors' own
-    /// schedule.
+    /// schedule (`sensor_pass`).
     pub fn photon_done(&self, k: u64) {
         let plan = self.plan;
         let j = k % self.pass_photons;
@@ -552,13 +568,9 @@ impl DirectSampler<'_> {
                 lo..(lo + CHUNK_SLOTS).min(plan.regular),
             );
         }
-        let j = k % self.sensor_pass_photons;
-        if j < plan.chunks[1] {
+        if let Some((pass, j)) = sensor_pass(k, self.sensor_pass_photons, plan.chunks[1]) {
             let lo = plan.regular + j as usize * CHUNK_SLOTS;
-            self.chunk(
-                k / self.sensor_pass_photons,
-                lo..(lo + CHUNK_SLOTS).min(plan.slots),
-            );
+            self.chunk(pass, lo..(lo + CHUNK_SLOTS).min(plan.slots));
         }
     }
 
@@ -948,6 +960,26 @@ struct Point {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn sensor_passes_come_once_each_two_at_the_start() {
+        for (rs, c) in [(2, 1), (10, 3), (64, 7), (1000, 1)] {
+            let mut seen = std::collections::BTreeMap::new();
+            for k in 0..50 * rs {
+                if let Some((pass, j)) = sensor_pass(k, rs, c) {
+                    assert!(j < c, "rs {rs} c {c} k {k}");
+                    assert!(seen.insert((pass, j), k).is_none(), "rs {rs} c {c}: twice");
+                }
+            }
+            // Every chunk of passes 0 … 50 exactly once; passes 0 and 1 within the first
+            // 2c photons, pass q + 1 from photon q·rs.
+            assert_eq!(seen.len() as u64, 51 * c, "rs {rs} c {c}");
+            for (&(pass, j), &k) in &seen {
+                let start = if pass < 2 { pass * c } else { (pass - 1) * rs };
+                assert_eq!(k, start + j, "rs {rs} c {c} pass {pass} chunk {j}");
+            }
+        }
+    }
 
     #[test]
     fn hat_coordinate_inverts_the_beta_2_2_cdf() {
