@@ -391,3 +391,85 @@ fn dispersive_slab_separates_bands_by_snell() {
     // The bands land 0.11 m apart: blue (higher index) bends more.
     assert!(centroids[1] - centroids[0] > 0.1);
 }
+
+/// A closed sphere at 41 bands lit by two point lights of different spectra (a spectral
+/// map keeps one grey sum per emitter spectrum: a photon whose colour is still a multiple
+/// of its light's deposits one number): with grey walls every deposit is such a multiple,
+/// with walls whose albedo varies across the bands only first hits are. Either way, every
+/// band's area-weighted mean irradiance is Φ_b / (A (1 − ρ_b)) (every photon of band b hits
+/// a geometric number of times, mean 1 / (1 − ρ_b)), for both schedulers and both the
+/// photons-only and the light-sampling estimators (whose photons' deposits carry
+/// weights); the map's own error estimate of that mean is calibrated against the truth.
+#[test]
+fn a_spectral_sphere_holds_every_band_with_two_light_spectra() {
+    let nb = 41;
+    let bands = imap::Bands::spectral(nb as u32, 400.0, 700.0).unwrap();
+    let flat = vec![0.5; nb];
+    let tilted: Vec<f64> = (0..nb)
+        .map(|b| 0.3 + 0.4 * b as f64 / (nb - 1) as f64)
+        .collect();
+    let p1: Vec<f64> = (0..nb).map(|b| 1.0 + b as f64 / 10.0).collect();
+    let p2: Vec<f64> = (0..nb).map(|b| 6.0 - b as f64 / 10.0).collect();
+    let g = sphere_inward(1.0, 3);
+    let area = vertex_areas(&g);
+    let total_area: f64 = area.iter().sum();
+    let mut zs = Vec::new();
+    for (rho, name) in [(&flat, "grey"), (&tilted, "tilted")] {
+        for scheduler in [imap::SchedulerKind::Classic, imap::SchedulerKind::Dynamic] {
+            for estimator in [imap::Estimator::Photons, imap::Estimator::DEFAULT] {
+                let mut ctx = context(Config {
+                    threads: 2,
+                    seed: 91,
+                    bands: bands.clone(),
+                    scheduler,
+                    ..Default::default()
+                });
+                let wall = ctx
+                    .add_material(&MaterialDesc {
+                        diffuse_reflect: rho.clone(),
+                        ..Default::default()
+                    })
+                    .unwrap();
+                let mesh = ctx.add_mesh(&g.desc(wall)).unwrap();
+                ctx.add_point_light([0.1, 0.0, 0.0], &p1).unwrap();
+                ctx.add_point_light([-0.2, 0.1, 0.0], &p2).unwrap();
+                let report = ctx
+                    .run(&mut imap::RunParams {
+                        photons: photons(200_000),
+                        progress_interval_s: 1.0,
+                        estimator: Some(estimator),
+                        ..Default::default()
+                    })
+                    .unwrap();
+                assert_eq!(report.escaped_w, 0.0);
+                let mut rel = vec![0.0; g.vertex_count()];
+                ctx.rel_error(mesh, 0, &mut rel).unwrap();
+                let mut e = vec![0.0; g.vertex_count()];
+                for b in 0..nb {
+                    ctx.irradiance(mesh, 0, b as u32, &mut e).unwrap();
+                    let mean: f64 =
+                        e.iter().zip(&area).map(|(e, a)| e * a).sum::<f64>() / total_area;
+                    let expected = (p1[b] + p2[b]) / (total_area * (1.0 - rho[b]));
+                    // The mean's error: the vertices' errors (independent photons' sums,
+                    // correlated between neighbours: twice the independent figure).
+                    let var: f64 = e
+                        .iter()
+                        .zip(&area)
+                        .zip(&rel)
+                        .map(|((e, a), r)| (e * a * r).powi(2))
+                        .sum();
+                    let sigma = 2.0 * var.sqrt() / total_area;
+                    let z = (mean - expected) / sigma;
+                    zs.push(z);
+                    assert!(
+                        z.abs() < 4.5 && (mean / expected - 1.0).abs() < 0.02,
+                        "{name} walls, {scheduler:?}, {estimator:?}, band {b}: mean {mean} vs {expected} ({z:.2} σ)"
+                    );
+                }
+            }
+        }
+    }
+    // Not every band off the same way: the bands' deviations scatter.
+    let rms = (zs.iter().map(|z| z * z).sum::<f64>() / zs.len() as f64).sqrt();
+    assert!(rms < 2.0, "RMS deviation {rms:.2} σ");
+}

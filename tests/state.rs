@@ -9,10 +9,12 @@ use imap::context::state::FLAG_NO_MAP;
 use imap::{Bands, Config, Context, ImapStatus, Layer, LayerRequest, RunParams, Selection};
 
 /// The mixed room (dispersion, a spot, a point light and an emitting panel) with light
-/// group layers, a direct layer and region tallies on the walls: every kind of state.
+/// group layers, a direct layer and region tallies on the walls: every kind of state. At
+/// 16 bands the map keeps grey sums (`scene::GreySpectra`), which states and the
+/// accumulators' array fold into the band sums.
 fn scene() -> (Context, Vec<u32>) {
     let (mut ctx, mut ids) = mixed_room(Config {
-        bands: Bands::spectral(5, 400.0, 700.0).unwrap(),
+        bands: Bands::spectral(16, 400.0, 700.0).unwrap(),
         seed: 7,
         threads: 2,
         ..Config::default()
@@ -184,26 +186,17 @@ fn an_mpi_style_reduction_equals_one_run() {
     let want = reference(n);
     let (mut r0, ids) = scene();
     let (mut r1, _) = scene();
-    run(
-        &mut r0,
-        0,
-        Selection {
-            end: n,
-            shards: 2,
-            shard: 0,
-            ..Selection::ALL
-        },
-    );
-    run(
-        &mut r1,
-        0,
-        Selection {
-            end: n,
-            shards: 2,
-            shard: 1,
-            ..Selection::ALL
-        },
-    );
+    // Blocks of 1024 photons: both ranks trace some (the default blocks of 65 536 would
+    // leave every photon to rank 0).
+    let shard = |shard| Selection {
+        end: n,
+        shards: 2,
+        shard,
+        block: 1024,
+        ..Selection::ALL
+    };
+    let (a, b) = (run(&mut r0, 0, shard(0)), run(&mut r1, 0, shard(1)));
+    assert!(a.photons > 0 && b.photons > 0 && a.photons + b.photons == n);
     let ledger = r1.state_bytes(FLAG_NO_MAP, &[]).unwrap();
     let full = r1.state_bytes(0, &[]).unwrap();
     assert!(
@@ -212,8 +205,14 @@ fn an_mpi_style_reduction_equals_one_run() {
         ledger.len(),
         full.len()
     );
+    // Both arrays: the photons' and (light sampling, the default) the direct records.
     let theirs = r1.map_accumulators().unwrap().to_vec();
     for (a, b) in r0.map_accumulators().unwrap().iter_mut().zip(&theirs) {
+        *a += b;
+    }
+    let theirs = r1.direct_accumulators().unwrap().to_vec();
+    assert!(!theirs.is_empty());
+    for (a, b) in r0.direct_accumulators().unwrap().iter_mut().zip(&theirs) {
         *a += b;
     }
     r0.merge_state(&ledger).unwrap();
@@ -231,7 +230,7 @@ fn merges_refuse_other_scenes_and_settings() {
     let s = a.state_bytes(0, &[]).unwrap();
     // Another seed: the settings differ.
     let (mut b, _) = mixed_room(Config {
-        bands: Bands::spectral(5, 400.0, 700.0).unwrap(),
+        bands: Bands::spectral(16, 400.0, 700.0).unwrap(),
         seed: 8,
         ..Config::default()
     });

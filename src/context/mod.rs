@@ -652,6 +652,12 @@ impl Context {
                 self.bands(),
                 self.scene.layer_layout(),
                 self.estimator.is_light_sampling(),
+                self.prepared
+                    .as_ref()
+                    .expect("prepared above")
+                    .scene
+                    .grey
+                    .clone(),
             )?);
             self.region_tally = RegionTally::default();
         }

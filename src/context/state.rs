@@ -841,7 +841,8 @@ impl Context {
     /// has not run yet): per cell (`IMap`: slot · layers + layer), the band sums then the sum
     /// of squares. Summing this array over contexts of the same scene element by element
     /// (e.g. `MPI_Reduce`) and merging their states written with `FLAG_NO_MAP` gives the
-    /// merged state exactly.
+    /// merged state exactly. A spectral map's grey sums are folded into the band sums
+    /// first: the array is current as of this call.
     pub fn map_accumulators(&mut self) -> Result<&mut [f64]> {
         self.prepare()?;
         Ok(self.map.as_mut().expect("prepared").raw_mut())

@@ -21,6 +21,13 @@
 //! scheduler's writers through `*_exclusive` while holding their vertex group's lock; the
 //! progress readout during a dynamic run takes the same locks, and reads with relaxed
 //! atomic loads. No access to a slot is ever concurrent with a write to it.
+//!
+//! Grey sums (spectral maps, `scene::GreySpectra`): a cell also has, in an array of their
+//! own, one sum per kept emitter spectrum of the multiples deposited by photons whose
+//! colour was still a multiple of that spectrum (one number written instead of 81; the
+//! square goes to the cell's sum of squares as usual). Every read adds them times their
+//! spectra; `raw_mut` and `values_mut` first fold them into the band sums, so the
+//! accumulators' array (states, `map_accumulators`) keeps its layout.
 
 pub mod direct;
 mod photon;
@@ -29,11 +36,14 @@ pub mod regions;
 pub mod stats;
 
 pub use direct::DirectAcc;
-pub use photon::{shares, BufferedHit, PhotonBuffer, PhotonOut, FULL, WEIGHTED};
+pub use photon::{
+    grey_index, shares, BufferedHit, PhotonBuffer, PhotonOut, FULL, GREY, GREY_WEIGHTED, WEIGHTED,
+};
 pub use readout::Readout;
 pub(crate) use readout::NO_DATA_REL_ERROR;
 
 use crate::error::{Error, ImapStatus, Result};
+use crate::scene::GreySpectra;
 use std::sync::atomic::{AtomicU64, Ordering::Relaxed};
 use std::sync::Arc;
 
@@ -127,6 +137,9 @@ pub struct IMap {
     stride: usize,
     layout: LayerLayout,
     data: Vec<AtomicU64>,
+    /// Per cell, the grey sums (`grey_spectra.count()` of them; none for most maps).
+    grey: Vec<AtomicU64>,
+    grey_spectra: GreySpectra,
     /// The light-sampling estimator's direct accumulators (one record per cell), shared
     /// with the calculating threads during a run; None for the photons-only estimator.
     direct: Option<Arc<DirectAcc>>,
@@ -137,16 +150,17 @@ impl IMap {
     /// allocation failure instead of aborting. Cells are indexed by u32 in the run's
     /// buffers: a map of more cells is refused.
     pub fn try_new(slots: usize, bands: usize, layout: LayerLayout) -> Result<Self> {
-        Self::try_new_with(slots, bands, layout, false)
+        Self::try_new_with(slots, bands, layout, false, GreySpectra::default())
     }
 
     /// `try_new`, with the direct accumulators of the light-sampling estimator when
-    /// `direct`.
+    /// `direct`, and grey sums for `grey`'s spectra.
     pub fn try_new_with(
         slots: usize,
         bands: usize,
         layout: LayerLayout,
         direct: bool,
+        grey: GreySpectra,
     ) -> Result<Self> {
         let stride = bands + 1;
         let cells = slots
@@ -173,6 +187,18 @@ impl IMap {
             )
         })?;
         data.resize_with(len, || AtomicU64::new(0));
+        let grey_len = cells * grey.count();
+        let mut grey_sums = Vec::new();
+        grey_sums.try_reserve_exact(grey_len).map_err(|_| {
+            Error::new(
+                ImapStatus::ImapErrOutOfMemory,
+                format!(
+                    "could not allocate the map's grey sums ({} MiB)",
+                    (grey_len * 8) >> 20
+                ),
+            )
+        })?;
+        grey_sums.resize_with(grey_len, || AtomicU64::new(0));
         let direct = if direct {
             Some(Arc::new(DirectAcc::try_new(cells, bands)?))
         } else {
@@ -183,6 +209,8 @@ impl IMap {
             stride,
             layout,
             data,
+            grey: grey_sums,
+            grey_spectra: grey,
             direct,
         })
     }
@@ -202,7 +230,43 @@ impl IMap {
 
     /// Bytes of the accumulators.
     pub fn bytes(&self) -> u64 {
-        (self.data.len() + self.direct.as_ref().map_or(0, |d| d.len())) as u64 * 8
+        (self.data.len() + self.grey.len() + self.direct.as_ref().map_or(0, |d| d.len())) as u64 * 8
+    }
+
+    /// Grey sums per cell (K, `scene::GreySpectra`).
+    #[inline]
+    pub fn grey_count(&self) -> usize {
+        self.grey_spectra.count()
+    }
+
+    /// Folds the grey sums into the band sums (exclusive access): the values read stay the
+    /// same, the grey sums become 0.
+    fn fold_grey(&mut self) {
+        let k = self.grey_count();
+        if k == 0 {
+            return;
+        }
+        let (bands, stride) = (self.bands, self.stride);
+        let IMap {
+            data,
+            grey,
+            grey_spectra,
+            ..
+        } = self;
+        for (cell, sums) in grey.chunks_exact_mut(k).enumerate() {
+            for (g, sum) in sums.iter_mut().enumerate() {
+                let a = f64::from_bits(*sum.get_mut());
+                if a == 0.0 {
+                    continue;
+                }
+                *sum.get_mut() = 0;
+                let values = &mut data[cell * stride..cell * stride + bands];
+                for (v, s) in values.iter_mut().zip(grey_spectra.spectrum(g)) {
+                    let x = v.get_mut();
+                    *x = (f64::from_bits(*x) + a * s).to_bits();
+                }
+            }
+        }
     }
 
     /// The direct accumulators (light-sampling estimator), if the map has them.
@@ -244,15 +308,27 @@ impl IMap {
     /// Every accumulator, in storage order (per cell: the band sums, then the sum of
     /// squares), for a caller that holds the map while no run writes it.
     /// The direct accumulators follow the photon ones.
+    /// The band sums include the grey sums (as read).
     pub(crate) fn values(&self) -> impl Iterator<Item = f64> + '_ {
+        let stride = self.stride;
         self.data
             .iter()
-            .map(|a| f64::from_bits(a.load(Relaxed)))
+            .enumerate()
+            .map(move |(i, a)| {
+                let (cell, b) = (i / stride, i % stride);
+                if b < self.bands {
+                    self.cell_value(cell, b)
+                } else {
+                    f64::from_bits(a.load(Relaxed))
+                }
+            })
             .chain(self.direct.iter().flat_map(|d| d.values()))
     }
 
-    /// Every accumulator, photon part then direct part, mutably (exclusive access).
+    /// Every accumulator, photon part then direct part, mutably (exclusive access; the
+    /// grey sums folded into the band sums first).
     pub(crate) fn values_mut(&mut self) -> impl Iterator<Item = &mut f64> + '_ {
+        self.fold_grey();
         let IMap { data, direct, .. } = self;
         // SAFETY: AtomicU64 has the layout of f64; `&mut self` makes the access exclusive.
         let photon =
@@ -265,8 +341,10 @@ impl IMap {
         photon.iter_mut().chain(direct.into_iter().flatten())
     }
 
-    /// Every accumulator as one mutable array (`values` order; exclusive access).
+    /// Every accumulator as one mutable array (`values` order, the grey sums folded into
+    /// the band sums; exclusive access).
     pub(crate) fn raw_mut(&mut self) -> &mut [f64] {
+        self.fold_grey();
         self.plain()
     }
 
@@ -296,6 +374,29 @@ impl IMap {
         // A collapsed photon's energy is its one band's value over the band count.
         let x = w * value as f64 / bands as f64;
         m[base + bands] += x * x;
+    }
+
+    /// Adds a deposit of weight `w` of a photon whose colour is `a` times grey spectrum `g`
+    /// (exclusive access).
+    #[inline]
+    pub fn add_grey(&mut self, slot: usize, w: f64, g: usize, a: f32) {
+        // SAFETY: `&mut self` makes the access exclusive.
+        unsafe { self.add_grey_exclusive(slot, w, g, a) }
+    }
+
+    /// `add_grey` under the rule of `add_colour_exclusive`.
+    ///
+    /// # Safety
+    /// As `add_colour_exclusive`.
+    #[inline]
+    pub unsafe fn add_grey_exclusive(&self, slot: usize, w: f64, g: usize, a: f32) {
+        let x = w * a as f64;
+        let e = x * self.grey_spectra.means[g];
+        // SAFETY: as in add_colour_exclusive; both indices are inside the cell's records.
+        unsafe {
+            Self::add_raw(&self.grey[slot * self.grey_count() + g], x);
+            Self::add_raw(&self.data[slot * self.stride + self.bands], e * e);
+        }
     }
 
     /// Adds to a slot's sum of squares (a photon's cross terms; exclusive access).
@@ -379,6 +480,27 @@ impl IMap {
         let _ = cell;
     }
 
+    /// `prefetch` for a grey deposit: the cell's sum of squares and its grey sums.
+    #[inline]
+    pub fn prefetch_grey(&self, cell: usize) {
+        #[cfg(target_arch = "x86_64")]
+        {
+            let sq = cell * self.stride + self.bands;
+            let g = cell * self.grey_count();
+            if sq < self.data.len() && g < self.grey.len() {
+                // SAFETY: prefetches are hints that never fault; the addresses are inside
+                // the arrays.
+                unsafe {
+                    use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
+                    _mm_prefetch::<_MM_HINT_T0>(self.data[sq..].as_ptr() as *const i8);
+                    _mm_prefetch::<_MM_HINT_T0>(self.grey[g..].as_ptr() as *const i8);
+                }
+            }
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        let _ = cell;
+    }
+
     /// Adds to one value without atomics.
     ///
     /// # Safety
@@ -428,7 +550,17 @@ impl IMap {
 
     #[inline]
     fn cell_value(&self, cell: usize, band: usize) -> f64 {
-        f64::from_bits(self.data[cell * self.stride + band].load(Relaxed))
+        let v = f64::from_bits(self.data[cell * self.stride + band].load(Relaxed));
+        let k = self.grey_count();
+        if k == 0 {
+            return v;
+        }
+        let sums = &self.grey[cell * k..(cell + 1) * k];
+        v + sums
+            .iter()
+            .enumerate()
+            .map(|(g, a)| f64::from_bits(a.load(Relaxed)) * self.grey_spectra.spectrum(g)[band])
+            .sum::<f64>()
     }
 
     #[inline]
@@ -436,11 +568,18 @@ impl IMap {
         let s = &self.data[cell * self.stride..(cell + 1) * self.stride];
         let get = |a: &AtomicU64| f64::from_bits(a.load(Relaxed));
         let sum: f64 = s[..self.bands].iter().map(get).sum();
-        (sum / self.bands as f64, get(&s[self.bands]))
+        let k = self.grey_count();
+        let grey: f64 = self.grey[cell * k..(cell + 1) * k]
+            .iter()
+            .zip(&self.grey_spectra.means)
+            .map(|(a, m)| get(a) * m)
+            .sum();
+        (sum / self.bands as f64 + grey, get(&s[self.bands]))
     }
 
     pub fn clear(&mut self) {
         self.data.iter_mut().for_each(|x| *x.get_mut() = 0);
+        self.grey.iter_mut().for_each(|x| *x.get_mut() = 0);
         if let Some(d) = self.direct_mut() {
             d.clear();
         }
@@ -522,6 +661,77 @@ impl PhotonSquares {
 mod tests {
     use super::*;
     use crate::sampling::rng::PhotonRng;
+
+    #[test]
+    fn grey_deposits_read_as_their_full_colours_and_fold_into_the_band_sums() {
+        let nb = 12;
+        // Scaled to a largest value of 1, as `GreySpectra::new` keeps them.
+        let shapes: Vec<Vec<f64>> = vec![
+            (0..nb)
+                .map(|b| (0.2 + b as f64) / (0.2 + (nb - 1) as f64))
+                .collect(),
+            (0..nb).map(|b| 1.0 - 0.05 * b as f64).collect(),
+        ];
+        let grey = GreySpectra::of_shapes(nb, &shapes);
+        let layout = LayerLayout::SINGLE;
+        let mut full = IMap::try_new_with(3, nb, layout, false, GreySpectra::default()).unwrap();
+        let mut kept = IMap::try_new_with(3, nb, layout, false, grey.clone()).unwrap();
+        assert_eq!(kept.grey_count(), 2);
+        let mut rng = PhotonRng::new(5, 0);
+        for _ in 0..1000 {
+            let slot = (rng.uniform() * 3.0) as usize;
+            let g = (rng.uniform() * 2.0) as usize;
+            let a = (0.5 + rng.uniform()) as f32;
+            let w = rng.uniform();
+            let exact: Vec<f64> = grey.spectrum(g).iter().map(|s| a as f64 * s).collect();
+            assert_eq!(grey.multiple(g, &exact), Some(a as f64));
+            let colour: Vec<f32> = exact.iter().map(|&c| c as f32).collect();
+            full.add_colour(slot, w, &colour);
+            kept.add_grey(slot, w, g, a);
+        }
+        let close = |x: f64, y: f64| (x - y).abs() <= 1e-6 * y.abs().max(1e-300);
+        let values = |m: &IMap| {
+            (0..3)
+                .flat_map(|s| (0..nb).map(move |b| (s, b)))
+                .map(|(s, b)| m.value(s, b))
+                .collect::<Vec<_>>()
+        };
+        for slot in 0..3 {
+            for b in 0..nb {
+                assert!(
+                    close(kept.value(slot, b), full.value(slot, b)),
+                    "slot {slot} band {b}"
+                );
+            }
+            let (x, y) = (kept.scalar(slot), full.scalar(slot));
+            assert!(
+                close(x.0, y.0) && close(x.1, y.1),
+                "slot {slot}: {x:?} vs {y:?}"
+            );
+        }
+        // The array read out (states) already holds the grey sums in the band sums.
+        for (x, y) in kept.values().zip(full.values()) {
+            assert!(close(x, y), "{x} vs {y}");
+        }
+        let before = values(&kept);
+        let raw = kept.raw_mut().to_vec();
+        assert_eq!(
+            raw.len(),
+            full.data.len(),
+            "the accumulators' layout is the plain one"
+        );
+        for (x, y) in raw.iter().zip(full.values()) {
+            assert!(close(*x, y), "{x} vs {y}");
+        }
+        assert!(kept.grey.iter_mut().all(|g| *g.get_mut() == 0));
+        for (x, y) in values(&kept).iter().zip(&before) {
+            assert!(close(*x, *y));
+        }
+        // A colour off the spectrum by more than rounding is not a multiple.
+        let mut off: Vec<f64> = grey.spectrum(0).to_vec();
+        off[3] *= 1.001;
+        assert!(grey.multiple(0, &off).is_none());
+    }
 
     /// Neumaier's compensated sum: the reference the plain map sum is checked against.
     struct Compensated {

@@ -11,7 +11,7 @@
 
 use super::regions::RegionScratch;
 use super::PhotonSquares;
-use crate::scene::PreparedScene;
+use crate::scene::{PreparedScene, MAX_GREY};
 use crate::transport::Colour;
 use std::collections::HashMap;
 
@@ -24,14 +24,35 @@ pub const FULL: u16 = u16::MAX;
 /// weights (a direct deposit of the light-sampling estimator): the colour arena holds the
 /// colour and then the three weights.
 pub const WEIGHTED: u16 = u16::MAX - 1;
+/// `BufferedHit::band` of a hit whose colour is a multiple of grey spectrum g
+/// (`scene::GreySpectra`; the colour arena holds the multiple): `GREY` + g, and with the
+/// three vertices' weights (after the multiple) `GREY_WEIGHTED` + g.
+pub const GREY: u16 = u16::MAX - 2 - 2 * MAX_GREY as u16;
+pub const GREY_WEIGHTED: u16 = GREY + MAX_GREY as u16;
+
+/// The grey spectrum of a hit's (or contribution's) `band` code, and whether it has
+/// weights.
+#[inline]
+pub fn grey_index(band: u16) -> Option<(usize, bool)> {
+    (GREY..GREY + 2 * MAX_GREY as u16).contains(&band).then(|| {
+        let i = (band - GREY) as usize;
+        (i % MAX_GREY, i >= MAX_GREY)
+    })
+}
+
+/// Whether a hit's colour arena holds the three vertices' weights after its colour.
+#[inline]
+fn weighted(band: u16) -> bool {
+    band == WEIGHTED || grey_index(band).is_some_and(|(_, w)| w)
+}
 
 /// The per-vertex shares of a hit at (u, v): barycentric weights, times the hit's weights
-/// when it has them (`WEIGHTED`; `extra` holds them after the colour).
+/// when it has them (`WEIGHTED`, `GREY_WEIGHTED`; `extra` holds them after the colour).
 #[inline]
 pub fn shares(band: u16, u: f32, v: f32, extra: &[f32]) -> [f64; 3] {
     let (u, v) = (u as f64, v as f64);
     let w = [1.0 - u - v, u, v];
-    if band == WEIGHTED {
+    if weighted(band) {
         [
             w[0] * extra[0] as f64,
             w[1] * extra[1] as f64,
@@ -107,6 +128,10 @@ pub struct PhotonBuffer {
     regions: RegionScratch,
     /// The current photon's layer (its light group's).
     layer: u8,
+    /// The current photon's emitter's grey spectrum, if the map keeps one for it, and the
+    /// spectrum its colour should be a multiple of at its next hit (`GreySpectra::after`).
+    base: Option<u8>,
+    grey: Option<u8>,
     /// The direct layer, while the current photon has had no surface event and the map
     /// keeps one.
     direct: Option<u8>,
@@ -131,6 +156,8 @@ impl PhotonBuffer {
             scratch: Vec::new(),
             regions: RegionScratch::default(),
             layer: 0,
+            base: None,
+            grey: None,
             direct: None,
         }
     }
@@ -139,6 +166,8 @@ impl PhotonBuffer {
     #[inline]
     pub fn begin(&mut self, scene: &PreparedScene, emitter: usize) {
         self.layer = scene.emitters[emitter].layer;
+        self.base = scene.grey.of_emitter.get(emitter).copied().flatten();
+        self.grey = self.base;
         self.direct = scene.layers.direct_layer();
     }
 
@@ -192,14 +221,41 @@ impl PhotonBuffer {
                 b as u16
             }
             None => {
-                self.colours
-                    .extend(colour.values().iter().map(|&c| c as f32));
-                match weights {
-                    Some(w) => {
+                let grey = self.grey.and_then(|g| {
+                    let a = scene.grey.multiple(g as usize, colour.values())?;
+                    Some((g as u16, a))
+                });
+                // The spectrum of the photon's next hit, if it reflects diffusely here.
+                self.grey = match (grey, self.base) {
+                    (Some((g, _)), Some(base)) => {
+                        let material = scene.meshes[mesh as usize].material(prim as usize);
+                        scene.grey.after(g as u8, base, material as usize)
+                    }
+                    _ => None,
+                };
+                let band = match grey {
+                    Some((g, a)) => {
+                        // A multiple of its emitter's spectrum: one number.
+                        self.colours.push(a as f32);
+                        g
+                    }
+                    None => {
+                        self.colours
+                            .extend(colour.values().iter().map(|&c| c as f32));
+                        FULL
+                    }
+                };
+                match (weights, band) {
+                    (Some(w), FULL) => {
                         self.colours.extend(w);
                         WEIGHTED
                     }
-                    None => FULL,
+                    (Some(w), g) => {
+                        self.colours.extend(w);
+                        GREY_WEIGHTED + g
+                    }
+                    (None, FULL) => FULL,
+                    (None, g) => GREY + g,
                 }
             }
         };
@@ -228,7 +284,9 @@ impl PhotonBuffer {
         let nb = self.bands;
         for h in &self.hits {
             let c = h.colour_at as usize;
-            let w = shares(h.band, h.u, h.v, self.colours.get(c + nb..).unwrap_or(&[]));
+            let grey = grey_index(h.band);
+            let extra = if grey.is_some() { c + 1 } else { c + nb };
+            let w = shares(h.band, h.u, h.v, self.colours.get(extra..).unwrap_or(&[]));
             for (cell, w) in h.cells(scene).into_iter().zip(w) {
                 let next = self.folded_values.len();
                 let at = *self.folded.entry(cell as u32).or_insert(next);
@@ -236,7 +294,12 @@ impl PhotonBuffer {
                     self.folded_values.resize(next + nb, 0.0);
                 }
                 let values = &mut self.folded_values[at..at + nb];
-                if h.band >= WEIGHTED {
+                if let Some((g, _)) = grey {
+                    let a = w * self.colours[c] as f64;
+                    for (x, s) in values.iter_mut().zip(scene.grey.spectrum(g)) {
+                        *x += a * s;
+                    }
+                } else if h.band >= WEIGHTED {
                     for (x, &c) in values.iter_mut().zip(&self.colours[c..c + nb]) {
                         *x += w * c as f64;
                     }
@@ -284,16 +347,21 @@ impl PhotonBuffer {
         for h in &self.hits {
             let cells = h.cells(scene);
             let c = h.colour_at as usize;
-            let n = match h.band {
-                FULL => nb,
-                WEIGHTED => nb + 3,
-                _ => 1,
+            let grey = grey_index(h.band);
+            let (n, values) = match (h.band, grey) {
+                (FULL, _) => (nb, nb),
+                (WEIGHTED, _) => (nb + 3, nb),
+                (_, Some((_, true))) => (4, 1),
+                _ => (1, 1),
             };
             let colour = &self.colours[c..c + n];
-            let w = shares(h.band, h.u, h.v, colour.get(nb..).unwrap_or(&[]));
+            let w = shares(h.band, h.u, h.v, colour.get(values..).unwrap_or(&[]));
             let e = if self.varying {
                 // This hit's energy: its colour's band mean.
-                colour[..n.min(nb)].iter().map(|&x| x as f64).sum::<f64>() / nb as f64
+                match grey {
+                    Some((g, _)) => colour[0] as f64 * scene.grey.means[g],
+                    None => colour[..values].iter().map(|&x| x as f64).sum::<f64>() / nb as f64,
+                }
             } else {
                 e
             };

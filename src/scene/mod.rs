@@ -13,7 +13,9 @@ pub use bands::Bands;
 pub use light::{Light, LightShape};
 pub use material::{IorModel, Material, MaterialDesc};
 pub use mesh::{Mesh, MeshDesc};
-pub use prepared::{Emitter, EmitterKind, PreparedMesh, PreparedScene};
+pub use prepared::{
+    Emitter, EmitterKind, GreySpectra, PreparedMesh, PreparedScene, GREY_MIN_BANDS, MAX_GREY,
+};
 
 /// Everything the caller has described.
 #[derive(Clone, Debug)]

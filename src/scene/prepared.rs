@@ -3,7 +3,7 @@
 
 use super::mesh::triangle_area;
 use super::sky::DistantPart;
-use super::{LightShape, Mesh, Scene};
+use super::{LightShape, Material, Mesh, Scene};
 use crate::error::{bail, try_collect, try_filled, Error, ImapStatus, Result};
 use crate::imap::regions::RegionLayout;
 use crate::imap::LayerLayout;
@@ -204,6 +204,174 @@ pub struct PreparedScene {
     pub efficacy: Vec<f64>,
     /// The map's layers.
     pub layers: LayerLayout,
+    /// The emitter spectra a spectral map keeps grey sums for (`GreySpectra`).
+    pub grey: GreySpectra,
+}
+
+/// Most spectra a map keeps grey sums for (`GreySpectra`).
+pub const MAX_GREY: usize = 32;
+/// Maps of more bands than this keep grey sums (`GreySpectra`); at a few bands a cell is a
+/// cache line or two anyway.
+pub const GREY_MIN_BANDS: usize = 9;
+
+/// The spectra for which a spectral map keeps, per cell, one sum of multiples
+/// (`imap::IMap`): each emitter's spectrum, and each emitter's spectrum times the diffuse
+/// reflectance of each material that reflects bands differently. A photon whose colour is
+/// still a multiple of one of them (it met only surfaces whose coefficients are the same in
+/// every band, or one tinted surface besides; every first hit) deposits one number instead
+/// of one per band; the map's band values add each sum times its spectrum. Empty for maps
+/// of fewer than `GREY_MIN_BANDS` bands; at most a quarter as many sums as bands (the
+/// map's memory grows by at most a quarter) and `MAX_GREY`: spectra past those deposit
+/// every band.
+#[derive(Clone, Debug, Default)]
+pub struct GreySpectra {
+    pub bands: usize,
+    /// The spectra, `bands` values each, each scaled so that its largest value is 1.
+    pub spectra: Vec<f64>,
+    /// Per spectrum: its band mean, and its largest band.
+    pub means: Vec<f64>,
+    pub peaks: Vec<usize>,
+    /// Per emitter: its spectrum, if it has one here.
+    pub of_emitter: Vec<Option<u8>>,
+    /// Per (emitter spectrum, material): the tinted spectrum, if kept (`tinted`).
+    tints: Vec<Option<u8>>,
+    /// Per material: whether its diffuse reflectance is the same in every band.
+    flat: Vec<bool>,
+}
+
+impl GreySpectra {
+    /// The distinct spectra of `emitters`' colours (up to scale), then of those times each
+    /// tinted material's diffuse reflectance, for maps of `bands` bands.
+    pub fn new(emitters: &[Emitter], materials: &[Material], bands: usize) -> Self {
+        let mut g = GreySpectra {
+            bands,
+            of_emitter: vec![None; emitters.len()],
+            ..Default::default()
+        };
+        let most = MAX_GREY.min(bands / 4);
+        if bands < GREY_MIN_BANDS {
+            return g;
+        }
+        let bases: Vec<Option<u8>> = emitters
+            .iter()
+            .map(|em| {
+                if em.colour.len() == bands {
+                    g.keep(em.colour.clone(), most)
+                } else {
+                    None
+                }
+            })
+            .collect();
+        g.of_emitter = bases;
+        g.flat = materials
+            .iter()
+            .map(|m| {
+                m.diffuse_reflect.len() != bands
+                    || m.diffuse_reflect.iter().all(|r| *r == m.diffuse_reflect[0])
+            })
+            .collect();
+        let spectra = g.count();
+        g.tints = vec![None; spectra * materials.len()];
+        for k in 0..spectra {
+            for (i, m) in materials.iter().enumerate() {
+                if g.flat[i] {
+                    continue;
+                }
+                let tinted: Vec<f64> = g
+                    .spectrum(k)
+                    .iter()
+                    .zip(&m.diffuse_reflect)
+                    .map(|(s, r)| s * r)
+                    .collect();
+                g.tints[k * materials.len() + i] = g.keep(tinted, most);
+            }
+        }
+        g
+    }
+
+    /// Spectra kept for `shapes` alone (no emitters, no materials): for tests.
+    #[cfg(test)]
+    pub(crate) fn of_shapes(bands: usize, shapes: &[Vec<f64>]) -> Self {
+        let mut g = GreySpectra {
+            bands,
+            ..Default::default()
+        };
+        for s in shapes {
+            g.keep(s.clone(), MAX_GREY);
+        }
+        g
+    }
+
+    /// The index of `colour`'s shape, added if new and there is room.
+    fn keep(&mut self, colour: Vec<f64>, most: usize) -> Option<u8> {
+        let (peak, max) =
+            colour.iter().enumerate().fold(
+                (0, 0.0),
+                |(i, m), (j, &c)| if c > m { (j, c) } else { (i, m) },
+            );
+        if !(max > 0.0 && max.is_finite()) {
+            return None;
+        }
+        let shape: Vec<f64> = colour.iter().map(|c| c / max).collect();
+        let same = (0..self.count()).find(|&k| {
+            self.spectrum(k)
+                .iter()
+                .zip(&shape)
+                .all(|(a, b)| (a - b).abs() <= 1e-12)
+        });
+        match same {
+            Some(k) => Some(k as u8),
+            None if self.count() < most => {
+                self.means
+                    .push(shape.iter().sum::<f64>() / self.bands as f64);
+                self.peaks.push(peak);
+                self.spectra.extend(shape);
+                Some((self.count() - 1) as u8)
+            }
+            None => None,
+        }
+    }
+
+    /// The spectrum a photon's colour is a multiple of after a diffuse reflection off
+    /// `material`, when it was one of spectrum `k` (an emitter's) before: `k` again off a
+    /// material that reflects every band alike, the tinted spectrum off one that does not
+    /// (if kept); None when `k` is not an emitter's or `material` is out of range.
+    #[inline]
+    pub fn after(&self, k: u8, base: u8, material: usize) -> Option<u8> {
+        match self.flat.get(material)? {
+            true => Some(k),
+            false if k == base => self.tints[base as usize * self.flat.len() + material],
+            false => None,
+        }
+    }
+
+    /// Spectra kept (K).
+    #[inline]
+    pub fn count(&self) -> usize {
+        self.means.len()
+    }
+
+    #[inline]
+    pub fn spectrum(&self, k: usize) -> &[f64] {
+        &self.spectra[k * self.bands..(k + 1) * self.bands]
+    }
+
+    /// The multiple of spectrum `k` that `colour` is, if it is one (to 1e-9 of its largest
+    /// band).
+    #[inline]
+    pub fn multiple(&self, k: usize, colour: &[f64]) -> Option<f64> {
+        let s = self.spectrum(k);
+        let a = colour[self.peaks[k]];
+        if !(a > 0.0 && a.is_finite()) {
+            return None;
+        }
+        let tol = 1e-9 * a;
+        colour
+            .iter()
+            .zip(s)
+            .all(|(c, s)| (c - a * s).abs() <= tol)
+            .then_some(a)
+    }
 }
 
 impl PreparedScene {
@@ -368,7 +536,9 @@ impl PreparedScene {
             )
         })?;
         let regions = RegionLayout::new(&meshes);
+        let grey = GreySpectra::new(&emitters, &scene.materials, efficacy.len());
         let mut prepared = PreparedScene {
+            grey,
             layers,
             regions,
             efficacy: efficacy.to_vec(),

@@ -10,7 +10,7 @@
 //! value instead of a full colour, and the hand-over is a pointer move on a channel.
 
 use super::{Counters, Monitor, PhotonSource, RunContext, RunOutcome, RunParams, StopGuard};
-use crate::imap::{shares, BufferedHit, IMap, PhotonBuffer, PhotonOut, WEIGHTED};
+use crate::imap::{grey_index, shares, BufferedHit, IMap, PhotonBuffer, PhotonOut, WEIGHTED};
 use crate::scene::PreparedScene;
 use crate::transport::{Colour, HitSink, PathStats};
 use crossbeam::channel::{self, Receiver, RecvTimeoutError, Sender};
@@ -204,7 +204,12 @@ fn accumulate(map: &mut IMap, scene: &PreparedScene, p: &Portion) {
             let mesh = &scene.meshes[(n.key >> 32) as usize];
             for vertex in mesh.triangles[(n.key & 0xFFFF_FFFF) as usize] {
                 if let Some(slot) = mesh.slot(vertex, n.side as usize) {
-                    map.prefetch(layers.cell(slot, n.layer));
+                    let cell = layers.cell(slot, n.layer);
+                    if grey_index(n.band).is_some() {
+                        map.prefetch_grey(cell);
+                    } else {
+                        map.prefetch(cell);
+                    }
                 }
             }
         }
@@ -212,10 +217,11 @@ fn accumulate(map: &mut IMap, scene: &PreparedScene, p: &Portion) {
         let tri = mesh.triangles[(r.key & 0xFFFF_FFFF) as usize];
         let at = r.colour_at as usize;
         let nb = map.bands();
-        let extra = if r.band == WEIGHTED {
-            &p.colours[at + nb..at + nb + 3]
-        } else {
-            &[]
+        let grey = grey_index(r.band);
+        let extra = match grey {
+            _ if r.band == WEIGHTED => &p.colours[at + nb..at + nb + 3],
+            Some((_, true)) => &p.colours[at + 1..at + 4],
+            _ => &[],
         };
         let w = shares(r.band, r.u, r.v, extra);
         for (&vertex, &w) in tri.iter().zip(&w) {
@@ -223,7 +229,9 @@ fn accumulate(map: &mut IMap, scene: &PreparedScene, p: &Portion) {
                 .slot(vertex, r.side as usize)
                 .expect("deposit on a recording mesh");
             let slot = layers.cell(slot, r.layer);
-            if r.band >= WEIGHTED {
+            if let Some((g, _)) = grey {
+                map.add_grey(slot, w, g, p.colours[at]);
+            } else if r.band >= WEIGHTED {
                 map.add_colour(slot, w, &p.colours[at..at + nb]);
             } else {
                 map.add_band(slot, w, r.band as usize, p.colours[at]);

@@ -10,7 +10,9 @@
 use super::groups::GroupTable;
 use super::{Counters, Monitor, PhotonSource, RunContext, RunOutcome, RunParams};
 use crate::error::{bail, Result};
-use crate::imap::{shares, BufferedHit, IMap, PhotonBuffer, PhotonOut, Readout, FULL, WEIGHTED};
+use crate::imap::{
+    grey_index, shares, BufferedHit, IMap, PhotonBuffer, PhotonOut, Readout, FULL, GREY, WEIGHTED,
+};
 use crate::scene::PreparedScene;
 use crate::transport::{Colour, HitSink, PathStats};
 use crossbeam::channel::{self, Receiver, RecvTimeoutError, Sender, TryRecvError};
@@ -385,6 +387,9 @@ impl PhotonOut for GroupSink<'_> {
         let (band, colour, w) = if h.band == WEIGHTED {
             let w = shares(h.band, h.u, h.v, &colour[nb..]);
             (FULL, &colour[..nb], w)
+        } else if let Some((g, true)) = grey_index(h.band) {
+            let w = shares(h.band, h.u, h.v, &colour[1..]);
+            (GREY + g as u16, &colour[..1], w)
         } else {
             (h.band, colour, shares(h.band, h.u, h.v, &[]))
         };
@@ -466,7 +471,11 @@ unsafe fn apply(map: &IMap, p: &Portion) {
     for (i, c) in p.items.iter().enumerate() {
         if ahead > 0 {
             if let Some(n) = p.items.get(i + ahead) {
-                map.prefetch(n.slot as usize);
+                if grey_index(n.band).is_some() {
+                    map.prefetch_grey(n.slot as usize);
+                } else {
+                    map.prefetch(n.slot as usize);
+                }
             }
         }
         let at = c.colour_at as usize;
@@ -477,6 +486,8 @@ unsafe fn apply(map: &IMap, p: &Portion) {
                 map.add_colour_exclusive(c.slot as usize, c.w, &p.colours[at..at + bands]);
             } else if c.band == SQUARE {
                 map.add_square_exclusive(c.slot as usize, c.w);
+            } else if let Some((g, _)) = grey_index(c.band) {
+                map.add_grey_exclusive(c.slot as usize, c.w, g, p.colours[at]);
             } else {
                 map.add_band_exclusive(c.slot as usize, c.w, c.band as usize, p.colours[at]);
             }
