@@ -731,6 +731,8 @@ mod tests {
         let mut off: Vec<f64> = grey.spectrum(0).to_vec();
         off[3] *= 1.001;
         assert!(grey.multiple(0, &off).is_none());
+        off[3] = f64::NAN;
+        assert!(grey.multiple(0, &off).is_none());
     }
 
     /// Neumaier's compensated sum: the reference the plain map sum is checked against.

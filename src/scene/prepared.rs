@@ -366,11 +366,12 @@ impl GreySpectra {
             return None;
         }
         let tol = 1e-9 * a;
-        colour
-            .iter()
-            .zip(s)
-            .all(|(c, s)| (c - a * s).abs() <= tol)
-            .then_some(a)
+        // Every band checked (no early exit): the loop vectorises. A NaN band is off.
+        let off = colour.iter().zip(s).fold(false, |off, (c, s)| {
+            let d = (c - a * s).abs();
+            off | (d > tol) | d.is_nan()
+        });
+        (!off).then_some(a)
     }
 }
 
