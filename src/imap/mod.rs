@@ -188,16 +188,7 @@ impl IMap {
         })?;
         data.resize_with(len, || AtomicU64::new(0));
         let grey_len = cells * grey.count();
-        let mut grey_sums = Vec::new();
-        grey_sums.try_reserve_exact(grey_len).map_err(|_| {
-            Error::new(
-                ImapStatus::ImapErrOutOfMemory,
-                format!(
-                    "could not allocate the map's grey sums ({} MiB)",
-                    (grey_len * 8) >> 20
-                ),
-            )
-        })?;
+        let mut grey_sums = crate::error::try_with_capacity(grey_len, "the map's grey sums")?;
         grey_sums.resize_with(grey_len, || AtomicU64::new(0));
         let direct = if direct {
             Some(Arc::new(DirectAcc::try_new(cells, bands)?))
