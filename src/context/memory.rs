@@ -10,8 +10,8 @@
 //!   measured with the medium-quality builder on the 4.4 library (`tests/memory.rs`
 //!   checks the whole model against the process's peak).
 //!
-//! Then the map (slots × (bands + 1) × 8, and up to 4 grey sums per slot for a spectral
-//! map), and per run or render its own buffers.
+//! Then the map (slots × (bands + 1) × 8, and up to bands / 4 grey sums per slot for a
+//! spectral map), and per run or render its own buffers.
 
 use crate::scene::{Mesh, MeshDesc, Scene};
 
@@ -97,11 +97,7 @@ pub fn sky_image_bytes(pixels: u64) -> (u64, u64) {
 /// Bytes of a map of `slots` slots and `bands` bands: with a spectral map's grey sums
 /// (`scene::GreySpectra`) at the most there can be.
 pub fn map_bytes(slots: u64, bands: u64) -> u64 {
-    let grey = if bands as usize >= crate::scene::GREY_MIN_BANDS {
-        crate::scene::MAX_GREY as u64
-    } else {
-        0
-    };
+    let grey = crate::scene::most_grey(usize::try_from(bands).unwrap_or(usize::MAX)) as u64;
     slots.saturating_mul(bands + 1 + grey).saturating_mul(8)
 }
 

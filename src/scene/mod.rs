@@ -14,7 +14,8 @@ pub use light::{Light, LightShape};
 pub use material::{IorModel, Material, MaterialDesc};
 pub use mesh::{Mesh, MeshDesc};
 pub use prepared::{
-    Emitter, EmitterKind, GreySpectra, PreparedMesh, PreparedScene, GREY_MIN_BANDS, MAX_GREY,
+    most_grey, Emitter, EmitterKind, GreySpectra, PreparedMesh, PreparedScene, GREY_MIN_BANDS,
+    MAX_GREY,
 };
 
 /// Everything the caller has described.

@@ -239,6 +239,15 @@ pub struct GreySpectra {
     flat: Vec<bool>,
 }
 
+/// Most grey sums a map of `bands` bands keeps per cell (`GreySpectra`).
+pub fn most_grey(bands: usize) -> usize {
+    if bands < GREY_MIN_BANDS {
+        0
+    } else {
+        MAX_GREY.min(bands / 4)
+    }
+}
+
 impl GreySpectra {
     /// The distinct spectra of `emitters`' colours (up to scale), then of those times each
     /// tinted material's diffuse reflectance, for maps of `bands` bands.
@@ -248,8 +257,8 @@ impl GreySpectra {
             of_emitter: vec![None; emitters.len()],
             ..Default::default()
         };
-        let most = MAX_GREY.min(bands / 4);
-        if bands < GREY_MIN_BANDS {
+        let most = most_grey(bands);
+        if most == 0 {
             return g;
         }
         let bases: Vec<Option<u8>> = emitters
