@@ -161,8 +161,6 @@ struct Shared<'a> {
     outputs: &'a [Sender<Portion>],
     capacity: usize,
     inline_apply: bool,
-    /// Sort portions by slot before applying them (`IMap::worth_sorting`).
-    sort: bool,
     /// A processing thread was lost: waiting for free portions would never end.
     poisoned: &'a AtomicBool,
 }
@@ -254,9 +252,9 @@ impl<'a> GroupSink<'a> {
             self.open_at[moved] = at;
         }
         self.open_at[g] = NOT_OPEN;
-        if self.shared.sort {
-            p.items.sort_unstable_by_key(|c| c.slot);
-        }
+        // Portions are applied in arrival order: sorting them by slot (as the classic
+        // scheduler sorts by triangle) cost more than it saved, applying inline or on a
+        // processing thread, RGB and 81 bands (BENCHMARKS.md, 2026-11-24).
         let table = self.shared.table;
         if self.shared.inline_apply && table.try_lock(g) {
             if table.ancestors_done(g) {
@@ -699,7 +697,6 @@ pub fn run(
         recycle: free_tx.clone(),
         outputs: &out_tx,
         capacity,
-        sort: shared_map.worth_sorting(),
         inline_apply: dp.inline_apply.unwrap_or_else(|| {
             threads >= std::thread::available_parallelism().map_or(1, |n| n.get())
         }),
