@@ -766,3 +766,72 @@ fn prepare_mesh(m: &Mesh, origin: DVec3, slot_base: Option<usize>) -> Result<Pre
         tally: m.tally,
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::{Bands, MaterialDesc};
+
+    fn point(colour: Vec<f64>) -> Emitter {
+        Emitter {
+            kind: EmitterKind::Light(LightShape::Point),
+            position: DVec3::ZERO,
+            power: colour.clone(),
+            colour,
+            layer: 0,
+            aim: None,
+        }
+    }
+
+    #[test]
+    fn grey_spectra_keep_each_light_shape_once_and_each_tint_within_the_cap() {
+        let nb = 12;
+        let bands = Bands::spectral(nb as u32, 400.0, 700.0).unwrap();
+        let ramp: Vec<f64> = (0..nb).map(|b| 1.0 + b as f64).collect();
+        let emitters = [
+            point(ramp.clone()),
+            point(ramp.iter().map(|x| 3.0 * x).collect()), // the same shape
+            point(vec![2.0; nb]),
+        ];
+        let material = |rho: Vec<f64>| {
+            Material::new(
+                &MaterialDesc {
+                    diffuse_reflect: rho,
+                    ..Default::default()
+                },
+                &bands,
+            )
+            .unwrap()
+        };
+        let materials = [
+            material(vec![0.5]),                                        // flat
+            material((0..nb).map(|b| 0.2 + 0.05 * b as f64).collect()), // tinted
+        ];
+        let g = GreySpectra::new(&emitters, &materials, nb);
+        // 12 bands: at most 3 sums. The two light shapes, then the first tint.
+        assert_eq!(g.count(), 3);
+        assert_eq!(g.of_emitter, vec![Some(0), Some(0), Some(1)]);
+        assert!(g.spectrum(0).iter().all(|&s| s > 0.0 && s <= 1.0));
+        assert_eq!(g.spectrum(0)[nb - 1], 1.0);
+        // Off the flat material a colour stays in its class; off the tinted one it moves
+        // to the tint kept for the first light (the second light's tint had no room), and
+        // a second tint leaves every class.
+        assert_eq!(g.after(0, 0, 0), Some(0));
+        assert_eq!(g.after(0, 0, 1), Some(2));
+        assert_eq!(g.after(1, 1, 1), None);
+        assert_eq!(g.after(2, 0, 1), None);
+        assert_eq!(g.after(2, 0, 0), Some(2));
+        assert_eq!(g.after(0, 0, 7), None, "no such material");
+        let tinted: Vec<f64> = g
+            .spectrum(0)
+            .iter()
+            .zip(&materials[1].diffuse_reflect)
+            .map(|(s, r)| 0.37 * s * r)
+            .collect();
+        assert!(g.multiple(2, &tinted).is_some());
+        assert!(g.multiple(0, &tinted).is_none());
+        // Few bands: no sums at all.
+        let rgb = GreySpectra::new(&emitters, &materials, 3);
+        assert_eq!((rgb.count(), rgb.of_emitter[0]), (0, None));
+    }
+}
