@@ -23,11 +23,12 @@
 //! atomic loads. No access to a slot is ever concurrent with a write to it.
 //!
 //! Grey sums (spectral maps, `scene::GreySpectra`): a cell also has, in an array of their
-//! own, one sum per kept emitter spectrum of the multiples deposited by photons whose
-//! colour was still a multiple of that spectrum (one number written instead of 81; the
-//! square goes to the cell's sum of squares as usual). Every read adds them times their
-//! spectra; `raw_mut` and `values_mut` first fold them into the band sums, so the
-//! accumulators' array (states, `map_accumulators`) keeps its layout.
+//! own, one sum per kept spectrum (an emitter's, or that times a tinted material's
+//! reflectance) of the multiples deposited by photons whose colour was a multiple of that
+//! spectrum: one number written instead of one per band, the square going to the cell's
+//! sum of squares as usual. Every read adds them times their spectra; `raw_mut` and
+//! `values_mut` first fold them into the band sums, so the accumulators' array (states,
+//! `map_accumulators`) keeps its layout.
 
 pub mod direct;
 mod photon;

@@ -235,7 +235,7 @@ impl PhotonBuffer {
                 };
                 let band = match grey {
                     Some((g, a)) => {
-                        // A multiple of its emitter's spectrum: one number.
+                        // A multiple of a kept spectrum: one number.
                         self.colours.push(a as f32);
                         g
                     }

@@ -204,14 +204,14 @@ pub struct PreparedScene {
     pub efficacy: Vec<f64>,
     /// The map's layers.
     pub layers: LayerLayout,
-    /// The emitter spectra a spectral map keeps grey sums for (`GreySpectra`).
+    /// The spectra a spectral map keeps grey sums for (`GreySpectra`).
     pub grey: GreySpectra,
 }
 
 /// Most spectra a map keeps grey sums for (`GreySpectra`).
 pub const MAX_GREY: usize = 32;
-/// Maps of more bands than this keep grey sums (`GreySpectra`); at a few bands a cell is a
-/// cache line or two anyway.
+/// Maps of at least this many bands keep grey sums (`GreySpectra`); at a few bands a cell
+/// is a cache line or two anyway.
 pub const GREY_MIN_BANDS: usize = 9;
 
 /// The spectra for which a spectral map keeps, per cell, one sum of multiples
@@ -233,7 +233,7 @@ pub struct GreySpectra {
     pub peaks: Vec<usize>,
     /// Per emitter: its spectrum, if it has one here.
     pub of_emitter: Vec<Option<u8>>,
-    /// Per (emitter spectrum, material): the tinted spectrum, if kept (`tinted`).
+    /// Per (emitter spectrum, material): the tinted spectrum, if kept (`after`).
     tints: Vec<Option<u8>>,
     /// Per material: whether its diffuse reflectance is the same in every band.
     flat: Vec<bool>,
