@@ -114,16 +114,9 @@ fn render(
     let mut p = RenderParams {
         method,
         group_threads,
-        remask_phases: 0,
-        forward_per_pass: 0,
-        initial_radius: 0.0,
-        alpha: 0.0,
-        passes: 0,
         time_budget_s: seconds,
-        target_rel_error: 0.0,
         progress_interval_s: 0.25,
-        max_path_events: 1 << 20,
-        progress: None,
+        ..Default::default()
     };
     ctx.render(&cornell_camera(size, size), &mut p)
         .expect("render")

@@ -34,17 +34,10 @@ const EMITTER_Z: f64 = GREY_ROOM_EMITTER_Z;
 fn params(method: RenderMethod, seconds: f64) -> RenderParams<'static> {
     RenderParams {
         method,
-        group_threads: 1,
-        remask_phases: 0,
-        forward_per_pass: 0,
-        initial_radius: 0.0,
-        alpha: 0.0,
-        passes: 0,
         time_budget_s: seconds,
-        target_rel_error: 0.0,
         progress_interval_s: 1.0,
         max_path_events: 10_000,
-        progress: None,
+        ..Default::default()
     }
 }
 

@@ -529,17 +529,10 @@ fn the_renderer_sees_the_sky_and_a_floor_lit_by_it_and_the_sun() {
     ctx.add_sun(&equal_sun(30.0, 40.0, 9.0)).unwrap();
     let mut params = RenderParams {
         method: RenderMethod::Synchronous,
-        group_threads: 1,
-        remask_phases: 0,
-        forward_per_pass: 0,
-        initial_radius: 0.0,
-        alpha: 0.0,
         passes: 64,
-        time_budget_s: 0.0,
-        target_rel_error: 0.0,
         progress_interval_s: 0.05,
         max_path_events: 10_000,
-        progress: None,
+        ..Default::default()
     };
     let cam = |z: f64, dz: f64| CameraDesc {
         position: [0.0, 0.0, z],

@@ -136,17 +136,8 @@ fn item02_tiny_progress_intervals_are_raised_and_histories_bounded() {
 fn render_params<'a>() -> RenderParams<'a> {
     RenderParams {
         method: RenderMethod::SemiSynchronous,
-        group_threads: 1,
         remask_phases: 4,
-        forward_per_pass: 0,
-        initial_radius: 0.0,
-        alpha: 0.0,
-        passes: 0,
-        time_budget_s: 0.0,
-        target_rel_error: 0.0,
-        progress_interval_s: 0.5,
-        max_path_events: 1 << 20,
-        progress: None,
+        ..Default::default()
     }
 }
 

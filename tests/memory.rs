@@ -74,17 +74,9 @@ fn a_scene_admitted_under_a_budget_stays_within_it() {
     run_photons(&mut ctx, 200_000);
     let mut rp = RenderParams {
         method: RenderMethod::SemiSynchronous,
-        group_threads: 1,
         remask_phases: 4,
-        forward_per_pass: 0,
-        initial_radius: 0.0,
-        alpha: 0.0,
         passes: 3,
-        time_budget_s: 0.0,
-        target_rel_error: 0.0,
-        progress_interval_s: 0.5,
-        max_path_events: 1 << 20,
-        progress: None,
+        ..Default::default()
     };
     let cam = CameraDesc {
         position: [0.0, -12.0, 6.0],

@@ -392,6 +392,25 @@ fn dispersive_slab_separates_bands_by_snell() {
     assert!(centroids[1] - centroids[0] > 0.1);
 }
 
+/// The sphere `g` as a recorded wall of diffuse reflectance `rho` (one value per band of
+/// `config`): the context and the mesh.
+fn spectral_sphere(config: Config, g: &Geometry, rho: &[f64]) -> (imap::Context, u32) {
+    let mut ctx = context(config);
+    let wall = ctx
+        .add_material(&MaterialDesc {
+            diffuse_reflect: rho.to_vec(),
+            ..Default::default()
+        })
+        .unwrap();
+    let mesh = ctx.add_mesh(&g.desc(wall)).unwrap();
+    (ctx, mesh)
+}
+
+/// The area-weighted mean of per-vertex values `e`.
+fn area_mean(e: &[f64], area: &[f64]) -> f64 {
+    e.iter().zip(area).map(|(e, a)| e * a).sum::<f64>() / area.iter().sum::<f64>()
+}
+
 /// A closed sphere at 41 bands lit by two point lights of different spectra (a spectral
 /// map keeps one grey sum per emitter spectrum: a photon whose colour is still a multiple
 /// of its light's deposits one number): with grey walls every deposit is such a multiple,
@@ -417,20 +436,14 @@ fn a_spectral_sphere_holds_every_band_with_two_light_spectra() {
     for (rho, name) in [(&flat, "grey"), (&tilted, "tilted")] {
         for scheduler in [imap::SchedulerKind::Classic, imap::SchedulerKind::Dynamic] {
             for estimator in [imap::Estimator::Photons, imap::Estimator::DEFAULT] {
-                let mut ctx = context(Config {
+                let config = Config {
                     threads: 2,
                     seed: 91,
                     bands: bands.clone(),
                     scheduler,
                     ..Default::default()
-                });
-                let wall = ctx
-                    .add_material(&MaterialDesc {
-                        diffuse_reflect: rho.clone(),
-                        ..Default::default()
-                    })
-                    .unwrap();
-                let mesh = ctx.add_mesh(&g.desc(wall)).unwrap();
+                };
+                let (mut ctx, mesh) = spectral_sphere(config, &g, rho);
                 ctx.add_point_light([0.1, 0.0, 0.0], &p1).unwrap();
                 ctx.add_point_light([-0.2, 0.1, 0.0], &p2).unwrap();
                 let report = ctx
@@ -447,8 +460,7 @@ fn a_spectral_sphere_holds_every_band_with_two_light_spectra() {
                 let mut e = vec![0.0; g.vertex_count()];
                 for b in 0..nb {
                     ctx.irradiance(mesh, 0, b as u32, &mut e).unwrap();
-                    let mean: f64 =
-                        e.iter().zip(&area).map(|(e, a)| e * a).sum::<f64>() / total_area;
+                    let mean = area_mean(&e, &area);
                     let expected = (p1[b] + p2[b]) / (total_area * (1.0 - rho[b]));
                     // The mean's error: the vertices' errors (independent photons' sums,
                     // correlated between neighbours: twice the independent figure).
@@ -490,19 +502,13 @@ fn a_spectral_sphere_holds_every_band_with_forty_light_spectra() {
     let total_area: f64 = area.iter().sum();
     let rho: Vec<f64> = (0..nb).map(|b| 0.2 + 0.3 * (b % 7) as f64 / 7.0).collect();
     for estimator in [imap::Estimator::Photons, imap::Estimator::GATHER] {
-        let mut ctx = context(Config {
+        let config = Config {
             threads: 2,
             seed: 3,
             bands: bands.clone(),
             ..Default::default()
-        });
-        let wall = ctx
-            .add_material(&MaterialDesc {
-                diffuse_reflect: rho.clone(),
-                ..Default::default()
-            })
-            .unwrap();
-        let mesh = ctx.add_mesh(&g.desc(wall)).unwrap();
+        };
+        let (mut ctx, mesh) = spectral_sphere(config, &g, &rho);
         let mut phi = vec![0.0; nb];
         for l in 0..40 {
             let p: Vec<f64> = (0..nb)
@@ -529,7 +535,7 @@ fn a_spectral_sphere_holds_every_band_with_forty_light_spectra() {
         ctx.rel_error(mesh, 0, &mut rel).unwrap();
         for b in 0..nb {
             ctx.irradiance(mesh, 0, b as u32, &mut e).unwrap();
-            let mean: f64 = e.iter().zip(&area).map(|(e, a)| e * a).sum::<f64>() / total_area;
+            let mean = area_mean(&e, &area);
             let expected = phi[b] / (total_area * (1.0 - rho[b]));
             assert!(
                 (mean / expected - 1.0).abs() < 0.02,

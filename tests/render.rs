@@ -9,17 +9,10 @@ use std::f64::consts::PI;
 fn params(method: RenderMethod, passes: u64) -> RenderParams<'static> {
     RenderParams {
         method,
-        group_threads: 1,
-        remask_phases: 0,
-        forward_per_pass: 0,
-        initial_radius: 0.0,
-        alpha: 0.0,
         passes,
-        time_budget_s: 0.0,
-        target_rel_error: 0.0,
         progress_interval_s: 0.05,
         max_path_events: 10_000,
-        progress: None,
+        ..Default::default()
     }
 }
 

@@ -82,6 +82,27 @@ pub struct RenderParams<'a> {
     pub progress: Option<&'a mut dyn FnMut(&Progress) -> bool>,
 }
 
+impl Default for RenderParams<'_> {
+    /// As `imap_render_params_default`: semi-synchronous, every automatic setting, no stop
+    /// criterion (set one), progress every 0.5 s, 2²⁰ events.
+    fn default() -> Self {
+        RenderParams {
+            method: RenderMethod::SemiSynchronous,
+            group_threads: 1,
+            remask_phases: 0,
+            forward_per_pass: 0,
+            initial_radius: 0.0,
+            alpha: 0.0,
+            passes: 0,
+            time_budget_s: 0.0,
+            target_rel_error: 0.0,
+            progress_interval_s: 0.5,
+            max_path_events: 1 << 20,
+            progress: None,
+        }
+    }
+}
+
 /// Figures of a render.
 #[derive(Clone, Debug, Default)]
 pub struct RenderReport {

@@ -218,10 +218,13 @@ fn accumulate(map: &mut IMap, scene: &PreparedScene, p: &Portion) {
         let at = r.colour_at as usize;
         let nb = map.bands();
         let grey = grey_index(r.band);
-        let extra = match grey {
-            _ if r.band == WEIGHTED => &p.colours[at + nb..at + nb + 3],
-            Some((_, true)) => &p.colours[at + 1..at + 4],
-            _ => &[],
+        // A weighted hit's three weights follow its colour (all bands, or one multiple).
+        let extra = if r.band == WEIGHTED {
+            &p.colours[at + nb..at + nb + 3]
+        } else if let Some((_, true)) = grey {
+            &p.colours[at + 1..at + 4]
+        } else {
+            &[]
         };
         let w = shares(r.band, r.u, r.v, extra);
         for (&vertex, &w) in tri.iter().zip(&w) {
