@@ -1069,7 +1069,7 @@ typedef struct ImapRenderParams {
   double target_rel_error;
   /**
    * Seconds between progress reports and stop checks (> 0; raised to at least 0.001 s
-   * and lengthened while the estimate would take more than 5 % of the render; the
+   * and lengthened while the estimate would cost more than 5 % of it in CPU time; the
    * history keeps at most 4096 points).
    */
   double progress_interval_s;
@@ -1276,8 +1276,8 @@ typedef struct ImapRunParams {
   /**
    * Seconds between progress reports and stop checks, > 0. Values below 0.001 s are
    * raised to 0.001 s, and the interval is lengthened while evaluating the error would
-   * take more than 5 % of the run; the history keeps at most 4096 points (older ones
-   * are thinned out evenly).
+   * cost more than 5 % of it in CPU time; the history keeps at most 4096 points (older
+   * ones are thinned out evenly).
    */
   double progress_interval_s;
   ImapProgressFn progress;

@@ -112,7 +112,7 @@ pub struct ImapRenderParams {
     /// 0 = none.
     pub target_rel_error: f64,
     /// Seconds between progress reports and stop checks (> 0; raised to at least 0.001 s
-    /// and lengthened while the estimate would take more than 5 % of the render; the
+    /// and lengthened while the estimate would cost more than 5 % of it in CPU time; the
     /// history keeps at most 4096 points).
     pub progress_interval_s: f64,
     /// Called as for `imap_run`; in the `ImapProgress` it receives, `photons` counts

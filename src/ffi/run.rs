@@ -104,8 +104,8 @@ pub struct ImapRunParams {
     pub target_rel_error: f64,
     /// Seconds between progress reports and stop checks, > 0. Values below 0.001 s are
     /// raised to 0.001 s, and the interval is lengthened while evaluating the error would
-    /// take more than 5 % of the run; the history keeps at most 4096 points (older ones
-    /// are thinned out evenly).
+    /// cost more than 5 % of it in CPU time; the history keeps at most 4096 points (older
+    /// ones are thinned out evenly).
     pub progress_interval_s: f64,
     pub progress: ImapProgressFn,
     /// Passed to `progress` unchanged.

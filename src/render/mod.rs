@@ -31,7 +31,10 @@ pub use backward::{EyeStats, EyeTracer};
 pub use camera::{Camera, CameraDesc};
 
 use crate::sampling::PhotonRng;
-use crate::sched::{duration_s, push_history, Progress, StopReason, MIN_PROGRESS_INTERVAL_S};
+use crate::sched::{
+    duration_s, push_history, CostClock, Progress, StopReason, MAX_PROGRESS_SHARE,
+    MIN_PROGRESS_INTERVAL_S,
+};
 use crate::transport::{Colour, HitSink, PathStats, SurfaceEvent, Tracer};
 use bmap::{BackwardMap, PixelStore, SampleBuf};
 use gate::Gate;
@@ -205,7 +208,7 @@ impl<'p, 'a> Monitor<'p, 'a> {
         self.next_tick.is_none_or(|t| Instant::now() >= t)
     }
 
-    /// Records progress point `p` (its estimate took `took`), calls the callback, checks the
+    /// Records progress point `p` (its estimate cost `took` of CPU time), calls the callback, checks the
     /// criteria (the error only when `settled`: every pixel has an estimate) and schedules
     /// the next point. True: stop.
     pub fn tick(&mut self, p: Progress, settled: bool, took: Duration) -> bool {
@@ -218,7 +221,8 @@ impl<'p, 'a> Monitor<'p, 'a> {
         }
         why = why.or(self.criteria(p.rel_error, settled, p.elapsed_s));
         self.stop = self.stop.or(why);
-        self.next_tick = Instant::now().checked_add(self.interval.max(took.mul_f64(20.0)));
+        let gap = self.interval.max(took.mul_f64(1.0 / MAX_PROGRESS_SHARE));
+        self.next_tick = Instant::now().checked_add(gap);
         self.stop.is_some()
     }
 
@@ -952,8 +956,9 @@ pub fn render(
             if !mon.due() {
                 continue;
             }
+            let cost = CostClock::start();
             let p = progress_of(&engine, start);
-            if mon.tick(p, true, now.elapsed()) {
+            if mon.tick(p, true, cost.spent()) {
                 engine.stop.store(true, Ordering::Relaxed);
             }
         }

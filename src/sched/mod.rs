@@ -25,8 +25,54 @@ pub const MIN_PROGRESS_INTERVAL_S: f64 = 1e-3;
 /// Most points a history keeps; past it, every other old point is dropped.
 pub const MAX_HISTORY: usize = 4096;
 /// Largest share of the wall time the progress evaluations may take: the interval is
-/// lengthened when the last evaluation took longer than this share of it.
-const MAX_PROGRESS_SHARE: f64 = 0.05;
+/// lengthened when the last evaluation cost (in CPU time) more than this share of it.
+pub(crate) const MAX_PROGRESS_SHARE: f64 = 0.05;
+
+/// What a progress evaluation costs: the CPU time the calling thread spends on it. The wall
+/// clock would also count the time the thread waited for a core, so on a loaded machine a
+/// preempted evaluation would look slow and stretch the interval (20 × the wait) for nothing.
+pub(crate) struct CostClock {
+    wall: Instant,
+    cpu: Option<Duration>,
+}
+
+impl CostClock {
+    pub fn start() -> Self {
+        CostClock {
+            wall: Instant::now(),
+            cpu: thread_cpu_time(),
+        }
+    }
+
+    /// The CPU time spent since `start` (the wall time where the clock is unavailable).
+    pub fn spent(&self) -> Duration {
+        match (self.cpu, thread_cpu_time()) {
+            (Some(a), Some(b)) => b.saturating_sub(a),
+            _ => self.wall.elapsed(),
+        }
+    }
+}
+
+/// The CPU time the calling thread has used, where the system tells it.
+fn thread_cpu_time() -> Option<Duration> {
+    #[cfg(unix)]
+    {
+        let mut ts = libc::timespec {
+            tv_sec: 0,
+            tv_nsec: 0,
+        };
+        // SAFETY: `ts` is a valid, writable timespec; the call only writes it.
+        let rc = unsafe { libc::clock_gettime(libc::CLOCK_THREAD_CPUTIME_ID, &mut ts) };
+        if rc == 0 && ts.tv_sec >= 0 && (0..1_000_000_000).contains(&ts.tv_nsec) {
+            return Some(Duration::new(ts.tv_sec as u64, ts.tv_nsec as u32));
+        }
+        None
+    }
+    #[cfg(not(unix))]
+    {
+        None
+    }
+}
 
 /// A duration of `s` seconds (any non-negative number; huge values saturate).
 pub fn duration_s(s: f64) -> Duration {
@@ -327,13 +373,14 @@ impl<'p, 'a> Monitor<'p, 'a> {
             self.stop = Some(StopReason::TimeBudget);
         }
         if self.stop.is_none() && self.next_tick.is_some_and(|t| now >= t) {
+            let cost = CostClock::start();
             let hits = rc.hits_before + source.hits();
             let photons = self.photons_before + source.traced();
             let err = error(photons);
             let region = self.region_error(map, rc, photons, access);
             let p = self.record(photons, hits, err, region);
-            // The next tick: one interval on, or later when the evaluation was slow.
-            let spent = now.elapsed();
+            // The next tick: one interval on, or later when the evaluation was costly.
+            let spent = cost.spent();
             let gap = self.interval.max(spent.mul_f64(1.0 / MAX_PROGRESS_SHARE));
             self.next_tick = Instant::now().checked_add(gap);
             let region_met = self
@@ -426,6 +473,24 @@ impl<'p, 'a> Monitor<'p, 'a> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn an_evaluation_costs_its_cpu_time_not_its_waits() {
+        // A thread that waits (as a preempted monitor does) spends no CPU time: the
+        // progress interval must not grow with it.
+        let clock = CostClock::start();
+        std::thread::sleep(Duration::from_millis(60));
+        let waited = clock.spent();
+        assert!(waited < Duration::from_millis(30), "{waited:?}");
+        // Work is counted.
+        let clock = CostClock::start();
+        let t = Instant::now();
+        let mut x = 1u64;
+        while t.elapsed() < Duration::from_millis(20) {
+            x = std::hint::black_box(x.wrapping_mul(6364136223846793005).wrapping_add(1));
+        }
+        assert!(clock.spent() > Duration::ZERO, "{x}");
+    }
 
     #[test]
     fn durations_saturate_and_histories_stay_bounded() {
