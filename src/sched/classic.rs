@@ -197,16 +197,17 @@ impl HitSink for PortionSink<'_> {
 /// Applies a sorted portion to the map: the accumulating thread's work.
 fn accumulate(map: &mut IMap, scene: &PreparedScene, p: &Portion) {
     let layers = scene.layers;
-    // Spectral cells span many cache lines: fetch the cells of a hit a few hits ahead.
-    let ahead = if map.bands() > 8 { 2 } else { 0 };
+    // Spectral cells span many cache lines: fetch the cells of a hit a few hits ahead (8:
+    // with most deposits one grey number, 2 left most fetches late; BENCHMARKS.md).
+    let ahead = if map.bands() > 8 { 8 } else { 0 };
     for (i, r) in p.recs.iter().enumerate() {
         if let Some(n) = p.recs.get(i + ahead).filter(|_| ahead > 0) {
             let mesh = &scene.meshes[(n.key >> 32) as usize];
             for vertex in mesh.triangles[(n.key & 0xFFFF_FFFF) as usize] {
                 if let Some(slot) = mesh.slot(vertex, n.side as usize) {
                     let cell = layers.cell(slot, n.layer);
-                    if grey_index(n.band).is_some() {
-                        map.prefetch_grey(cell);
+                    if let Some((g, _)) = grey_index(n.band) {
+                        map.prefetch_grey(cell, g);
                     } else {
                         map.prefetch(cell);
                     }

@@ -464,13 +464,14 @@ impl HitSink for GroupSink<'_> {
 /// done (`GroupTable::ancestors_done`).
 unsafe fn apply(map: &IMap, p: &Portion) {
     let bands = map.bands();
-    // Spectral cells span many cache lines: fetch a few contributions ahead.
-    let ahead = if bands > 8 { 6 } else { 0 };
+    // Spectral cells span many cache lines: fetch a few contributions ahead (12: with most
+    // contributions one grey number, 6 left most fetches late; BENCHMARKS.md).
+    let ahead = if bands > 8 { 12 } else { 0 };
     for (i, c) in p.items.iter().enumerate() {
         if ahead > 0 {
             if let Some(n) = p.items.get(i + ahead) {
-                if grey_index(n.band).is_some() {
-                    map.prefetch_grey(n.slot as usize);
+                if let Some((g, _)) = grey_index(n.band) {
+                    map.prefetch_grey(n.slot as usize, g);
                 } else {
                     map.prefetch(n.slot as usize);
                 }
