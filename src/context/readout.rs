@@ -215,11 +215,6 @@ pub struct RegionStats {
     pub extremes: Option<Extremes>,
 }
 
-/// The map's direct accumulators (light-sampling estimator), if any.
-fn map_direct(c: &Context) -> Option<&crate::imap::DirectAcc> {
-    c.map.as_ref()?.direct().map(|d| d.as_ref())
-}
-
 impl Context {
     /// Each vertex's share of the adjacent triangles' area (a third of each), m².
     pub fn vertex_areas(&self, mesh: u32, out: &mut [f64]) -> Result<()> {
@@ -294,47 +289,28 @@ impl Context {
                 .map(|b| t.sum[r * nb + b] * p.scene.efficacy[b])
                 .sum();
             out.flux_lm = est(lum_sum, t.sq_lum[r]);
-            if let Some(d) = p.scene.meshes[i].slot_base.and(map_direct(self)) {
-                // Light sampling: the tallies hold the photons' part; the direct part is
-                // the vertices' (independent between vertices: their variances add). For
-                // a mesh side the vertices' fluxes sum to the side's exactly; for a part,
-                // each vertex counts with its share of the part's area.
-                let layout = p.scene.layers;
-                let pm = &p.scene.meshes[i];
-                let (mut flux, mut var, mut lm, mut var_lm) =
-                    (vec![0.0; nb], vec![0.0; nb], 0.0, 0.0);
-                for (v, w) in weights.iter().enumerate() {
-                    let a = pm.vertex_area[v] * unit2;
-                    let Some(slot) = pm.slot(v as u32, side as usize) else {
-                        continue;
-                    };
-                    if *w <= 0.0 || a <= 0.0 {
-                        continue;
-                    }
-                    let k = w / a;
-                    let cells = layout.cells(slot, None);
-                    let (mean, v_scalar, _) = d.scalar_of(cells.clone(), cells.len() > 1);
-                    let mut l = 0.0;
-                    for b in 0..nb {
-                        let f: f64 = cells.clone().map(|c| d.band_mean(c, b).0).sum();
-                        flux[b] += k * f;
-                        if mean > 0.0 {
-                            var[b] += k * k * v_scalar * (f / mean).powi(2);
-                        }
-                        l += f * p.scene.efficacy[b];
-                    }
-                    lm += k * l;
-                    if mean > 0.0 {
-                        var_lm += k * k * v_scalar * (l / mean).powi(2);
-                    }
-                }
+            // Light sampling: the tallies hold the photons' part; the direct part is the
+            // vertices' (a run's region target reads the same: `sched::target`). For a mesh
+            // side the vertices' fluxes sum to the side's exactly; for a part, each vertex
+            // counts with its share of the part's area.
+            let direct = self.map.as_ref().and_then(|map| {
+                let readout = Readout {
+                    map,
+                    scene: &p.scene,
+                    photons: n,
+                    unit_m: self.config.unit_m,
+                    layer: None,
+                };
+                readout.region_direct(&p.scene.meshes[i], side as usize, &m.area_shares(part))
+            });
+            if let Some(d) = direct {
                 for b in 0..nb {
                     let e = &mut out.flux_w[b];
-                    e.value += flux[b];
-                    e.sigma = (e.sigma * e.sigma + var[b]).sqrt();
+                    e.value += d.flux[b];
+                    e.sigma = (e.sigma * e.sigma + d.var[b]).sqrt();
                 }
-                out.flux_lm.value += lm;
-                out.flux_lm.sigma = (out.flux_lm.sigma.powi(2) + var_lm).sqrt();
+                out.flux_lm.value += d.lum;
+                out.flux_lm.sigma = (out.flux_lm.sigma.powi(2) + d.var_lum).sqrt();
             }
         } else {
             // No tallies: sums over the vertices, with the upper bound Σ aᵥσᵥ of their

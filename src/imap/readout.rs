@@ -24,6 +24,20 @@ pub(crate) fn std_error(sum: f64, sq: f64, n: f64) -> f64 {
     (sq - sum * sum / n).max(0.0).sqrt()
 }
 
+/// The direct part of a region (the light-sampling estimator's vertex passes), in the
+/// direct accumulators' unit (W): per band and luminous (weighted by the bands' efficacies),
+/// its flux and variance.
+#[derive(Clone, Debug, PartialEq)]
+pub(crate) struct RegionDirect {
+    pub flux: Vec<f64>,
+    pub var: Vec<f64>,
+    pub lum: f64,
+    pub var_lum: f64,
+    /// Vertices of the region that no pass has reached yet: their direct light is unknown
+    /// (passes reach every vertex with area; photon k's pass, so early in a run only).
+    pub waiting: usize,
+}
+
 /// What turns map values into physical ones.
 pub struct Readout<'a> {
     pub map: &'a IMap,
@@ -37,7 +51,7 @@ pub struct Readout<'a> {
 impl Readout<'_> {
     /// Photon units per watt of direct flux: N·B/Φ.
     #[inline]
-    fn units_per_watt(&self) -> f64 {
+    pub(crate) fn units_per_watt(&self) -> f64 {
         if self.scene.total_power > 0.0 {
             self.photons as f64 * self.map.bands() as f64 / self.scene.total_power
         } else {
@@ -131,6 +145,60 @@ impl Readout<'_> {
             return (total, total);
         }
         ((sigma * sigma + var * k * k).sqrt(), total)
+    }
+
+    /// The direct part of the region of `mesh`'s `side` whose vertices have the area shares
+    /// `shares` (scene units², as `vertex_area`; a vertex counts with `shares[v]` over its
+    /// area), or None without light sampling. A vertex's direct flux is the mean over its
+    /// passes and its variance their sample variance over the count; vertices are
+    /// independent (each pass has its own point set), so the variances add. Reads only
+    /// the direct accumulators (atomic): safe while the run's writers go on.
+    pub(crate) fn region_direct(
+        &self,
+        mesh: &PreparedMesh,
+        side: usize,
+        shares: &[f64],
+    ) -> Option<RegionDirect> {
+        let d = self.map.direct()?;
+        let nb = self.map.bands();
+        let eff = &self.scene.efficacy;
+        let mut out = RegionDirect {
+            flux: vec![0.0; nb],
+            var: vec![0.0; nb],
+            lum: 0.0,
+            var_lum: 0.0,
+            waiting: 0,
+        };
+        for (v, &w) in shares.iter().enumerate() {
+            let a = mesh.vertex_area[v];
+            let Some(slot) = mesh.slot(v as u32, side) else {
+                continue;
+            };
+            if w <= 0.0 || a <= 0.0 {
+                continue;
+            }
+            let k = w / a;
+            let cells = self.map.layout().cells(slot, None);
+            let (mean, var, passes) = d.scalar_of(cells.clone(), cells.len() > 1);
+            if passes == 0.0 {
+                out.waiting += 1;
+                continue;
+            }
+            let mut l = 0.0;
+            for (b, (flux, band_var)) in out.flux.iter_mut().zip(&mut out.var).enumerate() {
+                let f: f64 = cells.clone().map(|c| d.band_mean(c, b).0).sum();
+                *flux += k * f;
+                if mean > 0.0 {
+                    *band_var += k * k * var * (f / mean).powi(2);
+                }
+                l += f * eff[b];
+            }
+            out.lum += k * l;
+            if mean > 0.0 {
+                out.var_lum += k * k * var * (l / mean).powi(2);
+            }
+        }
+        Some(out)
     }
 
     /// Relative standard error of every vertex of `mesh` on `side`, into `out`.

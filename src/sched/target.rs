@@ -97,7 +97,7 @@ pub fn region_error(
                 let regions = scene.regions.meshes[i].as_ref()?;
                 for side in 0..m.sides() {
                     let r = regions.region(side, t.part) as usize;
-                    let avg = luminous(&tally, r, &scene.efficacy, photons as f64)?;
+                    let avg = luminous(&tally, r, &readout, m, side, weights)?;
                     let e = if t.measure == RegionMeasure::Average {
                         avg.sigma / avg.value
                     } else {
@@ -123,16 +123,34 @@ fn percentile_of(x: &mut [f64], p: f64) -> Option<f64> {
 
 /// Region `r`'s luminous sum and its standard error in photon units; None before it
 /// received anything.
-fn luminous(t: &RegionTally, r: usize, efficacy: &[f64], n: f64) -> Option<Estimate> {
+/// The luminous flux of region `r` (photon units): the photons' tallies and, with light
+/// sampling, the direct part of its vertices (`Readout::region_direct`, as
+/// `Context::region_stats` reads it); None while it has nothing or while a vertex of it waits
+/// for its first direct pass (its direct light unknown, the region's error with it).
+fn luminous(
+    t: &RegionTally,
+    r: usize,
+    readout: &Readout,
+    m: &PreparedMesh,
+    side: usize,
+    weights: &[f64],
+) -> Option<Estimate> {
     if t.regions() <= r {
         return None;
     }
     let nb = t.bands;
-    let s: f64 = (0..nb).map(|b| t.sum[r * nb + b] * efficacy[b]).sum();
-    (s > 0.0).then(|| Estimate {
-        value: s,
-        sigma: std_error(s, t.sq_lum[r], n),
-    })
+    let efficacy = &readout.scene.efficacy;
+    let mut s: f64 = (0..nb).map(|b| t.sum[r * nb + b] * efficacy[b]).sum();
+    let mut sigma = std_error(s, t.sq_lum[r], readout.photons as f64);
+    if let Some(d) = readout.region_direct(m, side, weights) {
+        if d.waiting > 0 {
+            return None;
+        }
+        let k = readout.units_per_watt();
+        s += d.lum * k;
+        sigma = sigma.hypot(d.var_lum.sqrt() * k);
+    }
+    (s > 0.0).then_some(Estimate { value: s, sigma })
 }
 
 /// The relative standard error of U0 of mesh `m`'s `side`, its vertices weighted by
