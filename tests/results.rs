@@ -491,3 +491,59 @@ fn region_targets_measure_the_direct_part_as_the_figures_read_it() {
         }
     }
 }
+
+/// A region whose vertices have not all had their first direct pass has no known average:
+/// its measure reads as no data (1), not as the part known so far. The floor (63 vertices,
+/// 4 chunks of passes) is the only recorded mesh and photon j < C does pass 0 of chunk j,
+/// so after 2 photons half its vertices have their direct light and half wait.
+#[test]
+fn a_region_waiting_for_its_direct_passes_has_no_measure_yet() {
+    use imap::sched::target::{RegionMeasure, RegionTarget};
+    let run = |photons: u64| {
+        let mut ctx = context(Config {
+            threads: 1,
+            seed: 3,
+            ..Default::default()
+        });
+        let grey = lambert(&mut ctx, 0.6);
+        let walls = cuboid([0.0, 0.0, 0.0], [4.0, 3.0, 2.5], 4, true);
+        ctx.add_mesh(&MeshDesc {
+            record: false,
+            ..walls.desc(grey)
+        })
+        .unwrap();
+        let g = grid_rect(8, 6, [0.0, 4.0], [0.0, 3.0], 0.01);
+        let id = ctx
+            .add_mesh(&MeshDesc {
+                tally: true,
+                ..g.desc(grey)
+            })
+            .unwrap();
+        ctx.add_point_light([1.3, 1.1, 2.2], &[50.0, 40.0, 30.0])
+            .unwrap();
+        let mut params = imap::RunParams {
+            region: Some(RegionTarget {
+                meshes: vec![id as usize],
+                part: None,
+                measure: RegionMeasure::Average,
+                target: 1e-9,
+            }),
+            photons,
+            ..Default::default()
+        };
+        ctx.run(&mut params).unwrap();
+        let h = ctx.history();
+        let s = ctx.region_stats(id, 0, None).unwrap();
+        (h[h.len() - 1].region_rel_error, s)
+    };
+    let (early, s) = run(2);
+    // The figures read what is known: some of the floor's direct light.
+    assert!(s.average.value > 0.0, "{s:?}");
+    assert_eq!(
+        early, 1.0,
+        "a region waiting for direct passes has a measure"
+    );
+    let (late, s) = run(20_000);
+    assert!(late > 0.0 && late < 0.1, "{late}");
+    assert!((late / (s.average.sigma / s.average.value) - 1.0).abs() < 1e-9);
+}
