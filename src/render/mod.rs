@@ -208,9 +208,9 @@ impl<'p, 'a> Monitor<'p, 'a> {
         self.next_tick.is_none_or(|t| Instant::now() >= t)
     }
 
-    /// Records progress point `p` (its estimate cost `took` of CPU time), calls the callback, checks the
-    /// criteria (the error only when `settled`: every pixel has an estimate) and schedules
-    /// the next point. True: stop.
+    /// Records progress point `p` (its estimate cost `took` of CPU time), calls the
+    /// callback, checks the criteria (the error only when `settled`: every pixel has an
+    /// estimate) and schedules the next point. True: stop.
     pub fn tick(&mut self, p: Progress, settled: bool, took: Duration) -> bool {
         push_history(&mut self.history, p);
         let mut why = None;
