@@ -23,13 +23,16 @@
 //!     cargo run --release --example accuracy_bench -- [--threads 2] [--seeds 2]
 //!         [--ref-seconds 60] [--max-seconds 40] [--scenes room,cornell]
 //!         [--samples 0] [--pass-photons 0] [--estimators photons,ls,gather]
+//!         [--scheduler dynamic|classic]   (the estimators' runs; the reference's stays dynamic)
 
+use imap::context::SchedulerKind;
 use imap::scenes::{cornell_box, grey_room, GREY_ROOM_EMITTER_Z, GREY_ROOM_EXITANCE};
 use imap::{Config, Context, Estimator, Layer, LayerRequest, MaterialDesc, MeshDesc, RunParams};
 use std::f64::consts::PI;
 
 struct Args {
     threads: usize,
+    scheduler: SchedulerKind,
     seeds: u64,
     ref_seconds: f64,
     max_seconds: f64,
@@ -42,6 +45,7 @@ struct Args {
 fn parse() -> Args {
     let mut a = Args {
         threads: 2,
+        scheduler: SchedulerKind::Dynamic,
         seeds: 2,
         ref_seconds: 60.0,
         max_seconds: 40.0,
@@ -61,6 +65,13 @@ fn parse() -> Args {
             "--scenes" => a.scenes = v.split(',').map(str::to_owned).collect(),
             "--samples" => a.samples = v.parse().expect("--samples"),
             "--pass-photons" => a.pass_photons = v.parse().expect("--pass-photons"),
+            "--scheduler" => {
+                a.scheduler = match v.as_str() {
+                    "dynamic" => SchedulerKind::Dynamic,
+                    "classic" => SchedulerKind::Classic,
+                    o => panic!("--scheduler takes dynamic or classic, not {o}"),
+                }
+            }
             "--estimators" => a.estimators = v.split(',').map(str::to_owned).collect(),
             other => panic!("unknown argument {other}"),
         }
@@ -358,6 +369,7 @@ fn main() {
         args.samples,
         args.pass_photons
     );
+    println!("estimators' scheduler: {:?}", args.scheduler);
     let ls = |gather| Estimator::LightSampling {
         samples: args.samples,
         pass_photons: args.pass_photons,
@@ -443,7 +455,10 @@ fn main() {
             for seed in 1..=args.seeds {
                 let c = curve(
                     scene,
-                    config(seed),
+                    Config {
+                        scheduler: args.scheduler,
+                        ..config(seed)
+                    },
                     est,
                     (&reference, ref_noise),
                     (&grid_ref, grid_noise),
