@@ -416,6 +416,35 @@ fn a_region_target_stops_within_one_progress_interval() {
     }
 }
 
+/// A grey box (4 × 3 × 2.5 m, ρ = 0.6, recorded or not) under a point light with a tallied
+/// floor just above its own (grey) or a sensor grid at 0.8 m: the context and the floor's id.
+fn box_with_floor(threads: usize, seed: u64, record_walls: bool, sensor: bool) -> (Context, u32) {
+    let mut ctx = context(Config {
+        threads,
+        seed,
+        ..Default::default()
+    });
+    let grey = lambert(&mut ctx, 0.6);
+    let walls = cuboid([0.0, 0.0, 0.0], [4.0, 3.0, 2.5], 4, true);
+    ctx.add_mesh(&MeshDesc {
+        record: record_walls,
+        ..walls.desc(grey)
+    })
+    .unwrap();
+    let z = if sensor { 0.8 } else { 0.01 };
+    let g = grid_rect(8, 6, [0.0, 4.0], [0.0, 3.0], z);
+    let id = ctx
+        .add_mesh(&MeshDesc {
+            sensor,
+            tally: true,
+            ..g.desc(if sensor { 0 } else { grey })
+        })
+        .unwrap();
+    ctx.add_point_light([1.3, 1.1, 2.2], &[50.0, 40.0, 30.0])
+        .unwrap();
+    (ctx, id)
+}
+
 /// With light sampling a region's average and uniformity hold its vertices' direct passes:
 /// the run's region measure and the figures read afterwards (`region_stats`) must take the
 /// same part. (The run's measure read the photons' tallies alone: 0.0042 against the
@@ -440,26 +469,7 @@ fn region_targets_measure_the_direct_part_as_the_figures_read_it() {
     for est in estimators {
         for sensor in [false, true] {
             for measure in [RegionMeasure::Average, RegionMeasure::Uniformity] {
-                let mut ctx = context(Config {
-                    threads: 2,
-                    seed: 7,
-                    ..Default::default()
-                });
-                let grey = lambert(&mut ctx, 0.6);
-                let walls = cuboid([0.0, 0.0, 0.0], [4.0, 3.0, 2.5], 4, true);
-                ctx.add_mesh(&walls.desc(grey)).unwrap();
-                // A tallied floor just above the walls' own, or a sensor grid at 0.8 m.
-                let z = if sensor { 0.8 } else { 0.01 };
-                let g = grid_rect(8, 6, [0.0, 4.0], [0.0, 3.0], z);
-                let id = ctx
-                    .add_mesh(&MeshDesc {
-                        sensor,
-                        tally: true,
-                        ..g.desc(if sensor { 0 } else { grey })
-                    })
-                    .unwrap();
-                ctx.add_point_light([1.3, 1.1, 2.2], &[50.0, 40.0, 30.0])
-                    .unwrap();
+                let (mut ctx, id) = box_with_floor(2, 7, true, sensor);
                 let mut params = imap::RunParams {
                     region: Some(RegionTarget {
                         meshes: vec![id as usize],
@@ -500,27 +510,7 @@ fn region_targets_measure_the_direct_part_as_the_figures_read_it() {
 fn a_region_waiting_for_its_direct_passes_has_no_measure_yet() {
     use imap::sched::target::{RegionMeasure, RegionTarget};
     let run = |photons: u64| {
-        let mut ctx = context(Config {
-            threads: 1,
-            seed: 3,
-            ..Default::default()
-        });
-        let grey = lambert(&mut ctx, 0.6);
-        let walls = cuboid([0.0, 0.0, 0.0], [4.0, 3.0, 2.5], 4, true);
-        ctx.add_mesh(&MeshDesc {
-            record: false,
-            ..walls.desc(grey)
-        })
-        .unwrap();
-        let g = grid_rect(8, 6, [0.0, 4.0], [0.0, 3.0], 0.01);
-        let id = ctx
-            .add_mesh(&MeshDesc {
-                tally: true,
-                ..g.desc(grey)
-            })
-            .unwrap();
-        ctx.add_point_light([1.3, 1.1, 2.2], &[50.0, 40.0, 30.0])
-            .unwrap();
+        let (mut ctx, id) = box_with_floor(1, 3, false, false);
         let mut params = imap::RunParams {
             region: Some(RegionTarget {
                 meshes: vec![id as usize],
