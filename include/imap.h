@@ -2529,10 +2529,10 @@ enum ImapStatus imap_state_info(const void *buffer, size_t size, uint64_t *photo
  * scene changes, `imap_destroy`; read or write it only between calls on the context (never
  * during imap_run), and call this again after a run before reading it: a spectral map
  * keeps some deposits in sums of its own until this call folds them into the array.
- * Returns IMAP_ERR_NULL_POINTER, IMAP_ERR_NO_GEOMETRY / IMAP_ERR_NO_LIGHT, IMAP_ERR_BUSY. With the light-sampling estimator
- * (`IMAP_ESTIMATOR_LIGHT_SAMPLING`, the default, or `IMAP_ESTIMATOR_GATHER`) the map has a
- * second array,
- * `imap_map_direct_accumulators`: sum it the same way. (Since 0.2.2.)
+ * Returns IMAP_ERR_NULL_POINTER, IMAP_ERR_NO_GEOMETRY / IMAP_ERR_NO_LIGHT, IMAP_ERR_BUSY.
+ * With the light-sampling estimator (`IMAP_ESTIMATOR_LIGHT_SAMPLING`, the default, or
+ * `IMAP_ESTIMATOR_GATHER`) the map has a second array, `imap_map_direct_accumulators`: sum
+ * it the same way. (Since 0.2.2.)
  *
  * # Safety
  * `ctx` is a live handle; `data` and `count` are writable.

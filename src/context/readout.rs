@@ -59,18 +59,17 @@ impl Context {
                 m.positions.len()
             );
         }
-        Ok(match (&self.prepared, &self.map) {
-            (Some(p), Some(map)) => Some((
-                Readout {
-                    map,
-                    scene: &p.scene,
-                    photons: self.photons(),
-                    unit_m: self.config.unit_m,
-                    layer,
-                },
-                i,
-            )),
-            _ => None,
+        Ok(self.readout(layer).map(|r| (r, i)))
+    }
+
+    /// What reads the map's `layer` (None: the combined values); None before the first run.
+    pub(super) fn readout(&self, layer: Option<u8>) -> Option<Readout<'_>> {
+        Some(Readout {
+            map: self.map.as_ref()?,
+            scene: &self.prepared.as_ref()?.scene,
+            photons: self.photons(),
+            unit_m: self.config.unit_m,
+            layer,
         })
     }
 
@@ -293,15 +292,8 @@ impl Context {
             // vertices' (a run's region target reads the same: `sched::target`). For a mesh
             // side the vertices' fluxes sum to the side's exactly; for a part, each vertex
             // counts with its share of the part's area.
-            let direct = self.map.as_ref().and_then(|map| {
-                let readout = Readout {
-                    map,
-                    scene: &p.scene,
-                    photons: n,
-                    unit_m: self.config.unit_m,
-                    layer: None,
-                };
-                readout.region_direct(&p.scene.meshes[i], side as usize, &m.area_shares(part))
+            let direct = self.readout(None).and_then(|r| {
+                r.region_direct(&p.scene.meshes[i], side as usize, &m.area_shares(part))
             });
             if let Some(d) = direct {
                 for b in 0..nb {

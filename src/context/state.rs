@@ -15,7 +15,6 @@
 
 use super::Context;
 use crate::error::{bail, Error, ImapStatus, Result};
-use crate::imap::Readout;
 use crate::sched::{push_history, Progress, RangeSet};
 use crate::transport::direct::Estimator;
 use crate::transport::PathStats;
@@ -785,18 +784,11 @@ impl Context {
 
     /// A history point for the state after a merge: the combined photons and error.
     fn push_merge_point(&mut self) {
-        let (Some(p), Some(map)) = (self.prepared.as_ref(), self.map.as_ref()) else {
+        let Some(readout) = self.readout(None) else {
             return;
         };
-        let photons = self.traced.len();
-        let err = Readout {
-            map,
-            scene: &p.scene,
-            photons,
-            unit_m: self.config.unit_m,
-            layer: None,
-        }
-        .global_error();
+        let photons = readout.photons;
+        let err = readout.global_error();
         push_history(
             &mut self.history,
             Progress {

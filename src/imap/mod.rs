@@ -364,26 +364,15 @@ impl IMap {
     /// (`LayerLayout::cell`; exclusive access). The `add_*` calls take cells.
     #[inline]
     pub fn add_colour(&mut self, slot: usize, w: f64, colour: &[f32]) {
-        let (bands, stride) = (self.bands, self.stride);
-        let (values, sq) = self.plain()[slot * stride..(slot + 1) * stride].split_at_mut(bands);
-        for (a, &c) in values.iter_mut().zip(colour) {
-            *a += w * c as f64;
-        }
-        // The photon's scalar energy is its band mean: this deposit's share of the photon's
-        // squared contribution is (w·energy)² (cross terms: `PhotonSquares`).
-        let x = w * band_sum(colour) / bands as f64;
-        sq[0] += x * x;
+        // SAFETY: `&mut self` makes the access exclusive.
+        unsafe { self.add_colour_exclusive(slot, w, colour) }
     }
 
     /// Adds a deposit of weight `w` of a photon collapsed to `band` (exclusive access).
     #[inline]
     pub fn add_band(&mut self, slot: usize, w: f64, band: usize, value: f32) {
-        let (bands, base) = (self.bands, slot * self.stride);
-        let m = self.plain();
-        m[base + band] += w * value as f64;
-        // A collapsed photon's energy is its one band's value over the band count.
-        let x = w * value as f64 / bands as f64;
-        m[base + bands] += x * x;
+        // SAFETY: `&mut self` makes the access exclusive.
+        unsafe { self.add_band_exclusive(slot, w, band, value) }
     }
 
     /// Adds a deposit of weight `w` of a photon whose colour is `a` times grey spectrum `g`
@@ -412,8 +401,8 @@ impl IMap {
     /// Adds to a slot's sum of squares (a photon's cross terms; exclusive access).
     #[inline]
     pub fn add_square(&mut self, slot: usize, s2: f64) {
-        let at = slot * self.stride + self.bands;
-        self.plain()[at] += s2;
+        // SAFETY: `&mut self` makes the access exclusive.
+        unsafe { self.add_square_exclusive(slot, s2) }
     }
 
     /// `add_colour` through a shared map, with plain (vectorised) arithmetic.
@@ -432,6 +421,8 @@ impl IMap {
         for (a, &c) in values.iter_mut().zip(colour) {
             *a += w * c as f64;
         }
+        // The photon's scalar energy is its band mean: this deposit's share of the photon's
+        // squared contribution is (w·energy)² (cross terms: `PhotonSquares`).
         let x = w * band_sum(colour) / self.bands as f64;
         sq[0] += x * x;
     }
@@ -446,6 +437,7 @@ impl IMap {
         // SAFETY: as in add_colour_exclusive; both indices are inside the slot.
         unsafe {
             Self::add_raw(&self.data[base + band], w * value as f64);
+            // A collapsed photon's energy is its one band's value over the band count.
             let x = w * value as f64 / self.bands as f64;
             Self::add_raw(&self.data[base + self.bands], x * x);
         }

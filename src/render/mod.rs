@@ -32,8 +32,7 @@ pub use camera::{Camera, CameraDesc};
 
 use crate::sampling::PhotonRng;
 use crate::sched::{
-    duration_s, push_history, CostClock, Progress, StopReason, MAX_PROGRESS_SHARE,
-    MIN_PROGRESS_INTERVAL_S,
+    duration_s, next_tick, push_history, CostClock, Progress, StopReason, MIN_PROGRESS_INTERVAL_S,
 };
 use crate::transport::{Colour, HitSink, PathStats, SurfaceEvent, Tracer};
 use bmap::{BackwardMap, PixelStore, SampleBuf};
@@ -221,8 +220,7 @@ impl<'p, 'a> Monitor<'p, 'a> {
         }
         why = why.or(self.criteria(p.rel_error, settled, p.elapsed_s));
         self.stop = self.stop.or(why);
-        let gap = self.interval.max(took.mul_f64(1.0 / MAX_PROGRESS_SHARE));
-        self.next_tick = Instant::now().checked_add(gap);
+        self.next_tick = next_tick(self.interval, took);
         self.stop.is_some()
     }
 

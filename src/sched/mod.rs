@@ -26,7 +26,7 @@ pub const MIN_PROGRESS_INTERVAL_S: f64 = 1e-3;
 pub const MAX_HISTORY: usize = 4096;
 /// Largest share of the wall time the progress evaluations may take: the interval is
 /// lengthened when the last evaluation cost (in CPU time) more than this share of it.
-pub(crate) const MAX_PROGRESS_SHARE: f64 = 0.05;
+const MAX_PROGRESS_SHARE: f64 = 0.05;
 
 /// What a progress evaluation costs: the CPU time the calling thread spends on it. The wall
 /// clock would also count the time the thread waited for a core, so on a loaded machine a
@@ -51,6 +51,12 @@ impl CostClock {
             _ => self.wall.elapsed(),
         }
     }
+}
+
+/// When the next progress point is due: one interval on, or later when the last
+/// evaluation cost more than `MAX_PROGRESS_SHARE` of it (maps and renders alike).
+pub(crate) fn next_tick(interval: Duration, cost: Duration) -> Option<Instant> {
+    Instant::now().checked_add(interval.max(cost.mul_f64(1.0 / MAX_PROGRESS_SHARE)))
 }
 
 /// The CPU time the calling thread has used, where the system tells it.
@@ -379,10 +385,7 @@ impl<'p, 'a> Monitor<'p, 'a> {
             let err = error(photons);
             let region = self.region_error(map, rc, photons, access);
             let p = self.record(photons, hits, err, region);
-            // The next tick: one interval on, or later when the evaluation was costly.
-            let spent = cost.spent();
-            let gap = self.interval.max(spent.mul_f64(1.0 / MAX_PROGRESS_SHARE));
-            self.next_tick = Instant::now().checked_add(gap);
+            self.next_tick = next_tick(self.interval, cost.spent());
             let region_met = self
                 .params
                 .region

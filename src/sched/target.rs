@@ -121,8 +121,6 @@ fn percentile_of(x: &mut [f64], p: f64) -> Option<f64> {
     Some(x[rank.clamp(1, x.len()) - 1])
 }
 
-/// Region `r`'s luminous sum and its standard error in photon units; None before it
-/// received anything.
 /// The luminous flux of region `r` (photon units): the photons' tallies and, with light
 /// sampling, the direct part of its vertices (`Readout::region_direct`, as
 /// `Context::region_stats` reads it); None while it has nothing or while a vertex of it waits
