@@ -5,6 +5,11 @@
  * created again. (Pointers always point to as much memory as their counts say: anything
  * else is the caller's undefined behaviour, not the library's to catch.)
  *
+ * Classes beyond single calls: progress callbacks that call back into the API on their own
+ * context (every such call must be refused with IMAP_ERR_BUSY, imap_destroy included);
+ * luminaire files whose counts promise more than a small memory budget (refused before
+ * their values are read); paths to devices and folders given as state or image files.
+ *
  * It checks, for every call: it returns (no crash, no abort: the process would die), in
  * bounded time; a failure has a specific status (never IMAP_ERR_INTERNAL or
  * IMAP_ERR_THREAD_LOST) and a one-line, non-empty message; and a failing call leaves the
@@ -209,6 +214,32 @@ static int cancel_progress(const ImapProgress *p, void *user) {
     return ++progress_calls % 3 == 0;
 }
 
+/* A progress callback that calls back into the API on its own context: every such call
+   must be refused with IMAP_ERR_BUSY (and change nothing, destroy included). */
+static int reentrant_progress(const ImapProgress *p, void *user) {
+    (void)p;
+    ImapContext *ctx = (ImapContext *)user;
+    ImapStatus s;
+    double out[4];
+    size_t n;
+    switch (below(6)) {
+    case 0: s = imap_destroy(ctx); break;
+    case 1: s = imap_reset(ctx); break;
+    case 2: s = imap_get_vertex_energy(ctx, 0, 0, 0, out, 4); break;
+    case 3: s = imap_get_vertex_count(ctx, 0, &n); break;
+    case 4: {
+        ImapRunParams rp;
+        imap_run_params_default(&rp, sizeof rp);
+        rp.photons = 10;
+        s = imap_run(ctx, &rp, NULL, 0);
+        break;
+    }
+    default: s = imap_set_layers(ctx, 0); break;
+    }
+    if (s != IMAP_ERR_BUSY) problem("a call from a progress callback on its own context", s, imap_last_error(NULL));
+    return chance(0.2);
+}
+
 int main(int argc, char **argv) {
     long n_calls = argc > 1 ? atol(argv[1]) : 100000;
     rng_state = argc > 2 ? strtoull(argv[2], NULL, 10) : 1;
@@ -231,7 +262,7 @@ int main(int argc, char **argv) {
         double t0 = now_s(), bound = 2.0;
         const char *what = "";
         uint32_t id = UINT32_MAX;
-        switch (below(26)) {
+        switch (below(29)) {
         case 0: { /* a material */
             what = "imap_add_material";
             ImapMaterial m;
@@ -663,6 +694,68 @@ int main(int argc, char **argv) {
                 s = imap_add_sky_file(ctx, chance(0.5) ? "/nonexistent.hdr" : "CMakeLists.txt", &sky, &id);
             else
                 s = imap_add_sky(ctx, chance(0.02) ? NULL : &sky, chance(0.5) ? NULL : &sp, chance(0.02) ? NULL : &id);
+            break;
+        }
+        case 21: { /* a run whose progress callback calls back into the API */
+            what = "imap_run (re-entrant callback)";
+            ImapRunParams p;
+            imap_run_params_default(&p, sizeof p);
+            p.photons = 500 + below(3000);
+            p.progress_interval_s = 0.001;
+            p.progress = reentrant_progress;
+            p.user_data = sl->ctx;
+            s = imap_run(ctx, &p, NULL, 0);
+            bound = 10.0;
+            break;
+        }
+        case 22: { /* a luminaire whose counts promise more than a small budget holds */
+            what = "imap_add_luminaire_ies/ldt (huge counts)";
+            ImapConfig cfg;
+            imap_config_default(&cfg, sizeof cfg);
+            cfg.memory_budget_bytes = (uint64_t)(8 + below(64)) << 20;
+            ImapContext *small = NULL;
+            if (imap_create(&cfg, &small) != IMAP_OK) {
+                problem("imap_create with a small budget", IMAP_OK, imap_last_error(NULL));
+                continue;
+            }
+            static char text[1 << 16];
+            uint32_t nv = 1000 + below(3000), nh = 1000 + below(3000);
+            int n = 0;
+            if (chance(0.5)) {
+                n = snprintf(text, sizeof text, "IESNA:LM-63-2002\nTILT=NONE\n1 -1 1 %u %u 1 2 0 0 0\n1 1 10\n", nv, nh);
+                for (uint32_t i = 0; i < nv && n < (int)sizeof text - 32; i++)
+                    n += snprintf(text + n, sizeof text - (size_t)n, "%g ", 180.0 * i / (nv - 1));
+                for (uint32_t i = 0; i < nh && n < (int)sizeof text - 32; i++)
+                    n += snprintf(text + n, sizeof text - (size_t)n, "%g ", 360.0 * i / (nh - 1));
+                ImapLuminaire pl;
+                imap_luminaire_default(&pl, sizeof pl);
+                s = imap_add_luminaire_ies(small, text, (size_t)n, NULL, 0, &pl, NULL, &id);
+            } else {
+                n = snprintf(text, sizeof text,
+                             "f\n1\n0\n%u\n0.1\n%u\n0.05\nr\nl\nn\nf\nd\n100\n100\n50\n0\n0\n0\n0\n0\n0\n100\n100\n1\n0\n"
+                             "1\n1\nLED\n1000\n3000K\n80\n10\n0\n0\n0\n0\n0\n0\n0\n0\n0\n0\n",
+                             nh, nv);
+                ImapLuminaire pl;
+                imap_luminaire_default(&pl, sizeof pl);
+                s = imap_add_luminaire_ldt(small, text, (size_t)n, &pl, NULL, &id);
+            }
+            if (s == IMAP_OK) problem(what, s, "a table of millions of values announced and none given was accepted");
+            check(what, s, small, t0, 5.0);
+            imap_destroy(small);
+            continue;
+        }
+        case 23: { /* paths to devices and folders as state and image files */
+            what = "imap_state_load_file/merge_file/add_sky_file (device)";
+            const char *paths[] = {"/dev/zero", "/dev/urandom", "/", "/dev/null"};
+            const char *path = paths[below(4)];
+            ImapSky sky;
+            imap_sky_default(&sky, sizeof sky);
+            switch (below(3)) {
+            case 0: s = imap_state_load_file(ctx, path); break;
+            case 1: s = imap_state_merge_file(ctx, path); break;
+            default: s = imap_add_sky_file(ctx, path, &sky, &id); break;
+            }
+            if (s == IMAP_OK) problem(what, s, "a device read as a file");
             break;
         }
         case 14: /* destroy and create, sometimes */

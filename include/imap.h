@@ -74,7 +74,7 @@
 /**
  * Library version, patch.
  */
-#define IMAP_VERSION_PATCH 2
+#define IMAP_VERSION_PATCH 3
 
 /**
  * `ImapConfig::band_mode`: three bands, R, G, B.
@@ -707,11 +707,13 @@ typedef struct ImapConfig {
    */
   uint32_t threads;
   /**
-   * Wavelength of the first spectral band, nm.
+   * Wavelength of the first spectral band, nm (at least 100 nm; IMAP_ERR_BAD_BANDS
+   * below).
    */
   double wavelength_min_nm;
   /**
-   * Wavelength of the last spectral band, nm.
+   * Wavelength of the last spectral band, nm (at most 100 000 nm; IMAP_ERR_BAD_BANDS
+   * above).
    */
   double wavelength_max_nm;
   /**
@@ -1714,12 +1716,20 @@ enum ImapStatus imap_create(const struct ImapConfig *config, struct ImapContext 
 
 /**
  * Destroys a context and everything it owns, including its error messages. NULL is a
- * no-op. No other call may be using the context.
+ * no-op (IMAP_OK).
+ *
+ * Returns IMAP_ERR_BUSY, and destroys nothing, while another call is using the context (an
+ * `imap_run` or `imap_render` in progress on another thread, or this call made from the
+ * context's own progress callback): destroy it after that call returns. Returns
+ * IMAP_ERR_INVALID_ARGUMENT for a handle that is not live (destroyed already, or not from
+ * `imap_create`): such misuse is detected, never a double free. The message is the calling
+ * thread's (`imap_last_error(NULL)`). Thread-safe. (Returns a status since 0.2.3; it
+ * returned nothing before, and programs built against that header keep working.)
  *
  * # Safety
- * `ctx` is NULL or a handle from `imap_create` not yet destroyed.
+ * `ctx` is NULL or a handle from `imap_create`.
  */
-void imap_destroy(struct ImapContext *ctx);
+enum ImapStatus imap_destroy(struct ImapContext *ctx);
 
 /**
  * The message of the calling thread's most recent failing call on `ctx`, or, with `ctx`
@@ -2461,8 +2471,10 @@ enum ImapStatus imap_state_save(struct ImapContext *ctx, const char *path, const
  * continues with the photons the state does not hold. On any error the context is
  * unchanged.
  *
- * Returns IMAP_ERR_STATE_CORRUPT (not a state, truncated, checksum fails: the message
- * says which), IMAP_ERR_UNSUPPORTED (a newer format version), IMAP_ERR_STATE_MISMATCH
+ * Returns IMAP_ERR_STATE_CORRUPT (not a state, truncated, checksum fails, or a number no
+ * run writes — NaN, infinite, negative or beyond 1e100 where sums, squares and times
+ * stand, a fraction of a pass, light samples past 1024: the message names the field),
+ * IMAP_ERR_UNSUPPORTED (a newer format version), IMAP_ERR_STATE_MISMATCH
  * (another scene or settings: the message names what differs), IMAP_ERR_INVALID_ARGUMENT
  * (a state written with IMAP_STATE_NO_MAP), IMAP_ERR_BUSY. (Since 0.2.2.)
  *
@@ -2473,7 +2485,9 @@ enum ImapStatus imap_state_load(struct ImapContext *ctx, const void *buffer, siz
 
 /**
  * `imap_state_load` from the file `path`; errors name the file. Also IMAP_ERR_IO (cannot
- * read it) and IMAP_ERR_MEMORY_BUDGET (the file does not fit beside the map). (Since 0.2.2.)
+ * read it, or it is no regular file: a device such as /dev/zero, a FIFO or a folder is
+ * refused before a byte is read) and IMAP_ERR_MEMORY_BUDGET (the file does not fit beside
+ * the map). (Since 0.2.2.)
  *
  * # Safety
  * `ctx` is a live handle; `path` is NUL-terminated.

@@ -6,7 +6,8 @@
 #      header (scripts/abi_layout.py): within an ABI epoch (the soname, libimap.so.0.N
 #      while the major version is 0), fields keep their offsets, sizes and types, structs
 #      only grow by appended fields, enumerators and macros keep their values, functions
-#      their prototypes.
+#      their prototypes (but a function that returned nothing may come to return a status:
+#      callers built against the old header ignore it).
 # An incompatible change fails unless it comes with a new ABI epoch (a version bump) and a
 # new baseline, recorded on purpose with:   scripts/abi-check.sh --update
 #

@@ -81,6 +81,14 @@ def load(path):
     return rows
 
 
+def returns_value_now(name, old, new):
+    """Whether prototype `old` returned void and `new` is the same call returning a value."""
+    if not old.startswith("void "):
+        return False
+    params = lambda p: p[p.index(name + "(") :]
+    return not new.startswith("void ") and params(old) == params(new)
+
+
 def compare(base_path, cur_path):
     base, cur = load(base_path), load(cur_path)
     problems, additions = [], []
@@ -102,6 +110,10 @@ def compare(base_path, cur_path):
             # epoch); it is reported, not refused.
             if now != value:
                 additions.append(f"{kind} {name}: '{value}' -> '{now}'")
+        elif kind == "fn" and now != value and returns_value_now(name, value, now):
+            # A function that returned nothing now returns a status: callers built
+            # against the old header ignore the return register, so the call is the same.
+            additions.append(f"{kind} {name} returns a value now: '{now}'")
         elif now != value:
             problems.append(f"{kind} {name}: '{value}' became '{now}'")
     for key, value in cur.items():

@@ -160,11 +160,22 @@ pub fn status_name(value: i32) -> &'static CStr {
         .map_or(c"IMAP_ERR_UNKNOWN_STATUS", |s| s.name())
 }
 
-/// An error: a status plus a message for `imap_last_error`.
+/// An error: a status plus a message for `imap_last_error`, and the scene item it is
+/// about when it is about one (so that a program that named its meshes and lights can say
+/// which of them, where the message can only give the library's id).
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct Error {
     pub status: ImapStatus,
     pub message: String,
+    pub subject: Option<Subject>,
+}
+
+/// The scene item an error is about, by its id.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Subject {
+    Mesh(u32),
+    Light(u32),
+    Material(u32),
 }
 
 impl Error {
@@ -172,7 +183,14 @@ impl Error {
         Error {
             status,
             message: message.into(),
+            subject: None,
         }
+    }
+
+    /// The error, about `subject`.
+    pub fn about(mut self, subject: Subject) -> Self {
+        self.subject = Some(subject);
+        self
     }
 }
 

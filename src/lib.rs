@@ -19,6 +19,8 @@ pub mod error;
 mod fault;
 pub mod ffi;
 /// cbindgen:ignore
+pub mod files;
+/// cbindgen:ignore
 pub mod imap;
 /// cbindgen:ignore
 pub mod photometry;
@@ -36,7 +38,7 @@ pub mod sched;
 pub mod transport;
 
 pub use context::{Config, Context, Layer, RegionStats, Report, SchedulerKind};
-pub use error::{Error, ImapStatus, Result};
+pub use error::{Error, ImapStatus, Result, Subject};
 pub use render::{CameraDesc, Image, RenderMethod, RenderParams, RenderReport};
 pub use scene::{Bands, IorModel, LayerRequest, MaterialDesc, MeshDesc};
 pub use sched::{Progress, RunParams, Selection, StopReason};

@@ -741,3 +741,134 @@ fn state_of(ctx: *mut ImapContext) -> Vec<u8> {
         buf
     }
 }
+
+/// What a progress callback that destroys its own context saw.
+struct SelfDestroy {
+    ctx: *mut ImapContext,
+    statuses: Vec<ImapStatus>,
+}
+
+unsafe extern "C" fn destroy_from_callback(
+    _: *const ImapProgress,
+    user: *mut std::ffi::c_void,
+) -> i32 {
+    // SAFETY: `user` is the test's SelfDestroy, alive for the whole run.
+    let s = unsafe { &mut *(user as *mut SelfDestroy) };
+    // SAFETY: the context is live (the run is using it): the call must say so.
+    s.statuses.push(unsafe { imap_destroy(s.ctx) });
+    0
+}
+
+/// `imap_destroy` on a context in use is documented misuse, and it is detected: from the
+/// run's own progress callback and from another thread during a run it returns
+/// IMAP_ERR_BUSY and frees nothing; the run finishes with its map; afterwards the context
+/// is destroyed once, and a second destroy (or any call on the stale handle) is
+/// IMAP_ERR_INVALID_ARGUMENT, never a double free or a read of freed memory.
+#[test]
+fn destroying_a_context_in_use_is_refused_not_a_crash() {
+    let (h, mesh, nv) = scene();
+    let ctx = h.0;
+    let mut me = SelfDestroy {
+        ctx,
+        statuses: Vec::new(),
+    };
+    let mut p = run_params();
+    p.photons = 200_000;
+    p.progress_interval_s = 0.001;
+    p.progress = Some(destroy_from_callback);
+    p.user_data = &mut me as *mut SelfDestroy as *mut std::ffi::c_void;
+    // SAFETY: valid handle and params; `me` outlives the run.
+    ok(unsafe { imap_run(ctx, &p, std::ptr::null_mut(), 0) }, ctx);
+    assert!(!me.statuses.is_empty());
+    assert!(
+        me.statuses.iter().all(|&s| s == ImapStatus::ImapErrBusy),
+        "{:?}",
+        me.statuses
+    );
+    let busy = message(std::ptr::null());
+    assert!(busy.contains("in use"), "{busy}");
+    let mut e = vec![0.0; nv];
+    // SAFETY: the context is live and unused; `e` holds nv values.
+    ok(
+        unsafe { imap_get_vertex_energy(ctx, mesh, 0, 0, e.as_mut_ptr(), nv) },
+        ctx,
+    );
+    assert!(e.iter().sum::<f64>() > 0.0, "the run's map is there");
+
+    // Another thread destroys while a run holds the context.
+    let running = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(true));
+    let destroyer = {
+        let running = running.clone();
+        std::thread::spawn(move || {
+            let h = h;
+            let mut busy = 0;
+            while running.load(std::sync::atomic::Ordering::Relaxed) {
+                // SAFETY: the handle is live until this call succeeds.
+                match unsafe { imap_destroy(h.0) } {
+                    ImapStatus::ImapErrBusy => busy += 1,
+                    s => return (s, busy),
+                }
+            }
+            (ImapStatus::ImapErrBusy, busy)
+        })
+    };
+    let mut p = run_params();
+    p.time_budget_s = 0.5;
+    // SAFETY: valid handle and params. The destroyer may have held the context for the
+    // instant of its check: then this run is the one told BUSY, and tries again.
+    let s = loop {
+        match unsafe { imap_run(ctx, &p, std::ptr::null_mut(), 0) } {
+            ImapStatus::ImapErrBusy => continue,
+            s => break s,
+        }
+    };
+    // The destroyer may win the race before the run starts: then the run finds no
+    // context, and that is an error, not a crash.
+    running.store(false, std::sync::atomic::Ordering::Relaxed);
+    let (last, busy) = destroyer.join().unwrap();
+    eprintln!("destroy during a run: {busy} BUSY answers, then {last:?}; the run: {s:?}");
+    if last == ImapStatus::ImapOk {
+        assert!(
+            s == ImapStatus::ImapOk || s == ImapStatus::ImapErrInvalidArgument,
+            "{s:?}"
+        );
+    } else {
+        ok(s, ctx);
+        // SAFETY: nothing uses the context now.
+        ok(unsafe { imap_destroy(ctx) }, std::ptr::null());
+    }
+    // The handle is dead: every call on it is refused by name.
+    // SAFETY: a stale handle is what is being tested; the library never dereferences it.
+    assert_eq!(
+        unsafe { imap_destroy(ctx) },
+        ImapStatus::ImapErrInvalidArgument
+    );
+    assert!(message(std::ptr::null()).contains("not a live context"));
+    // SAFETY: as above.
+    let s = unsafe { imap_get_vertex_energy(ctx, mesh, 0, 0, e.as_mut_ptr(), nv) };
+    assert_eq!(s, ImapStatus::ImapErrInvalidArgument);
+    assert!(
+        message(ctx).contains("not a live context"),
+        "{}",
+        message(ctx)
+    );
+}
+
+/// `imap_state_load_file` on a device refuses it before reading (a state of /dev/zero was
+/// read until allocation failed, past a 100 MB budget).
+#[test]
+fn state_files_from_devices_are_refused() {
+    let (h, _, _) = scene_with(|c| c.memory_budget_bytes = 100 << 20);
+    let t = Instant::now();
+    // SAFETY: live handle, NUL-terminated path.
+    let s = unsafe { imap_state_load_file(h.0, c"/dev/zero".as_ptr()) };
+    assert_eq!(s, ImapStatus::ImapErrIo, "{}", message(h.0));
+    assert!(
+        message(h.0).contains("not a regular file"),
+        "{}",
+        message(h.0)
+    );
+    assert!(t.elapsed() < Duration::from_secs(5));
+    // SAFETY: nothing uses the context.
+    ok(unsafe { imap_destroy(h.0) }, std::ptr::null());
+}

@@ -47,6 +47,7 @@ impl Context {
         self.check_layout_budget(self.scene.layers, Some(group))?;
         if self.scene.lights[light as usize].group != group {
             self.scene.lights[light as usize].group = group;
+            self.footprint.regroup(&self.scene);
             self.invalidate();
         }
         Ok(())
@@ -66,6 +67,7 @@ impl Context {
         self.check_layout_budget(self.scene.layers, Some(group))?;
         if self.scene.meshes[i].light_group != group {
             self.scene.meshes[i].light_group = group;
+            self.footprint.regroup(&self.scene);
             self.invalidate();
         }
         Ok(())
@@ -74,7 +76,7 @@ impl Context {
     /// The layers the map keeps for the scene as it is: (group layers, direct layer). 0
     /// group layers when groups are not kept.
     pub fn layers(&self) -> (u32, bool) {
-        let l = self.scene.layer_layout();
+        let l = self.layer_layout();
         let groups = if self.scene.layers.groups {
             l.groups as u32
         } else {
@@ -85,13 +87,13 @@ impl Context {
 
     /// Refuses a layout whose map would not fit the memory budget.
     fn check_layout_budget(&self, request: LayerRequest, group: Option<u32>) -> Result<()> {
-        let now = self.scene.layer_layout();
-        let next = LayerLayout::new(request, self.scene.largest_light_group().max(group));
+        let now = self.layer_layout();
+        let next = LayerLayout::new(request, self.footprint.largest_group.max(group));
         let extra = next.per_slot().saturating_sub(now.per_slot()) as u64;
         if extra == 0 {
             return Ok(());
         }
-        let cells = (self.scene.slot_count() as u64).saturating_mul(extra);
+        let cells = self.footprint.slots.saturating_mul(extra);
         let bands = self.scene.bands.count() as u64;
         let mut bytes = super::memory::map_bytes(cells, bands);
         if self.estimator.is_light_sampling() {
@@ -111,7 +113,7 @@ impl Context {
 
     /// The map layer a read-out of `layer` reads (None: combined), or why it cannot.
     pub(super) fn layer_index(&self, layer: Layer) -> Result<Option<u8>> {
-        let l = self.scene.layer_layout();
+        let l = self.layer_layout();
         match layer {
             Layer::Combined => Ok(None),
             Layer::Group(g) => {

@@ -13,7 +13,8 @@
 //! Then the map (slots × (bands + 1) × 8, and up to bands / 4 grey sums per slot for a
 //! spectral map), and per run or render its own buffers.
 
-use crate::scene::{Mesh, MeshDesc, Scene};
+use crate::photometry::gonio::table_bytes;
+use crate::scene::{Light, LightShape, Mesh, MeshDesc, Scene};
 
 /// Embree's share per triangle: its index buffer and the BVH (nodes and leaves).
 pub const BVH_BYTES_PER_TRIANGLE: u64 = 96;
@@ -59,26 +60,69 @@ fn held_mesh_bytes(m: &Mesh) -> (u64, u64) {
     )
 }
 
-/// Bytes the scene's meshes take once prepared (held), and the most any one of them needs
-/// on top while it is being prepared.
-pub fn scene_bytes(scene: &Scene) -> (u64, u64) {
-    let (held, transient) = scene
-        .meshes
-        .iter()
-        .map(held_mesh_bytes)
-        .fold((0u64, 0u64), |(h, t), (mh, mt)| {
-            (h.saturating_add(mh), t.max(mt))
-        });
-    let skies: u64 = scene
-        .lights
-        .iter()
-        .filter_map(|l| match &l.shape {
-            crate::scene::LightShape::Distant(d) => Some(d.image_pixels()),
-            _ => None,
-        })
-        .map(|px| SKY_HELD_PER_CHANNEL_PIXEL.saturating_mul(px))
-        .fold(0, u64::saturating_add);
-    (held.saturating_add(skies), transient)
+/// Running figures of a scene, kept as meshes and lights are added so that the memory
+/// model costs the same for the 5000th mesh as for the first (summing over the scene on
+/// every addition made loading quadratic, and per recording mesh cubic).
+#[derive(Clone, Debug, Default)]
+pub struct Footprint {
+    /// Bytes the meshes (prepared) and the lights hold.
+    pub held: u64,
+    /// The most any one mesh needs on top while it is being prepared.
+    pub transient: u64,
+    /// Map slots: recorded sides of the recording meshes' vertices.
+    pub slots: u64,
+    /// The light-sampling estimator's adjacency of the recording meshes (per triangle
+    /// corner an entry, per vertex its list's start).
+    pub adjacency: u64,
+    /// The largest light group of a light or emitting mesh.
+    pub largest_group: Option<u32>,
+    /// The luminaires' distributions counted (by address: placements share one).
+    tables: std::collections::HashSet<usize>,
+}
+
+impl Footprint {
+    /// Counts a mesh just added.
+    pub fn add_mesh(&mut self, m: &Mesh) {
+        let (held, transient) = held_mesh_bytes(m);
+        self.held = self.held.saturating_add(held);
+        self.transient = self.transient.max(transient);
+        self.slots = self.slots.saturating_add(m.map_slots() as u64);
+        if m.record {
+            self.adjacency = self
+                .adjacency
+                .saturating_add(adjacency_bytes(m.triangles.len(), m.positions.len()));
+        }
+        if m.exitance.is_some() {
+            self.raise_group(m.light_group);
+        }
+    }
+
+    /// Counts a light just added. A luminaire's table is counted once however often it
+    /// is placed (its placements share it).
+    pub fn add_light(&mut self, l: &Light) {
+        let bytes = match &l.shape {
+            LightShape::Distant(d) => SKY_HELD_PER_CHANNEL_PIXEL.saturating_mul(d.image_pixels()),
+            LightShape::Luminaire(lum)
+                if self
+                    .tables
+                    .insert(std::sync::Arc::as_ptr(&lum.dist) as usize) =>
+            {
+                table_bytes(0, lum.dist.values() as u64).1
+            }
+            _ => 0,
+        };
+        self.held = self.held.saturating_add(bytes);
+        self.raise_group(l.group);
+    }
+
+    /// A light's group changed: the largest group again.
+    pub fn regroup(&mut self, scene: &Scene) {
+        self.largest_group = scene.largest_light_group();
+    }
+
+    fn raise_group(&mut self, g: u32) {
+        self.largest_group = self.largest_group.max(Some(g));
+    }
 }
 
 /// Bytes an environment image holds per channel and pixel: its value (f32) and its
@@ -105,8 +149,13 @@ pub fn map_bytes(slots: u64, bands: u64) -> u64 {
 /// `corners` and `cells` map cells: per cell its direct record (bands, sums of squares,
 /// pass count), per triangle corner its adjacency entry, per vertex its list's start.
 pub fn direct_bytes((triangles, vertices): (usize, usize), cells: u64, bands: u64) -> u64 {
-    let adjacency = 3 * triangles as u64 * 8 + 4 * (vertices as u64 + 1);
-    direct_record_bytes(cells, bands).saturating_add(adjacency)
+    direct_record_bytes(cells, bands).saturating_add(adjacency_bytes(triangles, vertices))
+}
+
+/// Bytes of the light-sampling estimator's adjacency of a mesh of `triangles` and
+/// `vertices`: per triangle corner its entry, per vertex its list's start.
+pub fn adjacency_bytes(triangles: usize, vertices: usize) -> u64 {
+    (3 * triangles as u64 * 8).saturating_add(4 * (vertices as u64 + 1))
 }
 
 /// Bytes of `cells` cells' direct records (`imap::DirectAcc`: bands, two sums of squares,

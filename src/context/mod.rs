@@ -12,8 +12,8 @@ pub mod state;
 use crate::accel::{Accel, Device};
 use crate::error::{bail, check_finite_scalar, Result};
 use crate::imap::regions::{RegionShared, RegionTally};
-use crate::imap::IMap;
-use crate::photometry::{BandPhotometry, PhotometricData, Spectrum};
+use crate::imap::{IMap, LayerLayout};
+use crate::photometry::{gonio, BandPhotometry, PhotometricData, Spectrum};
 use crate::render::RenderReport;
 use crate::scene::light::{Distribution, LightDesc, Placement};
 use crate::scene::sky::{SkyDesc, SkyKind, SunDesc};
@@ -152,6 +152,8 @@ pub struct Context {
     region_tally: RegionTally,
     /// The estimator of the map's photons (`pass_photons` 0 and `samples` 0: automatic).
     estimator: Estimator,
+    /// The scene's running memory figures (`memory::Footprint`).
+    footprint: memory::Footprint,
 }
 
 impl Context {
@@ -185,6 +187,7 @@ impl Context {
             last_run: None,
             last_render: None,
             estimator: Estimator::DEFAULT,
+            footprint: memory::Footprint::default(),
         })
     }
 
@@ -338,31 +341,38 @@ impl Context {
         if self.config.memory_budget > 0 {
             return self.config.memory_budget;
         }
-        physical_memory().map_or(u64::MAX, |m| m / 4 * 3)
+        default_memory_budget()
     }
 
-    /// Bytes the context holds or will hold for its scene and map (`memory` model).
+    /// Bytes the context holds or will hold for its scene and map (`memory` model). Costs
+    /// the same however large the scene: it reads the running figures.
     pub fn memory_estimate(&self) -> u64 {
-        let (scene, transient) = memory::scene_bytes(&self.scene);
-        let cells = self.map_cells(self.scene.slot_count());
-        let mut map = memory::map_bytes(cells, self.bands() as u64);
+        let f = &self.footprint;
+        let per_slot = self.layer_layout().per_slot() as u64;
+        let cells = f.slots.saturating_mul(per_slot);
+        let bands = self.bands() as u64;
+        let mut map = memory::map_bytes(cells, bands);
         if self.estimator.is_light_sampling() {
-            for m in self.scene.meshes.iter().filter(|m| m.record) {
-                let c = self.map_cells(m.positions.len() * if m.two_sided { 2 } else { 1 });
-                let corners = (m.triangles.len(), m.positions.len());
-                map = map.saturating_add(memory::direct_bytes(corners, c, self.bands() as u64));
-            }
+            map = map
+                .saturating_add(memory::direct_record_bytes(cells, bands))
+                .saturating_add(f.adjacency);
         }
-        scene.saturating_add(transient).saturating_add(map)
+        f.held.saturating_add(f.transient).saturating_add(map)
     }
 
     fn bands(&self) -> usize {
         self.scene.bands.count()
     }
 
+    /// The map's layers for the scene (`Scene::layer_layout`, from the running figures:
+    /// the same for any number of meshes).
+    fn layer_layout(&self) -> LayerLayout {
+        LayerLayout::new(self.scene.layers, self.footprint.largest_group)
+    }
+
     /// Cells (accumulator records) of `slots` slots with the scene's layers.
     fn map_cells(&self, slots: usize) -> u64 {
-        (slots as u64).saturating_mul(self.scene.layer_layout().per_slot() as u64)
+        (slots as u64).saturating_mul(self.layer_layout().per_slot() as u64)
     }
 
     /// Refuses to go past the budget: `extra` more bytes on top of `base`, for `what`.
@@ -420,6 +430,7 @@ impl Context {
             ),
         )?;
         let mesh = Mesh::new(desc, self.scene.materials.len(), &self.scene.bands)?;
+        self.footprint.add_mesh(&mesh);
         self.scene.meshes.push(mesh);
         self.invalidate();
         Ok(self.scene.meshes.len() as u32 - 1)
@@ -427,6 +438,7 @@ impl Context {
 
     pub fn add_light(&mut self, light: Light) -> Result<u32> {
         self.check_unlocked("add a light")?;
+        self.footprint.add_light(&light);
         self.scene.lights.push(light);
         self.invalidate();
         Ok(self.scene.lights.len() as u32 - 1)
@@ -467,7 +479,22 @@ impl Context {
     /// kind replaced by the file's image.
     pub fn add_sky_file(&mut self, path: &std::path::Path, desc: &SkyDesc) -> Result<u32> {
         self.check_unlocked("add a sky")?;
-        let (width, height, rgb) = crate::scene::sky::read_image(path)?;
+        let left = self.memory_budget().saturating_sub(self.memory_estimate());
+        // While it is read: the file, the decoded pixels and their RGB copy (f32), then what
+        // the environment takes (`check_sky_image`).
+        let check = |w: usize, h: usize, file: u64| {
+            let px = (w as u64).saturating_mul(h as u64);
+            self.check_budget(
+                self.memory_estimate(),
+                px.saturating_mul(24).saturating_add(file),
+                &format!(
+                    "decoding the environment image {} ({w} × {h} pixels)",
+                    path.display()
+                ),
+            )?;
+            self.check_sky_image(w, h)
+        };
+        let (width, height, rgb) = crate::scene::sky::read_image(path, left, &check)?;
         let desc = SkyDesc {
             kind: SkyKind::Image {
                 width,
@@ -494,7 +521,44 @@ impl Context {
         spectrum: &Spectrum,
     ) -> Result<u32> {
         self.check_unlocked("add a luminaire")?;
-        self.add_distribution(&Distribution::new(data)?, placement, spectrum)
+        let d = self.distribution(data)?;
+        self.add_distribution(&d, placement, spectrum)
+    }
+
+    /// Checks and expands photometric data to a distribution that luminaires can be placed
+    /// with (`add_distribution`), within the memory budget: IMAP_ERR_MEMORY_BUDGET before
+    /// the table is expanded when it would not fit.
+    pub fn distribution(&self, data: &PhotometricData) -> Result<Distribution> {
+        let nh = data.candela.len();
+        let nv = data.candela.first().map_or(0, Vec::len);
+        let given = (nv as u64).saturating_mul(nh as u64);
+        let expanded = gonio::expanded_values(data.kind, data.symmetry, nv, nh);
+        self.reserve_table(gonio::table_bytes(given, expanded).0)?;
+        Distribution::new(data)
+    }
+
+    /// The distribution of the text of an IES LM-63 file (`tilt`: the text of the TILT file
+    /// it names, if it names one), read and expanded within the memory budget: a table too
+    /// large for it is refused from its counts, before its values are read.
+    pub fn distribution_ies(&self, text: &str, tilt: Option<&str>) -> Result<Distribution> {
+        let reserve = |bytes| self.reserve_table(bytes);
+        Distribution::new(&crate::photometry::ies::parse_within(text, tilt, &reserve)?.data)
+    }
+
+    /// The distribution of the text of a EULUMDAT file, as `distribution_ies`.
+    pub fn distribution_ldt(&self, text: &str) -> Result<Distribution> {
+        let reserve = |bytes| self.reserve_table(bytes);
+        Distribution::new(&crate::photometry::ldt::parse_within(text, &reserve)?.data)
+    }
+
+    /// Refuses a luminaire table whose reading and expansion take `bytes` more than the
+    /// budget leaves.
+    fn reserve_table(&self, bytes: u64) -> Result<()> {
+        self.check_budget(
+            self.memory_estimate(),
+            bytes,
+            "the luminaire's candela table (read and expanded to the sphere)",
+        )
     }
 
     /// Adds a luminaire from a prepared distribution (place one file many times without
@@ -526,11 +590,8 @@ impl Context {
         spectrum: &Spectrum,
     ) -> Result<u32> {
         self.check_unlocked("add a luminaire")?;
-        self.add_luminaire(
-            &crate::photometry::ies::parse(text, tilt)?.data,
-            placement,
-            spectrum,
-        )
+        let d = self.distribution_ies(text, tilt)?;
+        self.add_distribution(&d, placement, spectrum)
     }
 
     /// Adds a luminaire from the text of a EULUMDAT file.
@@ -541,11 +602,8 @@ impl Context {
         spectrum: &Spectrum,
     ) -> Result<u32> {
         self.check_unlocked("add a luminaire")?;
-        self.add_luminaire(
-            &crate::photometry::ldt::parse(text)?.data,
-            placement,
-            spectrum,
-        )
+        let d = self.distribution_ldt(text)?;
+        self.add_distribution(&d, placement, spectrum)
     }
 
     /// Radiant flux per band (W) of light `id`, and its luminous flux (lm); of a sky or
@@ -650,7 +708,7 @@ impl Context {
             self.map = Some(IMap::try_new_with(
                 self.scene.slot_count(),
                 self.bands(),
-                self.scene.layer_layout(),
+                self.layer_layout(),
                 self.estimator.is_light_sampling(),
                 self.prepared
                     .as_ref()
@@ -873,6 +931,12 @@ impl Context {
             0.0
         })
     }
+}
+
+/// The default memory budget: three quarters of physical memory (no limit when the system
+/// does not say).
+pub fn default_memory_budget() -> u64 {
+    physical_memory().map_or(u64::MAX, |m| m / 4 * 3)
 }
 
 /// Physical memory in bytes, if the system says.

@@ -256,6 +256,10 @@ const SLICE_SHARE: f64 = 0.25;
 /// The first map slice of a render that finds the map empty (at most a tenth of a time
 /// budget), s.
 const FIRST_MAP_S: f64 = 0.5;
+/// Photons a render that finds the map empty traces before anything else, whatever its
+/// time budget: final gathering reads the map, so the shortest budget still gets one
+/// (and the same status every time).
+pub const FIRST_MAP_PHOTONS: u64 = 1 << 12;
 
 /// A final-gathering render's progress point.
 fn gather_point(start: Instant, err: &GatherError, photons: u64, paths: u64) -> Progress {
@@ -276,6 +280,8 @@ enum GatherStep {
     Caustic(u64),
     /// A batch of eye passes.
     Eye,
+    /// The first photons of an empty map (`FIRST_MAP_PHOTONS`), whatever the time.
+    FirstMap,
 }
 
 impl Context {
@@ -339,6 +345,7 @@ impl Context {
             .then(|| crate::sched::deadline(start, params.time_budget_s))
             .flatten();
         let photons_before = self.photons();
+        let before_render = Untouched::of(self);
         let mut mon = Monitor::new(params, start);
         let interval = mon.interval();
         let mut map: Option<MapIndirect> = None;
@@ -369,7 +376,10 @@ impl Context {
             if left.is_some_and(|l| l <= 0.0) {
                 mon.stop = mon.stop.or(Some(StopReason::TimeBudget));
             }
-            if mon.stop.is_some() {
+            // An empty map gets its first photons even when the time is up: the shortest
+            // budget leaves the context as every other does, with a map.
+            let first = !map_frozen && self.photons() == 0;
+            if mon.stop.is_some() && !(first && mon.stop == Some(StopReason::TimeBudget)) {
                 break;
             }
             let slice = (SLICE_SHARE * now)
@@ -381,7 +391,9 @@ impl Context {
                 mon.stop = Some(StopReason::PhotonCount);
                 break;
             }
-            let step = if fixed > 0 {
+            let step = if first {
+                GatherStep::FirstMap
+            } else if fixed > 0 {
                 // Before pass k (from 0) the map holds at least (k + 1) · fixed photons and
                 // the caustics have k + 1 rounds.
                 let want = (pass + 1).saturating_mul(fixed);
@@ -396,7 +408,7 @@ impl Context {
                 } else {
                     GatherStep::Eye
                 }
-            } else if !map_frozen && self.photons() == 0 {
+            } else if !map_frozen && self.photons() == FIRST_MAP_PHOTONS && photons_before == 0 {
                 GatherStep::Map {
                     photons: 0,
                     secs: first_map_s(mon.params.time_budget_s).min(left.unwrap_or(f64::MAX)),
@@ -451,6 +463,45 @@ impl Context {
                 break;
             }
             match step {
+                GatherStep::FirstMap => {
+                    let t0 = Instant::now();
+                    let paths = stats.paths;
+                    // Only a cancel from the caller's callback stops these photons.
+                    let mut cancel = |p: &Progress| {
+                        !(mon.due()
+                            && mon.tick(
+                                gather_point(start, &err, p.photons, paths),
+                                false,
+                                Duration::ZERO,
+                            ))
+                    };
+                    let r = self.run(&mut RunParams {
+                        photons: FIRST_MAP_PHOTONS,
+                        progress_interval_s: 0.05,
+                        max_path_events: max_events,
+                        progress: Some(&mut cancel),
+                        ..Default::default()
+                    });
+                    t_map += t0.elapsed().as_secs_f64();
+                    match r {
+                        Err(e) if e.status == ImapStatus::ImapErrThreadLost => {
+                            lost = Some(e);
+                            break;
+                        }
+                        Err(e) => {
+                            before_render.restore(self);
+                            return Err(e);
+                        }
+                        Ok(_) => {}
+                    }
+                    if self.photons() == 0 {
+                        // Cancelled before a photon was whole: nothing to gather from.
+                        mon.stop = mon.stop.or(Some(StopReason::Cancelled));
+                        break;
+                    }
+                    map = None;
+                    continue;
+                }
                 GatherStep::Map { photons, secs } => {
                     let t0 = Instant::now();
                     let before = self.photons();
@@ -488,7 +539,10 @@ impl Context {
                             lost = Some(e);
                             break;
                         }
-                        Err(e) if self.photons() == 0 => return Err(e),
+                        Err(e) if self.photons() == 0 => {
+                            before_render.restore(self);
+                            return Err(e);
+                        }
                         // The map cannot grow (its photon selection is spent, a budget): the
                         // render goes on with the map as it is.
                         Err(_) => map_frozen = true,
@@ -583,6 +637,10 @@ impl Context {
                 mon.stop = Some(StopReason::PhotonCount);
             }
         }
+        if self.photons() == 0 {
+            // No photon was traced: the map's run time and history stay as they were.
+            before_render.restore(self);
+        }
         let wall_s = start.elapsed().as_secs_f64();
         let mut image = Image::new(camera.width, camera.height, nb);
         let err = store.estimate(&schedule, caustics.as_ref(), Some(&mut image));
@@ -631,6 +689,43 @@ impl Context {
         if mon.stop.is_none() && mon.due() {
             let p = gather_point(mon.start, err, self.photons(), paths);
             mon.tick(p, settled, Duration::ZERO);
+        }
+    }
+}
+
+/// What a final-gathering render may change of an empty map's context (its runs add time,
+/// history and tallies), to put back when it fails or traces no photon.
+struct Untouched {
+    empty: bool,
+    elapsed_s: f64,
+    history: Vec<Progress>,
+    stats: crate::transport::PathStats,
+    last_run: Option<(u64, u64, f64, StopReason, crate::sched::Counters, usize)>,
+}
+
+impl Untouched {
+    fn of(c: &Context) -> Self {
+        let empty = c.photons() == 0;
+        Untouched {
+            empty,
+            elapsed_s: c.elapsed_s,
+            // Only an empty map's context is put back: its history is short.
+            history: if empty { c.history.clone() } else { Vec::new() },
+            stats: if empty {
+                c.stats.clone()
+            } else {
+                Default::default()
+            },
+            last_run: c.last_run,
+        }
+    }
+
+    fn restore(self, c: &mut Context) {
+        if self.empty && c.photons() == 0 {
+            c.elapsed_s = self.elapsed_s;
+            c.history = self.history;
+            c.stats = self.stats;
+            c.last_run = self.last_run;
         }
     }
 }

@@ -189,7 +189,100 @@ pub struct StateFile<'a> {
     map: &'a [u8],
 }
 
+/// The largest number a state may hold: sums of energies, squares and times far beyond
+/// any run (a map of 1e12 photons of 1e9 W each squares to 1e42), and small enough that
+/// sums and squares of them stay finite.
+const MAX_STATE_NUMBER: f64 = 1e100;
+
+/// Refuses a number of a state that no run can have written: not finite, negative where
+/// only sums of energies, squares and times can stand, or beyond `MAX_STATE_NUMBER`
+/// (IMAP_ERR_STATE_CORRUPT naming it).
+fn check_number(what: &str, x: f64) -> Result<()> {
+    if !(x.is_finite() && (0.0..=MAX_STATE_NUMBER).contains(&x)) {
+        return Err(corrupt(format!(
+            "state is corrupt: its {what} is {x} (a run writes finite, non-negative values up to {MAX_STATE_NUMBER:e})"
+        )));
+    }
+    Ok(())
+}
+
 impl StateFile<'_> {
+    /// Checks every number of the state (checksums catch damage, not a state written by a
+    /// faulty or hostile program): run time, history, tallies, the estimator's settings
+    /// and the map's accumulators.
+    fn check_numbers(&self) -> Result<()> {
+        check_number("run time", self.elapsed_s)?;
+        for (i, p) in self.history.iter().enumerate() {
+            for (what, x) in [
+                ("elapsed time", p.elapsed_s),
+                ("estimated error", p.rel_error),
+                ("region error", p.region_rel_error),
+            ] {
+                check_number(&format!("history point {i}'s {what}"), x)?;
+            }
+        }
+        let st = &self.stats;
+        for (what, x) in [
+            ("emitted energy", st.emitted),
+            ("escaped energy", st.escaped),
+            ("dropped energy", st.dropped),
+        ] {
+            check_number(what, x)?;
+        }
+        let lists: [(&str, &[f64]); 3] = [
+            ("absorbed energy", &st.absorbed),
+            ("region sums", &self.regions.sum),
+            ("region squares", &self.regions.sq),
+        ];
+        for (what, xs) in lists
+            .into_iter()
+            .chain(st.bands.iter().map(|b| ("energy per band", &b[..])))
+            .chain([("region luminous squares", &self.regions.sq_lum[..])])
+        {
+            for (i, &x) in xs.iter().enumerate() {
+                check_number(&format!("{what} [{i}]"), x)?;
+            }
+        }
+        let samples = self.dims.samples & !GATHER_BIT;
+        if samples > crate::transport::direct::MAX_SAMPLES
+            || (self.dims.samples != 0 && (samples == 0 || self.dims.pass_photons == 0))
+        {
+            return Err(corrupt(format!(
+                "state is corrupt: its estimator claims {samples} light samples per vertex per pass and {} photons per pass (1 … {} samples, and some photons, are possible)",
+                self.dims.pass_photons,
+                crate::transport::direct::MAX_SAMPLES
+            )));
+        }
+        if let Some(i) = self
+            .map_values()
+            .position(|x| !(x.is_finite() && (0.0..=MAX_STATE_NUMBER).contains(&x)))
+        {
+            return Err(corrupt(format!(
+                "state is corrupt: its map's accumulator {i} is {} (a run writes finite, non-negative sums up to {MAX_STATE_NUMBER:e})",
+                self.map_values().nth(i).unwrap_or(f64::NAN)
+            )));
+        }
+        // The direct records' pass counts are whole numbers (a fraction of a pass divides
+        // a vertex's direct light by nearly nothing).
+        if self.has_map() && self.dims.samples != 0 {
+            let nb = self.dims.bands as usize;
+            let cells = (self.dims.slots * self.dims.per_slot as u64) as usize;
+            let photon_part = cells * (nb + 1);
+            let bad = self
+                .map_values()
+                .skip(photon_part)
+                .skip(nb + 1)
+                .step_by(nb + 3)
+                .position(|x| x.fract() != 0.0);
+            if let Some(c) = bad {
+                return Err(corrupt(format!(
+                    "state is corrupt: the direct record of map cell {c} counts a fraction of a pass"
+                )));
+            }
+        }
+        Ok(())
+    }
+
     pub fn photons(&self) -> u64 {
         self.traced.len()
     }
@@ -291,17 +384,12 @@ impl<W: Write> Write for Hashing<W> {
 
 /// Checks the frame of a state (magic, version, length, checksum) and reads it.
 pub fn parse(b: &[u8]) -> Result<StateFile<'_>> {
-    parse_with(b, true)
+    let s = parse_frame(b)?;
+    s.check_numbers()?;
+    Ok(s)
 }
 
-/// Reads a state checking its frame (magic, version, length) but not its checksum, for a
-/// caller that loads or merges the same bytes next (which checks it): one pass over a
-/// large map instead of two.
-pub fn parse_unchecked(b: &[u8]) -> Result<StateFile<'_>> {
-    parse_with(b, false)
-}
-
-fn parse_with(b: &[u8], verify: bool) -> Result<StateFile<'_>> {
+fn parse_frame(b: &[u8]) -> Result<StateFile<'_>> {
     if b.len() < 8 || &b[..8] != MAGIC {
         bail!(
             ImapErrStateCorrupt,
@@ -340,7 +428,7 @@ fn parse_with(b: &[u8], verify: bool) -> Result<StateFile<'_>> {
     }
     let body = &b[..b.len() - CHECKSUM];
     let stored = u128::from_le_bytes(b[b.len() - CHECKSUM..].try_into().unwrap());
-    if verify && xxhash_rust::xxh3::xxh3_128(body) != stored {
+    if xxhash_rust::xxh3::xxh3_128(body) != stored {
         bail!(
             ImapErrStateCorrupt,
             "state is corrupt: its checksum does not match its contents (a damaged or altered file)"
@@ -458,9 +546,28 @@ fn parse_with(b: &[u8], verify: bool) -> Result<StateFile<'_>> {
     })
 }
 
-/// Reads a whole file, naming it in any error.
-pub fn read_file(path: &Path) -> Result<Vec<u8>> {
-    std::fs::read(path).map_err(|e| io_error(path, "cannot read", e))
+/// Reads a whole state file of at most `limit` bytes, naming it in any error: a path that
+/// is not a regular file (`/dev/zero`, a FIFO) is refused before anything is read
+/// (IMAP_ERR_IO), a file over the limit with IMAP_ERR_MEMORY_BUDGET.
+pub fn read_file(path: &Path, limit: u64) -> Result<Vec<u8>> {
+    use crate::files::{read_regular, ReadError};
+    read_regular(path, limit).map_err(|e| match e {
+        ReadError::Io(e) => io_error(path, "cannot read", e),
+        ReadError::NotRegular => Error::new(
+            ImapStatus::ImapErrIo,
+            format!(
+                "cannot read {}: not a regular file (a device, FIFO or folder)",
+                path.display()
+            ),
+        ),
+        ReadError::TooLarge { size, limit } => Error::new(
+            ImapStatus::ImapErrMemoryBudget,
+            format!(
+                "reading the state {} needs {size} bytes; the memory budget leaves {limit}",
+                path.display()
+            ),
+        ),
+    })
 }
 
 fn io_error(path: &Path, what: &str, e: std::io::Error) -> Error {
@@ -484,7 +591,7 @@ impl Context {
             samples,
             pass_photons,
             bands: self.bands() as u32,
-            per_slot: self.scene.layer_layout().per_slot() as u32,
+            per_slot: self.layer_layout().per_slot() as u32,
             slots: self.scene.slot_count() as u64,
             meshes: self.scene.meshes.len() as u32,
             regions: self
@@ -818,15 +925,8 @@ impl Context {
     }
 
     fn read_state_file(&self, path: &Path) -> Result<Vec<u8>> {
-        let len = std::fs::metadata(path)
-            .map_err(|e| io_error(path, "cannot open", e))?
-            .len();
-        self.check_budget(
-            self.memory_estimate(),
-            len,
-            &format!("reading the state {}", path.display()),
-        )?;
-        read_file(path)
+        let left = self.memory_budget().saturating_sub(self.memory_estimate());
+        read_file(path, left)
     }
 
     /// The map's accumulators as one contiguous array (allocated, zeroed, when the context

@@ -17,7 +17,7 @@ pub const IMAP_VERSION_MAJOR: u32 = 0;
 /// epoch: `libimap.so.0.<minor>` (see README, "ABI policy").
 pub const IMAP_VERSION_MINOR: u32 = 2;
 /// Library version, patch.
-pub const IMAP_VERSION_PATCH: u32 = 2;
+pub const IMAP_VERSION_PATCH: u32 = 3;
 
 /// `ImapConfig::band_mode`: three bands, R, G, B.
 pub const IMAP_BANDS_RGB: u32 = 0;
@@ -62,9 +62,11 @@ pub struct ImapConfig {
     pub band_count: u32,
     /// Calculating threads, 0..=1024; 0 = one per core.
     pub threads: u32,
-    /// Wavelength of the first spectral band, nm.
+    /// Wavelength of the first spectral band, nm (at least 100 nm; IMAP_ERR_BAD_BANDS
+    /// below).
     pub wavelength_min_nm: f64,
-    /// Wavelength of the last spectral band, nm.
+    /// Wavelength of the last spectral band, nm (at most 100 000 nm; IMAP_ERR_BAD_BANDS
+    /// above).
     pub wavelength_max_nm: f64,
     /// Seed of the photons' random streams: the same seed gives the same map with any
     /// scheduler and thread count.
@@ -231,28 +233,33 @@ pub unsafe extern "C" fn imap_create(
             config_from_c(&read_versioned("config", config)?)?
         };
         let ctx = Context::new(config)?;
-        let handle = Box::new(ImapContext {
+        let handle = super::register(ImapContext {
             inner: Mutex::new(ctx),
             errors: Arc::default(),
         });
-        write_out("out", out, Box::into_raw(handle))
+        write_out("out", out, handle)
     })
 }
 
 /// Destroys a context and everything it owns, including its error messages. NULL is a
-/// no-op. No other call may be using the context.
+/// no-op (IMAP_OK).
+///
+/// Returns IMAP_ERR_BUSY, and destroys nothing, while another call is using the context (an
+/// `imap_run` or `imap_render` in progress on another thread, or this call made from the
+/// context's own progress callback): destroy it after that call returns. Returns
+/// IMAP_ERR_INVALID_ARGUMENT for a handle that is not live (destroyed already, or not from
+/// `imap_create`): such misuse is detected, never a double free. The message is the calling
+/// thread's (`imap_last_error(NULL)`). Thread-safe. (Returns a status since 0.2.3; it
+/// returned nothing before, and programs built against that header keep working.)
 ///
 /// # Safety
-/// `ctx` is NULL or a handle from `imap_create` not yet destroyed.
+/// `ctx` is NULL or a handle from `imap_create`.
 #[no_mangle]
-pub unsafe extern "C" fn imap_destroy(ctx: *mut ImapContext) {
-    if !ctx.is_null() {
-        let _quiet = errors::QuietGuard::enter();
-        let _ = std::panic::catch_unwind(|| {
-            // SAFETY: the handle came from Box::into_raw in imap_create.
-            drop(unsafe { Box::from_raw(ctx) });
-        });
+pub unsafe extern "C" fn imap_destroy(ctx: *mut ImapContext) -> ImapStatus {
+    if ctx.is_null() {
+        return ImapStatus::ImapOk;
     }
+    boundary(None, || super::unregister(ctx))
 }
 
 /// The message of the calling thread's most recent failing call on `ctx`, or, with `ctx`
@@ -272,10 +279,15 @@ pub unsafe extern "C" fn imap_destroy(ctx: *mut ImapContext) {
 pub unsafe extern "C" fn imap_last_error(ctx: *const ImapContext) -> *const c_char {
     let r = std::panic::catch_unwind(|| {
         if ctx.is_null() {
-            errors::thread_message()
-        } else {
-            // SAFETY: a live handle per the contract.
-            unsafe { &*ctx }.errors.current()
+            return errors::thread_message();
+        }
+        match super::live(ctx) {
+            // The message lives in the context's slots, which live as long as the context.
+            Some(c) => c.errors.current(),
+            None => {
+                c"ctx is not a live context: it was destroyed, or did not come from imap_create"
+                    .as_ptr()
+            }
         }
     });
     r.unwrap_or(c"internal error".as_ptr())

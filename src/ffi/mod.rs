@@ -44,6 +44,58 @@ pub struct ImapContext {
     errors: Arc<ErrorSlots>,
 }
 
+/// The live contexts, by the address handed to C. Every call looks its handle up here
+/// before touching it, so a destroyed or made-up handle is an error, never a read of freed
+/// memory; `imap_destroy` removes a context only when no call holds it (IMAP_ERR_BUSY
+/// otherwise), and a call that found it before keeps it alive until it returns.
+static LIVE: std::sync::LazyLock<
+    std::sync::RwLock<std::collections::HashMap<usize, Arc<ImapContext>>>,
+> = std::sync::LazyLock::new(Default::default);
+
+/// Registers a new context; its handle for C.
+pub(crate) fn register(ctx: ImapContext) -> *mut ImapContext {
+    let ctx = Arc::new(ctx);
+    let ptr = Arc::as_ptr(&ctx) as *mut ImapContext;
+    LIVE.write()
+        .unwrap_or_else(|p| p.into_inner())
+        .insert(ptr as usize, ctx);
+    ptr
+}
+
+/// The live context behind a handle.
+pub(crate) fn live(ctx: *const ImapContext) -> Option<Arc<ImapContext>> {
+    LIVE.read()
+        .unwrap_or_else(|p| p.into_inner())
+        .get(&(ctx as usize))
+        .cloned()
+}
+
+fn not_live() -> Error {
+    Error::new(
+        ImapStatus::ImapErrInvalidArgument,
+        "ctx is not a live context: it was destroyed, or did not come from imap_create",
+    )
+}
+
+/// Removes a context that no call is using: IMAP_ERR_BUSY while one is (a run in
+/// progress, or this call made from a run's progress callback), and nothing happens.
+pub(crate) fn unregister(ctx: *mut ImapContext) -> Result<()> {
+    let mut live = LIVE.write().unwrap_or_else(|p| p.into_inner());
+    let Some(handle) = live.get(&(ctx as usize)) else {
+        return Err(not_live());
+    };
+    if let Err(TryLockError::WouldBlock) = handle.inner.try_lock() {
+        return Err(Error::new(
+            ImapStatus::ImapErrBusy,
+            "imap_destroy: the context is in use (imap_run or imap_render in progress, or a call from its progress callback); destroy it after that call returns",
+        ));
+    }
+    let handle = live.remove(&(ctx as usize));
+    drop(live);
+    drop(handle);
+    Ok(())
+}
+
 /// Runs `f` behind the API boundary: panics become `IMAP_ERR_INTERNAL` (the panic message
 /// goes into the error, nothing is printed), errors are recorded on the context for the
 /// calling thread (when there is a context) and on the calling thread.
@@ -75,8 +127,10 @@ pub(crate) fn with_context(
             Err(Error::new(ImapStatus::ImapErrNullPointer, "ctx is NULL"))
         });
     }
-    // SAFETY: the caller passes a pointer returned by imap_create and not yet destroyed.
-    let handle = unsafe { &*ctx };
+    let Some(handle) = live(ctx) else {
+        return boundary(None, || Err(not_live()));
+    };
+    let handle = &*handle;
     boundary(Some(handle), || {
         let mut guard = match handle.inner.try_lock() {
             Ok(g) => g,

@@ -129,8 +129,10 @@ pub unsafe extern "C" fn imap_state_save(
 /// continues with the photons the state does not hold. On any error the context is
 /// unchanged.
 ///
-/// Returns IMAP_ERR_STATE_CORRUPT (not a state, truncated, checksum fails: the message
-/// says which), IMAP_ERR_UNSUPPORTED (a newer format version), IMAP_ERR_STATE_MISMATCH
+/// Returns IMAP_ERR_STATE_CORRUPT (not a state, truncated, checksum fails, or a number no
+/// run writes — NaN, infinite, negative or beyond 1e100 where sums, squares and times
+/// stand, a fraction of a pass, light samples past 1024: the message names the field),
+/// IMAP_ERR_UNSUPPORTED (a newer format version), IMAP_ERR_STATE_MISMATCH
 /// (another scene or settings: the message names what differs), IMAP_ERR_INVALID_ARGUMENT
 /// (a state written with IMAP_STATE_NO_MAP), IMAP_ERR_BUSY. (Since 0.2.2.)
 ///
@@ -149,7 +151,9 @@ pub unsafe extern "C" fn imap_state_load(
 }
 
 /// `imap_state_load` from the file `path`; errors name the file. Also IMAP_ERR_IO (cannot
-/// read it) and IMAP_ERR_MEMORY_BUDGET (the file does not fit beside the map). (Since 0.2.2.)
+/// read it, or it is no regular file: a device such as /dev/zero, a FIFO or a folder is
+/// refused before a byte is read) and IMAP_ERR_MEMORY_BUDGET (the file does not fit beside
+/// the map). (Since 0.2.2.)
 ///
 /// # Safety
 /// `ctx` is a live handle; `path` is NUL-terminated.

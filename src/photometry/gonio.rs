@@ -214,6 +214,57 @@ impl PhotometricData {
     }
 }
 
+/// Bytes a distribution holds per value of its expanded table (`Goniometric`): the
+/// intensity, and its cell's entry in the sampling table (probability, alias, flux).
+pub const HELD_PER_VALUE: u64 = 8 + 16;
+/// Bytes the expansion needs on top per value while it runs: the mirrored planes, the
+/// cells' fluxes and the sampling table's work lists.
+pub const EXPANDING_PER_VALUE: u64 = 8 + 8 + 16;
+/// Bytes a parsed table takes per candela value: the values read and the table
+/// (`PhotometricData`) made of them.
+pub const PARSED_PER_VALUE: u64 = 16;
+
+impl Symmetry {
+    /// How many planes the expansion makes of one given plane (at most).
+    fn copies(self) -> u64 {
+        match self {
+            Symmetry::Rotational | Symmetry::None | Symmetry::LateralB => 1,
+            Symmetry::C0C180 | Symmetry::C90C270 => 2,
+            Symmetry::Quadrant => 4,
+        }
+    }
+}
+
+/// Values of the expanded table (`Goniometric`) of `vertical` × `horizontal` given angles
+/// with `symmetry`: the most the expansion can make, from the counts alone (so that a
+/// file's memory is known before its values are read).
+pub fn expanded_values(
+    kind: PhotometricType,
+    symmetry: Symmetry,
+    vertical: usize,
+    horizontal: usize,
+) -> u64 {
+    let (v, h) = (vertical as u64, horizontal as u64);
+    match kind {
+        PhotometricType::C if symmetry == Symmetry::Rotational => 2 * v,
+        // Mirrored planes, and up to two more to wrap around 360°.
+        PhotometricType::C => (symmetry.copies() * h + 2).saturating_mul(v),
+        // φ = V, θ = 90° − H, H mirrored when laterally symmetric.
+        PhotometricType::B if symmetry == Symmetry::LateralB => v.saturating_mul(2 * h),
+        PhotometricType::B => v.saturating_mul(h),
+    }
+}
+
+/// Bytes a table of `given` values expanding to `expanded` values needs while it is read
+/// and expanded (the parsed table, the expansion's work), and keeps afterwards.
+pub fn table_bytes(given: u64, expanded: u64) -> (u64, u64) {
+    let held = expanded.saturating_mul(HELD_PER_VALUE);
+    let peak = given
+        .saturating_mul(PARSED_PER_VALUE)
+        .saturating_add(expanded.saturating_mul(HELD_PER_VALUE + EXPANDING_PER_VALUE));
+    (peak, held)
+}
+
 /// The distribution on the whole sphere, ready to evaluate and sample.
 #[derive(Debug)]
 pub struct Goniometric {
@@ -338,6 +389,11 @@ impl Goniometric {
             cells,
             flux,
         })
+    }
+
+    /// Values of the expanded table.
+    pub fn values(&self) -> usize {
+        self.values.len()
     }
 
     /// Total flux, lumens.

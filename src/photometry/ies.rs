@@ -47,48 +47,76 @@ fn parse_error(what: &str, line: usize, msg: impl std::fmt::Display) -> Error {
     )
 }
 
-/// Numbers separated by blanks, commas and line ends, with their line numbers.
+/// Numbers separated by blanks, commas and line ends, with their line numbers, read
+/// lazily: a file's memory is what its values become, never a list of its tokens.
 struct Numbers<'a> {
     what: &'static str,
-    tokens: Vec<(&'a str, usize)>,
-    at: usize,
-    /// Line of the last line of the text (for "ends early" errors).
+    lines: Box<dyn Iterator<Item = (usize, &'a str)> + 'a>,
+    /// The next token, if any (with its line).
+    ahead: Option<(&'a str, usize)>,
+    /// The rest of the current line after `ahead`.
+    tail: &'a str,
+    tail_line: usize,
+    /// Line of the last line read (for "ends early" errors).
     last_line: usize,
 }
 
+fn is_separator(c: char) -> bool {
+    c.is_whitespace() || c == ',' || c == '\u{1a}'
+}
+
 impl<'a> Numbers<'a> {
-    fn new(what: &'static str, lines: impl Iterator<Item = (usize, &'a str)>) -> Self {
-        let mut tokens = Vec::new();
-        let mut last_line = 0;
-        for (n, l) in lines {
-            last_line = n;
-            tokens.extend(
-                l.split(|c: char| c.is_whitespace() || c == ',' || c == '\u{1a}')
-                    .filter(|t| !t.is_empty())
-                    .map(|t| (t, n)),
-            );
-        }
-        Numbers {
+    fn new(what: &'static str, lines: impl Iterator<Item = (usize, &'a str)> + 'a) -> Self {
+        let mut n = Numbers {
             what,
-            tokens,
-            at: 0,
-            last_line,
+            lines: Box::new(lines),
+            ahead: None,
+            tail: "",
+            tail_line: 0,
+            last_line: 0,
+        };
+        n.advance();
+        n
+    }
+
+    /// Moves `ahead` to the next token.
+    fn advance(&mut self) {
+        loop {
+            let t = self.tail.trim_start_matches(is_separator);
+            if !t.is_empty() {
+                let end = t.find(is_separator).unwrap_or(t.len());
+                self.ahead = Some((&t[..end], self.tail_line));
+                self.tail = &t[end..];
+                return;
+            }
+            match self.lines.next() {
+                Some((n, l)) => {
+                    self.last_line = n;
+                    self.tail = l;
+                    self.tail_line = n;
+                }
+                None => {
+                    self.ahead = None;
+                    self.tail = "";
+                    return;
+                }
+            }
         }
     }
 
     fn line(&self) -> usize {
-        self.tokens.get(self.at).map_or(self.last_line, |t| t.1)
+        self.ahead.map_or(self.last_line, |t| t.1)
     }
 
     fn next(&mut self, name: &str) -> Result<f64> {
-        let Some(&(t, line)) = self.tokens.get(self.at) else {
+        let Some((t, line)) = self.ahead else {
             return Err(parse_error(
                 self.what,
                 self.last_line,
                 format!("the file ends before {name}"),
             ));
         };
-        self.at += 1;
+        self.advance();
         match t.parse::<f64>() {
             Ok(v) if v.is_finite() => Ok(v),
             Ok(v) => Err(parse_error(
@@ -149,7 +177,7 @@ impl<'a> Numbers<'a> {
     }
 
     fn rest(&self) -> Option<(&'a str, usize)> {
-        self.tokens.get(self.at).copied()
+        self.ahead
     }
 }
 
@@ -216,17 +244,27 @@ fn tilt_data(n: &mut Numbers<'_>) -> Result<(Vec<f64>, Vec<f64>)> {
 /// Parses an IES file. `tilt` is the text of the TILT file when the file says
 /// `TILT=<file name>`.
 pub fn parse(text: &str, tilt: Option<&str>) -> Result<IesFile> {
+    parse_within(text, tilt, &|_| Ok(()))
+}
+
+/// `parse`, asking `reserve` for the bytes the table will take (read and expanded to the
+/// sphere, `gonio::table_bytes`) as soon as the angles are known, before any candela value
+/// is stored: a memory budget refuses a huge file before it is read.
+pub fn parse_within(
+    text: &str,
+    tilt: Option<&str>,
+    reserve: &dyn Fn(u64) -> Result<()>,
+) -> Result<IesFile> {
     const W: &str = "IES";
-    let lines: Vec<&str> = text.lines().collect();
     // The format line and keywords, up to TILT=.
     let mut format = String::new();
     let mut keywords = Vec::new();
     let mut tilt_at = None;
-    for (i, l) in lines.iter().enumerate() {
+    for (i, l) in text.lines().enumerate() {
         let t = l.trim_start_matches('\u{feff}').trim();
         let upper = t.to_ascii_uppercase();
         if upper.starts_with("TILT") && upper[4..].trim_start().starts_with('=') {
-            tilt_at = Some(i);
+            tilt_at = Some((i, t));
             break;
         }
         if i == 0 && (upper.starts_with("IESNA") || upper.starts_with("IES:")) {
@@ -237,24 +275,22 @@ pub fn parse(text: &str, tilt: Option<&str>) -> Result<IesFile> {
             }
         }
     }
-    let Some(tilt_at) = tilt_at else {
+    let Some((tilt_at, tilt_line)) = tilt_at else {
         return Err(parse_error(
             W,
-            lines.len().max(1),
+            text.lines().count().max(1),
             "no TILT= line: an LM-63 file gives TILT=NONE, TILT=INCLUDE or TILT=<file> before its photometric data",
         ));
     };
     let upper = format.to_ascii_uppercase();
     let old_format = upper.is_empty() || upper.starts_with("IESNA91");
-    let tilt_line = lines[tilt_at].trim();
     let tilt_value = tilt_line[tilt_line.find('=').expect("found above") + 1..].trim();
     let mut n = Numbers::new(
         W,
-        lines
-            .iter()
+        text.lines()
             .enumerate()
             .skip(tilt_at + 1)
-            .map(|(i, l)| (i + 1, *l)),
+            .map(|(i, l)| (i + 1, l)),
     );
     let tilt_table = match tilt_value.to_ascii_uppercase().as_str() {
         "NONE" => None,
@@ -374,6 +410,13 @@ pub fn parse(text: &str, tilt: Option<&str>) -> Result<IesFile> {
     let vertical = n.angles(nv, "vertical", mult_line)?;
     let h_line = n.line();
     let horizontal = n.angles(nh, "horizontal", mult_line)?;
+    {
+        // The symmetry decides how far the table expands (the worst case when the angles
+        // are wrong: that error is reported below, with its line).
+        let sym = Symmetry::infer(kind, &horizontal).unwrap_or(Symmetry::Quadrant);
+        let expanded = super::gonio::expanded_values(kind, sym, nv, nh);
+        reserve(super::gonio::table_bytes((nv * nh) as u64, expanded).0)?;
+    }
     let c_line = n.line();
     let scale = multiplier * ballast_factor * ballast_lamp_factor;
     let mut candela = Vec::with_capacity(nh);

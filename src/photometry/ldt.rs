@@ -69,17 +69,66 @@ fn whole(s: &str, line: usize, name: &str, lo: i64, hi: i64) -> Result<i64> {
     Ok(v as i64)
 }
 
-/// The lines of the file, numbered from 1.
+/// The lines of the file, numbered from 1, read lazily (a file's memory is what its
+/// values become, never a list of its lines): `at` lines are consumed, and `ahead` holds
+/// the lines after them that were looked at.
 struct Lines<'a> {
-    lines: Vec<&'a str>,
+    rest: std::str::Lines<'a>,
+    ahead: std::collections::VecDeque<&'a str>,
     at: usize,
 }
 
 impl<'a> Lines<'a> {
+    fn new(text: &'a str) -> Self {
+        Lines {
+            rest: text.lines(),
+            ahead: Default::default(),
+            at: 0,
+        }
+    }
+
+    /// Reads ahead so that lines up to index `i` (0-based) can be looked at.
+    fn fill(&mut self, i: usize) {
+        while self.at + self.ahead.len() <= i {
+            match self.rest.next() {
+                Some(l) => self.ahead.push_back(l),
+                None => break,
+            }
+        }
+    }
+
+    /// Line `i` (0-based, not yet consumed) if `fill` reached it.
+    fn peek(&self, i: usize) -> Option<&'a str> {
+        i.checked_sub(self.at)
+            .and_then(|k| self.ahead.get(k))
+            .copied()
+    }
+
+    /// The number of lines in the file (reads to its end).
+    fn count(&mut self) -> usize {
+        let n = self.at + self.ahead.len();
+        n + self.rest.clone().count()
+    }
+
+    /// Consumes lines up to index `i` (0-based, exclusive).
+    fn skip_to(&mut self, i: usize) {
+        while self.at < i {
+            if self
+                .ahead
+                .pop_front()
+                .or_else(|| self.rest.next())
+                .is_none()
+            {
+                break;
+            }
+            self.at += 1;
+        }
+    }
+
     fn next(&mut self, name: &str) -> Result<(&'a str, usize)> {
-        let Some(l) = self.lines.get(self.at) else {
+        let Some(l) = self.ahead.pop_front().or_else(|| self.rest.next()) else {
             return Err(parse_error(
-                self.lines.len().max(1),
+                self.at.max(1),
                 format!("the file ends before {name}"),
             ));
         };
@@ -131,10 +180,14 @@ fn colour_temperature(s: &str) -> Option<f64> {
 
 /// Parses a EULUMDAT file.
 pub fn parse(text: &str) -> Result<LdtFile> {
-    let mut l = Lines {
-        lines: text.lines().collect(),
-        at: 0,
-    };
+    parse_within(text, &|_| Ok(()))
+}
+
+/// `parse`, asking `reserve` for the bytes the table will take (read and expanded to the
+/// sphere, `gonio::table_bytes`) once the planes are known, before any intensity is
+/// stored: a memory budget refuses a huge file before it is read.
+pub fn parse_within(text: &str, reserve: &dyn Fn(u64) -> Result<()>) -> Result<LdtFile> {
+    let mut l = Lines::new(text);
     let (company, _) = l.next("the company line")?;
     let company = company.trim_start_matches('\u{feff}').trim().to_string();
     l.whole("the type indicator Ityp", 0, 3)?;
@@ -193,9 +246,14 @@ pub fn parse(text: &str) -> Result<LdtFile> {
     // The lamp sets' six fields: set by set (most files), or field by field; told apart by
     // whether the second line is a number (field by field: the second set's lamp count).
     let block_start = l.at;
+    l.fill(block_start + 6 * sets);
+    let file_lines = if l.peek(block_start + 6 * sets - 1).is_some() {
+        0 // not needed: the block is whole
+    } else {
+        l.count()
+    };
     let second_is_number = sets > 1
-        && l.lines
-            .get(block_start + 1)
+        && l.peek(block_start + 1)
             .is_some_and(|s| s.trim().replace(',', ".").parse::<f64>().is_ok());
     let line_of = |set: usize, field: usize| {
         if second_is_number {
@@ -206,10 +264,10 @@ pub fn parse(text: &str) -> Result<LdtFile> {
     };
     let get = |set: usize, field: usize, name: &str| -> Result<(&str, usize)> {
         let i = line_of(set, field);
-        match l.lines.get(i) {
+        match l.peek(i) {
             Some(s) => Ok((s, i + 1)),
             None => Err(parse_error(
-                l.lines.len().max(1),
+                file_lines.max(1),
                 format!("the file ends before lamp set {}'s {name}", set + 1),
             )),
         }
@@ -231,7 +289,7 @@ pub fn parse(text: &str) -> Result<LdtFile> {
         let (t, n) = get(s, 5, "wattage")?;
         number(t, n, "the lamp set's wattage")?;
     }
-    l.at = block_start + 6 * sets;
+    l.skip_to(block_start + 6 * sets);
     numbers(&mut l, 10, &|i| format!("direct ratio {} of 10", i + 1))?;
     let (c, c_line) = numbers(&mut l, mc, &|i| format!("C angle {} of {mc}", i + 1))?;
     let (g, g_line) = numbers(&mut l, ng, &|i| format!("γ angle {} of {ng}", i + 1))?;
@@ -299,6 +357,13 @@ pub fn parse(text: &str) -> Result<LdtFile> {
         ));
     }
     let rows = stored.len();
+    reserve(
+        super::gonio::table_bytes(
+            (rows * ng) as u64,
+            super::gonio::expanded_values(PhotometricType::C, symmetry, ng, rows),
+        )
+        .0,
+    )?;
     let i_line = l.at + 1;
     let (values, _) = numbers(&mut l, rows * ng, &|i| {
         format!(
@@ -308,12 +373,19 @@ pub fn parse(text: &str) -> Result<LdtFile> {
             i / ng + 1
         )
     })?;
-    if let Some(rest) = l.lines[l.at..].iter().position(|s| !s.trim().is_empty()) {
+    let at = l.at;
+    let mut after = std::iter::from_fn(|| l.next("").ok().map(|x| x.0));
+    if let Some((rest, line)) = after
+        .by_ref()
+        .enumerate()
+        .find(|(_, s)| !s.trim().is_empty())
+        .map(|(k, s)| (s, at + k + 1))
+    {
         return Err(parse_error(
-            l.at + rest + 1,
+            line,
             format!(
                 "'{}' after the {rows} × {ng} intensities: Mc, Ng or Isym do not match the data",
-                printable(l.lines[l.at + rest].trim())
+                printable(rest.trim())
             ),
         ));
     }

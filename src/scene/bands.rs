@@ -6,6 +6,11 @@ use crate::error::{bail, check_finite, Result};
 /// wavelength-dependent indices of refraction in RGB mode.
 pub(crate) const RGB_WAVELENGTHS_NM: [f64; 3] = [612.0, 549.0, 465.0];
 
+/// The wavelengths a spectral context may cover, nm: far ultraviolet to far infrared. Band
+/// powers are integrated on a 0.25 nm grid, so the range also bounds the work a spectrum
+/// costs (at most 400 000 points).
+pub const SPECTRAL_RANGE_NM: (f64, f64) = (100.0, 100_000.0);
+
 /// The band layout of a context.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Bands {
@@ -45,6 +50,19 @@ impl Bands {
             bail!(
                 ImapErrBadBands,
                 "wavelength range [{min_nm}, {max_nm}] nm is not a positive, non-empty range"
+            );
+        }
+        let (lo, hi) = SPECTRAL_RANGE_NM;
+        if min_nm < lo {
+            bail!(
+                ImapErrBadBands,
+                "wavelength_min_nm = {min_nm} nm is below the {lo} nm that spectral contexts cover ({lo}–{hi} nm)"
+            );
+        }
+        if max_nm > hi {
+            bail!(
+                ImapErrBadBands,
+                "wavelength_max_nm = {max_nm} nm is above the {hi} nm that spectral contexts cover ({lo}–{hi} nm)"
             );
         }
         let wavelengths_nm = if count == 1 {

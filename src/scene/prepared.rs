@@ -4,7 +4,7 @@
 use super::mesh::triangle_area;
 use super::sky::DistantPart;
 use super::{LightShape, Material, Mesh, Scene};
-use crate::error::{bail, try_collect, try_filled, Error, ImapStatus, Result};
+use crate::error::{bail, try_collect, try_filled, Error, ImapStatus, Result, Subject};
 use crate::imap::regions::RegionLayout;
 use crate::imap::LayerLayout;
 use crate::sampling::{warp, AliasTable, PhotonRng};
@@ -442,10 +442,11 @@ impl PreparedScene {
                         .collect();
                     let (colour, total) = colour_of(&power);
                     if !(total > 0.0 && total.is_finite()) {
-                        bail!(
-                            ImapErrInvalidArgument,
-                            "light {i}: its flux into the scene's bounding sphere (radius {sphere:e} scene units) is {total} W: not a usable power"
-                        );
+                        return Err(Error::new(
+                            ImapStatus::ImapErrInvalidArgument,
+                            format!("light {i}: its flux into the scene's bounding sphere (radius {sphere:e} scene units) is {total} W: not a usable power"),
+                        )
+                        .about(Subject::Light(i as u32)));
                     }
                     emitters.push(Emitter {
                         kind: EmitterKind::Distant {
@@ -464,10 +465,11 @@ impl PreparedScene {
             }
             let (colour, total) = colour_of(&l.power);
             if !(total > 0.0 && total.is_finite()) {
-                bail!(
-                    ImapErrInvalidArgument,
-                    "light {i}: its power sums to {total} W over the bands"
-                );
+                return Err(Error::new(
+                    ImapStatus::ImapErrInvalidArgument,
+                    format!("light {i}: its power sums to {total} W over the bands"),
+                )
+                .about(Subject::Light(i as u32)));
             }
             emitters.push(Emitter {
                 kind: EmitterKind::Light(l.shape.clone()),
@@ -493,16 +495,18 @@ impl PreparedScene {
             let power: Vec<f64> = exitance.iter().map(|e| e * area * unit2 * sides).collect();
             let (colour, total) = colour_of(&power);
             if !(total > 0.0 && total.is_finite()) {
-                bail!(
-                    ImapErrInvalidArgument,
-                    "mesh {i} emits {total} W (exitance × area {area:e} scene units² × unit_m²): not a usable power"
-                );
+                return Err(Error::new(
+                    ImapStatus::ImapErrInvalidArgument,
+                    format!("mesh {i} emits {total} W (exitance × area {area:e} scene units² × unit_m²): not a usable power"),
+                )
+                .about(Subject::Mesh(i as u32)));
             }
             let triangles = AliasTable::new(&areas).map_err(|why| {
                 Error::new(
                     ImapStatus::ImapErrNoLight,
                     format!("mesh {i}: its emitting triangles cannot be sampled ({why})"),
                 )
+                .about(Subject::Mesh(i as u32))
             })?;
             emitters.push(Emitter {
                 kind: EmitterKind::Mesh {
@@ -712,12 +716,13 @@ fn check_precision(i: usize, m: &Mesh, p: &PreparedMesh, radius: f64) -> Result<
         worst_at = worst_at.max(magnitude);
     }
     if total > 0.0 && weighted / total > MAX_DISTORTION {
-        bail!(
-            ImapErrPrecision,
-            "mesh {i}: at {worst_at:.3e} scene units from the centre of the scene's bounding box (radius {radius:.3e}), single-precision ray tracing moves its triangles by {:.2} % of their size on average (most allowed: {} %); the scene's extent is too large for this mesh's detail: trace far-apart parts in separate contexts, or leave distant geometry out",
+        return Err(Error::new(
+            ImapStatus::ImapErrPrecision,
+            format!("mesh {i}: at {worst_at:.3e} scene units from the centre of the scene's bounding box (radius {radius:.3e}), single-precision ray tracing moves its triangles by {:.2} % of their size on average (most allowed: {} %); the scene's extent is too large for this mesh's detail: trace far-apart parts in separate contexts, or leave distant geometry out",
             100.0 * weighted / total,
-            100.0 * MAX_DISTORTION
-        );
+            100.0 * MAX_DISTORTION),
+        )
+        .about(Subject::Mesh(i as u32)));
     }
     Ok(())
 }
