@@ -14,6 +14,38 @@ pub struct Diagnostics {
     /// Errors past `MAX_ERRORS`.
     pub more: usize,
     pub warnings: Vec<String>,
+    /// The warnings given, to give each once in constant time.
+    seen: std::collections::HashSet<String>,
+}
+
+/// Reads an input file of the model (its geometry, material libraries, buffers, images,
+/// settings, luminaires): only a regular file, and at most the default memory budget (3/4
+/// of physical memory). A path to a device such as `/dev/zero`, a FIFO or a folder is
+/// refused before anything is read. The error names the path.
+pub fn read_input(path: &Path) -> Result<Vec<u8>, String> {
+    imap::files::read_regular(path, imap::context::default_memory_budget())
+        .map_err(|e| format!("{}: {e}", printable(&path.display().to_string())))
+}
+
+/// Whether `path` is a regular file `read_input` would read, or why not.
+pub fn check_input(path: &Path) -> Result<(), String> {
+    let shown = || printable(&path.display().to_string());
+    let meta = std::fs::metadata(path).map_err(|e| format!("{}: {e}", shown()))?;
+    if !meta.is_file() {
+        return Err(format!(
+            "{}: not a regular file (a device, FIFO or folder)",
+            shown()
+        ));
+    }
+    let limit = imap::context::default_memory_budget();
+    if meta.len() > limit {
+        return Err(format!(
+            "{}: {} bytes, more than the {limit} bytes allowed",
+            shown(),
+            meta.len()
+        ));
+    }
+    Ok(())
 }
 
 impl Diagnostics {
@@ -33,7 +65,7 @@ impl Diagnostics {
     /// A warning (printed once, even if it happens many times: count it first).
     pub fn warn(&mut self, msg: impl fmt::Display) {
         let m = printable(&msg.to_string());
-        if !self.warnings.contains(&m) {
+        if self.seen.insert(m.clone()) {
             self.warnings.push(m);
         }
     }

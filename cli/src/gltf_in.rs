@@ -49,16 +49,13 @@ fn rgb8(data: &gltf::image::Data) -> Option<Vec<u8>> {
 
 /// Whether a file that failed to load is glTF 1.0: a binary container of version 1, or
 /// JSON whose asset.version starts with 1.
-fn is_gltf1(path: &Path) -> bool {
-    let Ok(b) = std::fs::read(path) else {
-        return false;
-    };
+fn is_gltf1(b: &[u8]) -> bool {
     if b.starts_with(b"glTF") {
         return b.get(4..8) == Some(&1u32.to_le_bytes()[..]);
     }
     // glTF 1.0 has no required asset.version, but keeps its objects in maps by name where
     // 2.0 has arrays.
-    serde_json::from_slice::<serde_json::Value>(&b).is_ok_and(|v| {
+    serde_json::from_slice::<serde_json::Value>(b).is_ok_and(|v| {
         v.pointer("/asset/version")
             .and_then(|v| v.as_str())
             .is_some_and(|v| v.starts_with('1'))
@@ -68,18 +65,245 @@ fn is_gltf1(path: &Path) -> bool {
     })
 }
 
+/// Checks a binary container's sizes against the file: the header's total and each
+/// chunk's length must fit what is there (a 50-byte file claiming 4 GiB is refused, not
+/// allocated).
+fn check_glb(b: &[u8]) -> Result<(), String> {
+    if !b.starts_with(b"glTF") {
+        return Ok(());
+    }
+    let word = |at: usize| {
+        b.get(at..at + 4)
+            .map(|w| u32::from_le_bytes([w[0], w[1], w[2], w[3]]) as usize)
+    };
+    let total = word(8).ok_or("a GLB file shorter than its 12-byte header")?;
+    if total > b.len() {
+        return Err(format!(
+            "the GLB header says {total} bytes, but the file has {}",
+            b.len()
+        ));
+    }
+    let mut at = 12;
+    while at + 8 <= total {
+        let len = word(at).unwrap_or(0);
+        if len > total - at - 8 {
+            return Err(format!(
+                "a GLB chunk at byte {at} claims {len} bytes, but only {} follow it",
+                total - at - 8
+            ));
+        }
+        at += 8 + len;
+    }
+    Ok(())
+}
+
+/// A file a glTF URI names (percent-decoded, relative to `base`); None for data URIs.
+fn uri_path(base: &Path, uri: &str) -> Option<std::path::PathBuf> {
+    if uri.starts_with("data:") {
+        return None;
+    }
+    let b = uri.as_bytes();
+    let mut out = Vec::with_capacity(b.len());
+    let mut i = 0;
+    while i < b.len() {
+        let hex = |c: u8| (c as char).to_digit(16);
+        match (
+            b[i],
+            b.get(i + 1).copied().and_then(hex),
+            b.get(i + 2).copied().and_then(hex),
+        ) {
+            (b'%', Some(h), Some(l)) => {
+                out.push((h * 16 + l) as u8);
+                i += 3;
+            }
+            (c, _, _) => {
+                out.push(c);
+                i += 1;
+            }
+        }
+    }
+    Some(base.join(String::from_utf8_lossy(&out).as_ref()))
+}
+
+/// Checks that every file the document's buffers and images name is a regular file of a
+/// readable size, before the `gltf` crate reads them (a URI naming `/dev/zero` would be
+/// read until memory runs out).
+fn check_uris(doc: &gltf::Document, base: &Path) -> Result<(), String> {
+    let root = doc.as_json();
+    let uris = root
+        .buffers
+        .iter()
+        .filter_map(|b| b.uri.as_deref())
+        .chain(root.images.iter().filter_map(|i| i.uri.as_deref()));
+    for uri in uris {
+        if let Some(p) = uri_path(base, uri) {
+            crate::diag::check_input(&p)?;
+        }
+    }
+    Ok(())
+}
+
+/// Checks every index and byte range the meshes read, so that the `gltf` crate's readers
+/// (which panic on them) never meet a missing accessor, a stride shorter than its
+/// element or a range past its buffer.
+fn check_ranges(doc: &gltf::Document, buffers: &[gltf::buffer::Data]) -> Result<(), String> {
+    use gltf::json::validation::Checked;
+    let root = doc.as_json();
+    let views = &root.buffer_views;
+    for (i, v) in views.iter().enumerate() {
+        let b = v.buffer.value();
+        let have = buffers.get(b).map(|d| d.0.len() as u64).ok_or_else(|| {
+            format!(
+                "buffer view {i} names buffer {b}, but there are {}",
+                buffers.len()
+            )
+        })?;
+        let end = v
+            .byte_offset
+            .map_or(0, |o| o.0)
+            .saturating_add(v.byte_length.0);
+        if end > have {
+            return Err(format!(
+                "buffer view {i} ends at byte {end}, past its buffer's {have} bytes"
+            ));
+        }
+    }
+    let view_room =
+        |i: usize, what: &str, view: usize, offset: u64, stride: u64, elem: u64, count: u64| {
+            let v = views.get(view).ok_or_else(|| {
+                format!(
+                    "{what} {i} names buffer view {view}, but there are {}",
+                    views.len()
+                )
+            })?;
+            if count == 0 {
+                return Ok(());
+            }
+            let need = offset
+                .saturating_add(stride.saturating_mul(count - 1))
+                .saturating_add(elem);
+            if need > v.byte_length.0 {
+                return Err(format!(
+                    "{what} {i} reads {need} bytes of buffer view {view}, which has {}",
+                    v.byte_length.0
+                ));
+            }
+            Ok(())
+        };
+    for (i, a) in root.accessors.iter().enumerate() {
+        let (Checked::Valid(ct), Checked::Valid(ty)) = (&a.component_type, &a.type_) else {
+            return Err(format!(
+                "accessor {i} has an unknown component type or type"
+            ));
+        };
+        let elem = (ct.0.size() * ty.multiplicity()) as u64;
+        if let Some(view) = a.buffer_view {
+            let stride = views
+                .get(view.value())
+                .and_then(|v| v.byte_stride)
+                .map_or(elem, |s| s.0 as u64);
+            if stride < elem {
+                return Err(format!(
+                    "accessor {i}: buffer view {} has a byteStride of {stride}, below the {elem} bytes of one element",
+                    view.value()
+                ));
+            }
+            let offset = a.byte_offset.map_or(0, |o| o.0);
+            view_room(i, "accessor", view.value(), offset, stride, elem, a.count.0)?;
+        }
+        if let Some(sp) = &a.sparse {
+            let Checked::Valid(ict) = &sp.indices.component_type else {
+                return Err(format!("accessor {i}: sparse indices of an unknown type"));
+            };
+            let isz = ict.0.size() as u64;
+            let n = sp.count.0;
+            view_room(
+                i,
+                "sparse accessor",
+                sp.indices.buffer_view.value(),
+                sp.indices.byte_offset.0,
+                isz,
+                isz,
+                n,
+            )?;
+            view_room(
+                i,
+                "sparse accessor",
+                sp.values.buffer_view.value(),
+                sp.values.byte_offset.0,
+                elem,
+                elem,
+                n,
+            )?;
+        }
+    }
+    let n_acc = root.accessors.len();
+    for (mi, m) in root.meshes.iter().enumerate() {
+        for (pi, p) in m.primitives.iter().enumerate() {
+            let named = p
+                .attributes
+                .values()
+                .map(|a| a.value())
+                .chain(p.indices.map(|a| a.value()));
+            for a in named {
+                if a >= n_acc {
+                    return Err(format!(
+                        "mesh {mi} primitive {pi} names accessor {a}, but there are {n_acc}"
+                    ));
+                }
+            }
+            if let Some(m) = p.material {
+                if m.value() >= root.materials.len() {
+                    return Err(format!(
+                        "mesh {mi} primitive {pi} names material {}, but there are {}",
+                        m.value(),
+                        root.materials.len()
+                    ));
+                }
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Reads a glTF 2.0 model. Panics of the `gltf` crate on inputs its checks let through
+/// become errors naming the file (after the checks above, none is known).
 pub fn load(path: &Path, diag: &mut Diagnostics) -> Result<Model, String> {
     let name = printable(&path.display().to_string());
-    let g = gltf::Gltf::open(path).map_err(|e| {
-        if is_gltf1(path) {
+    let previous = std::panic::take_hook();
+    std::panic::set_hook(Box::new(|_| {}));
+    let r = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| load_checked(path, diag)));
+    std::panic::set_hook(previous);
+    r.unwrap_or_else(|p| {
+        let why = p
+            .downcast_ref::<&str>()
+            .map(|s| s.to_string())
+            .or_else(|| p.downcast_ref::<String>().cloned())
+            .unwrap_or_default();
+        Err(format!(
+            "{name}: the glTF reader failed on this file ({}): it is malformed",
+            printable(&why)
+        ))
+    })
+}
+
+fn load_checked(path: &Path, diag: &mut Diagnostics) -> Result<Model, String> {
+    let name = printable(&path.display().to_string());
+    let bytes = crate::diag::read_input(path)?;
+    check_glb(&bytes).map_err(|e| format!("{name}: {e}"))?;
+    let g = gltf::Gltf::from_slice(&bytes).map_err(|e| {
+        if is_gltf1(&bytes) {
             format!("{name}: a glTF 1.0 file: imap reads glTF 2.0 (convert it, e.g. with gltf-pipeline or Blender)")
         } else {
             format!("{name}: {}", printable(&e.to_string()))
         }
     })?;
+    drop(bytes);
     let base = path.parent().unwrap_or(Path::new("."));
+    check_uris(&g.document, base)?;
     let buffers = gltf::import_buffers(&g.document, Some(base), g.blob.clone())
         .map_err(|e| format!("{name}: buffers: {}", printable(&e.to_string())))?;
+    check_ranges(&g.document, &buffers).map_err(|e| format!("{name}: {}", printable(&e)))?;
     let doc = &g.document;
     let mut model = Model {
         format: "glTF",
@@ -152,7 +376,15 @@ pub fn load(path: &Path, diag: &mut Diagnostics) -> Result<Model, String> {
     stack.reverse();
     let mut skipped_modes = 0usize;
     let mut too_deep = false;
+    // glTF nodes form trees: a node reached a second time (a file that gives it two
+    // parents, or a cycle) is not walked again, so no graph costs more than its nodes.
+    let mut visited = vec![false; doc.nodes().count()];
+    let mut shared = 0usize;
     while let Some((node, parent, depth)) = stack.pop() {
+        if std::mem::replace(&mut visited[node.index()], true) {
+            shared += 1;
+            continue;
+        }
         let local =
             DMat4::from_cols_array_2d(&node.transform().matrix().map(|c| c.map(|x| x as f64)));
         let world = parent * local;
@@ -251,6 +483,11 @@ pub fn load(path: &Path, diag: &mut Diagnostics) -> Result<Model, String> {
     if skipped_modes > 0 {
         diag.warn(format!(
             "{name}: {skipped_modes} primitive(s) of points or lines skipped (libimap needs surfaces)"
+        ));
+    }
+    if shared > 0 {
+        diag.warn(format!(
+            "{name}: {shared} node reference(s) to a node already placed (glTF nodes form trees) were not followed"
         ));
     }
     if too_deep {

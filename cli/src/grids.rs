@@ -52,6 +52,9 @@ pub struct Grid {
     pub settings: GridSettings,
 }
 
+/// Most points a grid may have.
+const MAX_POINTS: usize = 4_000_000;
+
 /// EN 12464-1's maximum grid spacing for a dimension of `d` metres: p = 0.2 · 5^log10(d),
 /// at most 10 m.
 pub fn en12464_spacing_m(d: f64) -> f64 {
@@ -90,11 +93,16 @@ impl GridSettings {
 }
 
 /// The grids' meshes: checked, laid out and added to `ctx` as one-sided sensors.
-pub fn add_grids(ctx: &mut Context, grids: &[GridSettings], unit_m: f64) -> Result<Vec<Grid>> {
+pub fn add_grids(
+    ctx: &mut Context,
+    grids: &[GridSettings],
+    unit_m: f64,
+    label: &dyn Fn(usize, &str) -> String,
+) -> Result<Vec<Grid>> {
     let mut out: Vec<Grid> = Vec::new();
     for (k, g) in grids.iter().enumerate() {
         let name = g.name.clone().unwrap_or_else(|| format!("grid{}", k + 1));
-        let what = format!("grid '{name}'");
+        let what = label(k, &format!("grid '{name}'"));
         if name.is_empty()
             || !name
                 .chars()
@@ -118,11 +126,18 @@ pub fn add_grids(ctx: &mut Context, grids: &[GridSettings], unit_m: f64) -> Resu
         };
         // EN 12464-1: the nearest whole number of d/p points per edge, at the cells' centres
         // (at least two, so that the points span a surface).
-        let n = |d: f64| ((d / spacing).round() as usize).max(2);
-        let (nu, nv) = (n(g.size[0]), n(g.size[1]));
-        if nu * nv > 4_000_000 {
-            fail!("{what}: {nu} × {nv} points are too many (at most 4 million)");
+        // Counted in floating point: a size of 1e300 at a spacing of 1e-10 must not wrap
+        // around to a small count.
+        let n = |d: f64| (d / spacing).round().max(2.0);
+        let (fu, fv) = (n(g.size[0]), n(g.size[1]));
+        let points = fu * fv;
+        if points.is_nan() || points > MAX_POINTS as f64 {
+            fail!(
+                "{what}: {fu:e} × {fv:e} points (size {:?} at spacing {spacing:e}) are too many (at most {MAX_POINTS})",
+                g.size
+            );
         }
+        let (nu, nv) = (fu as usize, fv as usize);
         let step = [g.size[0] / nu as f64, g.size[1] / nv as f64];
         let o = DVec3::from(g.origin);
         let at = |i: f64, j: f64| o + u * ((i + 0.5) * step[0]) + v * ((j + 0.5) * step[1]);

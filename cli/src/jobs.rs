@@ -113,22 +113,20 @@ impl StateMeta {
     }
 }
 
-/// A state file's bytes and the command's metadata. Only the frame is checked here (magic,
-/// version, length); the checksum is checked once, by the load or merge that follows,
-/// unless the metadata is unreadable, when a damaged file is named as such first.
+/// A state file's bytes and the command's metadata. The whole state is checked (frame and
+/// checksum) before its metadata is used: a damaged file is named as such, never as a
+/// model path that its flipped bits made up.
 pub fn read_state(path: &Path) -> Result<(Vec<u8>, StateMeta)> {
     let named = |e: imap::Error| CliError(format!("{}: {}", path.display(), e.message));
-    let bytes = state::read_file(path).map_err(|e| CliError(e.message))?;
-    let meta = state::parse_unchecked(&bytes).map_err(named)?.meta;
+    let limit = imap::context::default_memory_budget();
+    let bytes = state::read_file(path, limit).map_err(|e| CliError(e.message))?;
+    let meta = state::parse(&bytes).map_err(named)?.meta;
     let m = match serde_json::from_slice::<StateMeta>(meta) {
         Ok(m) if m.written_by == WRITTEN_BY => m,
-        _ => {
-            state::parse(&bytes).map_err(named)?;
-            fail!(
-                "{}: a libimap state, but not one written by the imap command (it has no model and settings to go on with)",
-                path.display()
-            );
-        }
+        _ => fail!(
+            "{}: a libimap state, but not one written by the imap command (it has no model and settings to go on with)",
+            path.display()
+        ),
     };
     Ok((bytes, m))
 }

@@ -5,7 +5,7 @@
 use crate::diag::printable;
 use crate::scene::{fail, CliError, Result};
 use imap::photometry::Spectrum as LightSpectrum;
-use imap::scene::light::{Amount, Distribution, LightDesc, LightKind, Placement};
+use imap::scene::light::{Amount, LightDesc, LightKind, Placement};
 use imap::Context;
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
@@ -189,10 +189,11 @@ fn unit_amount(unit: &str, x: f64, what: &str) -> Result<Amount> {
 pub fn add_lights(
     ctx: &mut Context,
     lights: &[LightSettings],
+    label: &dyn Fn(usize) -> String,
     out: &mut Vec<PlacedLight>,
 ) -> Result<()> {
     for (i, l) in lights.iter().enumerate() {
-        let what = format!("settings: light {}", i + 1);
+        let what = label(i);
         let dir = || -> Result<[f64; 3]> {
             match l.direction {
                 Some(d) => Ok(d),
@@ -304,14 +305,9 @@ fn positions(l: &LuminaireSettings, what: &str) -> Result<Vec<[f64; 3]>> {
     }
 }
 
-/// Reads a photometric file (any bytes: Latin-1 and UTF-8 alike).
+/// Reads a photometric file (any bytes: Latin-1 and UTF-8 alike; a regular file only).
 fn read_text(path: &Path, what: &str) -> Result<String> {
-    let bytes = std::fs::read(path).map_err(|e| {
-        CliError(format!(
-            "{what}: {}: {e}",
-            printable(&path.display().to_string())
-        ))
-    })?;
+    let bytes = crate::diag::read_input(path).map_err(|e| CliError(format!("{what}: {e}")))?;
     Ok(crate::diag::decode(&bytes))
 }
 
@@ -321,10 +317,11 @@ pub fn add_luminaires(
     ctx: &mut Context,
     luminaires: &[LuminaireSettings],
     base: &Path,
+    label: &dyn Fn(usize) -> String,
     out: &mut Vec<PlacedLight>,
 ) -> Result<()> {
     for (i, l) in luminaires.iter().enumerate() {
-        let what = format!("settings: luminaire {}", i + 1);
+        let what = label(i);
         let path = base.join(&l.file);
         let shown = printable(&path.display().to_string());
         let text = read_text(&path, &what)?;
@@ -346,13 +343,12 @@ pub fn add_luminaires(
         let reference = reference(l);
         let fail_with =
             |e: imap::Error| CliError(format!("{what}: {shown}: {}", printable(&e.message)));
-        let data = if is_ldt {
-            imap::photometry::ldt::parse(&text).map(|f| f.data)
+        let distribution = if is_ldt {
+            ctx.distribution_ldt(&text)
         } else {
-            imap::photometry::ies::parse(&text, tilt.as_deref()).map(|f| f.data)
+            ctx.distribution_ies(&text, tilt.as_deref())
         }
         .map_err(fail_with)?;
-        let distribution = Distribution::new(&data).map_err(fail_with)?;
         for p in positions(l, &what)? {
             let place = Placement {
                 position: p,

@@ -152,6 +152,10 @@ enum Command {
 }
 
 fn main() {
+    // A closed pipe (`imap info MODEL | head`) ends the command quietly, as it does other
+    // Unix tools, instead of failing a print.
+    // SAFETY: restoring the default disposition of SIGPIPE before any thread starts.
+    unsafe { libc::signal(libc::SIGPIPE, libc::SIG_DFL) };
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Run {
@@ -361,10 +365,25 @@ fn execute(
     quiet: bool,
 ) -> Result<serde_json::Value> {
     let r = &settings.run;
-    if !(r.grid_error.is_finite() && r.grid_error >= 0.0) {
+    for (what, x) in [
+        ("time (--time, [run] time_s)", r.time_s),
+        (
+            "target error (--target-error, [run] target_error)",
+            r.target_error,
+        ),
+        (
+            "grid error target (--until-grid-error, [run] grid_error)",
+            r.grid_error,
+        ),
+    ] {
+        if !(x.is_finite() && x >= 0.0) {
+            fail!("{what} {x} must be a positive number of seconds or a positive error (0 = none)");
+        }
+    }
+    if !(r.progress_interval_s.is_finite() && r.progress_interval_s > 0.0) {
         fail!(
-            "grid error target {} must be a positive number (0 = none)",
-            r.grid_error
+            "[run] progress_interval_s = {} must be a positive number of seconds",
+            r.progress_interval_s
         );
     }
     if r.grid_error > 0.0 && settings.grids.is_empty() {
@@ -651,7 +670,7 @@ fn write_outputs(
     // Every output is written to a temporary file first and renamed into place once all
     // are complete: an interrupted write never leaves a truncated file, and the outputs
     // of one run are never mixed with an older run's.
-    let mut files = output::Outputs::new(out);
+    let mut files = output::Outputs::new(out, "report.json")?;
     output::write_csv(&files.temp("irradiance.csv")?, scene, &maps)?;
     output::write_ply(&files.temp("irradiance.ply")?, scene, &maps)?;
     output::plot_convergence(&files.temp("convergence.png")?, ctx.history())?;

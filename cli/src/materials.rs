@@ -70,6 +70,7 @@ pub fn default_grey(bands: usize) -> Resolved {
 pub fn resolve(
     m: &Mtl,
     o: Option<&MaterialSettings>,
+    settings_at: &(std::path::PathBuf, usize),
     band_nm: &[f64],
     rgb: bool,
     diag: &mut Diagnostics,
@@ -85,8 +86,8 @@ pub fn resolve(
             n if n == nb => v,
             n => {
                 diag.error(
-                    std::path::Path::new("settings"),
-                    0,
+                    &settings_at.0,
+                    settings_at.1,
                     format!(
                         "[materials.{name}] {what} has {n} values; give 1 or {nb} (one per band)"
                     ),

@@ -79,8 +79,8 @@ impl Texture {
     /// Decodes an image file (PNG, JPEG, TGA, BMP) with the `image` crate.
     pub fn load(path: &Path) -> Result<Self, String> {
         let name = printable(&path.display().to_string());
-        let img = image::ImageReader::open(path)
-            .map_err(|e| format!("{name}: {e}"))?
+        let bytes = crate::diag::read_input(path)?;
+        let img = image::ImageReader::new(std::io::Cursor::new(bytes))
             .with_guessed_format()
             .map_err(|e| format!("{name}: {e}"))?
             .decode()
@@ -236,9 +236,7 @@ pub fn load(path: &Path, diag: &mut Diagnostics) -> Result<Model, String> {
         .and_then(|e| e.to_str())
         .unwrap_or("")
         .to_ascii_lowercase();
-    let bytes = |p: &Path| {
-        std::fs::read(p).map_err(|e| format!("{}: {e}", printable(&p.display().to_string())))
-    };
+    let bytes = crate::diag::read_input;
     let model = match ext.as_str() {
         "obj" => from_obj(path, &utf16_to_utf8(bytes(path)?), diag),
         "gltf" | "glb" => crate::gltf_in::load(path, diag)?,
@@ -293,13 +291,9 @@ fn from_obj(path: &Path, bytes: &[u8], diag: &mut Diagnostics) -> Model {
     let mut o = crate::obj::parse(path, bytes, diag);
     let mut mtls: Vec<Mtl> = Vec::new();
     for (lib, line) in &o.mtllibs {
-        match std::fs::read(lib) {
+        match crate::diag::read_input(lib) {
             Ok(b) => mtls.extend(crate::mtl::parse(lib, &utf16_to_utf8(b), diag)),
-            Err(e) => diag.error(
-                path,
-                *line,
-                format!("material library {}: {e}", lib.display()),
-            ),
+            Err(e) => diag.error(path, *line, format!("material library {e}")),
         }
     }
     let mut textures: HashMap<PathBuf, Option<Arc<Texture>>> = HashMap::new();

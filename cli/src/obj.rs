@@ -59,6 +59,9 @@ pub fn parse(path: &Path, bytes: &[u8], diag: &mut Diagnostics) -> Obj {
     let dir = path.parent().unwrap_or(Path::new("."));
     let mut obj = Obj::default();
     let mut current: Option<usize> = None;
+    // Objects and materials by name (a model of 80 000 objects looks each up in constant time).
+    let mut object_index: std::collections::HashMap<String, usize> = Default::default();
+    let mut material_index: std::collections::HashMap<String, usize> = Default::default();
     let mut material: Option<usize> = None;
     let mut normals = 0usize;
     let mut colours: Vec<[f64; 3]> = Vec::new();
@@ -200,11 +203,15 @@ pub fn parse(path: &Path, bytes: &[u8], diag: &mut Diagnostics) -> Obj {
                     continue;
                 }
                 let o = *current.get_or_insert_with(|| {
-                    obj.objects.push(Object {
-                        name: "default".into(),
-                        triangles: Vec::new(),
-                    });
-                    obj.objects.len() - 1
+                    let next = obj.objects.len();
+                    let i = *object_index.entry("default".into()).or_insert(next);
+                    if i == next {
+                        obj.objects.push(Object {
+                            name: "default".into(),
+                            triangles: Vec::new(),
+                        });
+                    }
+                    i
                 });
                 for k in 1..corners.len() - 1 {
                     let c = [corners[0], corners[k], corners[k + 1]];
@@ -227,27 +234,25 @@ pub fn parse(path: &Path, bytes: &[u8], diag: &mut Diagnostics) -> Obj {
                 } else {
                     rest.join(" ")
                 };
-                current = Some(match obj.objects.iter().position(|o| o.name == name) {
-                    Some(i) => i,
-                    None => {
-                        obj.objects.push(Object {
-                            name,
-                            triangles: Vec::new(),
-                        });
-                        obj.objects.len() - 1
-                    }
-                });
+                let next = obj.objects.len();
+                let i = *object_index.entry(name.clone()).or_insert(next);
+                if i == next {
+                    obj.objects.push(Object {
+                        name,
+                        triangles: Vec::new(),
+                    });
+                }
+                current = Some(i);
             }
             "usemtl" => {
                 let name = rest.join(" ");
-                material = Some(match obj.material_names.iter().position(|m| *m == name) {
-                    Some(i) => i,
-                    None => {
-                        obj.material_names.push(name);
-                        obj.material_lines.push(line);
-                        obj.material_names.len() - 1
-                    }
-                });
+                let next = obj.material_names.len();
+                let i = *material_index.entry(name.clone()).or_insert(next);
+                if i == next {
+                    obj.material_names.push(name);
+                    obj.material_lines.push(line);
+                }
+                material = Some(i);
             }
             "mtllib" => {
                 if rest.is_empty() {

@@ -7,46 +7,212 @@ use imap::{Context, Progress};
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
-/// A set of output files written to temporary names and renamed into place together once
-/// all are complete (`commit`); dropped uncommitted, the temporary files are removed.
+/// A set of output files that appear together or not at all: each is written into a
+/// fresh staging folder inside the output folder (`.imap-out-PID-N`), and `commit` then
+/// (1) marks the staging folder complete, (2) removes the previous outputs of the same kind
+/// (the manifest, `report.json` or `render.json`, first; then every file it listed), and
+/// (3) renames the new files in, the manifest last. Whatever the moment of a kill, the
+/// folder holds one run's files and never a mix of two: the manifest is there only when
+/// its whole set is. A later command finishes a commit that a kill interrupted (the
+/// complete staging folder of a process that is gone, when no manifest is there) and
+/// removes every other staging folder and temporary file such a process left.
 pub struct Outputs {
     dir: PathBuf,
-    files: Vec<(PathBuf, PathBuf)>,
+    staging: PathBuf,
+    manifest: String,
+    files: Vec<String>,
+    committed: bool,
+}
+
+/// The name of the marker that says a staging folder holds a whole set.
+const COMPLETE: &str = ".complete";
+
+/// Whether process `pid` is gone.
+fn process_gone(pid: i32) -> bool {
+    pid > 0 && !Path::new(&format!("/proc/{pid}")).exists()
+}
+
+/// The pid in a name `PREFIX<pid>-…` or `PREFIX<pid>.…`.
+fn pid_in(name: &str, prefix: &str) -> Option<i32> {
+    let rest = name.strip_prefix(prefix)?;
+    let end = rest
+        .find(|c: char| !c.is_ascii_digit())
+        .unwrap_or(rest.len());
+    rest[..end].parse().ok()
 }
 
 impl Outputs {
-    pub fn new(dir: &Path) -> Self {
-        Outputs {
+    /// Outputs into `dir`; `manifest` is the file written last (it lists the others under
+    /// "outputs").
+    pub fn new(dir: &Path, manifest: &str) -> Result<Self> {
+        recover(dir);
+        static N: std::sync::atomic::AtomicU32 = std::sync::atomic::AtomicU32::new(0);
+        let n = N.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        let staging = dir.join(format!(".imap-out-{}-{n}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&staging);
+        std::fs::create_dir_all(&staging)
+            .map_err(|e| CliError(format!("{}: {e}", staging.display())))?;
+        Ok(Outputs {
             dir: dir.to_path_buf(),
+            staging,
+            manifest: manifest.to_string(),
             files: Vec::new(),
-        }
+            committed: false,
+        })
     }
 
-    /// The temporary path to write `name` to (hidden, with the same extension: writers
+    /// The path to write `name` to (in the staging folder, under its own name: writers
     /// that choose a format by extension keep working).
     pub fn temp(&mut self, name: &str) -> Result<PathBuf> {
-        let (stem, ext) = name.rsplit_once('.').unwrap_or((name, "tmp"));
-        let tmp = self
-            .dir
-            .join(format!(".{stem}.tmp-{}.{ext}", std::process::id()));
-        self.files.push((tmp.clone(), self.dir.join(name)));
-        Ok(tmp)
+        self.files.push(name.to_string());
+        Ok(self.staging.join(name))
     }
 
-    /// Renames every temporary file into place.
+    /// Puts the whole set in place (see the type's description).
     pub fn commit(mut self) -> Result<()> {
-        for (tmp, dst) in std::mem::take(&mut self.files) {
-            std::fs::rename(&tmp, &dst).map_err(|e| CliError(format!("{}: {e}", dst.display())))?;
-        }
+        fault("kill-before-commit");
+        let io = |p: &Path, e: std::io::Error| CliError(format!("{}: {e}", p.display()));
+        // The marker names the new set and the previous one, so that a commit cut short
+        // can be finished by the next command whatever was done of it.
+        let old = listed_outputs(&self.dir.join(&self.manifest));
+        let marker = self.staging.join(COMPLETE);
+        let plan = serde_json::json!({
+            "manifest": self.manifest, "files": self.files, "old": old
+        });
+        std::fs::write(&marker, plan.to_string()).map_err(|e| io(&marker, e))?;
+        install(&self.dir, &self.staging, &self.manifest, &self.files, &old)?;
+        self.committed = true;
+        let _ = std::fs::remove_dir_all(&self.staging);
         Ok(())
     }
 }
 
 impl Drop for Outputs {
     fn drop(&mut self) {
-        for (tmp, _) in &self.files {
-            let _ = std::fs::remove_file(tmp);
+        if !self.committed {
+            let _ = std::fs::remove_dir_all(&self.staging);
         }
+    }
+}
+
+/// The outputs a manifest lists (plain names inside its folder only: a manifest is data
+/// and names no other path); none when there is no readable manifest.
+fn listed_outputs(manifest: &Path) -> Vec<String> {
+    let mut old: Vec<String> = std::fs::read(manifest)
+        .ok()
+        .and_then(|b| serde_json::from_slice::<serde_json::Value>(&b).ok())
+        .and_then(|v| {
+            v.get("outputs")?.as_array().map(|a| {
+                a.iter()
+                    .filter_map(|x| x.as_str().map(str::to_string))
+                    .collect()
+            })
+        })
+        .unwrap_or_default();
+    old.retain(|n| plain_name(n));
+    old
+}
+
+fn plain_name(n: &str) -> bool {
+    !n.is_empty() && !n.contains('/') && !n.contains('\\') && !n.starts_with('.')
+}
+
+/// Removes the previous set (the manifest first, then the files it listed and those the
+/// new set replaces) and renames the files of `staging` into `dir`, the manifest last.
+/// Finishing a commit that was cut short is the same walk: files already moved are not
+/// in `staging` any more, and stay.
+fn install(
+    dir: &Path,
+    staging: &Path,
+    manifest: &str,
+    files: &[String],
+    old: &[String],
+) -> Result<()> {
+    let io = |p: &Path, e: std::io::Error| CliError(format!("{}: {e}", p.display()));
+    let remove = |name: &str| match std::fs::remove_file(dir.join(name)) {
+        Err(e) if e.kind() != std::io::ErrorKind::NotFound => Err(io(&dir.join(name), e)),
+        _ => Ok(()),
+    };
+    // A file of the new set that has left staging is in place already, and stays.
+    let replaced = |name: &String| !files.contains(name) || staging.join(name).exists();
+    if staging.join(manifest).exists() {
+        remove(manifest)?;
+    }
+    for name in old.iter().chain(files).filter(|n| *n != manifest) {
+        if replaced(name) {
+            remove(name)?;
+        }
+    }
+    let last = files.iter().filter(|n| *n == manifest);
+    for (k, name) in files
+        .iter()
+        .filter(|n| *n != manifest)
+        .chain(last)
+        .enumerate()
+    {
+        fault(&format!("kill-after-renames={k}"));
+        let (from, to) = (staging.join(name), dir.join(name));
+        if from.exists() {
+            std::fs::rename(&from, &to).map_err(|e| io(&to, e))?;
+        }
+    }
+    Ok(())
+}
+
+/// Cleans up after commands that were killed while writing into `dir`: finishes a commit
+/// that was cut short (a complete staging folder), and removes staging folders and
+/// temporary files of processes that are gone.
+fn recover(dir: &Path) {
+    let Ok(entries) = std::fs::read_dir(dir) else {
+        return;
+    };
+    for e in entries.flatten() {
+        let name = e.file_name().to_string_lossy().into_owned();
+        let path = e.path();
+        if let Some(pid) = pid_in(&name, ".imap-out-") {
+            if !process_gone(pid) {
+                continue;
+            }
+            let plan = std::fs::read(path.join(COMPLETE))
+                .ok()
+                .and_then(|b| serde_json::from_slice::<serde_json::Value>(&b).ok());
+            if let Some(plan) = plan {
+                let list = |k: &str| -> Vec<String> {
+                    plan[k]
+                        .as_array()
+                        .map(|a| {
+                            a.iter()
+                                .filter_map(|x| x.as_str())
+                                .filter(|n| plain_name(n))
+                                .map(str::to_string)
+                                .collect()
+                        })
+                        .unwrap_or_default()
+                };
+                if let Some(m) = plan["manifest"].as_str().filter(|m| plain_name(m)) {
+                    let _ = install(dir, &path, m, &list("files"), &list("old"));
+                }
+            }
+            let _ = std::fs::remove_dir_all(&path);
+        } else if name.starts_with('.') && name.contains(".tmp-") {
+            // Temporary files of earlier versions (`.NAME.tmp-PID.EXT`).
+            let pid = name.split(".tmp-").nth(1).and_then(|r| pid_in(r, ""));
+            if pid.is_some_and(process_gone) {
+                let _ = std::fs::remove_file(&path);
+            }
+        }
+    }
+}
+
+/// Fault injection for the tests of interrupted outputs: the process kills itself
+/// (SIGKILL, as a crash or the OOM killer would) at `point` when `IMAP_TEST_FAULT` names
+/// it. Unset in normal use.
+fn fault(point: &str) {
+    static F: std::sync::OnceLock<String> = std::sync::OnceLock::new();
+    let f = F.get_or_init(|| std::env::var("IMAP_TEST_FAULT").unwrap_or_default());
+    if !f.is_empty() && f.split(',').any(|x| x.trim() == point) {
+        // SAFETY: sending a signal to this process.
+        unsafe { libc::kill(libc::getpid(), libc::SIGKILL) };
     }
 }
 
@@ -537,7 +703,6 @@ pub fn render_view(
     cam: &CameraSettings,
 ) -> Result<Vec<u8>> {
     let attrs = view_attributes(scene, maps);
-    let (px, _) = rasterize(scene, &attrs, cam)?;
     let mut lux: Vec<f64> = maps
         .iter()
         .flatten()
@@ -553,17 +718,24 @@ pub fn render_view(
             .unwrap_or(0.0),
     );
     let tone = ToneMap::new(attrs.iter().flatten().filter(|a| a[2] < 0.5).map(|a| a[1]));
-    let mut out = Vec::with_capacity(px.len() * 3);
-    for a in &px {
-        let c = if a[3] < 0.5 {
-            [24, 24, 28]
-        } else if a[2] >= 0.5 {
-            colour_map(a[0] / a[2] / top)
-        } else {
-            let g = tone.apply([a[1]; 3])[0];
-            [g, g, g]
-        };
-        out.extend(c);
+    let mut out = Vec::with_capacity(cam.width as usize * cam.height as usize * 3);
+    let drawn = rasterize_rows(scene, &attrs, cam, &mut |_, row| {
+        for a in row {
+            let c = if a[3] < 0.5 {
+                [24, 24, 28]
+            } else if a[2] >= 0.5 {
+                colour_map(a[0] / a[2] / top)
+            } else {
+                let g = tone.apply([a[1]; 3])[0];
+                [g, g, g]
+            };
+            out.extend(c);
+        }
+    })?;
+    if drawn.cut {
+        eprintln!(
+            "imap: warning: view.png: the model hides its surfaces behind each other more than {MAX_OVERDRAW} times over (overlapping copies?); the picture was cut short and may miss surfaces"
+        );
     }
     draw_legend(&mut out, cam.width, cam.height, top);
     Ok(out)
@@ -640,12 +812,34 @@ pub(crate) fn fmt_lux(v: f64) -> String {
 /// Draws every mesh with a z-buffer, per-vertex attributes interpolated
 /// perspective-correctly (2×2 supersampled, averaged), and the number of pixels the
 /// rasteriser visited (its cost).
-fn rasterize(
+/// How the view was drawn.
+pub struct Drawn {
+    /// Supersampled pixels the triangles' spans visited.
+    pub visited: u64,
+    /// The drawing stopped at `MAX_OVERDRAW` (surfaces behind others may be missing).
+    pub cut: bool,
+}
+
+/// The most times over the view's pixels the triangles may be drawn: past it the
+/// picture is cut short (a model of a million copies of one surface must not take
+/// minutes to draw).
+pub const MAX_OVERDRAW: u64 = 256;
+
+/// Memory a strip of the view may take, bytes (its depths and attributes): any image
+/// size draws in bounded memory.
+const STRIP_BYTES: usize = 64 << 20;
+
+/// Rasterizes every mesh (2×2 supersampled, perspective-correct, depth-tested) and hands
+/// each output row's averaged attributes to `emit`, top row first. Strips of rows are
+/// drawn one at a time, each with the triangles that reach it; triangles with the same
+/// three corners as one drawn before are drawn once.
+fn rasterize_rows(
     scene: &LoadedScene,
     attrs: &[Vec<ViewAttr>],
     cam: &CameraSettings,
-) -> Result<(Vec<ViewAttr>, u64)> {
-    let mut visited = 0u64;
+    emit: &mut dyn FnMut(usize, &[ViewAttr]),
+) -> Result<Drawn> {
+    use std::hash::{Hash, Hasher};
     cam.validate()?;
     let (w, h) = (cam.width as usize, cam.height as usize);
     let eye = DVec3::from(cam.position);
@@ -655,10 +849,8 @@ fn rasterize(
     let f = 1.0 / (cam.fov_deg.to_radians() / 2.0).tan();
     let aspect = w as f64 / h as f64;
     let (sw, sh) = (2 * w, 2 * h);
-    let mut z = vec![f64::INFINITY; sw * sh];
-    let mut img = vec![[0.0f64; 4]; sw * sh];
-    let project = |p: [f64; 3]| -> Option<[f64; 3]> {
-        let d = DVec3::from(p) - eye;
+    let project = |p: &[f64]| -> Option<[f64; 3]> {
+        let d = DVec3::new(p[0], p[1], p[2]) - eye;
         let depth = d.dot(fwd);
         if depth <= 1e-9 {
             return None;
@@ -671,25 +863,99 @@ fn rasterize(
             depth,
         ])
     };
+    // Project every vertex once, and list the triangles in view by their first row.
+    let pts: Vec<Vec<Option<[f64; 3]>>> = scene
+        .meshes
+        .iter()
+        .map(|m| m.positions.chunks_exact(3).map(project).collect())
+        .collect();
+    struct Tri {
+        mesh: u32,
+        first: u32,
+        y0: u32,
+        y1: u32,
+    }
+    let mut tris = Vec::new();
+    let mut seen = std::collections::HashSet::new();
     for (mi, m) in scene.meshes.iter().enumerate() {
-        let pts: Vec<Option<[f64; 3]>> = m
-            .positions
-            .chunks_exact(3)
-            .map(|p| project([p[0], p[1], p[2]]))
-            .collect();
-        for t in m.indices.chunks_exact(3) {
-            let (Some(a), Some(b), Some(c)) =
-                (pts[t[0] as usize], pts[t[1] as usize], pts[t[2] as usize])
-            else {
+        for (ti, t) in m.indices.chunks_exact(3).enumerate() {
+            let (Some(a), Some(b), Some(c)) = (
+                pts[mi][t[0] as usize],
+                pts[mi][t[1] as usize],
+                pts[mi][t[2] as usize],
+            ) else {
                 continue;
             };
             let area = (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0]);
-            if area.abs() < 1e-12 {
+            if area.is_nan() || area.abs() < 1e-12 {
                 continue;
             }
-            let cols = [0, 1, 2].map(|k| attrs[mi][t[k] as usize]);
-            let y0 = a[1].min(b[1]).min(c[1]).floor().max(0.0) as usize;
-            let y1 = (a[1].max(b[1]).max(c[1]).ceil().max(0.0) as usize).min(sh);
+            let ylo = a[1].min(b[1]).min(c[1]).floor().max(0.0);
+            let yhi = a[1].max(b[1]).max(c[1]).ceil().min(sh as f64);
+            let xlo = a[0].min(b[0]).min(c[0]);
+            let xhi = a[0].max(b[0]).max(c[0]);
+            if ylo >= yhi || ylo.is_nan() || xhi < 0.0 || xlo > sw as f64 {
+                continue;
+            }
+            // The same three corners (in any order) as a triangle already listed.
+            let mut corners = [t[0], t[1], t[2]].map(|v| {
+                let p = &m.positions[3 * v as usize..][..3];
+                [p[0].to_bits(), p[1].to_bits(), p[2].to_bits()]
+            });
+            corners.sort_unstable();
+            let mut hasher = std::collections::hash_map::DefaultHasher::new();
+            corners.hash(&mut hasher);
+            if !seen.insert(hasher.finish()) {
+                continue;
+            }
+            tris.push(Tri {
+                mesh: mi as u32,
+                first: 3 * ti as u32,
+                y0: ylo as u32,
+                y1: yhi as u32,
+            });
+        }
+    }
+    drop(seen);
+    tris.sort_by_key(|t| t.y0);
+    let per_row = sw * (8 + std::mem::size_of::<ViewAttr>());
+    let rows = (STRIP_BYTES / per_row / 2).clamp(1, h) * 2; // supersampled, even
+    let budget = MAX_OVERDRAW.saturating_mul((sw * sh) as u64);
+    let mut drawn = Drawn {
+        visited: 0,
+        cut: false,
+    };
+    let mut z = vec![f64::INFINITY; sw * rows];
+    let mut img = vec![[0.0f64; 4]; sw * rows];
+    let mut active: Vec<usize> = Vec::new();
+    let mut next = 0;
+    let mut out_row = vec![[0.0f64; 4]; w];
+    for ys in (0..sh).step_by(rows) {
+        let ye = (ys + rows).min(sh);
+        z[..sw * (ye - ys)].fill(f64::INFINITY);
+        img[..sw * (ye - ys)].fill([0.0; 4]);
+        active.retain(|&k| tris[k].y1 as usize > ys);
+        while next < tris.len() && (tris[next].y0 as usize) < ye {
+            active.push(next);
+            next += 1;
+        }
+        for &k in &active {
+            if drawn.cut {
+                break;
+            }
+            let tri = &tris[k];
+            let m = &scene.meshes[tri.mesh as usize];
+            let t = &m.indices[tri.first as usize..][..3];
+            let p = &pts[tri.mesh as usize];
+            let (a, b, c) = (
+                p[t[0] as usize].expect("in view"),
+                p[t[1] as usize].expect("in view"),
+                p[t[2] as usize].expect("in view"),
+            );
+            let area = (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0]);
+            let cols = [0, 1, 2].map(|i| attrs[tri.mesh as usize][t[i] as usize]);
+            let y0 = (tri.y0 as usize).max(ys);
+            let y1 = (tri.y1 as usize).min(ye);
             for y in y0..y1 {
                 // The row's span inside the triangle: where the pixel-centre line crosses
                 // its edges. Only those pixels are visited, so a long thin triangle costs
@@ -708,9 +974,10 @@ fn rasterize(
                 }
                 let x0 = (lo - 0.5).ceil().max(0.0) as usize;
                 let x1 = ((hi - 0.5).floor() + 1.0).clamp(0.0, sw as f64) as usize;
-                visited += (x1.saturating_sub(x0)) as u64;
+                drawn.visited += (x1.saturating_sub(x0)) as u64;
+                let row = (y - ys) * sw;
                 for x in x0..x1 {
-                    let (px, py) = (x as f64 + 0.5, y as f64 + 0.5);
+                    let px = x as f64 + 0.5;
                     let w0 = ((b[0] - px) * (c[1] - py) - (b[1] - py) * (c[0] - px)) / area;
                     let w1 = ((c[0] - px) * (a[1] - py) - (c[1] - py) * (a[0] - px)) / area;
                     let w2 = 1.0 - w0 - w1;
@@ -719,7 +986,7 @@ fn rasterize(
                     // Perspective-correct interpolation.
                     let iz = w0 / a[2] + w1 / b[2] + w2 / c[2];
                     let depth = 1.0 / iz;
-                    let i = y * sw + x;
+                    let i = row + x;
                     if depth >= z[i] {
                         continue;
                     }
@@ -729,31 +996,35 @@ fn rasterize(
                         [0, 1, 2, 3].map(|k| p0 * cols[0][k] + p1 * cols[1][k] + p2 * cols[2][k]);
                 }
             }
+            drawn.cut = drawn.visited > budget;
         }
-    }
-    let mut out = Vec::with_capacity(w * h);
-    for y in 0..h {
-        for x in 0..w {
-            let mut c = [0.0; 4];
-            for (dx, dy) in [(0, 0), (1, 0), (0, 1), (1, 1)] {
-                let p = img[(2 * y + dy) * sw + 2 * x + dx];
-                for k in 0..4 {
-                    c[k] += 0.25 * p[k];
+        for oy in ys / 2..ye / 2 {
+            for (x, o) in out_row.iter_mut().enumerate() {
+                let mut c = [0.0; 4];
+                for (dx, dy) in [(0, 0), (1, 0), (0, 1), (1, 1)] {
+                    let p = img[(2 * oy + dy - ys) * sw + 2 * x + dx];
+                    for k in 0..4 {
+                        c[k] += 0.25 * p[k];
+                    }
                 }
+                *o = c;
             }
-            out.push(c);
+            emit(oy, &out_row);
         }
     }
-    Ok((out, visited))
+    Ok(drawn)
 }
 
 /// convergence.png: the estimated global error against run time, log–log, with the
 /// t^-1/2 reference through the last point.
 pub fn plot_convergence(path: &Path, history: &[Progress]) -> Result<()> {
     use plotters::prelude::*;
+    // Points a plot can show: from a microsecond to 30 000 years (a state file may hold
+    // any finite number; a log axis over 300 decades is no plot).
     let pts: Vec<(f64, f64)> = history
         .iter()
-        .filter(|p| p.elapsed_s > 0.0 && p.rel_error > 0.0 && p.rel_error < 1.0)
+        .filter(|p| (1e-6..=1e12).contains(&p.elapsed_s))
+        .filter(|p| (1e-12..1.0).contains(&p.rel_error))
         .map(|p| (p.elapsed_s, p.rel_error))
         .collect();
     let font = register_font();
@@ -920,7 +1191,12 @@ mod tests {
             height: 640,
         };
         let attrs = view_attributes(&scene, &maps);
-        let (px, visited) = rasterize(&scene, &attrs, &cam).unwrap();
+        let mut px = Vec::new();
+        let drawn = rasterize_rows(&scene, &attrs, &cam, &mut |_, row| {
+            px.extend_from_slice(row)
+        })
+        .unwrap();
+        let visited = drawn.visited;
         // The disk: radius 1 at distance 3 with a 40° field: 1/(3 tan 20°) of the half
         // width, 0.916 × 640 = 586 supersampled pixels of radius.
         let r = 1.0 / (3.0 * 20f64.to_radians().tan()) * 640.0;

@@ -258,7 +258,7 @@ pub fn render(
         "history": history,
         "outputs": outputs,
     });
-    let mut files = output::Outputs::new(out);
+    let mut files = output::Outputs::new(out, "render.json")?;
     output::write_png(&files.temp("render.png")?, w, h, &png)?;
     write_pfm(&files.temp("radiance.pfm")?, w, h, 3, &flat)?;
     write_pfm(&files.temp("rel_error.pfm")?, w, h, 1, &errors)?;

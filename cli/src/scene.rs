@@ -42,9 +42,41 @@ impl fmt::Display for CliError {
     }
 }
 
+/// What the user calls the context's meshes and lights (the object and file, the
+/// settings entry), by libimap id: a library error about mesh 3 names the object.
+#[derive(Default)]
+pub struct Names {
+    pub meshes: Vec<String>,
+    pub lights: Vec<String>,
+}
+
+pub static NAMES: std::sync::Mutex<Names> = std::sync::Mutex::new(Names {
+    meshes: Vec::new(),
+    lights: Vec::new(),
+});
+
+/// Records the user's name of mesh (or light) `id`.
+pub fn name_item(list: fn(&mut Names) -> &mut Vec<String>, id: u32, name: String) {
+    let mut n = NAMES.lock().unwrap_or_else(|p| p.into_inner());
+    let v = list(&mut n);
+    if v.len() <= id as usize {
+        v.resize(id as usize + 1, String::new());
+    }
+    v[id as usize] = name;
+}
+
 impl From<imap::Error> for CliError {
     fn from(e: imap::Error) -> Self {
-        CliError(format!("libimap: {}", printable(&e.message)))
+        let n = NAMES.lock().unwrap_or_else(|p| p.into_inner());
+        let name = match e.subject {
+            Some(imap::Subject::Mesh(i)) => n.meshes.get(i as usize),
+            Some(imap::Subject::Light(i)) => n.lights.get(i as usize),
+            _ => None,
+        };
+        match name.filter(|s| !s.is_empty()) {
+            Some(name) => CliError(format!("{name}: libimap: {}", printable(&e.message))),
+            None => CliError(format!("libimap: {}", printable(&e.message))),
+        }
     }
 }
 
@@ -219,6 +251,9 @@ pub struct Settings {
     /// The settings file's folder: luminaire files are relative to it.
     #[serde(skip)]
     pub base_dir: std::path::PathBuf,
+    /// The settings file and its text, for messages that name a line of it.
+    #[serde(skip)]
+    pub source: Option<(std::path::PathBuf, std::sync::Arc<str>)>,
     /// Overrides by MTL material name.
     #[serde(default)]
     pub materials: BTreeMap<String, MaterialSettings>,
@@ -240,8 +275,7 @@ pub struct Settings {
 
 impl Settings {
     pub fn load(path: &Path) -> Result<Self> {
-        let bytes =
-            std::fs::read(path).map_err(|e| CliError(format!("{}: {e}", path.display())))?;
+        let bytes = crate::diag::read_input(path).map_err(CliError)?;
         let text = crate::diag::decode(&bytes);
         let mut s: Settings = toml::from_str(&text).map_err(|e| {
             let line = e
@@ -252,12 +286,55 @@ impl Settings {
             CliError(format!("{}:{line}: {msg}", path.display()))
         })?;
         s.base_dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
+        s.source = Some((path.to_path_buf(), std::sync::Arc::from(&text[..])));
         // A camera without its own `up` takes the model's.
         let up = s.up()?;
         if let Some(c) = s.camera.as_mut() {
             c.up.get_or_insert(up);
         }
         Ok(s)
+    }
+
+    /// Where the `n`-th (from 0) line starting with `header` is: the settings file and
+    /// the line (0 when there is none).
+    pub fn locate_nth(&self, header: &str, n: usize) -> (std::path::PathBuf, usize) {
+        match &self.source {
+            Some((path, text)) => {
+                let line = text
+                    .lines()
+                    .enumerate()
+                    .filter(|(_, l)| l.trim_start().starts_with(header))
+                    .nth(n)
+                    .map_or(0, |(i, _)| i + 1);
+                (path.clone(), line)
+            }
+            None => ("settings".into(), 0),
+        }
+    }
+
+    /// A message's prefix for the `n`-th `header` entry of the settings, `what`:
+    /// "FILE:LINE: what", or "settings: what" when the settings came from no file.
+    pub fn label(&self, header: &str, n: usize, what: &str) -> String {
+        match self.locate_nth(header, n) {
+            (p, line) if line > 0 => format!("{}:{line}: {what}", p.display()),
+            _ => format!("settings: {what}"),
+        }
+    }
+
+    /// Where a message about the settings points: the settings file and the first line
+    /// whose text starts with `key` (a key or a table header such as `[materials.x]`),
+    /// line 0 when none does; `settings` when the settings came from no file.
+    pub fn locate(&self, key: &str) -> (std::path::PathBuf, usize) {
+        match &self.source {
+            Some((path, text)) => {
+                let line = text
+                    .lines()
+                    .position(|l| l.trim_start().starts_with(key))
+                    .map_or(0, |i| i + 1);
+                (path.clone(), line)
+            }
+            None => ("settings".into(), 0),
+        }
     }
 
     /// The up direction from `up_axis`.
@@ -429,9 +506,10 @@ pub fn load(path: &Path, settings: &Settings) -> Result<(Context, LoadedScene)> 
     }
     for n in &settings.record {
         if !model.objects.iter().any(|m| &m.name == n) {
+            let (file, line) = settings.locate("record");
             diag.error(
-                Path::new("settings"),
-                0,
+                &file,
+                line,
                 format!(
                     "record names '{n}', which is no object or group of {}",
                     path.display()
@@ -446,7 +524,17 @@ pub fn load(path: &Path, settings: &Settings) -> Result<(Context, LoadedScene)> 
     let resolved: Vec<Resolved> = model
         .materials
         .iter()
-        .map(|m| materials::resolve(m, settings.materials.get(&m.name), &band_nm, rgb, &mut diag))
+        .map(|m| {
+            let at = settings.locate(&format!("[materials.{}]", m.name));
+            materials::resolve(
+                m,
+                settings.materials.get(&m.name),
+                &at,
+                &band_nm,
+                rgb,
+                &mut diag,
+            )
+        })
         .collect();
     if diag.has_errors() {
         return Err(CliError::from_diagnostics(&diag));
@@ -473,14 +561,11 @@ pub fn load(path: &Path, settings: &Settings) -> Result<(Context, LoadedScene)> 
                 None => object.name.clone(),
             };
             let mesh = build_mesh(&name, &tris, &mut palette, &mut ctx)?;
-            let id = ctx.add_mesh(&mesh.desc()).map_err(|e| {
-                CliError(format!(
-                    "{}: object '{}': {}",
-                    path.display(),
-                    printable(&name),
-                    e.message
-                ))
-            })?;
+            let label = format!("{}: object '{}'", path.display(), printable(&name));
+            let id = ctx
+                .add_mesh(&mesh.desc())
+                .map_err(|e| CliError(format!("{label}: {}", e.message)))?;
+            name_item(|n| &mut n.meshes, id, label);
             meshes.push(LoadedMesh {
                 id: mesh.record.then_some(id),
                 ..mesh.loaded
@@ -489,11 +574,15 @@ pub fn load(path: &Path, settings: &Settings) -> Result<(Context, LoadedScene)> 
     }
     let variants = palette.variants();
     let mut placed = Vec::new();
-    lights::add_lights(&mut ctx, &settings.lights, &mut placed)?;
+    let light_label = |i: usize| settings.label("[[light]]", i, &format!("light {}", i + 1));
+    lights::add_lights(&mut ctx, &settings.lights, &light_label, &mut placed)?;
+    let luminaire_label =
+        |i: usize| settings.label("[[luminaire]]", i, &format!("luminaire {}", i + 1));
     lights::add_luminaires(
         &mut ctx,
         &settings.luminaires,
         &settings.base_dir,
+        &luminaire_label,
         &mut placed,
     )?;
     crate::daylight::add_daylight(
@@ -505,7 +594,30 @@ pub fn load(path: &Path, settings: &Settings) -> Result<(Context, LoadedScene)> 
         settings.up()?,
         &mut placed,
     )?;
-    let grids = crate::grids::add_grids(&mut ctx, &settings.grids, settings.unit_m.unwrap_or(1.0))?;
+    for (id, l) in placed.iter().enumerate() {
+        name_item(
+            |n| &mut n.lights,
+            id as u32,
+            format!("settings: {}", l.name),
+        );
+    }
+    let grid_label = |k: usize, what: &str| match settings.locate_nth("[[grid]]", k) {
+        (p, line) if line > 0 => format!("{}:{line}: {what}", p.display()),
+        _ => what.to_string(),
+    };
+    let grids = crate::grids::add_grids(
+        &mut ctx,
+        &settings.grids,
+        settings.unit_m.unwrap_or(1.0),
+        &grid_label,
+    )?;
+    for g in &grids {
+        name_item(
+            |n| &mut n.meshes,
+            g.id,
+            format!("settings: grid '{}'", g.name),
+        );
+    }
     Ok((
         ctx,
         LoadedScene {
@@ -625,7 +737,8 @@ impl<'a> Palette<'a> {
                 // Warnings were given for the material itself.
                 let mut quiet = Diagnostics::default();
                 let o = self.settings.materials.get(&base.name);
-                materials::resolve(&base, o, self.band_nm, self.rgb, &mut quiet)
+                let at = self.settings.locate(&format!("[materials.{}]", base.name));
+                materials::resolve(&base, o, &at, self.band_nm, self.rgb, &mut quiet)
             }
         }
     }

@@ -93,6 +93,9 @@ const HOSTILE_OBJ_LINES: &[&str] = &[
     "v 1 2 3 4 5 6 7",
     "mtllib ../../../../etc/passwd",
     "f 2 3 4 5 6 7 8 9",
+    "mtllib /dev/zero",
+    "mtllib /dev/stdin",
+    "mtllib /",
 ];
 
 const HOSTILE_MTL_LINES: &[&str] = &[
@@ -118,6 +121,8 @@ const HOSTILE_MTL_LINES: &[&str] = &[
     "Tf 0 0 0",
     "Ke 1e308 1e308 1e308",
     "newmtl grey",
+    "map_Kd /dev/zero",
+    "map_Kd /",
 ];
 
 const HOSTILE_TOML: &[&str] = &[
@@ -147,6 +152,13 @@ const HOSTILE_TOML: &[&str] = &[
     "[[luminaire]]\nfile = \"s.obj\"\nposition = [0, 0, 1]",
     "[[luminaire]]\nfile = \"l.ies\"\nposition = [0, 0, 1]\nflux_scale = -1",
     "[[luminaire]]\nfile = \"l.ies\"\nposition = [0, 0, 1]\nlumens = 1e308",
+    "[[luminaire]]\nfile = \"/dev/zero\"\nposition = [0, 0, 1]",
+    "[environment]\nfile = \"/dev/zero\"\nscale = 1",
+    "[environment]\nfile = \"/\"\nscale = 1",
+    "[spectral]\nbands = 41\nmin_nm = 1\nmax_nm = 1e308",
+    "[[grid]]\norigin = [0, 0, 0.1]\nu = [1, 0, 0]\nv = [0, 1, 0]\nsize = [1e300, 1e300]\nspacing = 1e-10",
+    "[run]\ntime_s = -5",
+    "[camera]\nposition = [0.5, -1, 1.5]\nlook_at = [0.5, 0.5, 0]\nwidth = 4096\nheight = 16",
 ];
 
 fn mutate_bytes(rng: &mut Rng, text: &mut Vec<u8>) {
@@ -341,6 +353,334 @@ fn case(seed: u64, dir: &Path) -> Result<(), String> {
         ));
     }
     Ok(())
+}
+
+/// Runs `imap` with `args` in bounded time; the case's failure, if it misbehaved: a panic,
+/// a signal, a hang, an exit 2 without a message.
+fn ends_in_a_status(seed: u64, args: &[&std::ffi::OsStr]) -> Result<i32, String> {
+    use std::io::Read;
+    let t = Instant::now();
+    let mut child = Command::new(env!("CARGO_BIN_EXE_imap"))
+        .args(args)
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut stderr = child.stderr.take().unwrap();
+    let reader = std::thread::spawn(move || {
+        let mut b = Vec::new();
+        let _ = stderr.read_to_end(&mut b);
+        b
+    });
+    let status = loop {
+        if let Some(s) = child.try_wait().unwrap() {
+            break s;
+        }
+        if t.elapsed() > Duration::from_secs(60) {
+            let _ = child.kill();
+            return Err(format!("seed {seed}: {args:?}: no exit within 60 s"));
+        }
+        std::thread::sleep(Duration::from_millis(5));
+    };
+    let err = String::from_utf8_lossy(&reader.join().unwrap()).into_owned();
+    match status.code() {
+        Some(0) => Ok(0),
+        Some(2)
+            if err
+                .lines()
+                .any(|l| l.len() > "imap: error: ".len() && l.starts_with("imap: error:")) =>
+        {
+            Ok(2)
+        }
+        other => Err(format!("seed {seed}: {args:?}: exit {other:?}: {err}")),
+    }
+}
+
+/// A glTF 2.0 scene (a floor and a lamp above it) with its binary data: the JSON with the
+/// buffer's URI left to the caller.
+fn gltf_parts() -> (serde_json::Value, Vec<u8>) {
+    let pos: [f32; 18] = [
+        0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, -1.0, 0.3, 1.0, -0.3, 0.3, 1.0, -0.6, 0.6, 1.0,
+        -0.3,
+    ];
+    let mut bin: Vec<u8> = pos.iter().flat_map(|x| x.to_le_bytes()).collect();
+    bin.extend([0u16, 1, 2, 0].iter().flat_map(|x| x.to_le_bytes()));
+    let json = serde_json::json!({
+        "asset": {"version": "2.0"},
+        "scene": 0,
+        "scenes": [{"nodes": [0, 1]}],
+        "nodes": [{"mesh": 0, "name": "floor", "children": [2]}, {"mesh": 1, "name": "lamp"}, {"name": "empty"}],
+        "meshes": [
+            {"primitives": [{"attributes": {"POSITION": 0}, "indices": 2, "material": 0}]},
+            {"primitives": [{"attributes": {"POSITION": 1}, "material": 1}]}
+        ],
+        "materials": [
+            {"pbrMetallicRoughness": {"baseColorFactor": [0.5, 0.5, 0.5, 1.0]}},
+            {"emissiveFactor": [1.0, 1.0, 1.0]}
+        ],
+        "accessors": [
+            {"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3", "min": [0, 0, -1], "max": [1, 0, 0]},
+            {"bufferView": 0, "byteOffset": 36, "componentType": 5126, "count": 3, "type": "VEC3", "min": [0.3, 1, -0.6], "max": [0.6, 1, -0.3]},
+            {"bufferView": 1, "componentType": 5123, "count": 3, "type": "SCALAR"}
+        ],
+        "bufferViews": [{"buffer": 0, "byteLength": 72}, {"buffer": 0, "byteOffset": 72, "byteLength": 6}],
+        "buffers": [{"byteLength": 80}]
+    });
+    (json, bin)
+}
+
+/// A structural mutation of a glTF document: sizes, strides and counts past the data,
+/// indices past their arrays, nodes shared or in cycles, URIs naming devices, numbers that
+/// are no numbers.
+fn mutate_gltf(rng: &mut Rng, v: &mut serde_json::Value) {
+    let huge = [u32::MAX as u64, 1 << 40, 0, 1, 3, 7, 255, 1_000_000];
+    let pick = |rng: &mut Rng| serde_json::json!(huge[rng.below(huge.len())]);
+    match rng.below(12) {
+        0 => v["accessors"][rng.below(3)]["count"] = pick(rng),
+        1 => v["bufferViews"][rng.below(2)]["byteLength"] = pick(rng),
+        2 => v["bufferViews"][0]["byteStride"] = serde_json::json!(4 * rng.below(64)),
+        3 => v["buffers"][0]["byteLength"] = pick(rng),
+        4 => v["accessors"][rng.below(3)]["byteOffset"] = pick(rng),
+        5 => {
+            let n = 2 + rng.below(70);
+            let mut nodes: Vec<serde_json::Value> = (0..n)
+                .map(|i| serde_json::json!({"children": [i + 1, i + 1]}))
+                .collect();
+            nodes.push(serde_json::json!({"mesh": 0}));
+            nodes.push(serde_json::json!({"mesh": 1}));
+            v["nodes"] = nodes.into();
+            v["scenes"] = serde_json::json!([{"nodes": [0, n + 1]}]);
+        }
+        6 => v["nodes"][2]["children"] = serde_json::json!([0, 2]),
+        7 => v["meshes"][0]["primitives"][0]["attributes"]["NORMAL"] = pick(rng),
+        8 => v["meshes"][rng.below(2)]["primitives"][0]["indices"] = pick(rng),
+        9 => {
+            let dev = [
+                "/dev/zero",
+                "/dev/stdin",
+                "/",
+                "%2Fdev%2Fzero",
+                "../../../../dev/zero",
+            ];
+            let d = dev[rng.below(dev.len())];
+            if rng.below(2) == 0 {
+                v["buffers"][0]["uri"] = d.into();
+            } else {
+                v["images"] = serde_json::json!([{"uri": d}]);
+                v["textures"] = serde_json::json!([{"source": 0}]);
+                v["materials"][0]["pbrMetallicRoughness"]["baseColorTexture"] =
+                    serde_json::json!({"index": 0});
+            }
+        }
+        10 => {
+            v["nodes"][0]["matrix"] =
+                serde_json::json!([1e308, 0, 0, 0, 0, 1e308, 0, 0, 0, 0, 1e308, 0, 0, 0, 0, 1])
+        }
+        _ => v["materials"][1]["emissiveFactor"] = serde_json::json!([1e38, 3e38, 1e-45]),
+    }
+}
+
+/// A model of another format than OBJ (glTF, GLB, PLY, STL), mutated; returns its file name.
+fn model_case(rng: &mut Rng, dir: &Path) -> String {
+    let (mut json, bin) = gltf_parts();
+    match rng.below(6) {
+        0 | 1 => {
+            // glTF with its buffer beside it.
+            std::fs::write(dir.join("m.bin"), &bin).unwrap();
+            json["buffers"][0]["uri"] = "m.bin".into();
+            for _ in 0..1 + rng.below(2) {
+                mutate_gltf(rng, &mut json);
+            }
+            let mut text = serde_json::to_vec(&json).unwrap();
+            if rng.below(3) == 0 {
+                mutate_bytes(rng, &mut text);
+            }
+            std::fs::write(dir.join("m.gltf"), text).unwrap();
+            "m.gltf".into()
+        }
+        2 => {
+            // GLB: header, JSON chunk, BIN chunk; sizes in the headers mutated too.
+            if rng.below(2) == 0 {
+                mutate_gltf(rng, &mut json);
+            }
+            let mut j = serde_json::to_vec(&json).unwrap();
+            while j.len() % 4 != 0 {
+                j.push(b' ');
+            }
+            let mut b = bin.clone();
+            while b.len() % 4 != 0 {
+                b.push(0);
+            }
+            let total = 12 + 8 + j.len() + 8 + b.len();
+            let mut glb = b"glTF".to_vec();
+            glb.extend(2u32.to_le_bytes());
+            glb.extend((total as u32).to_le_bytes());
+            glb.extend((j.len() as u32).to_le_bytes());
+            glb.extend(b"JSON");
+            glb.extend(&j);
+            glb.extend((b.len() as u32).to_le_bytes());
+            glb.extend(b"BIN\0");
+            glb.extend(&b);
+            let fields = [8usize, 12, 20 + j.len()];
+            match rng.below(4) {
+                0 => {
+                    let f = fields[rng.below(3)];
+                    glb[f..f + 4]
+                        .copy_from_slice(&[u32::MAX, 1 << 31, 0, 7][rng.below(4)].to_le_bytes());
+                }
+                1 => mutate_bytes(rng, &mut glb),
+                _ => {}
+            }
+            std::fs::write(dir.join("m.glb"), glb).unwrap();
+            "m.glb".into()
+        }
+        3 | 4 => {
+            // PLY, ASCII or binary, with counts in the header past the data and numbers
+            // that are no numbers.
+            let binary = rng.below(2) == 0;
+            let counts = [3u64, 4, 1 << 31, u32::MAX as u64, 0];
+            let nv = if rng.below(3) == 0 {
+                counts[rng.below(5)]
+            } else {
+                6
+            };
+            let nf = if rng.below(3) == 0 {
+                counts[rng.below(5)]
+            } else {
+                2
+            };
+            let mut ply = format!(
+                "ply\nformat {} 1.0\nelement vertex {nv}\nproperty float x\nproperty float y\nproperty float z\nelement face {nf}\nproperty list uchar int vertex_indices\nend_header\n",
+                if binary { "binary_little_endian" } else { "ascii" }
+            )
+            .into_bytes();
+            let mut p = [
+                0.0f32, 0., 0., 1., 0., 0., 0., 1., 0., 0.3, 0.3, 1., 0.3, 0.6, 1., 0.6, 0.3, 1.,
+            ];
+            if rng.below(2) == 0 {
+                p[rng.below(18)] = [f32::NAN, f32::INFINITY, -f32::INFINITY, 3e38][rng.below(4)];
+            }
+            if binary {
+                ply.extend(p.iter().flat_map(|x| x.to_le_bytes()));
+                for f in [[0i32, 1, 2], [3, 5, 4]] {
+                    ply.push(3);
+                    ply.extend(f.iter().flat_map(|x| x.to_le_bytes()));
+                }
+            } else {
+                for v in p.chunks(3) {
+                    ply.extend(format!("{} {} {}\n", v[0], v[1], v[2]).into_bytes());
+                }
+                ply.extend(b"3 0 1 2\n3 3 5 4\n");
+            }
+            if rng.below(3) == 0 {
+                mutate_bytes(rng, &mut ply);
+            }
+            std::fs::write(dir.join("m.ply"), ply).unwrap();
+            "m.ply".into()
+        }
+        _ => {
+            // Binary STL with its triangle count past the data, or non-finite corners.
+            let counts = [2u32, 1 << 31, u32::MAX, 0, 1000];
+            let n = if rng.below(2) == 0 {
+                counts[rng.below(5)]
+            } else {
+                2
+            };
+            let mut stl = vec![0u8; 80];
+            stl.extend(n.to_le_bytes());
+            let mut tri = |c: [[f32; 3]; 3]| {
+                stl.extend([0f32; 3].iter().flat_map(|x| x.to_le_bytes()));
+                for p in c {
+                    stl.extend(p.iter().flat_map(|x| x.to_le_bytes()));
+                }
+                stl.extend([0u8, 0]);
+            };
+            let bad = [f32::NAN, f32::INFINITY, 1e30][rng.below(3)];
+            tri([[0., 0., 0.], [1., 0., 0.], [0., 1., 0.]]);
+            tri([
+                [0.3, 0.3, 1.],
+                [0.6, 0.3, 1.],
+                [0.3, if rng.below(3) == 0 { bad } else { 0.6 }, 1.],
+            ]);
+            if rng.below(3) == 0 {
+                mutate_bytes(rng, &mut stl);
+            }
+            std::fs::write(dir.join("m.stl"), stl).unwrap();
+            "m.stl".into()
+        }
+    }
+}
+
+/// Models of every format other than OBJ, mutated in the classes an attack found: sizes in
+/// headers past the file, shared and cyclic node graphs, URIs naming devices, numbers
+/// that are no numbers. Each is read (`imap info`) and sometimes run; each must end in
+/// a status (0, or 2 with a message) in bounded time, never a panic, an abort or a hang.
+#[test]
+fn mutated_models_of_every_format_end_in_a_status() {
+    let cases: u64 = std::env::var("IMAP_MUTATION_CASES")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .map_or(1200, |n: u64| n / 3);
+    let root = tempfile::tempdir().unwrap();
+    let next = AtomicUsize::new(0);
+    let failures = Mutex::new(Vec::new());
+    let workers = std::thread::available_parallelism()
+        .map_or(2, |n| n.get())
+        .min(8);
+    let t = Instant::now();
+    std::thread::scope(|s| {
+        for w in 0..workers {
+            let (root, next, failures) = (&root, &next, &failures);
+            s.spawn(move || {
+                let dir = root.path().join(format!("m{w}"));
+                std::fs::create_dir_all(&dir).unwrap();
+                loop {
+                    let i = next.fetch_add(1, Ordering::Relaxed) as u64;
+                    if i >= cases {
+                        break;
+                    }
+                    let seed = 50_000 + i;
+                    let mut rng = Rng(seed);
+                    let model = dir.join(model_case(&mut rng, &dir));
+                    let r = ends_in_a_status(seed, &["info".as_ref(), model.as_os_str()]).and_then(
+                        |code| {
+                            if code != 0 || rng.below(4) != 0 {
+                                return Ok(code);
+                            }
+                            let out = dir.join("out");
+                            ends_in_a_status(
+                                seed,
+                                &[
+                                    "run".as_ref(),
+                                    model.as_os_str(),
+                                    "--photons".as_ref(),
+                                    "200".as_ref(),
+                                    "--time".as_ref(),
+                                    "5".as_ref(),
+                                    "--quiet".as_ref(),
+                                    "--out".as_ref(),
+                                    out.as_os_str(),
+                                ],
+                            )
+                        },
+                    );
+                    if let Err(e) = r {
+                        failures.lock().unwrap().push(e);
+                    }
+                }
+            });
+        }
+    });
+    let failures = failures.into_inner().unwrap();
+    eprintln!(
+        "{cases} mutated glTF, GLB, PLY and STL models in {:.0} s: {} misbehaved",
+        t.elapsed().as_secs_f64(),
+        failures.len()
+    );
+    for f in failures.iter().take(10) {
+        eprintln!("  {f}");
+    }
+    assert!(failures.is_empty());
 }
 
 #[test]
