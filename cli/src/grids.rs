@@ -48,12 +48,16 @@ pub struct Grid {
     pub nv: usize,
     /// Spacing along u and v, scene units.
     pub step: [f64; 2],
+    /// Guard vertices that stop at the model's surfaces (`add_grids`).
+    pub clipped: usize,
     pub positions: Vec<f64>,
     pub settings: GridSettings,
 }
 
 /// Most points a grid may have.
 const MAX_POINTS: usize = 4_000_000;
+/// Grids of up to this many points are checked for surfaces between their points.
+const MAX_CHECKED_POINTS: usize = 250_000;
 
 /// EN 12464-1's maximum grid spacing for a dimension of `d` metres: p = 0.2 · 5^log10(d),
 /// at most 10 m.
@@ -98,6 +102,8 @@ pub fn add_grids(
     grids: &[GridSettings],
     unit_m: f64,
     label: &dyn Fn(usize, &str) -> String,
+    model: &[[DVec3; 3]],
+    diag: &mut crate::diag::Diagnostics,
 ) -> Result<Vec<Grid>> {
     let mut out: Vec<Grid> = Vec::new();
     for (k, g) in grids.iter().enumerate() {
@@ -151,11 +157,68 @@ pub fn add_grids(
         // that every point's value is the light averaged symmetrically around it (a point
         // on the edge of a mesh would average only inwards: first-order biased). Triangles
         // between points are part POINTS, those touching the ring part GUARD.
+        // The ring stops at the model's surfaces: an edge point beside a wall averages the
+        // light on its own side of the wall only (a ring beyond an outside wall read the
+        // daylight outside: 820–960 lx where the next points in read 150–215).
         let (mu, mv) = (nu + 2, nv + 2);
         let mut mesh_positions = Vec::with_capacity(3 * mu * mv);
+        let mut ring = Vec::new();
         for j in 0..mv {
             for i in 0..mu {
-                mesh_positions.extend(at(i as f64 - 1.0, j as f64 - 1.0).to_array());
+                let p = at(i as f64 - 1.0, j as f64 - 1.0);
+                if i == 0 || j == 0 || i == mu - 1 || j == mv - 1 {
+                    // From the nearest point of the grid.
+                    let (ci, cj) = (i.clamp(1, nu) - 1, j.clamp(1, nv) - 1);
+                    ring.push((mesh_positions.len(), at(ci as f64, cj as f64), p));
+                }
+                mesh_positions.extend(p.to_array());
+            }
+        }
+        let segments: Vec<(DVec3, DVec3)> = ring.iter().map(|r| (r.1, r.2)).collect();
+        let reach = segments.iter().fold(
+            (DVec3::INFINITY, DVec3::NEG_INFINITY),
+            |(lo, hi), (a, b)| (lo.min(a.min(*b)), hi.max(a.max(*b))),
+        );
+        let near = |t: &[DVec3; 3]| {
+            let (lo, hi) = (t[0].min(t[1]).min(t[2]), t[0].max(t[1]).max(t[2]));
+            !(lo.cmpgt(reach.1).any() || hi.cmplt(reach.0).any())
+        };
+        let first =
+            crate::segments::first_crossings(&segments, model.iter().filter(|t| near(t)).copied());
+        let mut clipped = 0;
+        for ((at_index, from, to), t) in ring.iter().zip(&first) {
+            if *t < 1.0 {
+                // Just short of the surface, and never onto the point itself.
+                let p = *from + (*to - *from) * (t - 1e-6).max(0.01);
+                mesh_positions[*at_index..*at_index + 3].copy_from_slice(&p.to_array());
+                clipped += 1;
+            }
+        }
+        // Neighbouring points parted by a surface: a grid through a wall reads both rooms.
+        if nu * nv <= MAX_CHECKED_POINTS {
+            let point = |i: usize, j: usize| DVec3::from_slice(&positions[3 * (j * nu + i)..]);
+            let mut pairs = Vec::new();
+            for j in 0..nv {
+                for i in 0..nu {
+                    if i + 1 < nu {
+                        pairs.push((point(i, j), point(i + 1, j)));
+                    }
+                    if j + 1 < nv {
+                        pairs.push((point(i, j), point(i, j + 1)));
+                    }
+                }
+            }
+            let hit = crate::segments::first_crossings(&pairs, model.iter().copied());
+            let crossed: Vec<usize> = (0..pairs.len()).filter(|&k| hit[k] < 1.0).collect();
+            if let Some(&k) = crossed.first() {
+                let x = pairs[k].0 + (pairs[k].1 - pairs[k].0) * hit[k];
+                diag.warn(format!(
+                    "{what}: {} of its point-to-point spacings cross the model's surfaces (the first at [{:.3}, {:.3}, {:.3}]): its points there read light from both sides; keep a grid within one room",
+                    crossed.len(),
+                    x.x,
+                    x.y,
+                    x.z
+                ));
             }
         }
         let mut indices = Vec::with_capacity(6 * (mu - 1) * (mv - 1));
@@ -191,6 +254,7 @@ pub fn add_grids(
             step,
             positions,
             settings: g.clone(),
+            clipped,
         });
     }
     Ok(out)
@@ -248,6 +312,7 @@ pub fn summary_json(g: &Grid, r: &GridResult, unit_m: f64) -> serde_json::Value 
         "u0": est(x.u0),
         "ud": est(x.ud),
         "max_point_rel_error": r.rel_error.iter().cloned().fold(0.0, f64::max),
+        "guard_vertices_at_surfaces": g.clipped,
     })
 }
 

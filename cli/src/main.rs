@@ -14,8 +14,10 @@ mod model;
 mod mtl;
 mod obj;
 mod output;
+mod polygon;
 mod render_cmd;
 mod scene;
+mod segments;
 mod validate;
 
 use clap::{Parser, Subcommand};

@@ -4,8 +4,8 @@
 //!
 //! PLY: `vertex` x y z (any numeric type, kept in f64 when the file has doubles); colours
 //! from `red green blue` or `diffuse_red diffuse_green diffuse_blue` (8-bit, or floats in
-//! [0, 1]; sRGB); `face` lists named `vertex_indices` or `vertex_index` (polygons split into
-//! fans). Other elements (edges, materials) are skipped. STL: one object per file (binary STL
+//! [0, 1]; sRGB); `face` lists named `vertex_indices` or `vertex_index` (polygons cut by ear clipping,
+//! `polygon`). Other elements (edges, materials) are skipped. STL: one object per file (binary STL
 //! has f32 coordinates by the format's definition); its vertices are merged by position.
 
 use crate::diag::{printable, Diagnostics};
@@ -153,8 +153,9 @@ pub fn load_ply(path: &Path, bytes: &[u8], diag: &mut Diagnostics) -> Result<Mod
         triangles: Vec::new(),
     };
     let mut bad = 0usize;
-    if let Some(faces) = ply.payload.get("face") {
-        for (f, face) in faces.iter().enumerate() {
+    let mut faces = crate::polygon::Faces::default();
+    if let Some(face_list) = ply.payload.get("face") {
+        for (f, face) in face_list.iter().enumerate() {
             let Some(idx) = face
                 .get("vertex_indices")
                 .or_else(|| face.get("vertex_index"))
@@ -178,17 +179,29 @@ pub fn load_ply(path: &Path, bytes: &[u8], diag: &mut Diagnostics) -> Result<Mod
                 bad += 1;
                 continue;
             }
-            for k in 1..idx.len() - 1 {
+            let tris = if idx.len() == 3 {
+                vec![[0, 1, 2]]
+            } else {
+                let p: Vec<glam::DVec3> = idx
+                    .iter()
+                    .map(|&i| glam::DVec3::from(model.positions[i as usize]))
+                    .collect();
+                let cut = crate::polygon::triangulate(&p, &[]);
+                faces.note(&cut, 0);
+                cut.triangles
+            };
+            for t in tris {
                 push_triangle(
                     &mut object.triangles,
                     &mut model.degenerate,
-                    [idx[0] as u32, idx[k] as u32, idx[k + 1] as u32],
+                    t.map(|k| idx[k] as u32),
                     None,
                     Some(0),
                 );
             }
         }
     }
+    faces.warn(path, diag);
     if bad > 1 {
         diag.error(
             path,

@@ -48,6 +48,8 @@ pub struct Obj {
     pub mtllibs: Vec<(PathBuf, usize)>,
     /// Triangles dropped because they repeat a vertex.
     pub degenerate: usize,
+    /// What cutting polygons into triangles found.
+    pub faces: crate::polygon::Faces,
 }
 
 fn number(word: &str) -> Option<f64> {
@@ -213,8 +215,20 @@ pub fn parse(path: &Path, bytes: &[u8], diag: &mut Diagnostics) -> Obj {
                     }
                     i
                 });
-                for k in 1..corners.len() - 1 {
-                    let c = [corners[0], corners[k], corners[k + 1]];
+                let cut = if corners.len() == 3 {
+                    None
+                } else {
+                    let p: Vec<glam::DVec3> = corners
+                        .iter()
+                        .map(|c| glam::DVec3::from(obj.positions[c.0 as usize]))
+                        .collect();
+                    let cut = crate::polygon::triangulate(&p, &[]);
+                    obj.faces.note(&cut, line);
+                    Some(cut.triangles)
+                };
+                let tris = cut.unwrap_or_else(|| vec![[0, 1, 2]]);
+                for t in tris {
+                    let c = t.map(|k| corners[k]);
                     let vt = match c.map(|x| x.1) {
                         [Some(a), Some(b), Some(d)] => Some([a, b, d]),
                         _ => None,
@@ -265,6 +279,7 @@ pub fn parse(path: &Path, bytes: &[u8], diag: &mut Diagnostics) -> Obj {
             _ => {}
         }
     }
+    obj.faces.warn(path, diag);
     obj.objects.retain(|o| !o.triangles.is_empty());
     if all_coloured && !colours.is_empty() {
         obj.colours = Some(colours);

@@ -605,12 +605,30 @@ pub fn load(path: &Path, settings: &Settings) -> Result<(Context, LoadedScene)> 
         (p, line) if line > 0 => format!("{}:{line}: {what}", p.display()),
         _ => what.to_string(),
     };
+    let triangles: Vec<[glam::DVec3; 3]> = if settings.grids.is_empty() {
+        Vec::new()
+    } else {
+        meshes
+            .iter()
+            .flat_map(|m| {
+                m.indices.chunks_exact(3).map(|t| {
+                    [t[0], t[1], t[2]]
+                        .map(|v| glam::DVec3::from_slice(&m.positions[3 * v as usize..]))
+                })
+            })
+            .collect()
+    };
+    let mut grid_diag = Diagnostics::default();
     let grids = crate::grids::add_grids(
         &mut ctx,
         &settings.grids,
         settings.unit_m.unwrap_or(1.0),
         &grid_label,
+        &triangles,
+        &mut grid_diag,
     )?;
+    drop(triangles);
+    diag.warnings.extend(grid_diag.warnings);
     for g in &grids {
         name_item(
             |n| &mut n.meshes,
