@@ -194,16 +194,14 @@ pub fn triangulate(points: &[DVec3], holes: &[usize]) -> Cut {
             .sum::<f64>();
     let got: f64 = triangles.iter().map(|t| area(t).abs()).sum();
     let expected = n - 2 + 2 * holes.len();
-    if triangles.is_empty()
-        || (got - want).abs() > 1e-9 * want.max(f64::MIN_POSITIVE) * expected as f64
-    {
-        if holes.is_empty() {
-            return Cut {
-                triangles: fan(n),
-                non_planar,
-                fan: true,
-            };
-        }
+    let wrong = triangles.is_empty()
+        || (got - want).abs() > 1e-9 * want.max(f64::MIN_POSITIVE) * expected as f64;
+    if wrong && holes.is_empty() {
+        return Cut {
+            triangles: fan(n),
+            non_planar,
+            fan: true,
+        };
     }
     // Each triangle wound as the polygon (its normal along Newell's).
     for t in &mut triangles {
