@@ -1010,3 +1010,63 @@ fn final_gathering_agrees_with_the_path_tracer_in_the_mixed_room() {
     assert!((0.7..=1.5).contains(&rms_z), "rms z {rms_z}");
     assert!((ratio - 1.0).abs() < 3.0 * se, "{ratio} vs σ {se}");
 }
+
+/// A small object under a uniform sky seen from far away: every camera ray that passes
+/// the scene's bounding sphere by sees the sky's radiance, with every method and the path
+/// tracer (they saw black: the sky showed as a disc behind the object only).
+#[test]
+fn the_sky_is_seen_all_round_the_model() {
+    use imap::scene::sky::{SkyAmount, SkyDesc, SkyKind};
+    let l = [1.5, 2.0, 0.5];
+    let mut ctx = context(Config {
+        threads: 2,
+        ..Default::default()
+    });
+    let m = lambert(&mut ctx, 0.5);
+    ctx.add_mesh(&grid(2, -0.5, 0.5, -0.5, 0.5, 0.0).desc(m))
+        .unwrap();
+    ctx.add_sky(&SkyDesc {
+        kind: SkyKind::Uniform { sphere: true },
+        amount: SkyAmount::Radiance(1.0),
+        spectrum: imap::photometry::Spectrum::Rgb(l),
+        ..SkyDesc::default()
+    })
+    .unwrap();
+    // 20 scene sizes away, a 20° view: the object fills a few pixels in the middle.
+    let cam = CameraDesc {
+        position: [0.0, -20.0, 5.0],
+        direction: [0.0, 4.0, -1.0],
+        up: [0.0, 0.0, 1.0],
+        fov_y_deg: 20.0,
+        width: 16,
+        height: 16,
+    };
+    // Radiance 1 W/(m² sr) over the bands, shared as the colour says.
+    let per_band: Vec<f64> = {
+        let s = l.iter().sum::<f64>();
+        l.iter().map(|x| x / s).collect()
+    };
+    let check = |img: &Image, what: &str| {
+        // The corners: far from the object's disc.
+        for p in [0usize, 15, 16 * 15, 16 * 16 - 1] {
+            for b in 0..3 {
+                let v = img.radiance[p * 3 + b];
+                assert!(
+                    (v - per_band[b]).abs() < 1e-9 * per_band[b].max(1.0),
+                    "{what}: pixel {p} band {b} sees {v}, the sky {}",
+                    per_band[b]
+                );
+            }
+        }
+    };
+    for method in [
+        RenderMethod::Synchronous,
+        RenderMethod::SemiSynchronous,
+        RenderMethod::FinalGather,
+    ] {
+        let (img, _) = render(&mut ctx, &cam, &mut params(method, 2));
+        check(&img, &format!("{method:?}"));
+    }
+    let img = ctx.path_trace(&cam, 2, 100).unwrap();
+    check(&img, "path tracer");
+}

@@ -207,8 +207,10 @@ impl<'a> EyeTracer<'a> {
         buf.pixels.push(pixel);
         let d0 = buf.direct.len();
         buf.direct.resize(d0 + nb, 0.0);
-        let Some((mut dir, mut org)) = self.start_path(pixel, rng, beta, stats) else {
-            return;
+        let (mut dir, mut org) = match self.start_path(pixel, rng, beta, stats) {
+            Ok(ray) => ray,
+            // A ray that passes the whole scene by sees the sky.
+            Err(dir) => return self.add_sky(dir, beta, &mut buf.direct[d0..]),
         };
         let mut band: Option<usize> = None;
         let mut path_len = (org - self.camera.origin).length();
@@ -310,8 +312,9 @@ impl<'a> EyeTracer<'a> {
         stats: &mut EyeStats,
     ) {
         let nb = self.bands;
-        let Some((mut dir, mut org)) = self.start_path(pixel, rng, beta, stats) else {
-            return;
+        let (mut dir, mut org) = match self.start_path(pixel, rng, beta, stats) {
+            Ok(ray) => ray,
+            Err(dir) => return self.add_sky(dir, beta, out),
         };
         let mut band: Option<usize> = None;
         let mut medium: Option<u32> = None;
@@ -600,7 +603,7 @@ impl<'a> EyeTracer<'a> {
     }
 
     /// A new eye path through `pixel`: unit weight in every band, counted, and its first
-    /// ray (None when the camera ray is not usable).
+    /// ray (its direction alone when it passes the scene's bounding sphere by).
     #[inline]
     fn start_path(
         &self,
@@ -608,7 +611,7 @@ impl<'a> EyeTracer<'a> {
         rng: &mut PhotonRng,
         beta: &mut Vec<f64>,
         stats: &mut EyeStats,
-    ) -> Option<(DVec3, DVec3)> {
+    ) -> Result<(DVec3, DVec3), DVec3> {
         beta.clear();
         beta.resize(self.bands, 1.0);
         stats.paths += 1;
@@ -616,14 +619,15 @@ impl<'a> EyeTracer<'a> {
     }
 
     /// A camera ray through `pixel` (jittered) and where it starts: at the camera, or where
-    /// it enters the bounding sphere of a scene far away (None: it misses it).
+    /// it enters the bounding sphere of a scene far away (Err with its direction: it misses
+    /// the sphere, and sees only what is infinitely far).
     #[inline]
-    fn camera_ray(&self, pixel: u32, rng: &mut PhotonRng) -> Option<(DVec3, DVec3)> {
+    fn camera_ray(&self, pixel: u32, rng: &mut PhotonRng) -> Result<(DVec3, DVec3), DVec3> {
         let w = self.camera.desc.width;
         let dir = self
             .camera
             .ray(pixel % w, pixel / w, rng.uniform(), rng.uniform());
-        Some((dir, self.scene.enter(self.camera.origin, dir)?))
+        self.scene.enter(self.camera.origin, dir).map(|o| (dir, o)).ok_or(dir)
     }
 
     /// The radiance of the distant sources along `dir`, times `beta`, added to `out`.
