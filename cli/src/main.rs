@@ -574,6 +574,11 @@ fn write_outputs(
     wall: f64,
 ) -> Result<serde_json::Value> {
     let maps = output::read_maps(ctx, scene)?;
+    let mut warnings = scene.warnings.clone();
+    for w in output::back_lit(ctx, scene, &maps, report.emitted_w) {
+        eprintln!("imap: warning: {}", diag::printable(&w));
+        warnings.push(w);
+    }
     let img = output::render_view(scene, &maps, cam)?;
     let history: Vec<serde_json::Value> = ctx
         .history()
@@ -634,7 +639,7 @@ fn write_outputs(
             "illuminance_lx": "lx, area-weighted over the recorded vertices (front side)",
             "csv": "E_* in W/m2 per band, rel_error dimensionless, lux in lx"
         },
-        "warnings": scene.warnings,
+        "warnings": warnings,
         "interrupted": stop == "Interrupted",
         "stop": stop,
         "photons": report.photons,
@@ -702,6 +707,9 @@ fn write_outputs(
 fn info(path: &Path) -> Result<()> {
     let mut d = diag::Diagnostics::default();
     let m = model::load(path, &mut d).map_err(CliError)?;
+    for (name, v) in m.inward() {
+        d.warn(scene::inward_warning(path, &name, v));
+    }
     let (lo, hi) = m.bounds();
     let json = serde_json::json!({
         "scene": path.display().to_string(),
@@ -710,9 +718,13 @@ fn info(path: &Path) -> Result<()> {
         "triangles": m.triangles(),
         "degenerate_triangles_left_out": m.degenerate,
         "vertex_colours": m.colours.is_some(),
-        "objects": m.objects.iter().map(|o| serde_json::json!({
-            "name": o.name, "triangles": o.triangles.len()
-        })).collect::<Vec<_>>(),
+        "objects": m.objects.iter().enumerate().map(|(i, o)| {
+            let (closed, volume) = m.orientation(i);
+            serde_json::json!({
+                "name": o.name, "triangles": o.triangles.len(), "closed": closed,
+                "normals": if !closed { "open surface" } else if volume < 0.0 { "inward" } else { "outward" },
+            })
+        }).collect::<Vec<_>>(),
         "materials": m.materials.iter().map(|x| serde_json::json!({
             "name": x.name, "kd": x.kd, "ks": x.ks, "ke": x.ke, "ni": x.ni, "d": x.d,
             "texture": x.texture.as_ref().map(|t| t.name.clone()),

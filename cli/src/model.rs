@@ -177,6 +177,68 @@ impl Model {
         self.objects.iter().map(|o| o.triangles.len()).sum()
     }
 
+    /// Whether object `o` is closed (every edge, its corners merged by position, is used by
+    /// exactly two of its triangles in opposite directions), and its signed volume (scene
+    /// units³): negative when its normals point inward.
+    pub fn orientation(&self, o: usize) -> (bool, f64) {
+        let obj = &self.objects[o];
+        let mut id: HashMap<[u64; 3], u32> = HashMap::new();
+        let mut key = |v: u32| {
+            let p = self.positions[v as usize];
+            let n = id.len() as u32;
+            *id.entry(p.map(f64::to_bits)).or_insert(n)
+        };
+        let mut edges: HashMap<(u32, u32), i32> = HashMap::new();
+        let mut volume = 0.0;
+        for t in &obj.triangles {
+            let k = t.v.map(&mut key);
+            for e in 0..3 {
+                let (a, b) = (k[e], k[(e + 1) % 3]);
+                // +1 for a → b, −1 for b → a, on the edge's undirected key.
+                *edges.entry((a.min(b), a.max(b))).or_default() += if a < b { 1 } else { -1 };
+            }
+            let [p, q, r] = t.v.map(|v| glam::DVec3::from(self.positions[v as usize]));
+            volume += p.dot(q.cross(r)) / 6.0;
+        }
+        let closed = !obj.triangles.is_empty() && edges.values().all(|&c| c == 0);
+        // A closed surface's edges balance; count the uses too (a fin of four would).
+        let closed = closed && {
+            let mut uses: HashMap<(u32, u32), u32> = HashMap::new();
+            let mut key2 = |v: u32| id[&self.positions[v as usize].map(f64::to_bits)];
+            for t in &obj.triangles {
+                let k = t.v.map(&mut key2);
+                for e in 0..3 {
+                    let (a, b) = (k[e], k[(e + 1) % 3]);
+                    *uses.entry((a.min(b), a.max(b))).or_default() += 1;
+                }
+            }
+            uses.values().all(|&u| u == 2)
+        };
+        (closed, volume)
+    }
+
+    /// Reverses the triangles of the objects named (their normals turn round).
+    pub fn flip(&mut self, names: &[String]) {
+        for o in self.objects.iter_mut().filter(|o| names.contains(&o.name)) {
+            for t in &mut o.triangles {
+                t.v.swap(1, 2);
+                if let Some(vt) = t.vt.as_mut() {
+                    vt.swap(1, 2);
+                }
+            }
+        }
+    }
+
+    /// The objects that are closed with their normals pointing inward: (name, volume).
+    pub fn inward(&self) -> Vec<(String, f64)> {
+        (0..self.objects.len())
+            .filter_map(|o| {
+                let (closed, v) = self.orientation(o);
+                (closed && v < 0.0).then(|| (self.objects[o].name.clone(), v))
+            })
+            .collect()
+    }
+
     /// The box around the vertices the triangles use.
     pub fn bounds(&self) -> ([f64; 3], [f64; 3]) {
         bounds(

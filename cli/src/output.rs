@@ -257,6 +257,51 @@ pub struct MeshMap {
     pub lux_back: Option<Vec<f64>>,
 }
 
+/// Recorded meshes (one side) whose recorded side gets almost no light while the surface
+/// absorbs light arriving on its other side: a mesh wound inside out, whose map reads
+/// nearly zero without it being wrong by any other sign. One warning per mesh, with the
+/// numbers: the flux on the recorded side, and the flux that reaches the surface (its
+/// absorbed power over its absorptance).
+pub fn back_lit(
+    ctx: &Context,
+    scene: &LoadedScene,
+    maps: &[Option<MeshMap>],
+    emitted_w: f64,
+) -> Vec<String> {
+    let mut out = Vec::new();
+    if scene.two_sided {
+        return out;
+    }
+    for (m, map) in scene.meshes.iter().zip(maps) {
+        let (Some(id), Some(map)) = (m.id, map) else {
+            continue;
+        };
+        let front: f64 = map
+            .e
+            .iter()
+            .map(|band| band.iter().zip(&map.areas).map(|(e, a)| e * a).sum::<f64>())
+            .sum();
+        let Ok(absorbed) = ctx.absorbed_w(id) else {
+            continue;
+        };
+        let nv = m.diffuse.len().max(1) as f64;
+        let rho = m
+            .diffuse
+            .iter()
+            .map(|d| d.iter().sum::<f64>() / d.len().max(1) as f64)
+            .sum::<f64>()
+            / nv;
+        let reaching = absorbed / (1.0 - rho).max(0.05);
+        if reaching > 1e-3 * emitted_w && front < 0.1 * reaching {
+            out.push(format!(
+                "object '{}': its recorded side receives {front:.4e} W, but {reaching:.4e} W reach the surface (it absorbs {absorbed:.4e} W): the light arrives on its back, so its map reads almost nothing. Its normals may point the wrong way: flip_normals = [\"{}\"] records the other side (two_sided = true records both)",
+                m.name, m.name
+            ));
+        }
+    }
+    out
+}
+
 /// Reads the map of every recorded mesh.
 pub fn read_maps(ctx: &Context, scene: &LoadedScene) -> Result<Vec<Option<MeshMap>>> {
     let nb = scene.band_nm.len();
@@ -649,7 +694,14 @@ pub fn default_camera(scene: &LoadedScene, up: [f64; 3]) -> CameraSettings {
 /// light (for surfaces that do not record), 1 on recording meshes, 1 (coverage).
 type ViewAttr = [f64; 4];
 
-fn view_attributes(scene: &LoadedScene, maps: &[Option<MeshMap>]) -> Vec<Vec<ViewAttr>> {
+/// A mesh's view attributes per vertex: of its front, and of its back when both sides are
+/// recorded (a triangle shows the side that faces the camera).
+struct ViewAttrs {
+    front: Vec<ViewAttr>,
+    back: Option<Vec<ViewAttr>>,
+}
+
+fn view_attributes(scene: &LoadedScene, maps: &[Option<MeshMap>]) -> Vec<ViewAttrs> {
     let colours = vertex_colours(scene, maps);
     scene
         .meshes
@@ -657,12 +709,22 @@ fn view_attributes(scene: &LoadedScene, maps: &[Option<MeshMap>]) -> Vec<Vec<Vie
         .zip(maps)
         .zip(colours)
         .map(|((m, map), cols)| {
-            (0..m.positions.len() / 3)
-                .map(|v| match map {
-                    Some(mm) => [mm.lux[v], luminance(cols[v]), 1.0, 1.0],
-                    None => [0.0, luminance(cols[v]), 0.0, 1.0],
-                })
-                .collect()
+            let nv = m.positions.len() / 3;
+            let side = |lux: Option<&Vec<f64>>| -> Vec<ViewAttr> {
+                (0..nv)
+                    .map(|v| match lux {
+                        Some(l) => [l[v], luminance(cols[v]), 1.0, 1.0],
+                        None => [0.0, luminance(cols[v]), 0.0, 1.0],
+                    })
+                    .collect()
+            };
+            ViewAttrs {
+                front: side(map.as_ref().map(|mm| &mm.lux)),
+                back: map
+                    .as_ref()
+                    .and_then(|mm| mm.lux_back.as_ref())
+                    .map(|b| side(Some(b))),
+            }
         })
         .collect()
 }
@@ -717,7 +779,13 @@ pub fn render_view(
             .copied()
             .unwrap_or(0.0),
     );
-    let tone = ToneMap::new(attrs.iter().flatten().filter(|a| a[2] < 0.5).map(|a| a[1]));
+    let tone = ToneMap::new(
+        attrs
+            .iter()
+            .flat_map(|a| &a.front)
+            .filter(|a| a[2] < 0.5)
+            .map(|a| a[1]),
+    );
     let mut out = Vec::with_capacity(cam.width as usize * cam.height as usize * 3);
     let drawn = rasterize_rows(scene, &attrs, cam, &mut |_, row| {
         for a in row {
@@ -835,7 +903,7 @@ const STRIP_BYTES: usize = 64 << 20;
 /// three corners as one drawn before are drawn once.
 fn rasterize_rows(
     scene: &LoadedScene,
-    attrs: &[Vec<ViewAttr>],
+    attrs: &[ViewAttrs],
     cam: &CameraSettings,
     emit: &mut dyn FnMut(usize, &[ViewAttr]),
 ) -> Result<Drawn> {
@@ -953,7 +1021,14 @@ fn rasterize_rows(
                 p[t[2] as usize].expect("in view"),
             );
             let area = (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0]);
-            let cols = [0, 1, 2].map(|i| attrs[tri.mesh as usize][t[i] as usize]);
+            // A two-sided mesh shows the side that faces the camera (seen from its front, a
+            // triangle runs clockwise on the screen, whose y points down).
+            let va = &attrs[tri.mesh as usize];
+            let shown = match &va.back {
+                Some(back) if area > 0.0 => back,
+                _ => &va.front,
+            };
+            let cols = [0, 1, 2].map(|i| shown[t[i] as usize]);
             let y0 = (tri.y0 as usize).max(ys);
             let y1 = (tri.y1 as usize).min(ye);
             for y in y0..y1 {
@@ -1213,6 +1288,57 @@ mod tests {
         let img = render_view(&scene, &maps, &cam).unwrap();
         assert_eq!(img[(320 * 640 + 320) * 3..][..3], colour_map(0.6));
         assert_eq!(img[..3], [24, 24, 28]);
+    }
+
+    /// A mesh that records both sides shows, in the view, the side that faces the camera
+    /// (the back's values seen from behind: `two_sided = true` drew the front everywhere).
+    #[test]
+    fn two_sided_meshes_show_the_side_facing_the_camera() {
+        let scene = LoadedScene {
+            meshes: vec![LoadedMesh {
+                name: "card".into(),
+                positions: vec![-1.0, -1.0, 0.0, 1.0, -1.0, 0.0, 0.0, 1.0, 0.0],
+                indices: vec![0, 1, 2],
+                file_vertex: vec![0, 1, 2],
+                id: Some(0),
+                diffuse: vec![vec![0.5; 3]; 3],
+                emission: None,
+            }],
+            band_nm: vec![612.0, 549.0, 465.0],
+            rgb: true,
+            warnings: vec![],
+            lights: vec![],
+            grids: Vec::new(),
+            format: "OBJ",
+            triangles_read: 1,
+            material_variants: 0,
+            two_sided: true,
+        };
+        let maps = vec![Some(MeshMap {
+            e: vec![vec![1.0; 3]; 3],
+            rel_error: vec![0.01; 3],
+            lux: vec![100.0; 3],
+            xyz: vec![[95.0, 100.0, 109.0]; 3],
+            areas: vec![1.0; 3],
+            lux_back: Some(vec![300.0; 3]),
+        })];
+        let attrs = view_attributes(&scene, &maps);
+        for (z, want) in [(3.0, 100.0), (-3.0, 300.0)] {
+            let cam = CameraSettings {
+                position: [0.0, 0.0, z],
+                look_at: [0.0, 0.0, 0.0],
+                up: Some([0.0, 1.0, 0.0]),
+                fov_deg: 40.0,
+                width: 32,
+                height: 32,
+            };
+            let mut px = Vec::new();
+            rasterize_rows(&scene, &attrs, &cam, &mut |_, row| {
+                px.extend_from_slice(row)
+            })
+            .unwrap();
+            assert_eq!(px[16 * 32 + 16][0], want, "seen from z = {z}");
+        }
     }
 
     #[test]

@@ -263,6 +263,10 @@ pub struct Settings {
     /// Record both sides of every mesh (default: the side the normals face).
     #[serde(default)]
     pub two_sided: bool,
+    /// Objects whose triangles are turned round (their normals reversed): a model wound
+    /// inside out records its outside then.
+    #[serde(default)]
+    pub flip_normals: Vec<String>,
     #[serde(default)]
     pub camera: Option<CameraSettings>,
     /// `imap render`: method and stop criteria.
@@ -492,10 +496,42 @@ pub fn load_with_camera(
     Ok((ctx, scene, cam))
 }
 
+/// The warning for a closed object whose normals point inward.
+pub fn inward_warning(path: &Path, name: &str, volume: f64) -> String {
+    format!(
+        "{}: object '{}' is closed and its normals point inward (its signed volume is {volume:.4e} scene units³): the side libimap records faces its inside; flip_normals = [\"{}\"] records its outside (or two_sided = true both)",
+        path.display(),
+        printable(name),
+        printable(name)
+    )
+}
+
 /// Builds the libimap context from a model file (OBJ, glTF, PLY, STL) and settings.
 pub fn load(path: &Path, settings: &Settings) -> Result<(Context, LoadedScene)> {
     let mut diag = Diagnostics::default();
-    let model = crate::model::load(path, &mut diag).map_err(CliError)?;
+    let mut model = crate::model::load(path, &mut diag).map_err(CliError)?;
+    for n in &settings.flip_normals {
+        if !model.objects.iter().any(|m| &m.name == n) {
+            let (file, line) = settings.locate("flip_normals");
+            diag.error(
+                &file,
+                line,
+                format!(
+                    "flip_normals names '{n}', which is no object or group of {}",
+                    path.display()
+                ),
+            );
+        }
+    }
+    model.flip(&settings.flip_normals);
+    if !settings.two_sided {
+        for (name, v) in model.inward() {
+            let recorded = settings.record.is_empty() || settings.record.contains(&name);
+            if recorded {
+                diag.warn(inward_warning(path, &name, v));
+            }
+        }
+    }
     for name in settings.materials.keys() {
         if !model.materials.iter().any(|m| &m.name == name) {
             diag.warn(format!(

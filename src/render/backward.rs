@@ -627,7 +627,10 @@ impl<'a> EyeTracer<'a> {
         let dir = self
             .camera
             .ray(pixel % w, pixel / w, rng.uniform(), rng.uniform());
-        self.scene.enter(self.camera.origin, dir).map(|o| (dir, o)).ok_or(dir)
+        self.scene
+            .enter(self.camera.origin, dir)
+            .map(|o| (dir, o))
+            .ok_or(dir)
     }
 
     /// The radiance of the distant sources along `dir`, times `beta`, added to `out`.
