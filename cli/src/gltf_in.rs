@@ -9,8 +9,10 @@
 //!   → the reflectance; of it, the metallic share goes to mirror reflection when the
 //!   roughness is below 0.3 and stays diffuse otherwise (a rough metal scatters its light
 //!   about as broadly as a diffuse surface), the rest is diffuse;
-//! - emissiveFactor × KHR_materials_emissive_strength → an emitting surface of that
-//!   exitance, W/m² per band (as an MTL `Ke`);
+//! - emissiveFactor × KHR_materials_emissive_strength × emissiveTexture (averaged over
+//!   each triangle's UV footprint, like the base colour) → an emitting surface of that
+//!   exitance, W/m² per band (as an MTL `Ke`); triangles whose texels are black emit
+//!   nothing;
 //! - a primitive without a material gets the default grey. Transparency (alpha,
 //!   KHR_materials_transmission) is not read: make glass with `[materials.NAME]`.
 
@@ -347,7 +349,27 @@ fn load_checked(path: &Path, diag: &mut Diagnostics) -> Result<Model, String> {
         let texture = pbr
             .base_color_texture()
             .and_then(|t| texture_of(t.texture().source(), diag));
-        uv_set.push(pbr.base_color_texture().map_or(0, |t| t.tex_coord()));
+        let emission_texture = m
+            .emissive_texture()
+            .and_then(|t| texture_of(t.texture().source(), diag));
+        // One set of texture coordinates is read per primitive: the base colour's, else the
+        // emission's.
+        let set = match (pbr.base_color_texture(), m.emissive_texture()) {
+            (Some(b), Some(e)) if b.tex_coord() != e.tex_coord() => {
+                diag.warn(format!(
+                    "{name}: material {}: its emission texture uses texture coordinates {} and its base colour {}: both are read with set {}",
+                    m.index().unwrap_or(0),
+                    e.tex_coord(),
+                    b.tex_coord(),
+                    b.tex_coord()
+                ));
+                b.tex_coord()
+            }
+            (Some(b), _) => b.tex_coord(),
+            (None, Some(e)) => e.tex_coord(),
+            (None, None) => 0,
+        };
+        uv_set.push(set);
         let base = [r, g, b];
         let mirror = if rough < 0.3 { metal } else { 0.0 };
         let strength = m.emissive_strength().unwrap_or(1.0) as f64;
@@ -363,6 +385,7 @@ fn load_checked(path: &Path, diag: &mut Diagnostics) -> Result<Model, String> {
             ks: (mirror > 0.0).then(|| base.map(|c| c * mirror)),
             ke: ke.iter().any(|&x| x > 0.0).then_some(ke),
             texture,
+            emission_texture,
             ..Default::default()
         });
     }

@@ -729,6 +729,7 @@ fn info(path: &Path) -> Result<()> {
             "name": x.name, "kd": x.kd, "ks": x.ks, "ke": x.ke, "ni": x.ni, "d": x.d,
             "texture": x.texture.as_ref().map(|t| t.name.clone()),
             "texture_average": x.texture.as_ref().map(|t| t.average),
+            "emission_texture": x.emission_texture.as_ref().map(|t| t.name.clone()),
         })).collect::<Vec<_>>(),
         "bounds": if m.triangles() > 0 { serde_json::json!([lo, hi]) } else { serde_json::Value::Null },
         "warnings": d.warnings,

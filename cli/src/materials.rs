@@ -144,7 +144,10 @@ pub fn resolve(
     let dielectric = model.is_some();
 
     // Reflectances.
-    let emits = m.ke.is_some_and(|k| k.iter().any(|&x| x > 0.0)) || o.emission.is_some();
+    let emits = match &o.emission {
+        Some(s) => s.values().iter().any(|&x| x != 0.0),
+        None => m.ke.is_some_and(|k| k.iter().any(|&x| x > 0.0)),
+    };
     let kd = match (m.kd, &m.map_kd) {
         (Some(k), _) => Some(clamp(k, "Kd", diag)),
         (None, Some(_)) => None,
@@ -202,7 +205,8 @@ pub fn resolve(
         _ => vec![],
     };
     let emission = match (&o.emission, m.ke) {
-        (Some(s), _) => Some(per_band(s, "emission", diag)),
+        // `emission = 0` in the settings turns a file's emission off.
+        (Some(s), _) => Some(per_band(s, "emission", diag)).filter(|e| e.iter().any(|&x| x != 0.0)),
         (None, Some(k)) if k.iter().any(|&x| x > 0.0) => {
             Some(expand_rgb(k.map(|x| x.max(0.0)), band_nm, rgb))
         }

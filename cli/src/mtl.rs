@@ -27,6 +27,9 @@ pub struct Mtl {
     pub map_kd: Option<PathBuf>,
     /// The decoded diffuse texture (`map_Kd`, glTF baseColorTexture), when it could be read.
     pub texture: Option<std::sync::Arc<crate::model::Texture>>,
+    /// The decoded emission texture (glTF emissiveTexture): it multiplies `ke` texel by
+    /// texel.
+    pub emission_texture: Option<std::sync::Arc<crate::model::Texture>>,
     /// Made by a reader for a file without materials (PLY, STL): vertex colours override it.
     pub implicit: bool,
 }

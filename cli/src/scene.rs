@@ -13,7 +13,7 @@ use crate::materials::{self, MaterialSettings, Resolved};
 use crate::obj;
 use imap::{Bands, Config, Context, MeshDesc, SchedulerKind};
 use serde::{Deserialize, Serialize};
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, HashMap};
 use std::fmt;
 use std::path::Path;
 
@@ -580,23 +580,38 @@ pub fn load(path: &Path, settings: &Settings) -> Result<(Context, LoadedScene)> 
 
     let mut meshes = Vec::new();
     for object in &model.objects {
-        // One mesh of the object's non-emitting triangles, one per emitting material.
-        let mut parts: Vec<(Option<usize>, Vec<&obj::Triangle>)> = Vec::new();
+        // One mesh of the object's non-emitting triangles, one per emitting material (and
+        // per colour of its emission texture: a texel that is black emits nothing).
+        type Part<'t> = (Option<(usize, Option<[u8; 3]>)>, Vec<&'t obj::Triangle>);
+        let mut parts: Vec<Part> = Vec::new();
+        let mut index: HashMap<Option<(usize, Option<[u8; 3]>)>, usize> = HashMap::new();
         for t in &object.triangles {
             let key = t
                 .material
-                .filter(|&i| palette.resolved[i].emission.is_some());
-            match parts.iter_mut().find(|(k, _)| *k == key) {
-                Some((_, v)) => v.push(t),
-                None => parts.push((key, vec![t])),
+                .filter(|&i| palette.resolved[i].emission.is_some())
+                .and_then(|i| match palette.emission_colour(i, t) {
+                    None => Some((i, None)),
+                    Some(k) if k == [0; 3] => None,
+                    Some(k) => Some((i, Some(k))),
+                });
+            let next = parts.len();
+            let at = *index.entry(key).or_insert(next);
+            if at == next {
+                parts.push((key, Vec::new()));
             }
+            parts[at].1.push(t);
         }
         for (emitter, tris) in parts {
             let name = match emitter {
-                Some(i) => format!("{}/{}", object.name, model.materials[i].name),
+                Some((i, None)) => format!("{}/{}", object.name, model.materials[i].name),
+                Some((i, Some(k))) => format!(
+                    "{}/{}/emission {:02x}{:02x}{:02x}",
+                    object.name, model.materials[i].name, k[0], k[1], k[2]
+                ),
                 None => object.name.clone(),
             };
-            let mesh = build_mesh(&name, &tris, &mut palette, &mut ctx)?;
+            let emission = emitter.map(|(_, k)| k.map(crate::model::key_colour));
+            let mesh = build_mesh(&name, &tris, &mut palette, &mut ctx, emission)?;
             let label = format!("{}: object '{}'", path.display(), printable(&name));
             let id = ctx
                 .add_mesh(&mesh.desc())
@@ -742,6 +757,26 @@ impl<'a> Palette<'a> {
         self.made.keys().filter(|k| k.1.is_some()).count()
     }
 
+    /// The quantised colour of material `i`'s emission texture over triangle `t` (None when
+    /// the material has none, or the settings give its emission).
+    fn emission_colour(&self, i: usize, t: &obj::Triangle) -> Option<[u8; 3]> {
+        let m = &self.model.materials[i];
+        if self
+            .settings
+            .materials
+            .get(&m.name)
+            .is_some_and(|o| o.emission.is_some())
+        {
+            return None;
+        }
+        let tex = m.emission_texture.as_ref()?;
+        let c = match t.vt {
+            Some(vt) => tex.footprint(vt.map(|v| self.model.texcoords[v as usize])),
+            None => tex.average,
+        };
+        Some(crate::model::colour_key(c))
+    }
+
     /// The colour a triangle takes from a texture or its vertices, if any.
     fn colour(&self, t: &obj::Triangle) -> Option<[f64; 3]> {
         if t.material.is_some_and(|i| self.fixed_colour[i]) {
@@ -848,7 +883,14 @@ fn build_mesh(
     tris: &[&obj::Triangle],
     palette: &mut Palette,
     ctx: &mut Context,
+    emission: Option<Option<[f64; 3]>>,
 ) -> Result<Built> {
+    // None: the triangles emit nothing (black texels of an emission texture, or materials
+    // without emission); Some(tint): their material's emission, times an emission
+    // texture's colour.
+    let tint = emission
+        .flatten()
+        .map(|c| materials::expand_rgb(c, palette.band_nm, palette.rgb));
     let o = palette.model;
     let settings = palette.settings;
     // The vertices the triangles use, in the file's order.
@@ -868,7 +910,15 @@ fn build_mesh(
         let (id, r) = palette.of(t, ctx)?;
         materials.push(*id);
         if k == 0 {
-            exitance = r.emission.clone();
+            // An emission texture's colour multiplies the material's emission.
+            exitance = r
+                .emission
+                .as_ref()
+                .filter(|_| emission.is_some())
+                .map(|e| match &tint {
+                    Some(tint) => e.iter().zip(tint).map(|(x, t)| x * t).collect(),
+                    None => e.clone(),
+                });
         }
         for v in t.v {
             let l = local(v) as usize;

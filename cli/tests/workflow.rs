@@ -180,3 +180,101 @@ fn inside_out_meshes_are_found_and_flipped_on_request() {
     assert_eq!(o.status.code(), Some(2));
     assert!(stderr(&o).contains("n.toml:1:"), "{}", stderr(&o));
 }
+
+fn base64(b: &[u8]) -> String {
+    const A: &[u8] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+    let mut s = String::new();
+    for c in b.chunks(3) {
+        let n = (c[0] as u32) << 16
+            | (*c.get(1).unwrap_or(&0) as u32) << 8
+            | *c.get(2).unwrap_or(&0) as u32;
+        for k in 0..4 {
+            s.push(if k <= c.len() {
+                A[(n >> (18 - 6 * k) & 63) as usize] as char
+            } else {
+                '='
+            });
+        }
+    }
+    s
+}
+
+/// A 2 × 1 PNG: black on the left, white on the right.
+fn half_black_png() -> Vec<u8> {
+    let mut png = Vec::new();
+    {
+        let mut e = png::Encoder::new(&mut png, 2, 1);
+        e.set_color(png::ColorType::Rgb);
+        let mut w = e.write_header().unwrap();
+        w.write_image_data(&[0, 0, 0, 255, 255, 255]).unwrap();
+    }
+    png
+}
+
+/// A glTF lamp with an emission texture, black on its left half: only its right half
+/// emits (the texture was ignored: the whole surface glowed, and the DamagedHelmet became
+/// a 10.7 klm lamp), and `emission = 0` in the settings turns the emission off.
+#[test]
+fn emission_textures_are_read_and_emission_can_be_turned_off() {
+    let d = tempfile::tempdir().unwrap();
+    // The lamp: two 0.5 m² quads side by side at z = 1, facing down, u 0–0.5 and 0.5–1.
+    let pos: [f32; 18] = [
+        0.0, 0.0, 1.0, 0.0, 1.0, 1.0, 0.5, 1.0, 1.0, // left, two triangles
+        0.5, 0.0, 1.0, 1.0, 0.0, 1.0, 1.0, 1.0, 1.0,
+    ];
+    let uv: [f32; 12] = [0.0, 0.5, 0.0, 0.5, 0.5, 0.5, 0.5, 0.5, 1.0, 0.5, 1.0, 0.5];
+    let idx: [u16; 12] = [0, 1, 2, 0, 2, 3, 3, 2, 5, 3, 5, 4];
+    let mut bin: Vec<u8> = pos.iter().flat_map(|x| x.to_le_bytes()).collect();
+    bin.extend(uv.iter().flat_map(|x| x.to_le_bytes()));
+    bin.extend(idx.iter().flat_map(|x| x.to_le_bytes()));
+    let png = half_black_png();
+    let gltf = serde_json::json!({
+        "asset": {"version": "2.0"},
+        "extensionsUsed": ["KHR_materials_emissive_strength"],
+        "scene": 0, "scenes": [{"nodes": [0]}],
+        "nodes": [{"mesh": 0, "name": "lamp"}],
+        "meshes": [{"primitives": [{"attributes": {"POSITION": 0, "TEXCOORD_0": 1}, "indices": 2, "material": 0}]}],
+        "materials": [{
+            "name": "glow",
+            "pbrMetallicRoughness": {"baseColorFactor": [0.2, 0.2, 0.2, 1.0]},
+            "emissiveFactor": [1.0, 1.0, 1.0],
+            "emissiveTexture": {"index": 0},
+            "extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": 10.0}}
+        }],
+        "textures": [{"source": 0}],
+        "images": [{"uri": format!("data:image/png;base64,{}", base64(&png))}],
+        "accessors": [
+            {"bufferView": 0, "componentType": 5126, "count": 6, "type": "VEC3", "min": [0, 0, 1], "max": [1, 1, 1]},
+            {"bufferView": 1, "componentType": 5126, "count": 6, "type": "VEC2"},
+            {"bufferView": 2, "componentType": 5123, "count": 12, "type": "SCALAR"}
+        ],
+        "bufferViews": [
+            {"buffer": 0, "byteLength": 72}, {"buffer": 0, "byteOffset": 72, "byteLength": 48},
+            {"buffer": 0, "byteOffset": 120, "byteLength": 24}
+        ],
+        "buffers": [{"byteLength": 144, "uri": format!("data:application/octet-stream;base64,{}", base64(&bin))}]
+    });
+    let model = write(d.path(), "lamp.gltf", serde_json::to_vec(&gltf).unwrap());
+    let toml = write(d.path(), "s.toml", "up_axis = \"z\"\n");
+    let out = d.path().join("out");
+    let o = run_photons(&model, &toml, &out, 10_000);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let r = report(&out);
+    // 10 W/m² per band over the white half (0.5 m²), three bands.
+    let w = r["energy_w"]["emitted"].as_f64().unwrap();
+    assert!((w - 15.0).abs() < 1e-6, "{w} W emitted");
+    // Turned off (with a point light, so the scene has one).
+    let toml = write(
+        d.path(),
+        "off.toml",
+        "up_axis = \"z\"\n[materials.glow]\nemission = 0\n[[light]]\nkind = \"point\"\nposition = [0.5, 0.5, 0]\npower = 1\n",
+    );
+    let out = d.path().join("off");
+    let o = run_photons(&model, &toml, &out, 10_000);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let w = report(&out)["energy_w"]["emitted"].as_f64().unwrap();
+    assert!(
+        (w - 3.0).abs() < 1e-6,
+        "{w} W emitted: the point light's alone"
+    );
+}
