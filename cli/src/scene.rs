@@ -582,9 +582,10 @@ pub fn load(path: &Path, settings: &Settings) -> Result<(Context, LoadedScene)> 
     for object in &model.objects {
         // One mesh of the object's non-emitting triangles, one per emitting material (and
         // per colour of its emission texture: a texel that is black emits nothing).
-        type Part<'t> = (Option<(usize, Option<[u8; 3]>)>, Vec<&'t obj::Triangle>);
-        let mut parts: Vec<Part> = Vec::new();
-        let mut index: HashMap<Option<(usize, Option<[u8; 3]>)>, usize> = HashMap::new();
+        // (emitting material, its emission texture's colour key), or None.
+        type Emits = Option<(usize, Option<[u8; 3]>)>;
+        let mut parts: Vec<(Emits, Vec<&obj::Triangle>)> = Vec::new();
+        let mut index: HashMap<Emits, usize> = HashMap::new();
         for t in &object.triangles {
             let key = t
                 .material
