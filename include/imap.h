@@ -1246,6 +1246,12 @@ typedef struct ImapRegionStats {
    * area × standard error (the region's flux is then summed from its vertices).
    */
   uint32_t errors_exact;
+  /**
+   * Vertices that received no light at all (no photon, no light sample: under or
+   * inside an object). They are left out of the minimum, maximum and uniformities, and
+   * of region targets on the vertices' errors. (Since 0.2.3.)
+   */
+  uint64_t unlit_vertices;
 } ImapRegionStats;
 
 /**

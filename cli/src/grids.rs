@@ -313,14 +313,31 @@ pub fn summary_json(g: &Grid, r: &GridResult, unit_m: f64) -> serde_json::Value 
         "ud": est(x.ud),
         "max_point_rel_error": r.rel_error.iter().cloned().fold(0.0, f64::max),
         "guard_vertices_at_surfaces": g.clipped,
+        "unlit_points": s.unlit_vertices,
     })
 }
 
 /// The terminal's line for a grid.
 pub fn summary_line(g: &Grid, r: &GridResult) -> String {
     let s = &r.stats;
+    if s.average.value.is_nan() || s.average.value <= 0.0 || s.extremes.is_none() {
+        return format!(
+            "grid '{}' ({} × {} points): no light reached it",
+            g.name, g.nu, g.nv
+        );
+    }
     let x = s.extremes.unwrap_or_default();
+    let unlit = if s.unlit_vertices > 0 {
+        format!(
+            "; {} point(s) received no light at all and are left out of Emin and U0",
+            s.unlit_vertices
+        )
+    } else {
+        String::new()
+    };
     format!(
+        "{}{unlit}",
+        format_args!(
         "grid '{}' ({} × {} points): Eavg {} ± {} lx, Emin {} ± {} lx, Emax {} ± {} lx, U0 {:.3} ± {:.3}, Ud {:.3} ± {:.3}",
         g.name,
         g.nu,
@@ -335,6 +352,7 @@ pub fn summary_line(g: &Grid, r: &GridResult) -> String {
         x.u0.sigma,
         x.ud.value,
         x.ud.sigma
+        )
     )
 }
 

@@ -278,3 +278,126 @@ fn emission_textures_are_read_and_emission_can_be_turned_off() {
         "{w} W emitted: the point light's alone"
     );
 }
+
+/// A floor lit from above with a closed box standing on it, and a grid over the floor at
+/// 0.1 m: some of its points lie inside the box, where no light reaches.
+fn floor_and_box(dir: &Path) -> String {
+    write(dir, "f.mtl", "newmtl grey\nKd 0.5 0.5 0.5\n");
+    let mut s = String::from("mtllib f.mtl\nusemtl grey\no floor\nv 0 0 0\nv 4 0 0\nv 4 4 0\nv 0 4 0\nf 1 2 3 4\no box\n");
+    // A 1 × 1 × 0.5 m box at x, y 1.5–2.5, outward normals.
+    for (x, y, z) in [
+        (1.5, 1.5, 0.0),
+        (2.5, 1.5, 0.0),
+        (2.5, 2.5, 0.0),
+        (1.5, 2.5, 0.0),
+        (1.5, 1.5, 0.5),
+        (2.5, 1.5, 0.5),
+        (2.5, 2.5, 0.5),
+        (1.5, 2.5, 0.5),
+    ] {
+        s += &format!("v {x} {y} {z}\n");
+    }
+    for f in [
+        [5, 8, 7, 6],
+        [9, 10, 11, 12],
+        [5, 6, 10, 9],
+        [6, 7, 11, 10],
+        [7, 8, 12, 11],
+        [8, 5, 9, 12],
+    ] {
+        s += &format!("f {} {} {} {}\n", f[0], f[1], f[2], f[3]);
+    }
+    write(dir, "fb.obj", s)
+}
+
+const ABOVE: &str = "up_axis = \"z\"\nrecord = [\"floor\"]\n[run]\nseed = 3\ntime_s = 60\n\
+    [[light]]\nkind = \"point\"\nposition = [2, 2, 2.5]\npower = 50\n\
+    [[grid]]\nname = \"g\"\norigin = [0, 0, 0.1]\nu = [1, 0, 0]\nv = [0, 1, 0]\nsize = [4, 4]\nspacing = 0.25\n";
+
+/// A target on the grid points' errors ends though some points lie inside a box: they
+/// received nothing at all, are left out and said (the target never ended: a point that no
+/// light reaches keeps its error at 100 %).
+#[test]
+fn grid_targets_end_with_points_no_light_reaches_and_say_so() {
+    let d = tempfile::tempdir().unwrap();
+    let obj = floor_and_box(d.path());
+    let toml = write(d.path(), "g.toml", ABOVE);
+    let out = d.path().join("out");
+    let o = imap(&[
+        "run",
+        &obj,
+        "--config",
+        &toml,
+        "--until-grid-error",
+        "0.1",
+        "--quiet",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let r = report(&out);
+    assert_eq!(r["stop"], "RegionTarget", "{}", r["stop"]);
+    let unlit = r["grids"][0]["unlit_points"].as_u64().unwrap();
+    // The box covers 4 × 4 points; the 2 × 2 inner ones average light over triangles
+    // that stay inside it (the outer ring's reach past its walls, and it is warned about).
+    assert_eq!(unlit, 4, "{}", r["grids"][0]);
+    let s = String::from_utf8_lossy(&o.stdout);
+    assert!(s.contains("4 point(s) received no light"), "{s}");
+    assert!(
+        stderr(&o).contains("cross the model's surfaces"),
+        "{}",
+        stderr(&o)
+    );
+    assert!(r["run_s"].as_f64().unwrap() < 30.0);
+}
+
+/// A target on the grid's average ends only once the grid's other figures are estimates:
+/// Emin, Emax and U0 known to 25 %, Emin ≤ Eavg ≤ Emax and U0 ≤ 1 within their errors
+/// (a stop at 0.3 s reported U0 = 1.18 ± 0.58).
+#[test]
+fn a_stop_on_the_grid_average_reports_sane_figures() {
+    let d = tempfile::tempdir().unwrap();
+    let obj = floor_and_box(d.path());
+    // Many points, photons only, a loose target: the average (summed photon by photon) is
+    // known long before the points are.
+    for seed in 0..4 {
+        let toml = write(
+            d.path(),
+            &format!("a{seed}.toml"),
+            ABOVE
+                .replace(
+                    "seed = 3\n",
+                    &format!("seed = {seed}\ngrid_error = 0.1\ngrid_error_measure = \"average\"\nestimator = \"photons\"\n"),
+                )
+                .replace("spacing = 0.25", "spacing = 0.1"),
+        );
+        let out = d.path().join(format!("a{seed}"));
+        let o = imap(&[
+            "run",
+            &obj,
+            "--config",
+            &toml,
+            "--quiet",
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        let g = &report(&out)["grids"][0];
+        let v = |k: &str| {
+            (
+                g[k]["value"].as_f64().unwrap(),
+                g[k]["sigma"].as_f64().unwrap(),
+            )
+        };
+        let ((avg, _), (min, smin), (max, smax), (u0, su0)) =
+            (v("average_lx"), v("min_lx"), v("max_lx"), v("u0"));
+        assert!(
+            smin <= 0.25 * min && smax <= 0.25 * max && su0 <= 0.25 * u0,
+            "{g}"
+        );
+        assert!(
+            min <= avg + 2.0 * smin && max >= avg - 2.0 * smax && u0 <= 1.0 + 2.0 * su0,
+            "{g}"
+        );
+    }
+}

@@ -210,8 +210,12 @@ pub struct RegionStats {
     /// Average illuminance, lx (flux_lm / area).
     pub average: Estimate,
     /// Minimum and maximum vertex illuminance (bias-corrected), U0 = Emin/Eavg,
-    /// Ud = Emin/Emax; None before any photon.
+    /// Ud = Emin/Emax, over the vertices that received light; None before any photon.
     pub extremes: Option<Extremes>,
+    /// Vertices of the region that received no light at all (no photon, no light sample:
+    /// under or inside an object). They are left out of the extremes and of region
+    /// targets on the vertices' errors; their value is 0.
+    pub unlit_vertices: usize,
 }
 
 impl Context {
@@ -330,7 +334,13 @@ impl Context {
         out.average_w_m2 = out.flux_w.iter().copied().map(per_area).collect();
         out.average = per_area(out.flux_lm);
         let sigma: Vec<f64> = lux.iter().zip(&rel).map(|(l, r)| l * r).collect();
-        out.extremes = stats::extremes(&lux, &sigma, &weights, out.average);
+        let lit = stats::lit_weights(&lux, &weights);
+        out.unlit_vertices = weights
+            .iter()
+            .zip(&lit)
+            .filter(|(w, l)| **w > 0.0 && **l == 0.0)
+            .count();
+        out.extremes = stats::extremes(&lux, &sigma, &lit, out.average);
         Ok(out)
     }
 }

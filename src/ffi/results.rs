@@ -48,12 +48,18 @@ pub struct ImapRegionStats {
     /// or a mesh added with IMAP_MESH_TALLY); 0: an upper bound, Σ over the vertices of
     /// area × standard error (the region's flux is then summed from its vertices).
     pub errors_exact: u32,
+    /// Vertices that received no light at all (no photon, no light sample: under or
+    /// inside an object). They are left out of the minimum, maximum and uniformities, and
+    /// of region targets on the vertices' errors. (Since 0.2.3.)
+    pub unlit_vertices: u64,
 }
 
 // SAFETY: repr(C), u32 struct_size first, plain numbers only.
 unsafe impl Versioned for ImapRegionStats {
     const NAME: &'static str = "ImapRegionStats";
     const INIT: &'static str = "sizeof";
+    /// The layout of 0.2.1, before `unlit_vertices`.
+    const BASE_SIZE: usize = std::mem::offset_of!(ImapRegionStats, unlit_vertices);
     fn defaults() -> Self {
         ImapRegionStats::default()
     }
@@ -85,6 +91,7 @@ fn stats_to_c(s: &RegionStats) -> ImapRegionStats {
         min_observed_lx: x.min_observed,
         max_observed_lx: x.max_observed,
         errors_exact: u32::from(s.exact_errors),
+        unlit_vertices: s.unlit_vertices as u64,
     }
 }
 

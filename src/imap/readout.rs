@@ -125,7 +125,7 @@ impl Readout<'_> {
 
     /// The standard error of a slot's scalar estimate, in photon units, and the estimate.
     #[inline]
-    fn sigma(&self, slot: usize) -> (f64, f64) {
+    pub(crate) fn sigma(&self, slot: usize) -> (f64, f64) {
         let (s, q) = match self.layer {
             None => self.map.scalar(slot),
             Some(l) => self.map.layer_scalar(slot, l),

@@ -46,6 +46,18 @@ pub struct Extremes {
     pub ud: Estimate,
 }
 
+/// `weights` with the vertices that received no light at all (value exactly 0) left out:
+/// a point under or inside an object, where no photon and no light sample arrives, is no
+/// point of the lit surface (EN 12464-1 leaves such points out of Emin and U0), and it is
+/// counted apart (`RegionStats::unlit_vertices`).
+pub fn lit_weights(values: &[f64], weights: &[f64]) -> Vec<f64> {
+    values
+        .iter()
+        .zip(weights)
+        .map(|(&v, &w)| if v > 0.0 { w } else { 0.0 })
+        .collect()
+}
+
 /// Standard normal pairs by Box–Muller.
 fn normals(rng: &mut PhotonRng, out: &mut [f64]) {
     for pair in out.chunks_mut(2) {

@@ -14,14 +14,16 @@ use std::ops::Range;
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum RegionMeasure {
     /// The given percentile (0 < p ≤ 100; 100 = the largest) of the vertices' relative
-    /// standard errors (band mean, as `rel_error`); a vertex that received nothing counts
-    /// as 1.
+    /// standard errors (band mean, as `rel_error`). Vertices that received nothing at all
+    /// are left out (under or inside an object, they never will); with light sampling,
+    /// no measure while a vertex waits for its first direct pass.
     Vertices { percentile: f64 },
     /// The relative standard error of each chosen mesh side's average illuminance (the
-    /// largest over them).
+    /// largest over them), once its other figures are estimates (`sane`: Emin, Emax and
+    /// U0 known to 25 %, Emin ≤ Eavg ≤ Emax and U0 ≤ 1 within their errors).
     Average,
     /// The relative standard error of each chosen mesh side's uniformity U0 = Emin/Eavg
-    /// (the largest over them).
+    /// (the largest over them), under the same condition as `Average`.
     Uniformity,
 }
 
@@ -80,8 +82,21 @@ pub fn region_error(
                 let m = &scene.meshes[i];
                 let base = m.slot_base?;
                 let sides = m.sides();
+                // With light sampling, a vertex whose first direct pass is still to come
+                // has a value of unknown size: no measure yet.
+                for side in 0..sides {
+                    if readout
+                        .region_direct(m, side, weights)
+                        .is_some_and(|d| d.waiting > 0)
+                    {
+                        return None;
+                    }
+                }
                 access.visit(base..base + m.vertex_area.len() * sides, &mut |slot| {
-                    if weights[(slot - base) / sides] > 0.0 {
+                    // A vertex that received nothing at all (no photon, no light sample:
+                    // under or inside an object) is left out: it would hold the measure at
+                    // 1 for ever. `RegionStats::unlit_vertices` reports such vertices.
+                    if weights[(slot - base) / sides] > 0.0 && readout.sigma(slot).1 > 0.0 {
                         rel.push(readout.slot_rel_error(slot));
                     }
                 });
@@ -98,10 +113,14 @@ pub fn region_error(
                 for side in 0..m.sides() {
                     let r = regions.region(side, t.part) as usize;
                     let avg = luminous(&tally, r, &readout, m, side, weights)?;
+                    // Every figure the region reports must make sense before its average
+                    // or uniformity may end a run: Emin ≤ Eavg ≤ Emax, 0 < U0 ≤ 1 (an
+                    // early stop reported U0 = 1.18 ± 0.58).
+                    let u0 = uniformity_error(m, weights, side, &readout, avg, access)?;
                     let e = if t.measure == RegionMeasure::Average {
                         avg.sigma / avg.value
                     } else {
-                        uniformity_error(m, weights, side, &readout, avg, access)?
+                        u0?
                     };
                     worst = worst.max(e);
                 }
@@ -152,7 +171,9 @@ fn luminous(
 }
 
 /// The relative standard error of U0 of mesh `m`'s `side`, its vertices weighted by
-/// `weights` (the target's share of them), given its luminous sum `avg` (photon units).
+/// `weights` (the target's share of them), given its luminous sum `avg` (photon units):
+/// None while the region's figures do not make sense together (`sane`), Some(None) when
+/// U0 is 0 (a vertex no light reaches: no relative error).
 fn uniformity_error(
     m: &PreparedMesh,
     weights: &[f64],
@@ -160,7 +181,7 @@ fn uniformity_error(
     readout: &Readout,
     avg: Estimate,
     access: &dyn SlotAccess,
-) -> Option<f64> {
+) -> Option<Option<f64>> {
     let base = m.slot_base?;
     let sides = m.sides();
     let nv = m.vertex_area.len();
@@ -186,13 +207,79 @@ fn uniformity_error(
         value: avg.value / area,
         sigma: avg.sigma / area,
     };
-    let x = stats::extremes(&lux, &sigma, weights, average)?;
-    (x.u0.value > 0.0).then(|| x.u0.sigma / x.u0.value)
+    // Vertices no light reached are left out of the extremes, as `region_stats` does.
+    let lit = stats::lit_weights(&lux, weights);
+    let x = stats::extremes(&lux, &sigma, &lit, average)?;
+    sane(&x, average.value).then(|| (x.u0.value > 0.0).then(|| x.u0.sigma / x.u0.value))
+}
+
+/// The largest relative error a region's Emin, Emax or U0 may have when its average or
+/// uniformity ends a run: past it they are no estimate yet, whatever the average's error.
+pub const MAX_FIGURE_ERROR: f64 = 0.25;
+
+/// Whether a region's figures are estimates worth reporting: finite, Emin, Emax and U0
+/// known to `MAX_FIGURE_ERROR` (a figure of 0 is exact), and consistent within twice their
+/// errors: Emin ≤ Eavg ≤ Emax, U0 ≤ 1 (an early stop on the average reported
+/// U0 = 1.18 ± 0.58, an Emin above its Eavg).
+pub(crate) fn sane(x: &stats::Extremes, average: f64) -> bool {
+    let known = |e: &Estimate| {
+        e.value.is_finite()
+            && e.sigma.is_finite()
+            && e.value >= 0.0
+            && e.sigma <= MAX_FIGURE_ERROR * e.value
+    };
+    [x.min, x.max, x.u0].iter().all(known)
+        && x.min.value <= average + 2.0 * x.min.sigma
+        && x.max.value >= average - 2.0 * x.max.sigma
+        && x.u0.value <= 1.0 + 2.0 * x.u0.sigma
 }
 
 #[cfg(test)]
 mod tests {
-    use super::percentile_of;
+    use super::{percentile_of, sane};
+    use crate::imap::stats::{Estimate, Extremes};
+
+    fn e(value: f64, sigma: f64) -> Estimate {
+        Estimate { value, sigma }
+    }
+
+    /// The early stop users met (U0 = 1.18 ± 0.58, Emin above Eavg) is no estimate; the
+    /// same figures known to a few percent are; an unlit point (Emin = U0 = 0) is exact.
+    #[test]
+    fn region_figures_must_be_estimates_before_a_target_is_met() {
+        let early = Extremes {
+            min: e(118.0, 58.0),
+            max: e(160.0, 30.0),
+            min_observed: 90.0,
+            max_observed: 170.0,
+            u0: e(1.18, 0.58),
+            ud: e(0.74, 0.4),
+        };
+        assert!(!sane(&early, 100.0));
+        let later = Extremes {
+            min: e(62.0, 1.5),
+            max: e(141.0, 2.0),
+            u0: e(0.62, 0.015),
+            ud: e(0.44, 0.012),
+            ..early
+        };
+        assert!(sane(&later, 100.0));
+        // Emin above Eavg by more than twice its error.
+        assert!(!sane(
+            &Extremes {
+                min: e(104.0, 1.0),
+                ..later
+            },
+            100.0
+        ));
+        let dark = Extremes {
+            min: e(0.0, 0.0),
+            u0: e(0.0, 0.0),
+            ud: e(0.0, 0.0),
+            ..later
+        };
+        assert!(sane(&dark, 100.0));
+    }
 
     #[test]
     fn percentiles_by_nearest_rank() {
