@@ -1069,3 +1069,68 @@ fn the_sky_is_seen_all_round_the_model() {
     let img = ctx.path_trace(&cam, 2, 100).unwrap();
     check(&img, "path tracer");
 }
+
+/// The sun through a glass slab onto a floor, by final gathering: its light under the slab
+/// is a caustic (a light sample toward the sun meets the glass), brought by caustic
+/// photons from the sun as from point lights. Eye paths found the 0.53° disk through the
+/// glass once in 10⁵ cosine samples: the estimated error read 600–1400 % on a picture that
+/// looked right. Now the error is a few percent, and the image agrees with the photon-map
+/// renderer's, whose photons carry caustics anyway.
+#[test]
+fn the_sun_through_glass_is_rendered_with_a_usable_error() {
+    use imap::scene::sky::{SkyAmount, SunDesc};
+    let mut ctx = context(Config {
+        threads: 2,
+        seed: 4,
+        ..Default::default()
+    });
+    let grey = lambert(&mut ctx, 0.5);
+    let glass = ctx
+        .add_material(&imap::MaterialDesc {
+            ior: Some(imap::IorModel::Constant(1.5)),
+            ..Default::default()
+        })
+        .unwrap();
+    ctx.add_mesh(&grid(8, -2.0, 2.0, -2.0, 2.0, 0.0).desc(grey))
+        .unwrap();
+    // A 2 × 2 × 0.05 m slab at 1 m, closed, normals outward.
+    let slab = cuboid([-1.0, -1.0, 1.0], [1.0, 1.0, 1.05], 1, false);
+    let mut d = slab.desc(glass);
+    d.record = false;
+    ctx.add_mesh(&d).unwrap();
+    ctx.add_sun(&SunDesc {
+        zenith_deg: 20.0,
+        azimuth_deg: 30.0,
+        amount: SkyAmount::NormalIrradiance(300.0),
+        ..SunDesc::default()
+    })
+    .unwrap();
+    // Looking down at the floor under the slab, from beside it and below it.
+    let cam = CameraDesc {
+        position: [0.0, -3.0, 0.6],
+        direction: [0.0, 3.0, -0.6],
+        up: [0.0, 0.0, 1.0],
+        fov_y_deg: 30.0,
+        width: 24,
+        height: 16,
+    };
+    let mut fg = params(RenderMethod::FinalGather, 0);
+    fg.time_budget_s = 6.0;
+    let (a, ra) = render(&mut ctx, &cam, &mut fg);
+    let mut semi = params(RenderMethod::SemiSynchronous, 0);
+    semi.time_budget_s = 6.0;
+    let (b, rb) = render(&mut ctx, &cam, &mut semi);
+    let mean = |img: &Image| img.radiance.iter().sum::<f64>() / img.radiance.len() as f64;
+    let (ma, mb) = (mean(&a), mean(&b));
+    eprintln!(
+        "sun through glass: final gathering {ma:.4} (error {:.2} %), semi-synchronous {mb:.4} (error {:.2} %)",
+        100.0 * ra.rel_error,
+        100.0 * rb.rel_error
+    );
+    assert!(
+        ra.rel_error < 0.25,
+        "final gathering's error {}",
+        ra.rel_error
+    );
+    assert!((ma - mb).abs() < 0.05 * mb, "{ma} against {mb}");
+}

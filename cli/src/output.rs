@@ -1099,7 +1099,8 @@ pub fn plot_convergence(path: &Path, history: &[Progress]) -> Result<()> {
     let pts: Vec<(f64, f64)> = history
         .iter()
         .filter(|p| (1e-6..=1e12).contains(&p.elapsed_s))
-        .filter(|p| (1e-12..1.0).contains(&p.rel_error))
+        // 1 exactly is the library's "no data yet"; errors above 100 % are estimates too.
+        .filter(|p| (1e-12..1e6).contains(&p.rel_error) && p.rel_error != 1.0)
         .map(|p| (p.elapsed_s, p.rel_error))
         .collect();
     let font = register_font();

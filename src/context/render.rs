@@ -306,13 +306,18 @@ impl Context {
             .filter(|m| m.record)
             .map(|m| m.positions.len() * if m.two_sided { 2 } else { 1 })
             .sum();
-        // Caustics of point-like lights: only where there are both.
+        // Caustics of point-like lights and of the sun (a disk of 0.53°, which eye paths
+        // through specular surfaces almost never find): only where there are both.
         let delta: Vec<bool> = {
             let prepared = &self.prepared.as_ref().expect("prepared").scene;
             prepared
                 .emitters
                 .iter()
-                .map(|e| matches!(e.kind, EmitterKind::Light(_)))
+                .map(|e| match &e.kind {
+                    EmitterKind::Light(_) => true,
+                    EmitterKind::Distant { part, .. } => part.is_sun(),
+                    _ => false,
+                })
                 .collect()
         };
         let specular = self
@@ -583,6 +588,8 @@ impl Context {
             // A batch of eye passes.
             let mut eye = self.eye_tracer(&cam, max_events, 0.0);
             eye.map = map.as_ref();
+            // The sun through specular surfaces: the caustic rounds bring it.
+            eye.sun_by_caustics = with_caustics;
             let up_to = if fixed > 0 {
                 err.min_samples.saturating_add(1)
             } else {

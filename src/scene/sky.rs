@@ -153,6 +153,13 @@ pub struct DistantPart {
     pub per_band: Vec<f64>,
 }
 
+impl DistantPart {
+    /// Whether this part is the sun's disk.
+    pub fn is_sun(&self) -> bool {
+        matches!(self.radiance, Radiance::Sun { .. })
+    }
+}
+
 impl fmt::Debug for DistantPart {
     // An image's pixels are summarised by a hash: the scene's description (state
     // fingerprints) must tell different images apart without printing megapixels.
