@@ -64,12 +64,17 @@ impl Context {
 
     /// What reads the map's `layer` (None: the combined values); None before the first run.
     pub(super) fn readout(&self, layer: Option<u8>) -> Option<Readout<'_>> {
+        let prepared = self.prepared.as_ref()?;
         Some(Readout {
             map: self.map.as_ref()?,
-            scene: &self.prepared.as_ref()?.scene,
+            scene: &prepared.scene,
             photons: self.photons(),
             unit_m: self.config.unit_m,
             layer,
+            plan: prepared
+                .direct
+                .as_ref()
+                .map(|p| p as &dyn crate::imap::Neighbours),
         })
     }
 

@@ -40,8 +40,8 @@ pub use direct::DirectAcc;
 pub use photon::{
     grey_index, shares, BufferedHit, PhotonBuffer, PhotonOut, FULL, GREY, GREY_WEIGHTED, WEIGHTED,
 };
-pub use readout::Readout;
 pub(crate) use readout::NO_DATA_REL_ERROR;
+pub use readout::{Neighbours, Readout};
 
 use crate::error::{Error, ImapStatus, Result};
 use crate::scene::GreySpectra;

@@ -11,7 +11,7 @@
 //! the relative standard error is √(Q − S²/N) / S. `tests/calibration.rs` checks it against
 //! the spread over independent seeds, up to ρ = 0.99 in a closed sphere.
 
-use super::IMap;
+use super::{DirectAcc, IMap};
 use crate::scene::{PreparedMesh, PreparedScene};
 
 /// Relative error reported for a vertex that received nothing or has no area: 1 (100 %).
@@ -46,6 +46,16 @@ pub struct Readout<'a> {
     pub unit_m: f64,
     /// One layer of the map (`LayerLayout`), or None: the combined values.
     pub layer: Option<u8>,
+    /// Each slot's neighbours (the light-sampling estimator's plan knows its vertices'
+    /// triangles), for the direct part's error (`neighbours_spread`); None: each slot's own
+    /// spread alone.
+    pub plan: Option<&'a dyn Neighbours>,
+}
+
+/// Who lists a map slot's neighbours: the slots of the vertices that share a triangle
+/// with its vertex, on the same side (a neighbour may come twice).
+pub trait Neighbours: Sync {
+    fn neighbour_slots(&self, scene: &PreparedScene, slot: usize, f: &mut dyn FnMut(usize));
 }
 
 impl Readout<'_> {
@@ -138,13 +148,55 @@ impl Readout<'_> {
         // The direct part: independent of the photons, so the variances add.
         let k = self.units_per_watt();
         let cells = self.map.layout().cells(slot, self.layer);
-        let (mean, var, passes) = d.scalar_of(cells.clone(), cells.len() > 1);
+        let (mean, mut var, passes) = d.scalar_of(cells.clone(), cells.len() > 1);
+        if let (Some(plan), true) = (self.plan, passes >= 2.0 && mean > 0.0) {
+            var = var.max(mean * mean * self.neighbours_spread(plan, d, slot, mean, var, passes));
+        }
         let total = s + mean * k;
         if passes == 0.0 && total > 0.0 {
             // No pass has reached the vertex yet: its direct part is unknown.
             return (total, total);
         }
         ((sigma * sigma + var * k * k).sqrt(), total)
+    }
+
+    /// A floor for slot `slot`'s direct relative variance of the mean (its direct part's
+    /// `mean`, `var` and `passes`): the upper quartile of the relative spread of the passes
+    /// (variance per pass over the mean²) over the slot and those of its neighbours (the
+    /// vertices sharing a triangle with it, same side) that read more than it does, over
+    /// `passes`.
+    ///
+    /// With few passes a slot's own spread is itself noisy, and smallest exactly when its
+    /// passes missed what lights part of its support (a luminaire's lobe or edge): value
+    /// and error then correlate negatively, and a slot claims a small error for a value
+    /// far below the truth. Its brighter neighbours' spread is independent of its own luck.
+    /// Dimmer neighbours are left out: across a step in the light (the edge of a sun patch
+    /// or a beam) their spread is the step's, not this slot's. On a EULUMDAT wall washer in
+    /// a black sphere, values beyond 3 estimated errors at 100 000 photons fell from 2.0 %
+    /// to 1.2 % and the correlation of value and error from −0.36 to −0.10 (docs/estimators).
+    fn neighbours_spread(
+        &self,
+        plan: &dyn Neighbours,
+        d: &DirectAcc,
+        slot: usize,
+        mean: f64,
+        var: f64,
+        passes: f64,
+    ) -> f64 {
+        let mut cv2 = [0.0f64; 16];
+        cv2[0] = var * passes / (mean * mean);
+        let mut k = 1;
+        plan.neighbour_slots(self.scene, slot, &mut |u| {
+            let c = self.map.layout().cells(u, self.layer);
+            let (mu, vu, nu) = d.scalar_of(c.clone(), c.len() > 1);
+            if nu >= 2.0 && mu >= mean && k < cv2.len() {
+                cv2[k] = vu * nu / (mu * mu);
+                k += 1;
+            }
+        });
+        let cv2 = &mut cv2[..k];
+        cv2.sort_unstable_by(f64::total_cmp);
+        cv2[(3 * k) / 4] / passes
     }
 
     /// The direct part of the region of `mesh`'s `side` whose vertices have the area shares

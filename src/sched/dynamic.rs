@@ -504,6 +504,7 @@ fn locked_error(table: &GroupTable, map: &IMap, rc: &RunContext, photons: u64) -
         photons,
         unit_m: rc.unit_m,
         layer: None,
+        plan: rc.neighbours(),
     };
     let (mut num, mut den) = (0.0, 0.0);
     let mut chain = Vec::new();

@@ -298,6 +298,15 @@ pub fn trace_all(
     }
 }
 
+impl RunContext<'_> {
+    /// Each slot's neighbours, for the direct part's error (light sampling).
+    pub fn neighbours(&self) -> Option<&dyn crate::imap::Neighbours> {
+        self.tracer
+            .direct
+            .map(|d| d.plan as &dyn crate::imap::Neighbours)
+    }
+}
+
 /// The global error of `map` after `photons` photons (the caller excludes writers).
 pub fn global_error(map: &IMap, rc: &RunContext, photons: u64) -> Option<f64> {
     Readout {
@@ -306,6 +315,7 @@ pub fn global_error(map: &IMap, rc: &RunContext, photons: u64) -> Option<f64> {
         photons,
         unit_m: rc.unit_m,
         layer: None,
+        plan: rc.neighbours(),
     }
     .global_error()
 }

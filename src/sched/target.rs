@@ -73,6 +73,7 @@ pub fn region_error(
         photons,
         unit_m: rc.unit_m,
         layer: None,
+        plan: rc.neighbours(),
     };
     let targets = t.meshes.iter().zip(rc.region_weights);
     match t.measure {

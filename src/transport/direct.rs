@@ -234,6 +234,37 @@ pub struct DirectPlan {
     pub chunks: [u64; 2],
     /// Lit slots (`lit_slots`): of the other vertices, of the sensors'.
     pub lit: [usize; 2],
+    /// The recording meshes by their first map slot, in slot order (slot → mesh).
+    slot_meshes: Vec<(usize, u32)>,
+}
+
+impl crate::imap::Neighbours for DirectPlan {
+    /// The slots of the vertices that share a triangle with slot `slot`'s vertex, on its
+    /// side (each once per shared triangle).
+    fn neighbour_slots(&self, scene: &PreparedScene, slot: usize, f: &mut dyn FnMut(usize)) {
+        let k = self.slot_meshes.partition_point(|b| b.0 <= slot);
+        let Some(&(base, mesh)) = k.checked_sub(1).and_then(|k| self.slot_meshes.get(k)) else {
+            return;
+        };
+        let m = &scene.meshes[mesh as usize];
+        let sides = m.sides();
+        let (v, side) = ((slot - base) / sides, (slot - base) % sides);
+        let Some(adj) = &self.adjacency[mesh as usize] else {
+            return;
+        };
+        let (Some(&a), Some(&b)) = (adj.first.get(v), adj.first.get(v + 1)) else {
+            return;
+        };
+        for &t in &adj.tris[a as usize..b as usize] {
+            for &u in &m.triangles[t as usize] {
+                if u as usize != v {
+                    if let Some(s) = m.slot(u, side) {
+                        f(s);
+                    }
+                }
+            }
+        }
+    }
 }
 
 impl DirectPlan {
@@ -329,6 +360,12 @@ impl DirectPlan {
             .iter()
             .find(|b| scene.meshes[b.1 as usize].sensor)
             .map_or(slots, |b| b.0);
+        let slot_meshes = scene
+            .meshes
+            .iter()
+            .enumerate()
+            .filter_map(|(i, m)| Some((m.slot_base?, i as u32)))
+            .collect();
         DirectPlan {
             border,
             adjacency,
@@ -337,6 +374,7 @@ impl DirectPlan {
             regular,
             chunks: [chunks(regular), chunks(slots - regular)],
             lit: [lit_slots(scene, false), lit_slots(scene, true)],
+            slot_meshes,
         }
     }
 
