@@ -254,3 +254,50 @@ fn time_budget_and_target_error_stop_the_run() {
     assert!(h.len() > reports.len());
     assert!((h.last().unwrap().elapsed_s - (r.run_wall_s + r2.run_wall_s)).abs() < 0.05);
 }
+
+/// The progress callback sees every check the run records, the one that met the target
+/// error and the one that met a region target included (it saw every check but those: a
+/// host plotting error against time never saw its target met).
+#[test]
+fn the_callback_sees_the_check_that_met_the_target() {
+    for region in [false, true] {
+        let (mut ctx, ids) = mixed_room(seeded(7));
+        let mut seen = Vec::new();
+        let mut cb = |p: &imap::Progress| {
+            seen.push(*p);
+            true
+        };
+        let r = ctx
+            .run(&mut RunParams {
+                target_rel_error: if region { 0.0 } else { 0.05 },
+                region: region.then(|| imap::sched::target::RegionTarget {
+                    meshes: vec![ids[0] as usize],
+                    part: None,
+                    measure: imap::sched::target::RegionMeasure::Vertices { percentile: 50.0 },
+                    target: 0.05,
+                }),
+                time_budget_s: 60.0,
+                progress_interval_s: 0.01,
+                progress: Some(&mut cb),
+                ..Default::default()
+            })
+            .unwrap();
+        let want = if region {
+            StopReason::RegionTarget
+        } else {
+            StopReason::TargetError
+        };
+        assert_eq!(r.stop, Some(want));
+        let history = ctx.history().to_vec();
+        assert_eq!(seen, history, "the callback's points against the history");
+        let met = |p: &imap::Progress| {
+            if region {
+                p.region_rel_error <= 0.05
+            } else {
+                p.rel_error <= 0.05
+            }
+        };
+        // The check that met it, before the final report.
+        assert!(met(&seen[seen.len() - 2]), "{:?}", &seen[seen.len() - 2..]);
+    }
+}

@@ -405,8 +405,11 @@ impl<'p, 'a> Monitor<'p, 'a> {
                 self.stop = Some(StopReason::TargetError);
             } else if region_met {
                 self.stop = Some(StopReason::RegionTarget);
-            } else if let Some(cb) = self.params.progress.as_mut() {
-                if !cb(&p) {
+            }
+            // The callback sees every check, the one that met a target too (its answer
+            // then no longer matters).
+            if let Some(cb) = self.params.progress.as_mut() {
+                if !cb(&p) && self.stop.is_none() {
                     self.stop = Some(StopReason::Cancelled);
                 }
             }
