@@ -537,6 +537,22 @@
 #define IMAP_SKY_UNIT_SCALE 4
 
 /**
+ * `ImapSunTime::flags`: `pressure_hpa` and `temperature_c` are given. (Since 0.2.3.)
+ */
+#define IMAP_SUN_TIME_ATMOSPHERE 1
+
+/**
+ * `ImapSunTime::flags`: no atmospheric refraction (the true, geometric position).
+ * (Since 0.2.3.)
+ */
+#define IMAP_SUN_TIME_NO_REFRACTION 2
+
+/**
+ * `ImapSunTime::flags`: `delta_t_s` is given. (Since 0.2.3.)
+ */
+#define IMAP_SUN_TIME_DELTA_T 4
+
+/**
  * `imap_state_write` flag: leave the map's accumulators out (an MPI rank's "ledger": the
  * caller sums the maps itself, see `imap_map_accumulators`). (Since 0.2.2.)
  */
@@ -1686,6 +1702,24 @@ typedef struct ImapSunTime {
   double latitude_deg;
   double longitude_deg;
   double elevation_m;
+  /**
+   * `IMAP_SUN_TIME_*` flags: which of the fields below are given (0: a standard
+   * atmosphere of 1013.25 hPa and 10 °C for refraction, ΔT estimated from the date).
+   * (Since 0.2.3.)
+   */
+  uint32_t flags;
+  /**
+   * The air's pressure at the site, hPa, with `IMAP_SUN_TIME_ATMOSPHERE`.
+   */
+  double pressure_hpa;
+  /**
+   * The air's temperature at the site, °C, with `IMAP_SUN_TIME_ATMOSPHERE`.
+   */
+  double temperature_c;
+  /**
+   * ΔT = TT − UT1, s, with `IMAP_SUN_TIME_DELTA_T` (the SPA paper's example: 67).
+   */
+  double delta_t_s;
 } ImapSunTime;
 
 #ifdef __cplusplus
@@ -2422,10 +2456,14 @@ enum ImapStatus imap_add_sun(struct ImapContext *ctx, const struct ImapSun *sun,
  * The sun's apparent position at a local date and time and a place: azimuth (degrees from
  * north toward east) into `*out_azimuth_deg`, zenith angle (degrees; above 90 when it is
  * below the horizon) into `*out_zenith_deg`. NREL's Solar Position Algorithm (±0.0003°,
- * years −2000 to 6000), ΔT estimated from the date, refraction of a standard atmosphere.
+ * years −2000 to 6000). ΔT is estimated from the date and refraction is a standard
+ * atmosphere's (1013.25 hPa, 10 °C) unless `time->flags` gives them
+ * (`IMAP_SUN_TIME_DELTA_T`, `IMAP_SUN_TIME_ATMOSPHERE`, `IMAP_SUN_TIME_NO_REFRACTION`):
+ * the SPA paper's example (2003-10-17 12:30:30 at −7 h, 39.742476° N, 105.1786° W,
+ * 1830.14 m, 820 hPa, 11 °C, ΔT = 67 s) gives azimuth 194.34024°, zenith 50.11162°.
  * Returns IMAP_ERR_NULL_POINTER, IMAP_ERR_NON_FINITE, IMAP_ERR_INVALID_ARGUMENT (naming
- * the field: a date that does not exist, a latitude outside ±90°, …). Thread-safe.
- * (Since 0.2.2.)
+ * the field: a date that does not exist, a latitude outside ±90°, a pressure or
+ * temperature out of range, unknown flags, …). Thread-safe. (Since 0.2.2.)
  *
  * # Safety
  * `time` points to an initialised `ImapSunTime`; the outputs are writable.

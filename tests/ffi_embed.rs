@@ -872,3 +872,59 @@ fn state_files_from_devices_are_refused() {
     // SAFETY: nothing uses the context.
     ok(unsafe { imap_destroy(h.0) }, std::ptr::null());
 }
+
+/// `imap_sun_position` takes the site's pressure and temperature and ΔT, so a C caller
+/// reproduces the SPA paper's example (Reda & Andreas 2004, table A5.1): azimuth
+/// 194.34024°, zenith 50.11162°. Without them (standard atmosphere, ΔT estimated) it is off
+/// by about 0.005°; an older caller's smaller struct still works.
+#[test]
+fn the_sun_position_reproduces_the_spa_example_through_c() {
+    let mut t = std::mem::MaybeUninit::<ImapSunTime>::uninit();
+    // SAFETY: the out-pointer holds sizeof(ImapSunTime) bytes.
+    let mut t = unsafe {
+        ok(
+            imap_sun_time_default(t.as_mut_ptr(), std::mem::size_of::<ImapSunTime>()),
+            std::ptr::null(),
+        );
+        t.assume_init()
+    };
+    (t.year, t.month, t.day, t.hour, t.minute, t.second) = (2003, 10, 17, 12, 30, 30.0);
+    t.utc_offset_hours = -7.0;
+    (t.latitude_deg, t.longitude_deg, t.elevation_m) = (39.742476, -105.1786, 1830.14);
+    (t.pressure_hpa, t.temperature_c, t.delta_t_s) = (820.0, 11.0, 67.0);
+    t.flags = IMAP_SUN_TIME_ATMOSPHERE | IMAP_SUN_TIME_DELTA_T;
+    let (mut az, mut zen) = (0.0, 0.0);
+    // SAFETY: valid struct and outputs.
+    ok(
+        unsafe { imap_sun_position(&t, &mut az, &mut zen) },
+        std::ptr::null(),
+    );
+    assert!(
+        (az - 194.34024).abs() < 2e-5 && (zen - 50.11162).abs() < 2e-5,
+        "{az} {zen}"
+    );
+    // An older program's struct (the fields before `flags`): the standard atmosphere.
+    let mut old = t;
+    old.struct_size = std::mem::offset_of!(ImapSunTime, flags) as u32;
+    // SAFETY: as above.
+    ok(
+        unsafe { imap_sun_position(&old, &mut az, &mut zen) },
+        std::ptr::null(),
+    );
+    assert!(
+        (zen - 50.11162).abs() > 1e-3 && (zen - 50.11162).abs() < 0.05,
+        "{zen}"
+    );
+    // Out of range and unknown flags are refused by name.
+    t.pressure_hpa = -3.0;
+    // SAFETY: as above.
+    let s = unsafe { imap_sun_position(&t, &mut az, &mut zen) };
+    assert_eq!(s, ImapStatus::ImapErrInvalidArgument);
+    assert!(message(std::ptr::null()).contains("pressure_hpa"));
+    t.pressure_hpa = 820.0;
+    t.flags |= 64;
+    // SAFETY: as above.
+    let s = unsafe { imap_sun_position(&t, &mut az, &mut zen) };
+    assert_eq!(s, ImapStatus::ImapErrInvalidArgument);
+    assert!(message(std::ptr::null()).contains("flags"));
+}

@@ -102,6 +102,15 @@ pub struct SunSettings {
     pub longitude_deg: Option<f64>,
     #[serde(default)]
     pub elevation_m: f64,
+    /// The site's air pressure (hPa) and temperature (°C) for refraction (both, or the
+    /// standard atmosphere: 1013.25 hPa, 10 °C), and ΔT = TT − UT1 in s (default:
+    /// estimated from the date). With a date only.
+    #[serde(default)]
+    pub pressure_hpa: Option<f64>,
+    #[serde(default)]
+    pub temperature_c: Option<f64>,
+    #[serde(default)]
+    pub delta_t_s: Option<f64>,
     #[serde(default)]
     pub normal_illuminance: Option<f64>,
     #[serde(default)]
@@ -167,7 +176,12 @@ fn sun_angles(s: &SunSettings) -> Result<(f64, f64)> {
                 fail!("{what}: a date needs latitude_deg and longitude_deg");
             };
             let (year, month, day, hour, minute, second) = parse_date(date, what)?;
-            sky::sun_position(&SunTime {
+            let atmosphere = match (s.pressure_hpa, s.temperature_c) {
+                (Some(p), Some(c)) => (p, c),
+                (None, None) => sky::STANDARD_ATMOSPHERE,
+                _ => fail!("{what}: give pressure_hpa and temperature_c together"),
+            };
+            sky::sun_position_with(&SunTime {
                 year,
                 month,
                 day,
@@ -178,7 +192,7 @@ fn sun_angles(s: &SunSettings) -> Result<(f64, f64)> {
                 latitude_deg: lat,
                 longitude_deg: lon,
                 elevation_m: s.elevation_m,
-            })
+            }, s.delta_t_s, Some(atmosphere))
             .map_err(|e| CliError(format!("{what}: {}", printable(&e.message))))
         }
         _ => fail!("{what}: give azimuth_deg and zenith_deg, or a date with latitude_deg and longitude_deg"),

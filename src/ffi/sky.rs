@@ -155,12 +155,32 @@ pub struct ImapSunTime {
     pub latitude_deg: f64,
     pub longitude_deg: f64,
     pub elevation_m: f64,
+    /// `IMAP_SUN_TIME_*` flags: which of the fields below are given (0: a standard
+    /// atmosphere of 1013.25 hPa and 10 °C for refraction, ΔT estimated from the date).
+    /// (Since 0.2.3.)
+    pub flags: u32,
+    /// The air's pressure at the site, hPa, with `IMAP_SUN_TIME_ATMOSPHERE`.
+    pub pressure_hpa: f64,
+    /// The air's temperature at the site, °C, with `IMAP_SUN_TIME_ATMOSPHERE`.
+    pub temperature_c: f64,
+    /// ΔT = TT − UT1, s, with `IMAP_SUN_TIME_DELTA_T` (the SPA paper's example: 67).
+    pub delta_t_s: f64,
 }
+
+/// `ImapSunTime::flags`: `pressure_hpa` and `temperature_c` are given. (Since 0.2.3.)
+pub const IMAP_SUN_TIME_ATMOSPHERE: u32 = 1;
+/// `ImapSunTime::flags`: no atmospheric refraction (the true, geometric position).
+/// (Since 0.2.3.)
+pub const IMAP_SUN_TIME_NO_REFRACTION: u32 = 2;
+/// `ImapSunTime::flags`: `delta_t_s` is given. (Since 0.2.3.)
+pub const IMAP_SUN_TIME_DELTA_T: u32 = 4;
 
 // SAFETY: repr(C), u32 struct_size first, numbers only.
 unsafe impl Versioned for ImapSunTime {
     const NAME: &'static str = "ImapSunTime";
     const INIT: &'static str = "imap_sun_time_default";
+    /// The layout of 0.2.2, before `flags`.
+    const BASE_SIZE: usize = std::mem::offset_of!(ImapSunTime, flags);
     fn defaults() -> Self {
         ImapSunTime {
             struct_size: std::mem::size_of::<Self>() as u32,
@@ -174,6 +194,10 @@ unsafe impl Versioned for ImapSunTime {
             latitude_deg: 0.0,
             longitude_deg: 0.0,
             elevation_m: 0.0,
+            flags: 0,
+            pressure_hpa: 0.0,
+            temperature_c: 0.0,
+            delta_t_s: 0.0,
         }
     }
 }
@@ -367,10 +391,14 @@ pub unsafe extern "C" fn imap_add_sun(
 /// The sun's apparent position at a local date and time and a place: azimuth (degrees from
 /// north toward east) into `*out_azimuth_deg`, zenith angle (degrees; above 90 when it is
 /// below the horizon) into `*out_zenith_deg`. NREL's Solar Position Algorithm (±0.0003°,
-/// years −2000 to 6000), ΔT estimated from the date, refraction of a standard atmosphere.
+/// years −2000 to 6000). ΔT is estimated from the date and refraction is a standard
+/// atmosphere's (1013.25 hPa, 10 °C) unless `time->flags` gives them
+/// (`IMAP_SUN_TIME_DELTA_T`, `IMAP_SUN_TIME_ATMOSPHERE`, `IMAP_SUN_TIME_NO_REFRACTION`):
+/// the SPA paper's example (2003-10-17 12:30:30 at −7 h, 39.742476° N, 105.1786° W,
+/// 1830.14 m, 820 hPa, 11 °C, ΔT = 67 s) gives azimuth 194.34024°, zenith 50.11162°.
 /// Returns IMAP_ERR_NULL_POINTER, IMAP_ERR_NON_FINITE, IMAP_ERR_INVALID_ARGUMENT (naming
-/// the field: a date that does not exist, a latitude outside ±90°, …). Thread-safe.
-/// (Since 0.2.2.)
+/// the field: a date that does not exist, a latitude outside ±90°, a pressure or
+/// temperature out of range, unknown flags, …). Thread-safe. (Since 0.2.2.)
 ///
 /// # Safety
 /// `time` points to an initialised `ImapSunTime`; the outputs are writable.
@@ -384,18 +412,38 @@ pub unsafe extern "C" fn imap_sun_position(
         super::check_out("out_azimuth_deg", out_azimuth_deg)?;
         super::check_out("out_zenith_deg", out_zenith_deg)?;
         let t = read_versioned("time", time)?;
-        let (a, z) = sky::sun_position(&SunTime {
-            year: t.year,
-            month: t.month,
-            day: t.day,
-            hour: t.hour,
-            minute: t.minute,
-            second: t.second,
-            utc_offset_hours: t.utc_offset_hours,
-            latitude_deg: t.latitude_deg,
-            longitude_deg: t.longitude_deg,
-            elevation_m: t.elevation_m,
-        })?;
+        let known = IMAP_SUN_TIME_ATMOSPHERE | IMAP_SUN_TIME_NO_REFRACTION | IMAP_SUN_TIME_DELTA_T;
+        if t.flags & !known != 0 {
+            bail!(
+                ImapErrInvalidArgument,
+                "time.flags = {:#x} sets bits no IMAP_SUN_TIME_* flag has",
+                t.flags
+            );
+        }
+        let delta_t = (t.flags & IMAP_SUN_TIME_DELTA_T != 0).then_some(t.delta_t_s);
+        let refraction = if t.flags & IMAP_SUN_TIME_NO_REFRACTION != 0 {
+            None
+        } else if t.flags & IMAP_SUN_TIME_ATMOSPHERE != 0 {
+            Some((t.pressure_hpa, t.temperature_c))
+        } else {
+            Some(sky::STANDARD_ATMOSPHERE)
+        };
+        let (a, z) = sky::sun_position_with(
+            &SunTime {
+                year: t.year,
+                month: t.month,
+                day: t.day,
+                hour: t.hour,
+                minute: t.minute,
+                second: t.second,
+                utc_offset_hours: t.utc_offset_hours,
+                latitude_deg: t.latitude_deg,
+                longitude_deg: t.longitude_deg,
+                elevation_m: t.elevation_m,
+            },
+            delta_t,
+            refraction,
+        )?;
         write_out("out_azimuth_deg", out_azimuth_deg, a)?;
         write_out("out_zenith_deg", out_zenith_deg, z)
     })

@@ -998,8 +998,12 @@ pub struct SunTime {
 /// `solar-positioning` crate), with ΔT estimated from the date (Espenak & Meeus) and the
 /// refraction of a standard atmosphere (1013.25 hPa, 10 °C; none below the horizon).
 pub fn sun_position(t: &SunTime) -> Result<(f64, f64)> {
-    sun_position_with(t, None, Some((1013.25, 10.0)))
+    sun_position_with(t, None, Some(STANDARD_ATMOSPHERE))
 }
+
+/// The atmosphere refraction is computed for unless a caller gives its own: (pressure
+/// hPa, temperature °C).
+pub const STANDARD_ATMOSPHERE: (f64, f64) = (1013.25, 10.0);
 
 /// `sun_position` with ΔT (s) given, and refraction for (pressure hPa, temperature °C)
 /// or none.
@@ -1023,6 +1027,13 @@ pub fn sun_position_with(
             "year = {}: the solar position algorithm covers −2000 to 6000",
             t.year
         );
+    }
+    if let Some(d) = delta_t {
+        check_angle("delta_t_s", d, -1e6, 1e6)?;
+    }
+    if let Some((p, c)) = refraction {
+        check_angle("pressure_hpa", p, 1.0, 2000.0)?;
+        check_angle("temperature_c", c, -100.0, 100.0)?;
     }
     let dt = match delta_t {
         Some(d) => d,
