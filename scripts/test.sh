@@ -15,6 +15,13 @@ JOBS=$(nproc)
 echo "== cargo test (release: shares the build with CMake)"
 cargo test --release --workspace --all-targets
 
+echo "== the README's main job, into a folder of the caller's: scripts/demo.sh --out DIR"
+DEMO=$(mktemp -d)
+scripts/demo.sh --out "$DEMO/out" --target-error 0.05 >/dev/null
+test -s "$DEMO/out/report.json" && test -s "$DEMO/out/view.png" || { echo "demo.sh --out wrote no outputs" >&2; exit 1; }
+rm -rf "$DEMO"
+echo "demo.sh --out: ok"
+
 echo "== ABI of libimap.so against the baseline in abi/ (abidiff and the header's layout)"
 # cargo test builds the library as an rlib only: build the shared library itself.
 cargo build --release -p imap --lib
