@@ -482,6 +482,22 @@ int main(void) {
     for (int i = 0; i < 4; i++)
         if (g0[i] != 0 || fabs(g1[i] - lux[i]) > 1e-12 * lux[i] || fabs(dl[i] - lux[i]) > 1e-12 * lux[i])
             printf("FAIL vertex %d: layers %g + %g, direct %g, lux %g\n", i, g0[i], g1[i], dl[i], lux[i]), failures++;
+    /* A layer's region figures: group 1's and the direct layer's are the floor's; group 0 has nothing. */
+    ImapRegionStats whole, grp, g0s;
+    expect("floor figures", imap_get_region_stats(ctx, floor_id, 0, IMAP_ALL_PARTS, &whole, sizeof whole), IMAP_OK, ctx);
+    expect("group 1 figures", imap_get_layer_region_stats(ctx, floor_id, 0, IMAP_ALL_PARTS, 1, &grp, sizeof grp), IMAP_OK,
+           ctx);
+    expect("group 0 figures", imap_get_layer_region_stats(ctx, floor_id, 0, IMAP_ALL_PARTS, 0, &g0s, sizeof g0s), IMAP_OK,
+           ctx);
+    expect("group 2 figures", imap_get_layer_region_stats(ctx, floor_id, 0, IMAP_ALL_PARTS, 2, &g0s, sizeof g0s),
+           IMAP_ERR_INDEX_OUT_OF_RANGE, ctx);
+    expect("layer figures, NULL", imap_get_layer_region_stats(ctx, floor_id, 0, IMAP_ALL_PARTS, 1, NULL, sizeof g0s),
+           IMAP_ERR_NULL_POINTER, ctx);
+    if (!(whole.average_lx > 0 && fabs(grp.average_lx - whole.average_lx) <= 1e-12 * whole.average_lx &&
+          fabs(grp.average_lx_sigma - whole.average_lx_sigma) <= 1e-9 * whole.average_lx_sigma && g0s.flux_lm == 0))
+        printf("FAIL layer figures: group 1 %g +- %g lx, whole %g +- %g lx, group 0 %g lm\n", grp.average_lx,
+               grp.average_lx_sigma, whole.average_lx, whole.average_lx_sigma, g0s.flux_lm),
+            failures++;
     double black[3] = {0, 0, 0};
     expect("CCT of black", imap_xyz_to_cct(black, &cct, NULL), IMAP_ERR_INVALID_ARGUMENT, NULL);
     expect("balance kind 9", imap_get_band_balance(ctx, 9, lux, 4), IMAP_ERR_INVALID_ARGUMENT, ctx);

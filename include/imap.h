@@ -789,6 +789,73 @@ typedef struct ImapConfig {
 } ImapConfig;
 
 /**
+ * A region's figures (`imap_get_region_stats`), each with its standard error (`*_sigma`,
+ * the same unit). Filled by the library; `struct_size` says how many bytes are valid.
+ * (Since 0.2.1.)
+ */
+typedef struct ImapRegionStats {
+  /**
+   * Bytes of this struct the library filled.
+   */
+  uint32_t struct_size;
+  /**
+   * Vertices with a share of the region's triangles.
+   */
+  uint32_t vertices;
+  /**
+   * Photons the figures are made of (0: no run yet; every figure below is then 0).
+   */
+  uint64_t photons;
+  /**
+   * The region's area, m².
+   */
+  double area_m2;
+  /**
+   * Incident luminous flux, lm, summed photon by photon over the region (its error is
+   * the exact Monte Carlo error of that sum).
+   */
+  double flux_lm;
+  double flux_lm_sigma;
+  /**
+   * Average illuminance Eavg = flux_lm / area_m2, lx.
+   */
+  double average_lx;
+  double average_lx_sigma;
+  /**
+   * Minimum and maximum vertex illuminance, lx, corrected for the bias of the extremes
+   * of noisy values (parametric bootstrap around a shrunk field; docs/results.md).
+   */
+  double min_lx;
+  double min_lx_sigma;
+  double max_lx;
+  double max_lx_sigma;
+  /**
+   * Uniformity U0 = Emin / Eavg and Ud = Emin / Emax (corrected likewise).
+   */
+  double u0;
+  double u0_sigma;
+  double ud;
+  double ud_sigma;
+  /**
+   * The smallest and largest vertex illuminance as observed (uncorrected), lx.
+   */
+  double min_observed_lx;
+  double max_observed_lx;
+  /**
+   * 1: `flux_lm_sigma` and `average_lx_sigma` are exact Monte Carlo errors (a sensor,
+   * or a mesh added with IMAP_MESH_TALLY); 0: an upper bound, Σ over the vertices of
+   * area × standard error (the region's flux is then summed from its vertices).
+   */
+  uint32_t errors_exact;
+  /**
+   * Vertices that received no light at all (no photon, no light sample: under or
+   * inside an object). They are left out of the minimum, maximum and uniformities, and
+   * of region targets on the vertices' errors. (Since 0.2.3.)
+   */
+  uint64_t unlit_vertices;
+} ImapRegionStats;
+
+/**
  * A light's colour. Initialise with `imap_spectrum_default(&s, sizeof s)` (EQUAL). The
  * library copies the arrays. NULL where a spectrum is asked for means EQUAL.
  */
@@ -1202,73 +1269,6 @@ typedef struct ImapRenderReport {
    */
   uint64_t history_len;
 } ImapRenderReport;
-
-/**
- * A region's figures (`imap_get_region_stats`), each with its standard error (`*_sigma`,
- * the same unit). Filled by the library; `struct_size` says how many bytes are valid.
- * (Since 0.2.1.)
- */
-typedef struct ImapRegionStats {
-  /**
-   * Bytes of this struct the library filled.
-   */
-  uint32_t struct_size;
-  /**
-   * Vertices with a share of the region's triangles.
-   */
-  uint32_t vertices;
-  /**
-   * Photons the figures are made of (0: no run yet; every figure below is then 0).
-   */
-  uint64_t photons;
-  /**
-   * The region's area, m².
-   */
-  double area_m2;
-  /**
-   * Incident luminous flux, lm, summed photon by photon over the region (its error is
-   * the exact Monte Carlo error of that sum).
-   */
-  double flux_lm;
-  double flux_lm_sigma;
-  /**
-   * Average illuminance Eavg = flux_lm / area_m2, lx.
-   */
-  double average_lx;
-  double average_lx_sigma;
-  /**
-   * Minimum and maximum vertex illuminance, lx, corrected for the bias of the extremes
-   * of noisy values (parametric bootstrap around a shrunk field; docs/results.md).
-   */
-  double min_lx;
-  double min_lx_sigma;
-  double max_lx;
-  double max_lx_sigma;
-  /**
-   * Uniformity U0 = Emin / Eavg and Ud = Emin / Emax (corrected likewise).
-   */
-  double u0;
-  double u0_sigma;
-  double ud;
-  double ud_sigma;
-  /**
-   * The smallest and largest vertex illuminance as observed (uncorrected), lx.
-   */
-  double min_observed_lx;
-  double max_observed_lx;
-  /**
-   * 1: `flux_lm_sigma` and `average_lx_sigma` are exact Monte Carlo errors (a sensor,
-   * or a mesh added with IMAP_MESH_TALLY); 0: an upper bound, Σ over the vertices of
-   * area × standard error (the region's flux is then summed from its vertices).
-   */
-  uint32_t errors_exact;
-  /**
-   * Vertices that received no light at all (no photon, no light sample: under or
-   * inside an object). They are left out of the minimum, maximum and uniformities, and
-   * of region targets on the vertices' errors. (Since 0.2.3.)
-   */
-  uint64_t unlit_vertices;
-} ImapRegionStats;
 
 /**
  * What `imap_run` does. Initialise with `imap_run_params_default(&p, sizeof p)`; at least
@@ -1902,6 +1902,23 @@ enum ImapStatus imap_get_layer_illuminance(const struct ImapContext *ctx, uint32
  * `ctx` is a live handle; `out` holds `count` writable doubles.
  */
 enum ImapStatus imap_get_layer_error(const struct ImapContext *ctx, uint32_t mesh, uint32_t side, uint32_t layer, double *out, size_t count);
+
+/**
+ * The figures of a region (as `imap_get_region_stats`) in one layer of the map — `layer`
+ * a light group, IMAP_LAYER_DIRECT or IMAP_LAYER_ALL: a light group's or the direct
+ * component's flux, average, minimum and uniformity with their standard errors. On a
+ * recording mesh with tallies (a sensor, or added with IMAP_MESH_TALLY) the flux and
+ * average errors are exact per layer too (each layer keeps its own photon tallies); the
+ * group layers' fluxes sum to the region's.
+ *
+ * Returns as `imap_get_region_stats`, and IMAP_ERR_NOT_RECORDED when the layer is not kept
+ * (imap_set_layers), IMAP_ERR_INDEX_OUT_OF_RANGE for a group past the largest.
+ * (Since 0.2.3.)
+ *
+ * # Safety
+ * `ctx` is a live handle; `out` points to `size` writable bytes.
+ */
+enum ImapStatus imap_get_layer_region_stats(const struct ImapContext *ctx, uint32_t mesh, uint32_t side, uint32_t part, uint32_t layer, struct ImapRegionStats *out, size_t size);
 
 /**
  * Fills `size` bytes at `out` with an EQUAL spectrum; sets `struct_size = size`.

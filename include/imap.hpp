@@ -243,6 +243,14 @@ public:
         return s;
     }
 
+    /// `region_stats` of one layer (a light group, IMAP_LAYER_DIRECT or IMAP_LAYER_ALL).
+    ImapRegionStats layer_region_stats(uint32_t mesh, uint32_t side, uint32_t layer,
+                                       uint32_t part = IMAP_ALL_PARTS) const {
+        ImapRegionStats s;
+        check(imap_get_layer_region_stats(ctx_, mesh, side, part, layer, &s, sizeof s), ctx_);
+        return s;
+    }
+
     /// Light groups and layers (docs/results.md): `flags` of IMAP_KEEP_LIGHT_GROUPS and
     /// IMAP_KEEP_DIRECT; before any run.
     void set_layers(uint32_t flags) { check(imap_set_layers(ctx_, flags), ctx_); }

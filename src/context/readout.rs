@@ -244,7 +244,21 @@ impl Context {
 
     /// The figures of mesh `mesh`'s side `side`, or of its part made of material `part`.
     pub fn region_stats(&self, mesh: u32, side: u32, part: Option<u32>) -> Result<RegionStats> {
+        self.region_stats_layer(mesh, side, part, Layer::Combined)
+    }
+
+    /// `region_stats` of one layer of the map: a light group's or the direct component's
+    /// flux, average, extremes and uniformities, with errors as exact as the combined
+    /// figures' (a recording mesh with tallies keeps them per layer).
+    pub fn region_stats_layer(
+        &self,
+        mesh: u32,
+        side: u32,
+        part: Option<u32>,
+        layer: Layer,
+    ) -> Result<RegionStats> {
         let i = self.recorded_side(mesh, side)?;
+        let index = self.layer_index(layer)?;
         let m = &self.scene.meshes[i];
         if let Some(p) = part {
             if !(0..m.triangles.len()).any(|t| m.material_of(t) == p) {
@@ -277,12 +291,24 @@ impl Context {
         let nv = m.positions.len();
         let mut lux = vec![0.0; nv];
         let mut rel = vec![0.0; nv];
-        self.illuminance(mesh, side, &mut lux)?;
-        self.rel_error(mesh, side, &mut rel)?;
+        self.illuminance_layer(mesh, side, layer, &mut lux)?;
+        self.rel_error_layer(mesh, side, layer, &mut rel)?;
         if let Some(regions) = &p.scene.regions.meshes[i] {
             // The photon tallies: exact errors.
             out.exact_errors = true;
-            let r = regions.region(side as usize, part) as usize;
+            let r = regions.region(side as usize, part);
+            // A layer's own tally, except the one group layer of a map whose lights are
+            // all in group 0 (its figures are the region's).
+            let layout = &p.scene.regions;
+            let r = match index {
+                Some(l)
+                    if layout.layers > 0
+                        && (l >= p.scene.layers.groups || p.scene.layers.groups > 1) =>
+                {
+                    layout.layered(r, l)
+                }
+                _ => r,
+            } as usize;
             let t = &self.region_tally;
             let nf = n as f64;
             let wpu = p.scene.total_power / (nf * nb as f64);
@@ -301,7 +327,7 @@ impl Context {
             // vertices' (a run's region target reads the same: `sched::target`). For a mesh
             // side the vertices' fluxes sum to the side's exactly; for a part, each vertex
             // counts with its share of the part's area.
-            let direct = self.readout(None).and_then(|r| {
+            let direct = self.readout(index).and_then(|r| {
                 r.region_direct(&p.scene.meshes[i], side as usize, &m.area_shares(part))
             });
             if let Some(d) = direct {

@@ -1,6 +1,7 @@
 //! Light groups and the map's layers (docs/results.md, "Light groups and layers").
 
-use super::{slice_mut, with_context, write_optional, ImapContext};
+use super::results::{part_of, stats_to_c, ImapRegionStats};
+use super::{slice_mut, with_context, write_optional, write_versioned, ImapContext};
 use crate::context::Layer;
 use crate::error::{bail, ImapStatus};
 use crate::scene::LayerRequest;
@@ -176,5 +177,35 @@ pub unsafe extern "C" fn imap_get_layer_error(
 ) -> ImapStatus {
     with_context(ctx, |c| {
         c.rel_error_layer(mesh, side, layer_arg(layer), slice_mut("out", out, count)?)
+    })
+}
+
+/// The figures of a region (as `imap_get_region_stats`) in one layer of the map — `layer`
+/// a light group, IMAP_LAYER_DIRECT or IMAP_LAYER_ALL: a light group's or the direct
+/// component's flux, average, minimum and uniformity with their standard errors. On a
+/// recording mesh with tallies (a sensor, or added with IMAP_MESH_TALLY) the flux and
+/// average errors are exact per layer too (each layer keeps its own photon tallies); the
+/// group layers' fluxes sum to the region's.
+///
+/// Returns as `imap_get_region_stats`, and IMAP_ERR_NOT_RECORDED when the layer is not kept
+/// (imap_set_layers), IMAP_ERR_INDEX_OUT_OF_RANGE for a group past the largest.
+/// (Since 0.2.3.)
+///
+/// # Safety
+/// `ctx` is a live handle; `out` points to `size` writable bytes.
+#[no_mangle]
+pub unsafe extern "C" fn imap_get_layer_region_stats(
+    ctx: *const ImapContext,
+    mesh: u32,
+    side: u32,
+    part: u32,
+    layer: u32,
+    out: *mut ImapRegionStats,
+    size: usize,
+) -> ImapStatus {
+    with_context(ctx, |c| {
+        super::check_out("out", out)?;
+        let s = c.region_stats_layer(mesh, side, part_of(part), layer_arg(layer))?;
+        write_versioned("out", out, size, stats_to_c(&s))
     })
 }

@@ -65,11 +65,11 @@ unsafe impl Versioned for ImapRegionStats {
     }
 }
 
-fn part_of(part: u32) -> Option<u32> {
+pub(super) fn part_of(part: u32) -> Option<u32> {
     (part != IMAP_ALL_PARTS).then_some(part)
 }
 
-fn stats_to_c(s: &RegionStats) -> ImapRegionStats {
+pub(super) fn stats_to_c(s: &RegionStats) -> ImapRegionStats {
     let x = s.extremes.unwrap_or_default();
     ImapRegionStats {
         struct_size: std::mem::size_of::<ImapRegionStats>() as u32,

@@ -199,11 +199,26 @@ impl PhotonBuffer {
             // The share of the photon the hit's vertices receive in all (1 unless weighted).
             let kept: f64 = weights.map_or(1.0, |w| shares(WEIGHTED, u, v, &w).iter().sum());
             let material = scene.meshes[mesh as usize].material(prim as usize);
-            let ids = [
+            let regions = [
                 Some(r.mesh_region(side as usize)),
                 r.part_region(side as usize, material),
             ];
-            for id in ids.into_iter().flatten() {
+            // With layers, each region's tally in the photon's group layer (when several
+            // groups are kept; with one the group's figures are the region's) and, before
+            // its first surface event, in the direct layer.
+            let layout = &scene.regions;
+            let group = (layout.layers > 0 && scene.layers.groups > 1).then_some(self.layer);
+            let mut ids = [0u32; 6];
+            let mut n = 0;
+            for id in regions.into_iter().flatten() {
+                ids[n] = id;
+                n += 1;
+                for l in [group, self.direct].into_iter().flatten() {
+                    ids[n] = layout.layered(id, l);
+                    n += 1;
+                }
+            }
+            for &id in &ids[..n] {
                 let s = self.regions.slot(id, self.bands);
                 match colour.band() {
                     Some(b) => s[b] += colour.values()[b] * kept,

@@ -230,7 +230,7 @@ impl Readout<'_> {
                 continue;
             }
             let k = w / a;
-            let cells = self.map.layout().cells(slot, None);
+            let cells = self.map.layout().cells(slot, self.layer);
             let (mean, var, passes) = d.scalar_of(cells.clone(), cells.len() > 1);
             if passes == 0.0 {
                 out.waiting += 1;

@@ -15,8 +15,15 @@ use std::sync::{Mutex, MutexGuard};
 /// Which region a deposit belongs to.
 #[derive(Clone, Debug, Default)]
 pub struct RegionLayout {
-    /// Regions in all.
+    /// Tallies in all: the regions, then, when the map keeps layers, each region's layers
+    /// (`layered`).
     pub count: usize,
+    /// The regions (mesh sides and parts).
+    pub regions: usize,
+    /// Map layers each region is also tallied in (`LayerLayout::per_slot` when layers are
+    /// kept, else 0): a light group's or the direct part's Eavg, Emin and U0 get the exact
+    /// errors the whole region's do.
+    pub layers: usize,
     /// Per mesh: its first region (recording meshes only), its parts' material ids (sorted;
     /// empty for a mesh of one material), and the regions per side (1 + parts).
     pub meshes: Vec<Option<MeshRegions>>,
@@ -56,7 +63,15 @@ impl MeshRegions {
 }
 
 impl RegionLayout {
-    pub fn new(meshes: &[PreparedMesh]) -> Self {
+    /// The tally of region `r` in map layer `layer` (with layers kept).
+    #[inline]
+    pub fn layered(&self, r: u32, layer: u8) -> u32 {
+        (self.regions + r as usize * self.layers + layer as usize) as u32
+    }
+
+    /// Regions of `meshes`, tallied also per layer of `layers` when it keeps more than the
+    /// combined values.
+    pub fn new(meshes: &[PreparedMesh], layers: super::LayerLayout) -> Self {
         let mut count = 0u32;
         let meshes = meshes
             .iter()
@@ -76,8 +91,16 @@ impl RegionLayout {
                 Some(r)
             })
             .collect();
+        let regions = count as usize;
+        let layers = if layers.per_slot() > 1 {
+            layers.per_slot()
+        } else {
+            0
+        };
         RegionLayout {
-            count: count as usize,
+            count: regions * (1 + layers),
+            regions,
+            layers,
             meshes,
         }
     }

@@ -549,7 +549,7 @@ impl PreparedScene {
                 format!("the lights cannot be sampled ({why})"),
             )
         })?;
-        let regions = RegionLayout::new(&meshes);
+        let regions = RegionLayout::new(&meshes, layers);
         let grey = GreySpectra::new(&emitters, &scene.materials, efficacy.len());
         let mut prepared = PreparedScene {
             grey,
