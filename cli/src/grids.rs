@@ -356,6 +356,21 @@ pub fn summary_line(g: &Grid, r: &GridResult) -> String {
     )
 }
 
+/// What a stop on the grids' average (`grid_error_measure = "average"`) leaves unsaid: the
+/// relative errors Emin and U0 still have, when they are figures at all.
+pub fn average_stop_note(r: &GridResult) -> Option<String> {
+    let s = &r.stats;
+    let x = s.extremes?;
+    let rel = |e: imap::imap::stats::Estimate| {
+        (e.value > 0.0 && e.sigma.is_finite()).then(|| 100.0 * e.sigma / e.value)
+    };
+    let (min, u0) = (rel(x.min)?, rel(x.u0)?);
+    Some(format!(
+        "the run stopped when Eavg reached its target error ({:.2} %); Emin is still at ± {min:.1} % and U0 at ± {u0:.1} % (grid_error_measure = \"uniformity\" stops on them)",
+        100.0 * s.average.sigma / s.average.value
+    ))
+}
+
 /// The points as a CSV table: indices along u and v, position (scene units), lux, its
 /// standard error and relative error.
 pub fn write_csv(path: &Path, g: &Grid, r: &GridResult) -> Result<()> {

@@ -598,11 +598,28 @@ fn write_outputs(
         .iter()
         .map(|g| grids::read(ctx, g))
         .collect::<Result<Vec<_>>>()?;
+    // A stop on the grids' Eavg leaves their Emin and U0 at whatever error they had then.
+    let on_average = stop == "RegionTarget"
+        && matches!(
+            settings.grid_measure()?,
+            imap::sched::target::RegionMeasure::Average
+        );
+    let notes: Vec<Option<String>> = grid_results
+        .iter()
+        .map(|r| on_average.then(|| grids::average_stop_note(r)).flatten())
+        .collect();
     let grid_json: Vec<serde_json::Value> = scene
         .grids
         .iter()
         .zip(&grid_results)
-        .map(|(g, r)| grids::summary_json(g, r, unit_m))
+        .zip(&notes)
+        .map(|((g, r), note)| {
+            let mut j = grids::summary_json(g, r, unit_m);
+            if let Some(n) = note {
+                j["note"] = serde_json::json!(n);
+            }
+            j
+        })
         .collect();
     let mut outputs: Vec<String> = [
         "irradiance.csv",
@@ -698,8 +715,11 @@ fn write_outputs(
         out.display(),
         outputs.join(", ")
     );
-    for (g, r) in scene.grids.iter().zip(&grid_results) {
+    for ((g, r), note) in scene.grids.iter().zip(&grid_results).zip(&notes) {
         println!("{}", grids::summary_line(g, r));
+        if let Some(n) = note {
+            println!("  {n}");
+        }
     }
     Ok(json)
 }
@@ -710,6 +730,17 @@ fn info(path: &Path) -> Result<()> {
     for (name, v) in m.inward() {
         d.warn(scene::inward_warning(path, &name, v));
     }
+    // The warnings `run` gives with no settings: the defaults' units and up axis, and the
+    // materials as the default (RGB) bands read them.
+    for w in scene::guess_warnings(&m, None, None) {
+        d.warn(w);
+    }
+    let bands = imap::Bands::rgb();
+    let at = (std::path::PathBuf::from("settings"), 0);
+    for x in &m.materials {
+        materials::resolve(x, None, &at, &bands.wavelengths_nm, bands.rgb, &mut d);
+    }
+    let guesses = m.guesses();
     let (lo, hi) = m.bounds();
     let json = serde_json::json!({
         "scene": path.display().to_string(),
@@ -732,6 +763,10 @@ fn info(path: &Path) -> Result<()> {
             "emission_texture": x.emission_texture.as_ref().map(|t| t.name.clone()),
         })).collect::<Vec<_>>(),
         "bounds": if m.triangles() > 0 { serde_json::json!([lo, hi]) } else { serde_json::Value::Null },
+        "units_guess": guesses.unit.map_or("metres", |u| u.0),
+        "up_axis_guess": guesses.up_name().map(|axis| serde_json::json!({
+            "axis": axis, "because": guesses.up.as_ref().map(|u| u.1.clone()),
+        })),
         "warnings": d.warnings,
         "errors": d.errors,
     });

@@ -239,6 +239,63 @@ impl Model {
             .collect()
     }
 
+    /// What the model's units and up axis look like from its geometry (`Guesses`).
+    pub fn guesses(&self) -> Guesses {
+        let (lo, hi) = self.bounds();
+        let extent = [0, 1, 2].map(|k| (hi[k] - lo[k]).max(0.0));
+        let largest = extent.iter().copied().fold(0.0, f64::max);
+        // A room or a building is 2 … 200 m across: drawn in millimetres it reads as
+        // thousands of metres, in centimetres as hundreds.
+        let unit = if largest <= UNIT_GUESS_ABOVE || !largest.is_finite() {
+            None
+        } else if largest >= 2000.0 {
+            Some(("millimetres", 0.001))
+        } else {
+            Some(("centimetres", 0.01))
+        };
+        // Floors, ceilings, roofs, tables and the ground face up or down: the axis that the
+        // most area faces (within 10°) is the up axis of a built model, when it clearly
+        // leads (a statue or a scan faces every way: no guess). glTF is y-up by its
+        // specification.
+        let up = if self.format == "glTF" {
+            Some((1, "the glTF specification".to_string()))
+        } else {
+            let mut aligned = [0.0f64; 3];
+            let mut total = 0.0;
+            for t in self.objects.iter().flat_map(|o| &o.triangles) {
+                let [a, b, c] = t.v.map(|v| glam::DVec3::from(self.positions[v as usize]));
+                let n = (b - a).cross(c - a);
+                let area = 0.5 * n.length();
+                if !(area > 0.0 && area.is_finite()) {
+                    continue;
+                }
+                total += area;
+                let n = n.normalize().abs().to_array();
+                for k in 0..3 {
+                    if n[k] > 10f64.to_radians().cos() {
+                        aligned[k] += area;
+                    }
+                }
+            }
+            let mut order = [0, 1, 2];
+            order.sort_by(|&a, &b| aligned[b].total_cmp(&aligned[a]));
+            let (k, second) = (order[0], aligned[order[1]]);
+            (total > 0.0 && aligned[k] >= 0.2 * total && aligned[k] >= 1.3 * second).then(|| {
+                (
+                    k,
+                    format!(
+                        "{:.0} % of its area faces ±{} against {:.0} % ±{}",
+                        100.0 * aligned[k] / total,
+                        AXES[k],
+                        100.0 * second / total,
+                        AXES[order[1]]
+                    ),
+                )
+            })
+        };
+        Guesses { extent, unit, up }
+    }
+
     /// The box around the vertices the triangles use.
     pub fn bounds(&self) -> ([f64; 3], [f64; 3]) {
         bounds(
@@ -285,6 +342,52 @@ pub fn bounds(points: impl Iterator<Item = [f64; 3]>) -> ([f64; 3], [f64; 3]) {
         }
     }
     (lo, hi)
+}
+
+/// A model larger than this (scene units) is guessed to be drawn in millimetres or
+/// centimetres when no `unit_m` is set.
+pub const UNIT_GUESS_ABOVE: f64 = 200.0;
+
+const AXES: [&str; 3] = ["x", "y", "z"];
+
+/// What a model's geometry suggests (`Model::guesses`): shown by `imap info`, and warned
+/// about by `imap run` when the settings leave the choice to a default that disagrees.
+#[derive(Clone, Debug)]
+pub struct Guesses {
+    /// The bounding box's extent along x, y, z, scene units.
+    pub extent: [f64; 3],
+    /// The units the model looks drawn in (name, metres per unit), when metres look wrong.
+    pub unit: Option<(&'static str, f64)>,
+    /// The axis (0 x, 1 y, 2 z) that looks up, and why.
+    pub up: Option<(usize, String)>,
+}
+
+impl Guesses {
+    /// The extent as "a × b × c" in metres at `unit_m` metres per unit.
+    pub fn size_at(&self, unit_m: f64) -> String {
+        let e = self.extent.map(|x| x * unit_m);
+        format!(
+            "{} × {} × {} m",
+            fmt_len(e[0]),
+            fmt_len(e[1]),
+            fmt_len(e[2])
+        )
+    }
+
+    /// The up axis's name.
+    pub fn up_name(&self) -> Option<&'static str> {
+        self.up.as_ref().map(|(k, _)| AXES[*k])
+    }
+}
+
+fn fmt_len(x: f64) -> String {
+    if x >= 100.0 {
+        format!("{x:.0}")
+    } else if x >= 1.0 {
+        format!("{x:.1}")
+    } else {
+        format!("{x:.3}")
+    }
 }
 
 /// The formats `imap` reads, by file extension.

@@ -496,7 +496,35 @@ pub fn load_with_camera(
     Ok((ctx, scene, cam))
 }
 
-/// The warning for a closed object whose normals point inward.
+/// Warnings where the settings leave the model's units or up axis to a default that its
+/// geometry disagrees with (`Model::guesses`): a model drawn in millimetres and read in
+/// metres gets a millionth of its illuminance, and a z-up model read y-up gets its sky
+/// from the side.
+pub fn guess_warnings(
+    model: &crate::model::Model,
+    unit_m: Option<f64>,
+    up_axis: Option<&str>,
+) -> Vec<String> {
+    let g = model.guesses();
+    let mut out = Vec::new();
+    if let (None, Some((name, k))) = (unit_m, g.unit) {
+        out.push(format!(
+            "no unit_m is set, so the model is read in metres: {}. It looks drawn in {name} ({}): set unit_m = {k} (or unit_m = 1 to keep metres)",
+            g.size_at(1.0),
+            g.size_at(k)
+        ));
+    }
+    if let (None, Some(axis), Some((_, why))) = (up_axis, g.up_name(), &g.up) {
+        if axis != "y" {
+            out.push(format!(
+                "no up_axis is set, so +y is up (the sky's zenith, the sun, the default camera); the model looks {axis}-up ({why}): set up_axis = \"{axis}\" (or up_axis = \"y\" to keep y)"
+            ));
+        }
+    }
+    out
+}
+
+/// The warning for a closed object whose normals point inward./// The warning for a closed object whose normals point inward.
 pub fn inward_warning(path: &Path, name: &str, volume: f64) -> String {
     format!(
         "{}: object '{}' is closed and its normals point inward (its signed volume is {volume:.4e} scene units³): the side libimap records faces its inside; flip_normals = [\"{}\"] records its outside (or two_sided = true both)",
@@ -531,6 +559,9 @@ pub fn load(path: &Path, settings: &Settings) -> Result<(Context, LoadedScene)> 
                 diag.warn(inward_warning(path, &name, v));
             }
         }
+    }
+    for w in guess_warnings(&model, settings.unit_m, settings.up_axis.as_deref()) {
+        diag.warn(w);
     }
     for name in settings.materials.keys() {
         if !model.materials.iter().any(|m| &m.name == name) {

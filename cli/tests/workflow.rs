@@ -399,5 +399,79 @@ fn a_stop_on_the_grid_average_reports_sane_figures() {
             min <= avg + 2.0 * smin && max >= avg - 2.0 * smax && u0 <= 1.0 + 2.0 * su0,
             "{g}"
         );
+        // The report says what the stop on Eavg left: Emin's and U0's errors.
+        assert_eq!(report(&out)["stop"], "RegionTarget");
+        let note = g["note"].as_str().unwrap_or_default();
+        let emin = format!("Emin is still at ± {:.1} %", 100.0 * smin / min);
+        let uni = format!("U0 at ± {:.1} %", 100.0 * su0 / u0);
+        assert!(note.contains(&emin) && note.contains(&uni), "{note}");
     }
+}
+
+/// A 6000 × 4000 × 3000 room in millimetres, Z up, with a glazed window material whose
+/// transparency has no refraction (read as opaque: said by `run` and `info` alike).
+fn room_mm(dir: &Path) -> String {
+    write(
+        dir,
+        "mm.mtl",
+        "newmtl wall\nKd 0.5 0.5 0.5\nnewmtl pane\nKd 0.1 0.1 0.1\nd 0.5\n",
+    );
+    write(
+        dir,
+        "mm.obj",
+        "mtllib mm.mtl\nv 0 0 0\nv 6000 0 0\nv 6000 4000 0\nv 0 4000 0\nv 0 0 3000\nv 6000 0 3000\n\
+         v 6000 4000 3000\nv 0 4000 3000\nusemtl wall\no floor\nf 1 2 3 4\no ceiling\nf 5 8 7 6\n\
+         o back\nf 4 3 7 8\no left\nf 1 4 8 5\no right\nf 2 6 7 3\nusemtl pane\no front\nf 1 5 6 2\n",
+    )
+}
+
+/// A model drawn in millimetres and read in metres gets a millionth of its illuminance,
+/// and a Z-up model read Y-up gets its sky from the side: with no `unit_m` or `up_axis`,
+/// `info` and `run` say what the geometry looks like, and `info` gives the material
+/// warnings `run` gives. Settings that choose say nothing.
+#[test]
+fn units_up_axis_and_materials_are_checked_by_info_and_run() {
+    let d = tempfile::tempdir().unwrap();
+    let obj = room_mm(d.path());
+    let o = imap(&["info", &obj]);
+    let info: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let w = info["warnings"].to_string();
+    assert!(
+        w.contains("looks drawn in millimetres (6.0 × 4.0 × 3.0 m): set unit_m = 0.001"),
+        "{w}"
+    );
+    assert!(
+        w.contains("looks z-up") && w.contains("up_axis = \\\"z\\\""),
+        "{w}"
+    );
+    assert!(
+        w.contains("material 'pane': transparency (d 0.5) without refraction"),
+        "{w}"
+    );
+    assert_eq!(info["units_guess"], "millimetres");
+    assert_eq!(info["up_axis_guess"]["axis"], "z");
+
+    let light = "[[light]]\nkind = \"point\"\nposition = [3000, 2000, 2500]\npower = 100\n";
+    let bare = write(d.path(), "bare.toml", light);
+    let o = run_photons(&obj, &bare, &d.path().join("a"), 20_000);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let e = stderr(&o);
+    assert!(
+        e.contains("set unit_m = 0.001") && e.contains("looks z-up"),
+        "{e}"
+    );
+    let chosen = write(
+        d.path(),
+        "chosen.toml",
+        format!("unit_m = 0.001\nup_axis = \"z\"\n{light}"),
+    );
+    let o = run_photons(&obj, &chosen, &d.path().join("b"), 20_000);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let e = stderr(&o);
+    assert!(!e.contains("unit_m") && !e.contains("up_axis"), "{e}");
+    // A room in metres: no unit to warn about.
+    let o = imap(&["info", &room(d.path())]);
+    let info: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(info["units_guess"], "metres");
+    assert!(!info["warnings"].to_string().contains("unit_m"));
 }
