@@ -407,7 +407,10 @@ int main(void) {
     expect("scale for a uniform sky", imap_add_sky(ctx, &sky, NULL, &id), IMAP_ERR_INVALID_ARGUMENT, ctx);
     sky.unit = IMAP_SKY_UNIT_LUMINANCE, sky.kind = IMAP_SKY_CIE, sky.cie_type = 16;
     expect("CIE sky type 16", imap_add_sky(ctx, &sky, NULL, &id), IMAP_ERR_INVALID_ARGUMENT, ctx);
-    sky.cie_type = 12, sky.sun_zenith_deg = 95;
+    sky.cie_type = 12;
+    expect("CIE sky type 12 without its sun", imap_add_sky(ctx, &sky, NULL, &id), IMAP_ERR_INVALID_ARGUMENT, ctx);
+    if (!strstr(imap_last_error(ctx), "type 12 needs its sun")) printf("FAIL: %s\n", imap_last_error(ctx)), failures++;
+    sky.sun_azimuth_deg = 180, sky.sun_zenith_deg = 95;
     expect("CIE sun below the horizon", imap_add_sky(ctx, &sky, NULL, &id), IMAP_ERR_INVALID_ARGUMENT, ctx);
     sky.sun_zenith_deg = 30, sky.north[0] = 0, sky.north[1] = 0, sky.north[2] = 5;
     expect("north along the zenith", imap_add_sky(ctx, &sky, NULL, &id), IMAP_ERR_INVALID_ARGUMENT, ctx);

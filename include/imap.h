@@ -693,7 +693,7 @@ typedef enum ImapStatus {
   /**
    * A state to merge holds photons the context holds too: they would count twice.
    */
-  IMAP_ERR_STATE_OVERLAP = 27,
+  IMAP_ERR_STATE_OVERLAP = 27
 } ImapStatus;
 
 /**
@@ -1601,7 +1601,8 @@ typedef struct ImapMesh {
 
 /**
  * A sky or environment. Initialise with `imap_sky_default(&s, sizeof s)`: a uniform sky
- * (amount 0 cd/m²: set it), zenith +z, north +y, not rotated. (Since 0.2.2.)
+ * (amount 0 cd/m²: set it), no sun (NaN angles), zenith +z, north +y, not rotated.
+ * (Since 0.2.2.)
  *
  * Directions: azimuths are measured from `north` toward east (`north` × `zenith`),
  * zenith angles from `zenith`. An image is equirectangular: its rows run from the zenith
@@ -1631,6 +1632,9 @@ typedef struct ImapSky {
   double amount;
   /**
    * CIE: the sun's azimuth (degrees from north toward east) and zenith angle (0–90°).
+   * The defaults are NaN, "not set": types 1, 3 and 5 do not depend on the sun, every
+   * other type is refused without it (IMAP_ERR_INVALID_ARGUMENT), as the command
+   * refuses it. (Before 0.2.3 the defaults placed the sun at azimuth 180°, zenith 45°.)
    */
   double sun_azimuth_deg;
   double sun_zenith_deg;
@@ -1724,7 +1728,7 @@ typedef struct ImapSunTime {
 
 #ifdef __cplusplus
 extern "C" {
-#endif // __cplusplus
+#endif /* __cplusplus */
 
 /**
  * Fills the `size` bytes at `out` with the defaults and sets `struct_size = size`: RGB,
@@ -2631,6 +2635,6 @@ enum ImapStatus imap_map_direct_accumulators(struct ImapContext *ctx, double **d
 
 #ifdef __cplusplus
 }  // extern "C"
-#endif  // __cplusplus
+#endif  /* __cplusplus */
 
 #endif  /* IMAP_H */

@@ -101,6 +101,52 @@ inline ImapPhotometry photometry() {
     return t;
 }
 
+inline ImapSky sky() {
+    ImapSky s;
+    check(imap_sky_default(&s, sizeof s));
+    return s;
+}
+inline ImapSun sun() {
+    ImapSun s;
+    check(imap_sun_default(&s, sizeof s));
+    return s;
+}
+inline ImapSunTime sun_time() {
+    ImapSunTime t;
+    check(imap_sun_time_default(&t, sizeof t));
+    return t;
+}
+
+/// The sun's {azimuth, zenith angle}, degrees, at a place and time (NREL SPA).
+inline std::array<double, 2> sun_position(const ImapSunTime& t) {
+    std::array<double, 2> out{};
+    check(imap_sun_position(&t, &out[0], &out[1]));
+    return out;
+}
+
+/// CIE 1931 chromaticity {x, y} of tristimulus values.
+inline std::array<double, 2> chromaticity(const std::array<double, 3>& xyz) {
+    std::array<double, 2> out{};
+    check(imap_xyz_chromaticity(xyz.data(), out.data()));
+    return out;
+}
+
+/// What a saved state holds: its photons and its metadata (copied).
+struct StateInfo {
+    uint64_t photons = 0;
+    std::string meta;
+};
+
+/// Reads the header of a state in memory (imap_state_info) without a context.
+inline StateInfo state_info(const std::vector<unsigned char>& state) {
+    StateInfo info;
+    const void* meta = nullptr;
+    size_t len = 0;
+    check(imap_state_info(state.data(), state.size(), &info.photons, &meta, &len));
+    if (meta && len) info.meta.assign(static_cast<const char*>(meta), len);
+    return info;
+}
+
 /// Correlated colour temperature (K) and Duv of CIE 1931 tristimulus values.
 inline std::array<double, 2> cct(const std::array<double, 3>& xyz) {
     std::array<double, 2> out{};
@@ -146,18 +192,25 @@ struct Image {
 /// time (a second thread gets imap::Error with IMAP_ERR_BUSY).
 class Context {
 public:
-    explicit Context(const ImapConfig& cfg = config()) { check(imap_create(&cfg, &ctx_)); }
+    explicit Context(const ImapConfig& cfg = config())
+        : bands_(cfg.band_mode == IMAP_BANDS_RGB ? 3u : cfg.band_count) {
+        check(imap_create(&cfg, &ctx_));
+    }
     ~Context() { imap_destroy(ctx_); }
     Context(const Context&) = delete;
     Context& operator=(const Context&) = delete;
-    Context(Context&& o) noexcept : ctx_(std::exchange(o.ctx_, nullptr)) {}
+    Context(Context&& o) noexcept : ctx_(std::exchange(o.ctx_, nullptr)), bands_(o.bands_) {}
     Context& operator=(Context&& o) noexcept {
         if (this != &o) {
             imap_destroy(ctx_);
             ctx_ = std::exchange(o.ctx_, nullptr);
+            bands_ = o.bands_;
         }
         return *this;
     }
+
+    /// Bands of the map (3 for RGB).
+    uint32_t bands() const noexcept { return bands_; }
 
     /// The C handle, for calls this wrapper does not cover.
     ImapContext* get() const noexcept { return ctx_; }
@@ -209,11 +262,50 @@ public:
         check(imap_add_luminaire_ldt(ctx_, text.data(), text.size(), &place, s, &id), ctx_);
         return id;
     }
-    /// Luminous flux a light emits, lm.
+    /// A luminaire from a photometric table of the host's own (imap_add_luminaire_table).
+    uint32_t add_luminaire_table(const ImapPhotometry& table, const ImapLuminaire& place = luminaire(),
+                                 const ImapSpectrum* s = nullptr) {
+        uint32_t id = 0;
+        check(imap_add_luminaire_table(ctx_, &table, &place, s, &id), ctx_);
+        return id;
+    }
+    /// For a light or luminaire: the luminous flux it emits, lm. For a sky or the sun it
+    /// is NOT a flux: it is the illuminance, lx, the sky or sun gives an unobstructed
+    /// horizontal plane (their flux into a scene depends on the scene's size); see
+    /// horizontal_illuminance().
     double light_lumens(uint32_t id) const {
         double lm = 0;
         check(imap_get_light_flux(ctx_, id, nullptr, 0, &lm), ctx_);
         return lm;
+    }
+    /// The illuminance, lx, a sky or the sun gives an unobstructed horizontal plane (the
+    /// same call as light_lumens(), named for what it returns for distant lights).
+    double horizontal_illuminance(uint32_t sky_or_sun) const { return light_lumens(sky_or_sun); }
+    /// Per band: a light's radiant flux, W; a sky's or the sun's horizontal irradiance, W/m².
+    std::vector<double> light_band_flux(uint32_t id) const {
+        std::vector<double> w(bands_);
+        check(imap_get_light_flux(ctx_, id, w.data(), w.size(), nullptr), ctx_);
+        return w;
+    }
+
+    /// A sky or environment (imap_add_sky; an IMAP_SKY_IMAGE's pixels in sky.image_rgb).
+    uint32_t add_sky(const ImapSky& sky, const ImapSpectrum* s = nullptr) {
+        uint32_t id = 0;
+        check(imap_add_sky(ctx_, &sky, s, &id), ctx_);
+        return id;
+    }
+    /// An environment image from a Radiance HDR (.hdr/.pic) or OpenEXR file; `sky` gives
+    /// its unit, amount, zenith, north and rotation.
+    uint32_t add_sky_file(const std::string& path, const ImapSky& sky_settings = sky()) {
+        uint32_t id = 0;
+        check(imap_add_sky_file(ctx_, path.c_str(), &sky_settings, &id), ctx_);
+        return id;
+    }
+    /// The sun (a distant light of the sun's solid angle).
+    uint32_t add_sun(const ImapSun& sun, const ImapSpectrum* s = nullptr) {
+        uint32_t id = 0;
+        check(imap_add_sun(ctx_, &sun, s, &id), ctx_);
+        return id;
     }
     /// Illuminance in lux at every vertex of `mesh` on `side`.
     std::vector<double> illuminance(uint32_t mesh, uint32_t side) const {
@@ -321,12 +413,81 @@ public:
         check(imap_get_vertex_error(ctx_, mesh, side, e.data(), e.size()), ctx_);
         return e;
     }
+    /// A region's radiant flux per band with its standard error: {flux, sigma} per band, W.
+    std::vector<std::array<double, 2>> region_band_flux(uint32_t mesh, uint32_t side,
+                                                        uint32_t part = IMAP_ALL_PARTS) const {
+        std::vector<std::array<double, 2>> out(bands_);
+        check(imap_get_region_band_flux(ctx_, mesh, side, part, out.empty() ? nullptr : out[0].data(),
+                                        2 * out.size()),
+              ctx_);
+        return out;
+    }
+    /// Luminous efficacy of each band, lm/W.
+    std::vector<double> band_efficacy() const {
+        std::vector<double> k(bands_);
+        check(imap_get_band_efficacy(ctx_, k.data(), k.size()), ctx_);
+        return k;
+    }
+    /// The power balance per band, W: `kind` IMAP_BALANCE_EMITTED, _ABSORBED, _ESCAPED or
+    /// _DROPPED.
+    std::vector<double> band_balance(uint32_t kind) const {
+        std::vector<double> w(bands_);
+        check(imap_get_band_balance(ctx_, kind, w.data(), w.size()), ctx_);
+        return w;
+    }
+    /// Triangles of `mesh` left out as degenerate.
+    size_t dropped_triangles(uint32_t mesh) const {
+        size_t n = 0;
+        check(imap_get_mesh_dropped_triangles(ctx_, mesh, &n), ctx_);
+        return n;
+    }
     double absorbed_w(uint32_t mesh) const {
         double w = 0;
         check(imap_get_mesh_absorbed(ctx_, mesh, &w), ctx_);
         return w;
     }
     void reset() { check(imap_reset(ctx_), ctx_); }
+
+    /// The state (map, counters, history, `meta`) as bytes (imap_state_write; `flags`
+    /// IMAP_STATE_NO_MAP leaves the map out).
+    std::vector<unsigned char> state(const std::string& meta = std::string(), uint32_t flags = 0) {
+        size_t need = 0;
+        ImapStatus s = imap_state_write(ctx_, flags, meta.data(), meta.size(), nullptr, 0, &need);
+        if (s != IMAP_ERR_BUFFER_TOO_SMALL) check(s, ctx_);
+        std::vector<unsigned char> buf(need);
+        check(imap_state_write(ctx_, flags, meta.data(), meta.size(), buf.data(), buf.size(), &need), ctx_);
+        buf.resize(need);
+        return buf;
+    }
+    /// Writes the state to `path` (a checkpoint; replaced atomically).
+    void save_state(const std::string& path, const std::string& meta = std::string()) {
+        check(imap_state_save(ctx_, path.c_str(), meta.data(), meta.size()), ctx_);
+    }
+    /// Replaces the map with a saved state of the same scene (resume).
+    void load_state(const std::vector<unsigned char>& state) {
+        check(imap_state_load(ctx_, state.data(), state.size()), ctx_);
+    }
+    void load_state_file(const std::string& path) { check(imap_state_load_file(ctx_, path.c_str()), ctx_); }
+    /// Adds another run's state of the same scene (shards).
+    void merge_state(const std::vector<unsigned char>& state) {
+        check(imap_state_merge(ctx_, state.data(), state.size()), ctx_);
+    }
+    void merge_state_file(const std::string& path) { check(imap_state_merge_file(ctx_, path.c_str()), ctx_); }
+
+    /// The report and the error history of the last render.
+    ImapRenderReport render_report() const {
+        ImapRenderReport r;
+        check(imap_get_render_report(ctx_, &r, sizeof r), ctx_);
+        return r;
+    }
+    std::vector<ImapProgress> render_history() const {
+        size_t n = 0;
+        check(imap_get_render_history(ctx_, nullptr, 0, sizeof(ImapProgress), &n), ctx_);
+        std::vector<ImapProgress> h(n);
+        check(imap_get_render_history(ctx_, h.data(), h.size(), sizeof(ImapProgress), &n), ctx_);
+        h.resize(n < h.size() ? n : h.size());
+        return h;
+    }
 
     /// Renders `cam` with `bands` bands per pixel (3 for RGB contexts).
     Image render(const ImapCamera& cam, ImapRenderParams p, uint32_t bands, Progress progress = nullptr) {
@@ -346,6 +507,7 @@ public:
 
 private:
     ImapContext* ctx_ = nullptr;
+    uint32_t bands_ = 3;
 };
 
 }  // namespace imap

@@ -647,3 +647,30 @@ fn a_glazed_roof_opening_passes_the_sky_by_the_glass_transmittance() {
     );
     assert!((0.88..0.93).contains(&(glazed / open)), "{}", glazed / open);
 }
+
+#[test]
+fn a_cie_sky_without_its_sun_is_refused_unless_its_type_ignores_the_sun() {
+    // No sun (NaN angles, the C default): types 1, 3 and 5 have a flat indicatrix and do not
+    // depend on it; every other type is refused, as the command refuses it (a sun placed
+    // by default would light the model from a direction nobody chose).
+    for kind in 1..=15u32 {
+        let (mut ctx, _, _) = roof_room(1);
+        let r = ctx.add_sky(&SkyDesc {
+            kind: SkyKind::Cie {
+                kind,
+                sun_azimuth_deg: f64::NAN,
+                sun_zenith_deg: f64::NAN,
+            },
+            amount: SkyAmount::Luminance(5000.0),
+            ..SkyDesc::default()
+        });
+        match kind {
+            1 | 3 | 5 => assert!(r.is_ok(), "type {kind}: {r:?}"),
+            _ => {
+                let e = r.unwrap_err();
+                assert_eq!(e.status, imap::ImapStatus::ImapErrInvalidArgument);
+                assert!(e.message.contains("needs its sun"), "{}", e.message);
+            }
+        }
+    }
+}

@@ -38,7 +38,8 @@ pub const IMAP_SKY_UNIT_HORIZONTAL_LX: u32 = 3;
 pub const IMAP_SKY_UNIT_SCALE: u32 = 4;
 
 /// A sky or environment. Initialise with `imap_sky_default(&s, sizeof s)`: a uniform sky
-/// (amount 0 cd/m²: set it), zenith +z, north +y, not rotated. (Since 0.2.2.)
+/// (amount 0 cd/m²: set it), no sun (NaN angles), zenith +z, north +y, not rotated.
+/// (Since 0.2.2.)
 ///
 /// Directions: azimuths are measured from `north` toward east (`north` × `zenith`),
 /// zenith angles from `zenith`. An image is equirectangular: its rows run from the zenith
@@ -60,6 +61,9 @@ pub struct ImapSky {
     /// How bright, in `unit`.
     pub amount: f64,
     /// CIE: the sun's azimuth (degrees from north toward east) and zenith angle (0–90°).
+    /// The defaults are NaN, "not set": types 1, 3 and 5 do not depend on the sun, every
+    /// other type is refused without it (IMAP_ERR_INVALID_ARGUMENT), as the command
+    /// refuses it. (Before 0.2.3 the defaults placed the sun at azimuth 180°, zenith 45°.)
     pub sun_azimuth_deg: f64,
     pub sun_zenith_deg: f64,
     /// The sky's zenith and north in scene coordinates (any length but 0; north's part
@@ -87,8 +91,8 @@ unsafe impl Versioned for ImapSky {
             cie_type: 0,
             unit: IMAP_SKY_UNIT_LUMINANCE,
             amount: 0.0,
-            sun_azimuth_deg: 180.0,
-            sun_zenith_deg: 45.0,
+            sun_azimuth_deg: f64::NAN,
+            sun_zenith_deg: f64::NAN,
             zenith: d.zenith,
             north: d.north,
             rotation_deg: 0.0,

@@ -468,7 +468,8 @@ pub enum SkyKind {
     /// Uniform radiance over the upper hemisphere, or over every direction (`sphere`).
     Uniform { sphere: bool },
     /// CIE standard general sky `kind` (1–15) with the sun at `sun_azimuth_deg` (from
-    /// north toward east) and `sun_zenith_deg` (0–90).
+    /// north toward east) and `sun_zenith_deg` (0–90). Both NaN: no sun given, which only
+    /// types 1, 3 and 5 (flat indicatrix) accept; the others are refused.
     Cie {
         kind: u32,
         sun_azimuth_deg: f64,
@@ -649,6 +650,17 @@ impl Distant {
                         "cie_type = {kind}: the CIE standard general skies are types 1–15"
                     );
                 }
+                // No sun (both NaN): only the types whose indicatrix is flat (1, 3, 5)
+                // do not depend on where it is.
+                let (sun_azimuth_deg, sun_zenith_deg) =
+                    match (sun_azimuth_deg.is_nan() && sun_zenith_deg.is_nan(), kind) {
+                        (true, 1 | 3 | 5) => (&0.0, &0.0),
+                        (true, _) => bail!(
+                            ImapErrInvalidArgument,
+                            "sun_azimuth_deg and sun_zenith_deg are not set: a CIE sky of type {kind} needs its sun's position (only types 1, 3 and 5 do not depend on it)"
+                        ),
+                        (false, _) => (sun_azimuth_deg, sun_zenith_deg),
+                    };
                 check_angle("sun_azimuth_deg", *sun_azimuth_deg, -360.0, 360.0)?;
                 check_angle("sun_zenith_deg", *sun_zenith_deg, 0.0, 90.0)?;
                 let sun = frame.direction(
