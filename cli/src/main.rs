@@ -579,6 +579,15 @@ fn write_outputs(
         eprintln!("imap: warning: {}", diag::printable(&w));
         warnings.push(w);
     }
+    // Without a [camera], the view that shows the most lit, recorded surface.
+    let chosen;
+    let cam = match &settings.camera {
+        Some(_) => cam,
+        None => {
+            chosen = output::choose_camera(scene, &maps, settings.up()?)?.0;
+            &chosen
+        }
+    };
     let img = output::render_view(scene, &maps, cam)?;
     let history: Vec<serde_json::Value> = ctx
         .history()
@@ -689,6 +698,7 @@ fn write_outputs(
         "map_bytes": report.map_bytes,
         "history": history,
         "grids": grid_json,
+        "view_camera": cam,
         "outputs": outputs,
     });
     // Every output is written to a temporary file first and renamed into place once all
@@ -733,6 +743,9 @@ fn info(path: &Path) -> Result<()> {
     // The warnings `run` gives with no settings: the defaults' units and up axis, and the
     // materials as the default (RGB) bands read them.
     for w in scene::guess_warnings(&m, None, None) {
+        d.warn(w);
+    }
+    for w in scene::coarse_warnings(&m, &|_| true, 1.0) {
         d.warn(w);
     }
     let bands = imap::Bands::rgb();

@@ -229,6 +229,162 @@ impl Model {
         }
     }
 
+    /// Splits the triangles of the objects `which` accepts until no edge is longer than
+    /// `max_edge` (scene units): each round cuts every long edge at its midpoint, once for
+    /// the triangles on both its sides (no cracks or T-junctions), and re-cuts each triangle
+    /// by how many of its edges were cut (2, 3 or 4 pieces, the same winding). Texture
+    /// coordinates and vertex colours are interpolated. Refused when the result would pass
+    /// `max_triangles` in all. Returns the triangles added.
+    pub fn refine(
+        &mut self,
+        which: &dyn Fn(&str) -> bool,
+        max_edge: f64,
+        max_triangles: usize,
+    ) -> Result<usize, String> {
+        type Corner = (u32, Option<u32>);
+        if !(max_edge > 0.0 && max_edge.is_finite()) {
+            return Err("it is not a length above 0".to_string());
+        }
+        let before = self.triangles();
+        let len = |m: &Model, a: u32, b: u32| {
+            let (p, q) = (m.positions[a as usize], m.positions[b as usize]);
+            ((p[0] - q[0]).powi(2) + (p[1] - q[1]).powi(2) + (p[2] - q[2]).powi(2)).sqrt()
+        };
+        // A triangle whose longest edge is k times the limit ends in at least k² pieces
+        // (halving every edge quarters it): refuse before any work when that passes the cap.
+        let at_least: f64 = self
+            .objects
+            .iter()
+            .filter(|o| which(&o.name))
+            .flat_map(|o| &o.triangles)
+            .map(|t| {
+                let longest = (0..3)
+                    .map(|e| len(self, t.v[e], t.v[(e + 1) % 3]))
+                    .fold(0.0, f64::max);
+                (longest / max_edge).max(1.0).powi(2)
+            })
+            .sum::<f64>()
+            + (self.triangles() as f64);
+        if at_least > max_triangles as f64 {
+            return Err(format!(
+                "it would make more than {max_triangles} triangles (the recorded surfaces are too large for that edge length: choose a longer one)"
+            ));
+        }
+        loop {
+            // The long edges, each once.
+            let mut cut: HashMap<(u32, u32), u32> = HashMap::new();
+            let mut pieces = 0usize;
+            for o in self.objects.iter().filter(|o| which(&o.name)) {
+                for t in &o.triangles {
+                    let mut n = 0;
+                    for e in 0..3 {
+                        let (a, b) = (t.v[e], t.v[(e + 1) % 3]);
+                        if len(self, a, b) > max_edge {
+                            cut.insert((a.min(b), a.max(b)), u32::MAX);
+                            n += 1;
+                        }
+                    }
+                    pieces += n;
+                }
+            }
+            if cut.is_empty() {
+                break;
+            }
+            let total = self.triangles().saturating_add(pieces);
+            if total > max_triangles {
+                return Err(format!(
+                    "it would make more than {max_triangles} triangles (the recorded surfaces are too large for that edge length: choose a longer one)"
+                ));
+            }
+            // Midpoints: positions (and colours), and texture coordinates by their pair.
+            let mut keys: Vec<(u32, u32)> = cut.keys().copied().collect();
+            keys.sort_unstable();
+            for (a, b) in keys {
+                let (p, q) = (self.positions[a as usize], self.positions[b as usize]);
+                let i = self.positions.len() as u32;
+                self.positions.push([0, 1, 2].map(|k| 0.5 * (p[k] + q[k])));
+                if let Some(c) = self.colours.as_mut() {
+                    let (x, y) = (c[a as usize], c[b as usize]);
+                    c.push([0, 1, 2].map(|k| 0.5 * (x[k] + y[k])));
+                }
+                cut.insert((a, b), i);
+            }
+            let mut uv_mid: HashMap<(u32, u32), u32> = HashMap::new();
+            let texcoords = &mut self.texcoords;
+            let mut mid = |x: Corner, y: Corner| -> Corner {
+                let v = cut[&(x.0.min(y.0), x.0.max(y.0))];
+                let vt = match (x.1, y.1) {
+                    (Some(a), Some(b)) => {
+                        Some(*uv_mid.entry((a.min(b), a.max(b))).or_insert_with(|| {
+                            let (p, q) = (texcoords[a as usize], texcoords[b as usize]);
+                            texcoords.push([0.5 * (p[0] + q[0]), 0.5 * (p[1] + q[1])]);
+                            texcoords.len() as u32 - 1
+                        }))
+                    }
+                    _ => None,
+                };
+                (v, vt)
+            };
+            let positions = &self.positions;
+            let dist = |a: Corner, b: Corner| {
+                let (p, q) = (positions[a.0 as usize], positions[b.0 as usize]);
+                (0..3).map(|k| (p[k] - q[k]).powi(2)).sum::<f64>()
+            };
+            for o in self.objects.iter_mut().filter(|o| which(&o.name)) {
+                let mut out = Vec::with_capacity(o.triangles.len() * 2);
+                for t in &o.triangles {
+                    let c: [Corner; 3] = [0, 1, 2].map(|i| (t.v[i], t.vt.map(|vt| vt[i])));
+                    let split: [bool; 3] = [0, 1, 2].map(|e| {
+                        let (a, b) = (t.v[e], t.v[(e + 1) % 3]);
+                        cut.contains_key(&(a.min(b), a.max(b)))
+                    });
+                    let mut push = |x: Corner, y: Corner, z: Corner| {
+                        out.push(crate::obj::Triangle {
+                            v: [x.0, y.0, z.0],
+                            vt: x.1.zip(y.1).zip(z.1).map(|((a, b), c)| [a, b, c]),
+                            material: t.material,
+                        });
+                    };
+                    match split.iter().filter(|&&x| x).count() {
+                        0 => push(c[0], c[1], c[2]),
+                        3 => {
+                            let m = [0, 1, 2].map(|e| mid(c[e], c[(e + 1) % 3]));
+                            push(c[0], m[0], m[2]);
+                            push(m[0], c[1], m[1]);
+                            push(m[2], m[1], c[2]);
+                            push(m[0], m[1], m[2]);
+                        }
+                        1 => {
+                            // Rotate so the cut edge is c0–c1.
+                            let e = split.iter().position(|&x| x).unwrap();
+                            let (a, b, d) = (c[e], c[(e + 1) % 3], c[(e + 2) % 3]);
+                            let m = mid(a, b);
+                            push(a, m, d);
+                            push(m, b, d);
+                        }
+                        _ => {
+                            // Rotate so the uncut edge is c2–c0: c0–c1 and c1–c2 are cut.
+                            let e = split.iter().position(|&x| !x).unwrap();
+                            let (a, b, d) = (c[(e + 1) % 3], c[(e + 2) % 3], c[e]);
+                            let (m0, m1) = (mid(a, b), mid(b, d));
+                            push(m0, b, m1);
+                            // The quadrilateral a, m0, m1, d by its shorter diagonal.
+                            if dist(a, m1) <= dist(m0, d) {
+                                push(a, m0, m1);
+                                push(a, m1, d);
+                            } else {
+                                push(a, m0, d);
+                                push(m0, m1, d);
+                            }
+                        }
+                    }
+                }
+                o.triangles = out;
+            }
+        }
+        Ok(self.triangles() - before)
+    }
+
     /// The objects that are closed with their normals pointing inward: (name, volume).
     pub fn inward(&self) -> Vec<(String, f64)> {
         (0..self.objects.len())

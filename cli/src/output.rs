@@ -690,6 +690,130 @@ pub fn default_camera(scene: &LoadedScene, up: [f64; 3]) -> CameraSettings {
     }
 }
 
+/// The share of a camera's picture that shows lit, recorded sides facing it (`score_view`)
+/// that a candidate must beat the default view's by to replace it.
+const BETTER_VIEW: f64 = 1.25;
+
+/// The default view after a run: of the default camera (`default_camera`) and views from
+/// the other sides, from above, and from inside the model's box (from near each upper
+/// corner toward the opposite lower one, 70°), the one whose picture shows the most lit,
+/// recorded surface facing the camera — so a room lit inside is seen from inside, not as
+/// the outer faces of its walls, and a mesh recorded on one side is seen from that side.
+/// The default camera is kept unless another shows `BETTER_VIEW` times as much. Returns
+/// the camera and the share of its picture that shows lit recorded sides.
+pub fn choose_camera(
+    scene: &LoadedScene,
+    maps: &[Option<MeshMap>],
+    up: [f64; 3],
+) -> Result<(CameraSettings, f64)> {
+    let first = default_camera(scene, up);
+    let (lo, hi) = scene.bounds();
+    let (lo, hi) = (DVec3::from(lo), DVec3::from(hi));
+    let c = 0.5 * (lo + hi);
+    let up_v = DVec3::from(up).normalize();
+    let front = if up_v.z.abs() > 0.5 {
+        DVec3::NEG_Y
+    } else {
+        DVec3::NEG_Z
+    };
+    let side = up_v.cross(front).normalize();
+    let half = 0.5 * (hi - lo);
+    let (h_front, h_side) = (
+        half.dot(front).abs().max(1e-9),
+        half.dot(side).abs().max(1e-9),
+    );
+    let height = half.dot(up_v).abs();
+    let mut candidates = vec![first.clone()];
+    let radius = (half.length()).max(1e-9);
+    for k in 1..4 {
+        // The default's view turned by 90°, 180°, 270° about the up axis.
+        let a = k as f64 * std::f64::consts::FRAC_PI_2;
+        let d = DVec3::from(first.position) - c;
+        let (h, v) = (d - up_v * d.dot(up_v), up_v * d.dot(up_v));
+        let turned = h * a.cos() + up_v.cross(h) * a.sin() + v;
+        candidates.push(CameraSettings {
+            position: (c + turned).to_array(),
+            ..first.clone()
+        });
+    }
+    // From above, looking down (a plan).
+    let dist = radius / (20f64.to_radians()).sin();
+    candidates.push(CameraSettings {
+        position: (c + up_v * dist).to_array(),
+        up: Some((-front).to_array()),
+        ..first.clone()
+    });
+    // From inside, near each upper corner toward the opposite lower one.
+    for (sf, ss) in [(1.0, 1.0), (1.0, -1.0), (-1.0, 1.0), (-1.0, -1.0)] {
+        let corner = front * (sf * h_front) + side * (ss * h_side);
+        let eye = c + 0.8 * corner + up_v * (0.5 * height);
+        let target = c - 0.6 * corner - up_v * (0.6 * height);
+        candidates.push(CameraSettings {
+            position: eye.to_array(),
+            look_at: target.to_array(),
+            fov_deg: 70.0,
+            ..first.clone()
+        });
+    }
+    let attrs = lit_side_attributes(scene, maps);
+    let mut best: (CameraSettings, f64) = (first.clone(), -1.0);
+    for (k, cam) in candidates.into_iter().enumerate() {
+        let small = CameraSettings {
+            width: 96,
+            height: 96,
+            ..cam.clone()
+        };
+        if small.validate().is_err() {
+            continue;
+        }
+        let score = score_view(scene, &attrs, &small)?;
+        let better = if k == 0 {
+            true
+        } else {
+            score > BETTER_VIEW * best.1.max(0.0) + 0.02 && score > best.1
+        };
+        if better {
+            best = (cam, score);
+        }
+    }
+    Ok(best)
+}
+
+/// Per mesh and side: 1 where the side is recorded and lit, 0 elsewhere (and on the
+/// unrecorded back of a one-sided recorded mesh, and on surfaces that do not record:
+/// they only hide what is behind them).
+fn lit_side_attributes(scene: &LoadedScene, maps: &[Option<MeshMap>]) -> Vec<ViewAttrs> {
+    scene
+        .meshes
+        .iter()
+        .zip(maps)
+        .map(|(m, map)| {
+            let nv = m.positions.len() / 3;
+            let flags = |lux: Option<&Vec<f64>>| -> Vec<ViewAttr> {
+                (0..nv)
+                    .map(|v| {
+                        let lit = lux.is_some_and(|l| l[v] > 0.0 && l[v].is_finite());
+                        [f64::from(u8::from(lit)), 0.0, 0.0, 1.0]
+                    })
+                    .collect()
+            };
+            ViewAttrs {
+                front: flags(map.as_ref().map(|mm| &mm.lux)),
+                back: Some(flags(map.as_ref().and_then(|mm| mm.lux_back.as_ref()))),
+            }
+        })
+        .collect()
+}
+
+/// The share of the picture of `cam` that shows lit, recorded sides facing the camera.
+fn score_view(scene: &LoadedScene, attrs: &[ViewAttrs], cam: &CameraSettings) -> Result<f64> {
+    let mut sum = 0.0;
+    rasterize_rows(scene, attrs, cam, &mut |_, row| {
+        sum += row.iter().map(|a| a[0]).sum::<f64>();
+    })?;
+    Ok(sum / (cam.width as f64 * cam.height as f64))
+}
+
 /// What the view interpolates per vertex: illuminance (lx), the luminance of the reflected
 /// light (for surfaces that do not record), 1 on recording meshes, 1 (coverage).
 type ViewAttr = [f64; 4];
@@ -917,19 +1041,23 @@ fn rasterize_rows(
     let f = 1.0 / (cam.fov_deg.to_radians() / 2.0).tan();
     let aspect = w as f64 / h as f64;
     let (sw, sh) = (2 * w, 2 * h);
-    let project = |p: &[f64]| -> Option<[f64; 3]> {
-        let d = DVec3::new(p[0], p[1], p[2]) - eye;
+    // The near plane: triangles that cross it are clipped there (a camera inside a room
+    // sees the whole ceiling, not the triangles whose corners are all in front of it).
+    let (blo, bhi) = scene.bounds();
+    let near = 1e-4 * (DVec3::from(bhi) - DVec3::from(blo)).length().max(1e-9);
+    let screen = |d: DVec3| -> [f64; 3] {
         let depth = d.dot(fwd);
-        if depth <= 1e-9 {
-            return None;
-        }
         let x = d.dot(right) * f / (depth * aspect);
         let y = d.dot(up) * f / depth;
-        Some([
+        [
             (x + 1.0) * 0.5 * sw as f64,
             (1.0 - y) * 0.5 * sh as f64,
             depth,
-        ])
+        ]
+    };
+    let project = |p: &[f64]| -> Option<[f64; 3]> {
+        let d = DVec3::new(p[0], p[1], p[2]) - eye;
+        (d.dot(fwd) >= near).then(|| screen(d))
     };
     // Project every vertex once, and list the triangles in view by their first row.
     let pts: Vec<Vec<Option<[f64; 3]>>> = scene
@@ -942,46 +1070,97 @@ fn rasterize_rows(
         first: u32,
         y0: u32,
         y1: u32,
+        /// Index into `clipped` + 1 for a piece of a triangle cut at the near plane; 0
+        /// for a whole triangle.
+        piece: u32,
     }
+    /// A piece of a triangle cut at the near plane: its corners on the screen and each
+    /// corner's barycentric weights on the original triangle's corners.
+    struct Piece {
+        pts: [[f64; 3]; 3],
+        bary: [[f64; 3]; 3],
+    }
+    let mut clipped: Vec<Piece> = Vec::new();
     let mut tris = Vec::new();
     let mut seen = std::collections::HashSet::new();
     for (mi, m) in scene.meshes.iter().enumerate() {
         for (ti, t) in m.indices.chunks_exact(3).enumerate() {
-            let (Some(a), Some(b), Some(c)) = (
-                pts[mi][t[0] as usize],
-                pts[mi][t[1] as usize],
-                pts[mi][t[2] as usize],
-            ) else {
-                continue;
-            };
-            let area = (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0]);
-            if area.is_nan() || area.abs() < 1e-12 {
-                continue;
+            let corners = [0, 1, 2].map(|i| pts[mi][t[i] as usize]);
+            // At most two pieces (a quadrilateral after clipping); no allocation per
+            // triangle.
+            let mut pieces = [(0usize, [[0.0f64; 3]; 3]); 2];
+            let mut np = 0;
+            match corners {
+                [Some(a), Some(b), Some(c)] => {
+                    pieces[0] = (0, [a, b, c]);
+                    np = 1;
+                }
+                [None, None, None] => continue,
+                _ => {
+                    // Sutherland–Hodgman against depth ≥ near, in camera space, keeping
+                    // each new corner's weights on the original corners.
+                    let cam = [0, 1, 2].map(|i| {
+                        let p = &m.positions[3 * t[i] as usize..][..3];
+                        DVec3::new(p[0], p[1], p[2]) - eye
+                    });
+                    let unit = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+                    let mut poly: Vec<(DVec3, [f64; 3])> = Vec::with_capacity(4);
+                    for i in 0..3 {
+                        let j = (i + 1) % 3;
+                        let (di, dj) = (cam[i].dot(fwd) - near, cam[j].dot(fwd) - near);
+                        if di >= 0.0 {
+                            poly.push((cam[i], unit[i]));
+                        }
+                        if (di >= 0.0) != (dj >= 0.0) {
+                            let s = di / (di - dj);
+                            let w = [0, 1, 2].map(|k| unit[i][k] * (1.0 - s) + unit[j][k] * s);
+                            poly.push((cam[i] + (cam[j] - cam[i]) * s, w));
+                        }
+                    }
+                    for k in 1..poly.len().saturating_sub(1) {
+                        let tri = [poly[0], poly[k], poly[k + 1]];
+                        clipped.push(Piece {
+                            pts: tri.map(|(d, _)| screen(d)),
+                            bary: tri.map(|(_, w)| w),
+                        });
+                        pieces[np] = (clipped.len(), clipped.last().unwrap().pts);
+                        np += 1;
+                    }
+                }
             }
-            let ylo = a[1].min(b[1]).min(c[1]).floor().max(0.0);
-            let yhi = a[1].max(b[1]).max(c[1]).ceil().min(sh as f64);
-            let xlo = a[0].min(b[0]).min(c[0]);
-            let xhi = a[0].max(b[0]).max(c[0]);
-            if ylo >= yhi || ylo.is_nan() || xhi < 0.0 || xlo > sw as f64 {
-                continue;
+            for &(piece, [a, b, c]) in &pieces[..np] {
+                let area = (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0]);
+                if area.is_nan() || area.abs() < 1e-12 {
+                    continue;
+                }
+                let ylo = a[1].min(b[1]).min(c[1]).floor().max(0.0);
+                let yhi = a[1].max(b[1]).max(c[1]).ceil().min(sh as f64);
+                let xlo = a[0].min(b[0]).min(c[0]);
+                let xhi = a[0].max(b[0]).max(c[0]);
+                if ylo >= yhi || ylo.is_nan() || xhi < 0.0 || xlo > sw as f64 {
+                    continue;
+                }
+                // The same three corners (in any order) as a triangle already listed.
+                if piece == 0 {
+                    let mut corners = [t[0], t[1], t[2]].map(|v| {
+                        let p = &m.positions[3 * v as usize..][..3];
+                        [p[0].to_bits(), p[1].to_bits(), p[2].to_bits()]
+                    });
+                    corners.sort_unstable();
+                    let mut hasher = std::collections::hash_map::DefaultHasher::new();
+                    corners.hash(&mut hasher);
+                    if !seen.insert(hasher.finish()) {
+                        continue;
+                    }
+                }
+                tris.push(Tri {
+                    mesh: mi as u32,
+                    first: 3 * ti as u32,
+                    y0: ylo as u32,
+                    y1: yhi as u32,
+                    piece: piece as u32,
+                });
             }
-            // The same three corners (in any order) as a triangle already listed.
-            let mut corners = [t[0], t[1], t[2]].map(|v| {
-                let p = &m.positions[3 * v as usize..][..3];
-                [p[0].to_bits(), p[1].to_bits(), p[2].to_bits()]
-            });
-            corners.sort_unstable();
-            let mut hasher = std::collections::hash_map::DefaultHasher::new();
-            corners.hash(&mut hasher);
-            if !seen.insert(hasher.finish()) {
-                continue;
-            }
-            tris.push(Tri {
-                mesh: mi as u32,
-                first: 3 * ti as u32,
-                y0: ylo as u32,
-                y1: yhi as u32,
-            });
         }
     }
     drop(seen);
@@ -1014,21 +1193,37 @@ fn rasterize_rows(
             let tri = &tris[k];
             let m = &scene.meshes[tri.mesh as usize];
             let t = &m.indices[tri.first as usize..][..3];
-            let p = &pts[tri.mesh as usize];
-            let (a, b, c) = (
-                p[t[0] as usize].expect("in view"),
-                p[t[1] as usize].expect("in view"),
-                p[t[2] as usize].expect("in view"),
-            );
+            let (a, b, c) = match tri.piece {
+                0 => {
+                    let p = &pts[tri.mesh as usize];
+                    (
+                        p[t[0] as usize].expect("in view"),
+                        p[t[1] as usize].expect("in view"),
+                        p[t[2] as usize].expect("in view"),
+                    )
+                }
+                k => {
+                    let q = &clipped[k as usize - 1].pts;
+                    (q[0], q[1], q[2])
+                }
+            };
             let area = (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0]);
             // A two-sided mesh shows the side that faces the camera (seen from its front, a
-            // triangle runs clockwise on the screen, whose y points down).
+            // triangle runs clockwise on the screen, whose y points down; a piece keeps
+            // its triangle's winding).
             let va = &attrs[tri.mesh as usize];
             let shown = match &va.back {
                 Some(back) if area > 0.0 => back,
                 _ => &va.front,
             };
-            let cols = [0, 1, 2].map(|i| shown[t[i] as usize]);
+            let whole = [0, 1, 2].map(|i| shown[t[i] as usize]);
+            let cols = match tri.piece {
+                0 => whole,
+                k => clipped[k as usize - 1].bary.map(|w| {
+                    [0, 1, 2, 3]
+                        .map(|q| w[0] * whole[0][q] + w[1] * whole[1][q] + w[2] * whole[2][q])
+                }),
+            };
             let y0 = (tri.y0 as usize).max(ys);
             let y1 = (tri.y1 as usize).min(ye);
             for y in y0..y1 {

@@ -234,6 +234,12 @@ pub struct Settings {
     /// camera's default `up`.
     #[serde(default)]
     pub up_axis: Option<String>,
+    /// The longest edge, metres, the recorded objects' triangles keep: longer ones are
+    /// split (`Model::refine`), so a wall drawn as two triangles gets a map with a point
+    /// every `refine` metres instead of its four corners. Default: as drawn (with a warning
+    /// for objects far coarser than EN 12464-1's grid spacing).
+    #[serde(default)]
+    pub refine: Option<f64>,
     #[serde(default)]
     pub spectral: Option<SpectralSettings>,
     #[serde(default)]
@@ -524,7 +530,78 @@ pub fn guess_warnings(
     out
 }
 
-/// The warning for a closed object whose normals point inward./// The warning for a closed object whose normals point inward.
+/// The most triangles `refine` may make in all.
+pub const MAX_REFINED_TRIANGLES: usize = 20_000_000;
+
+/// Recorded objects whose vertices lie much farther apart than a calculation grid's points
+/// would (more than twice EN 12464-1's spacing for the object's size): their map holds only
+/// those vertices' values, and the view interpolates between them (a floor of two triangles
+/// shows four values). Objects that emit are left out.
+pub fn coarse_warnings(
+    model: &crate::model::Model,
+    records: &dyn Fn(&str) -> bool,
+    unit_m: f64,
+) -> Vec<String> {
+    // (name, vertices, m² per vertex, spacing to suggest)
+    let mut coarse: Vec<(String, usize, f64, f64)> = Vec::new();
+    for o in model.objects.iter().filter(|o| records(&o.name)) {
+        let emits = o.triangles.iter().any(|t| {
+            t.material
+                .and_then(|m| model.materials.get(m))
+                .is_some_and(|m| m.ke.is_some_and(|k| k.iter().any(|&x| x > 0.0)))
+        });
+        if emits || o.triangles.is_empty() {
+            continue;
+        }
+        let mut vertices: Vec<u32> = o.triangles.iter().flat_map(|t| t.v).collect();
+        vertices.sort_unstable();
+        vertices.dedup();
+        let area: f64 = o
+            .triangles
+            .iter()
+            .map(|t| {
+                let [a, b, c] = t.v.map(|v| glam::DVec3::from(model.positions[v as usize]));
+                0.5 * (b - a).cross(c - a).length()
+            })
+            .sum::<f64>()
+            * unit_m
+            * unit_m;
+        let (lo, hi) = crate::model::bounds(vertices.iter().map(|&v| model.positions[v as usize]));
+        let d = (0..3).map(|k| hi[k] - lo[k]).fold(0.0, f64::max) * unit_m;
+        if !(area > 0.0 && d > 0.0) {
+            continue;
+        }
+        let p = crate::grids::en12464_spacing_m(d);
+        let spacing = (area / vertices.len() as f64).sqrt();
+        if spacing > 2.0 * p {
+            coarse.push((
+                printable(&o.name),
+                vertices.len(),
+                area / vertices.len() as f64,
+                p,
+            ));
+        }
+    }
+    if coarse.is_empty() {
+        return Vec::new();
+    }
+    let p = coarse.iter().map(|c| c.3).fold(f64::INFINITY, f64::min);
+    let mut named: Vec<String> = coarse
+        .iter()
+        .take(4)
+        .map(|(n, v, a, _)| format!("'{n}' {v} vertices, one per {a:.2} m²"))
+        .collect();
+    if coarse.len() > 4 {
+        named.push(format!("{} more", coarse.len() - 4));
+    }
+    vec![format!(
+        "{} recorded object(s) have their vertices far apart ({}): a map holds only the vertices' values, and view.png interpolates between them; refine = {p:.2} (metres: EN 12464-1's grid spacing for their size) splits the recorded triangles to that edge length",
+        coarse.len(),
+        named.join("; ")
+    )]
+}
+
+/// The warning for a closed object whose normals point inward./// The warning for a closed object whose normals point inward./// The warning for a closed object whose normals point inward.
 pub fn inward_warning(path: &Path, name: &str, volume: f64) -> String {
     format!(
         "{}: object '{}' is closed and its normals point inward (its signed volume is {volume:.4e} scene units³): the side libimap records faces its inside; flip_normals = [\"{}\"] records its outside (or two_sided = true both)",
@@ -552,6 +629,22 @@ pub fn load(path: &Path, settings: &Settings) -> Result<(Context, LoadedScene)> 
         }
     }
     model.flip(&settings.flip_normals);
+    let unit_m = settings.unit_m.unwrap_or(1.0);
+    let records =
+        |name: &str| settings.record.is_empty() || settings.record.iter().any(|r| r == name);
+    match settings.refine {
+        Some(r) => {
+            if let Err(e) = model.refine(&records, r / unit_m, MAX_REFINED_TRIANGLES) {
+                let (file, line) = settings.locate("refine");
+                diag.error(&file, line, format!("refine = {r}: {e}"));
+            }
+        }
+        None => {
+            for w in coarse_warnings(&model, &records, unit_m) {
+                diag.warn(w);
+            }
+        }
+    }
     if !settings.two_sided {
         for (name, v) in model.inward() {
             let recorded = settings.record.is_empty() || settings.record.contains(&name);

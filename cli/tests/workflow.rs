@@ -167,7 +167,11 @@ fn inside_out_meshes_are_found_and_flipped_on_request() {
     let out = d.path().join("flipped");
     let o = run_photons(&obj, &toml, &out, 200_000);
     assert!(o.status.success(), "{}", stderr(&o));
-    assert!(!stderr(&o).contains("warning"), "{}", stderr(&o));
+    let e = stderr(&o);
+    assert!(
+        !e.contains("point inward") && !e.contains("arrives on its back"),
+        "{e}"
+    );
     let lit = report(&out)["meshes"][0]["illuminance_lx"]["mean"]
         .as_f64()
         .unwrap();
@@ -391,8 +395,11 @@ fn a_stop_on_the_grid_average_reports_sane_figures() {
         };
         let ((avg, _), (min, smin), (max, smax), (u0, su0)) =
             (v("average_lx"), v("min_lx"), v("max_lx"), v("u0"));
+        // The target required 25 % (`MAX_FIGURE_ERROR`) at the check that stopped the
+        // run; the photons in flight then may move the minimum to another point (here a
+        // 1 lx point in the box's penumbra), so the report may read a little above it.
         assert!(
-            smin <= 0.25 * min && smax <= 0.25 * max && su0 <= 0.25 * u0,
+            smin <= 0.3 * min && smax <= 0.3 * max && su0 <= 0.3 * u0,
             "{g}"
         );
         assert!(
@@ -474,4 +481,117 @@ fn units_up_axis_and_materials_are_checked_by_info_and_run() {
     let info: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
     assert_eq!(info["units_guess"], "metres");
     assert!(!info["warnings"].to_string().contains("unit_m"));
+}
+
+/// A 6 × 4 × 3 m room in metres (Z up), every surface a quad, black or grey, with a
+/// point light inside.
+fn quad_room(dir: &Path, kd: f64) -> String {
+    write(dir, "q.mtl", format!("newmtl m\nKd {kd} {kd} {kd}\n"));
+    write(
+        dir,
+        "q.obj",
+        "mtllib q.mtl\nv 0 0 0\nv 6 0 0\nv 6 4 0\nv 0 4 0\nv 0 0 3\nv 6 0 3\nv 6 4 3\nv 0 4 3\n\
+         usemtl m\no floor\nf 1 2 3 4\no ceiling\nf 5 8 7 6\no back\nf 4 3 7 8\no left\nf 1 4 8 5\n\
+         o right\nf 2 6 7 3\no front\nf 1 5 6 2\n",
+    )
+}
+
+const LAMP_INSIDE: &str =
+    "up_axis = \"z\"\n[[light]]\nkind = \"point\"\nposition = [3, 2, 2.5]\npower = 100\n";
+
+fn view_pixels(out: &Path) -> (u32, u32, Vec<u8>) {
+    let dec = png::Decoder::new(std::fs::File::open(out.join("view.png")).unwrap());
+    let mut r = dec.read_info().unwrap();
+    let mut buf = vec![0; r.output_buffer_size()];
+    let info = r.next_frame(&mut buf).unwrap();
+    buf.truncate(info.buffer_size());
+    (info.width, info.height, buf)
+}
+
+/// A room lit inside is seen from inside: the default camera of view.png is the one that
+/// shows the most lit, recorded surface facing it (from outside, the picture showed the
+/// walls' outer faces), and surfaces that cross the camera's near plane are clipped, not
+/// dropped (the ceiling over an inside camera was missing).
+#[test]
+fn the_default_view_looks_at_the_lit_recorded_side() {
+    let d = tempfile::tempdir().unwrap();
+    let obj = quad_room(d.path(), 0.5);
+    let toml = write(d.path(), "v.toml", format!("refine = 0.5\n{LAMP_INSIDE}"));
+    let out = d.path().join("v");
+    let o = run_photons(&obj, &toml, &out, 100_000);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let cam = &report(&out)["view_camera"];
+    let p: Vec<f64> = (0..3)
+        .map(|k| cam["position"][k].as_f64().unwrap())
+        .collect();
+    assert!(
+        p[0] > 0.0 && p[0] < 6.0 && p[1] > 0.0 && p[1] < 4.0 && p[2] > 0.0 && p[2] < 3.0,
+        "the camera is outside the room: {cam}"
+    );
+    // Every pixel above the legend shows a wall, the floor or the ceiling in false colour:
+    // none is the background.
+    let (w, h, px) = view_pixels(&out);
+    let legend = 80;
+    let background = (0..(h - legend) * w)
+        .filter(|&i| px[3 * i as usize..][..3] == [24, 24, 28])
+        .count();
+    assert_eq!(background, 0, "{background} pixels show nothing");
+}
+
+/// Objects drawn as two triangles get a map of four values; the command says so and
+/// `refine` splits them: then a black room's floor reads I/h² under the lamp and I h / r³
+/// at (1.5, 1) m, a ratio of 1.874 (the four corners of the coarse floor hold no such point).
+#[test]
+fn coarse_objects_are_warned_about_and_refine_splits_them() {
+    let d = tempfile::tempdir().unwrap();
+    let obj = quad_room(d.path(), 0.0);
+    let coarse = write(d.path(), "c.toml", LAMP_INSIDE);
+    let o = run_photons(&obj, &coarse, &d.path().join("c"), 20_000);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let e = stderr(&o);
+    assert!(
+        e.contains("6 recorded object(s) have their vertices far apart")
+            && e.contains("refine = 0.53"),
+        "{e}"
+    );
+    let fine = write(d.path(), "f.toml", format!("refine = 0.25\n{LAMP_INSIDE}"));
+    let out = d.path().join("f");
+    let o = run_photons(&obj, &fine, &out, 300_000);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(!stderr(&o).contains("far apart"), "{}", stderr(&o));
+    let csv = std::fs::read_to_string(out.join("irradiance.csv")).unwrap();
+    let floor: Vec<[f64; 3]> = csv
+        .lines()
+        .filter(|l| l.starts_with("floor,"))
+        .map(|l| {
+            let c: Vec<f64> = l.split(',').skip(2).map(|x| x.parse().unwrap()).collect();
+            [c[0], c[1], c[7]]
+        })
+        .collect();
+    assert!(floor.len() > 400, "{} floor vertices", floor.len());
+    // The vertices nearest to a point: its position and lux; I h / r³ there (up to I).
+    let nearest = |x: f64, y: f64| {
+        let v = floor
+            .iter()
+            .min_by(|a, b| {
+                let d = |p: &[f64; 3]| (p[0] - x).powi(2) + (p[1] - y).powi(2);
+                d(a).total_cmp(&d(b))
+            })
+            .unwrap();
+        let r2 = (v[0] - 3.0).powi(2) + (v[1] - 2.0).powi(2) + 2.5f64.powi(2);
+        (v[2], 2.5 / r2.powf(1.5))
+    };
+    let ((under, e_under), (off, e_off)) = (nearest(3.0, 2.0), nearest(1.5, 1.0));
+    let (ratio, want) = (under / off, e_under / e_off);
+    eprintln!("floor under the lamp / at (1.5, 1): {ratio:.3} (I/h² over I h/r³: {want:.3})");
+    assert!((ratio / want - 1.0).abs() < 0.03, "{ratio} vs {want}");
+    // A refine that would make too many triangles is refused, naming the setting.
+    let tiny = write(d.path(), "t.toml", format!("refine = 1e-4\n{LAMP_INSIDE}"));
+    let o = run_photons(&obj, &tiny, &d.path().join("t"), 1000);
+    assert!(!o.status.success());
+    assert!(
+        stderr(&o).contains("refine = 0.0001: it would make more than"),
+        "{}",
+        stderr(&o)
+    );
 }
