@@ -15,6 +15,7 @@ mod mtl;
 mod obj;
 mod output;
 mod polygon;
+mod rad;
 mod render_cmd;
 mod scene;
 mod segments;
@@ -750,8 +751,21 @@ fn info(path: &Path) -> Result<()> {
     }
     let bands = imap::Bands::rgb();
     let at = (std::path::PathBuf::from("settings"), 0);
+    let efficacy = imap::photometry::BandPhotometry::new(&bands).efficacy;
+    let units = materials::Units {
+        efficacy: &efficacy,
+        unit_m: 1.0,
+    };
     for x in &m.materials {
-        materials::resolve(x, None, &at, &bands.wavelengths_nm, bands.rgb, &mut d);
+        materials::resolve(
+            x,
+            None,
+            &at,
+            &bands.wavelengths_nm,
+            bands.rgb,
+            &units,
+            &mut d,
+        );
     }
     let guesses = m.guesses();
     let (lo, hi) = m.bounds();

@@ -46,6 +46,13 @@ pub struct Resolved {
     pub emission: Option<Vec<f64>>,
 }
 
+/// What resolving needs of the run's units: each band's luminous efficacy (lm/W) and the
+/// scene unit in metres.
+pub struct Units<'a> {
+    pub efficacy: &'a [f64],
+    pub unit_m: f64,
+}
+
 /// RGB → per-band values (the band's colour channel by wavelength).
 pub fn expand_rgb(rgb: [f64; 3], band_nm: &[f64], is_rgb: bool) -> Vec<f64> {
     if is_rgb {
@@ -73,6 +80,7 @@ pub fn resolve(
     settings_at: &(std::path::PathBuf, usize),
     band_nm: &[f64],
     rgb: bool,
+    units: &Units,
     diag: &mut Diagnostics,
 ) -> Resolved {
     let nb = band_nm.len();
@@ -179,9 +187,10 @@ pub fn resolve(
     if let Some(s) = &o.specular {
         specular = per_band(s, "specular", diag);
     }
-    let mut transmit = match &o.transmit {
-        Some(s) => per_band(s, "transmit", diag),
-        None => zero.clone(),
+    let mut transmit = match (&o.transmit, m.kt) {
+        (Some(s), _) => per_band(s, "transmit", diag),
+        (None, Some(t)) if !dielectric => expand_rgb(clamp(t, "transmission", diag), band_nm, rgb),
+        _ => zero.clone(),
     };
     // Energy: an opaque surface cannot reflect more than it receives.
     if !dielectric {
@@ -201,14 +210,27 @@ pub fn resolve(
     }
     let absorption = match (&o.absorption_per_m, tf) {
         (Some(s), _) => per_band(s, "absorption_per_m", diag),
-        (None, Some(t)) if dielectric => expand_rgb(t.map(|x| -(x.max(1e-12)).ln()), band_nm, rgb),
+        (None, Some(t)) if dielectric => {
+            // Tf is the internal transmittance of 1 m, or of a pane's thickness.
+            let metres = m.pane.map_or(1.0, |t| t * units.unit_m);
+            expand_rgb(t.map(|x| -(x.max(1e-12)).ln() / metres), band_nm, rgb)
+        }
         _ => vec![],
     };
     let emission = match (&o.emission, m.ke) {
         // `emission = 0` in the settings turns a file's emission off.
         (Some(s), _) => Some(per_band(s, "emission", diag)).filter(|e| e.iter().any(|&x| x != 0.0)),
         (None, Some(k)) if k.iter().any(|&x| x > 0.0) => {
-            Some(expand_rgb(k.map(|x| x.max(0.0)), band_nm, rgb))
+            let mut e = expand_rgb(k.map(|x| x.max(0.0)), band_nm, rgb);
+            if let Some(l) = m.ke_luminance {
+                // Exitance π L in lumens, whatever the bands.
+                let lm: f64 = e.iter().zip(units.efficacy).map(|(x, k)| x * k).sum();
+                if lm > 0.0 {
+                    let k = std::f64::consts::PI * l / lm;
+                    e.iter_mut().for_each(|x| *x *= k);
+                }
+            }
+            Some(e)
         }
         _ => None,
     };

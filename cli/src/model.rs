@@ -547,7 +547,7 @@ fn fmt_len(x: f64) -> String {
 }
 
 /// The formats `imap` reads, by file extension.
-pub const FORMATS: &str = ".obj (with .mtl), .gltf, .glb, .ply, .stl";
+pub const FORMATS: &str = ".obj (with .mtl), .gltf, .glb, .ply, .stl, .rad";
 
 /// Reads a model of any supported format; problems go to `diag`. A model without
 /// triangles is an error; triangles that repeat a vertex are left out with one warning.
@@ -563,6 +563,7 @@ pub fn load(path: &Path, diag: &mut Diagnostics) -> Result<Model, String> {
         "gltf" | "glb" => crate::gltf_in::load(path, diag)?,
         "ply" => crate::meshes_in::load_ply(path, &bytes(path)?, diag)?,
         "stl" => crate::meshes_in::load_stl(path, &bytes(path)?)?,
+        "rad" => crate::rad::load(path, &bytes(path)?, diag),
         _ => {
             return Err(format!(
                 "{}: unknown model format '.{}' (imap reads {FORMATS})",
@@ -571,7 +572,7 @@ pub fn load(path: &Path, diag: &mut Diagnostics) -> Result<Model, String> {
             ))
         }
     };
-    if ext != "obj" {
+    if ext != "obj" && ext != "rad" {
         model.check_positions(path, diag);
     }
     if model.objects.is_empty() && !diag.has_errors() {

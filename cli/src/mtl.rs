@@ -30,6 +30,14 @@ pub struct Mtl {
     /// The decoded emission texture (glTF emissiveTexture): it multiplies `ke` texel by
     /// texel.
     pub emission_texture: Option<std::sync::Arc<crate::model::Texture>>,
+    /// Diffuse transmittance (Radiance's `trans`).
+    pub kt: Option<[f64; 3]>,
+    /// The luminance (cd/m²) the emission `ke` must show: it is scaled to it by the bands'
+    /// efficacies (Radiance's `light` and `glow`).
+    pub ke_luminance: Option<f64>,
+    /// A thin pane read as a slab this thick (scene units): `tf` is its internal
+    /// transmittance at normal incidence (Radiance's `glass`).
+    pub pane: Option<f64>,
     /// Made by a reader for a file without materials (PLY, STL): vertex colours override it.
     pub implicit: bool,
 }

@@ -680,6 +680,11 @@ pub fn load(path: &Path, settings: &Settings) -> Result<(Context, LoadedScene)> 
     let bands = settings.bands()?;
     let band_nm = bands.wavelengths_nm.clone();
     let rgb = bands.rgb;
+    let efficacy = imap::photometry::BandPhotometry::new(&bands).efficacy;
+    let units = materials::Units {
+        efficacy: &efficacy,
+        unit_m,
+    };
     // Materials: the file's first, then the settings' overrides (warnings once each).
     let resolved: Vec<Resolved> = model
         .materials
@@ -692,6 +697,7 @@ pub fn load(path: &Path, settings: &Settings) -> Result<(Context, LoadedScene)> 
                 &at,
                 &band_nm,
                 rgb,
+                &units,
                 &mut diag,
             )
         })
@@ -700,7 +706,7 @@ pub fn load(path: &Path, settings: &Settings) -> Result<(Context, LoadedScene)> 
         return Err(CliError::from_diagnostics(&diag));
     }
     let mut ctx = Context::new(config(settings)?)?;
-    let mut palette = Palette::new(&model, settings, &band_nm, rgb, resolved);
+    let mut palette = Palette::new(&model, settings, &band_nm, rgb, &units, resolved);
 
     let mut meshes = Vec::new();
     for object in &model.objects {
@@ -839,6 +845,7 @@ struct Palette<'a> {
     settings: &'a Settings,
     band_nm: &'a [f64],
     rgb: bool,
+    units: &'a materials::Units<'a>,
     /// The file's materials with the settings' overrides.
     resolved: Vec<Resolved>,
     /// Per file material: whether the settings fix its colour (a diffuse value, or glass),
@@ -854,6 +861,7 @@ impl<'a> Palette<'a> {
         settings: &'a Settings,
         band_nm: &'a [f64],
         rgb: bool,
+        units: &'a materials::Units<'a>,
         resolved: Vec<Resolved>,
     ) -> Self {
         let fixed_colour = model
@@ -871,6 +879,7 @@ impl<'a> Palette<'a> {
             settings,
             band_nm,
             rgb,
+            units,
             resolved,
             fixed_colour,
             made: BTreeMap::new(),
@@ -952,7 +961,15 @@ impl<'a> Palette<'a> {
                 let mut quiet = Diagnostics::default();
                 let o = self.settings.materials.get(&base.name);
                 let at = self.settings.locate(&format!("[materials.{}]", base.name));
-                materials::resolve(&base, o, &at, self.band_nm, self.rgb, &mut quiet)
+                materials::resolve(
+                    &base,
+                    o,
+                    &at,
+                    self.band_nm,
+                    self.rgb,
+                    self.units,
+                    &mut quiet,
+                )
             }
         }
     }

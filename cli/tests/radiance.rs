@@ -1,0 +1,198 @@
+//! Radiance scene files through the command: a `light` sphere gives the luminous intensity
+//! Radiance gives it, and a side-lit room under a sky reads the same daylight through a
+//! `.rad` file (its window a `glass` polygon, its wall one polygon round the opening with a
+//! seam, as Honeybee writes them) as through an OBJ of the same room with the pane as a
+//! solid of glass.
+
+mod common;
+
+use common::{run_photons, stderr, write};
+use std::path::Path;
+
+fn report(out: &Path) -> serde_json::Value {
+    serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap()).unwrap()
+}
+
+fn grid_average(out: &Path) -> (f64, f64) {
+    let r = report(out);
+    let a = &r["grids"][0]["average_lx"];
+    (a["value"].as_f64().unwrap(), a["sigma"].as_f64().unwrap())
+}
+
+/// A sphere of `light` radiance 100 (W/(sr m²) in Radiance's RGB) and radius 0.1 m, 1.99 m
+/// above a grid on a black floor: Radiance's luminance 179 lm/W × 100 = 17 900 cd/m², an
+/// intensity of 17 900 π 0.1² = 562.3 cd, 142.0 lx below it (averaged over the grid,
+/// 137.4 lx), in RGB and in spectral runs.
+#[test]
+fn a_light_sphere_gives_the_intensity_radiance_gives_it() {
+    let d = tempfile::tempdir().unwrap();
+    let rad = write(
+        d.path(),
+        "lamp.rad",
+        "void plastic black 0 0 5 0 0 0 0 0\nblack polygon floor 0 0 12 -5 -5 0 5 -5 0 5 5 0 -5 5 0\n\
+         void light bulb\n0\n0\n3 100 100 100\nbulb sphere lamp 0 0 4 0 0 2 0.1\n",
+    );
+    // E = I h / (h² + r²)^1.5 averaged over the square between the grid's outer points
+    // (±0.375 m: what the grid's average covers).
+    let (i, h, n) = (17_900.0 * std::f64::consts::PI * 0.01, 1.99f64, 200);
+    let mut want = 0.0;
+    for a in 0..n {
+        for b in 0..n {
+            let x = -0.375 + 0.75 * (a as f64 + 0.5) / n as f64;
+            let y = -0.375 + 0.75 * (b as f64 + 0.5) / n as f64;
+            want += i * h / (h * h + x * x + y * y).powf(1.5) / (n * n) as f64;
+        }
+    }
+    for spectral in ["", "[spectral]\nbands = 16\n"] {
+        let toml = write(
+            d.path(),
+            "s.toml",
+            format!(
+                "up_axis = \"z\"\n{spectral}[run]\nseed = 3\n[[grid]]\nname = \"g\"\norigin = [-0.5, -0.5, 0.01]\nu = [1, 0, 0]\nv = [0, 1, 0]\nsize = [1, 1]\nspacing = 0.25\n"
+            ),
+        );
+        let out = d.path().join("out");
+        let o = run_photons(&rad, &toml, &out, 10_000_000);
+        assert!(o.status.success(), "{}", stderr(&o));
+        let (e, s) = grid_average(&out);
+        eprintln!("{spectral:?}: {e:.2} ± {s:.2} lx, want {want:.2}");
+        assert!(
+            (e - want).abs() < 3.0 * s + 0.005 * want,
+            "{spectral:?}: {e} ± {s} lx, want {want}"
+        );
+    }
+}
+
+/// The room's surfaces as polygons (corners in order, Z up, facing the room), the front
+/// wall (y = 0) going round the window (x 1–3, z 1–2) and back along a seam.
+const ROOM: [(&str, &[[f64; 3]]); 6] = [
+    (
+        "floor",
+        &[[0., 0., 0.], [4., 0., 0.], [4., 4., 0.], [0., 4., 0.]],
+    ),
+    (
+        "ceiling",
+        &[[0., 0., 3.], [0., 4., 3.], [4., 4., 3.], [4., 0., 3.]],
+    ),
+    (
+        "back",
+        &[[0., 4., 0.], [4., 4., 0.], [4., 4., 3.], [0., 4., 3.]],
+    ),
+    (
+        "left",
+        &[[0., 0., 0.], [0., 4., 0.], [0., 4., 3.], [0., 0., 3.]],
+    ),
+    (
+        "right",
+        &[[4., 0., 0.], [4., 0., 3.], [4., 4., 3.], [4., 4., 0.]],
+    ),
+    (
+        "front",
+        &[
+            [0., 0., 0.],
+            [0., 0., 3.],
+            [4., 0., 3.],
+            [4., 0., 0.],
+            [0., 0., 0.],
+            [1., 0., 1.],
+            [3., 0., 1.],
+            [3., 0., 2.],
+            [1., 0., 2.],
+            [1., 0., 1.],
+        ],
+    ),
+];
+
+/// The window, its front facing out (−y).
+const WINDOW: [[f64; 3]; 4] = [[1., 0., 1.], [3., 0., 1.], [3., 0., 2.], [1., 0., 2.]];
+
+fn poly(name: &str, material: &str, c: &[[f64; 3]]) -> String {
+    let mut s = format!("{material} polygon {name}\n0\n0\n{}\n", 3 * c.len());
+    for p in c {
+        s += &format!("  {} {} {}\n", p[0], p[1], p[2]);
+    }
+    s
+}
+
+/// Glass of transmissivity 0.88 (about 81 % transmittance at normal incidence) in a grey
+/// room under a uniform 10 klx sky: the floor grid's average through the `.rad` reader
+/// equals the OBJ's, whose pane is a 6 mm solid of index 1.52 absorbing −ln 0.88 per pass.
+#[test]
+fn a_side_lit_room_reads_the_same_through_rad_and_obj() {
+    let d = tempfile::tempdir().unwrap();
+    let mut rad = String::from("# Honeybee-like export\nvoid plastic wall_mat\n0\n0\n5 0.5 0.5 0.5 0 0\n\nvoid glass glass_mat\n0\n0\n3 0.88 0.88 0.88\n");
+    for (name, c) in ROOM {
+        rad += &poly(name, "wall_mat", c);
+    }
+    rad += &poly("window", "glass_mat", &WINDOW);
+    let rad = write(d.path(), "room.rad", rad);
+    // The OBJ: the same polygons, the window as a 6 mm slab behind its front face.
+    let t = 0.006;
+    let mut obj = String::from("mtllib room.mtl\n");
+    let mut n = 0;
+    let mut face = |obj: &mut String, name: &str, mtl: &str, c: &[[f64; 3]]| {
+        *obj += &format!("o {name}\nusemtl {mtl}\n");
+        for p in c {
+            *obj += &format!("v {} {} {}\n", p[0], p[1], p[2]);
+        }
+        *obj += "f";
+        for k in 0..c.len() {
+            *obj += &format!(" {}", n + k + 1);
+        }
+        *obj += "\n";
+        n += c.len();
+    };
+    for (name, c) in ROOM {
+        face(&mut obj, name, "wall", c);
+    }
+    let back: Vec<[f64; 3]> = WINDOW.iter().rev().map(|p| [p[0], t, p[2]]).collect();
+    face(&mut obj, "window", "glass", &WINDOW);
+    face(&mut obj, "window", "glass", &back);
+    for i in 0..4 {
+        let (a, b) = (WINDOW[i], WINDOW[(i + 1) % 4]);
+        let side = [a, [a[0], t, a[2]], [b[0], t, b[2]], b];
+        face(&mut obj, "window", "glass", &side);
+    }
+    write(
+        d.path(),
+        "room.mtl",
+        "newmtl wall\nKd 0.5 0.5 0.5\nnewmtl glass\nKd 0 0 0\nNi 1.52\nd 0\n",
+    );
+    let obj = write(d.path(), "room.obj", obj);
+    let absorption = -(0.88f64.ln()) / t;
+    let grid = "[[grid]]\nname = \"work\"\norigin = [0.2, 0.2, 0.8]\nu = [1, 0, 0]\nv = [0, 1, 0]\nsize = [3.6, 3.6]\nspacing = 0.6\n";
+    let sky = "[sky]\nkind = \"uniform\"\nhorizontal_illuminance = 10000\n";
+    let mut results = Vec::new();
+    for (model, extra) in [
+        (&rad, String::new()),
+        (
+            &obj,
+            format!("[materials.glass]\nabsorption_per_m = {absorption}\n"),
+        ),
+    ] {
+        let toml = write(
+            d.path(),
+            "s.toml",
+            format!("up_axis = \"z\"\nrecord = [\"floor\"]\n[run]\nseed = 5\n{sky}{extra}{grid}"),
+        );
+        let out = d.path().join("out");
+        let o = run_photons(model, &toml, &out, 6_000_000);
+        assert!(o.status.success(), "{}", stderr(&o));
+        let err = stderr(&o);
+        if model.ends_with(".rad") {
+            assert!(
+                err.contains("1 glass polygon(s) are read as panes"),
+                "{err}"
+            );
+        }
+        results.push(grid_average(&out));
+    }
+    let ((a, sa), (b, sb)) = (results[0], results[1]);
+    eprintln!("floor grid Eavg: rad {a:.1} ± {sa:.1} lx, obj {b:.1} ± {sb:.1} lx");
+    // Daylight factor 1–5 % (a 2 m² window in a 16 m² room), and the same both ways.
+    assert!((100.0..500.0).contains(&a), "rad: {a} lx");
+    assert!(
+        (a - b).abs() < 3.0 * (sa * sa + sb * sb).sqrt() + 0.005 * b,
+        "rad {a} ± {sa} lx, obj {b} ± {sb} lx"
+    );
+}
