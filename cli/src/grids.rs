@@ -19,13 +19,26 @@ pub struct GridSettings {
     #[serde(default)]
     pub name: Option<String>,
     /// A corner of the rectangle.
-    pub origin: [f64; 3],
+    #[serde(default)]
+    pub origin: Option<[f64; 3]>,
     /// Direction of its first edge (any length).
-    pub u: [f64; 3],
+    #[serde(default)]
+    pub u: Option<[f64; 3]>,
     /// Direction of its second edge, perpendicular to `u`.
-    pub v: [f64; 3],
+    #[serde(default)]
+    pub v: Option<[f64; 3]>,
     /// Lengths of the two edges.
-    pub size: [f64; 2],
+    #[serde(default)]
+    pub size: Option<[f64; 2]>,
+    /// Instead of a rectangle: a sensor point file (`x y z dx dy dz` per line, as rtrace
+    /// reads them), relative to the settings file.
+    #[serde(default)]
+    pub points: Option<String>,
+    /// The radius each point of a point file averages over (scene units); default half
+    /// the distance to its nearest neighbour (neighbours' squares touch, never overlap),
+    /// at most 0.25 m, and 0.1 m for a lone point.
+    #[serde(default)]
+    pub radius: Option<f64>,
     /// Distance between points; default by EN 12464-1: p = 0.2 · 5^log10(d) m, d the longer
     /// edge in metres.
     #[serde(default)]
@@ -52,6 +65,9 @@ pub struct Grid {
     pub clipped: usize,
     pub positions: Vec<f64>,
     pub settings: GridSettings,
+    /// A point file's directions (then nu = the points, nv = 1, and each point is the
+    /// centre of its own small sensor of five vertices).
+    pub normals: Option<Vec<f64>>,
 }
 
 /// Most points a grid may have.
@@ -69,14 +85,31 @@ fn finite3(v: [f64; 3]) -> bool {
     v.iter().all(|x| x.is_finite())
 }
 
+/// A rectangle's origin, u, v and size.
+type Rectangle = ([f64; 3], [f64; 3], [f64; 3], [f64; 2]);
+
 impl GridSettings {
+    /// The rectangle's origin, axes and size.
+    fn rectangle(&self, what: &str) -> Result<Rectangle> {
+        match (self.origin, self.u, self.v, self.size) {
+            (Some(o), Some(u), Some(v), Some(s)) => Ok((o, u, v, s)),
+            _ => fail!("{what}: a grid needs origin, u, v and size (a rectangle), or points (a sensor point file)"),
+        }
+    }
+
+    /// The edge lengths, for the picture.
+    pub fn extent(&self) -> [f64; 2] {
+        self.size.unwrap_or([1.0, 1.0])
+    }
+
     fn checked_axes(&self, what: &str) -> Result<(DVec3, DVec3)> {
-        if !(finite3(self.origin) && finite3(self.u) && finite3(self.v)) {
+        let (origin, u, v, size) = self.rectangle(what)?;
+        if !(finite3(origin) && finite3(u) && finite3(v)) {
             fail!("{what}: origin, u and v must be finite");
         }
         let (Some(u), Some(v)) = (
-            DVec3::from(self.u).try_normalize(),
-            DVec3::from(self.v).try_normalize(),
+            DVec3::from(u).try_normalize(),
+            DVec3::from(v).try_normalize(),
         ) else {
             fail!("{what}: u and v must not be zero");
         };
@@ -86,11 +119,8 @@ impl GridSettings {
                 u.dot(v).clamp(-1.0, 1.0).acos().to_degrees()
             );
         }
-        if !self.size.iter().all(|s| s.is_finite() && *s > 0.0) {
-            fail!(
-                "{what}: size = {:?} must be two positive lengths",
-                self.size
-            );
+        if !size.iter().all(|s| s.is_finite() && *s > 0.0) {
+            fail!("{what}: size = {size:?} must be two positive lengths");
         }
         Ok((u, v))
     }
@@ -101,6 +131,7 @@ pub fn add_grids(
     ctx: &mut Context,
     grids: &[GridSettings],
     unit_m: f64,
+    base_dir: &Path,
     label: &dyn Fn(usize, &str) -> String,
     model: &[[DVec3; 3]],
     diag: &mut crate::diag::Diagnostics,
@@ -119,7 +150,29 @@ pub fn add_grids(
         if out.iter().any(|o| o.name == name) {
             fail!("{what}: two grids have this name");
         }
+        if let Some(file) = &g.points {
+            if g.origin.is_some() || g.u.is_some() || g.v.is_some() || g.size.is_some() {
+                fail!("{what}: give either points (a file) or origin, u, v and size, not both");
+            }
+            if g.side.is_some() || g.spacing.is_some() {
+                fail!("{what}: a point file's directions say which light each point measures; side and spacing do not apply");
+            }
+            out.push(add_point_set(
+                ctx,
+                g,
+                name,
+                &what,
+                &base_dir.join(file),
+                unit_m,
+                model,
+            )?);
+            continue;
+        }
+        if g.radius.is_some() {
+            fail!("{what}: radius applies to a point file (points = \"...\")");
+        }
         let (u, v) = g.checked_axes(&what)?;
+        let (origin, _, _, size) = g.rectangle(&what)?;
         let back = match g.side.as_deref() {
             None | Some("front") => false,
             Some("back") => true,
@@ -128,24 +181,23 @@ pub fn add_grids(
         let spacing = match g.spacing {
             Some(s) if s.is_finite() && s > 0.0 => s,
             Some(s) => fail!("{what}: spacing = {s} must be a positive length"),
-            None => en12464_spacing_m(g.size[0].max(g.size[1]) * unit_m) / unit_m,
+            None => en12464_spacing_m(size[0].max(size[1]) * unit_m) / unit_m,
         };
         // EN 12464-1: the nearest whole number of d/p points per edge, at the cells' centres
         // (at least two, so that the points span a surface).
         // Counted in floating point: a size of 1e300 at a spacing of 1e-10 must not wrap
         // around to a small count.
         let n = |d: f64| (d / spacing).round().max(2.0);
-        let (fu, fv) = (n(g.size[0]), n(g.size[1]));
+        let (fu, fv) = (n(size[0]), n(size[1]));
         let points = fu * fv;
         if points.is_nan() || points > MAX_POINTS as f64 {
             fail!(
-                "{what}: {fu:e} × {fv:e} points (size {:?} at spacing {spacing:e}) are too many (at most {MAX_POINTS})",
-                g.size
+                "{what}: {fu:e} × {fv:e} points (size {size:?} at spacing {spacing:e}) are too many (at most {MAX_POINTS})"
             );
         }
         let (nu, nv) = (fu as usize, fv as usize);
-        let step = [g.size[0] / nu as f64, g.size[1] / nv as f64];
-        let o = DVec3::from(g.origin);
+        let step = [size[0] / nu as f64, size[1] / nv as f64];
+        let o = DVec3::from(origin);
         let at = |i: f64, j: f64| o + u * ((i + 0.5) * step[0]) + v * ((j + 0.5) * step[1]);
         let mut positions = Vec::with_capacity(3 * nu * nv);
         for j in 0..nv {
@@ -255,9 +307,197 @@ pub fn add_grids(
             positions,
             settings: g.clone(),
             clipped,
+            normals: None,
         });
     }
     Ok(out)
+}
+
+/// Reads a sensor point file: `x y z dx dy dz` per line (more numbers are ignored, as
+/// rtrace does; `#` starts a comment). Positions and directions, the directions unit.
+fn read_points(path: &Path) -> Result<(Vec<DVec3>, Vec<DVec3>)> {
+    let bytes = crate::diag::read_input(path).map_err(CliError)?;
+    let shown = crate::diag::printable(&path.display().to_string());
+    let (mut p, mut n) = (Vec::new(), Vec::new());
+    for (line, text) in crate::diag::logical_lines(&bytes) {
+        let words: Vec<&str> = text.split_whitespace().collect();
+        if words.is_empty() {
+            continue;
+        }
+        let nums: Vec<f64> = words
+            .iter()
+            .take(6)
+            .map(|w| {
+                w.parse::<f64>()
+                    .ok()
+                    .filter(|x| x.is_finite() && x.abs() <= crate::obj::MAX_COORDINATE)
+            })
+            .collect::<Option<_>>()
+            .unwrap_or_default();
+        if nums.len() < 6 {
+            fail!("{shown}:{line}: a sensor point needs six finite numbers, x y z dx dy dz");
+        }
+        let Some(d) = DVec3::new(nums[3], nums[4], nums[5]).try_normalize() else {
+            fail!("{shown}:{line}: the point's direction dx dy dz is zero");
+        };
+        p.push(DVec3::new(nums[0], nums[1], nums[2]));
+        n.push(d);
+        if p.len() > MAX_POINTS {
+            fail!("{shown}: more than {MAX_POINTS} points");
+        }
+    }
+    if p.is_empty() {
+        fail!("{shown}: no sensor points");
+    }
+    Ok((p, n))
+}
+
+/// A point file's sensor: each point the centre of a small square (corners at `radius`
+/// along two axes of its plane) facing its direction, whose four corners stop short of the
+/// model's surfaces as a grid's guard ring does; the centre vertex's value is the light
+/// averaged symmetrically around the point.
+fn add_point_set(
+    ctx: &mut Context,
+    g: &GridSettings,
+    name: String,
+    what: &str,
+    path: &Path,
+    unit_m: f64,
+    model: &[[DVec3; 3]],
+) -> Result<Grid> {
+    let (points, dirs) = read_points(path).map_err(|e| CliError(format!("{what}: {}", e.0)))?;
+    let radius: Vec<f64> = match g.radius {
+        Some(r) if r.is_finite() && r > 0.0 => vec![r; points.len()],
+        Some(r) => fail!("{what}: radius = {r} must be a positive length"),
+        None => nearest_distances(&points)
+            .into_iter()
+            .map(|d| d.map_or(0.1 / unit_m, |d| d / 2.0).min(0.25 / unit_m))
+            .collect(),
+    };
+    let mut positions = Vec::with_capacity(15 * points.len());
+    let mut segments = Vec::with_capacity(4 * points.len());
+    for ((p, d), r) in points.iter().zip(&dirs).zip(&radius) {
+        if *r <= 0.0 {
+            fail!(
+                "{what}: two points are at the same place ({:.4}, {:.4}, {:.4}); give radius",
+                p.x,
+                p.y,
+                p.z
+            );
+        }
+        let (a, b) = d.any_orthonormal_pair();
+        positions.extend(p.to_array());
+        for c in [a, b, -a, -b] {
+            let q = *p + c * *r;
+            segments.push((*p, q));
+            positions.extend(q.to_array());
+        }
+    }
+    let reach = segments.iter().fold(
+        (DVec3::INFINITY, DVec3::NEG_INFINITY),
+        |(lo, hi), (a, b)| (lo.min(a.min(*b)), hi.max(a.max(*b))),
+    );
+    let near = |t: &[DVec3; 3]| {
+        let (lo, hi) = (t[0].min(t[1]).min(t[2]), t[0].max(t[1]).max(t[2]));
+        !(lo.cmpgt(reach.1).any() || hi.cmplt(reach.0).any())
+    };
+    let first =
+        crate::segments::first_crossings(&segments, model.iter().filter(|t| near(t)).copied());
+    let mut clipped = 0;
+    for (k, ((from, to), t)) in segments.iter().zip(&first).enumerate() {
+        if *t < 1.0 {
+            let q = *from + (*to - *from) * (t - 1e-6).max(0.01);
+            let at = 3 * (5 * (k / 4) + 1 + k % 4);
+            positions[at..at + 3].copy_from_slice(&q.to_array());
+            clipped += 1;
+        }
+    }
+    let mut indices = Vec::with_capacity(12 * points.len());
+    for k in 0..points.len() as u32 {
+        let c = 5 * k;
+        // a × b = d: counter-clockwise seen from the point's direction.
+        for i in 0..4 {
+            indices.extend([c, c + 1 + i, c + 1 + (i + 1) % 4]);
+        }
+    }
+    let parts = vec![POINTS_PART; indices.len() / 3];
+    let id = ctx
+        .add_mesh(&MeshDesc {
+            triangle_materials: Some(&parts),
+            sensor: true,
+            ..MeshDesc::new(&positions, &indices, POINTS_PART)
+        })
+        .map_err(|e| CliError(format!("{what}: {}", e.message)))?;
+    let mean_r = radius.iter().sum::<f64>() / radius.len() as f64;
+    Ok(Grid {
+        name,
+        id,
+        nu: points.len(),
+        nv: 1,
+        step: [mean_r, mean_r],
+        clipped,
+        positions: points.iter().flat_map(|p| p.to_array()).collect(),
+        settings: g.clone(),
+        normals: Some(dirs.iter().flat_map(|d| d.to_array()).collect()),
+    })
+}
+
+/// Each point's distance to its nearest other point (None for a lone point), by a grid of
+/// cells (points of real files are spread evenly).
+fn nearest_distances(points: &[DVec3]) -> Vec<Option<f64>> {
+    let n = points.len();
+    if n < 2 {
+        return vec![None; n];
+    }
+    let (lo, hi) = points
+        .iter()
+        .fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), p| {
+            (lo.min(*p), hi.max(*p))
+        });
+    let ext = (hi - lo).max(DVec3::splat(1e-12));
+    // About one point per cell.
+    let cell = (ext.x * ext.y.max(ext.x * 1e-3) * ext.z.max(ext.x * 1e-3) / n as f64)
+        .cbrt()
+        .max(ext.max_element() / 1e4)
+        .max(1e-12);
+    let key = |p: &DVec3| ((*p - lo) / cell).floor().as_ivec3();
+    let mut cells: std::collections::HashMap<glam::IVec3, Vec<usize>> = Default::default();
+    for (i, p) in points.iter().enumerate() {
+        cells.entry(key(p)).or_default().push(i);
+    }
+    points
+        .iter()
+        .enumerate()
+        .map(|(i, p)| {
+            let k = key(p);
+            let mut best = f64::INFINITY;
+            let mut ring: i32 = 0;
+            // Grow the search until a neighbour is found and the next ring cannot be nearer.
+            loop {
+                for dz in -ring..=ring {
+                    for dy in -ring..=ring {
+                        for dx in -ring..=ring {
+                            if dx.abs().max(dy.abs()).max(dz.abs()) != ring {
+                                continue;
+                            }
+                            if let Some(v) = cells.get(&(k + glam::IVec3::new(dx, dy, dz))) {
+                                for &j in v {
+                                    if j != i {
+                                        best = best.min(p.distance(points[j]));
+                                    }
+                                }
+                            }
+                        }
+                    }
+                }
+                if best <= ring as f64 * cell || ring > 1000 {
+                    break;
+                }
+                ring += 1;
+            }
+            best.is_finite().then_some(best)
+        })
+        .collect()
 }
 
 /// A grid's results after the run.
@@ -268,6 +508,33 @@ pub struct GridResult {
 }
 
 pub fn read(ctx: &Context, g: &Grid) -> Result<GridResult> {
+    if g.normals.is_some() {
+        let n = 5 * g.nu;
+        let (mut all_lux, mut all_rel) = (vec![0.0; n], vec![0.0; n]);
+        ctx.illuminance(g.id, 0, &mut all_lux)?;
+        ctx.rel_error(g.id, 0, &mut all_rel)?;
+        let centres = |all: &[f64]| -> Vec<f64> { all.iter().step_by(5).copied().collect() };
+        let (lux, rel_error) = (centres(&all_lux), centres(&all_rel));
+        // The figures of the points themselves (the region's would count the squares'
+        // corners): the arithmetic mean, as for a rectangle's points, and the extremes
+        // with the same correction for noise. The mean's error treats the points as
+        // independent: at the default radius their squares do not overlap, so no photon
+        // lands on two (one photon's later bounces may still land on several).
+        let sigma: Vec<f64> = lux.iter().zip(&rel_error).map(|(l, r)| l * r).collect();
+        let mut stats = ctx.region_stats(g.id, 0, Some(POINTS_PART))?;
+        let weights = imap::imap::stats::lit_weights(&lux, &vec![1.0; lux.len()]);
+        stats.unlit_vertices = lux.len() - weights.iter().filter(|&&w| w > 0.0).count();
+        stats.average = imap::imap::stats::Estimate {
+            value: lux.iter().sum::<f64>() / lux.len() as f64,
+            sigma: sigma.iter().map(|s| s * s).sum::<f64>().sqrt() / lux.len() as f64,
+        };
+        stats.extremes = imap::imap::stats::extremes(&lux, &sigma, &weights, stats.average);
+        return Ok(GridResult {
+            lux,
+            rel_error,
+            stats,
+        });
+    }
     let (mu, mv) = (g.nu + 2, g.nv + 2);
     let (mut all_lux, mut all_rel) = (vec![0.0; mu * mv], vec![0.0; mu * mv]);
     ctx.illuminance(g.id, 0, &mut all_lux)?;
@@ -296,7 +563,7 @@ fn est(e: imap::imap::stats::Estimate) -> serde_json::Value {
 pub fn summary_json(g: &Grid, r: &GridResult, unit_m: f64) -> serde_json::Value {
     let s = &r.stats;
     let x = s.extremes.unwrap_or_default();
-    serde_json::json!({
+    let mut j = serde_json::json!({
         "name": g.name,
         "points": [g.nu, g.nv],
         "spacing_m": [g.step[0] * unit_m, g.step[1] * unit_m],
@@ -314,17 +581,31 @@ pub fn summary_json(g: &Grid, r: &GridResult, unit_m: f64) -> serde_json::Value 
         "max_point_rel_error": r.rel_error.iter().cloned().fold(0.0, f64::max),
         "guard_vertices_at_surfaces": g.clipped,
         "unlit_points": s.unlit_vertices,
-    })
+    });
+    if g.normals.is_some() {
+        j["points"] = serde_json::json!(g.nu);
+        j["file"] = serde_json::json!(g.settings.points);
+        j["mean_radius_m"] = serde_json::json!(g.step[0] * unit_m);
+        j["average_of"] = serde_json::json!("the points' values (arithmetic mean)");
+        if let Some(o) = j.as_object_mut() {
+            o.remove("spacing_m");
+            o.remove("area_m2");
+            o.remove("flux_lm");
+        }
+    }
+    j
 }
 
 /// The terminal's line for a grid.
 pub fn summary_line(g: &Grid, r: &GridResult) -> String {
     let s = &r.stats;
+    let size = if g.normals.is_some() {
+        format!("{} points", g.nu)
+    } else {
+        format!("{} × {} points", g.nu, g.nv)
+    };
     if s.average.value.is_nan() || s.average.value <= 0.0 || s.extremes.is_none() {
-        return format!(
-            "grid '{}' ({} × {} points): no light reached it",
-            g.name, g.nu, g.nv
-        );
+        return format!("grid '{}' ({size}): no light reached it", g.name);
     }
     let x = s.extremes.unwrap_or_default();
     let unlit = if s.unlit_vertices > 0 {
@@ -338,10 +619,8 @@ pub fn summary_line(g: &Grid, r: &GridResult) -> String {
     format!(
         "{}{unlit}",
         format_args!(
-        "grid '{}' ({} × {} points): Eavg {} ± {} lx, Emin {} ± {} lx, Emax {} ± {} lx, U0 {:.3} ± {:.3}, Ud {:.3} ± {:.3}",
+        "grid '{}' ({size}): Eavg {} ± {} lx, Emin {} ± {} lx, Emax {} ± {} lx, U0 {:.3} ± {:.3}, Ud {:.3} ± {:.3}",
         g.name,
-        g.nu,
-        g.nv,
         fmt_lux(s.average.value),
         fmt_lux(s.average.sigma),
         fmt_lux(x.min.value),
@@ -376,6 +655,28 @@ pub fn average_stop_note(r: &GridResult) -> Option<String> {
 pub fn write_csv(path: &Path, g: &Grid, r: &GridResult) -> Result<()> {
     let io = |e: std::io::Error| CliError(format!("{}: {e}", path.display()));
     let mut f = std::io::BufWriter::new(std::fs::File::create(path).map_err(io)?);
+    if let Some(n) = &g.normals {
+        // A point file: its points in its order, with their directions.
+        writeln!(f, "index,x,y,z,dx,dy,dz,lux,lux_sigma,rel_error").map_err(io)?;
+        for k in 0..g.nu {
+            let (p, d) = (&g.positions[3 * k..3 * k + 3], &n[3 * k..3 * k + 3]);
+            writeln!(
+                f,
+                "{k},{},{},{},{},{},{},{},{},{}",
+                p[0],
+                p[1],
+                p[2],
+                d[0],
+                d[1],
+                d[2],
+                r.lux[k],
+                r.lux[k] * r.rel_error[k],
+                r.rel_error[k]
+            )
+            .map_err(io)?;
+        }
+        return f.flush().map_err(io);
+    }
     writeln!(f, "i,j,x,y,z,lux,lux_sigma,rel_error").map_err(io)?;
     for j in 0..g.nv {
         for i in 0..g.nu {
@@ -401,7 +702,10 @@ pub fn write_csv(path: &Path, g: &Grid, r: &GridResult) -> Result<()> {
 /// (bilinear between the points), isolux lines at the legend's ticks and halfway between
 /// them, and the colour bar in lux along the bottom.
 pub fn write_picture(path: &Path, g: &Grid, r: &GridResult) -> Result<()> {
-    let (du, dv) = (g.settings.size[0], g.settings.size[1]);
+    if g.normals.is_some() {
+        return write_point_picture(path, g, r);
+    }
+    let [du, dv] = g.settings.extent();
     let long = 640.0;
     let scale = long / du.max(dv);
     let w = ((du * scale).round() as u32).max(160);
@@ -455,6 +759,57 @@ pub fn write_picture(path: &Path, g: &Grid, r: &GridResult) -> Result<()> {
             let py = ((1.0 - (j as f64 + 0.5) / g.nv as f64) * hu as f64) as usize;
             if px < wu && py < hu {
                 img[3 * (py * wu + px)..3 * (py * wu + px) + 3].copy_from_slice(&[20, 20, 20]);
+            }
+        }
+    }
+    draw_legend(&mut img, w, h, top);
+    write_png(path, w, h, &img)
+}
+
+/// A point file's points seen along their mean direction (or from above their plane of
+/// least spread), each a square coloured by its lux, with the colour bar.
+fn write_point_picture(path: &Path, g: &Grid, r: &GridResult) -> Result<()> {
+    let pts: Vec<DVec3> = (0..g.nu)
+        .map(|k| DVec3::from_slice(&g.positions[3 * k..]))
+        .collect();
+    let normals = g.normals.as_deref().unwrap_or_default();
+    let mean = (0..g.nu)
+        .map(|k| DVec3::from_slice(&normals[3 * k..]))
+        .sum::<DVec3>();
+    let axis = mean.try_normalize().unwrap_or(DVec3::Z);
+    let (a, b) = axis.any_orthonormal_pair();
+    let uv: Vec<(f64, f64)> = pts.iter().map(|p| (p.dot(a), p.dot(b))).collect();
+    let (mut lo, mut hi) = (
+        (f64::INFINITY, f64::INFINITY),
+        (f64::NEG_INFINITY, f64::NEG_INFINITY),
+    );
+    for &(u, v) in &uv {
+        lo = (lo.0.min(u), lo.1.min(v));
+        hi = (hi.0.max(u), hi.1.max(v));
+    }
+    let pad = g.step[0].max(1e-9);
+    let (du, dv) = (hi.0 - lo.0 + 2.0 * pad, hi.1 - lo.1 + 2.0 * pad);
+    let scale = 640.0 / du.max(dv);
+    let w = ((du * scale).round() as u32).max(160);
+    let plot_h = ((dv * scale).round() as u32).max(100);
+    let h = plot_h + crate::output::LEGEND_MAX_PX;
+    let top = nice_ceiling(
+        r.lux
+            .iter()
+            .cloned()
+            .filter(|x| x.is_finite())
+            .fold(0.0, f64::max),
+    );
+    let mut img: Vec<u8> = [24u8, 24, 28].repeat((w * h) as usize);
+    let half = ((pad * scale * 0.7) as i64).clamp(1, 40);
+    for (k, &(u, v)) in uv.iter().enumerate() {
+        let cx = ((u - lo.0 + pad) * scale) as i64;
+        let cy = plot_h as i64 - ((v - lo.1 + pad) * scale) as i64;
+        let c = colour_map(r.lux[k] / top);
+        for y in (cy - half).max(0)..(cy + half).min(plot_h as i64) {
+            for x in (cx - half).max(0)..(cx + half).min(w as i64) {
+                let i = 3 * (y as usize * w as usize + x as usize);
+                img[i..i + 3].copy_from_slice(&c);
             }
         }
     }

@@ -805,6 +805,7 @@ pub fn load(path: &Path, settings: &Settings) -> Result<(Context, LoadedScene)> 
         &mut ctx,
         &settings.grids,
         settings.unit_m.unwrap_or(1.0),
+        &settings.base_dir,
         &grid_label,
         &triangles,
         &mut grid_diag,

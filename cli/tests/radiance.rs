@@ -196,3 +196,91 @@ fn a_side_lit_room_reads_the_same_through_rad_and_obj() {
         "rad {a} ± {sa} lx, obj {b} ± {sb} lx"
     );
 }
+
+/// A sensor point file (`x y z dx dy dz`, as rtrace reads them) under the light sphere
+/// above: each point reads I cos θ / d² toward its own direction, a point facing the black
+/// floor reads nothing (and is counted unlit), and the file's mistakes name their line.
+#[test]
+fn sensor_point_files_give_each_point_its_own_light() {
+    let d = tempfile::tempdir().unwrap();
+    let rad = write(
+        d.path(),
+        "lamp.rad",
+        "void plastic black 0 0 5 0 0 0 0 0\nblack polygon floor 0 0 12 -5 -5 0 5 -5 0 5 5 0 -5 5 0\n\
+         void light bulb\n0\n0\n3 100 100 100\nbulb sphere lamp 0 0 4 0 0 2 0.1\n",
+    );
+    let pts = [
+        [0.0, 0.0, 0.01, 0.0, 0.0, 1.0],
+        [0.5, 0.0, 0.01, 0.0, 0.0, 1.0],
+        [1.0, 1.0, 0.01, 0.0, 0.0, 1.0],
+        [1.0, 0.0, 2.0, -1.0, 0.0, 0.0],
+        [0.0, 0.7, 1.0, 0.0, 0.0, 1.0],
+        [0.3, 0.3, 0.01, 0.0, 0.0, -2.0],
+    ];
+    let text: String = pts
+        .iter()
+        .map(|p| format!("{} {} {} {} {} {}\n", p[0], p[1], p[2], p[3], p[4], p[5]))
+        .collect();
+    write(d.path(), "room.pts", format!("# x y z dx dy dz\n{text}"));
+    let toml = write(
+        d.path(),
+        "s.toml",
+        "up_axis = \"z\"\n[run]\nseed = 2\n[[grid]]\nname = \"sensors\"\npoints = \"room.pts\"\nradius = 0.02\n",
+    );
+    let out = d.path().join("out");
+    let o = run_photons(&rad, &toml, &out, 10_000_000);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let csv = std::fs::read_to_string(out.join("grid_sensors.csv")).unwrap();
+    let rows: Vec<Vec<f64>> = csv
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').map(|x| x.parse().unwrap()).collect())
+        .collect();
+    assert_eq!(rows.len(), pts.len());
+    let i = 17_900.0 * std::f64::consts::PI * 0.01;
+    for (p, row) in pts.iter().zip(&rows) {
+        let to_lamp = glam::DVec3::new(-p[0], -p[1], 2.0 - p[2]);
+        let n = glam::DVec3::new(p[3], p[4], p[5]).normalize();
+        let want = i * to_lamp.normalize().dot(n).max(0.0) / to_lamp.length_squared();
+        let (e, s) = (row[7], row[8]);
+        eprintln!("{p:?}: {e:.2} ± {s:.2} lx, want {want:.2}");
+        assert!(
+            (e - want).abs() <= 4.0 * s + 0.01 * want,
+            "{p:?}: {e} ± {s} lx, want {want}"
+        );
+    }
+    assert_eq!(rows[5][7], 0.0);
+    let r = report(&out);
+    assert_eq!(r["grids"][0]["unlit_points"].as_u64(), Some(1));
+    assert_eq!(r["grids"][0]["points"].as_u64(), Some(6));
+    // Mistakes: a short line, a zero direction, points beside a rectangle.
+    for (pts, extra, says) in [
+        (
+            "0 0 1 0 0 1\n0 0 1 0 1\n",
+            "",
+            "room.pts:2: a sensor point needs six finite numbers",
+        ),
+        (
+            "0 0 1 0 0 0\n",
+            "",
+            "room.pts:1: the point's direction dx dy dz is zero",
+        ),
+        (
+            "0 0 1 0 0 1\n",
+            "size = [1, 1]\n",
+            "give either points (a file) or origin, u, v and size",
+        ),
+    ] {
+        write(d.path(), "room.pts", pts);
+        let toml = write(
+            d.path(),
+            "s.toml",
+            format!(
+                "up_axis = \"z\"\n[[grid]]\nname = \"sensors\"\npoints = \"room.pts\"\n{extra}"
+            ),
+        );
+        let o = run_photons(&rad, &toml, &out, 1000);
+        assert!(!o.status.success());
+        assert!(stderr(&o).contains(says), "{}", stderr(&o));
+    }
+}
