@@ -3,7 +3,7 @@
 // average illuminance is the sky's (and the sun's) horizontal illuminance, which
 // horizontal_illuminance() reports; a CIE sky of type 12 without its sun is refused as the
 // command refuses it; a state written, read back and merged keeps the map (and is not merged twice); a render sees the
-// sky's radiance above the horizon.
+// sky's radiance above the horizon; a plate facing down over a ground of reflectance 0.2 reads 0.2 E_h.
 #include <imap.hpp>
 
 #include <cmath>
@@ -23,14 +23,18 @@ static const double kPi = 3.14159265358979323846;
     } while (0)
 
 // A grey plate [-2, 2]² at z = 0 facing +z (n × n cells), recorded with tallies.
-static uint32_t plate(imap::Context& ctx, std::vector<double>& xyz, std::vector<uint32_t>& idx) {
+static uint32_t plate(imap::Context& ctx, std::vector<double>& xyz, std::vector<uint32_t>& idx,
+                      bool down = false) {
     const int n = 8;
     for (int j = 0; j <= n; j++)
         for (int i = 0; i <= n; i++) xyz.insert(xyz.end(), {-2.0 + 4.0 * i / n, -2.0 + 4.0 * j / n, 0.0});
     for (int j = 0; j < n; j++)
         for (int i = 0; i < n; i++) {
             uint32_t a = j * (n + 1) + i, b = a + 1, c = a + n + 2, d = a + n + 1;
-            idx.insert(idx.end(), {a, b, c, a, c, d});
+            if (down)
+                idx.insert(idx.end(), {a, c, b, a, d, c});
+            else
+                idx.insert(idx.end(), {a, b, c, a, c, d});
         }
     static const double rho = 0.2;
     ImapMaterial grey = imap::material();
@@ -161,6 +165,28 @@ int main() {
         std::printf("plate under the CIE 12 sky and the sun: Eavg %.0f ± %.0f lx, expected %.0f\n", ds.average_lx,
                     ds.average_lx_sigma, sun_h + sky_h);
         CHECK(std::fabs(ds.average_lx - sun_h - sky_h) < 4 * ds.average_lx_sigma, "Eavg %g", ds.average_lx);
+
+        // 4. The ground's glow: a plate facing down under a 10 000 lx sky and a ground of
+        // reflectance 0.2 reads 0.2 × 10 000 lx.
+        imap::Context under(cfg);
+        std::vector<double> xyz4;
+        std::vector<uint32_t> idx4;
+        uint32_t id4 = plate(under, xyz4, idx4, true);
+        try {
+            under.add_ground({0.2});
+            CHECK(false, "a ground without a sky was accepted");
+        } catch (const imap::Error& e) {
+            std::printf("expected error: %s\n", e.what());
+        }
+        under.add_sky(sky);
+        uint32_t gid = under.add_ground({0.2});
+        CHECK(under.horizontal_illuminance(gid) == 0.0, "the ground gives the horizontal nothing from above");
+        under.run(run);
+        ImapRegionStats gs = under.region_stats(id4, IMAP_SIDE_FRONT);
+        std::printf("plate facing down over a ground of 0.2 under 10 000 lx: Eavg %.1f ± %.1f lx, expected 2000\n",
+                    gs.average_lx, gs.average_lx_sigma);
+        CHECK(std::fabs(gs.average_lx - 2000) < 4 * gs.average_lx_sigma && gs.average_lx_sigma < 40, "Eavg %g",
+              gs.average_lx);
     } catch (const std::exception& e) {
         std::printf("FAIL exception: %s\n", e.what());
         return 1;

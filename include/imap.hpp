@@ -307,6 +307,15 @@ public:
         check(imap_add_sun(ctx_, &sun, s, &id), ctx_);
         return id;
     }
+    /// The ground's glow below the horizon of `zenith`: ρ E_h / π of the skies and suns
+    /// added before it (`reflectance`: one grey value or one per band).
+    uint32_t add_ground(const std::vector<double>& reflectance,
+                        const std::array<double, 3>& zenith = {0.0, 0.0, 1.0}) {
+        uint32_t id = 0;
+        check(imap_add_ground(ctx_, reflectance.data(), reflectance.size(), zenith.data(), &id),
+              ctx_);
+        return id;
+    }
     /// Illuminance in lux at every vertex of `mesh` on `side`.
     std::vector<double> illuminance(uint32_t mesh, uint32_t side) const {
         std::vector<double> e(vertex_count(mesh));

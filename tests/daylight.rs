@@ -674,3 +674,106 @@ fn a_cie_sky_without_its_sun_is_refused_unless_its_type_ignores_the_sun() {
         }
     }
 }
+
+/// The ground's glow (Radiance's ground glow, issue 30): below the horizon a uniform
+/// radiance ρ E_h / π, E_h the horizontal irradiance of the sky and the sun. Under a
+/// uniform sky of 1 W/(m² sr) per band and the sun at 40° (E_n 3 W/m² per band), ρ 0.2:
+/// an open two-sided plane reads E_h on top and ρ E_h below; a vertical plane facing −y,
+/// the sun (azimuth 30°, toward +y) behind it, reads half the sky and half the ground,
+/// π/2 + ρ E_h/2; with every estimator. A camera looking down at nothing sees ρ E_h / π.
+/// Mistakes are refused.
+#[test]
+fn the_ground_glows_with_rho_e_h_over_pi_below_the_horizon() {
+    let rho = 0.2;
+    let sun_h = 3.0 * 40f64.to_radians().cos();
+    let e_h = PI + sun_h;
+    let daylight = |ctx: &mut Context| {
+        ctx.add_sky(&uniform_sky(3.0, false)).unwrap();
+        ctx.add_sun(&equal_sun(30.0, 40.0, 9.0)).unwrap();
+        ctx.add_ground(&[rho], [0.0, 0.0, 1.0]).unwrap()
+    };
+    for (seed, estimator) in [
+        (70, Estimator::Photons),
+        (71, Estimator::DEFAULT),
+        (72, Estimator::GATHER),
+    ] {
+        let mut ctx = context(seeded(seed));
+        let black = lambert(&mut ctx, 0.0);
+        let flat = grid(4, -1.0, 1.0, -1.0, 1.0, 0.0);
+        let id = ctx
+            .add_mesh(&MeshDesc {
+                two_sided: true,
+                ..flat.desc(black)
+            })
+            .unwrap();
+        let g = daylight(&mut ctx);
+        // It gives an open horizontal plane nothing from above.
+        assert_eq!(ctx.light_flux(g).unwrap().0, vec![0.0; 3]);
+        run_with(&mut ctx, photons(300_000), estimator);
+        let n = flat.vertex_count();
+        assert_z(
+            &values(&ctx, id, 0),
+            &vec![Some(e_h); n],
+            &format!("top, {estimator:?}"),
+        );
+        assert_z(
+            &values(&ctx, id, 1),
+            &vec![Some(rho * e_h); n],
+            &format!("underside, {estimator:?}"),
+        );
+        // Vertical, facing −y (the grid turned about x).
+        let mut ctx = context(seeded(seed + 10));
+        let black = lambert(&mut ctx, 0.0);
+        let mut wall = grid(4, -1.0, 1.0, 0.0, 2.0, 0.0);
+        for p in wall.positions.chunks_exact_mut(3) {
+            let (y, z) = (p[1], p[2]);
+            p[1] = -z;
+            p[2] = y;
+        }
+        let wid = ctx.add_mesh(&wall.desc(black)).unwrap();
+        daylight(&mut ctx);
+        run_with(&mut ctx, photons(300_000), estimator);
+        let want = PI / 2.0 + rho * e_h / 2.0;
+        assert_z(
+            &values(&ctx, wid, 0),
+            &vec![Some(want); wall.vertex_count()],
+            &format!("wall facing away from the sun, {estimator:?}"),
+        );
+    }
+    // The renderer: looking down at nothing, every pixel is ρ E_h / π.
+    use imap::{CameraDesc, RenderMethod, RenderParams};
+    let mut ctx = context(seeded(73));
+    let black = lambert(&mut ctx, 0.0);
+    ctx.add_mesh(&grid(2, 50.0, 51.0, 50.0, 51.0, 0.0).desc(black))
+        .unwrap();
+    ctx.add_sky(&uniform_sky(3.0, false)).unwrap();
+    ctx.add_sun(&equal_sun(30.0, 40.0, 9.0)).unwrap();
+    ctx.add_ground(&[rho], [0.0, 0.0, 1.0]).unwrap();
+    let mut params = RenderParams {
+        method: RenderMethod::Synchronous,
+        passes: 2,
+        ..Default::default()
+    };
+    let cam = CameraDesc {
+        position: [0.0, 0.0, 1.0],
+        direction: [0.0, 0.0, -1.0],
+        up: [0.0, 1.0, 0.0],
+        fov_y_deg: 60.0,
+        width: 16,
+        height: 16,
+    };
+    let (img, _) = ctx.render(&cam, &mut params).unwrap();
+    for (i, v) in img.radiance.iter().enumerate() {
+        assert!((v - rho * e_h / PI).abs() < 1e-9, "pixel value {i}: {v}");
+    }
+    // Mistakes: no sky yet, a reflectance beyond 1, a second ground.
+    let mut ctx = context(seeded(74));
+    let e = ctx.add_ground(&[rho], [0.0, 0.0, 1.0]).unwrap_err();
+    assert!(e.message.contains("add them first"), "{}", e.message);
+    ctx.add_sky(&uniform_sky(3.0, false)).unwrap();
+    let e = ctx.add_ground(&[1.5], [0.0, 0.0, 1.0]).unwrap_err();
+    assert!(e.message.contains("reflectance[0] = 1.5"), "{}", e.message);
+    ctx.add_ground(&[rho], [0.0, 0.0, 1.0]).unwrap();
+    let e = ctx.add_ground(&[rho], [0.0, 0.0, 1.0]).unwrap_err();
+    assert!(e.message.contains("a ground already"), "{}", e.message);
+}

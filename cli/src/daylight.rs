@@ -56,6 +56,10 @@ pub struct SkySettings {
     pub north: Option<[f64; 3]>,
     #[serde(default)]
     pub rotation_deg: f64,
+    /// The ground's glow below the horizon (Radiance's ground glow): ρ E_h / π of this sky
+    /// and the `[sun]`.
+    #[serde(default)]
+    pub ground_reflectance: Option<f64>,
     #[serde(flatten)]
     pub colour: SpectrumSettings,
 }
@@ -350,6 +354,22 @@ pub fn add_daylight(
             })
             .map_err(|e| CliError(format!("{what}: {}", printable(&e.message))))?;
         push(ctx, id, format!("sun (azimuth {a:.2}°, zenith {z:.2}°)"))?;
+    }
+    if let Some((s, rho)) = sky.and_then(|s| s.ground_reflectance.map(|r| (s, r))) {
+        let what = "settings: sky";
+        if !(0.0..=1.0).contains(&rho) {
+            fail!("{what}: ground_reflectance = {rho} must be in [0, 1]");
+        }
+        if rho > 0.0 {
+            let (zenith, _) = frame(s.zenith, s.north, up);
+            let id = ctx.add_ground(&[rho], zenith).map_err(|e| {
+                CliError(format!(
+                    "{what}: ground_reflectance: {}",
+                    printable(&e.message)
+                ))
+            })?;
+            push(ctx, id, format!("ground (reflectance {rho})"))?;
+        }
     }
     Ok(())
 }

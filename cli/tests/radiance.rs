@@ -284,3 +284,38 @@ fn sensor_point_files_give_each_point_its_own_light() {
         assert!(stderr(&o).contains(says), "{}", stderr(&o));
     }
 }
+
+/// `[sky] ground_reflectance`: a grid facing down over the open ground under a 10 klx
+/// uniform sky reads ρ × 10 000 lx; a reflectance beyond 1 is refused.
+#[test]
+fn the_ground_glows_under_the_sky() {
+    let d = tempfile::tempdir().unwrap();
+    let rad = write(
+        d.path(),
+        "far.rad",
+        "void plastic black 0 0 5 0 0 0 0 0\nblack polygon far 0 0 9 2 2 3 2.2 2 3 2 2.2 3\n",
+    );
+    let settings = |rho: f64| {
+        format!(
+            "up_axis = \"z\"\n[run]\nseed = 4\n[sky]\nkind = \"uniform\"\nhorizontal_illuminance = 10000\nground_reflectance = {rho}\n\
+             [[grid]]\nname = \"down\"\norigin = [0, 0, 1]\nu = [1, 0, 0]\nv = [0, -1, 0]\nsize = [1, 1]\nspacing = 0.25\n"
+        )
+    };
+    let toml = write(d.path(), "s.toml", settings(0.2));
+    let out = d.path().join("out");
+    let o = run_photons(&rad, &toml, &out, 12_000_000);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let (e, s) = grid_average(&out);
+    eprintln!("facing down over a ground of 0.2: {e:.1} ± {s:.1} lx");
+    assert!((e - 2000.0).abs() < 4.0 * s + 2.0 && s < 30.0, "{e} ± {s}");
+    let r = report(&out);
+    assert!(r["lights"].to_string().contains("ground (reflectance 0.2)"));
+    write(d.path(), "s.toml", settings(1.5));
+    let o = run_photons(&rad, &toml, &out, 1000);
+    assert!(!o.status.success());
+    assert!(
+        stderr(&o).contains("ground_reflectance = 1.5 must be in [0, 1]"),
+        "{}",
+        stderr(&o)
+    );
+}

@@ -513,6 +513,64 @@ impl Context {
         self.add_light(l)
     }
 
+    /// Adds the ground's glow (Radiance's ground glow): a uniform radiance below the
+    /// horizon of `zenith`, L = ρ E_h / π per band, with E_h the horizontal irradiance of
+    /// the skies and suns added so far (add them first) and ρ `reflectance` (one grey
+    /// value or one per band, in [0, 1]). It stands for an open ground that reflects
+    /// diffusely what the sky and sun give it, as a distant source: photons come up from
+    /// below the horizon into the scene's bounding sphere, the renderer sees it below the
+    /// horizon, and every estimator samples it like a sky. `imap_light_flux` reports 0 for
+    /// it (it gives an open horizontal plane nothing from above).
+    pub fn add_ground(&mut self, reflectance: &[f64], zenith: [f64; 3]) -> Result<u32> {
+        self.check_unlocked("add the ground")?;
+        let rho = self.scene.bands.expand("reflectance", reflectance)?;
+        if let Some(i) = rho.iter().position(|r| !(0.0..=1.0).contains(r)) {
+            bail!(
+                ImapErrInvalidArgument,
+                "reflectance[{i}] = {} is outside [0, 1]",
+                rho[i]
+            );
+        }
+        let mut e_h = vec![0.0; rho.len()];
+        let mut distant = 0;
+        for l in &self.scene.lights {
+            if let crate::scene::light::LightShape::Distant(d) = &l.shape {
+                if d.parts
+                    .iter()
+                    .any(|p| matches!(p.radiance, crate::scene::sky::Radiance::Ground))
+                {
+                    bail!(
+                        ImapErrInvalidArgument,
+                        "the scene has a ground already: add one ground"
+                    );
+                }
+                distant += 1;
+                for (o, x) in e_h.iter_mut().zip(d.horizontal()) {
+                    *o += x;
+                }
+            }
+        }
+        if distant == 0 {
+            bail!(
+                ImapErrInvalidArgument,
+                "no sky or sun has been added: the ground's glow is ρ E_h / π of the sky and sun, so add them first"
+            );
+        }
+        let per_band: Vec<f64> = rho
+            .iter()
+            .zip(&e_h)
+            .map(|(r, e)| r * e / std::f64::consts::PI)
+            .collect();
+        if !per_band.iter().any(|&x| x > 0.0) {
+            bail!(
+                ImapErrInvalidArgument,
+                "the ground would not glow (reflectance 0, or the sky and sun give no horizontal light): leave it out"
+            );
+        }
+        let l = Light::ground(zenith, per_band)?;
+        self.add_light(l)
+    }
+
     /// Adds a goniometric luminaire from photometric data.
     pub fn add_luminaire(
         &mut self,

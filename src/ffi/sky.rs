@@ -392,6 +392,33 @@ pub unsafe extern "C" fn imap_add_sun(
     })
 }
 
+/// Adds the ground's glow (Radiance's ground glow): a uniform radiance ρ E_h / π below
+/// the horizon of `zenith` (3 doubles, the scene's up), with E_h the horizontal
+/// irradiance of the skies and suns added before it and ρ `reflectance` (`count` = 1
+/// grey value or one per band, each in [0, 1]). It stands for an open ground reflecting
+/// what the sky and sun give it; every estimator and the renderer see it below the
+/// horizon. `imap_light_flux` reports 0 for it. IMAP_ERR_INVALID_ARGUMENT before any sky
+/// or sun, for a second ground, a reflectance outside [0, 1] or a glow of 0.
+/// (Since 0.2.3.)
+///
+/// # Safety
+/// `ctx` is a live handle; `reflectance` holds `count` doubles; `zenith` holds 3;
+/// `out_id` is writable.
+#[no_mangle]
+pub unsafe extern "C" fn imap_add_ground(
+    ctx: *mut ImapContext,
+    reflectance: *const f64,
+    count: usize,
+    zenith: *const f64,
+    out_id: *mut u32,
+) -> ImapStatus {
+    add_with(ctx, out_id, |c| {
+        let rho = slice("reflectance", reflectance, count)?;
+        let z = slice("zenith", zenith, 3)?;
+        c.add_ground(rho, [z[0], z[1], z[2]])
+    })
+}
+
 /// The sun's apparent position at a local date and time and a place: azimuth (degrees from
 /// north toward east) into `*out_azimuth_deg`, zenith angle (degrees; above 90 when it is
 /// below the horizon) into `*out_zenith_deg`. NREL's Solar Position Algorithm (±0.0003°,

@@ -577,6 +577,12 @@ impl Light {
         Ok(Self::distant(Distant::sun(desc, bands)?))
     }
 
+    /// The ground's glow of radiance `per_band` below the horizon of `zenith`
+    /// (`super::sky::Distant::ground`).
+    pub fn ground(zenith: [f64; 3], per_band: Vec<f64>) -> Result<Self> {
+        Ok(Self::distant(Distant::ground(zenith, per_band)?))
+    }
+
     fn distant(d: Distant) -> Self {
         let mut power = vec![0.0; d.parts[0].per_band.len()];
         for p in &d.parts {

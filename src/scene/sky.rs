@@ -123,6 +123,8 @@ pub enum Radiance {
     /// 1 inside the sun's disk around `axis` (1 − cos of its angular radius
     /// `one_minus_cos`).
     Sun { axis: DVec3, one_minus_cos: f64 },
+    /// 1 below the horizon: the ground's glow (Radiance's), a uniform lower hemisphere.
+    Ground,
 }
 
 /// The sampling table of a sky: cells of equal zenith-angle and azimuth steps.
@@ -185,6 +187,7 @@ impl fmt::Debug for DistantPart {
                 axis,
                 one_minus_cos,
             } => d.field("sun", &(axis, one_minus_cos)),
+            Radiance::Ground => d.field("ground", &true),
         };
         d.field("per_band", &self.per_band).finish()
     }
@@ -256,6 +259,13 @@ impl DistantPart {
             } => {
                 // 1 − cos α without cancellation: |d − axis|²/2.
                 if (d - *axis).length_squared() * 0.5 <= *one_minus_cos {
+                    1.0
+                } else {
+                    0.0
+                }
+            }
+            Radiance::Ground => {
+                if d.dot(self.frame.zenith) < 0.0 {
                     1.0
                 } else {
                     0.0
@@ -874,6 +884,37 @@ impl Distant {
                 table: None,
                 integral: 2.0 * PI * one_minus_cos,
                 horizontal: normal * axis.dot(frame.zenith),
+                per_band,
+            })],
+        })
+    }
+}
+
+impl Distant {
+    /// The ground's glow below the horizon of `zenith` (north is immaterial): a uniform
+    /// radiance per band `per_band`, W/(m² sr). As Radiance's ground glow it stands for
+    /// an open, diffusely reflecting ground of reflectance ρ lit by the sky and the sun:
+    /// L = ρ E_h / π (`Context::add_ground`). It gives an open horizontal plane nothing
+    /// from above and π L on its underside.
+    pub fn ground(zenith: [f64; 3], per_band: Vec<f64>) -> Result<Self> {
+        let z = DVec3::from(zenith);
+        check_finite("zenith", &zenith)?;
+        let north = if z.normalize_or_zero().x.abs() < 0.9 {
+            DVec3::X
+        } else {
+            DVec3::Y
+        };
+        let north = (north - z.normalize_or_zero() * north.dot(z.normalize_or_zero())).to_array();
+        let frame = SkyFrame::new(zenith, north)?;
+        // Two rows over [0, π]: only the lower one is sampled.
+        let table = Table::new(2, 1, PI, 0.0, |i, _| if i == 1 { 1.0 } else { 0.0 })?;
+        Ok(Distant {
+            parts: vec![Arc::new(DistantPart {
+                frame,
+                radiance: Radiance::Ground,
+                table: Some(table),
+                integral: 2.0 * PI,
+                horizontal: 0.0,
                 per_band,
             })],
         })
