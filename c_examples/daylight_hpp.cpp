@@ -187,6 +187,26 @@ int main() {
                     gs.average_lx, gs.average_lx_sigma);
         CHECK(std::fabs(gs.average_lx - 2000) < 4 * gs.average_lx_sigma && gs.average_lx_sigma < 40, "Eavg %g",
               gs.average_lx);
+
+        // 5. A window portal over the plate (its own square, facing up): the sky comes in
+        // through it only, and the plate still reads 10 000 lx.
+        imap::Context portal(cfg);
+        std::vector<double> xyz5;
+        std::vector<uint32_t> idx5;
+        uint32_t id5 = plate(portal, xyz5, idx5);
+        portal.add_sky(sky);
+        portal.set_portals({-2, -2, 0, 2, -2, 0, 2, 2, 0, -2, 2, 0}, {0, 1, 2, 0, 2, 3});
+        try {
+            portal.set_portals({0, 0, 0}, {0, 1, 2});
+            CHECK(false, "a portal with an index out of range was accepted");
+        } catch (const imap::Error& e) {
+            std::printf("expected error: %s\n", e.what());
+        }
+        portal.run(run);
+        ImapRegionStats ps = portal.region_stats(id5, IMAP_SIDE_FRONT);
+        std::printf("plate under a 10 000 lx sky through a portal: Eavg %.1f ± %.1f lx\n", ps.average_lx,
+                    ps.average_lx_sigma);
+        CHECK(std::fabs(ps.average_lx - 10000) < 4 * ps.average_lx_sigma, "Eavg %g", ps.average_lx);
     } catch (const std::exception& e) {
         std::printf("FAIL exception: %s\n", e.what());
         return 1;

@@ -10,10 +10,13 @@
 //! interpolated (log-log).
 //!
 //! `--open` leaves the walls and roof out: the floor then receives the sky's whole
-//! horizontal irradiance.
+//! horizontal irradiance. `--side` closes the roof and opens a 1 × 0.5 m window in the
+//! wall y = −1 (x −0.5…0.5, z 0.25…0.75): a side-lit room. `--portal` declares the
+//! opening a window portal (`Context::set_portals`); `--compare` runs each estimator
+//! without and then with it.
 //!
 //!     cargo run --release --example daylight_bench -- [--threads 2] [--max-seconds 20]
-//!         [--cie-type 12] [--open]
+//!         [--cie-type 12] [--open | --side] [--portal | --compare]
 
 mod common;
 
@@ -35,9 +38,12 @@ fn quad(ctx: &mut Context, m: u32, p: [[f64; 3]; 4]) {
     .unwrap();
 }
 
-/// The room (`open`: the floor alone); returns the floor's id, its vertex positions and
-/// triangles.
-fn room(ctx: &mut Context, open: bool) -> (u32, Vec<[f64; 3]>, Vec<u32>) {
+/// The window of `--side`: x −0.5…0.5, z 0.25…0.75 in the wall y = −1, facing −y.
+const WINDOW_Z: [f64; 2] = [0.25, 0.75];
+
+/// The room (`open`: the floor alone; `side`: the opening in a wall, not the roof);
+/// returns the floor's id, its vertex positions and triangles.
+fn room(ctx: &mut Context, open: bool, side: bool) -> (u32, Vec<[f64; 3]>, Vec<u32>) {
     let black = ctx.add_material(&MaterialDesc::default()).unwrap();
     let (mut pos, mut idx) = (Vec::new(), Vec::new());
     for j in 0..=N {
@@ -68,16 +74,48 @@ fn room(ctx: &mut Context, open: bool) -> (u32, Vec<[f64; 3]>, Vec<u32>) {
         return (floor, verts, idx);
     }
     let h = HEIGHT;
-    quad(
-        ctx,
-        black,
-        [
-            [-1.0, -1.0, 0.0],
-            [1.0, -1.0, 0.0],
-            [1.0, -1.0, h],
-            [-1.0, -1.0, h],
-        ],
-    );
+    if side {
+        // The wall y = −1 around the window.
+        let [z0, z1] = WINDOW_Z;
+        for (x, z) in [
+            ([-1.0, 1.0], [0.0, z0]),
+            ([-1.0, 1.0], [z1, h]),
+            ([-1.0, -0.5], [z0, z1]),
+            ([0.5, 1.0], [z0, z1]),
+        ] {
+            quad(
+                ctx,
+                black,
+                [
+                    [x[0], -1.0, z[0]],
+                    [x[1], -1.0, z[0]],
+                    [x[1], -1.0, z[1]],
+                    [x[0], -1.0, z[1]],
+                ],
+            );
+        }
+        quad(
+            ctx,
+            black,
+            [
+                [-1.0, -1.0, h],
+                [1.0, -1.0, h],
+                [1.0, 1.0, h],
+                [-1.0, 1.0, h],
+            ],
+        );
+    } else {
+        quad(
+            ctx,
+            black,
+            [
+                [-1.0, -1.0, 0.0],
+                [1.0, -1.0, 0.0],
+                [1.0, -1.0, h],
+                [-1.0, -1.0, h],
+            ],
+        );
+    }
     quad(
         ctx,
         black,
@@ -108,12 +146,17 @@ fn room(ctx: &mut Context, open: bool) -> (u32, Vec<[f64; 3]>, Vec<u32>) {
             [1.0, -1.0, h],
         ],
     );
-    for (x, y) in [
-        ([-1.0, 1.0], [0.5, 1.0]),
-        ([-1.0, 1.0], [-1.0, -0.5]),
-        ([-1.0, -0.5], [-0.5, 0.5]),
-        ([0.5, 1.0], [-0.5, 0.5]),
-    ] {
+    let roof_pieces: &[([f64; 2], [f64; 2])] = if side {
+        &[]
+    } else {
+        &[
+            ([-1.0, 1.0], [0.5, 1.0]),
+            ([-1.0, 1.0], [-1.0, -0.5]),
+            ([-1.0, -0.5], [-0.5, 0.5]),
+            ([0.5, 1.0], [-0.5, 0.5]),
+        ]
+    };
+    for &(x, y) in roof_pieces {
         quad(
             ctx,
             black,
@@ -152,6 +195,34 @@ fn through_opening(x: [f64; 3], kind: u32, sun: [f64; 3], zs: f64) -> f64 {
     s / (n * n) as f64
 }
 
+/// E at floor point x from the sky through the side window, per unit zenith luminance.
+fn through_window(x: [f64; 3], kind: u32, sun: [f64; 3], zs: f64) -> f64 {
+    let n = 32;
+    let [z0, z1] = WINDOW_Z;
+    let mut s = 0.0;
+    for i in 0..n {
+        for j in 0..n {
+            let y = [
+                -0.5 + (i as f64 + 0.5) / n as f64,
+                -1.0,
+                z0 + (z1 - z0) * (j as f64 + 0.5) / n as f64,
+            ];
+            let d = [y[0] - x[0], y[1] - x[1], y[2] - x[2]];
+            let r2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+            let r = r2.sqrt();
+            let dir = [d[0] / r, d[1] / r, d[2] / r];
+            if dir[2] <= 0.0 || dir[1] >= 0.0 {
+                continue;
+            }
+            let chi = (dir[0] * sun[0] + dir[1] * sun[1] + dir[2] * sun[2])
+                .clamp(-1.0, 1.0)
+                .acos();
+            s += cie_luminance(kind, dir[2].acos(), chi, zs) * dir[2] * (-dir[1]) / r2;
+        }
+    }
+    s * (z1 - z0) / (n * n) as f64
+}
+
 /// The hat average of `e` at vertex v (a 6 × 6 sub-grid per adjacent triangle).
 fn hat(verts: &[[f64; 3]], idx: &[u32], v: usize, e: &dyn Fn([f64; 3]) -> f64) -> f64 {
     let (mut num, mut den) = (0.0, 0.0);
@@ -184,7 +255,15 @@ fn main() {
     let threads: usize = arg("--threads", 2);
     let max_s: f64 = arg("--max-seconds", 20.0);
     let kind: u32 = arg("--cie-type", 12);
-    let open = std::env::args().any(|a| a == "--open");
+    let flag = |f: &str| std::env::args().any(|a| a == f);
+    let (open, side, compare) = (flag("--open"), flag("--side"), flag("--compare"));
+    let portals: &[bool] = if compare {
+        &[false, true]
+    } else if flag("--portal") {
+        &[true]
+    } else {
+        &[false]
+    };
     let (sa, sz) = (225f64.to_radians(), 35f64.to_radians());
     let sun = [sz.sin() * sa.sin(), sz.sin() * sa.cos(), sz.cos()];
     let lz = 5000.0;
@@ -192,26 +271,42 @@ fn main() {
         "# daylight bench: CIE sky type {kind} {}, {threads} threads, up to {max_s} s each",
         if open {
             "over an open floor"
+        } else if side {
+            "through a 1 × 0.5 m side window"
         } else {
             "through a 1 m roof opening"
         }
     );
     println!(
-        "{:10} {:>9} {:>9} {:>9} {:>12} {:>10}",
-        "estimator", "t(5%)", "t(2%)", "t(1%)", "final err", "act/est"
+        "{:10} {:>7} {:>9} {:>9} {:>9} {:>12} {:>10}",
+        "estimator", "portal", "t(5%)", "t(2%)", "t(1%)", "final err", "act/est"
     );
-    for (name, est) in [
+    let runs = [
         ("photons", Estimator::Photons),
         ("ls", Estimator::DEFAULT),
         ("gather", Estimator::GATHER),
-    ] {
+    ]
+    .into_iter()
+    .flat_map(|r| portals.iter().map(move |&p| (r.0, r.1, p)));
+    for (name, est, portal) in runs {
         let mut ctx = Context::new(Config {
             threads,
             seed: 7,
             ..Default::default()
         })
         .unwrap();
-        let (floor, verts, idx) = room(&mut ctx, open);
+        let (floor, verts, idx) = room(&mut ctx, open, side);
+        if portal {
+            let opening: Vec<f64> = if side {
+                let [z0, z1] = WINDOW_Z;
+                vec![-0.5, -1.0, z0, 0.5, -1.0, z0, 0.5, -1.0, z1, -0.5, -1.0, z1]
+            } else {
+                vec![
+                    -0.5, -0.5, HEIGHT, 0.5, -0.5, HEIGHT, 0.5, 0.5, HEIGHT, -0.5, 0.5, HEIGHT,
+                ]
+            };
+            ctx.set_portals(&opening, &[0, 1, 2, 0, 2, 3]).unwrap();
+        }
         let sky = ctx
             .add_sky(&SkyDesc {
                 kind: SkyKind::Cie {
@@ -228,6 +323,10 @@ fn main() {
         let exact: Vec<f64> = if open {
             // The whole sky: its horizontal irradiance, band 0.
             vec![ctx.light_flux(sky).unwrap().0[0]; verts.len()]
+        } else if side {
+            (0..verts.len())
+                .map(|v| hat(&verts, &idx, v, &|x| through_window(x, kind, sun, sz)) * band)
+                .collect()
         } else {
             (0..verts.len())
                 .map(|v| hat(&verts, &idx, v, &|x| through_opening(x, kind, sun, sz)) * band)
@@ -277,7 +376,8 @@ fn main() {
         }
         let show = |h: Option<f64>| h.map_or(format!("> {max_s:.0}"), |t| format!("{t:.2}"));
         println!(
-            "{name:10} {:>9} {:>9} {:>9} {:>11.2}% {:>10.2}",
+            "{name:10} {:>7} {:>9} {:>9} {:>9} {:>11.2}% {:>10.2}",
+            if portal { "yes" } else { "no" },
             show(hit[0]),
             show(hit[1]),
             show(hit[2]),

@@ -2490,6 +2490,25 @@ enum ImapStatus imap_add_sun(struct ImapContext *ctx, const struct ImapSun *sun,
 enum ImapStatus imap_add_ground(struct ImapContext *ctx, const double *reflectance, size_t count, const double *zenith, uint32_t *out_id);
 
 /**
+ * Sets the window portals: `triangle_count` triangles of `indices` (3 each) into
+ * `vertex_count` vertices of `positions` (xyz, scene units), each facing out of the model
+ * (its normal by the right-hand rule toward the sky). With portals every sky, the sun and
+ * the ground send their light only through them: unbiased for whatever their light can
+ * reach only through the portals (the rooms behind the windows), and far fewer photons
+ * wasted on the rest of the sky; surfaces the light could reach otherwise (outside walls,
+ * an opening left out) get none of it directly. Portals must not lie one behind another
+ * along a line from the sky (a pane's back face, say): such light would count twice.
+ * Replaces earlier portals; 0 triangles removes them. IMAP_ERR_INVALID_ARGUMENT for an
+ * index out of range or only degenerate triangles, IMAP_ERR_NON_FINITE for a coordinate;
+ * a run whose distant light passes no portal gets IMAP_ERR_NO_LIGHT. (Since 0.2.3.)
+ *
+ * # Safety
+ * `ctx` is a live handle; `positions` holds 3 × `vertex_count` doubles and `indices`
+ * 3 × `triangle_count` indices (either may be NULL when its count is 0).
+ */
+enum ImapStatus imap_set_portals(struct ImapContext *ctx, const double *positions, size_t vertex_count, const uint32_t *indices, size_t triangle_count);
+
+/**
  * The sun's apparent position at a local date and time and a place: azimuth (degrees from
  * north toward east) into `*out_azimuth_deg`, zenith angle (degrees; above 90 when it is
  * below the horizon) into `*out_zenith_deg`. NREL's Solar Position Algorithm (±0.0003°,

@@ -316,6 +316,13 @@ public:
               ctx_);
         return id;
     }
+    /// Window portals (triangles facing out of the model): distant light enters only
+    /// through them. Empty vectors remove them.
+    void set_portals(const std::vector<double>& positions, const std::vector<uint32_t>& indices) {
+        check(imap_set_portals(ctx_, positions.data(), positions.size() / 3, indices.data(),
+                               indices.size() / 3),
+              ctx_);
+    }
     /// Illuminance in lux at every vertex of `mesh` on `side`.
     std::vector<double> illuminance(uint32_t mesh, uint32_t side) const {
         std::vector<double> e(vertex_count(mesh));

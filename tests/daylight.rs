@@ -777,3 +777,140 @@ fn the_ground_glows_with_rho_e_h_over_pi_below_the_horizon() {
     let e = ctx.add_ground(&[rho], [0.0, 0.0, 1.0]).unwrap_err();
     assert!(e.message.contains("a ground already"), "{}", e.message);
 }
+
+/// Window portals (issue 30): the roof opening declared as a portal, the sky's and the
+/// sun's photons come in through it only. The floor under a uniform sky still reads the
+/// view factor (every estimator), under CIE sky 12 the sky's integral over the opening, the
+/// sun's patch E_n cos θ where it falls and nothing elsewhere; the same photons leave a
+/// smaller error than without the portal; a sun behind the portal's plane gives nothing
+/// and bad portals are refused.
+#[test]
+fn portals_bring_the_sky_and_the_sun_through_the_opening_unbiased() {
+    let portal: Vec<f64> = OPENING.iter().flatten().copied().collect();
+    let tris = [0u32, 1, 2, 0, 2, 3];
+    let floor_want = |floor: &Geometry| -> Vec<Option<f64>> {
+        (0..floor.vertex_count())
+            .map(|v| {
+                Some(hat_average_with(floor, v, 12, |x, _| {
+                    polygon_irradiance(x, [0.0, 0.0, 1.0], &OPENING, 1.0)
+                }))
+            })
+            .collect()
+    };
+    let mut mean_rel = Vec::new();
+    for (seed, estimator) in ESTIMATORS.into_iter().enumerate() {
+        for with_portal in [true, false] {
+            let (mut ctx, id, floor) = roof_room(80 + seed as u64);
+            ctx.add_sky(&uniform_sky(3.0, false)).unwrap();
+            if with_portal {
+                ctx.set_portals(&portal, &tris).unwrap();
+            }
+            run_with(&mut ctx, photons(200_000), estimator);
+            let got = values(&ctx, id, 0);
+            mean_rel.push(got.iter().map(|(_, r)| r).sum::<f64>() / got.len() as f64);
+            if with_portal {
+                assert_z(
+                    &got,
+                    &floor_want(&floor),
+                    &format!("uniform sky through a portal, {estimator:?}"),
+                );
+            }
+        }
+    }
+    eprintln!("mean relative error at equal photons, with / without the portal: {mean_rel:?}");
+    // Photons only: the same photons, a smaller error.
+    assert!(mean_rel[0] < 0.7 * mean_rel[1], "{mean_rel:?}");
+
+    // CIE sky 12 through the portal.
+    let (mut ctx, id, floor) = roof_room(94);
+    let lz = 5000.0;
+    ctx.add_sky(&SkyDesc {
+        kind: SkyKind::Cie {
+            kind: 12,
+            sun_azimuth_deg: 225.0,
+            sun_zenith_deg: 35.0,
+        },
+        amount: SkyAmount::Luminance(lz),
+        spectrum: Spectrum::Equal,
+        ..SkyDesc::default()
+    })
+    .unwrap();
+    ctx.set_portals(&portal, &tris).unwrap();
+    run_with(&mut ctx, photons(300_000), Estimator::Photons);
+    let (a, z) = (225f64.to_radians(), 35f64.to_radians());
+    let sun = [z.sin() * a.sin(), z.sin() * a.cos(), z.cos()];
+    let abcde = imap::scene::sky::CIE_SKY_PARAMETERS[11];
+    let band_radiance = lz / ctx.photometry().luminous(&[1.0, 1.0, 1.0]);
+    let want: Vec<Option<f64>> = (0..floor.vertex_count())
+        .map(|v| {
+            Some(
+                hat_average_with(&floor, v, 4, |x, _| {
+                    through_opening(x, 24, &|d| cie_luminance(abcde, d, sun))
+                }) * band_radiance,
+            )
+        })
+        .collect();
+    assert_z(&values(&ctx, id, 0), &want, "CIE sky 12 through a portal");
+
+    // The sun through the portal: its patch, and its whole flux E_n cos θ × 1 m².
+    let (az, zen) = (200f64.to_radians(), 20f64.to_radians());
+    let toward = [zen.sin() * az.sin(), zen.sin() * az.cos(), zen.cos()];
+    let shift = [-toward[0] / toward[2], -toward[1] / toward[2]];
+    let en = 900.0;
+    let (mut ctx, id, floor) = roof_room(91);
+    ctx.add_sun(&equal_sun(200.0, 20.0, en)).unwrap();
+    ctx.set_portals(&portal, &tris).unwrap();
+    run_with(&mut ctx, photons(100_000), Estimator::DEFAULT);
+    let e_band = en * zen.cos() / 3.0;
+    let want: Vec<Option<f64>> = (0..floor.vertex_count())
+        .map(|v| {
+            let p = floor.vertex(v);
+            let d = (p[0] - shift[0]).abs().max((p[1] - shift[1]).abs());
+            if d < 0.5 - 0.125 - 0.01 {
+                Some(e_band)
+            } else if d > 0.5 + 0.125 + 0.01 {
+                Some(0.0)
+            } else {
+                None
+            }
+        })
+        .collect();
+    assert_z(&values(&ctx, id, 0), &want, "sun patch through a portal");
+    let got = values(&ctx, id, 0);
+    let flux: f64 = got
+        .iter()
+        .zip(vertex_areas(&floor))
+        .map(|((e, _), a)| e * a)
+        .sum();
+    assert!(
+        (flux / e_band - 1.0).abs() < 0.01,
+        "patch flux {flux} vs {e_band}"
+    );
+
+    // A portal facing down (its back to the sky and the sun) lets nothing in: refused as
+    // no light at run time, not silently dark.
+    let (mut ctx, _, _) = roof_room(92);
+    ctx.add_sun(&equal_sun(200.0, 20.0, en)).unwrap();
+    ctx.set_portals(&portal, &[0, 2, 1, 0, 3, 2]).unwrap();
+    let e = ctx
+        .run(&mut imap::RunParams {
+            photons: 1000,
+            ..Default::default()
+        })
+        .unwrap_err();
+    assert!(
+        e.message.contains("no distant light passes the portals"),
+        "{}",
+        e.message
+    );
+    // Bad portals.
+    let (mut ctx, _, _) = roof_room(93);
+    assert!(ctx.set_portals(&portal, &[0, 1, 7]).is_err());
+    assert!(ctx
+        .set_portals(
+            &[0.0, 0.0, f64::NAN, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0],
+            &[0, 1, 2]
+        )
+        .is_err());
+    assert!(ctx.set_portals(&portal, &[0, 0, 1]).is_err());
+}

@@ -222,6 +222,51 @@ fn default_size() -> u32 {
     640
 }
 
+/// The triangles of the objects `names` as portals, each facing away from the model's
+/// centre: an object whose triangles all face the centre (a window drawn facing in) is
+/// turned round; one with triangles both ways (a pane's slab) keeps those facing out, so
+/// that no line from the sky crosses two portals of one window.
+pub fn portal_triangles(
+    model: &crate::model::Model,
+    names: &[String],
+) -> std::result::Result<(Vec<f64>, Vec<u32>), String> {
+    let (lo, hi) = model.bounds();
+    let centre = (glam::DVec3::from(lo) + glam::DVec3::from(hi)) * 0.5;
+    let (mut positions, mut indices) = (Vec::new(), Vec::new());
+    for name in names {
+        let objects: Vec<&crate::obj::Object> =
+            model.objects.iter().filter(|o| &o.name == name).collect();
+        if objects.is_empty() {
+            return Err(format!(
+                "portals names '{}', which is no object or group of the model",
+                printable(name)
+            ));
+        }
+        let tris: Vec<[glam::DVec3; 3]> = objects
+            .iter()
+            .flat_map(|o| o.triangles.iter())
+            .map(|t| t.v.map(|v| glam::DVec3::from(model.positions[v as usize])))
+            .collect();
+        let out = |t: &[glam::DVec3; 3]| {
+            let n = (t[1] - t[0]).cross(t[2] - t[0]);
+            n.dot((t[0] + t[1] + t[2]) / 3.0 - centre) > 0.0
+        };
+        let facing_out: Vec<[glam::DVec3; 3]> = tris.iter().filter(|t| out(t)).copied().collect();
+        let chosen = if facing_out.is_empty() {
+            tris.iter().map(|t| [t[0], t[2], t[1]]).collect()
+        } else {
+            facing_out
+        };
+        for t in chosen {
+            for p in t {
+                indices.push((positions.len() / 3) as u32);
+                positions.extend(p.to_array());
+            }
+        }
+    }
+    Ok((positions, indices))
+}
+
 /// The TOML settings file.
 #[derive(Clone, Debug, Default, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
@@ -273,6 +318,12 @@ pub struct Settings {
     /// inside out records its outside then.
     #[serde(default)]
     pub flip_normals: Vec<String>,
+    /// Objects that are the model's openings to the sky (windows, skylights): daylight
+    /// enters only through them (`Context::set_portals`), far faster for rooms lit through
+    /// windows. Each triangle is taken facing away from the model's centre; a pane's
+    /// triangles facing the centre (its back) are left out.
+    #[serde(default)]
+    pub portals: Vec<String>,
     #[serde(default)]
     pub camera: Option<CameraSettings>,
     /// `imap render`: method and stop criteria.
@@ -776,6 +827,19 @@ pub fn load(path: &Path, settings: &Settings) -> Result<(Context, LoadedScene)> 
         settings.up()?,
         &mut placed,
     )?;
+    if !settings.portals.is_empty() {
+        let (file, line) = settings.locate("portals");
+        if settings.sky.is_none() && settings.environment.is_none() && settings.sun.is_none() {
+            fail!(
+                "{}:{line}: portals bring daylight in, but there is no [sky], [environment] or [sun]",
+                file.display()
+            );
+        }
+        let (positions, indices) = portal_triangles(&model, &settings.portals)
+            .map_err(|e| CliError(format!("{}:{line}: {e}", file.display())))?;
+        ctx.set_portals(&positions, &indices)
+            .map_err(|e| CliError(format!("{}:{line}: portals: {}", file.display(), e.message)))?;
+    }
     for (id, l) in placed.iter().enumerate() {
         name_item(
             |n| &mut n.lights,

@@ -169,11 +169,21 @@ fn a_side_lit_room_reads_the_same_through_rad_and_obj() {
             &obj,
             format!("[materials.glass]\nabsorption_per_m = {absorption}\n"),
         ),
+        // The window as a portal: the sky's photons come in through it only.
+        (&rad, "portals = [\"window\"]\n".to_string()),
     ] {
         let toml = write(
             d.path(),
             "s.toml",
-            format!("up_axis = \"z\"\nrecord = [\"floor\"]\n[run]\nseed = 5\n{sky}{extra}{grid}"),
+            if extra.starts_with("portals") {
+                format!(
+                    "up_axis = \"z\"\nrecord = [\"floor\"]\n{extra}[run]\nseed = 6\n{sky}{grid}"
+                )
+            } else {
+                format!(
+                    "up_axis = \"z\"\nrecord = [\"floor\"]\n[run]\nseed = 5\n{sky}{extra}{grid}"
+                )
+            },
         );
         let out = d.path().join("out");
         let o = run_photons(model, &toml, &out, 6_000_000);
@@ -187,8 +197,13 @@ fn a_side_lit_room_reads_the_same_through_rad_and_obj() {
         }
         results.push(grid_average(&out));
     }
-    let ((a, sa), (b, sb)) = (results[0], results[1]);
-    eprintln!("floor grid Eavg: rad {a:.1} ± {sa:.1} lx, obj {b:.1} ± {sb:.1} lx");
+    let ((a, sa), (b, sb), (c, sc)) = (results[0], results[1], results[2]);
+    eprintln!("floor grid Eavg: rad {a:.1} ± {sa:.1} lx, obj {b:.1} ± {sb:.1} lx, rad with the window as a portal {c:.1} ± {sc:.1} lx");
+    // The portal: the same light, with far less noise from the same photons.
+    assert!(
+        (a - c).abs() < 3.0 * (sa * sa + sc * sc).sqrt() + 0.005 * a && sc < 0.5 * sa,
+        "without the portal {a} ± {sa} lx, with it {c} ± {sc} lx"
+    );
     // Daylight factor 1–5 % (a 2 m² window in a 16 m² room), and the same both ways.
     assert!((100.0..500.0).contains(&a), "rad: {a} lx");
     assert!(

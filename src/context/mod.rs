@@ -513,6 +513,56 @@ impl Context {
         self.add_light(l)
     }
 
+    /// Sets the window portals (pbrt-v4's and Mitsuba's): triangles (`positions` xyz in
+    /// scene units, `indices` three per triangle), each facing out of the model (its
+    /// normal by the right-hand rule toward the sky). With portals, every sky, the sun and
+    /// the ground send their light only through them — photons start beyond the bounding
+    /// sphere on lines through a portal point, chosen by each portal's share of the
+    /// source's light — so light that enters a building only by its windows costs no
+    /// photons on the rest of the sky. Unbiased for every surface the distant light can
+    /// reach only through the portals; surfaces it reaches otherwise (outside walls, an
+    /// opening left out) receive none of it directly. Lamps and emitting meshes are
+    /// unchanged. Replaces earlier portals; no triangles removes them.
+    pub fn set_portals(&mut self, positions: &[f64], indices: &[u32]) -> Result<()> {
+        self.check_unlocked("set portals")?;
+        if positions.len() % 3 != 0 || indices.len() % 3 != 0 {
+            bail!(
+                ImapErrInvalidArgument,
+                "portals: {} coordinates and {} indices: both must be multiples of 3",
+                positions.len(),
+                indices.len()
+            );
+        }
+        crate::error::check_finite("portals: positions", positions)?;
+        let nv = positions.len() / 3;
+        let mut tris = Vec::with_capacity(indices.len() / 3);
+        for (k, t) in indices.chunks_exact(3).enumerate() {
+            if let Some(&i) = t.iter().find(|&&i| i as usize >= nv) {
+                bail!(
+                    ImapErrInvalidArgument,
+                    "portals: triangle {k} uses vertex {i}; there are {nv}"
+                );
+            }
+            let p = [t[0], t[1], t[2]].map(|i| {
+                let i = i as usize;
+                [positions[3 * i], positions[3 * i + 1], positions[3 * i + 2]]
+            });
+            let [a, b, c] = p.map(glam::DVec3::from);
+            if (b - a).cross(c - a).length_squared() > 0.0 {
+                tris.push(p);
+            }
+        }
+        if tris.is_empty() && !indices.is_empty() {
+            bail!(
+                ImapErrInvalidArgument,
+                "portals: every triangle has no area"
+            );
+        }
+        self.scene.portals = tris;
+        self.invalidate();
+        Ok(())
+    }
+
     /// Adds the ground's glow (Radiance's ground glow): a uniform radiance below the
     /// horizon of `zenith`, L = ρ E_h / π per band, with E_h the horizontal irradiance of
     /// the skies and suns added so far (add them first) and ρ `reflectance` (one grey

@@ -101,6 +101,10 @@ impl Fingerprint {
         let _ = write!(materials, "{:?}", scene.materials);
         let mut lights = HashText(Xxh3::new());
         let _ = write!(lights, "{:?}", scene.lights);
+        if !scene.portals.is_empty() {
+            // Only scenes with portals hash them: older states keep their fingerprint.
+            let _ = write!(lights, "|portals {:?}", scene.portals);
+        }
         Fingerprint([
             settings.0.digest128(),
             geometry.digest128(),

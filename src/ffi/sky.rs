@@ -3,7 +3,10 @@
 use super::light::spectrum_from_c;
 use super::scene::add_with;
 use super::state::path_arg;
-use super::{boundary, read_versioned, slice, write_defaults, write_out, ImapContext, Versioned};
+use super::{
+    boundary, read_versioned, slice, with_context, write_defaults, write_out, ImapContext,
+    Versioned,
+};
 use crate::context::Context;
 use crate::error::{bail, ImapStatus, Result};
 use crate::photometry::Spectrum;
@@ -416,6 +419,36 @@ pub unsafe extern "C" fn imap_add_ground(
         let rho = slice("reflectance", reflectance, count)?;
         let z = slice("zenith", zenith, 3)?;
         c.add_ground(rho, [z[0], z[1], z[2]])
+    })
+}
+
+/// Sets the window portals: `triangle_count` triangles of `indices` (3 each) into
+/// `vertex_count` vertices of `positions` (xyz, scene units), each facing out of the model
+/// (its normal by the right-hand rule toward the sky). With portals every sky, the sun and
+/// the ground send their light only through them: unbiased for whatever their light can
+/// reach only through the portals (the rooms behind the windows), and far fewer photons
+/// wasted on the rest of the sky; surfaces the light could reach otherwise (outside walls,
+/// an opening left out) get none of it directly. Portals must not lie one behind another
+/// along a line from the sky (a pane's back face, say): such light would count twice.
+/// Replaces earlier portals; 0 triangles removes them. IMAP_ERR_INVALID_ARGUMENT for an
+/// index out of range or only degenerate triangles, IMAP_ERR_NON_FINITE for a coordinate;
+/// a run whose distant light passes no portal gets IMAP_ERR_NO_LIGHT. (Since 0.2.3.)
+///
+/// # Safety
+/// `ctx` is a live handle; `positions` holds 3 × `vertex_count` doubles and `indices`
+/// 3 × `triangle_count` indices (either may be NULL when its count is 0).
+#[no_mangle]
+pub unsafe extern "C" fn imap_set_portals(
+    ctx: *mut ImapContext,
+    positions: *const f64,
+    vertex_count: usize,
+    indices: *const u32,
+    triangle_count: usize,
+) -> ImapStatus {
+    with_context(ctx, |c| {
+        let p = slice("positions", positions, vertex_count.saturating_mul(3))?;
+        let i = slice("indices", indices, triangle_count.saturating_mul(3))?;
+        c.set_portals(p, i)
     })
 }
 

@@ -864,7 +864,12 @@ impl<'a> EyeTracer<'a> {
                     }
                 }
             }
-            (EmitterKind::Distant { part, radius }, LightValue::Power(power)) => {
+            (
+                EmitterKind::Distant {
+                    part, radius, norm, ..
+                },
+                LightValue::Power(power),
+            ) => {
                 // A sky: half by its radiance, half cosine-distributed on the side the
                 // weights favour (one-sample MIS by the mixture's density, as the map's
                 // light samples); the sun: over its disk.
@@ -897,9 +902,10 @@ impl<'a> EyeTracer<'a> {
                     stats.rays += 1;
                     // Nothing lies beyond the bounding sphere: 2R from any point inside.
                     if !self.accel.occluded(org, wi, 2.5 * radius) {
-                        // L cos / q, with L = power / (π R² ∫f) × f per band.
-                        let cross = PI * radius * radius * self.unit_m * self.unit_m;
-                        let k = f * cos.abs() / (q * part.integral * cross * pe);
+                        // L cos / q, with L = power / norm × f per band (norm: π R² ∫f,
+                        // or the portals').
+                        let cross = norm * self.unit_m * self.unit_m;
+                        let k = f * cos.abs() / (q * cross * pe);
                         for ((o, w), pw) in out.iter_mut().zip(w).zip(power) {
                             *o += w * pw * k;
                         }

@@ -29,6 +29,9 @@ pub struct Scene {
     pub unit_m: f64,
     /// The layers the map keeps besides the combined values.
     pub layers: LayerRequest,
+    /// Window portals (scene units, each triangle's normal facing out): when there are
+    /// any, distant light enters only through them (`prepared::Portals`).
+    pub portals: Vec<[[f64; 3]; 3]>,
 }
 
 /// Which layers a map keeps (`crate::imap::LayerLayout`).
@@ -49,6 +52,7 @@ impl Scene {
             lights: Vec::new(),
             unit_m,
             layers: LayerRequest::default(),
+            portals: Vec::new(),
         }
     }
 

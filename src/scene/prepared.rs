@@ -79,14 +79,112 @@ pub enum EmitterKind {
     /// A light: point, spot, cosine, beam or goniometric luminaire.
     Light(LightShape),
     /// A distant source (one channel of a sky, or the sun): photons start on a disk of
-    /// `radius` (the bounding sphere's, scene units) perpendicular to their direction.
-    Distant { part: Arc<DistantPart>, radius: f64 },
+    /// `radius` (the bounding sphere's, scene units) perpendicular to their direction, or,
+    /// with `portals`, come in through them. Its radiance per band is
+    /// power × f(ω) / `norm` (norm: π R² ∫f, or the portals' Σ A ∫ f cos⁺, scene units²·sr).
+    Distant {
+        part: Arc<DistantPart>,
+        radius: f64,
+        norm: f64,
+        portals: Option<Arc<Portals>>,
+    },
     /// A self-emitting mesh: triangles chosen by area, Lambertian emission.
     Mesh {
         mesh: usize,
         triangles: AliasTable,
         two_sided: bool,
     },
+}
+
+/// Window portals of one distant source: the openings its light enters the model through
+/// (pbrt-v4's and Mitsuba's portals). A photon picks a portal triangle k by A_k J_k (J_k =
+/// ∫ f max(ω·n_k, 0) dω), a point on it uniformly and a direction ω toward the source —
+/// for a sky half by its radiance and half cosine-distributed about n_k, for the sun over
+/// its disk — and starts beyond the bounding sphere on the line through the point, so
+/// overhangs and glazing in front of the opening still meet it. Its weight
+/// f(ω) cos_k / (J_k q(ω)) has mean 1 and the source's power is Σ A_k J_k L: unbiased for
+/// everything the light reaches through the portals, and nothing else receives it.
+#[derive(Debug)]
+pub struct Portals {
+    /// Triangles (recentred scene units), their unit normals (facing out) and J_k.
+    tris: Vec<[DVec3; 3]>,
+    normals: Vec<DVec3>,
+    j: Vec<f64>,
+    table: AliasTable,
+    /// Σ A_k J_k, scene units²·sr.
+    pub total: f64,
+}
+
+impl Portals {
+    /// The portals `tris` (recentred) for `part`; None when no light of it passes them.
+    fn new(part: &DistantPart, tris: &[[DVec3; 3]]) -> Option<Portals> {
+        let mut cache: Vec<(DVec3, f64)> = Vec::new();
+        let (mut keep, mut normals, mut j, mut weights) = (vec![], vec![], vec![], vec![]);
+        for t in tris {
+            let c = (t[1] - t[0]).cross(t[2] - t[0]);
+            let area = 0.5 * c.length();
+            let Some(n) = c.try_normalize() else { continue };
+            // Triangles of one window share their normal: integrate once per direction.
+            let jk = match cache.iter().find(|(m, _)| m.dot(n) > 1.0 - 1e-12) {
+                Some(&(_, v)) => v,
+                None => {
+                    let v = part.cos_integral(n);
+                    cache.push((n, v));
+                    v
+                }
+            };
+            if jk > 0.0 && area > 0.0 {
+                keep.push(*t);
+                normals.push(n);
+                j.push(jk);
+                weights.push(area * jk);
+            }
+        }
+        let total: f64 = weights.iter().sum();
+        if !(total > 0.0 && total.is_finite()) {
+            return None;
+        }
+        Some(Portals {
+            tris: keep,
+            normals,
+            j,
+            table: AliasTable::new(&weights).ok()?,
+            total,
+        })
+    }
+
+    /// A photon's start, direction and weight; `far` puts the start beyond the sphere.
+    fn emit(&self, part: &DistantPart, rng: &mut PhotonRng, far: f64) -> (DVec3, DVec3, f64) {
+        let k = self.table.sample(rng.uniform());
+        let [a, b, c] = self.tris[k];
+        let (b1, b2) = warp::uniform_triangle(rng.uniform(), rng.uniform());
+        let x = a + (b - a) * b1 + (c - a) * b2;
+        let n = self.normals[k];
+        let (u0, u1, u2) = (rng.uniform(), rng.uniform(), rng.uniform());
+        let toward = if part.is_sky() {
+            if u0 < 0.5 {
+                part.sample([2.0 * u0, u1, u2]).0
+            } else {
+                warp::cosine_hemisphere(n, 2.0 * u0 - 1.0, u1)
+            }
+        } else {
+            part.sample([u0, u1, u2]).0
+        };
+        let cos = toward.dot(n);
+        let q = if part.is_sky() {
+            0.5 * part.pdf(toward) + 0.5 * cos.max(0.0) / std::f64::consts::PI
+        } else {
+            part.pdf(toward)
+        };
+        let f = part.value(toward);
+        let w = if cos > 0.0 && q > 0.0 && f > 0.0 {
+            f * cos / (self.j[k] * q)
+        } else {
+            0.0
+        };
+        let org = x + toward * (far + x.length());
+        (org, -toward, w)
+    }
 }
 
 /// Share of photons spread evenly over the emitters, whatever their power.
@@ -430,16 +528,27 @@ impl PreparedScene {
             (power.iter().map(|p| p * nb / total).collect(), total)
         };
         let sphere = sphere_radius(enter_radius, radius);
+        let portal_tris: Vec<[DVec3; 3]> = scene
+            .portals
+            .iter()
+            .map(|t| t.map(|p| DVec3::from(p) - origin))
+            .collect();
         for (i, l) in scene.lights.iter().enumerate() {
             if let LightShape::Distant(d) = &l.shape {
-                // Flux through the bounding sphere: π R² ∫ L dω per band.
-                let cross = std::f64::consts::PI * sphere * sphere * unit2;
+                // Flux through the bounding sphere: π R² ∫ L dω per band; with portals,
+                // through them: Σ A_k ∫ L cos⁺ dω.
+                let disk = std::f64::consts::PI * sphere * sphere;
                 for part in &d.parts {
-                    let power: Vec<f64> = part
-                        .per_band
-                        .iter()
-                        .map(|x| x * part.integral * cross)
-                        .collect();
+                    let (norm, portals) = if portal_tris.is_empty() {
+                        (part.integral * disk, None)
+                    } else {
+                        match Portals::new(part, &portal_tris) {
+                            Some(p) => (p.total, Some(Arc::new(p))),
+                            // None of its light passes the portals (the sun behind them).
+                            None => continue,
+                        }
+                    };
+                    let power: Vec<f64> = part.per_band.iter().map(|x| x * norm * unit2).collect();
                     let (colour, total) = colour_of(&power);
                     if !(total > 0.0 && total.is_finite()) {
                         return Err(Error::new(
@@ -452,6 +561,8 @@ impl PreparedScene {
                         kind: EmitterKind::Distant {
                             part: part.clone(),
                             radius: sphere,
+                            norm,
+                            portals,
                         },
                         position: DVec3::ZERO,
                         colour,
@@ -523,6 +634,12 @@ impl PreparedScene {
             powers.push(total);
         }
         let total_power: f64 = powers.iter().sum();
+        if powers.is_empty() && !portal_tris.is_empty() {
+            bail!(
+                ImapErrNoLight,
+                "no distant light passes the portals: each portal must face out of the model (its normal, by the right-hand rule, toward the sky), and the sun must be in front of one"
+            );
+        }
         if !(total_power > 0.0 && total_power.is_finite()) {
             bail!(
                 ImapErrInvalidArgument,
@@ -637,7 +754,16 @@ impl PreparedScene {
                     (e, em.position + at, d, 1.0, 1.0)
                 }
             },
-            EmitterKind::Distant { part, radius } => {
+            EmitterKind::Distant {
+                part,
+                radius,
+                portals: Some(p),
+                ..
+            } => {
+                let (org, dir, w) = p.emit(part, rng, 2.0 * radius);
+                (e, org, dir, w, 1.0)
+            }
+            EmitterKind::Distant { part, radius, .. } => {
                 let (toward, w) = part.sample([rng.uniform(), rng.uniform(), rng.uniform()]);
                 let (t, b) = warp::basis(toward);
                 let r = radius * rng.uniform().sqrt();

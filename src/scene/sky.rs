@@ -274,6 +274,71 @@ impl DistantPart {
         }
     }
 
+    /// ∫ f(ω) max(ω·n, 0) dω over every direction, sr: the irradiance per unit of f's
+    /// radiance on an open plane facing unit `n` (what a window portal facing `n` lets
+    /// in). Exact for uniform skies and the ground, for the sun's disk wherever it lies
+    /// wholly in front of the plane (0 where it does not: at most a grazing sliver), and
+    /// for tabulated skies by 4 × 4 points per cell of their table (an analytic sky's
+    /// 64 × 128 cells, as its own integral; 2 × 2 per pixel of an image).
+    pub fn cos_integral(&self, n: DVec3) -> f64 {
+        let up = n.dot(self.frame.zenith).clamp(-1.0, 1.0);
+        match &self.radiance {
+            Radiance::Uniform { sphere: true } => PI,
+            Radiance::Uniform { sphere: false } => PI * (1.0 + up) / 2.0,
+            Radiance::Ground => PI * (1.0 - up) / 2.0,
+            Radiance::Sun {
+                axis,
+                one_minus_cos,
+            } => {
+                // The mean direction over a cap is axis (1 + cos δ)/2.
+                let cos_d = 1.0 - one_minus_cos;
+                let sin_d = (one_minus_cos * (1.0 + cos_d)).sqrt();
+                let c = axis.dot(n);
+                if c > sin_d {
+                    self.integral * c * (1.0 + cos_d) / 2.0
+                } else {
+                    0.0
+                }
+            }
+            Radiance::Cie { .. } | Radiance::Image { .. } => {
+                let t = self.table.as_ref().expect("a tabulated sky");
+                let sub = match &self.radiance {
+                    Radiance::Image { .. } => 2,
+                    _ => SKY_SUB,
+                };
+                let (rows, cols, grid) = (t.rows, t.cols, t);
+                let mut sum = 0.0;
+                for i in 0..rows {
+                    let omega = grid.solid_angle(i);
+                    for j in 0..cols {
+                        let mut m = 0.0;
+                        for a in 0..sub {
+                            for b in 0..sub {
+                                let az = grid.azimuth0
+                                    + 2.0 * PI * (j as f64 + (a as f64 + 0.5) / sub as f64)
+                                        / cols as f64;
+                                let cz = grid.cos_edges[i]
+                                    + (grid.cos_edges[i + 1] - grid.cos_edges[i])
+                                        * ((b as f64 + 0.5) / sub as f64);
+                                let s = (1.0 - cz * cz).max(0.0).sqrt();
+                                let d = (self.frame.north * (s * az.cos())
+                                    + self.frame.east * (s * az.sin())
+                                    + self.frame.zenith * cz)
+                                    .normalize();
+                                let c = d.dot(n);
+                                if c > 0.0 {
+                                    m += self.value(d) * c;
+                                }
+                            }
+                        }
+                        sum += m / (sub * sub) as f64 * omega;
+                    }
+                }
+                sum
+            }
+        }
+    }
+
     /// The sampling density of direction `d`, 1/sr.
     #[inline]
     pub fn pdf(&self, d: DVec3) -> f64 {

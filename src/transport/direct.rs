@@ -489,7 +489,7 @@ impl DirectSampler<'_> {
     fn photon_density(&self, e: usize, dir: DVec3, r2: f64, cos_x: f64, cos_y: f64) -> f64 {
         match &self.scene.emitters[e].kind {
             EmitterKind::Light(LightShape::Beam { aperture, .. }) => cos_x / aperture.area(),
-            EmitterKind::Distant { part, radius } => {
+            EmitterKind::Distant { part, norm, .. } => {
                 // Against the light samples' directions (`sample_light`): a sky's are half
                 // by its radiance, half cosine-distributed.
                 // A sky's direct light samples get no gain over the photons (the plain
@@ -508,7 +508,9 @@ impl DirectSampler<'_> {
                 } else {
                     1.0
                 };
-                cos_x * ratio / (PI * radius * radius)
+                // Photons per unit area: π R² ∫f without portals (norm / ∫f), concentrated
+                // by the portals where they are.
+                cos_x * ratio * part.integral / norm
             }
             EmitterKind::Light(shape) => shape.intensity_per_watt(dir) * cos_x / r2,
             EmitterKind::Mesh { two_sided, .. } => {
@@ -911,7 +913,9 @@ impl DirectSampler<'_> {
                 let mis = power(at.l, self.photon_density(e, *axis, t * t, cos_x, 1.0));
                 Some((e, mis * cos_x / aperture.area()))
             }
-            EmitterKind::Distant { part, radius } => {
+            EmitterKind::Distant {
+                part, radius, norm, ..
+            } => {
                 // A sky: half the samples by its radiance, half cosine-distributed over the
                 // side (a room lit through a window sees a part of the sky its radiance
                 // rarely picks); one-sample MIS by the mixture's density. The sun: by its
@@ -938,8 +942,8 @@ impl DirectSampler<'_> {
                     return None;
                 }
                 let mis = power(at.l, self.photon_density(e, -toward, 1.0, cos_x, 1.0));
-                // L cos / q per watt of the source (π R² ∫ L dω).
-                let g = f * cos_x / (q * part.integral * PI * radius * radius);
+                // L cos / q per watt of the source (L = f / norm per watt).
+                let g = f * cos_x / (q * norm);
                 Some((e, mis * g))
             }
             EmitterKind::Light(shape) => {
