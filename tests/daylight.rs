@@ -887,6 +887,59 @@ fn portals_bring_the_sky_and_the_sun_through_the_opening_unbiased() {
         "patch flux {flux} vs {e_band}"
     );
 
+    // The renderer (its photon maps and its own light samples) through a portal over an
+    // open grey floor under the sky and the sun: every floor pixel ρ (π L + E_n cos θ) / π.
+    {
+        use imap::{CameraDesc, RenderMethod, RenderParams};
+        let mut ctx = context(seeded(95));
+        let rho = 0.5;
+        let grey = lambert(&mut ctx, rho);
+        ctx.add_mesh(&grid(8, -4.0, 4.0, -4.0, 4.0, 0.0).desc(grey))
+            .unwrap();
+        ctx.add_sky(&uniform_sky(3.0, false)).unwrap();
+        ctx.add_sun(&equal_sun(30.0, 40.0, 9.0)).unwrap();
+        ctx.set_portals(
+            &[
+                -4.0, -4.0, 0.0, 4.0, -4.0, 0.0, 4.0, 4.0, 0.0, -4.0, 4.0, 0.0,
+            ],
+            &tris,
+        )
+        .unwrap();
+        let want = rho * (PI + 3.0 * 40f64.to_radians().cos()) / PI;
+        for method in [RenderMethod::Synchronous, RenderMethod::FinalGather] {
+            let mut params = RenderParams {
+                method,
+                passes: 64,
+                max_path_events: 10_000,
+                ..Default::default()
+            };
+            let cam = CameraDesc {
+                position: [0.0, 0.0, 3.0],
+                direction: [0.0, 0.0, -1.0],
+                up: [0.0, 1.0, 0.0],
+                fov_y_deg: 60.0,
+                width: 32,
+                height: 32,
+            };
+            let (img, _) = ctx.render(&cam, &mut params).unwrap();
+            let nb = img.bands;
+            let (mut dev, mut est, mut mean) = (0.0f64, 0.0f64, 0.0);
+            for p in 0..(32 * 32) {
+                let v = img.radiance[p * nb..][..nb].iter().sum::<f64>() / nb as f64;
+                dev += ((v - want) / want).powi(2);
+                est += img.rel_error[p].powi(2);
+                mean += v / 1024.0;
+            }
+            let (dev, est) = ((dev / 1024.0).sqrt(), (est / 1024.0).sqrt());
+            eprintln!("{method:?} through a portal: mean {mean:.4} vs {want:.4}, rms deviation {dev:.2e}, estimated {est:.2e}");
+            assert!(
+                (mean / want - 1.0).abs() < 0.01,
+                "{method:?}: mean {mean} vs {want}"
+            );
+            assert!(dev < 1.5 * est + 2e-3, "{method:?}: {dev} vs {est}");
+        }
+    }
+
     // A portal facing down (its back to the sky and the sun) lets nothing in: refused as
     // no light at run time, not silently dark.
     let (mut ctx, _, _) = roof_room(92);
