@@ -2492,15 +2492,14 @@ enum ImapStatus imap_add_ground(struct ImapContext *ctx, const double *reflectan
 /**
  * Sets the window portals: `triangle_count` triangles of `indices` (3 each) into
  * `vertex_count` vertices of `positions` (xyz, scene units), each facing out of the model
- * (its normal by the right-hand rule toward the sky). With portals every sky, the sun and
- * the ground send their light only through them: unbiased for whatever their light can
- * reach only through the portals (the rooms behind the windows), and far fewer photons
- * wasted on the rest of the sky; surfaces the light could reach otherwise (outside walls,
- * an opening left out) get none of it directly. Portals must not lie one behind another
- * along a line from the sky (a pane's back face, say): such light would count twice.
+ * (its normal by the right-hand rule toward the sky). With portals three quarters of
+ * every sky's, the sun's and the ground's photons come in through them and a quarter
+ * from the whole sky, each weighted by the mixture's density of its line: unbiased for
+ * every surface, and far fewer photons wasted on the rest of the sky when daylight enters
+ * a building by its windows (docs/daylight.md). A portal facing away gathers nothing.
  * Replaces earlier portals; 0 triangles removes them. IMAP_ERR_INVALID_ARGUMENT for an
- * index out of range or only degenerate triangles, IMAP_ERR_NON_FINITE for a coordinate;
- * a run whose distant light passes no portal gets IMAP_ERR_NO_LIGHT. (Since 0.2.3.)
+ * index out of range or only degenerate triangles, IMAP_ERR_NON_FINITE for a coordinate.
+ * (Since 0.2.3.)
  *
  * # Safety
  * `ctx` is a live handle; `positions` holds 3 × `vertex_count` doubles and `indices`

@@ -313,7 +313,7 @@ impl Reader<'_> {
                     self.path,
                     p.line,
                     format!(
-                        "{} '{}': modifier '{}' is not defined before it",
+                        "{} '{}': modifier '{}' is not defined before it (Radiance reads files in order; exporters such as Honeybee write the modifiers to a separate .mat file: put it first, e.g. cat model.mat model.rad > all.rad)",
                         p.kind,
                         printable(&p.id),
                         printable(&p.modifier)

@@ -318,10 +318,10 @@ pub struct Settings {
     /// inside out records its outside then.
     #[serde(default)]
     pub flip_normals: Vec<String>,
-    /// Objects that are the model's openings to the sky (windows, skylights): daylight
-    /// enters only through them (`Context::set_portals`), far faster for rooms lit through
-    /// windows. Each triangle is taken facing away from the model's centre; a pane's
-    /// triangles facing the centre (its back) are left out.
+    /// Objects that are the model's openings to the sky (windows, skylights): most of the
+    /// daylight's photons come in through them (`Context::set_portals`, unbiased), far
+    /// faster for rooms lit through windows. Each triangle is taken facing away from the
+    /// model's centre; a pane's triangles facing the centre (its back) are left out.
     #[serde(default)]
     pub portals: Vec<String>,
     #[serde(default)]

@@ -515,14 +515,14 @@ impl Context {
 
     /// Sets the window portals (pbrt-v4's and Mitsuba's): triangles (`positions` xyz in
     /// scene units, `indices` three per triangle), each facing out of the model (its
-    /// normal by the right-hand rule toward the sky). With portals, every sky, the sun and
-    /// the ground send their light only through them — photons start beyond the bounding
-    /// sphere on lines through a portal point, chosen by each portal's share of the
-    /// source's light — so light that enters a building only by its windows costs no
-    /// photons on the rest of the sky. Unbiased for every surface the distant light can
-    /// reach only through the portals; surfaces it reaches otherwise (outside walls, an
-    /// opening left out) receive none of it directly. Lamps and emitting meshes are
-    /// unchanged. Replaces earlier portals; no triangles removes them.
+    /// normal by the right-hand rule toward the sky). With portals, three quarters of every
+    /// sky's, the sun's and the ground's photons come through them (chosen by each
+    /// portal's share of the source's light) and a quarter from the whole sky, each
+    /// weighted by the mixture's density of its line: unbiased everywhere, including light
+    /// outside surfaces reflect into the openings, with far fewer photons wasted on the
+    /// rest of the sky when light enters a building by its windows
+    /// (`scene::prepared::Portals`). Lamps and emitting meshes are unchanged. Replaces earlier portals; no
+    /// triangles removes them.
     pub fn set_portals(&mut self, positions: &[f64], indices: &[u32]) -> Result<()> {
         self.check_unlocked("set portals")?;
         if positions.len() % 3 != 0 || indices.len() % 3 != 0 {

@@ -80,12 +80,14 @@ pub enum EmitterKind {
     Light(LightShape),
     /// A distant source (one channel of a sky, or the sun): photons start on a disk of
     /// `radius` (the bounding sphere's, scene units) perpendicular to their direction, or,
-    /// with `portals`, come in through them. Its radiance per band is
-    /// power × f(ω) / `norm` (norm: π R² ∫f, or the portals' Σ A ∫ f cos⁺, scene units²·sr).
+    /// with `portals`, mostly through them. Its radiance per band is power × f(ω) / `norm`
+    /// (norm = π R² ∫f, scene units²·sr); `gain` is how much denser its photons are behind
+    /// the portals than from the whole sky (1 without).
     Distant {
         part: Arc<DistantPart>,
         radius: f64,
         norm: f64,
+        gain: f64,
         portals: Option<Arc<Portals>>,
     },
     /// A self-emitting mesh: triangles chosen by area, Lambertian emission.
@@ -96,30 +98,43 @@ pub enum EmitterKind {
     },
 }
 
+/// Share of a portal-lit distant source's photons that come through its portals; the rest
+/// come from the whole sky as without portals.
+pub const PORTAL_SHARE: f64 = 0.75;
+
 /// Window portals of one distant source: the openings its light enters the model through
-/// (pbrt-v4's and Mitsuba's portals). A photon picks a portal triangle k by A_k J_k (J_k =
-/// ∫ f max(ω·n_k, 0) dω), a point on it uniformly and a direction ω toward the source —
-/// for a sky half by its radiance and half cosine-distributed about n_k, for the sun over
-/// its disk — and starts beyond the bounding sphere on the line through the point, so
-/// overhangs and glazing in front of the opening still meet it. Its weight
-/// f(ω) cos_k / (J_k q(ω)) has mean 1 and the source's power is Σ A_k J_k L: unbiased for
-/// everything the light reaches through the portals, and nothing else receives it.
+/// (as pbrt-v4's and Mitsuba's portals). A photon's line is drawn by one of two
+/// strategies: with probability `PORTAL_SHARE` through a portal — a triangle k by
+/// A_k J_k (J_k = ∫ f max(ω·n_k, 0) dω), a point on it uniformly, a direction ω toward the
+/// source (a sky's half by its radiance and half cosine-distributed about n_k; the sun's
+/// over its disk) — otherwise from the whole sky, as without portals. Either way it starts
+/// beyond the bounding sphere, so overhangs and panes in front of an opening still meet
+/// it, and it carries f(ω) / (p(line) ∫f π R²), p the mixture's density of that line (the
+/// one-sample balance heuristic): mean 1, the source's power unchanged, and unbiased for
+/// every surface — light reflected into the openings by outside surfaces (overhangs, light
+/// shelves, neighbours) comes with the whole-sky photons — while the rooms behind the
+/// portals get nearly all photons.
 #[derive(Debug)]
 pub struct Portals {
-    /// Triangles (recentred scene units), their unit normals (facing out) and J_k.
+    /// Triangles (recentred scene units), their unit normals (facing out), areas and J_k.
     tris: Vec<[DVec3; 3]>,
     normals: Vec<DVec3>,
+    areas: Vec<f64>,
     j: Vec<f64>,
     table: AliasTable,
     /// Σ A_k J_k, scene units²·sr.
     pub total: f64,
+    /// The disk's radius (the bounding sphere's).
+    radius: f64,
 }
 
 impl Portals {
-    /// The portals `tris` (recentred) for `part`; None when no light of it passes them.
-    fn new(part: &DistantPart, tris: &[[DVec3; 3]]) -> Option<Portals> {
+    /// The portals `tris` (recentred) for `part`, the bounding sphere of `radius`; None
+    /// when no light of it passes them.
+    fn new(part: &DistantPart, tris: &[[DVec3; 3]], radius: f64) -> Option<Portals> {
         let mut cache: Vec<(DVec3, f64)> = Vec::new();
-        let (mut keep, mut normals, mut j, mut weights) = (vec![], vec![], vec![], vec![]);
+        let (mut keep, mut normals, mut areas, mut j, mut weights) =
+            (vec![], vec![], vec![], vec![], vec![]);
         for t in tris {
             let c = (t[1] - t[0]).cross(t[2] - t[0]);
             let area = 0.5 * c.length();
@@ -136,6 +151,7 @@ impl Portals {
             if jk > 0.0 && area > 0.0 {
                 keep.push(*t);
                 normals.push(n);
+                areas.push(area);
                 j.push(jk);
                 weights.push(area * jk);
             }
@@ -147,44 +163,114 @@ impl Portals {
         Some(Portals {
             tris: keep,
             normals,
+            areas,
             j,
             table: AliasTable::new(&weights).ok()?,
             total,
+            radius,
         })
     }
 
-    /// A photon's start, direction and weight; `far` puts the start beyond the sphere.
-    fn emit(&self, part: &DistantPart, rng: &mut PhotonRng, far: f64) -> (DVec3, DVec3, f64) {
-        let k = self.table.sample(rng.uniform());
-        let [a, b, c] = self.tris[k];
-        let (b1, b2) = warp::uniform_triangle(rng.uniform(), rng.uniform());
-        let x = a + (b - a) * b1 + (c - a) * b2;
-        let n = self.normals[k];
-        let (u0, u1, u2) = (rng.uniform(), rng.uniform(), rng.uniform());
-        let toward = if part.is_sky() {
-            if u0 < 0.5 {
-                part.sample([2.0 * u0, u1, u2]).0
-            } else {
-                warp::cosine_hemisphere(n, 2.0 * u0 - 1.0, u1)
-            }
-        } else {
-            part.sample([u0, u1, u2]).0
-        };
-        let cos = toward.dot(n);
-        let q = if part.is_sky() {
-            0.5 * part.pdf(toward) + 0.5 * cos.max(0.0) / std::f64::consts::PI
+    /// The density over directions toward the source of the portal strategy's portal k.
+    #[inline]
+    fn q(&self, part: &DistantPart, k: usize, toward: DVec3) -> f64 {
+        let cos = toward.dot(self.normals[k]);
+        if cos <= 0.0 {
+            return 0.0;
+        }
+        if part.is_sky() {
+            0.5 * part.pdf(toward) + 0.5 * cos / std::f64::consts::PI
         } else {
             part.pdf(toward)
-        };
-        let f = part.value(toward);
-        let w = if cos > 0.0 && q > 0.0 && f > 0.0 {
-            f * cos / (self.j[k] * q)
+        }
+    }
+
+    /// The mixture's density of the line through `x` toward `toward` (per unit area
+    /// across it and per sr); `own`: the portal triangle `x` was drawn on.
+    fn line_density(&self, part: &DistantPart, x: DVec3, toward: DVec3, own: Option<usize>) -> f64 {
+        let mut portal = 0.0;
+        for k in 0..self.tris.len() {
+            let cos = toward.dot(self.normals[k]);
+            if cos <= 0.0 {
+                continue;
+            }
+            if own != Some(k) && !crosses(&self.tris[k], x, toward) {
+                continue;
+            }
+            // P_k q_k / (A_k cos_k): the triangle's pick, its point, the direction.
+            portal += self.j[k] * self.areas[k] / self.total * self.q(part, k, toward)
+                / (self.areas[k] * cos);
+        }
+        // The whole sky's lines cross its disk of the sphere's radius (a portal beyond the
+        // sphere may have lines that do not).
+        let off_axis = (x - toward * x.dot(toward)).length();
+        let disk = if off_axis <= self.radius {
+            part.pdf(toward) / (std::f64::consts::PI * self.radius * self.radius)
         } else {
             0.0
         };
-        let org = x + toward * (far + x.length());
-        (org, -toward, w)
+        PORTAL_SHARE * portal + (1.0 - PORTAL_SHARE) * disk
     }
+
+    /// A photon's start, direction and weight (mean 1).
+    fn emit(&self, part: &DistantPart, rng: &mut PhotonRng) -> (DVec3, DVec3, f64) {
+        let r = self.radius;
+        let (x, toward, own) = if rng.uniform() < PORTAL_SHARE {
+            let k = self.table.sample(rng.uniform());
+            let [a, b, c] = self.tris[k];
+            let (b1, b2) = warp::uniform_triangle(rng.uniform(), rng.uniform());
+            let x = a + (b - a) * b1 + (c - a) * b2;
+            let n = self.normals[k];
+            let (u0, u1, u2) = (rng.uniform(), rng.uniform(), rng.uniform());
+            let toward = if part.is_sky() {
+                if u0 < 0.5 {
+                    part.sample([2.0 * u0, u1, u2]).0
+                } else {
+                    warp::cosine_hemisphere(n, 2.0 * u0 - 1.0, u1)
+                }
+            } else {
+                part.sample([u0, u1, u2]).0
+            };
+            (x, toward, Some(k))
+        } else {
+            let (toward, _) = part.sample([rng.uniform(), rng.uniform(), rng.uniform()]);
+            let (t, b) = warp::basis(toward);
+            let rr = r * rng.uniform().sqrt();
+            let phi = 2.0 * std::f64::consts::PI * rng.uniform();
+            (t * (rr * phi.cos()) + b * (rr * phi.sin()), toward, None)
+        };
+        let f = part.value(toward);
+        let p = self.line_density(part, x, toward, own);
+        let w = if f > 0.0 && p > 0.0 {
+            f / (p * part.integral * std::f64::consts::PI * r * r)
+        } else {
+            0.0
+        };
+        // Beyond the sphere on the line: x lies within it.
+        let far = 2.0 * r + x.length();
+        (x + toward * far, -toward, w)
+    }
+}
+
+/// Whether the line through `x` along `d` crosses triangle `t` (Möller–Trumbore on the
+/// whole line).
+#[inline]
+fn crosses(t: &[DVec3; 3], x: DVec3, d: DVec3) -> bool {
+    let (e1, e2) = (t[1] - t[0], t[2] - t[0]);
+    let p = d.cross(e2);
+    let det = e1.dot(p);
+    if det.abs() < 1e-300 {
+        return false;
+    }
+    let inv = 1.0 / det;
+    let s = x - t[0];
+    let u = s.dot(p) * inv;
+    if !(0.0..=1.0).contains(&u) {
+        return false;
+    }
+    let q = s.cross(e1);
+    let v = d.dot(q) * inv;
+    v >= 0.0 && u + v <= 1.0
 }
 
 /// Share of photons spread evenly over the emitters, whatever their power.
@@ -539,15 +625,17 @@ impl PreparedScene {
                 // through them: Σ A_k ∫ L cos⁺ dω.
                 let disk = std::f64::consts::PI * sphere * sphere;
                 for part in &d.parts {
-                    let (norm, portals) = if portal_tris.is_empty() {
-                        (part.integral * disk, None)
+                    let norm = part.integral * disk;
+                    let portals = if portal_tris.is_empty() {
+                        None
                     } else {
-                        match Portals::new(part, &portal_tris) {
-                            Some(p) => (p.total, Some(Arc::new(p))),
-                            // None of its light passes the portals (the sun behind them).
-                            None => continue,
-                        }
+                        Portals::new(part, &portal_tris, sphere).map(Arc::new)
                     };
+                    // Photons per unit area behind the portals, against the whole sky's
+                    // (the light samples' MIS weights read it).
+                    let gain = portals.as_ref().map_or(1.0, |p| {
+                        PORTAL_SHARE * norm / p.total + (1.0 - PORTAL_SHARE)
+                    });
                     let power: Vec<f64> = part.per_band.iter().map(|x| x * norm * unit2).collect();
                     let (colour, total) = colour_of(&power);
                     if !(total > 0.0 && total.is_finite()) {
@@ -562,6 +650,7 @@ impl PreparedScene {
                             part: part.clone(),
                             radius: sphere,
                             norm,
+                            gain,
                             portals,
                         },
                         position: DVec3::ZERO,
@@ -634,12 +723,6 @@ impl PreparedScene {
             powers.push(total);
         }
         let total_power: f64 = powers.iter().sum();
-        if powers.is_empty() && !portal_tris.is_empty() {
-            bail!(
-                ImapErrNoLight,
-                "no distant light passes the portals: each portal must face out of the model (its normal, by the right-hand rule, toward the sky), and the sun must be in front of one"
-            );
-        }
         if !(total_power > 0.0 && total_power.is_finite()) {
             bail!(
                 ImapErrInvalidArgument,
@@ -756,11 +839,10 @@ impl PreparedScene {
             },
             EmitterKind::Distant {
                 part,
-                radius,
                 portals: Some(p),
                 ..
             } => {
-                let (org, dir, w) = p.emit(part, rng, 2.0 * radius);
+                let (org, dir, w) = p.emit(part, rng);
                 (e, org, dir, w, 1.0)
             }
             EmitterKind::Distant { part, radius, .. } => {

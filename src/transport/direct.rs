@@ -489,7 +489,9 @@ impl DirectSampler<'_> {
     fn photon_density(&self, e: usize, dir: DVec3, r2: f64, cos_x: f64, cos_y: f64) -> f64 {
         match &self.scene.emitters[e].kind {
             EmitterKind::Light(LightShape::Beam { aperture, .. }) => cos_x / aperture.area(),
-            EmitterKind::Distant { part, norm, .. } => {
+            EmitterKind::Distant {
+                part, norm, gain, ..
+            } => {
                 // Against the light samples' directions (`sample_light`): a sky's are half
                 // by its radiance, half cosine-distributed.
                 // A sky's direct light samples get no gain over the photons (the plain
@@ -508,9 +510,9 @@ impl DirectSampler<'_> {
                 } else {
                     1.0
                 };
-                // Photons per unit area: π R² ∫f without portals (norm / ∫f), concentrated
-                // by the portals where they are.
-                cos_x * ratio * part.integral / norm
+                // Photons per unit area: 1 / (π R²) of the whole sky's (∫f / norm), times
+                // the portals' concentration (`gain`; 1 without).
+                cos_x * ratio * part.integral * gain / norm
             }
             EmitterKind::Light(shape) => shape.intensity_per_watt(dir) * cos_x / r2,
             EmitterKind::Mesh { two_sided, .. } => {
