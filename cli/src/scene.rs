@@ -324,6 +324,10 @@ pub struct Settings {
     /// model's centre; a pane's triangles facing the centre (its back) are left out.
     #[serde(default)]
     pub portals: Vec<String>,
+    /// Every object wholly of glass (a transparent material with an index of refraction:
+    /// Radiance `glass`, an MTL `d < 1` with `Ni`) is a portal too.
+    #[serde(default)]
+    pub glass_portals: bool,
     #[serde(default)]
     pub camera: Option<CameraSettings>,
     /// `imap render`: method and stop criteria.
@@ -757,6 +761,23 @@ pub fn load(path: &Path, settings: &Settings) -> Result<(Context, LoadedScene)> 
         return Err(CliError::from_diagnostics(&diag));
     }
     let mut ctx = Context::new(config(settings)?)?;
+    // Objects wholly of glass (a dielectric), for `glass_portals`.
+    let glass_objects: Vec<String> = if settings.glass_portals {
+        let glass: Vec<bool> = resolved.iter().map(|r| r.desc.ior.is_some()).collect();
+        model
+            .objects
+            .iter()
+            .filter(|o| {
+                !o.triangles.is_empty()
+                    && o.triangles
+                        .iter()
+                        .all(|t| t.material.is_some_and(|m| glass[m]))
+            })
+            .map(|o| o.name.clone())
+            .collect()
+    } else {
+        Vec::new()
+    };
     let mut palette = Palette::new(&model, settings, &band_nm, rgb, &units, resolved);
 
     let mut meshes = Vec::new();
@@ -827,15 +848,33 @@ pub fn load(path: &Path, settings: &Settings) -> Result<(Context, LoadedScene)> 
         settings.up()?,
         &mut placed,
     )?;
-    if !settings.portals.is_empty() {
-        let (file, line) = settings.locate("portals");
+    if settings.glass_portals && glass_objects.is_empty() {
+        let (file, line) = settings.locate("glass_portals");
+        fail!(
+            "{}:{line}: glass_portals = true, but no object of the model is wholly glass (a transparent material with an index of refraction); name the openings in portals = [...]",
+            file.display()
+        );
+    }
+    let mut portal_names = settings.portals.clone();
+    portal_names.extend(
+        glass_objects
+            .iter()
+            .filter(|g| !settings.portals.contains(g))
+            .cloned(),
+    );
+    if !portal_names.is_empty() {
+        let (file, line) = settings.locate(if settings.portals.is_empty() {
+            "glass_portals"
+        } else {
+            "portals"
+        });
         if settings.sky.is_none() && settings.environment.is_none() && settings.sun.is_none() {
             fail!(
                 "{}:{line}: portals bring daylight in, but there is no [sky], [environment] or [sun]",
                 file.display()
             );
         }
-        let (positions, indices) = portal_triangles(&model, &settings.portals)
+        let (positions, indices) = portal_triangles(&model, &portal_names)
             .map_err(|e| CliError(format!("{}:{line}: {e}", file.display())))?;
         ctx.set_portals(&positions, &indices)
             .map_err(|e| CliError(format!("{}:{line}: portals: {}", file.display(), e.message)))?;

@@ -169,13 +169,15 @@ fn a_side_lit_room_reads_the_same_through_rad_and_obj() {
             &obj,
             format!("[materials.glass]\nabsorption_per_m = {absorption}\n"),
         ),
-        // The window as a portal: the sky's photons come in through it only.
+        // The window as a portal: most of the sky's photons come in through it.
         (&rad, "portals = [\"window\"]\n".to_string()),
+        // Found as the model's glass.
+        (&rad, "glass_portals = true\n".to_string()),
     ] {
         let toml = write(
             d.path(),
             "s.toml",
-            if extra.starts_with("portals") {
+            if extra.starts_with("portals") || extra.starts_with("glass_portals") {
                 format!(
                     "up_axis = \"z\"\nrecord = [\"floor\"]\n{extra}[run]\nseed = 6\n{sky}{grid}"
                 )
@@ -199,6 +201,13 @@ fn a_side_lit_room_reads_the_same_through_rad_and_obj() {
     }
     let ((a, sa), (b, sb), (c, sc)) = (results[0], results[1], results[2]);
     eprintln!("floor grid Eavg: rad {a:.1} ± {sa:.1} lx, obj {b:.1} ± {sb:.1} lx, rad with the window as a portal {c:.1} ± {sc:.1} lx");
+    // The glass found as the portal: the same run (to the summation order's last bits).
+    assert!(
+        (results[3].0 - results[2].0).abs() < 1e-9 * results[2].0,
+        "{:?} vs {:?}",
+        results[3],
+        results[2]
+    );
     // The portal: the same light, with far less noise from the same photons.
     assert!(
         (a - c).abs() < 3.0 * (sa * sa + sc * sc).sqrt() + 0.005 * a && sc < 0.5 * sa,
