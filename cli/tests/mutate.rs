@@ -158,7 +158,46 @@ const HOSTILE_TOML: &[&str] = &[
     "[spectral]\nbands = 41\nmin_nm = 1\nmax_nm = 1e308",
     "[[grid]]\norigin = [0, 0, 0.1]\nu = [1, 0, 0]\nv = [0, 1, 0]\nsize = [1e300, 1e300]\nspacing = 1e-10",
     "[run]\ntime_s = -5",
+    "portals = [\"floor\"]\n[sky]\nkind = \"uniform\"\nradiance = 1",
+    "portals = [\"lamp\", \"box\", \"nope\"]",
+    "glass_portals = true\n[sky]\nkind = \"cie\"\ncie_type = 12\nsun_azimuth_deg = 10\nsun_zenith_deg = 30\nradiance = 1",
+    "glass_portals = true",
+    "[sky]\nkind = \"uniform\"\nradiance = 1\nground_reflectance = 1e300",
+    "[sky]\nkind = \"uniform\"\nradiance = 1e300\nground_reflectance = 1",
+    "[[grid]]\npoints = \"/dev/zero\"",
+    "[[grid]]\npoints = \"s.obj\"",
+    "[[grid]]\npoints = \"s.mtl\"\nradius = -1",
+    "[[grid]]\npoints = \"l.ies\"\norigin = [0, 0, 0]",
     "[camera]\nposition = [0.5, -1, 1.5]\nlook_at = [0.5, 0.5, 0]\nwidth = 4096\nheight = 16",
+];
+
+const RAD: &str = "# a room with a lamp and a window\nvoid plastic wall 0 0 5 .5 .5 .5 .02 .05\nvoid metal alu 0 0 5 .8 .8 .8 .9 0\nvoid trans opal 0 0 7 .6 .6 .6 0 0 1 .2\nvoid mirror m 0 0 3 .9 .9 .9\nvoid glass pane 0 0 3 .88 .88 .88\nvoid dielectric water 0 0 5 .9 .9 .9 1.33 0\nvoid light bulb 0 0 3 50 50 50\nvoid glow sky_glow 0 0 4 1 1 1 0\nvoid alias w2 wall\nvoid illum ill 1 wall 0 3 1 1 1\nvoid brightfunc dirt 2 d d.cal 0 0\ndirt plastic dm 0 0 5 .4 .4 .4 0 0\nwall polygon floor 0 0 12 0 0 0 4 0 0 4 4 0 0 4 0\nw2 polygon front 0 0 30 0 0 0 0 0 3 4 0 3 4 0 0 0 0 0 1 0 1 3 0 1 3 0 2 1 0 2 1 0 1\npane polygon window 0 0 12 1 0 1 3 0 1 3 0 2 1 0 2\nbulb sphere lamp 0 0 4 2 2 2.5 .1\nalu cylinder rod 0 0 7 2 2 2.6 2 2 3 .02\nopal ring shade 0 0 8 2 2 2.4 0 0 -1 0 .3\nm cone c 0 0 8 3 3 0 3 3 .5 .2 0\nwater bubble b 0 0 4 1 3 .3 .2\nill polygon port 0 0 9 0 4 1 0 4 2 0 3 2\ndm tube t 0 0 7 3 1 0 3 1 1 .1\nsky_glow cup cp 0 0 8 1 1 0 1 1 .2 .1 .2\n";
+
+const HOSTILE_RAD: &[&str] = &[
+    "!xform -t 1 0 0 chair.rad",
+    "void plastic p 0 0 5 nan 1 1 0 0",
+    "void light hot 0 0 3 1e308 1e308 1e308",
+    "void glass g 0 0 3 inf 1 1",
+    "wall sphere s 0 0 4 0 0 0 1e29",
+    "wall sphere s0 0 0 4 0 0 0 0",
+    "wall polygon q 0 0 999999999999999999999",
+    "wall polygon huge 0 0 9 1e30 0 0 -1e30 0 0 0 1e30 0",
+    "wall polygon line 0 0 9 0 0 0 1 0 0 2 0 0",
+    "wall ring r 0 0 8 0 0 0 0 0 0 1 1",
+    "wall cone k 0 0 8 0 0 0 0 0 0 1 1",
+    "wall cylinder cy 0 0 7 0 0 0 0 0 1 -1",
+    "void alias a missing",
+    "wall mesh me 1 /dev/zero 0 0",
+    "wall instance in 1 /dev/zero 0 0",
+    "void light sun 0 0 3 1 1 1\nsun source so 0 0 4 0 0 1 .5",
+    "void BSDF blind 6 0 /dev/zero 0 1 0 . 0 0",
+    "undefined polygon u 0 0 9 0 0 0 1 0 0 0 1 0",
+    "void plastic",
+    "void plastic x -1",
+    "void trans t 0 0 7 1 1 1 0 0 2 -5",
+    "dirt polygon pat 0 0 9 0 0 0 1 0 0 0 1 0",
+    "void illum i2 1 void 0 0",
+    "i2 polygon gone 0 0 9 0 0 0 1 0 0 0 1 0",
 ];
 
 fn mutate_bytes(rng: &mut Rng, text: &mut Vec<u8>) {
@@ -483,7 +522,7 @@ fn mutate_gltf(rng: &mut Rng, v: &mut serde_json::Value) {
 /// A model of another format than OBJ (glTF, GLB, PLY, STL), mutated; returns its file name.
 fn model_case(rng: &mut Rng, dir: &Path) -> String {
     let (mut json, bin) = gltf_parts();
-    match rng.below(6) {
+    match rng.below(7) {
         0 | 1 => {
             // glTF with its buffer beside it.
             std::fs::write(dir.join("m.bin"), &bin).unwrap();
@@ -577,6 +616,20 @@ fn model_case(rng: &mut Rng, dir: &Path) -> String {
             }
             std::fs::write(dir.join("m.ply"), ply).unwrap();
             "m.ply".into()
+        }
+        5 => {
+            // A Radiance scene: every primitive the reader knows, lines mutated and hostile
+            // primitives inserted (counts past the file, numbers that are no numbers,
+            // commands, devices, degenerate shapes).
+            let mut text = RAD.as_bytes().to_vec();
+            for _ in 0..1 + rng.below(3) {
+                mutate_lines(rng, &mut text, HOSTILE_RAD);
+            }
+            if rng.below(3) == 0 {
+                mutate_bytes(rng, &mut text);
+            }
+            std::fs::write(dir.join("m.rad"), text).unwrap();
+            "m.rad".into()
         }
         _ => {
             // Binary STL with its triangle count past the data, or non-finite corners.
@@ -673,7 +726,7 @@ fn mutated_models_of_every_format_end_in_a_status() {
     });
     let failures = failures.into_inner().unwrap();
     eprintln!(
-        "{cases} mutated glTF, GLB, PLY and STL models in {:.0} s: {} misbehaved",
+        "{cases} mutated glTF, GLB, PLY, Radiance and STL models in {:.0} s: {} misbehaved",
         t.elapsed().as_secs_f64(),
         failures.len()
     );
