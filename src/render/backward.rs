@@ -588,12 +588,13 @@ impl<'a> EyeTracer<'a> {
         let prim = hit.prim as usize;
         let ng = mesh.normals[prim].as_dvec3();
         let front = dir.dot(ng) < 0.0;
-        let p = mesh.point(prim, hit.u, hit.v);
+        let eps = self.scene.offset_at(mesh.point(prim, hit.u, hit.v));
+        let p = mesh.leaving_point(prim, hit.u, hit.v, eps);
         Surface {
             p,
             ng,
             n_in: if front { ng } else { -ng },
-            eps: self.scene.offset_at(p),
+            eps,
             front,
             material: mesh.material(prim),
         }

@@ -790,8 +790,8 @@ impl DirectSampler<'_> {
             }
             let ng = mesh.normals[prim].as_dvec3();
             let n_in = if dir.dot(ng) < 0.0 { ng } else { -ng };
-            let p = mesh.point(prim, hit.u, hit.v);
-            let eps = scene.offset_at(p);
+            let eps = scene.offset_at(mesh.point(prim, hit.u, hit.v));
+            let p = mesh.leaving_point(prim, hit.u, hit.v, eps);
             // Light scattered diffusely toward x: reflected from the side the path arrived
             // on, transmitted from the other.
             for (on, k, n) in [

@@ -502,8 +502,8 @@ impl Tracer<'_> {
                 sink.direct_done();
             }
 
-            let p_hit = mesh.point(prim, hit.u, hit.v);
-            let eps = self.scene.offset_at(p_hit);
+            let eps = self.scene.offset_at(mesh.point(prim, hit.u, hit.v));
+            let p_hit = mesh.leaving_point(prim, hit.u, hit.v, eps);
             // The photon's landing density at its first surface event (the gathering
             // paths' weights against it), taken when its event there is diffuse.
             let landing = || {
