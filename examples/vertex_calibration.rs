@@ -6,56 +6,13 @@
 //!
 //! usage: cargo run --release --example vertex_calibration [ldt|ies] [seeds]
 
+// The tests' scene builders (the inward sphere).
+#[path = "../tests/common/mod.rs"]
+mod scenes;
+
 use imap::photometry::Spectrum;
 use imap::scene::light::Placement;
-use imap::{Config, Context, Estimator, MaterialDesc, MeshDesc, RunParams};
-
-fn sphere(level: u32) -> (Vec<f64>, Vec<u32>) {
-    let mut verts: Vec<[f64; 3]> = vec![
-        [1., 0., 0.],
-        [-1., 0., 0.],
-        [0., 1., 0.],
-        [0., -1., 0.],
-        [0., 0., 1.],
-        [0., 0., -1.],
-    ];
-    let mut tris: Vec<[u32; 3]> = vec![
-        [0, 2, 4],
-        [2, 1, 4],
-        [1, 3, 4],
-        [3, 0, 4],
-        [2, 0, 5],
-        [1, 2, 5],
-        [3, 1, 5],
-        [0, 3, 5],
-    ];
-    let mut cache = std::collections::HashMap::new();
-    for _ in 0..level {
-        let mut next = Vec::new();
-        for t in &tris {
-            let mut mid = |a: u32, b: u32| -> u32 {
-                *cache.entry((a.min(b), a.max(b))).or_insert_with(|| {
-                    let (pa, pb) = (verts[a as usize], verts[b as usize]);
-                    let m = [
-                        (pa[0] + pb[0]) / 2.,
-                        (pa[1] + pb[1]) / 2.,
-                        (pa[2] + pb[2]) / 2.,
-                    ];
-                    let l = (m[0] * m[0] + m[1] * m[1] + m[2] * m[2]).sqrt();
-                    verts.push([m[0] / l, m[1] / l, m[2] / l]);
-                    verts.len() as u32 - 1
-                })
-            };
-            let (ab, bc, ca) = (mid(t[0], t[1]), mid(t[1], t[2]), mid(t[2], t[0]));
-            next.extend([[t[0], ab, ca], [ab, t[1], bc], [ca, bc, t[2]], [ab, bc, ca]]);
-        }
-        tris = next;
-    }
-    (
-        verts.iter().flat_map(|v| *v).collect(),
-        tris.iter().flat_map(|t| [t[0], t[2], t[1]]).collect(),
-    )
-}
+use imap::{Config, Context, Estimator, MaterialDesc, RunParams};
 
 fn run(kind: &str, seed: u64, photons: u64, e: Estimator) -> (Vec<f64>, Vec<f64>) {
     let mut ctx = Context::new(Config {
@@ -65,8 +22,8 @@ fn run(kind: &str, seed: u64, photons: u64, e: Estimator) -> (Vec<f64>, Vec<f64>
     })
     .unwrap();
     let black = ctx.add_material(&MaterialDesc::default()).unwrap();
-    let (p, i) = sphere(4);
-    let id = ctx.add_mesh(&MeshDesc::new(&p, &i, black)).unwrap();
+    let sphere = scenes::sphere_inward(1.0, 4);
+    let id = ctx.add_mesh(&sphere.desc(black)).unwrap();
     let place = Placement {
         position: [0.05, -0.03, 0.02],
         aim: [0.3, -1.0, 0.2],
@@ -88,7 +45,7 @@ fn run(kind: &str, seed: u64, photons: u64, e: Estimator) -> (Vec<f64>, Vec<f64>
         ..Default::default()
     })
     .unwrap();
-    let nv = p.len() / 3;
+    let nv = sphere.vertex_count();
     let (mut x, mut r) = (vec![0.0; nv], vec![0.0; nv]);
     ctx.irradiance(id, 0, 0, &mut x).unwrap();
     ctx.rel_error(id, 0, &mut r).unwrap();

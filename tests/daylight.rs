@@ -306,6 +306,25 @@ fn cie_skies_through_a_roof_opening_give_the_sky_integral() {
     }
 }
 
+/// What each floor vertex of the roof room reads under the sun's patch (the opening moved
+/// by `shift`): `e_band` where its support (0.125 m) lies wholly inside, nothing where
+/// wholly outside; the penumbra's vertices are not compared (None).
+fn sun_patch(floor: &Geometry, shift: [f64; 2], e_band: f64) -> Vec<Option<f64>> {
+    (0..floor.vertex_count())
+        .map(|v| {
+            let p = floor.vertex(v);
+            let d = (p[0] - shift[0]).abs().max((p[1] - shift[1]).abs());
+            if d < 0.5 - 0.125 - 0.01 {
+                Some(e_band)
+            } else if d > 0.5 + 0.125 + 0.01 {
+                Some(0.0)
+            } else {
+                None
+            }
+        })
+        .collect()
+}
+
 #[test]
 fn the_sun_patch_lies_where_the_sun_puts_it_with_en_cos_theta() {
     // The sun at azimuth 200° (south-south-west), zenith 20°, E_n = 900 W/m² over the
@@ -326,19 +345,7 @@ fn the_sun_patch_lies_where_the_sun_puts_it_with_en_cos_theta() {
         // ≈ 0.5 cm wide: vertices whose support is wholly inside the patch read
         // E_n cos θ / 3 per band, wholly outside nothing; the rest are not compared.
         let e_band = en * zen.cos() / 3.0;
-        let want: Vec<Option<f64>> = (0..floor.vertex_count())
-            .map(|v| {
-                let p = floor.vertex(v);
-                let d = (p[0] - shift[0]).abs().max((p[1] - shift[1]).abs());
-                if d < 0.5 - 0.125 - 0.01 {
-                    Some(e_band)
-                } else if d > 0.5 + 0.125 + 0.01 {
-                    Some(0.0)
-                } else {
-                    None
-                }
-            })
-            .collect();
+        let want = sun_patch(&floor, shift, e_band);
         assert!(want.iter().filter(|w| **w == Some(e_band)).count() >= 16);
         assert_z(
             &values(&ctx, id, 0),
@@ -862,19 +869,7 @@ fn portals_bring_the_sky_and_the_sun_through_the_opening_unbiased() {
     ctx.set_portals(&portal, &tris).unwrap();
     run_with(&mut ctx, photons(100_000), Estimator::DEFAULT);
     let e_band = en * zen.cos() / 3.0;
-    let want: Vec<Option<f64>> = (0..floor.vertex_count())
-        .map(|v| {
-            let p = floor.vertex(v);
-            let d = (p[0] - shift[0]).abs().max((p[1] - shift[1]).abs());
-            if d < 0.5 - 0.125 - 0.01 {
-                Some(e_band)
-            } else if d > 0.5 + 0.125 + 0.01 {
-                Some(0.0)
-            } else {
-                None
-            }
-        })
-        .collect();
+    let want = sun_patch(&floor, shift, e_band);
     assert_z(&values(&ctx, id, 0), &want, "sun patch through a portal");
     let got = values(&ctx, id, 0);
     let flux: f64 = got

@@ -227,21 +227,9 @@ pub fn add_grids(
             }
         }
         let segments: Vec<(DVec3, DVec3)> = ring.iter().map(|r| (r.1, r.2)).collect();
-        let reach = segments.iter().fold(
-            (DVec3::INFINITY, DVec3::NEG_INFINITY),
-            |(lo, hi), (a, b)| (lo.min(a.min(*b)), hi.max(a.max(*b))),
-        );
-        let near = |t: &[DVec3; 3]| {
-            let (lo, hi) = (t[0].min(t[1]).min(t[2]), t[0].max(t[1]).max(t[2]));
-            !(lo.cmpgt(reach.1).any() || hi.cmplt(reach.0).any())
-        };
-        let first =
-            crate::segments::first_crossings(&segments, model.iter().filter(|t| near(t)).copied());
         let mut clipped = 0;
-        for ((at_index, from, to), t) in ring.iter().zip(&first) {
-            if *t < 1.0 {
-                // Just short of the surface, and never onto the point itself.
-                let p = *from + (*to - *from) * (t - 1e-6).max(0.01);
+        for ((at_index, _, _), end) in ring.iter().zip(stop_at_surfaces(&segments, model)) {
+            if let Some(p) = end {
                 mesh_positions[*at_index..*at_index + 3].copy_from_slice(&p.to_array());
                 clipped += 1;
             }
@@ -311,6 +299,27 @@ pub fn add_grids(
         });
     }
     Ok(out)
+}
+
+/// Where each segment (from a point outward to a guard vertex) stops at the model's
+/// surfaces: just short of the first it crosses, and never onto the point itself; None
+/// when it crosses none.
+fn stop_at_surfaces(segments: &[(DVec3, DVec3)], model: &[[DVec3; 3]]) -> Vec<Option<DVec3>> {
+    let reach = segments.iter().fold(
+        (DVec3::INFINITY, DVec3::NEG_INFINITY),
+        |(lo, hi), (a, b)| (lo.min(a.min(*b)), hi.max(a.max(*b))),
+    );
+    let near = |t: &[DVec3; 3]| {
+        let (lo, hi) = (t[0].min(t[1]).min(t[2]), t[0].max(t[1]).max(t[2]));
+        !(lo.cmpgt(reach.1).any() || hi.cmplt(reach.0).any())
+    };
+    let first =
+        crate::segments::first_crossings(segments, model.iter().filter(|t| near(t)).copied());
+    segments
+        .iter()
+        .zip(first)
+        .map(|((from, to), t)| (t < 1.0).then(|| *from + (*to - *from) * (t - 1e-6).max(0.01)))
+        .collect()
 }
 
 /// Reads a sensor point file: `x y z dx dy dz` per line (more numbers are ignored, as
@@ -393,20 +402,9 @@ fn add_point_set(
             positions.extend(q.to_array());
         }
     }
-    let reach = segments.iter().fold(
-        (DVec3::INFINITY, DVec3::NEG_INFINITY),
-        |(lo, hi), (a, b)| (lo.min(a.min(*b)), hi.max(a.max(*b))),
-    );
-    let near = |t: &[DVec3; 3]| {
-        let (lo, hi) = (t[0].min(t[1]).min(t[2]), t[0].max(t[1]).max(t[2]));
-        !(lo.cmpgt(reach.1).any() || hi.cmplt(reach.0).any())
-    };
-    let first =
-        crate::segments::first_crossings(&segments, model.iter().filter(|t| near(t)).copied());
     let mut clipped = 0;
-    for (k, ((from, to), t)) in segments.iter().zip(&first).enumerate() {
-        if *t < 1.0 {
-            let q = *from + (*to - *from) * (t - 1e-6).max(0.01);
+    for (k, end) in stop_at_surfaces(&segments, model).into_iter().enumerate() {
+        if let Some(q) = end {
             let at = 3 * (5 * (k / 4) + 1 + k % 4);
             positions[at..at + 3].copy_from_slice(&q.to_array());
             clipped += 1;

@@ -630,6 +630,18 @@ pub fn write_png(path: &Path, w: u32, h: u32, rgb: &[u8]) -> Result<()> {
         .map_err(|e| CliError(format!("{}: {e}", path.display())))
 }
 
+/// The model's up (unit), its front — −y for z-up models, −z for the others — and the
+/// side, up × front.
+fn model_axes(up: [f64; 3]) -> (DVec3, DVec3, DVec3) {
+    let up = DVec3::from(up).normalize();
+    let front = if up.z.abs() > 0.5 {
+        DVec3::NEG_Y
+    } else {
+        DVec3::NEG_Z
+    };
+    (up, front, up.cross(front).normalize())
+}
+
 /// A camera that frames the whole model (its bounding sphere fills the 40° view) from the
 /// side of its lights, looking down at about 20° to the model's `up`: from the lights'
 /// power-weighted centre as seen horizontally from the model's centre, or, when they are
@@ -640,14 +652,7 @@ pub fn default_camera(scene: &LoadedScene, up: [f64; 3]) -> CameraSettings {
     let (lo, hi) = (DVec3::from(lo), DVec3::from(hi));
     let c = 0.5 * (lo + hi);
     let radius = (0.5 * (hi - lo).length()).max(1e-9);
-    let up = DVec3::from(up).normalize();
-    // The front: −y for z-up models, −z for the others.
-    let front = if up.z.abs() > 0.5 {
-        DVec3::NEG_Y
-    } else {
-        DVec3::NEG_Z
-    };
-    let side = up.cross(front).normalize();
+    let (up, front, side) = model_axes(up);
     let mut horizontal = (front + 0.3 * side).normalize();
     let mut lit = DVec3::ZERO;
     let mut power = 0.0;
@@ -710,13 +715,7 @@ pub fn choose_camera(
     let (lo, hi) = scene.bounds();
     let (lo, hi) = (DVec3::from(lo), DVec3::from(hi));
     let c = 0.5 * (lo + hi);
-    let up_v = DVec3::from(up).normalize();
-    let front = if up_v.z.abs() > 0.5 {
-        DVec3::NEG_Y
-    } else {
-        DVec3::NEG_Z
-    };
-    let side = up_v.cross(front).normalize();
+    let (up_v, front, side) = model_axes(up);
     let half = 0.5 * (hi - lo);
     let (h_front, h_side) = (
         half.dot(front).abs().max(1e-9),

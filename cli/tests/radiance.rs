@@ -9,6 +9,11 @@ mod common;
 use common::{run_photons, stderr, write};
 use std::path::Path;
 
+/// A sphere of `light` radiance 100 and radius 0.1 m, 2 m above a black floor.
+const LAMP: &str =
+    "void plastic black 0 0 5 0 0 0 0 0\nblack polygon floor 0 0 12 -5 -5 0 5 -5 0 5 5 0 -5 5 0\n\
+    void light bulb\n0\n0\n3 100 100 100\nbulb sphere lamp 0 0 4 0 0 2 0.1\n";
+
 fn report(out: &Path) -> serde_json::Value {
     serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap()).unwrap()
 }
@@ -26,12 +31,7 @@ fn grid_average(out: &Path) -> (f64, f64) {
 #[test]
 fn a_light_sphere_gives_the_intensity_radiance_gives_it() {
     let d = tempfile::tempdir().unwrap();
-    let rad = write(
-        d.path(),
-        "lamp.rad",
-        "void plastic black 0 0 5 0 0 0 0 0\nblack polygon floor 0 0 12 -5 -5 0 5 -5 0 5 5 0 -5 5 0\n\
-         void light bulb\n0\n0\n3 100 100 100\nbulb sphere lamp 0 0 4 0 0 2 0.1\n",
-    );
+    let rad = write(d.path(), "lamp.rad", LAMP);
     // E = I h / (h² + r²)^1.5 averaged over the square between the grid's outer points
     // (±0.375 m: what the grid's average covers).
     let (i, h, n) = (17_900.0 * std::f64::consts::PI * 0.01, 1.99f64, 200);
@@ -227,12 +227,7 @@ fn a_side_lit_room_reads_the_same_through_rad_and_obj() {
 #[test]
 fn sensor_point_files_give_each_point_its_own_light() {
     let d = tempfile::tempdir().unwrap();
-    let rad = write(
-        d.path(),
-        "lamp.rad",
-        "void plastic black 0 0 5 0 0 0 0 0\nblack polygon floor 0 0 12 -5 -5 0 5 -5 0 5 5 0 -5 5 0\n\
-         void light bulb\n0\n0\n3 100 100 100\nbulb sphere lamp 0 0 4 0 0 2 0.1\n",
-    );
+    let rad = write(d.path(), "lamp.rad", LAMP);
     let pts = [
         [0.0, 0.0, 0.01, 0.0, 0.0, 1.0],
         [0.5, 0.0, 0.01, 0.0, 0.0, 1.0],

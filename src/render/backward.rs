@@ -588,8 +588,7 @@ impl<'a> EyeTracer<'a> {
         let prim = hit.prim as usize;
         let ng = mesh.normals[prim].as_dvec3();
         let front = dir.dot(ng) < 0.0;
-        let eps = self.scene.offset_at(mesh.point(prim, hit.u, hit.v));
-        let p = mesh.leaving_point(prim, hit.u, hit.v, eps);
+        let (p, eps) = self.scene.leaving_point(mesh, prim, hit.u, hit.v);
         Surface {
             p,
             ng,

@@ -52,30 +52,6 @@ impl PreparedMesh {
         a + (b - a) * u as f64 + (c - a) * v as f64
     }
 
-    /// Where a ray leaving triangle `prim` at hit (u, v) starts before its offset along the
-    /// normal: the hit's barycentrics clamped into the triangle (the tracer's f32 ones can
-    /// lie an ulp outside), then moved `eps` toward the triangle's centroid. A hit on the
-    /// edge where two walls meet otherwise left from the other wall's plane, or just beyond
-    /// it, and a ray from there could pass out of a closed box (2 in 10⁸ photons of a white
-    /// flat box escaped).
-    pub fn leaving_point(&self, prim: usize, u: f32, v: f32, eps: f64) -> DVec3 {
-        let [a, b, c] = self.triangles[prim].map(|i| self.vertices[i as usize].as_dvec3());
-        let (mut u, mut v) = ((u as f64).max(0.0), (v as f64).max(0.0));
-        let sum = u + v;
-        if sum > 1.0 {
-            u /= sum;
-            v /= sum;
-        }
-        let p = a + (b - a) * u + (c - a) * v;
-        let to_centre = (a + b + c) / 3.0 - p;
-        let d = to_centre.length();
-        if d > eps {
-            p + to_centre * (eps / d)
-        } else {
-            p + to_centre
-        }
-    }
-
     /// Area of triangle `prim`, scene units².
     pub fn area(&self, prim: usize) -> f64 {
         let [a, b, c] = self.triangles[prim].map(|i| self.vertices[i as usize].as_dvec3());
@@ -829,6 +805,34 @@ impl PreparedScene {
         // The nearer root, computed without cancellation.
         let t = c / (-b + disc.sqrt());
         Some(org + dir * t)
+    }
+
+    /// Where a ray leaving triangle `prim` of `mesh` at hit (u, v) starts before its offset
+    /// along the normal, and that offset (`offset_at`): the hit's barycentrics clamped
+    /// into the triangle (the tracer's f32 ones can lie an ulp outside), then moved the
+    /// offset toward the triangle's centroid. A hit on the edge where two walls meet
+    /// otherwise left from the other wall's plane, or just beyond it, and a ray from there
+    /// could pass out of a closed box (a beam at a white box's edge lost 0.46 % of its
+    /// energy).
+    #[inline]
+    pub fn leaving_point(&self, mesh: &PreparedMesh, prim: usize, u: f32, v: f32) -> (DVec3, f64) {
+        let [a, b, c] = mesh.triangles[prim].map(|i| mesh.vertices[i as usize].as_dvec3());
+        let (mut u, mut v) = ((u as f64).max(0.0), (v as f64).max(0.0));
+        let sum = u + v;
+        if sum > 1.0 {
+            u /= sum;
+            v /= sum;
+        }
+        let p = a + (b - a) * u + (c - a) * v;
+        let eps = self.offset_at(p);
+        let to_centre = (a + b + c) / 3.0 - p;
+        let d = to_centre.length();
+        let p = if d > eps {
+            p + to_centre * (eps / d)
+        } else {
+            p + to_centre
+        };
+        (p, eps)
     }
 
     /// Offset that moves a new ray's origin off the surface at local point `p`: a few

@@ -306,32 +306,12 @@ impl DistantPart {
                     Radiance::Image { .. } => 2,
                     _ => SKY_SUB,
                 };
-                let (rows, cols, grid) = (t.rows, t.cols, t);
                 let mut sum = 0.0;
-                for i in 0..rows {
-                    let omega = grid.solid_angle(i);
-                    for j in 0..cols {
-                        let mut m = 0.0;
-                        for a in 0..sub {
-                            for b in 0..sub {
-                                let az = grid.azimuth0
-                                    + 2.0 * PI * (j as f64 + (a as f64 + 0.5) / sub as f64)
-                                        / cols as f64;
-                                let cz = grid.cos_edges[i]
-                                    + (grid.cos_edges[i + 1] - grid.cos_edges[i])
-                                        * ((b as f64 + 0.5) / sub as f64);
-                                let s = (1.0 - cz * cz).max(0.0).sqrt();
-                                let d = (self.frame.north * (s * az.cos())
-                                    + self.frame.east * (s * az.sin())
-                                    + self.frame.zenith * cz)
-                                    .normalize();
-                                let c = d.dot(n);
-                                if c > 0.0 {
-                                    m += self.value(d) * c;
-                                }
-                            }
-                        }
-                        sum += m / (sub * sub) as f64 * omega;
+                for i in 0..t.rows {
+                    let omega = t.solid_angle(i);
+                    for j in 0..t.cols {
+                        let f_cos = |d: DVec3| self.value(d) * d.dot(n).max(0.0);
+                        sum += t.means_sub(&self.frame, i, j, sub, f_cos).0 * omega;
                     }
                 }
                 sum
@@ -460,16 +440,24 @@ impl Table {
     /// Means of `f` and of f·max(cos Z, 0) over cell (i, j): `SKY_SUB`² points equally
     /// spaced in azimuth and cos Z (equal solid angle).
     fn means(&self, frame: &SkyFrame, i: usize, j: usize, f: impl Fn(DVec3) -> f64) -> (f64, f64) {
+        self.means_sub(frame, i, j, SKY_SUB, f)
+    }
+
+    /// `means` with `sub`² points per cell.
+    fn means_sub(
+        &self,
+        frame: &SkyFrame,
+        i: usize,
+        j: usize,
+        sub: usize,
+        f: impl Fn(DVec3) -> f64,
+    ) -> (f64, f64) {
         let (mut m, mut h) = (0.0, 0.0);
-        for a in 0..SKY_SUB {
-            for b in 0..SKY_SUB {
-                let u = [
-                    0.0,
-                    (a as f64 + 0.5) / SKY_SUB as f64,
-                    (b as f64 + 0.5) / SKY_SUB as f64,
-                ];
-                let az = self.azimuth0 + 2.0 * PI * (j as f64 + u[1]) / self.cols as f64;
-                let cz = self.cos_edges[i] + (self.cos_edges[i + 1] - self.cos_edges[i]) * u[2];
+        for a in 0..sub {
+            for b in 0..sub {
+                let u = [(a as f64 + 0.5) / sub as f64, (b as f64 + 0.5) / sub as f64];
+                let az = self.azimuth0 + 2.0 * PI * (j as f64 + u[0]) / self.cols as f64;
+                let cz = self.cos_edges[i] + (self.cos_edges[i + 1] - self.cos_edges[i]) * u[1];
                 let s = (1.0 - cz * cz).max(0.0).sqrt();
                 let d =
                     frame.north * (s * az.cos()) + frame.east * (s * az.sin()) + frame.zenith * cz;
@@ -478,7 +466,7 @@ impl Table {
                 h += v * cz.max(0.0);
             }
         }
-        let n = (SKY_SUB * SKY_SUB) as f64;
+        let n = (sub * sub) as f64;
         (m / n, h / n)
     }
 }

@@ -790,8 +790,7 @@ impl DirectSampler<'_> {
             }
             let ng = mesh.normals[prim].as_dvec3();
             let n_in = if dir.dot(ng) < 0.0 { ng } else { -ng };
-            let eps = scene.offset_at(mesh.point(prim, hit.u, hit.v));
-            let p = mesh.leaving_point(prim, hit.u, hit.v, eps);
+            let (p, eps) = scene.leaving_point(mesh, prim, hit.u, hit.v);
             // Light scattered diffusely toward x: reflected from the side the path arrived
             // on, transmitted from the other.
             for (on, k, n) in [

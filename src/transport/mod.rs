@@ -502,8 +502,7 @@ impl Tracer<'_> {
                 sink.direct_done();
             }
 
-            let eps = self.scene.offset_at(mesh.point(prim, hit.u, hit.v));
-            let p_hit = mesh.leaving_point(prim, hit.u, hit.v, eps);
+            let (p_hit, eps) = self.scene.leaving_point(mesh, prim, hit.u, hit.v);
             // The photon's landing density at its first surface event (the gathering
             // paths' weights against it), taken when its event there is diffuse.
             let landing = || {
