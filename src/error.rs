@@ -304,6 +304,18 @@ pub(crate) fn check_finite_scalar(name: &str, value: f64) -> Result<()> {
     Ok(())
 }
 
+/// `x` is finite and within [`lo`, `hi`], or an error naming `name`.
+pub(crate) fn check_range(name: &str, x: f64, lo: f64, hi: f64) -> Result<()> {
+    check_finite_scalar(name, x)?;
+    if !(lo..=hi).contains(&x) {
+        bail!(
+            ImapErrInvalidArgument,
+            "{name} = {x} is not in [{lo}, {hi}]"
+        );
+    }
+    Ok(())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -21,6 +21,8 @@ pub mod ffi;
 /// cbindgen:ignore
 pub mod files;
 /// cbindgen:ignore
+pub mod images;
+/// cbindgen:ignore
 pub mod imap;
 /// cbindgen:ignore
 pub mod photometry;
@@ -35,11 +37,16 @@ pub mod scenes;
 /// cbindgen:ignore
 pub mod sched;
 /// cbindgen:ignore
+pub mod solar;
+/// cbindgen:ignore
+pub mod spectral;
+/// cbindgen:ignore
 pub mod transport;
 
 pub use context::{Config, Context, Layer, RegionStats, Report, SchedulerKind};
 pub use error::{Error, ImapStatus, Result, Subject};
 pub use render::{CameraDesc, Image, RenderMethod, RenderParams, RenderReport};
-pub use scene::{Bands, IorModel, LayerRequest, MaterialDesc, MeshDesc};
+pub use scene::{IorModel, LayerRequest, MaterialDesc, MeshDesc};
 pub use sched::{Progress, RunParams, Selection, StopReason};
+pub use spectral::Bands;
 pub use transport::direct::Estimator;

@@ -365,7 +365,7 @@ pub fn vehicle_sky() -> (usize, usize, Vec<f32>) {
             } else if chi < 1f64.to_radians() {
                 [2.0e3, 1.9e3, 1.7e3]
             } else {
-                let l = crate::scene::sky::cie_luminance(12, z, chi, sz);
+                let l = crate::scene::light::cie_luminance(12, z, chi, sz);
                 [0.6 * l, 0.8 * l, 1.2 * l]
             };
             rgb.extend(px.map(|v| v as f32));
@@ -598,13 +598,13 @@ pub fn build(ctx: &mut Context, kind: SceneKind, scale: f64) -> Result<Built> {
             // The paper's HDR environment (not counted among its 7 lights): a generated
             // equirectangular sky (`vehicle_sky`) giving 100 W/m² on open ground.
             let (w, h, rgb) = vehicle_sky();
-            ctx.add_sky(&crate::scene::sky::SkyDesc {
-                kind: crate::scene::sky::SkyKind::Image {
+            ctx.add_sky(&crate::scene::light::SkyDesc {
+                kind: crate::scene::light::SkyKind::Image {
                     width: w,
                     height: h,
                     rgb: std::sync::Arc::new(rgb),
                 },
-                amount: crate::scene::sky::SkyAmount::HorizontalIrradiance(100.0),
+                amount: crate::scene::light::SkyAmount::HorizontalIrradiance(100.0),
                 ..Default::default()
             })?;
         }
@@ -737,7 +737,7 @@ const CORNELL_SIDE_MM: f64 = 555.0;
 /// Reflectance of a wall given at the R, G and B wavelengths (650, 550, 450 nm) in the
 /// context's bands: RGB as is, spectral bands piecewise linear between them and constant
 /// beyond (as `c_examples/cornell_scene.h` does).
-fn rgb_in_bands(bands: &crate::scene::Bands, rgb: [f64; 3]) -> Vec<f64> {
+fn rgb_in_bands(bands: &crate::spectral::Bands, rgb: [f64; 3]) -> Vec<f64> {
     if bands.rgb {
         return rgb.to_vec();
     }

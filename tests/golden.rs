@@ -19,7 +19,7 @@ mod common;
 use common::*;
 use imap::photometry::Spectrum;
 use imap::scene::light::Placement;
-use imap::scene::sky::{SkyAmount, SkyDesc, SkyKind, SunDesc};
+use imap::scene::light::{SkyAmount, SkyDesc, SkyKind, SunDesc};
 use imap::{
     Bands, CameraDesc, Config, Context, Estimator, Image, MeshDesc, RenderMethod, RenderParams,
     SchedulerKind,

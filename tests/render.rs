@@ -1016,7 +1016,7 @@ fn final_gathering_agrees_with_the_path_tracer_in_the_mixed_room() {
 /// tracer (they saw black: the sky showed as a disc behind the object only).
 #[test]
 fn the_sky_is_seen_all_round_the_model() {
-    use imap::scene::sky::{SkyAmount, SkyDesc, SkyKind};
+    use imap::scene::light::{SkyAmount, SkyDesc, SkyKind};
     let l = [1.5, 2.0, 0.5];
     let mut ctx = context(Config {
         threads: 2,
@@ -1078,7 +1078,7 @@ fn the_sky_is_seen_all_round_the_model() {
 /// renderer's, whose photons carry caustics anyway.
 #[test]
 fn the_sun_through_glass_is_rendered_with_a_usable_error() {
-    use imap::scene::sky::{SkyAmount, SunDesc};
+    use imap::scene::light::{SkyAmount, SunDesc};
     let mut ctx = context(Config {
         threads: 2,
         seed: 4,

@@ -9,7 +9,7 @@ mod common;
 use common::*;
 use imap::photometry::Spectrum;
 use imap::scene::light::Placement;
-use imap::scene::sky::{SkyAmount, SkyDesc};
+use imap::scene::light::{SkyAmount, SkyDesc};
 use imap::{
     Bands, CameraDesc, Config, Context, ImapStatus, MeshDesc, RenderMethod, RenderParams,
     StopReason,

@@ -6,7 +6,8 @@ use crate::diag::printable;
 use crate::lights::{PlacedLight, SpectrumSettings};
 use crate::scene::{fail, CliError, Result};
 use imap::photometry::Spectrum;
-use imap::scene::sky::{self, SkyAmount, SkyDesc, SkyKind, SunDesc, SunTime};
+use imap::scene::light::{SkyAmount, SkyDesc, SkyKind, SunDesc};
+use imap::solar::{self, SunTime};
 use imap::Context;
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
@@ -182,10 +183,10 @@ fn sun_angles(s: &SunSettings) -> Result<(f64, f64)> {
             let (year, month, day, hour, minute, second) = parse_date(date, what)?;
             let atmosphere = match (s.pressure_hpa, s.temperature_c) {
                 (Some(p), Some(c)) => (p, c),
-                (None, None) => sky::STANDARD_ATMOSPHERE,
+                (None, None) => solar::STANDARD_ATMOSPHERE,
                 _ => fail!("{what}: give pressure_hpa and temperature_c together"),
             };
-            sky::sun_position_with(&SunTime {
+            solar::sun_position_with(&SunTime {
                 year,
                 month,
                 day,

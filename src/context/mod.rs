@@ -16,12 +16,13 @@ use crate::imap::{IMap, LayerLayout};
 use crate::photometry::{gonio, BandPhotometry, PhotometricData, Spectrum};
 use crate::render::RenderReport;
 use crate::scene::light::{Distribution, LightDesc, Placement};
-use crate::scene::sky::{SkyDesc, SkyKind, SunDesc};
-use crate::scene::{Bands, Light, Material, MaterialDesc, Mesh, MeshDesc, PreparedScene, Scene};
+use crate::scene::light::{SkyDesc, SkyKind, SunDesc};
+use crate::scene::{Light, Material, MaterialDesc, Mesh, MeshDesc, PreparedScene, Scene};
 use crate::sched::dynamic::DynamicParams;
 use crate::sched::{
     self, photons, push_history, Counters, Progress, RangeSet, RunContext, RunParams, StopReason,
 };
+use crate::spectral::Bands;
 use crate::transport::direct::{self as direct, DirectPlan, DirectSampler, Estimator};
 use crate::transport::{
     PathStats, Tracer, BAND_ABSORBED, BAND_DROPPED, BAND_EMITTED, BAND_ESCAPED,
@@ -494,7 +495,7 @@ impl Context {
             )?;
             self.check_sky_image(w, h)
         };
-        let (width, height, rgb) = crate::scene::sky::read_image(path, left, &check)?;
+        let (width, height, rgb) = crate::images::read_image(path, left, &check)?;
         let desc = SkyDesc {
             kind: SkyKind::Image {
                 width,
@@ -587,7 +588,7 @@ impl Context {
             if let crate::scene::light::LightShape::Distant(d) = &l.shape {
                 if d.parts
                     .iter()
-                    .any(|p| matches!(p.radiance, crate::scene::sky::Radiance::Ground))
+                    .any(|p| matches!(p.radiance, crate::scene::light::Radiance::Ground))
                 {
                     bail!(
                         ImapErrInvalidArgument,

@@ -6,8 +6,8 @@ use super::{
 };
 use crate::context::{Config, Context, SchedulerKind};
 use crate::error::{bail, ImapStatus, Result};
-use crate::scene::Bands;
 use crate::sched::dynamic::DynamicParams;
+use crate::spectral::Bands;
 use std::ffi::{c_char, CStr};
 use std::sync::{Arc, Mutex};
 

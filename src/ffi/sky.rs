@@ -10,7 +10,8 @@ use super::{
 use crate::context::Context;
 use crate::error::{bail, ImapStatus, Result};
 use crate::photometry::Spectrum;
-use crate::scene::sky::{self, SkyAmount, SkyDesc, SkyKind, SunDesc, SunTime};
+use crate::scene::light::{SkyAmount, SkyDesc, SkyKind, SunDesc};
+use crate::solar::{self, SunTime};
 use std::ffi::c_char;
 use std::sync::Arc;
 
@@ -489,9 +490,9 @@ pub unsafe extern "C" fn imap_sun_position(
         } else if t.flags & IMAP_SUN_TIME_ATMOSPHERE != 0 {
             Some((t.pressure_hpa, t.temperature_c))
         } else {
-            Some(sky::STANDARD_ATMOSPHERE)
+            Some(solar::STANDARD_ATMOSPHERE)
         };
-        let (a, z) = sky::sun_position_with(
+        let (a, z) = solar::sun_position_with(
             &SunTime {
                 year: t.year,
                 month: t.month,

@@ -12,7 +12,7 @@
 use super::regions::RegionScratch;
 use super::PhotonSquares;
 use crate::scene::{PreparedScene, MAX_GREY};
-use crate::transport::Colour;
+use crate::spectral::Colour;
 use std::collections::HashMap;
 
 /// Hits kept one by one before the buffer folds them per slot.

@@ -13,7 +13,8 @@
 //!   light in the visible range.
 
 use super::spectrum::{cmf, d65, integrate, Spectrum, C2};
-use crate::scene::Bands;
+use crate::error::{bail, Result};
+use crate::spectral::Bands;
 use std::sync::OnceLock;
 
 /// Maximum luminous efficacy for photopic vision, lm/W.
@@ -243,6 +244,34 @@ pub fn cct(xyz: [f64; 3]) -> Option<(f64, f64)> {
     let (tx, ty) = (q2[0] - q[0], q2[1] - q[1]);
     let side = (tx * (p[1] - q[1]) - ty * (p[0] - q[0])).signum();
     Some((t, -side * d(q)))
+}
+
+/// Radiant flux per band of `spectrum` scaled so that its total is `flux` in the amount's
+/// kind (radiant W or luminous lm).
+pub fn scale_spectrum(
+    spectrum: &Spectrum,
+    bands: &Bands,
+    flux: f64,
+    photometric: bool,
+) -> Result<Vec<f64>> {
+    spectrum.validate(bands)?;
+    let rel = spectrum_bands(spectrum, bands);
+    let norm = if photometric {
+        BandPhotometry::new(bands).luminous(&rel)
+    } else {
+        rel.iter().sum()
+    };
+    if !(norm > 0.0 && norm.is_finite()) {
+        bail!(
+            ImapErrInvalidArgument,
+            "the light's spectrum has no {} in the context's bands ({:.0}–{:.0} nm): it cannot carry a {}",
+            if photometric { "visible power" } else { "power" },
+            bands.interval(bands.count() - 1).0.min(bands.interval(0).0),
+            bands.interval(0).1.max(bands.interval(bands.count() - 1).1),
+            if photometric { "luminous amount" } else { "radiant amount" }
+        );
+    }
+    Ok(rel.iter().map(|r| r * flux / norm).collect())
 }
 
 #[cfg(test)]

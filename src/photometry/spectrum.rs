@@ -7,7 +7,7 @@
 
 use super::tables::{CMF_START_NM, CMF_X, CMF_Y, CMF_Z, D65_10NM, D65_START_NM};
 use crate::error::{bail, check_finite, Result};
-use crate::scene::Bands;
+use crate::spectral::Bands;
 
 /// Second radiation constant, m·K (the value CIE 15:2004 uses for Planckian radiators).
 pub const C2: f64 = 1.4388e-2;

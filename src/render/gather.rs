@@ -12,7 +12,8 @@
 use super::backward::{EyeStats, EyeTracer};
 use super::Image;
 use crate::sampling::PhotonRng;
-use crate::transport::{Colour, HitSink, PathStats, SurfaceEvent, Tracer};
+use crate::spectral::Colour;
+use crate::transport::{HitSink, PathStats, SurfaceEvent, Tracer};
 use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
 use std::sync::Mutex;
 use std::time::{Duration, Instant};

@@ -34,7 +34,8 @@ use crate::sampling::PhotonRng;
 use crate::sched::{
     duration_s, next_tick, push_history, CostClock, Progress, StopReason, MIN_PROGRESS_INTERVAL_S,
 };
-use crate::transport::{Colour, HitSink, PathStats, SurfaceEvent, Tracer};
+use crate::spectral::Colour;
+use crate::transport::{HitSink, PathStats, SurfaceEvent, Tracer};
 use bmap::{BackwardMap, PixelStore, SampleBuf};
 use gate::Gate;
 use std::cell::UnsafeCell;

@@ -6,8 +6,8 @@
 //! point to) and a medium with a wavelength-dependent index of refraction (constant, Cauchy
 //! or Sellmeier) and Beer–Lambert absorption inside; it reflects or refracts by Fresnel.
 
-use super::bands::Bands;
 use crate::error::{bail, check_finite, Result};
+use crate::spectral::Bands;
 
 /// How the index of refraction depends on the wavelength λ.
 #[derive(Clone, Debug, PartialEq)]

@@ -1,7 +1,7 @@
 //! Triangle meshes as the caller describes them, validated on entry.
 
-use super::bands::Bands;
 use crate::error::{bail, check_coordinates, try_collect, try_with_capacity, Result};
+use crate::spectral::Bands;
 
 /// A validated mesh. Positions are kept in f64 as given; the prepared scene recentres them
 /// before handing f32 copies to Embree.

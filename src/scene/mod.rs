@@ -1,15 +1,13 @@
 //! The scene: bands, materials, meshes and lights as plain Rust data, and its prepared
 //! (frozen) form that tracing reads.
 
-pub mod bands;
 pub mod light;
 pub mod material;
 pub mod mesh;
 mod prepared;
-pub mod sky;
 
 use crate::imap::LayerLayout;
-pub use bands::Bands;
+pub use crate::spectral::Bands;
 pub use light::{Light, LightShape};
 pub use material::{IorModel, Material, MaterialDesc};
 pub use mesh::{Mesh, MeshDesc};

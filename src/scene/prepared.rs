@@ -1,8 +1,8 @@
 //! The prepared scene: geometry recentred for f32 precision, per-triangle normals and
 //! areas, per-vertex area shares, the map's slot layout, and the light-selection table.
 
+use super::light::DistantPart;
 use super::mesh::triangle_area;
-use super::sky::DistantPart;
 use super::{LightShape, Material, Mesh, Scene};
 use crate::error::{bail, try_collect, try_filled, Error, ImapStatus, Result, Subject};
 use crate::imap::regions::RegionLayout;

@@ -12,7 +12,8 @@
 use super::{Counters, Monitor, PhotonSource, RunContext, RunOutcome, RunParams, StopGuard};
 use crate::imap::{grey_index, shares, BufferedHit, IMap, PhotonBuffer, PhotonOut, WEIGHTED};
 use crate::scene::PreparedScene;
-use crate::transport::{Colour, HitSink, PathStats};
+use crate::spectral::Colour;
+use crate::transport::{HitSink, PathStats};
 use crossbeam::channel::{self, Receiver, RecvTimeoutError, Sender};
 use std::time::Instant;
 

@@ -14,7 +14,8 @@ use crate::imap::{
     grey_index, shares, BufferedHit, IMap, PhotonBuffer, PhotonOut, Readout, FULL, GREY, WEIGHTED,
 };
 use crate::scene::PreparedScene;
-use crate::transport::{Colour, HitSink, PathStats};
+use crate::spectral::Colour;
+use crate::transport::{HitSink, PathStats};
 use crossbeam::channel::{self, Receiver, RecvTimeoutError, Sender, TryRecvError};
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::time::{Duration, Instant};

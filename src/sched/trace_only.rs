@@ -3,7 +3,8 @@
 
 use super::{Counters, Monitor, PhotonSource, RunContext, RunOutcome, RunParams, StopGuard};
 use crate::imap::IMap;
-use crate::transport::{Colour, HitSink, PathStats};
+use crate::spectral::Colour;
+use crate::transport::{HitSink, PathStats};
 
 struct Discard;
 

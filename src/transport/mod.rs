@@ -5,10 +5,9 @@
 //! the estimate unbiased. Paths end by absorption (Russian roulette by the material's own
 //! albedo), never by a silent depth cut: the safety limit on events reports what it drops.
 
-mod colour;
 pub mod direct;
 
-pub use colour::{collapse_weights, Colour};
+use crate::spectral::Colour;
 
 use crate::accel::Accel;
 use crate::sampling::{warp, PhotonRng};

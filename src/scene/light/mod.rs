@@ -6,122 +6,37 @@
 //! relative distribution of that flux over directions (and over an aperture or luminous
 //! opening). docs/photometry.md states the conversions.
 
-use super::bands::Bands;
-use super::sky::{Distant, SkyDesc, SunDesc};
+//!
+//! Each kind of light has its file: `shape` (point, spot, cosine, beam and how a shape
+//! spreads its flux), `luminaire` (goniometric distributions placed in the world),
+//! `distant` (what every distant source shares), `sky` (uniform, CIE and image skies and
+//! the ground's glow), `sun` and `cie` (the CIE standard general skies' formula).
+
+mod cie;
+mod direction;
+mod distant;
+mod luminaire;
+mod shape;
+mod sky;
+mod sun;
+
+pub use cie::{cie_luminance, CIE_SKY_PARAMETERS};
+pub use direction::unit_vector;
+use direction::{direction, perpendicular};
+pub use distant::{Distant, DistantPart, Radiance, SkyAmount, SkyFrame};
+pub use luminaire::Luminaire;
+pub use shape::{Aperture, LightShape};
+pub use sky::{SkyDesc, SkyKind};
+pub use sun::{SunDesc, SUN_DIAMETER_DEG};
+
 use crate::error::{bail, check_coordinates, check_finite, check_finite_scalar, Result};
-use crate::photometry::colour::{spectrum_bands, BandPhotometry};
+use crate::photometry::colour::scale_spectrum;
 use crate::photometry::{Goniometric, Opening, PhotometricData, PhotometricType, Spectrum};
-use crate::sampling::{warp, PhotonRng};
+use crate::sampling::warp;
+use crate::spectral::Bands;
 use glam::DVec3;
 use std::f64::consts::PI;
 use std::sync::Arc;
-
-/// How a light's direction and origin are distributed.
-#[derive(Clone, Debug)]
-pub enum LightShape {
-    /// Isotropic point source.
-    Point,
-    /// Uniform intensity inside a cone of half-angle `acos(cos_half_angle)` around `axis`.
-    Spot { axis: DVec3, cos_half_angle: f64 },
-    /// I = I0 cos γ into the hemisphere around `axis` (a Lambertian point source).
-    Cosine { axis: DVec3 },
-    /// Parallel rays along `axis`, leaving an aperture centred on the light's position.
-    Beam { axis: DVec3, aperture: Aperture },
-    /// A goniometric luminaire.
-    Luminaire(Arc<Luminaire>),
-    /// A sky, an environment image or the sun, infinitely far (`super::sky`). Its light's
-    /// `power` is per m² of cross-section: the flux through the scene's bounding sphere
-    /// follows from the sphere (`PreparedScene`).
-    Distant(Arc<Distant>),
-}
-
-/// A flat disk, ellipse or rectangle: centre ± `u` ± `v` (half-extent vectors, scene
-/// units, perpendicular to each other).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Aperture {
-    pub u: DVec3,
-    pub v: DVec3,
-    /// Elliptic (a disk when |u| = |v|) rather than rectangular.
-    pub elliptic: bool,
-}
-
-impl Aperture {
-    /// Area, scene units².
-    pub fn area(&self) -> f64 {
-        let a = 4.0 * self.u.length() * self.v.length();
-        if self.elliptic {
-            a * PI / 4.0
-        } else {
-            a
-        }
-    }
-
-    /// A uniformly distributed offset from the centre.
-    #[inline]
-    pub fn sample(&self, u1: f64, u2: f64) -> DVec3 {
-        if self.elliptic {
-            let r = u1.sqrt();
-            let phi = 2.0 * PI * u2;
-            self.u * (r * phi.cos()) + self.v * (r * phi.sin())
-        } else {
-            self.u * (2.0 * u1 - 1.0) + self.v * (2.0 * u2 - 1.0)
-        }
-    }
-
-    /// Whether the offset `d` from the centre (in the aperture's plane) lies inside.
-    #[inline]
-    pub fn contains(&self, d: DVec3) -> bool {
-        let a = d.dot(self.u) / self.u.length_squared();
-        let b = d.dot(self.v) / self.v.length_squared();
-        if self.elliptic {
-            a * a + b * b <= 1.0
-        } else {
-            a.abs() <= 1.0 && b.abs() <= 1.0
-        }
-    }
-}
-
-/// A placed goniometric distribution.
-#[derive(Debug)]
-pub struct Luminaire {
-    pub dist: Arc<Goniometric>,
-    /// The distribution's frame in the world: a direction at azimuth φ and polar angle θ
-    /// is `sin θ (cos φ x + sin φ y) + cos θ z`. Type C: z = the aim (γ = 0, nadir of the
-    /// luminaire), x = the C0 direction, y = C90. Type B: z = the lateral axis (H = 90°),
-    /// x = the aim (V = H = 0), y = the luminaire's up (V = 90°).
-    pub frame: [DVec3; 3],
-    /// The luminous opening light leaves from, if emission from it was asked for.
-    pub opening: Option<Aperture>,
-    /// The TILT factor of the placement (already in the light's power).
-    pub tilt_factor: f64,
-    /// Intensity per watt of flux: `dist.intensity / dist.flux`.
-    inv_flux: f64,
-}
-
-impl Luminaire {
-    /// The distribution's (φ, θ) of a world direction.
-    #[inline]
-    fn angles(&self, d: DVec3) -> (f64, f64) {
-        let [x, y, z] = self.frame;
-        let c = d.dot(z).clamp(-1.0, 1.0);
-        (d.dot(y).atan2(d.dot(x)), c.acos())
-    }
-
-    /// World direction of (φ, θ).
-    #[inline]
-    fn direction(&self, phi: f64, theta: f64) -> DVec3 {
-        let [x, y, z] = self.frame;
-        let s = theta.sin();
-        (x * (s * phi.cos()) + y * (s * phi.sin()) + z * theta.cos()).normalize()
-    }
-
-    /// Intensity in candela toward world direction `d` (unit), the placement's flux
-    /// scale and TILT factor not included.
-    pub fn candela(&self, d: DVec3) -> f64 {
-        let (phi, theta) = self.angles(d);
-        self.dist.intensity(phi, theta)
-    }
-}
 
 /// The amount of light, in the unit the caller chose.
 #[derive(Clone, Debug, PartialEq)]
@@ -268,66 +183,6 @@ pub struct Light {
     /// Light group (`Scene::layers`): which layer of the map its photons go to when light
     /// groups are kept; 0 by default.
     pub group: u32,
-}
-
-/// `v` scaled to unit length, for any finite non-zero `v` (huge and tiny components
-/// included: it is scaled by its largest component first), or None for the zero vector.
-pub fn unit_vector(v: [f64; 3]) -> Option<DVec3> {
-    let v = DVec3::from(v);
-    let m = v.abs().max_element();
-    if !(m > 0.0 && m.is_finite()) {
-        return None;
-    }
-    Some((v / m).normalize())
-}
-
-fn direction(name: &str, v: [f64; 3]) -> Result<DVec3> {
-    check_finite(name, &v)?;
-    match unit_vector(v) {
-        Some(d) => Ok(d),
-        None => bail!(ImapErrInvalidArgument, "{name} is the zero vector"),
-    }
-}
-
-/// The unit component of `r` perpendicular to unit `axis`, or an error naming `name`.
-fn perpendicular(name: &str, r: [f64; 3], axis: DVec3, axis_name: &str) -> Result<DVec3> {
-    let r = direction(name, r)?;
-    let p = r - axis * r.dot(axis);
-    if p.length() < 1e-6 {
-        bail!(
-            ImapErrInvalidArgument,
-            "{name} is parallel to {axis_name}: it must give a direction across it"
-        );
-    }
-    Ok(p.normalize())
-}
-
-/// Radiant flux per band of `spectrum` scaled so that its total is `flux` in the amount's
-/// kind (radiant W or luminous lm).
-pub(crate) fn scale_spectrum(
-    spectrum: &Spectrum,
-    bands: &Bands,
-    flux: f64,
-    photometric: bool,
-) -> Result<Vec<f64>> {
-    spectrum.validate(bands)?;
-    let rel = spectrum_bands(spectrum, bands);
-    let norm = if photometric {
-        BandPhotometry::new(bands).luminous(&rel)
-    } else {
-        rel.iter().sum()
-    };
-    if !(norm > 0.0 && norm.is_finite()) {
-        bail!(
-            ImapErrInvalidArgument,
-            "the light's spectrum has no {} in the context's bands ({:.0}–{:.0} nm): it cannot carry a {}",
-            if photometric { "visible power" } else { "power" },
-            bands.interval(bands.count() - 1).0.min(bands.interval(0).0),
-            bands.interval(0).1.max(bands.interval(bands.count() - 1).1),
-            if photometric { "luminous amount" } else { "radiant amount" }
-        );
-    }
-    Ok(rel.iter().map(|r| r * flux / norm).collect())
 }
 
 impl Light {
@@ -653,70 +508,11 @@ fn flux_of(shape: &LightShape, amount: &Amount, x: f64, unit_m: f64) -> Result<f
     Ok(flux)
 }
 
-impl LightShape {
-    /// Intensity toward unit direction `d` per watt of the light's flux, 1/sr (its
-    /// distribution over directions; 0 for a beam, whose light is not a point's).
-    #[inline]
-    pub fn intensity_per_watt(&self, d: DVec3) -> f64 {
-        match self {
-            LightShape::Point => 0.25 / PI,
-            LightShape::Spot {
-                axis,
-                cos_half_angle,
-            } => {
-                if d.dot(*axis) >= *cos_half_angle {
-                    1.0 / (2.0 * PI * (1.0 - cos_half_angle))
-                } else {
-                    0.0
-                }
-            }
-            LightShape::Cosine { axis } => d.dot(*axis).max(0.0) / PI,
-            LightShape::Beam { .. } | LightShape::Distant(_) => 0.0,
-            LightShape::Luminaire(l) => l.candela(d) * l.inv_flux,
-        }
-    }
-
-    /// Samples where a photon leaves (an offset from the light's position) and its
-    /// direction, distributed as the light's flux.
-    #[inline]
-    pub fn sample(&self, rng: &mut PhotonRng) -> (DVec3, DVec3) {
-        let (u1, u2) = (rng.uniform(), rng.uniform());
-        match self {
-            LightShape::Point => (DVec3::ZERO, warp::uniform_sphere(u1, u2)),
-            LightShape::Spot {
-                axis,
-                cos_half_angle,
-            } => (
-                DVec3::ZERO,
-                warp::uniform_cone(*axis, *cos_half_angle, u1, u2),
-            ),
-            LightShape::Cosine { axis } => (DVec3::ZERO, warp::cosine_hemisphere(*axis, u1, u2)),
-            LightShape::Beam { axis, aperture } => (aperture.sample(u1, u2), *axis),
-            LightShape::Luminaire(l) => {
-                let (phi, theta) = l.dist.sample(u1, u2, rng.uniform());
-                let at = match &l.opening {
-                    Some(o) => o.sample(rng.uniform(), rng.uniform()),
-                    None => DVec3::ZERO,
-                };
-                (at, l.direction(phi, theta))
-            }
-            LightShape::Distant(_) => unreachable!("distant lights are emitted by the scene"),
-        }
-    }
-
-    /// The luminous opening or aperture light leaves from, if not a point.
-    pub fn aperture(&self) -> Option<&Aperture> {
-        match self {
-            LightShape::Beam { aperture, .. } => Some(aperture),
-            LightShape::Luminaire(l) => l.opening.as_ref(),
-            _ => None,
-        }
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::photometry::BandPhotometry;
+    use crate::sampling::PhotonRng;
 
     fn rgb() -> Bands {
         Bands::rgb()

@@ -1,0 +1,596 @@
+//! Distant light: environments (a uniform sky, the CIE standard general skies, an
+//! equirectangular HDR image) and the sun, all infinitely far away.
+//!
+//! A distant source is a radiance L_b(ω) = `per_band[b]` · f(ω) arriving from direction ω
+//! (pointing *toward* the source), with f a relative radiance: 1 for a uniform sky and the
+//! sun's disk, L/L_z for a CIE sky, the pixel's value for an image channel. Its photons
+//! start on a disk of the scene's bounding-sphere radius R perpendicular to ω, outside the
+//! sphere, and travel along −ω: every point inside then receives L_b(ω) dω from each
+//! direction, whatever the scene's size or position, and the source's flux through the
+//! sphere is π R² ∫ L_b dω (`PreparedScene`). Directions are sampled from a table of cells
+//! (equal steps in zenith angle and azimuth) by each cell's mean of f; a photon carries
+//! f(ω) / (p(ω) ∫f), so the light is exact even where the table is coarse (an image's
+//! table is its pixels: the weight is 1).
+
+use super::cie::cie_relative;
+use crate::error::{bail, check_finite, check_finite_scalar, Result};
+use crate::photometry::colour::spectrum_bands;
+use crate::photometry::Spectrum;
+use crate::sampling::{warp, AliasTable};
+use crate::spectral::Bands;
+use glam::DVec3;
+use std::f64::consts::{FRAC_PI_2, PI};
+use std::fmt;
+use std::sync::Arc;
+
+/// Rows and columns of an analytic sky's sampling table (over the upper hemisphere), and
+/// the sub-samples per cell side its means take.
+pub(super) const SKY_ROWS: usize = 64;
+pub(super) const SKY_COLS: usize = 128;
+pub(super) const SKY_SUB: usize = 4;
+
+/// The sky's orientation in the scene: the zenith, north and east (unit, orthogonal).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SkyFrame {
+    pub zenith: DVec3,
+    pub north: DVec3,
+    pub east: DVec3,
+}
+
+impl SkyFrame {
+    /// The frame of `zenith` and `north` (its part along the zenith is ignored).
+    pub fn new(zenith: [f64; 3], north: [f64; 3]) -> Result<Self> {
+        check_finite("zenith", &zenith)?;
+        check_finite("north", &north)?;
+        let Some(z) = super::direction::unit_vector(zenith) else {
+            bail!(ImapErrInvalidArgument, "zenith is the zero vector");
+        };
+        let Some(n) = super::direction::unit_vector(north) else {
+            bail!(ImapErrInvalidArgument, "north is the zero vector");
+        };
+        let n = n - z * n.dot(z);
+        if n.length() < 1e-6 {
+            bail!(
+                ImapErrInvalidArgument,
+                "north is parallel to zenith: it must give a horizontal direction"
+            );
+        }
+        let north = n.normalize();
+        Ok(SkyFrame {
+            zenith: z,
+            north,
+            east: north.cross(z),
+        })
+    }
+
+    /// The direction at `azimuth` (radians from north toward east) and `zenith_angle`.
+    pub fn direction(&self, azimuth: f64, zenith_angle: f64) -> DVec3 {
+        let s = zenith_angle.sin();
+        (self.north * (s * azimuth.cos())
+            + self.east * (s * azimuth.sin())
+            + self.zenith * zenith_angle.cos())
+        .normalize()
+    }
+
+    /// (azimuth in [0, 2π), cos of the zenith angle) of unit direction `d`.
+    #[inline]
+    pub(super) fn angles(&self, d: DVec3) -> (f64, f64) {
+        let a = d.dot(self.east).atan2(d.dot(self.north));
+        let a = if a < 0.0 { a + 2.0 * PI } else { a };
+        (a, d.dot(self.zenith).clamp(-1.0, 1.0))
+    }
+}
+
+/// The relative radiance f of a distant source.
+#[derive(Clone)]
+pub enum Radiance {
+    /// 1 over the upper hemisphere (`sphere`: over every direction).
+    Uniform { sphere: bool },
+    /// L/L_z of a CIE standard general sky: `p` its (a, b, c, d, e), `sun` the direction
+    /// toward the sun; 0 below the horizon.
+    Cie { kind: u8, p: [f64; 5], sun: DVec3 },
+    /// One channel of an equirectangular image, rows from the zenith down, its centre
+    /// column toward north (before `rotation`, radians toward east); the pixel's value
+    /// over the pixel's solid angle.
+    Image {
+        width: usize,
+        height: usize,
+        values: Arc<Vec<f32>>,
+        rotation: f64,
+    },
+    /// 1 inside the sun's disk around `axis` (1 − cos of its angular radius
+    /// `one_minus_cos`).
+    Sun { axis: DVec3, one_minus_cos: f64 },
+    /// 1 below the horizon: the ground's glow (Radiance's), a uniform lower hemisphere.
+    Ground,
+}
+
+/// The sampling table of a sky: cells of equal zenith-angle and azimuth steps.
+#[derive(Clone, Debug)]
+pub(super) struct Table {
+    pub(super) rows: usize,
+    pub(super) cols: usize,
+    /// Zenith angle the rows span ([0, `theta_max`]).
+    pub(super) theta_max: f64,
+    /// Azimuth of the first column's left edge.
+    pub(super) azimuth0: f64,
+    /// cos of each row's upper and lower edges (rows + 1 values).
+    pub(super) cos_edges: Vec<f64>,
+    pub(super) cells: AliasTable,
+}
+
+/// A distant source with its table, f's integrals and radiance per band per unit of f.
+#[derive(Clone)]
+pub struct DistantPart {
+    pub frame: SkyFrame,
+    pub radiance: Radiance,
+    pub(super) table: Option<Table>,
+    /// ∫ f dω, sr.
+    pub integral: f64,
+    /// ∫ f max(cos Z, 0) dω: the horizontal irradiance per unit of f's radiance, sr.
+    pub horizontal: f64,
+    /// Radiance per band per unit of f, W/(m² sr).
+    pub per_band: Vec<f64>,
+}
+
+impl DistantPart {
+    /// Whether this part is the sun's disk.
+    pub fn is_sun(&self) -> bool {
+        matches!(self.radiance, Radiance::Sun { .. })
+    }
+}
+
+impl fmt::Debug for DistantPart {
+    // An image's pixels are summarised by a hash: the scene's description (state
+    // fingerprints) must tell different images apart without printing megapixels.
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let mut d = f.debug_struct("DistantPart");
+        d.field("frame", &self.frame);
+        match &self.radiance {
+            Radiance::Uniform { sphere } => d.field("uniform_sphere", sphere),
+            Radiance::Cie { kind, sun, .. } => d.field("cie", &(kind, sun)),
+            Radiance::Image {
+                width,
+                height,
+                values,
+                rotation,
+            } => {
+                let mut h = xxhash_rust::xxh3::Xxh3::new();
+                for v in values.iter() {
+                    h.update(&v.to_le_bytes());
+                }
+                d.field("image", &(width, height, rotation, h.digest()))
+            }
+            Radiance::Sun {
+                axis,
+                one_minus_cos,
+            } => d.field("sun", &(axis, one_minus_cos)),
+            Radiance::Ground => d.field("ground", &true),
+        };
+        d.field("per_band", &self.per_band).finish()
+    }
+}
+
+impl DistantPart {
+    /// A sky (sampled by a table), not the sun.
+    #[inline]
+    pub fn is_sky(&self) -> bool {
+        self.table.is_some()
+    }
+
+    /// f toward unit direction `d`.
+    #[inline]
+    pub fn value(&self, d: DVec3) -> f64 {
+        match &self.radiance {
+            Radiance::Uniform { sphere } => {
+                if *sphere || d.dot(self.frame.zenith) > 0.0 {
+                    1.0
+                } else {
+                    0.0
+                }
+            }
+            Radiance::Cie { p, sun, .. } => {
+                let cz = d.dot(self.frame.zenith);
+                if cz <= 0.0 {
+                    return 0.0;
+                }
+                let chi = d.dot(*sun).clamp(-1.0, 1.0).acos();
+                let zs = sun.dot(self.frame.zenith).clamp(-1.0, 1.0).acos();
+                cie_relative(p, cz, chi, zs)
+            }
+            Radiance::Image { width, values, .. } => {
+                let t = self.table.as_ref().expect("an image has a table");
+                let (i, j) = t.cell(&self.frame, d);
+                values[i * width + j] as f64
+            }
+            Radiance::Sun {
+                axis,
+                one_minus_cos,
+            } => {
+                // 1 − cos α without cancellation: |d − axis|²/2.
+                if (d - *axis).length_squared() * 0.5 <= *one_minus_cos {
+                    1.0
+                } else {
+                    0.0
+                }
+            }
+            Radiance::Ground => {
+                if d.dot(self.frame.zenith) < 0.0 {
+                    1.0
+                } else {
+                    0.0
+                }
+            }
+        }
+    }
+
+    /// ∫ f(ω) max(ω·n, 0) dω over every direction, sr: the irradiance per unit of f's
+    /// radiance on an open plane facing unit `n` (what a window portal facing `n` lets
+    /// in). Exact for uniform skies and the ground, for the sun's disk wherever it lies
+    /// wholly in front of the plane (0 where it does not: at most a grazing sliver), and
+    /// for tabulated skies by 4 × 4 points per cell of their table (an analytic sky's
+    /// 64 × 128 cells, as its own integral; 2 × 2 per pixel of an image).
+    pub fn cos_integral(&self, n: DVec3) -> f64 {
+        let up = n.dot(self.frame.zenith).clamp(-1.0, 1.0);
+        match &self.radiance {
+            Radiance::Uniform { sphere: true } => PI,
+            Radiance::Uniform { sphere: false } => PI * (1.0 + up) / 2.0,
+            Radiance::Ground => PI * (1.0 - up) / 2.0,
+            Radiance::Sun {
+                axis,
+                one_minus_cos,
+            } => {
+                // The mean direction over a cap is axis (1 + cos δ)/2.
+                let cos_d = 1.0 - one_minus_cos;
+                let sin_d = (one_minus_cos * (1.0 + cos_d)).sqrt();
+                let c = axis.dot(n);
+                if c > sin_d {
+                    self.integral * c * (1.0 + cos_d) / 2.0
+                } else {
+                    0.0
+                }
+            }
+            Radiance::Cie { .. } | Radiance::Image { .. } => {
+                let t = self.table.as_ref().expect("a tabulated sky");
+                let sub = match &self.radiance {
+                    Radiance::Image { .. } => 2,
+                    _ => SKY_SUB,
+                };
+                let mut sum = 0.0;
+                for i in 0..t.rows {
+                    let omega = t.solid_angle(i);
+                    for j in 0..t.cols {
+                        let f_cos = |d: DVec3| self.value(d) * d.dot(n).max(0.0);
+                        sum += t.means_sub(&self.frame, i, j, sub, f_cos).0 * omega;
+                    }
+                }
+                sum
+            }
+        }
+    }
+
+    /// The sampling density of direction `d`, 1/sr.
+    #[inline]
+    pub fn pdf(&self, d: DVec3) -> f64 {
+        match &self.table {
+            Some(t) => {
+                let (i, j) = t.cell(&self.frame, d);
+                t.cells.pdf(i * t.cols + j) / t.solid_angle(i)
+            }
+            None => match &self.radiance {
+                Radiance::Sun { one_minus_cos, .. } => {
+                    if self.value(d) > 0.0 {
+                        1.0 / (2.0 * PI * one_minus_cos)
+                    } else {
+                        0.0
+                    }
+                }
+                _ => unreachable!("only the sun has no table"),
+            },
+        }
+    }
+
+    /// A direction toward the source and its weight f / (p ∫f) (mean 1).
+    #[inline]
+    pub fn sample(&self, u: [f64; 3]) -> (DVec3, f64) {
+        let d = match (&self.table, &self.radiance) {
+            (
+                None,
+                Radiance::Sun {
+                    axis,
+                    one_minus_cos,
+                },
+            ) => {
+                return (
+                    warp::uniform_narrow_cone(*axis, *one_minus_cos, u[0], u[1]),
+                    1.0,
+                )
+            }
+            (Some(t), _) => t.sample(&self.frame, u),
+            (None, _) => unreachable!("only the sun has no table"),
+        };
+        let p = self.pdf(d);
+        let w = if p > 0.0 {
+            self.value(d) / (p * self.integral)
+        } else {
+            0.0
+        };
+        (d, w)
+    }
+}
+
+impl Table {
+    pub(super) fn solid_angle(&self, row: usize) -> f64 {
+        (self.cos_edges[row] - self.cos_edges[row + 1]) * 2.0 * PI / self.cols as f64
+    }
+
+    /// The cell of unit direction `d`.
+    #[inline]
+    pub(super) fn cell(&self, frame: &SkyFrame, d: DVec3) -> (usize, usize) {
+        let (a, cz) = frame.angles(d);
+        let z = cz.acos();
+        let i = ((z / self.theta_max * self.rows as f64) as usize).min(self.rows - 1);
+        let mut a = (a - self.azimuth0) / (2.0 * PI);
+        a -= a.floor();
+        let j = ((a * self.cols as f64) as usize).min(self.cols - 1);
+        (i, j)
+    }
+
+    pub(super) fn sample(&self, frame: &SkyFrame, u: [f64; 3]) -> DVec3 {
+        let k = self.cells.sample(u[0]);
+        let (i, j) = (k / self.cols, k % self.cols);
+        let a = self.azimuth0 + 2.0 * PI * (j as f64 + u[1]) / self.cols as f64;
+        let cz = self.cos_edges[i] + (self.cos_edges[i + 1] - self.cos_edges[i]) * u[2];
+        let s = (1.0 - cz * cz).max(0.0).sqrt();
+        (frame.north * (s * a.cos()) + frame.east * (s * a.sin()) + frame.zenith * cz).normalize()
+    }
+
+    /// A table over `rows` × `cols` cells spanning zenith angles [0, `theta_max`] with
+    /// weights `w(i, j)` (the cell's mean f; any positive floor is the caller's).
+    pub(super) fn new(
+        rows: usize,
+        cols: usize,
+        theta_max: f64,
+        azimuth0: f64,
+        w: impl Fn(usize, usize) -> f64,
+    ) -> Result<Self> {
+        let cos_edges: Vec<f64> = (0..=rows)
+            .map(|i| {
+                if i == rows && (theta_max - FRAC_PI_2).abs() < 1e-15 {
+                    0.0
+                } else {
+                    (theta_max * i as f64 / rows as f64).cos()
+                }
+            })
+            .collect();
+        let mut t = Table {
+            rows,
+            cols,
+            theta_max,
+            azimuth0,
+            cos_edges,
+            cells: AliasTable::new(&[1.0]).expect("one cell"),
+        };
+        let mut weights = Vec::with_capacity(rows * cols);
+        for i in 0..rows {
+            let omega = t.solid_angle(i);
+            for j in 0..cols {
+                weights.push(w(i, j) * omega);
+            }
+        }
+        t.cells = AliasTable::new(&weights).map_err(|why| {
+            crate::error::Error::new(
+                crate::error::ImapStatus::ImapErrNoLight,
+                format!("the sky's directions cannot be sampled ({why})"),
+            )
+        })?;
+        Ok(t)
+    }
+
+    /// Means of `f` and of f·max(cos Z, 0) over cell (i, j): `SKY_SUB`² points equally
+    /// spaced in azimuth and cos Z (equal solid angle).
+    pub(super) fn means(
+        &self,
+        frame: &SkyFrame,
+        i: usize,
+        j: usize,
+        f: impl Fn(DVec3) -> f64,
+    ) -> (f64, f64) {
+        self.means_sub(frame, i, j, SKY_SUB, f)
+    }
+
+    /// `means` with `sub`² points per cell.
+    pub(super) fn means_sub(
+        &self,
+        frame: &SkyFrame,
+        i: usize,
+        j: usize,
+        sub: usize,
+        f: impl Fn(DVec3) -> f64,
+    ) -> (f64, f64) {
+        let (mut m, mut h) = (0.0, 0.0);
+        for a in 0..sub {
+            for b in 0..sub {
+                let u = [(a as f64 + 0.5) / sub as f64, (b as f64 + 0.5) / sub as f64];
+                let az = self.azimuth0 + 2.0 * PI * (j as f64 + u[0]) / self.cols as f64;
+                let cz = self.cos_edges[i] + (self.cos_edges[i + 1] - self.cos_edges[i]) * u[1];
+                let s = (1.0 - cz * cz).max(0.0).sqrt();
+                let d =
+                    frame.north * (s * az.cos()) + frame.east * (s * az.sin()) + frame.zenith * cz;
+                let v = f(d.normalize());
+                m += v;
+                h += v * cz.max(0.0);
+            }
+        }
+        let n = (sub * sub) as f64;
+        (m / n, h / n)
+    }
+}
+
+/// How bright a sky or the sun is.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum SkyAmount {
+    /// Radiance over all bands, W/(m² sr): a uniform sky's, a CIE sky's at the zenith.
+    Radiance(f64),
+    /// Luminance, cd/m² (as `Radiance`).
+    Luminance(f64),
+    /// The irradiance it gives an unobstructed horizontal plane, W/m² over all bands.
+    HorizontalIrradiance(f64),
+    /// The illuminance it gives an unobstructed horizontal plane, lx.
+    HorizontalIlluminance(f64),
+    /// The sun's direct normal irradiance, W/m² over all bands.
+    NormalIrradiance(f64),
+    /// The sun's direct normal illuminance, lx.
+    NormalIlluminance(f64),
+    /// An image's pixel values times this factor are radiance per channel, W/(m² sr).
+    Scale(f64),
+}
+
+impl SkyAmount {
+    pub(super) fn value(self) -> f64 {
+        match self {
+            SkyAmount::Radiance(x)
+            | SkyAmount::Luminance(x)
+            | SkyAmount::HorizontalIrradiance(x)
+            | SkyAmount::HorizontalIlluminance(x)
+            | SkyAmount::NormalIrradiance(x)
+            | SkyAmount::NormalIlluminance(x)
+            | SkyAmount::Scale(x) => x,
+        }
+    }
+
+    pub(super) fn photometric(self) -> bool {
+        matches!(
+            self,
+            SkyAmount::Luminance(_)
+                | SkyAmount::HorizontalIlluminance(_)
+                | SkyAmount::NormalIlluminance(_)
+        )
+    }
+
+    pub(super) fn name(self) -> &'static str {
+        match self {
+            SkyAmount::Radiance(_) => "radiance (W/(m² sr))",
+            SkyAmount::Luminance(_) => "luminance (cd/m²)",
+            SkyAmount::HorizontalIrradiance(_) => "horizontal irradiance (W/m²)",
+            SkyAmount::HorizontalIlluminance(_) => "horizontal illuminance (lx)",
+            SkyAmount::NormalIrradiance(_) => "direct normal irradiance (W/m²)",
+            SkyAmount::NormalIlluminance(_) => "direct normal illuminance (lx)",
+            SkyAmount::Scale(_) => "scale",
+        }
+    }
+}
+
+/// A distant light: one part per colour channel (one for everything but a colour image).
+#[derive(Debug)]
+pub struct Distant {
+    pub parts: Vec<Arc<DistantPart>>,
+}
+
+impl Distant {
+    /// Pixels over the parts' images (0 for analytic skies and the sun).
+    pub fn image_pixels(&self) -> u64 {
+        self.parts
+            .iter()
+            .map(|p| match &p.radiance {
+                Radiance::Image { values, .. } => values.len() as u64,
+                _ => 0,
+            })
+            .sum()
+    }
+
+    /// Irradiance per band on an unobstructed horizontal plane, W/m².
+    pub fn horizontal(&self) -> Vec<f64> {
+        let nb = self.parts[0].per_band.len();
+        let mut out = vec![0.0; nb];
+        for p in &self.parts {
+            for (o, x) in out.iter_mut().zip(&p.per_band) {
+                *o += x * p.horizontal;
+            }
+        }
+        out
+    }
+}
+
+/// The per-band radiance per unit of f of `spectrum` for a total `x` (W or lm) per unit
+/// of `denominator` (the integral the amount refers to).
+pub(super) fn per_band(
+    spectrum: &Spectrum,
+    bands: &Bands,
+    x: f64,
+    photometric: bool,
+    denominator: f64,
+) -> Result<Vec<f64>> {
+    let out =
+        crate::photometry::colour::scale_spectrum(spectrum, bands, x / denominator, photometric)?;
+    if out.iter().any(|v| !v.is_finite()) {
+        bail!(
+            ImapErrInvalidArgument,
+            "amount = {x}: the radiance per band is not representable"
+        );
+    }
+    Ok(out)
+}
+
+pub(super) fn check_amount(amount: SkyAmount) -> Result<f64> {
+    let x = amount.value();
+    check_finite_scalar("amount", x)?;
+    if !(x > 0.0 && x <= 1e30) {
+        bail!(
+            ImapErrInvalidArgument,
+            "amount = {x} ({}): it must be positive (≤ 1e30)",
+            amount.name()
+        );
+    }
+    Ok(x)
+}
+
+/// Radiance per band per unit of an image channel's value: the channel's value is its
+/// radiance summed over the bands it covers (zeros when it covers none).
+pub(super) fn channel_bands(spectrum: &Spectrum, bands: &Bands) -> Vec<f64> {
+    let rel = spectrum_bands(spectrum, bands);
+    let sum: f64 = rel.iter().sum();
+    if sum > 0.0 {
+        rel.iter().map(|r| r / sum).collect()
+    } else {
+        rel.iter().map(|_| 0.0).collect()
+    }
+}
+
+impl DistantPart {
+    /// An analytic sky with its table over the upper hemisphere.
+    pub(super) fn tabulated(frame: SkyFrame, radiance: Radiance, rotation: f64) -> Result<Self> {
+        let mut part = DistantPart {
+            frame,
+            radiance,
+            table: None,
+            integral: 0.0,
+            horizontal: 0.0,
+            per_band: Vec::new(),
+        };
+        let probe = Table::new(SKY_ROWS, SKY_COLS, FRAC_PI_2, rotation, |_, _| 1.0)?;
+        let mut means = Vec::with_capacity(SKY_ROWS * SKY_COLS);
+        let (mut integral, mut horizontal) = (0.0, 0.0);
+        for i in 0..SKY_ROWS {
+            let omega = probe.solid_angle(i);
+            for j in 0..SKY_COLS {
+                let (m, h) = probe.means(&frame, i, j, |d| part.value(d));
+                means.push(m);
+                integral += m * omega;
+                horizontal += h * omega;
+            }
+        }
+        // A floor keeps every cell sampled: the weights stay bounded wherever f is.
+        let floor = 0.01 * integral / (2.0 * PI);
+        part.table = Some(Table::new(
+            SKY_ROWS,
+            SKY_COLS,
+            FRAC_PI_2,
+            rotation,
+            |i, j| means[i * SKY_COLS + j].max(floor),
+        )?);
+        part.integral = integral;
+        part.horizontal = horizontal;
+        Ok(part)
+    }
+}

@@ -1,0 +1,530 @@
+//! Skies: a uniform sky, the CIE standard general skies and equirectangular environment
+//! images (`Distant::sky`), and the ground's glow below the horizon (`Distant::ground`).
+
+use super::cie::CIE_SKY_PARAMETERS;
+use super::distant::*;
+use crate::error::{bail, check_finite, check_range, Result};
+use crate::photometry::{BandPhotometry, Spectrum};
+use crate::spectral::Bands;
+use glam::DVec3;
+use std::f64::consts::{FRAC_PI_2, PI};
+use std::sync::Arc;
+
+/// What kind of sky.
+#[derive(Clone, Debug, PartialEq)]
+pub enum SkyKind {
+    /// Uniform radiance over the upper hemisphere, or over every direction (`sphere`).
+    Uniform { sphere: bool },
+    /// CIE standard general sky `kind` (1–15) with the sun at `sun_azimuth_deg` (from
+    /// north toward east) and `sun_zenith_deg` (0–90). Both NaN: no sun given, which only
+    /// types 1, 3 and 5 (flat indicatrix) accept; the others are refused.
+    Cie {
+        kind: u32,
+        sun_azimuth_deg: f64,
+        sun_zenith_deg: f64,
+    },
+    /// An equirectangular image, `rgb` holding `width × height` linear RGB triples, rows
+    /// from the zenith down, the centre column toward north (before the rotation).
+    Image {
+        width: usize,
+        height: usize,
+        rgb: Arc<Vec<f32>>,
+    },
+}
+
+/// A sky as the caller describes it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SkyDesc {
+    pub kind: SkyKind,
+    pub amount: SkyAmount,
+    /// Colour of a uniform or CIE sky (an image has its own).
+    pub spectrum: Spectrum,
+    pub zenith: [f64; 3],
+    pub north: [f64; 3],
+    /// Turns the sky about the zenith, degrees toward east (an image's content at
+    /// azimuth a appears at a + rotation).
+    pub rotation_deg: f64,
+}
+
+impl Default for SkyDesc {
+    fn default() -> Self {
+        SkyDesc {
+            kind: SkyKind::Uniform { sphere: false },
+            amount: SkyAmount::Luminance(0.0),
+            spectrum: Spectrum::CieD65,
+            zenith: [0.0, 0.0, 1.0],
+            north: [0.0, 1.0, 0.0],
+            rotation_deg: 0.0,
+        }
+    }
+}
+
+impl Distant {
+    /// A sky.
+    pub fn sky(desc: &SkyDesc, bands: &Bands) -> Result<Self> {
+        let frame = SkyFrame::new(desc.zenith, desc.north)?;
+        check_range("rotation_deg", desc.rotation_deg, -360.0, 360.0)?;
+        let x = check_amount(desc.amount)?;
+        let rotation = desc.rotation_deg.to_radians();
+        let mut parts = Vec::new();
+        match &desc.kind {
+            SkyKind::Uniform { sphere } => {
+                let t = Table::new(
+                    if *sphere { 2 } else { 1 },
+                    1,
+                    if *sphere { PI } else { FRAC_PI_2 },
+                    0.0,
+                    |_, _| 1.0,
+                )?;
+                let integral = if *sphere { 4.0 * PI } else { 2.0 * PI };
+                let part = DistantPart {
+                    frame,
+                    radiance: Radiance::Uniform { sphere: *sphere },
+                    table: Some(t),
+                    integral,
+                    horizontal: PI,
+                    per_band: Vec::new(),
+                };
+                parts.push(part);
+            }
+            SkyKind::Cie {
+                kind,
+                sun_azimuth_deg,
+                sun_zenith_deg,
+            } => {
+                if !(1..=15).contains(kind) {
+                    bail!(
+                        ImapErrInvalidArgument,
+                        "cie_type = {kind}: the CIE standard general skies are types 1–15"
+                    );
+                }
+                // No sun (both NaN): only the types whose indicatrix is flat (1, 3, 5)
+                // do not depend on where it is.
+                let (sun_azimuth_deg, sun_zenith_deg) =
+                    match (sun_azimuth_deg.is_nan() && sun_zenith_deg.is_nan(), kind) {
+                        (true, 1 | 3 | 5) => (&0.0, &0.0),
+                        (true, _) => bail!(
+                            ImapErrInvalidArgument,
+                            "sun_azimuth_deg and sun_zenith_deg are not set: a CIE sky of type {kind} needs its sun's position (only types 1, 3 and 5 do not depend on it)"
+                        ),
+                        (false, _) => (sun_azimuth_deg, sun_zenith_deg),
+                    };
+                check_range("sun_azimuth_deg", *sun_azimuth_deg, -360.0, 360.0)?;
+                check_range("sun_zenith_deg", *sun_zenith_deg, 0.0, 90.0)?;
+                let sun = frame.direction(
+                    sun_azimuth_deg.to_radians() + rotation,
+                    sun_zenith_deg.to_radians(),
+                );
+                let radiance = Radiance::Cie {
+                    kind: *kind as u8,
+                    p: CIE_SKY_PARAMETERS[*kind as usize - 1],
+                    sun,
+                };
+                parts.push(DistantPart::tabulated(frame, radiance, rotation)?);
+            }
+            SkyKind::Image { width, height, rgb } => {
+                let (w, h) = (*width, *height);
+                if w == 0 || h == 0 || w > 1 << 16 || h > 1 << 16 {
+                    bail!(
+                        ImapErrInvalidArgument,
+                        "the image is {w} × {h} pixels: each side must be 1–65536"
+                    );
+                }
+                if rgb.len() != w * h * 3 {
+                    bail!(
+                        ImapErrInvalidArgument,
+                        "the image holds {} values; {w} × {h} RGB pixels need {}",
+                        rgb.len(),
+                        w * h * 3
+                    );
+                }
+                if let Some(i) = rgb.iter().position(|v| !(v.is_finite() && *v >= 0.0)) {
+                    bail!(
+                        ImapErrNonFinite,
+                        "pixel ({}, {}) channel {} of the image is {}: radiance must be finite and ≥ 0",
+                        (i / 3) % w,
+                        i / 3 / w,
+                        i % 3,
+                        rgb[i]
+                    );
+                }
+                let mut channels: Vec<Vec<f32>> = (0..3)
+                    .map(|c| rgb.iter().skip(c).step_by(3).copied().collect())
+                    .collect();
+                let grey = channels[0] == channels[1] && channels[1] == channels[2];
+                let used: Vec<usize> = if grey {
+                    vec![0]
+                } else {
+                    (0..3)
+                        .filter(|&c| channels[c].iter().any(|&v| v > 0.0))
+                        .collect()
+                };
+                for c in used {
+                    let values = Arc::new(std::mem::take(&mut channels[c]));
+                    if values.iter().all(|&v| v == 0.0) {
+                        continue;
+                    }
+                    let radiance = Radiance::Image {
+                        width: w,
+                        height: h,
+                        values: values.clone(),
+                        rotation,
+                    };
+                    let azimuth0 = -PI + rotation;
+                    let t = Table::new(h, w, PI, azimuth0, |i, j| values[i * w + j] as f64)?;
+                    let mut integral = 0.0;
+                    let mut horizontal = 0.0;
+                    for i in 0..h {
+                        let row: f64 = values[i * w..(i + 1) * w].iter().map(|&v| v as f64).sum();
+                        let omega = t.solid_angle(i);
+                        integral += row * omega;
+                        // ∫ cos Z dω over the row's part above the horizon.
+                        let (c0, c1) = (t.cos_edges[i].max(0.0), t.cos_edges[i + 1].max(0.0));
+                        horizontal += row * (c0 * c0 - c1 * c1) * 0.5 * 2.0 * PI / w as f64;
+                    }
+                    // A grey image's one part carries the three channels' bands.
+                    let mut per_band = vec![0.0; bands.count()];
+                    for k in 0..3 {
+                        if grey || k == c {
+                            let mut rgb = [0.0; 3];
+                            rgb[k] = 1.0;
+                            let cb = channel_bands(&Spectrum::Rgb(rgb), bands);
+                            per_band.iter_mut().zip(cb).for_each(|(p, x)| *p += x);
+                        }
+                    }
+                    if per_band.iter().all(|&x| x == 0.0) {
+                        continue;
+                    }
+                    parts.push(DistantPart {
+                        frame,
+                        radiance,
+                        table: Some(t),
+                        integral,
+                        horizontal,
+                        per_band,
+                    });
+                }
+                if parts.is_empty() {
+                    bail!(
+                        ImapErrNoLight,
+                        "the image is black in the context's bands: it gives no light"
+                    );
+                }
+            }
+        }
+        // Scale to the amount.
+        let image = matches!(desc.kind, SkyKind::Image { .. });
+        match desc.amount {
+            SkyAmount::Scale(k) if image => {
+                for p in &mut parts {
+                    p.per_band.iter_mut().for_each(|v| *v *= k);
+                }
+            }
+            SkyAmount::Radiance(_) | SkyAmount::Luminance(_) if !image => {
+                let p = &mut parts[0];
+                p.per_band = per_band(&desc.spectrum, bands, x, desc.amount.photometric(), 1.0)?;
+            }
+            SkyAmount::HorizontalIrradiance(_) | SkyAmount::HorizontalIlluminance(_) => {
+                if !image {
+                    let p = &mut parts[0];
+                    p.per_band = per_band(
+                        &desc.spectrum,
+                        bands,
+                        x,
+                        desc.amount.photometric(),
+                        p.horizontal,
+                    )?;
+                } else {
+                    let phot = BandPhotometry::new(bands);
+                    let now: f64 = parts
+                        .iter()
+                        .map(|p| {
+                            let e: Vec<f64> = p.per_band.iter().map(|v| v * p.horizontal).collect();
+                            if desc.amount.photometric() {
+                                phot.luminous(&e)
+                            } else {
+                                e.iter().sum()
+                            }
+                        })
+                        .sum();
+                    if !(now > 0.0 && now.is_finite()) {
+                        bail!(
+                            ImapErrNoLight,
+                            "the image gives no {} above the horizon: it cannot be scaled to a horizontal amount",
+                            if desc.amount.photometric() { "visible light" } else { "light" }
+                        );
+                    }
+                    for p in &mut parts {
+                        p.per_band.iter_mut().for_each(|v| *v *= x / now);
+                    }
+                }
+            }
+            a => bail!(
+                ImapErrInvalidArgument,
+                "{} cannot be given by its {}: {}",
+                match desc.kind {
+                    SkyKind::Uniform { .. } => "a uniform sky",
+                    SkyKind::Cie { .. } => "a CIE sky",
+                    SkyKind::Image { .. } => "an image sky",
+                },
+                a.name(),
+                if image {
+                    "give an image a scale or a horizontal irradiance or illuminance"
+                } else {
+                    "give it a radiance, a luminance, or a horizontal irradiance or illuminance"
+                }
+            ),
+        }
+        if parts
+            .iter()
+            .any(|p| p.per_band.iter().any(|v| !v.is_finite()))
+        {
+            bail!(
+                ImapErrInvalidArgument,
+                "amount = {x}: the sky's radiance is not representable"
+            );
+        }
+        Ok(Distant {
+            parts: parts.into_iter().map(Arc::new).collect(),
+        })
+    }
+}
+
+impl Distant {
+    /// The ground's glow below the horizon of `zenith` (north is immaterial): a uniform
+    /// radiance per band `per_band`, W/(m² sr). As Radiance's ground glow it stands for
+    /// an open, diffusely reflecting ground of reflectance ρ lit by the sky and the sun:
+    /// L = ρ E_h / π (`Context::add_ground`). It gives an open horizontal plane nothing
+    /// from above and π L on its underside.
+    pub fn ground(zenith: [f64; 3], per_band: Vec<f64>) -> Result<Self> {
+        let z = DVec3::from(zenith);
+        check_finite("zenith", &zenith)?;
+        let north = if z.normalize_or_zero().x.abs() < 0.9 {
+            DVec3::X
+        } else {
+            DVec3::Y
+        };
+        let north = (north - z.normalize_or_zero() * north.dot(z.normalize_or_zero())).to_array();
+        let frame = SkyFrame::new(zenith, north)?;
+        // Two rows over [0, π]: only the lower one is sampled.
+        let table = Table::new(2, 1, PI, 0.0, |i, _| if i == 1 { 1.0 } else { 0.0 })?;
+        Ok(Distant {
+            parts: vec![Arc::new(DistantPart {
+                frame,
+                radiance: Radiance::Ground,
+                table: Some(table),
+                integral: 2.0 * PI,
+                horizontal: 0.0,
+                per_band,
+            })],
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sampling::PhotonRng;
+    use crate::scene::light::SunDesc;
+
+    fn rgb() -> Bands {
+        Bands::rgb()
+    }
+
+    /// Monte Carlo ∫ g dω by the part's own sampling (weights included), and the mean
+    /// weight.
+    fn integrate(p: &DistantPart, n: usize, g: impl Fn(DVec3) -> f64) -> (f64, f64) {
+        let mut rng = PhotonRng::new(1, 2);
+        let (mut s, mut w_sum) = (0.0, 0.0);
+        for _ in 0..n {
+            let (d, w) = p.sample([rng.uniform(), rng.uniform(), rng.uniform()]);
+            s += w * p.integral * g(d);
+            w_sum += w;
+        }
+        (s / n as f64, w_sum / n as f64)
+    }
+
+    #[test]
+    fn cie_sky_is_one_at_the_zenith_and_matches_its_formula() {
+        let b = rgb();
+        for kind in 1..=15u32 {
+            let d = Distant::sky(
+                &SkyDesc {
+                    kind: SkyKind::Cie {
+                        kind,
+                        sun_azimuth_deg: 135.0,
+                        sun_zenith_deg: 40.0,
+                    },
+                    amount: SkyAmount::Radiance(1.0),
+                    ..SkyDesc::default()
+                },
+                &b,
+            )
+            .unwrap();
+            let p = &d.parts[0];
+            assert!((p.value(DVec3::Z) - 1.0).abs() < 1e-12, "type {kind}");
+            // The integral by sampling agrees with the quadrature; weights average 1.
+            let (i, w) = integrate(p, 200_000, |_| 1.0);
+            assert!(
+                (i / p.integral - 1.0).abs() < 0.01,
+                "type {kind}: {i} vs {}",
+                p.integral
+            );
+            assert!((w - 1.0).abs() < 0.01, "type {kind}: mean weight {w}");
+            let (h, _) = integrate(p, 200_000, |d| d.z.max(0.0));
+            assert!((h / p.horizontal - 1.0).abs() < 0.01, "type {kind}");
+            assert_eq!(p.value(DVec3::new(1.0, 0.0, -0.1).normalize()), 0.0);
+        }
+        // Type 16-like check of the formula: overcast type 1 at the horizon is 1/φ(0).
+        let d = Distant::sky(
+            &SkyDesc {
+                kind: SkyKind::Cie {
+                    kind: 1,
+                    sun_azimuth_deg: 0.0,
+                    sun_zenith_deg: 0.0,
+                },
+                amount: SkyAmount::Radiance(1.0),
+                ..SkyDesc::default()
+            },
+            &b,
+        )
+        .unwrap();
+        let horizon = d.parts[0].value(DVec3::new(0.0, 1.0, 1e-9).normalize());
+        assert!(
+            (horizon - 1.0 / (1.0 + 4.0 * (-0.7f64).exp())).abs() < 1e-6,
+            "{horizon}"
+        );
+    }
+
+    #[test]
+    fn amounts_set_the_radiance_and_horizontal_light() {
+        let b = rgb();
+        let k = BandPhotometry::new(&b);
+        let d = Distant::sky(
+            &SkyDesc {
+                amount: SkyAmount::Luminance(1000.0),
+                ..SkyDesc::default()
+            },
+            &b,
+        )
+        .unwrap();
+        let p = &d.parts[0];
+        assert!((k.luminous(&p.per_band) - 1000.0).abs() < 1e-9);
+        assert!((k.luminous(&d.horizontal()) - 1000.0 * PI).abs() < 1e-6);
+        let d = Distant::sky(
+            &SkyDesc {
+                kind: SkyKind::Cie {
+                    kind: 12,
+                    sun_azimuth_deg: 180.0,
+                    sun_zenith_deg: 30.0,
+                },
+                amount: SkyAmount::HorizontalIlluminance(10_000.0),
+                ..SkyDesc::default()
+            },
+            &b,
+        )
+        .unwrap();
+        assert!((k.luminous(&d.horizontal()) - 10_000.0).abs() < 1e-6);
+        let sun = Distant::sun(
+            &SunDesc {
+                azimuth_deg: 180.0,
+                zenith_deg: 60.0,
+                amount: SkyAmount::NormalIlluminance(80_000.0),
+                ..SunDesc::default()
+            },
+            &b,
+        )
+        .unwrap();
+        assert!((k.luminous(&sun.horizontal()) - 40_000.0).abs() < 1e-6);
+        let s = &sun.parts[0];
+        // South is −y with north +y and zenith +z.
+        let axis = match s.radiance {
+            Radiance::Sun { axis, .. } => axis,
+            _ => unreachable!(),
+        };
+        assert!(
+            (axis - DVec3::new(0.0, -0.75f64.sqrt(), 0.5)).length() < 1e-12,
+            "{axis}"
+        );
+    }
+
+    #[test]
+    fn an_image_is_sampled_by_its_pixels() {
+        let b = rgb();
+        let (w, h) = (16usize, 8usize);
+        let mut rgb = vec![0f32; w * h * 3];
+        for i in 0..w * h {
+            rgb[3 * i] = (i % 7) as f32;
+            rgb[3 * i + 1] = 1.0;
+            rgb[3 * i + 2] = if i == 5 { 100.0 } else { 0.0 };
+        }
+        let d = Distant::sky(
+            &SkyDesc {
+                kind: SkyKind::Image {
+                    width: w,
+                    height: h,
+                    rgb: Arc::new(rgb.clone()),
+                },
+                amount: SkyAmount::Scale(2.0),
+                rotation_deg: 30.0,
+                ..SkyDesc::default()
+            },
+            &b,
+        )
+        .unwrap();
+        assert_eq!(d.parts.len(), 3);
+        for p in &d.parts {
+            let (i, wm) = integrate(p, 100_000, |_| 1.0);
+            assert!((i / p.integral - 1.0).abs() < 1e-9 && (wm - 1.0).abs() < 1e-9);
+        }
+        // The blue channel's only pixel (5, 0) is at the top row, column 5: azimuth
+        // −180° + 30° + (5.5/16)·360°.
+        let p = &d.parts[2];
+        let a = (-180.0f64 + 30.0 + 5.5 / 16.0 * 360.0).to_radians();
+        let dir = p.frame.direction(a, (0.5 / 8.0 * 180.0f64).to_radians());
+        assert_eq!(p.value(dir), 100.0);
+        assert_eq!(p.per_band, vec![0.0, 0.0, 2.0]);
+        let dir = p
+            .frame
+            .direction(a + 0.5, (0.5 / 8.0 * 180.0f64).to_radians());
+        assert_eq!(p.value(dir), 0.0);
+    }
+
+    #[test]
+    fn bad_skies_are_refused_by_name() {
+        let b = rgb();
+        let e = |desc: SkyDesc| Distant::sky(&desc, &b).unwrap_err().to_string();
+        assert!(e(SkyDesc {
+            kind: SkyKind::Cie {
+                kind: 16,
+                sun_azimuth_deg: 0.0,
+                sun_zenith_deg: 0.0
+            },
+            amount: SkyAmount::Luminance(1.0),
+            ..SkyDesc::default()
+        })
+        .contains("cie_type"));
+        assert!(e(SkyDesc::default()).contains("amount"));
+        assert!(e(SkyDesc {
+            amount: SkyAmount::Scale(1.0),
+            ..SkyDesc::default()
+        })
+        .contains("uniform"));
+        assert!(e(SkyDesc {
+            amount: SkyAmount::Luminance(1.0),
+            north: [0.0, 0.0, 2.0],
+            ..SkyDesc::default()
+        })
+        .contains("north"));
+        assert!(e(SkyDesc {
+            kind: SkyKind::Image {
+                width: 2,
+                height: 1,
+                rgb: Arc::new(vec![0.0, 1.0, 2.0, f32::NAN, 0.0, 0.0]),
+            },
+            amount: SkyAmount::Scale(1.0),
+            ..SkyDesc::default()
+        })
+        .contains("pixel (1, 0)"));
+    }
+}
