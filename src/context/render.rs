@@ -9,7 +9,7 @@ use crate::render::{
     self, Camera, CameraDesc, EyeStats, EyeTracer, Image, Monitor, RenderMethod, RenderParams,
     RenderReport,
 };
-use crate::scene::EmitterKind;
+use crate::scene::Extent;
 use crate::sched::{duration_s, Progress, RunParams, StopReason};
 use crate::transport::Tracer;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -313,11 +313,7 @@ impl Context {
             prepared
                 .emitters
                 .iter()
-                .map(|e| match &e.kind {
-                    EmitterKind::Light(_) => true,
-                    EmitterKind::Distant { part, .. } => part.is_sun(),
-                    _ => false,
-                })
+                .map(|e| e.extent() == Extent::PointLike)
                 .collect()
         };
         let specular = self

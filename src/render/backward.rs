@@ -12,7 +12,7 @@ use crate::accel::Accel;
 use crate::sampling::{warp, PhotonRng};
 use crate::scene::light::DistantPart;
 use crate::scene::material::fresnel_dielectric;
-use crate::scene::{EmitterKind, LightShape, Material, PreparedScene, Scene};
+use crate::scene::{LightSample, Material, PreparedScene, Receiver, Scene};
 use crate::spectral::collapse_weights;
 use crate::transport::{reflect, refract};
 use glam::DVec3;
@@ -135,15 +135,13 @@ impl<'a> EyeTracer<'a> {
             .emitters
             .iter()
             .enumerate()
-            .map(|(e, em)| match &em.kind {
-                EmitterKind::Light(_) | EmitterKind::Distant { .. } => {
-                    LightValue::Power(em.power.clone())
-                }
-                EmitterKind::Mesh { mesh, .. } => {
-                    emitter_of_mesh[*mesh] = Some(e as u32);
-                    let m = &scene.meshes[*mesh];
+            .map(|(e, em)| match em.mesh() {
+                None => LightValue::Power(em.power.clone()),
+                Some(mesh) => {
+                    emitter_of_mesh[mesh] = Some(e as u32);
+                    let m = &scene.meshes[mesh];
                     let area = (0..m.triangles.len()).map(|t| m.area(t)).sum();
-                    let exitance = source.meshes[*mesh].exitance.as_ref().expect("emits");
+                    let exitance = source.meshes[mesh].exitance.as_ref().expect("emits");
                     LightValue::Radiance {
                         radiance: exitance.iter().map(|x| x / PI).collect(),
                         area,
@@ -165,10 +163,7 @@ impl<'a> EyeTracer<'a> {
             distant: scene
                 .emitters
                 .iter()
-                .filter_map(|em| match &em.kind {
-                    EmitterKind::Distant { part, .. } => Some(part.clone()),
-                    _ => None,
-                })
+                .filter_map(|em| em.distant_part().cloned())
                 .collect(),
             lights,
             emitter_of_mesh,
@@ -182,11 +177,14 @@ impl<'a> EyeTracer<'a> {
     #[inline]
     fn emission(&self, mesh: u32, ng: DVec3, dir: DVec3) -> Option<(usize, &[f64], f64, f64)> {
         let e = self.emitter_of_mesh[mesh as usize]? as usize;
-        let EmitterKind::Mesh { two_sided, .. } = self.scene.emitters[e].kind else {
-            return None;
-        };
+        self.emission_of(e, ng, dir)
+    }
+
+    /// `emission` of emitter `e` (an emitting mesh; None for others).
+    #[inline]
+    fn emission_of(&self, e: usize, ng: DVec3, dir: DVec3) -> Option<(usize, &[f64], f64, f64)> {
         let cos = -dir.dot(ng);
-        if cos <= 0.0 && !two_sided {
+        if cos <= 0.0 && !self.scene.emitters[e].two_sided() {
             return None;
         }
         match &self.lights[e] {
@@ -780,38 +778,42 @@ impl<'a> EyeTracer<'a> {
         let pe = table.pdf(e);
         let em = &self.scene.emitters[e];
         let (u1, u2, u3) = (rng.uniform(), rng.uniform(), rng.uniform());
-        match (&em.kind, &self.lights[e]) {
-            (EmitterKind::Light(LightShape::Beam { axis, aperture }), LightValue::Power(power)) => {
-                // Lit when the point lies in the beam: its projection along the axis falls
-                // inside the aperture, in front of it, with nothing in between.
-                let t = (p - em.position).dot(*axis);
-                let q = p - *axis * t;
-                let wi = -*axis;
+        let receiver = Receiver {
+            n: n_in,
+            p_front: p_reflect,
+        };
+        let sample = em.sample_toward(&self.scene.meshes, p, receiver, [u1, u2, u3], || {
+            rng.uniform() < p_reflect
+        });
+        let power = || match &self.lights[e] {
+            LightValue::Power(power) => power.as_slice(),
+            LightValue::Radiance { .. } => unreachable!("emitting meshes sample areas"),
+        };
+        match sample {
+            None => {}
+            Some(LightSample::Beam { axis, area, .. }) => {
+                // Lit when the point lies in the beam (`sample_toward`), with nothing in
+                // between.
+                let wi = -axis;
                 let cos = wi.dot(n_in);
-                if let (true, Some((w, _))) =
-                    (t > 0.0 && aperture.contains(q - em.position), side(cos))
-                {
+                if let Some((w, _)) = side(cos) {
                     let org = p + n_in * (eps * cos.signum());
-                    let dist = (org - em.position).dot(*axis);
+                    let dist = (org - em.position).dot(axis);
                     stats.rays += 1;
                     if dist > 0.0 && !self.accel.occluded(org, wi, dist) {
-                        let k = cos.abs() / (aperture.area() * self.unit_m * self.unit_m * pe);
-                        for ((o, w), pw) in out.iter_mut().zip(w).zip(power) {
+                        let k = cos.abs() / (area * self.unit_m * self.unit_m * pe);
+                        for ((o, w), pw) in out.iter_mut().zip(w).zip(power()) {
                             *o += w * pw * k;
                         }
                     }
                 }
             }
-            (EmitterKind::Light(shape), LightValue::Power(power)) => {
+            Some(LightSample::Point(at)) => {
                 // A point, or a point of the luminous opening (uniform over it).
-                let at = match shape.aperture() {
-                    Some(a) => em.position + a.sample(u1, u2),
-                    None => em.position,
-                };
                 let to = at - p;
                 let d2 = to.length_squared();
                 let wi = to / d2.sqrt();
-                let per_watt = shape.intensity_per_watt(-wi);
+                let per_watt = em.intensity_per_watt(-wi);
                 if per_watt <= 0.0 {
                     return self.bsdf_sample(p, n_in, eps, p_reflect, &side, rng, out, stats);
                 }
@@ -823,29 +825,24 @@ impl<'a> EyeTracer<'a> {
                     let dist = to_light.length();
                     if !self.accel.occluded(org, to_light / dist, dist) {
                         let k = per_watt * cos.abs() / (d2 * self.unit_m * self.unit_m * pe);
-                        for ((o, w), pw) in out.iter_mut().zip(w).zip(power) {
+                        for ((o, w), pw) in out.iter_mut().zip(w).zip(power()) {
                             *o += w * pw * k;
                         }
                     }
                 }
             }
-            (
-                EmitterKind::Mesh {
-                    mesh, triangles, ..
-                },
-                LightValue::Radiance { radiance, area },
-            ) => {
-                let m = &self.scene.meshes[*mesh];
-                let t = triangles.sample(u1);
-                let (b1, b2) = warp::uniform_triangle(u2, u3);
-                let q = m.point(t, b1 as f32, b2 as f32);
-                let ng = m.normals[t].as_dvec3();
+            Some(LightSample::Area {
+                point: q,
+                normal: ng,
+            }) => {
                 let to = q - p;
                 let d2 = to.length_squared();
                 let d = d2.sqrt();
                 let wi = to / d;
                 let cos = wi.dot(n_in);
-                if let (Some((w, ps)), Some(_)) = (side(cos), self.emission(*mesh as u32, ng, wi)) {
+                if let (Some((w, ps)), Some((_, radiance, area, _))) =
+                    (side(cos), self.emission_of(e, ng, wi))
+                {
                     let cos_l = wi.dot(ng).abs();
                     // The shadow ray leaves from the offset origin and aims at q itself.
                     let org = p + n_in * (eps * cos.signum());
@@ -865,55 +862,34 @@ impl<'a> EyeTracer<'a> {
                     }
                 }
             }
-            (
-                EmitterKind::Distant {
-                    part, radius, norm, ..
-                },
-                LightValue::Power(power),
-            ) => {
+            Some(LightSample::Direction {
+                toward: wi,
+                pdf: q,
+                value: f,
+            }) => {
                 // A sky: half by its radiance, half cosine-distributed on the side the
                 // weights favour (one-sample MIS by the mixture's density, as the map's
                 // light samples); the sun: over its disk.
-                let (wi, q) = if part.is_sky() {
-                    let n = if rng.uniform() < p_reflect {
-                        n_in
-                    } else {
-                        -n_in
-                    };
-                    let wi = if u1 < 0.5 {
-                        part.sample([2.0 * u1, u2, u3]).0
-                    } else {
-                        warp::cosine_hemisphere(n, 2.0 * u1 - 1.0, u2)
-                    };
-                    let cos = wi.dot(n_in);
-                    let side_p = if cos > 0.0 {
-                        p_reflect
-                    } else {
-                        1.0 - p_reflect
-                    };
-                    (wi, 0.5 * part.pdf(wi) + 0.5 * side_p * cos.abs() / PI)
-                } else {
-                    let wi = part.sample([u1, u2, u3]).0;
-                    (wi, part.pdf(wi))
-                };
-                let f = part.value(wi);
                 let cos = wi.dot(n_in);
                 if let (true, Some((w, _))) = (f > 0.0 && q > 0.0, side(cos)) {
                     let org = p + n_in * (eps * cos.signum());
                     stats.rays += 1;
+                    let (radius, norm) = (
+                        em.distant_radius().expect("distant"),
+                        em.distant_norm().expect("distant"),
+                    );
                     // Nothing lies beyond the bounding sphere: 2R from any point inside.
                     if !self.accel.occluded(org, wi, 2.5 * radius) {
                         // L cos / q, with L = power / norm × f per band (norm: π R² ∫f,
                         // or the portals').
                         let cross = norm * self.unit_m * self.unit_m;
                         let k = f * cos.abs() / (q * cross * pe);
-                        for ((o, w), pw) in out.iter_mut().zip(w).zip(power) {
+                        for ((o, w), pw) in out.iter_mut().zip(w).zip(power()) {
                             *o += w * pw * k;
                         }
                     }
                 }
             }
-            _ => unreachable!("lights are built from the emitters"),
         }
         self.bsdf_sample(p, n_in, eps, p_reflect, &side, rng, out, stats);
     }

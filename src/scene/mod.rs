@@ -1,20 +1,23 @@
 //! The scene: bands, materials, meshes and lights as plain Rust data, and its prepared
 //! (frozen) form that tracing reads.
 
+mod emitter;
 pub mod light;
 pub mod material;
 pub mod mesh;
 mod prepared;
+mod prepared_mesh;
 
 use crate::imap::LayerLayout;
 pub use crate::spectral::Bands;
+pub use emitter::{
+    Emitter, EmitterKind, Extent, LightSample, Photon, Portals, Receiver, PORTAL_SHARE,
+};
 pub use light::{Light, LightShape};
 pub use material::{IorModel, Material, MaterialDesc};
 pub use mesh::{Mesh, MeshDesc};
-pub use prepared::{
-    most_grey, Emitter, EmitterKind, GreySpectra, PreparedMesh, PreparedScene, GREY_MIN_BANDS,
-    MAX_GREY,
-};
+pub use prepared::{most_grey, GreySpectra, PreparedScene, GREY_MIN_BANDS, MAX_GREY};
+pub use prepared_mesh::{PreparedMesh, MAX_DISTORTION};
 
 /// Everything the caller has described.
 #[derive(Clone, Debug)]

@@ -44,7 +44,7 @@ use super::{reflect, Colour, WEIGHTED_BOUNCES_DOWN_TO};
 use crate::accel::Accel;
 use crate::imap::DirectAcc;
 use crate::sampling::{warp, PhotonRng};
-use crate::scene::{EmitterKind, LightShape, Material, PreparedScene};
+use crate::scene::{LightSample, Material, PreparedScene, Receiver};
 use glam::DVec3;
 use std::f64::consts::PI;
 
@@ -484,42 +484,24 @@ fn power(a: f64, b: f64) -> f64 {
 impl DirectSampler<'_> {
     /// The density p of one photon's landing at x from y on emitter `e` along unit `dir`
     /// (from y to x), r² = |x − y|², cos θx = `cos_x`, and for an emitting mesh cos θy =
-    /// `cos_y` (P = R·p per pass; `light_density` holds the 1/R).
+    /// `cos_y` (P = R·p per pass; `light_density` holds the 1/R): the emitter's own
+    /// (`Emitter::photon_density`), a sky's scaled by the light samples' gain.
     #[inline]
     fn photon_density(&self, e: usize, dir: DVec3, r2: f64, cos_x: f64, cos_y: f64) -> f64 {
-        match &self.scene.emitters[e].kind {
-            EmitterKind::Light(LightShape::Beam { aperture, .. }) => cos_x / aperture.area(),
-            EmitterKind::Distant {
-                part, norm, gain, ..
-            } => {
-                // Against the light samples' directions (`sample_light`): a sky's are half
-                // by its radiance, half cosine-distributed.
-                // A sky's direct light samples get no gain over the photons (the plain
-                // balance of densities): through a window most of them find the roof, and
-                // photons entering through it reach the floor as well (daylight_bench: 1 %
-                // in 4.1 instead of 7.0 s). The sun's, smooth and nearly certain, keep it.
-                // The factor scales the photon density itself, which both sides of every
-                // comparison read, so it applies to gathering too: there a sky's secondary
-                // light samples weigh GATHER_GAIN / LIGHT_SAMPLE_GAIN = 1/8 against the
-                // photons (unbiased either way; measured only as daylight_bench's
-                // gathering row).
-                let toward = -dir;
-                let ratio = if part.is_sky() {
-                    let p = part.pdf(toward);
-                    LIGHT_SAMPLE_GAIN * p / (0.5 * p + 0.5 * cos_x / PI)
-                } else {
-                    1.0
-                };
-                // Photons per unit area: 1 / (π R²) of the whole sky's (∫f / norm), times
-                // the portals' concentration (`gain`; 1 without).
-                cos_x * ratio * part.integral * gain / norm
-            }
-            EmitterKind::Light(shape) => shape.intensity_per_watt(dir) * cos_x / r2,
-            EmitterKind::Mesh { two_sided, .. } => {
-                let sides = if *two_sided { 2.0 } else { 1.0 };
-                cos_y * cos_x / (PI * sides * r2)
-            }
-        }
+        // Against the light samples' directions (`sample_light`): a sky's are half by its
+        // radiance, half cosine-distributed.
+        // A sky's direct light samples get no gain over the photons (the plain balance of
+        // densities): through a window most of them find the roof, and photons entering
+        // through it reach the floor as well (daylight_bench: 1 % in 4.1 instead of 7.0
+        // s). The sun's, smooth and nearly certain, keep it. The factor scales the photon
+        // density itself, which both sides of every comparison read, so it applies to
+        // gathering too: there a sky's secondary light samples weigh GATHER_GAIN /
+        // LIGHT_SAMPLE_GAIN = 1/8 against the photons (unbiased either way; measured only
+        // as daylight_bench's gathering row).
+        self.scene.emitters[e].photon_density(dir, r2, cos_x, cos_y, |part, toward| {
+            let p = part.pdf(toward);
+            LIGHT_SAMPLE_GAIN * p / (0.5 * p + 0.5 * cos_x / PI)
+        })
     }
 
     /// Samples per pass of vertex `v` of mesh `mi`: a sensor's take `SENSOR_SAMPLES` times
@@ -899,46 +881,33 @@ impl DirectSampler<'_> {
         let (x, n) = (at.x, at.n);
         let e = scene.emitter_table.sample(u);
         let em = &scene.emitters[e];
-        match &em.kind {
-            EmitterKind::Light(LightShape::Beam { axis, aperture }) => {
-                let cos_x = -axis.dot(n);
-                let t = (x - em.position).dot(*axis);
-                if cos_x <= 0.0 || t <= 0.0 {
-                    return None;
-                }
-                let q = x - *axis * t;
-                if !aperture.contains(q - em.position) {
-                    return None;
-                }
-                self.visible(x, q)?;
-                let mis = power(at.l, self.photon_density(e, *axis, t * t, cos_x, 1.0));
-                Some((e, mis * cos_x / aperture.area()))
-            }
-            EmitterKind::Distant {
-                part, radius, norm, ..
+        let receiver = Receiver { n, p_front: 1.0 };
+        match em.sample_toward(&scene.meshes, x, receiver, w, || true)? {
+            LightSample::Beam {
+                foot,
+                t,
+                axis,
+                area,
             } => {
-                // A sky: half the samples by its radiance, half cosine-distributed over the
-                // side (a room lit through a window sees a part of the sky its radiance
-                // rarely picks); one-sample MIS by the mixture's density. The sun: by its
-                // disk.
-                let (toward, q) = if part.is_sky() {
-                    let toward = if w[0] < 0.5 {
-                        part.sample([2.0 * w[0], w[1], w[2]]).0
-                    } else {
-                        warp::cosine_hemisphere(n, 2.0 * w[0] - 1.0, w[1])
-                    };
-                    let cos = toward.dot(n).max(0.0);
-                    (toward, 0.5 * part.pdf(toward) + 0.5 * cos / PI)
-                } else {
-                    let toward = part.sample(w).0;
-                    (toward, part.pdf(toward))
-                };
+                let cos_x = -axis.dot(n);
+                if cos_x <= 0.0 {
+                    return None;
+                }
+                self.visible(x, foot)?;
+                let mis = power(at.l, self.photon_density(e, axis, t * t, cos_x, 1.0));
+                Some((e, mis * cos_x / area))
+            }
+            LightSample::Direction {
+                toward,
+                pdf: q,
+                value: f,
+            } => {
                 let cos_x = toward.dot(n);
-                let f = part.value(toward);
                 if cos_x <= 0.0 || f <= 0.0 || q <= 0.0 {
                     return None;
                 }
                 // Nothing lies beyond the bounding sphere: 2R from any point inside.
+                let (radius, norm) = (em.distant_radius()?, em.distant_norm()?);
                 if self.accel.occluded(x, toward, 2.5 * radius) {
                     return None;
                 }
@@ -947,11 +916,7 @@ impl DirectSampler<'_> {
                 let g = f * cos_x / (q * norm);
                 Some((e, mis * g))
             }
-            EmitterKind::Light(shape) => {
-                let y = match shape.aperture() {
-                    Some(a) => em.position + a.sample(w[0], w[1]),
-                    None => em.position,
-                };
+            LightSample::Point(y) => {
                 let (dir, r) = self.visible(x, y)?;
                 let cos_x = dir.dot(n);
                 if cos_x <= 0.0 {
@@ -959,30 +924,21 @@ impl DirectSampler<'_> {
                 }
                 let r2 = (at.on - y).length_squared();
                 let mis = power(at.l, self.photon_density(e, -dir, r2, cos_x, 1.0));
-                let g = shape.intensity_per_watt(-dir) * cos_x / (r * r);
+                let g = em.intensity_per_watt(-dir) * cos_x / (r * r);
                 Some((e, mis * g))
             }
-            EmitterKind::Mesh {
-                mesh,
-                triangles,
-                two_sided,
-            } => {
-                let m = &scene.meshes[*mesh];
-                let t = triangles.sample(w[2]);
-                let [a, b, c] = m.triangles[t].map(|i| m.vertices[i as usize].as_dvec3());
-                let (b1, b2) = warp::uniform_triangle(w[0], w[1]);
-                let y = a + (b - a) * b1 + (c - a) * b2;
-                let ny = m.normals[t].as_dvec3();
+            LightSample::Area { point: y, normal } => {
+                let two_sided = em.two_sided();
                 let (dir, r) = self.visible(x, y)?;
                 let cos_x = dir.dot(n);
-                let mut cos_y = -dir.dot(ny);
-                if *two_sided {
+                let mut cos_y = -dir.dot(normal);
+                if two_sided {
                     cos_y = cos_y.abs();
                 }
                 if cos_x <= 0.0 || cos_y <= 0.0 {
                     return None;
                 }
-                let sides = if *two_sided { 2.0 } else { 1.0 };
+                let sides = if two_sided { 2.0 } else { 1.0 };
                 let r2 = (at.on - y).length_squared();
                 let mis = power(at.l, self.photon_density(e, -dir, r2, cos_x, cos_y));
                 Some((e, mis * cos_x * cos_y / (PI * sides * r * r)))

@@ -12,7 +12,7 @@ use crate::spectral::Colour;
 use crate::accel::Accel;
 use crate::sampling::{warp, PhotonRng};
 use crate::scene::material::Polarisation;
-use crate::scene::{EmitterKind, Material, PreparedScene};
+use crate::scene::{Material, PreparedScene};
 use glam::DVec3;
 use std::sync::atomic::{AtomicBool, Ordering};
 
@@ -355,9 +355,11 @@ impl Tracer<'_> {
     ) -> (PathEnd, Emission) {
         let mut rng = PhotonRng::new(self.seed, k);
         // Emit: choose a light by power, then a point and a direction on it.
-        let (emitter, org, dir, mut weight, cos_y) = self.scene.emit(&mut rng);
+        let (emitter, photon) = self.scene.emit(&mut rng);
+        let (org, dir, mut weight, cos_y) =
+            (photon.origin, photon.direction, photon.weight, photon.cos);
         colour.reset(&self.scene.emitters[emitter].colour);
-        if let EmitterKind::Distant { .. } = self.scene.emitters[emitter].kind {
+        if self.scene.emitters[emitter].is_distant() {
             // A distant photon's weight is its share of the source's radiance (mean 1): it
             // emits that much, none of it escaping at emission.
             colour.scale(weight);
