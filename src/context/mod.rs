@@ -212,10 +212,7 @@ impl Context {
                         self.scene.slot_count(),
                         samples,
                         gather,
-                        self.scene
-                            .materials
-                            .iter()
-                            .any(|m| m.events[1] || m.dielectric.is_some()),
+                        self.scene.materials.iter().any(|m| m.bsdf().is_specular()),
                     )
                 } else {
                     pass_photons

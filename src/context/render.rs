@@ -316,11 +316,7 @@ impl Context {
                 .map(|e| e.extent() == Extent::PointLike)
                 .collect()
         };
-        let specular = self
-            .scene
-            .materials
-            .iter()
-            .any(|m| m.dielectric.is_some() || m.events[1]);
+        let specular = self.scene.materials.iter().any(|m| m.bsdf().is_specular());
         let with_caustics = specular && delta.iter().any(|&d| d);
         let read_bytes = (slots * (nb + 1) * 8) as u64;
         let caustic_bytes = if with_caustics {

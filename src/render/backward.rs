@@ -10,6 +10,7 @@ use super::bmap::{BackwardPhoton, SampleBuf};
 use super::camera::Camera;
 use crate::accel::Accel;
 use crate::sampling::{warp, PhotonRng};
+use crate::scene::bsdf::Lobe;
 use crate::scene::light::DistantPart;
 use crate::scene::material::fresnel_dielectric;
 use crate::scene::{LightSample, Material, PreparedScene, Receiver, Scene};
@@ -158,7 +159,10 @@ impl<'a> EyeTracer<'a> {
             unit_m: source.unit_m,
             max_events,
             initial_radius,
-            transmit: source.materials.iter().any(|m| m.events[2]),
+            transmit: source
+                .materials
+                .iter()
+                .any(|m| m.bsdf().has(Lobe::DiffuseTransmission)),
             has_mesh_emitters: emitter_of_mesh.iter().any(Option::is_some),
             distant: scene
                 .emitters
@@ -239,7 +243,11 @@ impl<'a> EyeTracer<'a> {
             // Emission seen directly or through specular surfaces.
             self.add_emission(hit.mesh, at.ng, dir, beta, &mut buf.direct[d0..]);
             let (p_hit, n_in, eps) = (at.p, at.n_in, at.eps);
-            let material = &self.materials[at.material as usize];
+            let bsdf = self.materials[at.material as usize].bsdf();
+            let (rho, tau) = (
+                bsdf.albedo(Lobe::DiffuseReflection),
+                bsdf.albedo(Lobe::DiffuseTransmission),
+            );
             let pd =
                 match self.surface_step(&at, &mut dir, &mut org, &mut medium, &mut band, beta, rng)
                 {
@@ -249,17 +257,11 @@ impl<'a> EyeTracer<'a> {
                 };
             // The first diffuse vertex: direct light here, and a backward photon.
             let p0 = buf.w_reflect.len();
-            buf.w_reflect.extend(
-                beta.iter()
-                    .zip(&material.diffuse_reflect)
-                    .map(|(b, k)| b * k / (pd * PI)),
-            );
+            buf.w_reflect
+                .extend(beta.iter().zip(rho).map(|(b, k)| b * k / (pd * PI)));
             if self.transmit {
-                buf.w_transmit.extend(
-                    beta.iter()
-                        .zip(&material.diffuse_transmit)
-                        .map(|(b, k)| b * k / (pd * PI)),
-                );
+                buf.w_transmit
+                    .extend(beta.iter().zip(tau).map(|(b, k)| b * k / (pd * PI)));
             }
             let wt = self.transmit.then(|| &buf.w_transmit[p0..p0 + nb]);
             self.direct_light(
@@ -343,7 +345,11 @@ impl<'a> EyeTracer<'a> {
                 self.add_emission(hit.mesh, at.ng, dir, beta, out);
             }
             let (p_hit, n_in, eps, front) = (at.p, at.n_in, at.eps, at.front);
-            let material = &self.materials[at.material as usize];
+            let bsdf = self.materials[at.material as usize].bsdf();
+            let (rho, tau) = (
+                bsdf.albedo(Lobe::DiffuseReflection),
+                bsdf.albedo(Lobe::DiffuseTransmission),
+            );
             let pd =
                 match self.surface_step(&at, &mut dir, &mut org, &mut medium, &mut band, beta, rng)
                 {
@@ -356,16 +362,8 @@ impl<'a> EyeTracer<'a> {
                 };
             // A diffuse vertex: its direct light, then on by cosine sampling.
             scratch.clear();
-            scratch.extend(
-                beta.iter()
-                    .zip(&material.diffuse_reflect)
-                    .map(|(b, k)| b * k / (pd * PI)),
-            );
-            scratch.extend(
-                beta.iter()
-                    .zip(&material.diffuse_transmit)
-                    .map(|(b, k)| b * k / (pd * PI)),
-            );
+            scratch.extend(beta.iter().zip(rho).map(|(b, k)| b * k / (pd * PI)));
+            scratch.extend(beta.iter().zip(tau).map(|(b, k)| b * k / (pd * PI)));
             let (wr, wt) = scratch.split_at(nb);
             let wt = (self.transmit && wt.iter().any(|&x| x > 0.0)).then_some(wt);
             // The second diffuse vertex on a recorded mesh: the map's light here, and the end.
@@ -379,20 +377,19 @@ impl<'a> EyeTracer<'a> {
                 self.map_read(hit.mesh, prim, uv, side, wr, wt, out, reads);
                 return;
             }
-            let sr: f64 = (0..nb).map(|b| beta[b] * material.diffuse_reflect[b]).sum();
-            let st: f64 = (0..nb)
-                .map(|b| beta[b] * material.diffuse_transmit[b])
-                .sum();
+            let sr: f64 = (0..nb).map(|b| beta[b] * rho[b]).sum();
+            let st: f64 = (0..nb).map(|b| beta[b] * tau[b]).sum();
             let reflect_side = rng.uniform() * (sr + st) < sr;
-            let (k, p_side, n) = if reflect_side {
-                (&material.diffuse_reflect, sr / (sr + st), n_in)
+            let (lobe, p_side) = if reflect_side {
+                (Lobe::DiffuseReflection, sr / (sr + st))
             } else {
-                (&material.diffuse_transmit, st / (sr + st), -n_in)
+                (Lobe::DiffuseTransmission, st / (sr + st))
             };
-            for (b, k) in beta.iter_mut().zip(k) {
+            for (b, k) in beta.iter_mut().zip(bsdf.albedo(lobe)) {
                 *b *= k / (pd * p_side);
             }
-            dir = warp::cosine_hemisphere(n, rng.uniform(), rng.uniform());
+            let n = lobe.leaving_normal(n_in);
+            dir = lobe.direction(dir, n_in, rng.uniform(), rng.uniform());
             org = p_hit + n * eps;
             counts = false;
             diffuse_vertices += 1;
@@ -496,10 +493,11 @@ impl<'a> EyeTracer<'a> {
         }
         let dir = to / dist;
         let c = dir.dot(n_in);
+        let bsdf = m.bsdf();
         let (k, n) = if c > 0.0 {
-            (&m.diffuse_reflect, n_in)
-        } else if m.events[2] {
-            (&m.diffuse_transmit, -n_in)
+            (bsdf.albedo(Lobe::DiffuseReflection), n_in)
+        } else if bsdf.has(Lobe::DiffuseTransmission) {
+            (bsdf.albedo(Lobe::DiffuseTransmission), -n_in)
         } else {
             return None;
         };
@@ -695,9 +693,9 @@ impl<'a> EyeTracer<'a> {
         beta: &mut [f64],
         rng: &mut PhotonRng,
     ) -> Step {
-        let material = &self.materials[at.material as usize];
+        let bsdf = self.materials[at.material as usize].bsdf();
         let n_in = at.n_in;
-        if let Some(d) = &material.dielectric {
+        if let Some(d) = bsdf.interface() {
             if d.dispersive && band.is_none() {
                 *band = Some(collapse_weights(beta, rng.uniform()));
             }
@@ -715,13 +713,14 @@ impl<'a> EyeTracer<'a> {
             return Step::Specular;
         }
         let nb = self.bands;
-        let wd: f64 = (0..nb)
-            .map(|b| beta[b] * (material.diffuse_reflect[b] + material.diffuse_transmit[b]))
-            .sum();
-        let ws: f64 = if material.events[1] {
-            (0..nb)
-                .map(|b| beta[b] * material.specular_reflect[b])
-                .sum()
+        let (rho, tau) = (
+            bsdf.albedo(Lobe::DiffuseReflection),
+            bsdf.albedo(Lobe::DiffuseTransmission),
+        );
+        let wd: f64 = (0..nb).map(|b| beta[b] * (rho[b] + tau[b])).sum();
+        let specular = bsdf.albedo(Lobe::SpecularReflection);
+        let ws: f64 = if bsdf.has(Lobe::SpecularReflection) {
+            (0..nb).map(|b| beta[b] * specular[b]).sum()
         } else {
             0.0
         };
@@ -731,10 +730,10 @@ impl<'a> EyeTracer<'a> {
         let pd = wd / (wd + ws);
         if rng.uniform() >= pd {
             let ps = 1.0 - pd;
-            for (b, k) in beta.iter_mut().zip(&material.specular_reflect) {
+            for (b, k) in beta.iter_mut().zip(specular) {
                 *b *= k / ps;
             }
-            *dir = reflect(*dir, n_in);
+            *dir = Lobe::SpecularReflection.direction(*dir, n_in, 0.0, 0.0);
             *org = at.p + n_in * at.eps;
             return Step::Specular;
         }

@@ -544,7 +544,7 @@ impl HitSink for CausticSink<'_> {
             return;
         }
         let m = ev.material;
-        if m.dielectric.is_some() || !(m.events[0] || m.events[2]) {
+        if !m.bsdf().is_diffuse() {
             // Specular only: the path goes on.
             return;
         }

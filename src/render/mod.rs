@@ -356,7 +356,7 @@ impl HitSink for ForwardSink<'_> {
         // The first hit is direct light (the backward paths' light sampling has it); only
         // diffuse surfaces hold backward photons.
         let m = ev.material;
-        if ev.bounce == 0 || m.dielectric.is_some() || !(m.events[0] || m.events[2]) {
+        if ev.bounce == 0 || !m.bsdf().is_diffuse() {
             return;
         }
         let (y, n) = (ev.point.as_vec3(), ev.n_in.as_vec3());

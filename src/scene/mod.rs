@@ -1,6 +1,7 @@
 //! The scene: bands, materials, meshes and lights as plain Rust data, and its prepared
 //! (frozen) form that tracing reads.
 
+pub mod bsdf;
 mod emitter;
 pub mod light;
 pub mod material;

@@ -40,10 +40,11 @@
 //! density at z (`landing_density`) and L the samples' density at x times `GATHER_GAIN`;
 //! photons bring the rest (caustics) alone (`Tracer::follow`).
 
-use super::{reflect, Colour, WEIGHTED_BOUNCES_DOWN_TO};
+use super::{Colour, WEIGHTED_BOUNCES_DOWN_TO};
 use crate::accel::Accel;
 use crate::imap::DirectAcc;
 use crate::sampling::{warp, PhotonRng};
+use crate::scene::bsdf::Lobe;
 use crate::scene::{LightSample, Material, PreparedScene, Receiver};
 use glam::DVec3;
 use std::f64::consts::PI;
@@ -766,8 +767,8 @@ impl DirectSampler<'_> {
             };
             let mesh = &scene.meshes[hit.mesh as usize];
             let prim = hit.prim as usize;
-            let material = &self.materials[mesh.material(prim) as usize];
-            if material.dielectric.is_some() {
+            let bsdf = self.materials[mesh.material(prim) as usize].bsdf();
+            if bsdf.interface().is_some() {
                 return;
             }
             let ng = mesh.normals[prim].as_dvec3();
@@ -775,13 +776,11 @@ impl DirectSampler<'_> {
             let (p, eps) = scene.leaving_point(mesh, prim, hit.u, hit.v);
             // Light scattered diffusely toward x: reflected from the side the path arrived
             // on, transmitted from the other.
-            for (on, k, n) in [
-                (material.events[0], &material.diffuse_reflect, n_in),
-                (material.events[2], &material.diffuse_transmit, -n_in),
-            ] {
-                if !on {
+            for lobe in [Lobe::DiffuseReflection, Lobe::DiffuseTransmission] {
+                if !bsdf.has(lobe) {
                     continue;
                 }
+                let n = lobe.leaving_normal(n_in);
                 let y = Point {
                     on: p,
                     x: p + n * eps,
@@ -791,61 +790,33 @@ impl DirectSampler<'_> {
                 let u = d.next();
                 let w = [d.next(), d.next(), d.next()];
                 if let Some((e, g)) = self.sample_light(&y, u, w) {
-                    self.add(e, g, Some((t, k)), sums, nb);
+                    self.add(e, g, Some((t, bsdf.albedo(lobe))), sums, nb);
                 }
             }
             // Go on as a photon would.
             let mut u = d.next();
-            let events = [
-                &material.diffuse_reflect,
-                &material.specular_reflect,
-                &material.diffuse_transmit,
-            ];
-            let possible = || {
-                events
-                    .iter()
-                    .enumerate()
-                    .filter(|(i, _)| material.events[*i])
-            };
             let weigh = t.mean() >= WEIGHTED_BOUNCES_DOWN_TO;
             let mut survive = 1.0;
             if weigh {
-                survive = possible().map(|(_, k)| t.weighted_mean(k)).sum::<f64>();
+                survive = bsdf.survival(|k| t.weighted_mean(k));
                 if survive.is_nan() || survive <= 0.0 {
                     return;
                 }
                 u *= survive;
             }
-            let mut cumulative = 0.0;
-            let mut chosen = None;
-            for (i, k) in possible() {
-                let p = t.weighted_mean(k);
-                cumulative += p;
-                if u < cumulative {
-                    t.reweight(k, p);
-                    chosen = Some(i);
-                    break;
-                }
+            let chosen = bsdf.choose(u, |k| t.weighted_mean(k));
+            if let Some((_, k, p)) = chosen {
+                t.reweight(k, p);
             }
             if weigh {
                 t.scale(survive);
             }
             let (u1, u2) = (d.next(), d.next());
-            match chosen {
-                Some(0) => {
-                    dir = warp::cosine_hemisphere(n_in, u1, u2);
-                    org = p + n_in * eps;
-                }
-                Some(1) => {
-                    dir = reflect(dir, n_in);
-                    org = p + n_in * eps;
-                }
-                Some(_) => {
-                    dir = warp::cosine_hemisphere(-n_in, u1, u2);
-                    org = p - n_in * eps;
-                }
-                None => return,
-            }
+            let Some((lobe, _, _)) = chosen else {
+                return;
+            };
+            dir = lobe.direction(dir, n_in, u1, u2);
+            org = p + lobe.leaving_normal(n_in) * eps;
         }
     }
 

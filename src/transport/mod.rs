@@ -10,7 +10,7 @@ pub mod direct;
 use crate::spectral::Colour;
 
 use crate::accel::Accel;
-use crate::sampling::{warp, PhotonRng};
+use crate::sampling::PhotonRng;
 use crate::scene::material::Polarisation;
 use crate::scene::{Material, PreparedScene};
 use glam::DVec3;
@@ -528,7 +528,8 @@ impl Tracer<'_> {
                 }
             }
 
-            if let Some(d) = &material.dielectric {
+            let bsdf = material.bsdf();
+            if let Some(d) = bsdf.interface() {
                 gathered = None;
                 // Smooth dielectric interface: Fresnel reflection or Snell refraction.
                 if d.dispersive {
@@ -557,8 +558,8 @@ impl Tracer<'_> {
                 continue;
             }
 
-            // Opaque or translucent surface: choose the event by colour-weighted albedos,
-            // spending no per-band work on events this material cannot have.
+            // Opaque or translucent surface: choose the lobe by colour-weighted albedos,
+            // spending no per-band work on lobes this surface does not have.
             pol = None;
             let mut u = rng.uniform();
             // With light sampling the first bounce does not end paths: the photon goes on
@@ -569,17 +570,7 @@ impl Tracer<'_> {
                 && colour.mean() >= WEIGHTED_BOUNCES_DOWN_TO * colour.energy_at_emission();
             let mut survive = 1.0;
             if weigh_bounce {
-                survive = material
-                    .events
-                    .iter()
-                    .zip([
-                        &material.diffuse_reflect,
-                        &material.specular_reflect,
-                        &material.diffuse_transmit,
-                    ])
-                    .filter(|(on, _)| **on)
-                    .map(|(_, k)| colour.weighted_mean(k))
-                    .sum::<f64>();
+                survive = bsdf.survival(|k| colour.weighted_mean(k));
                 if survive.is_nan() || survive <= 0.0 {
                     return PathEnd::Absorbed(hit.mesh);
                 }
@@ -589,9 +580,10 @@ impl Tracer<'_> {
                     *d += c;
                 }
             }
-            // After a weighted bounce: the colour is scaled by the survival share and the
-            // absorbed share is recorded.
-            let bounced = |colour: &mut Colour, bounces: &mut WeightedBounces| {
+            if let Some((lobe, k, p)) = bsdf.choose(u, |k| colour.weighted_mean(k)) {
+                colour.reweight(k, p);
+                // After a weighted bounce: the colour is scaled by the survival share and
+                // the absorbed share is recorded.
                 if weigh_bounce {
                     colour.scale(survive);
                     if let Some(last) = bounces.meshes.last_mut() {
@@ -601,42 +593,15 @@ impl Tracer<'_> {
                         *d -= c;
                     }
                 }
-            };
-            let mut cumulative = 0.0;
-            if material.events[0] {
-                let p = colour.weighted_mean(&material.diffuse_reflect);
-                cumulative += p;
-                if u < cumulative {
-                    colour.reweight(&material.diffuse_reflect, p);
-                    bounced(colour, bounces);
+                if lobe.is_diffuse() {
                     gathered = gathered.or_else(landing);
-                    dir = warp::cosine_hemisphere(n_in, rng.uniform(), rng.uniform());
-                    org = p_hit + n_in * eps;
-                    continue;
+                    dir = lobe.direction(dir, n_in, rng.uniform(), rng.uniform());
+                } else {
+                    dir = lobe.direction(dir, n_in, 0.0, 0.0);
                 }
-            }
-            if material.events[1] {
-                let p = colour.weighted_mean(&material.specular_reflect);
-                cumulative += p;
-                if u < cumulative {
-                    colour.reweight(&material.specular_reflect, p);
-                    bounced(colour, bounces);
-                    dir = reflect(dir, n_in);
-                    org = p_hit + n_in * eps;
-                    continue;
-                }
-            }
-            if material.events[2] {
-                let p = colour.weighted_mean(&material.diffuse_transmit);
-                cumulative += p;
-                if u < cumulative {
-                    colour.reweight(&material.diffuse_transmit, p);
-                    bounced(colour, bounces);
-                    gathered = gathered.or_else(landing);
-                    dir = warp::cosine_hemisphere(-n_in, rng.uniform(), rng.uniform());
-                    org = p_hit - n_in * eps;
-                    continue;
-                }
+                let n = lobe.leaving_normal(n_in);
+                org = p_hit + n * eps;
+                continue;
             }
             // Absorbed: the path ends here (after a weighted bounce only by rounding: then
             // nothing was taken from the colour and the photon ends here whole).
@@ -652,36 +617,4 @@ impl Tracer<'_> {
     }
 }
 
-/// Mirror reflection of `d` about unit normal `n`.
-#[inline]
-pub fn reflect(d: DVec3, n: DVec3) -> DVec3 {
-    (d - n * (2.0 * d.dot(n))).normalize()
-}
-
-/// Refraction of `d` through a surface with unit normal `n` on the incident side, incidence
-/// cosine `cos_i` and relative index `eta` = n1/n2 (the caller handled total internal
-/// reflection: Fresnel is 1 there).
-#[inline]
-pub fn refract(d: DVec3, n: DVec3, cos_i: f64, eta: f64) -> DVec3 {
-    let sin_t2 = eta * eta * (1.0 - cos_i * cos_i);
-    let cos_t = (1.0 - sin_t2).max(0.0).sqrt();
-    (d * eta + n * (eta * cos_i - cos_t)).normalize()
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn refraction_obeys_snell() {
-        let n = DVec3::Z;
-        let theta: f64 = 0.6;
-        let d = DVec3::new(theta.sin(), 0.0, -theta.cos());
-        let t = refract(d, n, theta.cos(), 1.0 / 1.5);
-        let sin_t = t.x;
-        assert!((sin_t * 1.5 - theta.sin()).abs() < 1e-12);
-        assert!(t.z < 0.0);
-        let r = reflect(d, n);
-        assert!((r - DVec3::new(theta.sin(), 0.0, theta.cos())).length() < 1e-12);
-    }
-}
+pub use crate::scene::bsdf::{reflect, refract};
