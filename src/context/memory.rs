@@ -141,7 +141,7 @@ pub fn sky_image_bytes(pixels: u64) -> (u64, u64) {
 /// Bytes of a map of `slots` slots and `bands` bands: with a spectral map's grey sums
 /// (`scene::GreySpectra`) at the most there can be.
 pub fn map_bytes(slots: u64, bands: u64) -> u64 {
-    let grey = crate::scene::most_grey(bands as usize) as u64;
+    let grey = crate::imap::most_grey(bands as usize) as u64;
     slots.saturating_mul(bands + 1 + grey).saturating_mul(8)
 }
 

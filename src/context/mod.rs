@@ -12,7 +12,7 @@ pub mod state;
 use crate::accel::{Accel, Device};
 use crate::error::{bail, check_finite_scalar, Result};
 use crate::imap::regions::{RegionShared, RegionTally};
-use crate::imap::{IMap, LayerLayout};
+use crate::imap::{DirectCells, IMap, LayerLayout, MapLayout};
 use crate::photometry::{gonio, BandPhotometry, PhotometricData, Spectrum};
 use crate::render::RenderReport;
 use crate::scene::light::{Distribution, LightDesc, Placement};
@@ -115,6 +115,8 @@ pub struct Report {
 
 struct Prepared {
     scene: PreparedScene,
+    /// The map's layout for it.
+    layout: MapLayout,
     accel: Accel,
     /// The sensor meshes' BVH, if any.
     sensors: Option<Accel>,
@@ -798,7 +800,9 @@ impl Context {
             )?;
             let accel = Accel::build(&self.device, &scene.meshes)?;
             let sensors = Accel::build_sensors(&self.device, &scene.meshes)?;
+            let layout = MapLayout::new(&self.scene, &scene);
             self.prepared = Some(Prepared {
+                layout,
                 scene,
                 accel,
                 sensors,
@@ -819,7 +823,7 @@ impl Context {
                 self.prepared
                     .as_ref()
                     .expect("prepared above")
-                    .scene
+                    .layout
                     .grey
                     .clone(),
             )?);
@@ -827,7 +831,7 @@ impl Context {
         }
         let p = self.prepared.as_mut().expect("prepared above");
         if self.estimator.is_light_sampling() && p.direct.is_none() {
-            p.direct = Some(DirectPlan::new(&p.scene));
+            p.direct = Some(DirectPlan::new(&p.scene, &p.layout.parts()));
         }
         if self.stats.absorbed.len() != self.scene.meshes.len() {
             self.stats = PathStats::new(self.scene.meshes.len());
@@ -865,20 +869,24 @@ impl Context {
         let prepared = self.prepared.as_ref().expect("prepared above");
         let map = self.map.as_mut().expect("allocated above");
         let direct_acc = map.direct().cloned();
-        let sampler = match (estimator, &direct_acc, &prepared.direct) {
+        let direct_cells = direct_acc.as_deref().map(|acc| DirectCells {
+            acc,
+            layers: prepared.layout.layers,
+        });
+        let sampler = match (estimator, &direct_cells, &prepared.direct) {
             (
                 Estimator::LightSampling {
                     samples,
                     pass_photons,
                     gather,
                 },
-                Some(acc),
+                Some(cells),
                 Some(plan),
             ) if self.config.scheduler != SchedulerKind::TraceOnly => Some(DirectSampler {
                 plan,
                 scene: &prepared.scene,
                 accel: &prepared.accel,
-                acc,
+                acc: cells,
                 seed: self.config.seed,
                 samples,
                 pass_photons,
@@ -895,7 +903,7 @@ impl Context {
             }),
             _ => None,
         };
-        let regions = RegionShared::new(threads, prepared.scene.regions.count, nb);
+        let regions = RegionShared::new(threads, prepared.layout.regions.count, nb);
         let rc = RunContext {
             regions: &regions,
             regions_before: &self.region_tally,
@@ -912,6 +920,7 @@ impl Context {
                 direct: sampler.as_ref(),
             },
             scene: &prepared.scene,
+            layout: &prepared.layout,
             threads,
             unit_m: self.config.unit_m,
             plan,

@@ -293,17 +293,17 @@ impl Context {
         let mut rel = vec![0.0; nv];
         self.illuminance_layer(mesh, side, layer, &mut lux)?;
         self.rel_error_layer(mesh, side, layer, &mut rel)?;
-        if let Some(regions) = &p.scene.regions.meshes[i] {
+        if let Some(regions) = &p.layout.regions.meshes[i] {
             // The photon tallies: exact errors.
             out.exact_errors = true;
             let r = regions.region(side as usize, part);
             // A layer's own tally, except the one group layer of a map whose lights are
             // all in group 0 (its figures are the region's).
-            let layout = &p.scene.regions;
+            let layout = &p.layout.regions;
             let r = match index {
                 Some(l)
                     if layout.layers > 0
-                        && (l >= p.scene.layers.groups || p.scene.layers.groups > 1) =>
+                        && (l >= p.layout.layers.groups || p.layout.layers.groups > 1) =>
                 {
                     layout.layered(r, l)
                 }

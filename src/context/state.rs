@@ -66,7 +66,7 @@ impl Fingerprint {
             ctx.config.unit_m.to_bits(),
             ctx.config.aim_lights,
             scene.layers,
-            scene.layer_layout()
+            crate::imap::LayerLayout::of_scene(scene)
         );
         let mut geometry = Xxh3::new();
         for m in &scene.meshes {
@@ -601,7 +601,7 @@ impl Context {
             regions: self
                 .prepared
                 .as_ref()
-                .map_or(0, |p| p.scene.regions.count as u64),
+                .map_or(0, |p| p.layout.regions.count as u64),
         }
     }
 

@@ -16,7 +16,9 @@
 //! vertex may run at once on two threads. The array is separate from the photon
 //! accumulators so the classic scheduler's exclusive borrow of those never covers it.
 
+use super::layout::LayerLayout;
 use crate::error::{Error, ImapStatus, Result};
+use crate::transport::direct::DirectSink;
 use std::sync::atomic::{AtomicU64, Ordering::Relaxed};
 
 /// The direct accumulators of every cell of a map.
@@ -163,5 +165,34 @@ impl DirectAcc {
 
     pub fn clear(&mut self) {
         self.data.iter_mut().for_each(|x| *x.get_mut() = 0);
+    }
+}
+
+/// The map's direct accumulators with its layer layout: what the light-sampling passes
+/// write to (`transport::direct::DirectSink`).
+pub struct DirectCells<'a> {
+    pub acc: &'a DirectAcc,
+    pub layers: LayerLayout,
+}
+
+impl DirectSink for DirectCells<'_> {
+    #[inline]
+    fn groups(&self) -> usize {
+        self.layers.groups as usize
+    }
+
+    #[inline]
+    fn direct_layer(&self) -> Option<u8> {
+        self.layers.direct_layer()
+    }
+
+    #[inline]
+    fn add_pass(&self, slot: usize, layer: u8, values: &[f64]) {
+        self.acc.add_pass(self.layers.cell(slot, layer), values);
+    }
+
+    #[inline]
+    fn add_total_square(&self, slot: usize, x: f64) {
+        self.acc.add_total_square(self.layers.cell(slot, 0), x);
     }
 }

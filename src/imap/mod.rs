@@ -31,12 +31,16 @@
 //! `map_accumulators`) keeps its layout.
 
 pub mod direct;
+mod grey;
+mod layout;
 mod photon;
 pub(crate) mod readout;
 pub mod regions;
 pub mod stats;
 
-pub use direct::DirectAcc;
+pub use direct::{DirectAcc, DirectCells};
+pub use grey::{most_grey, GreySpectra, GREY_MIN_BANDS, MAX_GREY};
+pub use layout::{LayerLayout, MapLayout, MAX_LIGHT_GROUPS};
 pub use photon::{
     grey_index, shares, BufferedHit, PhotonBuffer, PhotonOut, FULL, GREY, GREY_WEIGHTED, WEIGHTED,
 };
@@ -44,92 +48,8 @@ pub(crate) use readout::NO_DATA_REL_ERROR;
 pub use readout::{Neighbours, Readout};
 
 use crate::error::{Error, ImapStatus, Result};
-use crate::scene::GreySpectra;
 use std::sync::atomic::{AtomicU64, Ordering::Relaxed};
 use std::sync::Arc;
-
-/// Most light groups a map can keep as layers (group ids 0 … `MAX_LIGHT_GROUPS` − 1): a
-/// buffered hit names its layer in one byte, the direct layer included.
-pub const MAX_LIGHT_GROUPS: usize = 254;
-
-/// How many cells (accumulator records) each slot has.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct LayerLayout {
-    /// Group layers, summed into the combined map (1 when groups are not kept).
-    pub groups: u8,
-    /// A direct-component layer after the group layers.
-    pub direct: bool,
-}
-
-impl Default for LayerLayout {
-    fn default() -> Self {
-        LayerLayout::SINGLE
-    }
-}
-
-impl LayerLayout {
-    /// No layers: one cell per slot.
-    pub const SINGLE: LayerLayout = LayerLayout {
-        groups: 1,
-        direct: false,
-    };
-
-    /// The layers of `request` when the largest light group in use is `largest`.
-    pub fn new(request: crate::scene::LayerRequest, largest: Option<u32>) -> Self {
-        LayerLayout {
-            // Group ids are checked when set (< MAX_LIGHT_GROUPS).
-            groups: match largest {
-                Some(g) if request.groups => g as u8 + 1,
-                _ => 1,
-            },
-            direct: request.direct,
-        }
-    }
-
-    /// Cells per slot.
-    #[inline]
-    pub fn per_slot(self) -> usize {
-        self.groups as usize + usize::from(self.direct)
-    }
-
-    /// The direct layer's index, if kept.
-    #[inline]
-    pub fn direct_layer(self) -> Option<u8> {
-        self.direct.then_some(self.groups)
-    }
-
-    /// The cell of `layer` in `slot`.
-    #[inline]
-    pub fn cell(self, slot: usize, layer: u8) -> usize {
-        slot * self.per_slot() + layer as usize
-    }
-
-    /// The cells a value of `slot` sums: its group layers (`layer` None: the combined
-    /// value), or the one layer `layer`.
-    #[inline]
-    pub fn cells(self, slot: usize, layer: Option<u8>) -> std::ops::Range<usize> {
-        match layer {
-            None => {
-                let first = self.cell(slot, 0);
-                first..first + self.groups as usize
-            }
-            Some(l) => {
-                let c = self.cell(slot, l);
-                c..c + 1
-            }
-        }
-    }
-
-    /// The slot a cell belongs to.
-    #[inline]
-    pub fn slot_of(self, cell: usize) -> usize {
-        if self == LayerLayout::SINGLE {
-            cell
-        } else {
-            cell / self.per_slot()
-        }
-    }
-}
 
 /// The accumulators.
 #[derive(Debug)]

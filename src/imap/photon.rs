@@ -9,9 +9,11 @@
 //! reached, and each reached slot receives one full-colour deposit of weight 1 whose
 //! square is exactly the photon's squared contribution to that slot.
 
+use super::grey::MAX_GREY;
+use super::layout::MapLayout;
 use super::regions::RegionScratch;
 use super::PhotonSquares;
-use crate::scene::{PreparedScene, MAX_GREY};
+use crate::scene::PreparedScene;
 use crate::spectral::Colour;
 use std::collections::HashMap;
 
@@ -82,13 +84,13 @@ pub struct BufferedHit {
 impl BufferedHit {
     /// The map cells of the hit triangle's three vertices.
     #[inline]
-    pub fn cells(&self, scene: &PreparedScene) -> [usize; 3] {
+    pub fn cells(&self, scene: &PreparedScene, layout: &MapLayout) -> [usize; 3] {
         let m = &scene.meshes[self.mesh as usize];
         m.triangles[self.prim as usize].map(|vertex| {
             let slot = m
                 .slot(vertex, self.side as usize)
                 .expect("deposit on a recording mesh");
-            scene.layers.cell(slot, self.layer)
+            layout.layers.cell(slot, self.layer)
         })
     }
 }
@@ -164,11 +166,11 @@ impl PhotonBuffer {
 
     /// A new photon from `emitter` starts (its deposits go to the emitter's layer).
     #[inline]
-    pub fn begin(&mut self, scene: &PreparedScene, emitter: usize) {
+    pub fn begin(&mut self, scene: &PreparedScene, layout: &MapLayout, emitter: usize) {
         self.layer = scene.emitters[emitter].layer;
-        self.base = scene.grey.of_emitter.get(emitter).copied().flatten();
+        self.base = layout.grey.of_emitter.get(emitter).copied().flatten();
         self.grey = self.base;
-        self.direct = scene.layers.direct_layer();
+        self.direct = layout.layers.direct_layer();
     }
 
     /// The current photon's first surface event is over.
@@ -182,6 +184,7 @@ impl PhotonBuffer {
     pub fn deposit(
         &mut self,
         scene: &PreparedScene,
+        layout: &MapLayout,
         (mesh, prim, side): (u32, u32, u8),
         u: f32,
         v: f32,
@@ -195,7 +198,7 @@ impl PhotonBuffer {
             self.varying = true;
         }
         self.energy = e;
-        if let Some(r) = &scene.regions.meshes[mesh as usize] {
+        if let Some(r) = &layout.regions.meshes[mesh as usize] {
             // The share of the photon the hit's vertices receive in all (1 unless weighted).
             let kept: f64 = weights.map_or(1.0, |w| shares(WEIGHTED, u, v, &w).iter().sum());
             let material = scene.meshes[mesh as usize].material(prim as usize);
@@ -206,15 +209,16 @@ impl PhotonBuffer {
             // With layers, each region's tally in the photon's group layer (when several
             // groups are kept; with one the group's figures are the region's) and, before
             // its first surface event, in the direct layer.
-            let layout = &scene.regions;
-            let group = (layout.layers > 0 && scene.layers.groups > 1).then_some(self.layer);
+            let regions_layout = &layout.regions;
+            let group =
+                (regions_layout.layers > 0 && layout.layers.groups > 1).then_some(self.layer);
             let mut ids = [0u32; 6];
             let mut n = 0;
             for id in regions.into_iter().flatten() {
                 ids[n] = id;
                 n += 1;
                 for l in [group, self.direct].into_iter().flatten() {
-                    ids[n] = layout.layered(id, l);
+                    ids[n] = regions_layout.layered(id, l);
                     n += 1;
                 }
             }
@@ -237,14 +241,14 @@ impl PhotonBuffer {
             }
             None => {
                 let grey = self.grey.and_then(|g| {
-                    let a = scene.grey.multiple(g as usize, colour.values())?;
+                    let a = layout.grey.multiple(g as usize, colour.values())?;
                     Some((g as u16, a))
                 });
                 // The spectrum of the photon's next hit, if it reflects diffusely here.
                 self.grey = match (grey, self.base) {
                     (Some((g, _)), Some(base)) => {
                         let material = scene.meshes[mesh as usize].material(prim as usize);
-                        scene.grey.after(g as u8, base, material as usize)
+                        layout.grey.after(g as u8, base, material as usize)
                     }
                     _ => None,
                 };
@@ -290,19 +294,19 @@ impl PhotonBuffer {
             self.hits.push(BufferedHit { layer, ..hit });
         }
         if self.hits.len() >= MERGE_AFTER {
-            self.fold(scene);
+            self.fold(scene, layout);
         }
     }
 
     /// Folds the buffered hits into the per-slot sums.
-    fn fold(&mut self, scene: &PreparedScene) {
+    fn fold(&mut self, scene: &PreparedScene, layout: &MapLayout) {
         let nb = self.bands;
         for h in &self.hits {
             let c = h.colour_at as usize;
             let grey = grey_index(h.band);
             let extra = if grey.is_some() { c + 1 } else { c + nb };
             let w = shares(h.band, h.u, h.v, self.colours.get(extra..).unwrap_or(&[]));
-            for (cell, w) in h.cells(scene).into_iter().zip(w) {
+            for (cell, w) in h.cells(scene, layout).into_iter().zip(w) {
                 let next = self.folded_values.len();
                 let at = *self.folded.entry(cell as u32).or_insert(next);
                 if at == next {
@@ -311,7 +315,7 @@ impl PhotonBuffer {
                 let values = &mut self.folded_values[at..at + nb];
                 if let Some((g, _)) = grey {
                     let a = w * self.colours[c] as f64;
-                    for (x, s) in values.iter_mut().zip(scene.grey.spectrum(g)) {
+                    for (x, s) in values.iter_mut().zip(layout.grey.spectrum(g)) {
                         *x += a * s;
                     }
                 } else if h.band >= WEIGHTED {
@@ -337,13 +341,13 @@ impl PhotonBuffer {
     }
 
     /// The current photon has ended: hands its deposits to `out` and forgets them.
-    pub fn finish(&mut self, scene: &PreparedScene, out: &mut impl PhotonOut) {
+    pub fn finish(&mut self, scene: &PreparedScene, layout: &MapLayout, out: &mut impl PhotonOut) {
         if !self.regions.ids.is_empty() {
             out.regions(&self.regions.ids, &self.regions.values);
             self.regions.clear();
         }
         if !self.folded.is_empty() {
-            self.fold(scene);
+            self.fold(scene, layout);
             let nb = self.bands;
             // In cell order: the same sequence of additions whatever the hash map's order.
             let mut cells: Vec<(u32, usize)> = self.folded.drain().collect();
@@ -360,7 +364,7 @@ impl PhotonBuffer {
         let e = self.energy;
         let nb = self.bands;
         for h in &self.hits {
-            let cells = h.cells(scene);
+            let cells = h.cells(scene, layout);
             let c = h.colour_at as usize;
             let grey = grey_index(h.band);
             let (n, values) = match (h.band, grey) {
@@ -374,7 +378,7 @@ impl PhotonBuffer {
             let e = if self.varying {
                 // This hit's energy: its colour's band mean.
                 match grey {
-                    Some((g, _)) => colour[0] as f64 * scene.grey.means[g],
+                    Some((g, _)) => colour[0] as f64 * layout.grey.means[g],
                     None => colour[..values].iter().map(|&x| x as f64).sum::<f64>() / nb as f64,
                 }
             } else {

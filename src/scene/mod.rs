@@ -9,7 +9,6 @@ pub mod mesh;
 mod prepared;
 mod prepared_mesh;
 
-use crate::imap::LayerLayout;
 pub use crate::spectral::Bands;
 pub use emitter::{
     Emitter, EmitterKind, Extent, LightSample, Photon, Portals, Receiver, PORTAL_SHARE,
@@ -17,7 +16,7 @@ pub use emitter::{
 pub use light::{Light, LightShape};
 pub use material::{IorModel, Material, MaterialDesc};
 pub use mesh::{Mesh, MeshDesc};
-pub use prepared::{most_grey, GreySpectra, PreparedScene, GREY_MIN_BANDS, MAX_GREY};
+pub use prepared::PreparedScene;
 pub use prepared_mesh::{PreparedMesh, MAX_DISTORTION};
 
 /// Everything the caller has described.
@@ -36,7 +35,7 @@ pub struct Scene {
     pub portals: Vec<[[f64; 3]; 3]>,
 }
 
-/// Which layers a map keeps (`crate::imap::LayerLayout`).
+/// Which layers a map keeps (the map lays them out: `imap::LayerLayout`).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct LayerRequest {
     /// One layer per light group (groups 0 … the largest group of a light or emitting mesh).
@@ -56,12 +55,6 @@ impl Scene {
             layers: LayerRequest::default(),
             portals: Vec::new(),
         }
-    }
-
-    /// The map's layers for this scene: as requested, with as many group layers as the
-    /// largest group of a light or emitting mesh needs.
-    pub fn layer_layout(&self) -> LayerLayout {
-        LayerLayout::new(self.layers, self.largest_light_group())
     }
 
     /// The largest light group of a light or emitting mesh.

@@ -10,6 +10,7 @@
 //! value instead of a full colour, and the hand-over is a pointer move on a channel.
 
 use super::{Counters, Monitor, PhotonSource, RunContext, RunOutcome, RunParams, StopGuard};
+use crate::imap::MapLayout;
 use crate::imap::{grey_index, shares, BufferedHit, IMap, PhotonBuffer, PhotonOut, WEIGHTED};
 use crate::scene::PreparedScene;
 use crate::spectral::Colour;
@@ -77,6 +78,7 @@ impl Portion {
 /// fills portions and hands them over.
 struct PortionSink<'a> {
     scene: &'a PreparedScene,
+    layout: &'a MapLayout,
     /// Sort portions by triangle before handing them over (`IMap::worth_sorting`).
     sort: bool,
     photon: PhotonBuffer,
@@ -169,11 +171,12 @@ impl HitSink for PortionSink<'_> {
         colour: &Colour,
         weights: Option<[f32; 3]>,
     ) {
-        self.photon.deposit(self.scene, at, u, v, colour, weights);
+        self.photon
+            .deposit(self.scene, self.layout, at, u, v, colour, weights);
     }
 
     fn begin_photon(&mut self, emitter: usize) {
-        self.photon.begin(self.scene, emitter);
+        self.photon.begin(self.scene, self.layout, emitter);
     }
 
     fn direct_done(&mut self) {
@@ -182,7 +185,7 @@ impl HitSink for PortionSink<'_> {
 
     fn end_photon(&mut self) {
         let mut photon = std::mem::replace(&mut self.photon, PhotonBuffer::new(0));
-        photon.finish(self.scene, self);
+        photon.finish(self.scene, self.layout, self);
         self.photon = photon;
     }
 
@@ -196,8 +199,8 @@ impl HitSink for PortionSink<'_> {
 }
 
 /// Applies a sorted portion to the map: the accumulating thread's work.
-fn accumulate(map: &mut IMap, scene: &PreparedScene, p: &Portion) {
-    let layers = scene.layers;
+fn accumulate(map: &mut IMap, scene: &PreparedScene, layout: &MapLayout, p: &Portion) {
+    let layers = layout.layers;
     // Spectral cells span many cache lines: fetch the cells of a hit a few hits ahead (8:
     // with most deposits one grey number, 2 left most fetches late; BENCHMARKS.md).
     let ahead = if map.bands() > 8 { 8 } else { 0 };
@@ -288,12 +291,13 @@ pub fn run(rc: &RunContext, map: &mut IMap, params: &mut RunParams) -> RunOutcom
         let _stop = StopGuard(&source);
         let mut handles = Vec::new();
         for t in 0..rc.threads {
-            let (free, full, source, tracer, regions) = (
+            let (free, full, source, tracer, regions, layout) = (
                 free_rx.clone(),
                 full_tx.clone(),
                 &source,
                 &rc.tracer,
                 rc.regions,
+                rc.layout,
             );
             let spawned = std::thread::Builder::new()
                 .name(format!("imap-calc-{t}"))
@@ -301,13 +305,19 @@ pub fn run(rc: &RunContext, map: &mut IMap, params: &mut RunParams) -> RunOutcom
                     crate::error::quiet_thread();
                     let mut sink = PortionSink {
                         scene: tracer.scene,
+                        layout,
                         sort,
                         photon: PhotonBuffer::new(tracer.bands),
                         current: None,
                         free,
                         full,
                         wait_s: 0.0,
-                        regions: super::RegionSink::new(regions, tracer.scene, tracer.bands),
+                        regions: super::RegionSink::new(
+                            regions,
+                            tracer.scene,
+                            layout,
+                            tracer.bands,
+                        ),
                     };
                     let mut stats = PathStats::new(tracer.scene.meshes.len());
                     let mut colour = Colour::new(tracer.bands);
@@ -333,7 +343,7 @@ pub fn run(rc: &RunContext, map: &mut IMap, params: &mut RunParams) -> RunOutcom
                 Ok(mut p) => {
                     counters.peak_queue = counters.peak_queue.max(full_rx.len() as u64 + 1);
                     let t = Instant::now();
-                    accumulate(map, rc.scene, &p);
+                    accumulate(map, rc.scene, rc.layout, &p);
                     busy_s += t.elapsed().as_secs_f64();
                     counters.portions += 1;
                     p.clear();

@@ -10,6 +10,7 @@
 use super::groups::GroupTable;
 use super::{Counters, Monitor, PhotonSource, RunContext, RunOutcome, RunParams};
 use crate::error::{bail, Result};
+use crate::imap::MapLayout;
 use crate::imap::{
     grey_index, shares, BufferedHit, IMap, PhotonBuffer, PhotonOut, Readout, FULL, GREY, WEIGHTED,
 };
@@ -157,6 +158,7 @@ struct Shared<'a> {
     table: &'a GroupTable,
     map: &'a IMap,
     scene: &'a PreparedScene,
+    layout: &'a MapLayout,
     free: Receiver<Portion>,
     recycle: Sender<Portion>,
     outputs: &'a [Sender<Portion>],
@@ -355,7 +357,7 @@ impl<'a> GroupSink<'a> {
     /// contributions of hit `self.hit` share it).
     #[inline]
     fn contribute(&mut self, cell: usize, w: f64, band: u16, colour: &[f32]) {
-        let Some(g) = self.portion_for(self.shared.scene.layers.slot_of(cell)) else {
+        let Some(g) = self.portion_for(self.shared.layout.layers.slot_of(cell)) else {
             return;
         };
         let hit = self.hit;
@@ -419,12 +421,20 @@ impl HitSink for GroupSink<'_> {
         colour: &Colour,
         weights: Option<[f32; 3]>,
     ) {
-        self.photon
-            .deposit(self.shared.scene, at, u, v, colour, weights);
+        self.photon.deposit(
+            self.shared.scene,
+            self.shared.layout,
+            at,
+            u,
+            v,
+            colour,
+            weights,
+        );
     }
 
     fn begin_photon(&mut self, emitter: usize) {
-        self.photon.begin(self.shared.scene, emitter);
+        self.photon
+            .begin(self.shared.scene, self.shared.layout, emitter);
     }
 
     fn direct_done(&mut self) {
@@ -433,7 +443,7 @@ impl HitSink for GroupSink<'_> {
 
     fn end_photon(&mut self) {
         let mut photon = std::mem::replace(&mut self.photon, PhotonBuffer::new(0));
-        photon.finish(self.shared.scene, self);
+        photon.finish(self.shared.scene, self.shared.layout, self);
         self.photon = photon;
     }
 
@@ -696,6 +706,7 @@ pub fn run(
         table: &table,
         map: shared_map,
         scene: rc.scene,
+        layout: rc.layout,
         free: free_rx.clone(),
         recycle: free_tx.clone(),
         outputs: &out_tx,
@@ -739,7 +750,7 @@ pub fn run(
                     let mut sink = GroupSink::new(
                         shared,
                         tracer.bands,
-                        super::RegionSink::new(regions, tracer.scene, tracer.bands),
+                        super::RegionSink::new(regions, tracer.scene, shared.layout, tracer.bands),
                     );
                     let mut stats = PathStats::new(tracer.scene.meshes.len());
                     let mut colour = Colour::new(tracer.bands);

@@ -13,6 +13,7 @@ pub mod trace_only;
 pub use photons::{PhotonSource, RangeSet, Selection};
 
 use crate::imap::regions::{RegionShared, RegionTally};
+use crate::imap::MapLayout;
 use crate::imap::{IMap, Readout};
 use crate::scene::PreparedScene;
 use crate::spectral::Colour;
@@ -214,6 +215,8 @@ pub struct RunOutcome {
 pub struct RunContext<'a> {
     pub tracer: Tracer<'a>,
     pub scene: &'a PreparedScene,
+    /// The map's layout for the scene.
+    pub layout: &'a MapLayout,
     pub threads: usize,
     pub unit_m: f64,
     /// The local indices of `selection` this run may trace, in order
@@ -246,11 +249,16 @@ pub struct RegionSink<'a> {
 }
 
 impl<'a> RegionSink<'a> {
-    pub fn new(rc_regions: &'a RegionShared, scene: &'a PreparedScene, bands: usize) -> Self {
+    pub fn new(
+        rc_regions: &'a RegionShared,
+        scene: &'a PreparedScene,
+        layout: &MapLayout,
+        bands: usize,
+    ) -> Self {
         RegionSink {
             shared: rc_regions,
             slot: rc_regions.claim(),
-            local: RegionTally::new(scene.regions.count, bands),
+            local: RegionTally::new(layout.regions.count, bands),
             efficacy: &scene.efficacy,
         }
     }

@@ -110,7 +110,7 @@ pub fn region_error(
             let mut worst: f64 = 0.0;
             for (&i, weights) in targets {
                 let m = &scene.meshes[i];
-                let regions = scene.regions.meshes[i].as_ref()?;
+                let regions = rc.layout.regions.meshes[i].as_ref()?;
                 for side in 0..m.sides() {
                     let r = regions.region(side, t.part) as usize;
                     let avg = luminous(&tally, r, &readout, m, side, weights)?;

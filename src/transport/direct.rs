@@ -42,7 +42,6 @@
 
 use super::{Colour, WEIGHTED_BOUNCES_DOWN_TO};
 use crate::accel::Accel;
-use crate::imap::DirectAcc;
 use crate::sampling::{warp, PhotonRng};
 use crate::scene::bsdf::Lobe;
 use crate::scene::{LightSample, Material, PreparedScene, Receiver};
@@ -268,8 +267,23 @@ impl crate::imap::Neighbours for DirectPlan {
     }
 }
 
+/// Where the direct passes put their estimates: the map's direct accumulators, per vertex
+/// slot and layer (`imap::DirectCells`). The passes know nothing else of the map.
+pub trait DirectSink: Sync {
+    /// Light-group layers (1 without groups).
+    fn groups(&self) -> usize;
+    /// The layer of the direct component alone, if the map keeps one.
+    fn direct_layer(&self) -> Option<u8>;
+    /// One pass's estimate per band at `slot` in `layer`.
+    fn add_pass(&self, slot: usize, layer: u8, values: &[f64]);
+    /// With several groups: the square of the pass's band-mean total at `slot`.
+    fn add_total_square(&self, slot: usize, x: f64);
+}
+
 impl DirectPlan {
-    pub fn new(scene: &PreparedScene) -> Self {
+    /// The plan for `scene`; `parts[i]`: whether mesh i's map is split into material
+    /// parts (its vertices on a border between parts take no light samples).
+    pub fn new(scene: &PreparedScene, parts: &[bool]) -> Self {
         let mut bases = Vec::new();
         let mut at = 0;
         for sensors in [false, true] {
@@ -337,8 +351,7 @@ impl DirectPlan {
             .iter()
             .enumerate()
             .map(|(i, m)| {
-                let r = scene.regions.meshes.get(i)?.as_ref()?;
-                if r.parts.is_empty() {
+                if !parts.get(i).copied().unwrap_or(false) {
                     return None;
                 }
                 let mut first = vec![u32::MAX; m.vertices.len()];
@@ -397,7 +410,7 @@ pub struct DirectSampler<'a> {
     pub plan: &'a DirectPlan,
     pub scene: &'a PreparedScene,
     pub accel: &'a Accel,
-    pub acc: &'a DirectAcc,
+    pub acc: &'a dyn DirectSink,
     pub seed: u64,
     pub samples: u32,
     pub pass_photons: u64,
@@ -603,8 +616,7 @@ impl DirectSampler<'_> {
     fn chunk(&self, pass: u64, range: std::ops::Range<usize>) {
         let scene = self.scene;
         let nb = scene.emitters.first().map_or(0, |e| e.colour.len());
-        let layers = scene.layers;
-        let groups = layers.groups as usize;
+        let groups = self.acc.groups();
         // Per group: the direct sums, then the gathered (indirect) sums; then a total.
         let mut sums = vec![0.0; nb * (2 * groups + 1)];
         let white = vec![1.0; nb];
@@ -682,9 +694,9 @@ impl DirectSampler<'_> {
                     *t += x;
                 }
             }
-            if let Some(dl) = layers.direct_layer() {
+            if let Some(dl) = self.acc.direct_layer() {
                 // The direct layer: the direct sums alone.
-                self.acc.add_pass(layers.cell(slot, dl), total);
+                self.acc.add_pass(slot, dl, total);
             }
             let mut sum = 0.0;
             for g in 0..groups {
@@ -693,11 +705,11 @@ impl DirectSampler<'_> {
                     *x += y * k;
                     sum += *x;
                 }
-                self.acc.add_pass(layers.cell(slot, g as u8), d);
+                self.acc.add_pass(slot, g as u8, d);
             }
             if groups > 1 {
                 let m = sum / nb as f64;
-                self.acc.add_total_square(layers.cell(slot, 0), m * m);
+                self.acc.add_total_square(slot, m * m);
             }
         }
     }
