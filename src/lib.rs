@@ -27,6 +27,8 @@ pub mod imap;
 /// cbindgen:ignore
 pub mod photometry;
 /// cbindgen:ignore
+pub mod progress;
+/// cbindgen:ignore
 pub mod render;
 /// cbindgen:ignore
 pub mod sampling;

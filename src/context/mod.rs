@@ -14,14 +14,13 @@ use crate::error::{bail, check_finite_scalar, Result};
 use crate::imap::regions::{RegionShared, RegionTally};
 use crate::imap::{DirectCells, IMap, LayerLayout, MapLayout};
 use crate::photometry::{gonio, BandPhotometry, PhotometricData, Spectrum};
+use crate::progress::{push_history, Progress, StopReason};
 use crate::render::RenderReport;
 use crate::scene::light::{Distribution, LightDesc, Placement};
 use crate::scene::light::{SkyDesc, SkyKind, SunDesc};
 use crate::scene::{Light, Material, MaterialDesc, Mesh, MeshDesc, PreparedScene, Scene};
 use crate::sched::dynamic::DynamicParams;
-use crate::sched::{
-    self, photons, push_history, Counters, Progress, RangeSet, RunContext, RunParams, StopReason,
-};
+use crate::sched::{self, photons, Counters, RangeSet, RunContext, RunParams};
 use crate::spectral::Bands;
 use crate::transport::direct::{self as direct, DirectPlan, DirectSampler, Estimator};
 use crate::transport::{

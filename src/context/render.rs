@@ -3,14 +3,15 @@
 use super::Layer;
 use super::{check_threads, Context};
 use crate::error::{bail, check_finite_scalar, Error, ImapStatus, Result};
+use crate::progress::{duration_s, Progress, StopReason};
 use crate::render::backward::{MapIndirect, MeshIndirect};
 use crate::render::gather::{self, Batch, Caustics, GatherError, GatherStore, Schedule};
 use crate::render::{
-    self, Camera, CameraDesc, EyeStats, EyeTracer, Image, Monitor, RenderMethod, RenderParams,
-    RenderReport,
+    self, Camera, CameraDesc, EyeStats, EyeTracer, Image, RenderMethod, RenderMonitor,
+    RenderParams, RenderReport,
 };
 use crate::scene::Extent;
-use crate::sched::{duration_s, Progress, RunParams, StopReason};
+use crate::sched::RunParams;
 use crate::transport::Tracer;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Mutex;
@@ -339,11 +340,11 @@ impl Context {
         let caustics = with_caustics.then(|| Mutex::new(Caustics::new(pixels, nb)));
         let seed = self.config.seed;
         let end = (params.time_budget_s > 0.0)
-            .then(|| crate::sched::deadline(start, params.time_budget_s))
+            .then(|| crate::progress::deadline(start, params.time_budget_s))
             .flatten();
         let photons_before = self.photons();
         let before_render = Untouched::of(self);
-        let mut mon = Monitor::new(params, start);
+        let mut mon = RenderMonitor::new(params, start);
         let interval = mon.interval();
         let mut map: Option<MapIndirect> = None;
         // The render extends a map that is empty or holds photons 0..N: one that holds a
@@ -681,7 +682,7 @@ impl Context {
 
     /// After a step of a final-gathering render: the stop criteria, and a progress point
     /// when one is due.
-    fn gather_tick(&self, mon: &mut Monitor, err: &GatherError, paths: u64) {
+    fn gather_tick(&self, mon: &mut RenderMonitor, err: &GatherError, paths: u64) {
         let settled = err.min_samples >= 2;
         let why = mon.criteria(err.rel_error, settled, mon.start.elapsed().as_secs_f64());
         mon.stop = mon.stop.or(why);

@@ -15,7 +15,8 @@
 
 use super::Context;
 use crate::error::{bail, Error, ImapStatus, Result};
-use crate::sched::{push_history, Progress, RangeSet};
+use crate::progress::{push_history, Progress};
+use crate::sched::RangeSet;
 use crate::transport::direct::Estimator;
 use crate::transport::PathStats;
 use std::fmt::Write as _;

@@ -58,6 +58,12 @@ pub trait Neighbours: Sync {
     fn neighbour_slots(&self, scene: &PreparedScene, slot: usize, f: &mut dyn FnMut(usize));
 }
 
+impl Neighbours for crate::transport::direct::DirectPlan {
+    fn neighbour_slots(&self, scene: &PreparedScene, slot: usize, f: &mut dyn FnMut(usize)) {
+        crate::transport::direct::DirectPlan::neighbour_slots(self, scene, slot, f)
+    }
+}
+
 impl Readout<'_> {
     /// Photon units per watt of direct flux: N·B/Φ.
     #[inline]

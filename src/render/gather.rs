@@ -365,7 +365,7 @@ pub fn passes(
         t.rays += stats.rays;
         t.dropped += stats.dropped;
     };
-    let mut next_tick = Instant::now().checked_add(tick);
+    let mut ticks = crate::progress::Schedule::every(Instant::now(), tick);
     let lost = run_workers("imap-gather", threads, batch.stop, work, || {
         if batch.stop.load(Ordering::Relaxed) {
             cut = true;
@@ -377,14 +377,14 @@ pub fn passes(
             batch.stop.store(true, Ordering::Relaxed);
             return;
         }
-        if next_tick.is_some_and(|t| now >= t) {
+        if ticks.next().is_some_and(|t| now >= t) {
             let t0 = Instant::now();
             if monitor() {
                 cut = true;
                 batch.stop.store(true, Ordering::Relaxed);
             }
             // The next tick: one interval on, or later when the monitor was slow.
-            next_tick = Instant::now().checked_add(tick.max(t0.elapsed().mul_f64(20.0)));
+            ticks.done(t0.elapsed());
         }
     });
     let stats = tally.into_inner().unwrap_or_else(|e| e.into_inner());

@@ -30,10 +30,8 @@ pub mod gather;
 pub use backward::{EyeStats, EyeTracer};
 pub use camera::{Camera, CameraDesc};
 
+use crate::progress::{push_history, CostClock, Progress, Schedule, StopReason};
 use crate::sampling::PhotonRng;
-use crate::sched::{
-    duration_s, next_tick, push_history, CostClock, Progress, StopReason, MIN_PROGRESS_INTERVAL_S,
-};
 use crate::spectral::Colour;
 use crate::transport::{HitSink, PathStats, SurfaceEvent, Tracer};
 use bmap::{BackwardMap, PixelStore, SampleBuf};
@@ -177,35 +175,33 @@ impl Image {
 /// A render's progress points (on the calling thread): the history, the callback and the
 /// time and error criteria, at `progress_interval_s` (lengthened while an estimate would
 /// take more than a twentieth of it).
-pub(crate) struct Monitor<'p, 'a> {
+pub struct RenderMonitor<'p, 'a> {
     pub params: &'p mut RenderParams<'a>,
     pub start: Instant,
-    interval: Duration,
-    next_tick: Option<Instant>,
+    schedule: Schedule,
     pub history: Vec<Progress>,
     pub stop: Option<StopReason>,
 }
 
-impl<'p, 'a> Monitor<'p, 'a> {
+impl<'p, 'a> RenderMonitor<'p, 'a> {
     pub fn new(params: &'p mut RenderParams<'a>, start: Instant) -> Self {
-        let interval = duration_s(params.progress_interval_s.max(MIN_PROGRESS_INTERVAL_S));
-        Monitor {
+        let schedule = Schedule::new(start, params.progress_interval_s);
+        RenderMonitor {
             params,
             start,
-            interval,
-            next_tick: start.checked_add(interval),
+            schedule,
             history: Vec::new(),
             stop: None,
         }
     }
 
     pub fn interval(&self) -> Duration {
-        self.interval
+        self.schedule.interval()
     }
 
     /// Whether a progress point is due.
     pub fn due(&self) -> bool {
-        self.next_tick.is_none_or(|t| Instant::now() >= t)
+        self.schedule.next().is_none_or(|t| Instant::now() >= t)
     }
 
     /// Records progress point `p` (its estimate cost `took` of CPU time), calls the
@@ -221,7 +217,7 @@ impl<'p, 'a> Monitor<'p, 'a> {
         }
         why = why.or(self.criteria(p.rel_error, settled, p.elapsed_s));
         self.stop = self.stop.or(why);
-        self.next_tick = next_tick(self.interval, took);
+        self.schedule.done(took);
         self.stop.is_some()
     }
 
@@ -904,7 +900,7 @@ pub fn render(
     let start = Instant::now();
     let finished = AtomicUsize::new(0);
     let lost: Mutex<Option<String>> = Mutex::new(None);
-    let mut mon = Monitor::new(params, start);
+    let mut mon = RenderMonitor::new(params, start);
     let interval = mon.interval();
     std::thread::scope(|s| {
         let mut spawned = 0;

@@ -9,7 +9,7 @@
 //! the accumulator walks the map in memory order, photons collapsed to one band carry one
 //! value instead of a full colour, and the hand-over is a pointer move on a channel.
 
-use super::{Counters, Monitor, PhotonSource, RunContext, RunOutcome, RunParams, StopGuard};
+use super::{Counters, PhotonSource, RunContext, RunMonitor, RunOutcome, RunParams, StopGuard};
 use crate::imap::MapLayout;
 use crate::imap::{grey_index, shares, BufferedHit, IMap, PhotonBuffer, PhotonOut, WEIGHTED};
 use crate::scene::PreparedScene;
@@ -277,7 +277,7 @@ pub fn run(rc: &RunContext, map: &mut IMap, params: &mut RunParams) -> RunOutcom
     }
 
     let sort = map.worth_sorting();
-    let mut monitor = Monitor::new(params, rc);
+    let mut monitor = RunMonitor::new(params, rc);
     let mut counters = Counters {
         groups: 1,
         ..Default::default()

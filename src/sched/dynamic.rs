@@ -8,7 +8,7 @@
 //! keeps one writer per slot through a split is in `groups.rs`.
 
 use super::groups::GroupTable;
-use super::{Counters, Monitor, PhotonSource, RunContext, RunOutcome, RunParams};
+use super::{Counters, PhotonSource, RunContext, RunMonitor, RunOutcome, RunParams};
 use crate::error::{bail, Result};
 use crate::imap::MapLayout;
 use crate::imap::{
@@ -694,7 +694,7 @@ pub fn run(
         (0..max_groups).map(|_| channel::unbounded()).unzip();
     let mut out_rx: Vec<Option<Receiver<Portion>>> = out_rx.into_iter().map(Some).collect();
 
-    let mut monitor = Monitor::new(params, rc);
+    let mut monitor = RunMonitor::new(params, rc);
     let mut counters = Counters::default();
     let mut stats = PathStats::new(rc.scene.meshes.len());
     let mut thread_lost = None;

@@ -1,7 +1,7 @@
 //! The limit for benchmarks: the same photons traced by the same threads with every deposit
 //! discarded (Embree tracing and surface events alone, no portions, no map).
 
-use super::{Counters, Monitor, PhotonSource, RunContext, RunOutcome, RunParams, StopGuard};
+use super::{Counters, PhotonSource, RunContext, RunMonitor, RunOutcome, RunParams, StopGuard};
 use crate::imap::IMap;
 use crate::spectral::Colour;
 use crate::transport::{HitSink, PathStats};
@@ -16,7 +16,7 @@ impl HitSink for Discard {
 /// Traces until a stop criterion is met; the map is not touched.
 pub fn run(rc: &RunContext, map: &IMap, params: &mut RunParams) -> RunOutcome {
     let source = PhotonSource::new(rc.plan.clone(), rc.selection);
-    let mut monitor = Monitor::new(params, rc);
+    let mut monitor = RunMonitor::new(params, rc);
     let mut stats = PathStats::new(rc.scene.meshes.len());
     let mut thread_lost = None;
     std::thread::scope(|s| {

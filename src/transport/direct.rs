@@ -238,10 +238,10 @@ pub struct DirectPlan {
     slot_meshes: Vec<(usize, u32)>,
 }
 
-impl crate::imap::Neighbours for DirectPlan {
+impl DirectPlan {
     /// The slots of the vertices that share a triangle with slot `slot`'s vertex, on its
     /// side (each once per shared triangle).
-    fn neighbour_slots(&self, scene: &PreparedScene, slot: usize, f: &mut dyn FnMut(usize)) {
+    pub fn neighbour_slots(&self, scene: &PreparedScene, slot: usize, f: &mut dyn FnMut(usize)) {
         let k = self.slot_meshes.partition_point(|b| b.0 <= slot);
         let Some(&(base, mesh)) = k.checked_sub(1).and_then(|k| self.slot_meshes.get(k)) else {
             return;
