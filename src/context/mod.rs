@@ -112,6 +112,31 @@ pub struct Report {
     pub map_bytes: u64,
 }
 
+/// What the last run did (`Report`'s run figures).
+#[derive(Clone, Debug)]
+struct LastRun {
+    photons: u64,
+    hits: u64,
+    wall_s: f64,
+    stop: StopReason,
+    counters: Counters,
+    threads: usize,
+}
+
+impl Default for LastRun {
+    /// No run yet.
+    fn default() -> Self {
+        LastRun {
+            photons: 0,
+            hits: 0,
+            wall_s: 0.0,
+            stop: StopReason::PhotonCount,
+            counters: Counters::default(),
+            threads: 0,
+        }
+    }
+}
+
 struct Prepared {
     scene: PreparedScene,
     /// The map's layout for it.
@@ -121,6 +146,73 @@ struct Prepared {
     sensors: Option<Accel>,
     /// What the light-sampling estimator needs of the scene (built on its first run).
     direct: Option<DirectPlan>,
+}
+
+impl Prepared {
+    /// The photon tracer over this scene (`sensors`: their BVH when the run records them;
+    /// `direct`: the light-sampling passes it weighs its deposits against).
+    fn tracer<'a>(
+        &'a self,
+        scene: &'a Scene,
+        config: &Config,
+        max_events: u32,
+        sensors: Option<&'a Accel>,
+        direct: Option<&'a DirectSampler<'a>>,
+    ) -> Tracer<'a> {
+        Tracer {
+            scene: &self.scene,
+            accel: &self.accel,
+            sensors,
+            materials: &scene.materials,
+            bands: scene.bands.count(),
+            seed: config.seed,
+            unit_m: config.unit_m,
+            max_events,
+            direct,
+        }
+    }
+
+    /// The light-sampling passes of `estimator` writing to `cells`; None for photons only
+    /// (or before the plan is built).
+    fn sampler<'a>(
+        &'a self,
+        scene: &'a Scene,
+        config: &Config,
+        estimator: Estimator,
+        cells: &'a DirectCells<'a>,
+        max_events: u32,
+    ) -> Option<DirectSampler<'a>> {
+        let (
+            Estimator::LightSampling {
+                samples,
+                pass_photons,
+                gather,
+            },
+            Some(plan),
+        ) = (estimator, &self.direct)
+        else {
+            return None;
+        };
+        Some(DirectSampler {
+            plan,
+            scene: &self.scene,
+            accel: &self.accel,
+            acc: cells,
+            seed: config.seed,
+            samples,
+            pass_photons,
+            sensor_pass_photons: direct::sensor_pass_photons(
+                pass_photons,
+                samples,
+                plan.lit,
+                plan.chunks[1],
+            ),
+            unit_m: config.unit_m,
+            materials: &scene.materials,
+            gather,
+            max_events,
+        })
+    }
 }
 
 fn check_threads(name: &str, threads: usize) -> Result<()> {
@@ -145,7 +237,7 @@ pub struct Context {
     traced: RangeSet,
     elapsed_s: f64,
     history: Vec<Progress>,
-    last_run: Option<(u64, u64, f64, StopReason, Counters, usize)>,
+    last_run: Option<LastRun>,
     /// The last render's report (with its accuracy history); `None` before the first.
     last_render: Option<RenderReport>,
     /// Luminous efficacy and colour-matching weights of the bands.
@@ -872,34 +964,14 @@ impl Context {
             acc,
             layers: prepared.layout.layers,
         });
-        let sampler = match (estimator, &direct_cells, &prepared.direct) {
-            (
-                Estimator::LightSampling {
-                    samples,
-                    pass_photons,
-                    gather,
-                },
-                Some(cells),
-                Some(plan),
-            ) if self.config.scheduler != SchedulerKind::TraceOnly => Some(DirectSampler {
-                plan,
-                scene: &prepared.scene,
-                accel: &prepared.accel,
-                acc: cells,
-                seed: self.config.seed,
-                samples,
-                pass_photons,
-                sensor_pass_photons: direct::sensor_pass_photons(
-                    pass_photons,
-                    samples,
-                    plan.lit,
-                    plan.chunks[1],
-                ),
-                unit_m: self.config.unit_m,
-                materials: &self.scene.materials,
-                gather,
-                max_events: params.max_path_events,
-            }),
+        let sampler = match &direct_cells {
+            Some(cells) if self.config.scheduler != SchedulerKind::TraceOnly => prepared.sampler(
+                &self.scene,
+                &self.config,
+                estimator,
+                cells,
+                params.max_path_events,
+            ),
             _ => None,
         };
         let regions = RegionShared::new(threads, prepared.layout.regions.count, nb);
@@ -907,17 +979,13 @@ impl Context {
             regions: &regions,
             regions_before: &self.region_tally,
             region_weights: &region_weights,
-            tracer: Tracer {
-                scene: &prepared.scene,
-                accel: &prepared.accel,
-                sensors: prepared.sensors.as_ref(),
-                materials: &self.scene.materials,
-                bands: self.scene.bands.count(),
-                seed: self.config.seed,
-                unit_m: self.config.unit_m,
-                max_events: params.max_path_events,
-                direct: sampler.as_ref(),
-            },
+            tracer: prepared.tracer(
+                &self.scene,
+                &self.config,
+                params.max_path_events,
+                prepared.sensors.as_ref(),
+                sampler.as_ref(),
+            ),
             scene: &prepared.scene,
             layout: &prepared.layout,
             threads,
@@ -934,14 +1002,14 @@ impl Context {
             SchedulerKind::Dynamic => sched::dynamic::run(&rc, map, params, &self.config.dynamic),
             SchedulerKind::TraceOnly => sched::trace_only::run(&rc, map, params),
         };
-        self.last_run = Some((
-            outcome.stats.photons,
-            outcome.stats.hits,
-            outcome.wall_s,
-            outcome.stop,
-            outcome.counters,
+        self.last_run = Some(LastRun {
+            photons: outcome.stats.photons,
+            hits: outcome.stats.hits,
+            wall_s: outcome.wall_s,
+            stop: outcome.stop,
+            counters: outcome.counters,
             threads,
-        ));
+        });
         if self.config.scheduler == SchedulerKind::TraceOnly {
             // Nothing was accumulated: the totals and the history stay as they were.
             return Ok(self.report());
@@ -978,9 +1046,14 @@ impl Context {
         let n = self.photons();
         let total_power = self.prepared.as_ref().map_or(0.0, |p| p.scene.total_power);
         let w = if n > 0 { total_power / n as f64 } else { 0.0 };
-        let (run_photons, run_hits, run_wall_s, stop, counters, threads) = self
-            .last_run
-            .unwrap_or((0, 0, 0.0, StopReason::PhotonCount, Counters::default(), 0));
+        let LastRun {
+            photons: run_photons,
+            hits: run_hits,
+            wall_s: run_wall_s,
+            stop,
+            counters,
+            threads,
+        } = self.last_run.clone().unwrap_or_default();
         let band_w = self.stats.bands.clone().map(|mut b| {
             b.resize(self.bands(), 0.0);
             b.iter_mut().for_each(|x| *x *= w);
@@ -1002,7 +1075,7 @@ impl Context {
             run_photons,
             run_hits,
             run_wall_s,
-            stop: self.last_run.map(|_| stop),
+            stop: self.last_run.as_ref().map(|_| stop),
             threads,
             scheduler: self.config.scheduler,
             emitted_w: self.stats.emitted * w,

@@ -3,19 +3,16 @@
 use super::Layer;
 use super::{check_threads, Context};
 use crate::error::{bail, check_finite_scalar, Error, ImapStatus, Result};
-use crate::progress::{duration_s, Progress, StopReason};
+use crate::progress::Progress;
 use crate::render::backward::{MapIndirect, MeshIndirect};
-use crate::render::gather::{self, Batch, Caustics, GatherError, GatherStore, Schedule};
+use crate::render::gather::{self, driver, Batch, Caustics, GatherStore, Schedule};
 use crate::render::{
-    self, Camera, CameraDesc, EyeStats, EyeTracer, Image, RenderMethod, RenderMonitor,
-    RenderParams, RenderReport,
+    self, Camera, CameraDesc, EyeTracer, Image, RenderMethod, RenderParams, RenderReport,
 };
 use crate::scene::Extent;
 use crate::sched::RunParams;
 use crate::transport::Tracer;
-use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::Mutex;
-use std::time::{Duration, Instant};
+use std::sync::atomic::AtomicBool;
 
 impl Context {
     /// Renders the camera's view (camera luminance by backward photon maps). Independent of
@@ -178,17 +175,7 @@ impl Context {
     /// cameras do not see them: they are not in `accel`).
     fn render_tracer(&self, max_events: u32) -> Tracer<'_> {
         let prepared = self.prepared.as_ref().expect("prepared before a render");
-        Tracer {
-            scene: &prepared.scene,
-            accel: &prepared.accel,
-            sensors: None,
-            materials: &self.scene.materials,
-            bands: self.scene.bands.count(),
-            seed: self.config.seed,
-            unit_m: self.config.unit_m,
-            max_events,
-            direct: None,
-        }
+        prepared.tracer(&self.scene, &self.config, max_events, None, None)
     }
 
     /// The report of the last render since the last reset.
@@ -245,56 +232,14 @@ impl Context {
     }
 }
 
-/// Shortest and longest slice of a final-gathering render between decisions, s.
-const SLICE_MIN_S: f64 = 0.05;
-const SLICE_MAX_S: f64 = 4.0;
-/// Each part of a final-gathering render (eye paths, caustics) keeps at least this share
-/// of its time, whatever their errors say (a part whose error is 0 so far, or a scene where
-/// one part has nothing to do, must not stall the others).
-const MIN_SHARE: f64 = 0.1;
-/// A final-gathering render's slices grow with it: this share of the time so far.
-const SLICE_SHARE: f64 = 0.25;
-/// The first map slice of a render that finds the map empty (at most a tenth of a time
-/// budget), s.
-const FIRST_MAP_S: f64 = 0.5;
-/// Photons a render that finds the map empty traces before anything else, whatever its
-/// time budget: final gathering reads the map, so the shortest budget still gets one
-/// (and the same status every time).
-pub const FIRST_MAP_PHOTONS: u64 = 1 << 12;
-
-/// A final-gathering render's progress point.
-fn gather_point(start: Instant, err: &GatherError, photons: u64, paths: u64) -> Progress {
-    Progress {
-        region_rel_error: 0.0,
-        elapsed_s: start.elapsed().as_secs_f64(),
-        photons,
-        hits: paths,
-        rel_error: err.rel_error,
-    }
-}
-
-/// What a final-gathering render does next.
-enum GatherStep {
-    /// Run the map: this many photons (0: for `secs` seconds).
-    Map { photons: u64, secs: f64 },
-    /// Trace this many caustic rounds.
-    Caustic(u64),
-    /// A batch of eye passes.
-    Eye,
-    /// The first photons of an empty map (`FIRST_MAP_PHOTONS`), whatever the time.
-    FirstMap,
-}
-
 impl Context {
-    /// `RenderMethod::FinalGather`: eye passes alternated with runs of the context's map
-    /// (which the render extends) and, when the scene has point-like lights and specular
-    /// surfaces, rounds of caustic photons, until a stop criterion.
+    /// `RenderMethod::FinalGather` (`render::gather::driver`): sizes and budgets the
+    /// render, then drives it over this context's map.
     fn render_gather(
         &mut self,
         camera: &CameraDesc,
         params: &mut RenderParams,
     ) -> Result<(Image, RenderReport, Option<Error>)> {
-        let start = Instant::now();
         let origin = self.prepared.as_ref().expect("prepared").scene.origin;
         let cam = Camera::new(camera, origin)?;
         let threads = self.worker_threads().max(1);
@@ -333,362 +278,74 @@ impl Context {
                 "the render (final gathering, {pixels} pixels × {nb} bands, the map's {slots} vertex sides read)"
             ),
         )?;
-        let records = slots > 0;
-        let fixed = params.forward_per_pass;
-        let max_events = params.max_path_events;
-        let store = GatherStore::new(pixels, nb, threads);
-        let caustics = with_caustics.then(|| Mutex::new(Caustics::new(pixels, nb)));
-        let seed = self.config.seed;
-        let end = (params.time_budget_s > 0.0)
-            .then(|| crate::progress::deadline(start, params.time_budget_s))
-            .flatten();
-        let photons_before = self.photons();
-        let before_render = Untouched::of(self);
-        let mut mon = RenderMonitor::new(params, start);
-        let interval = mon.interval();
-        let mut map: Option<MapIndirect> = None;
-        // The render extends a map that is empty or holds photons 0..N: one that holds a
-        // shard's or a range's photons is read as it is (continuing it with every photon
-        // would take other shards' indices and count them twice in a merge).
-        let sequential = match self.traced.ranges() {
-            [] => true,
-            [r] => r.start == 0,
-            _ => false,
-        };
-        let mut map_frozen = !records || !sequential;
-        let (mut t_eye, mut t_map, mut t_read, mut t_caustic) = (0.0f64, 0.0, 0.0, 0.0f64);
-        let mut stats = EyeStats::default();
-        let mut err = GatherError {
-            rel_error: crate::imap::NO_DATA_REL_ERROR,
-            ..Default::default()
-        };
-        let mut lost: Option<Error> = None;
-        let mut batches = 0u64;
-        let mut schedule = Schedule::default();
-        let stop_flag = AtomicBool::new(false);
-        // Caustic rounds traced whole, and the next round's index.
-        let (mut done_rounds, mut next_round) = (0u64, 0u64);
-        loop {
-            let now = start.elapsed().as_secs_f64();
-            let left = end.map(|e| e.saturating_duration_since(Instant::now()).as_secs_f64());
-            if left.is_some_and(|l| l <= 0.0) {
-                mon.stop = mon.stop.or(Some(StopReason::TimeBudget));
-            }
-            // An empty map gets its first photons even when the time is up: the shortest
-            // budget leaves the context as every other does, with a map.
-            let first = !map_frozen && self.photons() == 0;
-            if mon.stop.is_some() && !(first && mon.stop == Some(StopReason::TimeBudget)) {
-                break;
-            }
-            let slice = (SLICE_SHARE * now)
-                .clamp(SLICE_MIN_S, SLICE_MAX_S)
-                .min(left.unwrap_or(f64::MAX));
-            let pass = err.min_samples as u64;
-            let passes_done = mon.params.passes > 0 && pass >= mon.params.passes;
-            if fixed > 0 && passes_done {
-                mon.stop = Some(StopReason::PhotonCount);
-                break;
-            }
-            let step = if first {
-                GatherStep::FirstMap
-            } else if fixed > 0 {
-                // Before pass k (from 0) the map holds at least (k + 1) · fixed photons and
-                // the caustics have k + 1 rounds.
-                let want = (pass + 1).saturating_mul(fixed);
-                let have = self.photons();
-                if !map_frozen && have < want {
-                    GatherStep::Map {
-                        photons: want - have,
-                        secs: 0.0,
-                    }
-                } else if with_caustics && done_rounds < pass + 1 {
-                    GatherStep::Caustic(pass + 1 - done_rounds)
-                } else {
-                    GatherStep::Eye
-                }
-            } else if !map_frozen && self.photons() == FIRST_MAP_PHOTONS && photons_before == 0 {
-                GatherStep::Map {
-                    photons: 0,
-                    secs: first_map_s(mon.params.time_budget_s).min(left.unwrap_or(f64::MAX)),
-                }
-            } else if with_caustics && done_rounds < 2 {
-                GatherStep::Caustic(threads.max(2) as u64)
-            } else if batches == 0 {
-                GatherStep::Eye
-            } else if passes_done {
-                // Every pixel has its passes: the caustics at least one round per pass.
-                if with_caustics && done_rounds < pass {
-                    GatherStep::Caustic(pass - done_rounds)
-                } else {
-                    GatherStep::Eye
-                }
-            } else if t_eye < MIN_SHARE * now {
-                GatherStep::Eye
-            } else if with_caustics && t_caustic < MIN_SHARE * now {
-                GatherStep::Caustic(threads as u64)
-            } else {
-                // Each part's error² falls as 1/(its time): the next slice goes where it
-                // buys the most, the largest error² per second spent so far.
-                let eye = err.eye_var / t_eye.max(1e-3);
-                let photons = self.photons().max(1) as f64;
-                let map_rate = if map_frozen {
-                    0.0
-                } else {
-                    err.map_per_photon / photons / self.elapsed_s.max(1e-3)
-                };
-                let caustic = if with_caustics {
-                    err.caustic_var / t_caustic.max(1e-3)
-                } else {
-                    0.0
-                };
-                if map_rate > eye && map_rate >= caustic {
-                    GatherStep::Map {
-                        photons: 0,
-                        secs: slice,
-                    }
-                } else if caustic > eye {
-                    let per_round = t_caustic / done_rounds.max(1) as f64 * threads as f64;
-                    let n = (slice * threads as f64 / per_round.max(1e-6)) as u64;
-                    GatherStep::Caustic(n.clamp(threads as u64, 1 << 20))
-                } else {
-                    GatherStep::Eye
-                }
-            };
-            if passes_done && matches!(step, GatherStep::Eye) {
-                // Every pixel has its passes, and the map and the caustics have their
-                // shares of the time.
-                mon.stop = Some(StopReason::PhotonCount);
-                break;
-            }
-            match step {
-                GatherStep::FirstMap => {
-                    let t0 = Instant::now();
-                    let paths = stats.paths;
-                    // Only a cancel from the caller's callback stops these photons.
-                    let mut cancel = |p: &Progress| {
-                        !(mon.due()
-                            && mon.tick(
-                                gather_point(start, &err, p.photons, paths),
-                                false,
-                                Duration::ZERO,
-                            ))
-                    };
-                    let r = self.run(&mut RunParams {
-                        photons: FIRST_MAP_PHOTONS,
-                        progress_interval_s: 0.05,
-                        max_path_events: max_events,
-                        progress: Some(&mut cancel),
-                        ..Default::default()
-                    });
-                    t_map += t0.elapsed().as_secs_f64();
-                    match r {
-                        Err(e) if e.status == ImapStatus::ImapErrThreadLost => {
-                            lost = Some(e);
-                            break;
-                        }
-                        Err(e) => {
-                            before_render.restore(self);
-                            return Err(e);
-                        }
-                        Ok(_) => {}
-                    }
-                    if self.photons() == 0 {
-                        // Cancelled before a photon was whole: nothing to gather from.
-                        mon.stop = mon.stop.or(Some(StopReason::Cancelled));
-                        break;
-                    }
-                    map = None;
-                    continue;
-                }
-                GatherStep::Map { photons, secs } => {
-                    let t0 = Instant::now();
-                    let before = self.photons();
-                    let until = end;
-                    let paths = stats.paths;
-                    // The map's progress points carry on the render's: its callback (which
-                    // may cancel) and its time budget still rule during a slice.
-                    let mut in_time = |p: &Progress| {
-                        if until.is_some_and(|e| Instant::now() >= e) {
-                            return false;
-                        }
-                        !(mon.due()
-                            && mon.tick(
-                                gather_point(start, &err, p.photons, paths),
-                                err.min_samples >= 2,
-                                Duration::ZERO,
-                            ))
-                    };
-                    let r = self.run(&mut RunParams {
-                        photons,
-                        time_budget_s: if photons > 0 {
-                            left.unwrap_or(0.0)
-                        } else {
-                            secs
-                        },
-                        progress_interval_s: 0.05,
-                        max_path_events: max_events,
-                        progress: Some(&mut in_time),
-                        ..Default::default()
-                    });
-                    t_map += t0.elapsed().as_secs_f64();
-                    match r {
-                        Ok(_) => {}
-                        Err(e) if e.status == ImapStatus::ImapErrThreadLost => {
-                            lost = Some(e);
-                            break;
-                        }
-                        Err(e) if self.photons() == 0 => {
-                            before_render.restore(self);
-                            return Err(e);
-                        }
-                        // The map cannot grow (its photon selection is spent, a budget): the
-                        // render goes on with the map as it is.
-                        Err(_) => map_frozen = true,
-                    }
-                    if self.photons() == before {
-                        map_frozen = true;
-                    }
-                    map = None;
-                    continue;
-                }
-                GatherStep::Caustic(n) => {
-                    let eye = self.eye_tracer(&cam, max_events, 0.0);
-                    let fwd = self.render_tracer(max_events);
-                    let t0 = Instant::now();
-                    stop_flag.store(false, Ordering::Relaxed);
-                    let c = caustics.as_ref().expect("with caustics");
-                    let (whole, gone) = gather::caustic_rounds(
-                        &eye, &fwd, &delta, c, next_round, n, threads, &stop_flag,
-                    );
-                    done_rounds += whole;
-                    next_round += n;
-                    t_caustic += t0.elapsed().as_secs_f64();
-                    if let Some(why) = gone {
-                        lost = Some(thread_lost(why));
-                        break;
-                    }
-                    err = store.estimate(&schedule, caustics.as_ref(), None);
-                    self.gather_tick(&mut mon, &err, stats.paths);
-                    continue;
-                }
-                GatherStep::Eye => {}
-            }
-            if map.is_none() && records {
-                let t0 = Instant::now();
-                map = Some(self.map_indirect()?);
-                t_read += t0.elapsed().as_secs_f64();
-            }
-            // A batch of eye passes.
-            let mut eye = self.eye_tracer(&cam, max_events, 0.0);
-            eye.map = map.as_ref();
-            // The sun through specular surfaces: the caustic rounds bring it.
-            eye.sun_by_caustics = with_caustics;
-            let up_to = if fixed > 0 {
-                err.min_samples.saturating_add(1)
-            } else {
-                match mon.params.passes {
-                    0 => u32::MAX,
-                    p => u32::try_from(p).unwrap_or(u32::MAX),
-                }
-            };
-            let batch_end = if fixed > 0 {
-                end
-            } else {
-                Instant::now()
-                    .checked_add(duration_s(slice))
-                    .map(|b| end.map_or(b, |e| e.min(b)))
-            };
-            stop_flag.store(false, Ordering::Relaxed);
-            let batch = Batch {
-                up_to,
-                deadline: batch_end,
-                stop: &stop_flag,
-                map_photons: if records { self.photons() } else { 0 },
-            };
-            let photons_now = batch.map_photons;
-            let samples_before = store.samples();
-            let t0 = Instant::now();
-            let (tally, gone) =
-                gather::passes(&eye, &store, seed, threads, &batch, interval, &mut || {
-                    if !mon.due() {
-                        return false;
-                    }
-                    let t1 = Instant::now();
-                    let mut now = schedule.clone();
-                    now.add(photons_now, store.samples() - samples_before);
-                    let e = store.estimate(&now, caustics.as_ref(), None);
-                    let p = gather_point(start, &e, photons_now, e.samples);
-                    mon.tick(p, e.min_samples >= 2, t1.elapsed())
-                });
-            t_eye += t0.elapsed().as_secs_f64();
-            batches += 1;
-            stats.paths += tally.stats.paths;
-            stats.rays += tally.stats.rays;
-            stats.dropped += tally.stats.dropped;
-            if let Some(why) = gone {
-                lost = Some(thread_lost(why));
-                break;
-            }
-            schedule.add(photons_now, store.samples() - samples_before);
-            err = store.estimate(&schedule, caustics.as_ref(), None);
-            self.gather_tick(&mut mon, &err, stats.paths);
-            if tally.stats.paths == 0 && map_frozen && mon.stop.is_none() && !tally.cut {
-                // Nothing left to do (cannot happen with a criterion set): stop.
-                mon.stop = Some(StopReason::PhotonCount);
-            }
-        }
-        if self.photons() == 0 {
-            // No photon was traced: the map's run time and history stay as they were.
-            before_render.restore(self);
-        }
-        let wall_s = start.elapsed().as_secs_f64();
-        let mut image = Image::new(camera.width, camera.height, nb);
-        let err = store.estimate(&schedule, caustics.as_ref(), Some(&mut image));
-        let last = Progress {
-            region_rel_error: 0.0,
-            elapsed_s: wall_s,
-            photons: self.photons(),
-            hits: stats.paths,
-            rel_error: err.rel_error,
-        };
-        mon.finish(last);
-        let report = RenderReport {
+        let job = driver::Job {
+            cam,
+            width: camera.width,
+            height: camera.height,
             threads,
-            groups: 1,
-            threads_per_group: threads,
-            phases: batches,
-            passes: err.samples as f64 / pixels as f64,
-            backward_paths: stats.paths,
-            backward_rays: stats.rays,
-            forward_photons: self.photons() - photons_before,
-            gathers: done_rounds * gather::CAUSTIC_ROUND,
-            wall_s,
-            stop: Some(mon.stop.unwrap_or(StopReason::PhotonCount)),
-            rel_error: err.rel_error,
-            time_backward_s: t_eye,
-            time_build_s: t_read,
-            time_forward_s: t_map,
-            time_close_s: t_caustic,
-            dropped_paths: stats.dropped,
-            map_bytes_per_group: read_bytes,
-            pixel_bytes: store_bytes + caustic_bytes,
-            total_bytes: read_bytes + store_bytes + caustic_bytes,
-            history: mon.history,
-            ..Default::default()
+            bands: nb,
+            slots,
+            delta,
+            with_caustics,
+            read_bytes,
+            store_bytes,
+            caustic_bytes,
+            seed: self.config.seed,
         };
+        let before = Untouched::of(self);
+        let mut host = Host {
+            ctx: self,
+            before: Some(before),
+        };
+        let (image, report, lost) = driver::render(&mut host, &job, params)?;
         self.last_render = Some(report.clone());
         Ok((image, report, lost))
     }
+}
 
-    /// After a step of a final-gathering render: the stop criteria, and a progress point
-    /// when one is due.
-    fn gather_tick(&self, mon: &mut RenderMonitor, err: &GatherError, paths: u64) {
-        let settled = err.min_samples >= 2;
-        let why = mon.criteria(err.rel_error, settled, mon.start.elapsed().as_secs_f64());
-        mon.stop = mon.stop.or(why);
-        if mon.stop.is_none() && mon.due() {
-            let p = gather_point(mon.start, err, self.photons(), paths);
-            mon.tick(p, settled, Duration::ZERO);
+/// The context as final gathering's host (`driver::GatherHost`).
+struct Host<'c> {
+    ctx: &'c mut Context,
+    /// What to put back should the render trace no photon (taken when put back).
+    before: Option<Untouched>,
+}
+
+impl driver::GatherHost for Host<'_> {
+    fn photons(&self) -> u64 {
+        self.ctx.photons()
+    }
+
+    fn map_elapsed_s(&self) -> f64 {
+        self.ctx.elapsed_s
+    }
+
+    fn map_sequential(&self) -> bool {
+        match self.ctx.traced.ranges() {
+            [] => true,
+            [r] => r.start == 0,
+            _ => false,
+        }
+    }
+
+    fn run_map(&mut self, params: &mut RunParams) -> Result<()> {
+        self.ctx.run(params).map(|_| ())
+    }
+
+    fn map_indirect(&self) -> Result<MapIndirect> {
+        self.ctx.map_indirect()
+    }
+
+    fn eye_tracer<'a>(&'a self, cam: &'a Camera, max_events: u32) -> EyeTracer<'a> {
+        self.ctx.eye_tracer(cam, max_events, 0.0)
+    }
+
+    fn forward_tracer(&self, max_events: u32) -> Tracer<'_> {
+        self.ctx.render_tracer(max_events)
+    }
+
+    fn put_back(&mut self) {
+        if let Some(before) = self.before.take() {
+            before.restore(self.ctx);
         }
     }
 }
@@ -700,7 +357,7 @@ struct Untouched {
     elapsed_s: f64,
     history: Vec<Progress>,
     stats: crate::transport::PathStats,
-    last_run: Option<(u64, u64, f64, StopReason, crate::sched::Counters, usize)>,
+    last_run: Option<super::LastRun>,
 }
 
 impl Untouched {
@@ -716,7 +373,7 @@ impl Untouched {
             } else {
                 Default::default()
             },
-            last_run: c.last_run,
+            last_run: c.last_run.clone(),
         }
     }
 
@@ -727,22 +384,6 @@ impl Untouched {
             c.stats = self.stats;
             c.last_run = self.last_run;
         }
-    }
-}
-
-fn thread_lost(why: String) -> Error {
-    Error::new(
-        ImapStatus::ImapErrThreadLost,
-        format!("{why}; the render was stopped and its image holds what was rendered until then"),
-    )
-}
-
-/// The first map slice of a render that finds the map empty, s.
-fn first_map_s(time_budget_s: f64) -> f64 {
-    if time_budget_s > 0.0 {
-        FIRST_MAP_S.min(0.1 * time_budget_s)
-    } else {
-        FIRST_MAP_S
     }
 }
 

@@ -9,6 +9,8 @@
 //! thread count. The context alternates these passes with runs of the map
 //! (`Context::render_partial`).
 
+pub mod driver;
+
 use super::backward::{EyeStats, EyeTracer};
 use super::Image;
 use crate::sampling::PhotonRng;
