@@ -285,26 +285,6 @@
 #define IMAP_OPENING_ELLIPSE 2
 
 /**
- * `imap_get_band_balance`: what the photons carried from the lights.
- */
-#define IMAP_BALANCE_EMITTED 0
-
-/**
- * `imap_get_band_balance`: what all surfaces and media absorbed.
- */
-#define IMAP_BALANCE_ABSORBED 1
-
-/**
- * `imap_get_band_balance`: what left the scene.
- */
-#define IMAP_BALANCE_ESCAPED 2
-
-/**
- * `imap_get_band_balance`: what `max_path_events` dropped.
- */
-#define IMAP_BALANCE_DROPPED 3
-
-/**
  * `ImapRenderParams::method`: all threads share one set of backward photon maps, phase
  * by phase (paper §2.2, synchronous).
  */
@@ -350,6 +330,26 @@
 #define IMAP_ALL_PARTS UINT32_MAX
 
 /**
+ * `imap_get_band_balance`: what the photons carried from the lights.
+ */
+#define IMAP_BALANCE_EMITTED 0
+
+/**
+ * `imap_get_band_balance`: what all surfaces and media absorbed.
+ */
+#define IMAP_BALANCE_ABSORBED 1
+
+/**
+ * `imap_get_band_balance`: what left the scene.
+ */
+#define IMAP_BALANCE_ESCAPED 2
+
+/**
+ * `imap_get_band_balance`: what `max_path_events` dropped.
+ */
+#define IMAP_BALANCE_DROPPED 3
+
+/**
  * Side index of `imap_get_vertex_energy`: the side the normal (v1−v0)×(v2−v0) points to.
  */
 #define IMAP_SIDE_FRONT 0
@@ -392,7 +392,7 @@
 /**
  * `ImapRunParams::region_measure`: the `region_percentile`-th percentile (default 100:
  * the largest) of the relative standard errors of the chosen meshes' vertices (band mean,
- * as `imap_get_vertex_rel_error`; a vertex that received nothing counts as 1). (Since
+ * as `imap_get_vertex_error`; a vertex that received nothing counts as 1). (Since
  * 0.2.1.)
  */
 #define IMAP_REGION_VERTICES 0
@@ -1731,6 +1731,36 @@ extern "C" {
 #endif /* __cplusplus */
 
 /**
+ * The luminous efficacy of each band, lm/W (lux per W/m²), into `out[0 .. band count)`.
+ *
+ * # Safety
+ * `ctx` is a live handle; `out` holds `count` writable doubles.
+ */
+enum ImapStatus imap_get_band_efficacy(const struct ImapContext *ctx, double *out, size_t count);
+
+/**
+ * Chromaticity (x, y) of CIE 1931 tristimulus values into `out_xy[0..2]`. Returns
+ * IMAP_ERR_NULL_POINTER, IMAP_ERR_NON_FINITE, IMAP_ERR_INVALID_ARGUMENT (black: X + Y + Z
+ * ≤ 0). Thread-safe.
+ *
+ * # Safety
+ * `xyz` points to 3 doubles, `out_xy` to 2 writable doubles.
+ */
+enum ImapStatus imap_xyz_chromaticity(const double *xyz, double *out_xy);
+
+/**
+ * Correlated colour temperature (K) of CIE 1931 tristimulus values, and Duv (the signed
+ * distance from the Planckian locus in CIE 1960 uv, positive above it), by search along
+ * the locus (1000–100 000 K). `out_duv` may be NULL. Returns IMAP_ERR_NULL_POINTER,
+ * IMAP_ERR_NON_FINITE, IMAP_ERR_INVALID_ARGUMENT (black, or farther than 0.05 from the
+ * locus: no meaningful CCT). Thread-safe.
+ *
+ * # Safety
+ * `xyz` points to 3 doubles; `out_k` is writable; `out_duv` is NULL or writable.
+ */
+enum ImapStatus imap_xyz_to_cct(const double *xyz, double *out_k, double *out_duv);
+
+/**
  * Fills the `size` bytes at `out` with the defaults and sets `struct_size = size`: RGB,
  * all cores, seed 0, dynamic scheduler with subd 4 and automatic group counts and
  * thresholds, the default memory budget, 1 m per scene unit (spectral range preset to
@@ -1873,41 +1903,6 @@ enum ImapStatus imap_set_mesh_light_group(struct ImapContext *ctx, uint32_t mesh
 enum ImapStatus imap_get_layers(const struct ImapContext *ctx, uint32_t *groups, uint32_t *direct);
 
 /**
- * Irradiance in W/m² in band `band` of one layer of the map — `layer` a light group,
- * IMAP_LAYER_DIRECT or IMAP_LAYER_ALL — at every vertex of `mesh` on `side`, as
- * `imap_get_vertex_energy`. Summed over the group layers it is the whole map's (to
- * rounding, a few units in the last place).
- *
- * Returns as `imap_get_vertex_energy`, and IMAP_ERR_NOT_RECORDED when the layer is not
- * kept (imap_set_layers), IMAP_ERR_INDEX_OUT_OF_RANGE for a group past the largest.
- * (Since 0.2.1.)
- *
- * # Safety
- * `ctx` is a live handle; `out` holds `count` writable doubles.
- */
-enum ImapStatus imap_get_layer_energy(const struct ImapContext *ctx, uint32_t mesh, uint32_t side, uint32_t band, uint32_t layer, double *out, size_t count);
-
-/**
- * Illuminance in lux of one layer at every vertex, as `imap_get_vertex_illuminance` and
- * `imap_get_layer_energy`. (Since 0.2.1.)
- *
- * # Safety
- * `ctx` is a live handle; `out` holds `count` writable doubles.
- */
-enum ImapStatus imap_get_layer_illuminance(const struct ImapContext *ctx, uint32_t mesh, uint32_t side, uint32_t layer, double *out, size_t count);
-
-/**
- * The relative standard error of one layer's band-mean irradiance at every vertex, as
- * `imap_get_vertex_error` and `imap_get_layer_energy`. A recombination Σ_g d_g E_g has the
- * error σ² = Σ_g d_g² (σ_g² + E_g²/N) − (Σ_g d_g E_g)²/N, with σ_g = rel_g·E_g and N the
- * photons traced (every photon belongs to one group; docs/results.md). (Since 0.2.1.)
- *
- * # Safety
- * `ctx` is a live handle; `out` holds `count` writable doubles.
- */
-enum ImapStatus imap_get_layer_error(const struct ImapContext *ctx, uint32_t mesh, uint32_t side, uint32_t layer, double *out, size_t count);
-
-/**
  * The figures of a region (as `imap_get_region_stats`) in one layer of the map — `layer`
  * a light group, IMAP_LAYER_DIRECT or IMAP_LAYER_ALL: a light group's or the direct
  * component's flux, average, minimum and uniformity with their standard errors. On a
@@ -2034,6 +2029,40 @@ enum ImapStatus imap_add_luminaire_table(struct ImapContext *ctx, const struct I
 enum ImapStatus imap_get_light_flux(const struct ImapContext *ctx, uint32_t id, double *out_w, size_t count, double *out_lm);
 
 /**
+ * The number of vertices of mesh `mesh` into `*out`.
+ *
+ * # Safety
+ * `ctx` is a live handle; `out` is writable.
+ */
+enum ImapStatus imap_get_vertex_count(const struct ImapContext *ctx, uint32_t mesh, size_t *out);
+
+/**
+ * Irradiance in W/m² in band `band` at every vertex of mesh `mesh` on `side`
+ * (`IMAP_SIDE_FRONT`, or `IMAP_SIDE_BACK` on two-sided meshes), written to `out[0 ..
+ * vertex_count)`; `count` may be larger (the rest of `out` is left as it was). Before the
+ * first run: zeros. Vertices used by no triangle of non-zero area get 0.
+ *
+ * Returns IMAP_ERR_NULL_POINTER, IMAP_ERR_INDEX_OUT_OF_RANGE (mesh, side or band),
+ * IMAP_ERR_NOT_RECORDED, IMAP_ERR_BUFFER_TOO_SMALL (`count` < vertex count), IMAP_ERR_BUSY;
+ * nothing is written then.
+ *
+ * # Safety
+ * `ctx` is a live handle; `out` holds `count` writable doubles.
+ */
+enum ImapStatus imap_get_vertex_energy(const struct ImapContext *ctx, uint32_t mesh, uint32_t side, uint32_t band, double *out, size_t count);
+
+/**
+ * Relative standard error (σ/E, dimensionless) of the band-mean irradiance at every vertex
+ * of `mesh` on `side`, from the per-vertex sum over photons of each photon's squared
+ * total contribution (calibrated against independent runs). 1 where nothing has arrived or
+ * the vertex has no area. Buffer and statuses as `imap_get_vertex_energy`.
+ *
+ * # Safety
+ * `ctx` is a live handle; `out` holds `count` writable doubles.
+ */
+enum ImapStatus imap_get_vertex_error(const struct ImapContext *ctx, uint32_t mesh, uint32_t side, double *out, size_t count);
+
+/**
  * Illuminance in lux at every vertex of mesh `mesh` on `side`: Σ over bands of the
  * irradiance times the band's luminous efficacy (docs/photometry.md), into `out[0 ..
  * vertex_count)`. Its relative error is `imap_get_vertex_error`'s (exact for spectrally
@@ -2056,45 +2085,50 @@ enum ImapStatus imap_get_vertex_illuminance(const struct ImapContext *ctx, uint3
 enum ImapStatus imap_get_vertex_xyz(const struct ImapContext *ctx, uint32_t mesh, uint32_t side, double *out, size_t count);
 
 /**
- * The luminous efficacy of each band, lm/W (lux per W/m²), into `out[0 .. band count)`.
+ * Each vertex's area of mesh `mesh` — a third of the area of every triangle it belongs
+ * to, m² — into `out[0 .. vertex count)`: E × area summed over a mesh's vertices is the
+ * flux it receives. Any mesh (recording or not). Returns IMAP_ERR_NULL_POINTER,
+ * IMAP_ERR_INDEX_OUT_OF_RANGE, IMAP_ERR_BUFFER_TOO_SMALL, IMAP_ERR_BUSY.
  *
  * # Safety
  * `ctx` is a live handle; `out` holds `count` writable doubles.
  */
-enum ImapStatus imap_get_band_efficacy(const struct ImapContext *ctx, double *out, size_t count);
+enum ImapStatus imap_get_vertex_areas(const struct ImapContext *ctx, uint32_t mesh, double *out, size_t count);
 
 /**
- * The power balance per band since the last reset, W per band, into `out[0 .. band
- * count)`: `IMAP_BALANCE_EMITTED`, `_ABSORBED`, `_ESCAPED` or `_DROPPED` (their sums are
- * `ImapReport`'s `emitted_w` …, their luminous values its `emitted_lm` …). Zeros before
- * the first run.
+ * Irradiance in W/m² in band `band` of one layer of the map — `layer` a light group,
+ * IMAP_LAYER_DIRECT or IMAP_LAYER_ALL — at every vertex of `mesh` on `side`, as
+ * `imap_get_vertex_energy`. Summed over the group layers it is the whole map's (to
+ * rounding, a few units in the last place).
+ *
+ * Returns as `imap_get_vertex_energy`, and IMAP_ERR_NOT_RECORDED when the layer is not
+ * kept (imap_set_layers), IMAP_ERR_INDEX_OUT_OF_RANGE for a group past the largest.
+ * (Since 0.2.1.)
  *
  * # Safety
  * `ctx` is a live handle; `out` holds `count` writable doubles.
  */
-enum ImapStatus imap_get_band_balance(const struct ImapContext *ctx, uint32_t kind, double *out, size_t count);
+enum ImapStatus imap_get_layer_energy(const struct ImapContext *ctx, uint32_t mesh, uint32_t side, uint32_t band, uint32_t layer, double *out, size_t count);
 
 /**
- * Chromaticity (x, y) of CIE 1931 tristimulus values into `out_xy[0..2]`. Returns
- * IMAP_ERR_NULL_POINTER, IMAP_ERR_NON_FINITE, IMAP_ERR_INVALID_ARGUMENT (black: X + Y + Z
- * ≤ 0). Thread-safe.
+ * Illuminance in lux of one layer at every vertex, as `imap_get_vertex_illuminance` and
+ * `imap_get_layer_energy`. (Since 0.2.1.)
  *
  * # Safety
- * `xyz` points to 3 doubles, `out_xy` to 2 writable doubles.
+ * `ctx` is a live handle; `out` holds `count` writable doubles.
  */
-enum ImapStatus imap_xyz_chromaticity(const double *xyz, double *out_xy);
+enum ImapStatus imap_get_layer_illuminance(const struct ImapContext *ctx, uint32_t mesh, uint32_t side, uint32_t layer, double *out, size_t count);
 
 /**
- * Correlated colour temperature (K) of CIE 1931 tristimulus values, and Duv (the signed
- * distance from the Planckian locus in CIE 1960 uv, positive above it), by search along
- * the locus (1000–100 000 K). `out_duv` may be NULL. Returns IMAP_ERR_NULL_POINTER,
- * IMAP_ERR_NON_FINITE, IMAP_ERR_INVALID_ARGUMENT (black, or farther than 0.05 from the
- * locus: no meaningful CCT). Thread-safe.
+ * The relative standard error of one layer's band-mean irradiance at every vertex, as
+ * `imap_get_vertex_error` and `imap_get_layer_energy`. A recombination Σ_g d_g E_g has the
+ * error σ² = Σ_g d_g² (σ_g² + E_g²/N) − (Σ_g d_g E_g)²/N, with σ_g = rel_g·E_g and N the
+ * photons traced (every photon belongs to one group; docs/results.md). (Since 0.2.1.)
  *
  * # Safety
- * `xyz` points to 3 doubles; `out_k` is writable; `out_duv` is NULL or writable.
+ * `ctx` is a live handle; `out` holds `count` writable doubles.
  */
-enum ImapStatus imap_xyz_to_cct(const double *xyz, double *out_k, double *out_duv);
+enum ImapStatus imap_get_layer_error(const struct ImapContext *ctx, uint32_t mesh, uint32_t side, uint32_t layer, double *out, size_t count);
 
 /**
  * Fills the `size` bytes at `out` with a camera at the origin looking down −z, up +y,
@@ -2200,15 +2234,35 @@ enum ImapStatus imap_get_region_stats(const struct ImapContext *ctx, uint32_t me
 enum ImapStatus imap_get_region_band_flux(const struct ImapContext *ctx, uint32_t mesh, uint32_t side, uint32_t part, double *out, size_t count);
 
 /**
- * Each vertex's area of mesh `mesh` — a third of the area of every triangle it belongs
- * to, m² — into `out[0 .. vertex count)`: E × area summed over a mesh's vertices is the
- * flux it receives. Any mesh (recording or not). Returns IMAP_ERR_NULL_POINTER,
- * IMAP_ERR_INDEX_OUT_OF_RANGE, IMAP_ERR_BUFFER_TOO_SMALL, IMAP_ERR_BUSY.
+ * The power balance per band since the last reset, W per band, into `out[0 .. band
+ * count)`: `IMAP_BALANCE_EMITTED`, `_ABSORBED`, `_ESCAPED` or `_DROPPED` (their sums are
+ * `ImapReport`'s `emitted_w` …, their luminous values its `emitted_lm` …). Zeros before
+ * the first run.
  *
  * # Safety
  * `ctx` is a live handle; `out` holds `count` writable doubles.
  */
-enum ImapStatus imap_get_vertex_areas(const struct ImapContext *ctx, uint32_t mesh, double *out, size_t count);
+enum ImapStatus imap_get_band_balance(const struct ImapContext *ctx, uint32_t kind, double *out, size_t count);
+
+/**
+ * Power absorbed by mesh `mesh` (at its surface, or inside it for an absorbing
+ * dielectric), W summed over bands, into `*out_w`.
+ *
+ * # Safety
+ * `ctx` is a live handle; `out_w` is writable.
+ */
+enum ImapStatus imap_get_mesh_absorbed(const struct ImapContext *ctx, uint32_t mesh, double *out_w);
+
+/**
+ * How many triangles of mesh `mesh` were left out because they repeat a vertex (added
+ * with IMAP_MESH_SKIP_DEGENERATE; 0 otherwise), into `*out_count`. (Since 0.2.1.)
+ *
+ * Returns IMAP_ERR_NULL_POINTER, IMAP_ERR_INVALID_ARGUMENT (no such mesh).
+ *
+ * # Safety
+ * `ctx` is a live handle; `out_count` is writable.
+ */
+enum ImapStatus imap_get_mesh_dropped_triangles(const struct ImapContext *ctx, uint32_t mesh, size_t *out_count);
 
 /**
  * Fills the `size` bytes at `out` with run defaults and sets `struct_size = size`: no stop
@@ -2267,60 +2321,6 @@ enum ImapStatus imap_get_report(const struct ImapContext *ctx, struct ImapReport
  * writable.
  */
 enum ImapStatus imap_get_history(const struct ImapContext *ctx, struct ImapProgress *out, size_t capacity, size_t element_size, size_t *out_count);
-
-/**
- * The number of vertices of mesh `mesh` into `*out`.
- *
- * # Safety
- * `ctx` is a live handle; `out` is writable.
- */
-enum ImapStatus imap_get_vertex_count(const struct ImapContext *ctx, uint32_t mesh, size_t *out);
-
-/**
- * Irradiance in W/m² in band `band` at every vertex of mesh `mesh` on `side`
- * (`IMAP_SIDE_FRONT`, or `IMAP_SIDE_BACK` on two-sided meshes), written to `out[0 ..
- * vertex_count)`; `count` may be larger (the rest of `out` is left as it was). Before the
- * first run: zeros. Vertices used by no triangle of non-zero area get 0.
- *
- * Returns IMAP_ERR_NULL_POINTER, IMAP_ERR_INDEX_OUT_OF_RANGE (mesh, side or band),
- * IMAP_ERR_NOT_RECORDED, IMAP_ERR_BUFFER_TOO_SMALL (`count` < vertex count), IMAP_ERR_BUSY;
- * nothing is written then.
- *
- * # Safety
- * `ctx` is a live handle; `out` holds `count` writable doubles.
- */
-enum ImapStatus imap_get_vertex_energy(const struct ImapContext *ctx, uint32_t mesh, uint32_t side, uint32_t band, double *out, size_t count);
-
-/**
- * Relative standard error (σ/E, dimensionless) of the band-mean irradiance at every vertex
- * of `mesh` on `side`, from the per-vertex sum over photons of each photon's squared
- * total contribution (calibrated against independent runs). 1 where nothing has arrived or
- * the vertex has no area. Buffer and statuses as `imap_get_vertex_energy`.
- *
- * # Safety
- * `ctx` is a live handle; `out` holds `count` writable doubles.
- */
-enum ImapStatus imap_get_vertex_error(const struct ImapContext *ctx, uint32_t mesh, uint32_t side, double *out, size_t count);
-
-/**
- * Power absorbed by mesh `mesh` (at its surface, or inside it for an absorbing
- * dielectric), W summed over bands, into `*out_w`.
- *
- * # Safety
- * `ctx` is a live handle; `out_w` is writable.
- */
-enum ImapStatus imap_get_mesh_absorbed(const struct ImapContext *ctx, uint32_t mesh, double *out_w);
-
-/**
- * How many triangles of mesh `mesh` were left out because they repeat a vertex (added
- * with IMAP_MESH_SKIP_DEGENERATE; 0 otherwise), into `*out_count`. (Since 0.2.1.)
- *
- * Returns IMAP_ERR_NULL_POINTER, IMAP_ERR_INVALID_ARGUMENT (no such mesh).
- *
- * # Safety
- * `ctx` is a live handle; `out_count` is writable.
- */
-enum ImapStatus imap_get_mesh_dropped_triangles(const struct ImapContext *ctx, uint32_t mesh, size_t *out_count);
 
 /**
  * Fills the `size` bytes at `out` with a black, non-dielectric material and sets

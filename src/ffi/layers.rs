@@ -1,7 +1,7 @@
 //! Light groups and the map's layers (docs/results.md, "Light groups and layers").
 
 use super::results::{part_of, stats_to_c, ImapRegionStats};
-use super::{slice_mut, with_context, write_optional, write_versioned, ImapContext};
+use super::{with_context, write_optional, write_versioned, ImapContext};
 use crate::context::Layer;
 use crate::error::{bail, ImapStatus};
 use crate::scene::LayerRequest;
@@ -18,7 +18,7 @@ pub const IMAP_LAYER_DIRECT: u32 = u32::MAX - 1;
 pub const IMAP_MAX_LIGHT_GROUPS: u32 = 254;
 const _: () = assert!(IMAP_MAX_LIGHT_GROUPS as usize == crate::imap::MAX_LIGHT_GROUPS);
 
-fn layer_arg(layer: u32) -> Layer {
+pub(super) fn layer_arg(layer: u32) -> Layer {
     match layer {
         IMAP_LAYER_ALL => Layer::Combined,
         IMAP_LAYER_DIRECT => Layer::Direct,
@@ -105,78 +105,6 @@ pub unsafe extern "C" fn imap_get_layers(
         let (g, d) = c.layers();
         write_optional(groups, g)?;
         write_optional(direct, u32::from(d))
-    })
-}
-
-/// Irradiance in W/m² in band `band` of one layer of the map — `layer` a light group,
-/// IMAP_LAYER_DIRECT or IMAP_LAYER_ALL — at every vertex of `mesh` on `side`, as
-/// `imap_get_vertex_energy`. Summed over the group layers it is the whole map's (to
-/// rounding, a few units in the last place).
-///
-/// Returns as `imap_get_vertex_energy`, and IMAP_ERR_NOT_RECORDED when the layer is not
-/// kept (imap_set_layers), IMAP_ERR_INDEX_OUT_OF_RANGE for a group past the largest.
-/// (Since 0.2.1.)
-///
-/// # Safety
-/// `ctx` is a live handle; `out` holds `count` writable doubles.
-#[no_mangle]
-pub unsafe extern "C" fn imap_get_layer_energy(
-    ctx: *const ImapContext,
-    mesh: u32,
-    side: u32,
-    band: u32,
-    layer: u32,
-    out: *mut f64,
-    count: usize,
-) -> ImapStatus {
-    with_context(ctx, |c| {
-        c.irradiance_layer(
-            mesh,
-            side,
-            band,
-            layer_arg(layer),
-            slice_mut("out", out, count)?,
-        )
-    })
-}
-
-/// Illuminance in lux of one layer at every vertex, as `imap_get_vertex_illuminance` and
-/// `imap_get_layer_energy`. (Since 0.2.1.)
-///
-/// # Safety
-/// `ctx` is a live handle; `out` holds `count` writable doubles.
-#[no_mangle]
-pub unsafe extern "C" fn imap_get_layer_illuminance(
-    ctx: *const ImapContext,
-    mesh: u32,
-    side: u32,
-    layer: u32,
-    out: *mut f64,
-    count: usize,
-) -> ImapStatus {
-    with_context(ctx, |c| {
-        c.illuminance_layer(mesh, side, layer_arg(layer), slice_mut("out", out, count)?)
-    })
-}
-
-/// The relative standard error of one layer's band-mean irradiance at every vertex, as
-/// `imap_get_vertex_error` and `imap_get_layer_energy`. A recombination Σ_g d_g E_g has the
-/// error σ² = Σ_g d_g² (σ_g² + E_g²/N) − (Σ_g d_g E_g)²/N, with σ_g = rel_g·E_g and N the
-/// photons traced (every photon belongs to one group; docs/results.md). (Since 0.2.1.)
-///
-/// # Safety
-/// `ctx` is a live handle; `out` holds `count` writable doubles.
-#[no_mangle]
-pub unsafe extern "C" fn imap_get_layer_error(
-    ctx: *const ImapContext,
-    mesh: u32,
-    side: u32,
-    layer: u32,
-    out: *mut f64,
-    count: usize,
-) -> ImapStatus {
-    with_context(ctx, |c| {
-        c.rel_error_layer(mesh, side, layer_arg(layer), slice_mut("out", out, count)?)
     })
 }
 

@@ -5,11 +5,11 @@
 
 use super::scene::add_with;
 use super::{
-    boundary, check_out, read_versioned, slice, slice_mut, with_context, write_defaults,
-    write_optional, write_out, ImapContext, Versioned,
+    boundary, copy_bands, read_versioned, slice, with_context, write_defaults, write_optional,
+    ImapContext, Versioned,
 };
 use crate::error::{bail, Error, ImapStatus, Result};
-use crate::photometry::{self, Opening, PhotometricData, PhotometricType, Spectrum, Symmetry};
+use crate::photometry::{Opening, PhotometricData, PhotometricType, Spectrum, Symmetry};
 use crate::scene::light::{Amount, LightDesc, LightKind, Placement};
 
 /// `ImapLight::kind`: isotropic point source.
@@ -74,15 +74,6 @@ pub const IMAP_OPENING_POINT: u32 = 0;
 pub const IMAP_OPENING_RECTANGLE: u32 = 1;
 /// `ImapPhotometry::opening`: an ellipse (a disk when equal) of those diameters, m.
 pub const IMAP_OPENING_ELLIPSE: u32 = 2;
-
-/// `imap_get_band_balance`: what the photons carried from the lights.
-pub const IMAP_BALANCE_EMITTED: u32 = 0;
-/// `imap_get_band_balance`: what all surfaces and media absorbed.
-pub const IMAP_BALANCE_ABSORBED: u32 = 1;
-/// `imap_get_band_balance`: what left the scene.
-pub const IMAP_BALANCE_ESCAPED: u32 = 2;
-/// `imap_get_band_balance`: what `max_path_events` dropped.
-pub const IMAP_BALANCE_DROPPED: u32 = 3;
 
 /// A light's colour. Initialise with `imap_spectrum_default(&s, sizeof s)` (EQUAL). The
 /// library copies the arrays. NULL where a spectrum is asked for means EQUAL.
@@ -382,20 +373,6 @@ fn text_from_c<'a>(
     Ok(String::from_utf8_lossy(bytes))
 }
 
-/// Copies per-band values into the caller's `out[0 .. count)`.
-fn copy_bands(out: *mut f64, count: usize, values: &[f64]) -> Result<()> {
-    let out = slice_mut("out", out, count)?;
-    if out.len() < values.len() {
-        bail!(
-            ImapErrBufferTooSmall,
-            "the output holds {count} values; the context has {} bands",
-            values.len()
-        );
-    }
-    out[..values.len()].copy_from_slice(values);
-    Ok(())
-}
-
 /// Adds a point, spot, cosine or beam light with its amount in any `IMAP_UNIT_*` and a
 /// spectrum (NULL: EQUAL); `*out_id` receives its id (lights and luminaires share ids).
 /// Lumens and candela become band powers through the bands' luminous efficacies
@@ -678,139 +655,5 @@ pub unsafe extern "C" fn imap_get_light_flux(
             copy_bands(out_w, count, &w)?;
         }
         write_optional(out_lm, lm)
-    })
-}
-
-/// Illuminance in lux at every vertex of mesh `mesh` on `side`: Σ over bands of the
-/// irradiance times the band's luminous efficacy (docs/photometry.md), into `out[0 ..
-/// vertex_count)`. Its relative error is `imap_get_vertex_error`'s (exact for spectrally
-/// neutral surfaces). Buffer and statuses as `imap_get_vertex_energy`.
-///
-/// # Safety
-/// `ctx` is a live handle; `out` holds `count` writable doubles.
-#[no_mangle]
-pub unsafe extern "C" fn imap_get_vertex_illuminance(
-    ctx: *const ImapContext,
-    mesh: u32,
-    side: u32,
-    out: *mut f64,
-    count: usize,
-) -> ImapStatus {
-    with_context(ctx, |c| {
-        c.illuminance(mesh, side, slice_mut("out", out, count)?)
-    })
-}
-
-/// CIE 1931 X, Y, Z of the light arriving at every vertex of mesh `mesh` on `side`, three
-/// values per vertex (Y = illuminance, lx), into `out[0 .. 3 × vertex_count)`. Give them to
-/// `imap_xyz_to_cct` / `imap_xyz_chromaticity`. Statuses as `imap_get_vertex_energy`
-/// (IMAP_ERR_BUFFER_TOO_SMALL when `count` < 3 × vertex count).
-///
-/// # Safety
-/// `ctx` is a live handle; `out` holds `count` writable doubles.
-#[no_mangle]
-pub unsafe extern "C" fn imap_get_vertex_xyz(
-    ctx: *const ImapContext,
-    mesh: u32,
-    side: u32,
-    out: *mut f64,
-    count: usize,
-) -> ImapStatus {
-    with_context(ctx, |c| {
-        c.tristimulus(mesh, side, slice_mut("out", out, count)?)
-    })
-}
-
-/// The luminous efficacy of each band, lm/W (lux per W/m²), into `out[0 .. band count)`.
-///
-/// # Safety
-/// `ctx` is a live handle; `out` holds `count` writable doubles.
-#[no_mangle]
-pub unsafe extern "C" fn imap_get_band_efficacy(
-    ctx: *const ImapContext,
-    out: *mut f64,
-    count: usize,
-) -> ImapStatus {
-    with_context(ctx, |c| copy_bands(out, count, &c.photometry().efficacy))
-}
-
-/// The power balance per band since the last reset, W per band, into `out[0 .. band
-/// count)`: `IMAP_BALANCE_EMITTED`, `_ABSORBED`, `_ESCAPED` or `_DROPPED` (their sums are
-/// `ImapReport`'s `emitted_w` …, their luminous values its `emitted_lm` …). Zeros before
-/// the first run.
-///
-/// # Safety
-/// `ctx` is a live handle; `out` holds `count` writable doubles.
-#[no_mangle]
-pub unsafe extern "C" fn imap_get_band_balance(
-    ctx: *const ImapContext,
-    kind: u32,
-    out: *mut f64,
-    count: usize,
-) -> ImapStatus {
-    with_context(ctx, |c| {
-        if kind > IMAP_BALANCE_DROPPED {
-            bail!(
-                ImapErrInvalidArgument,
-                "kind = {kind} is not an IMAP_BALANCE_* value (0–3)"
-            );
-        }
-        copy_bands(out, count, &c.report().band_w[kind as usize])
-    })
-}
-
-fn xyz_in(xyz: *const f64) -> Result<[f64; 3]> {
-    let v = slice("xyz", xyz, 3)?;
-    crate::error::check_finite("xyz", v)?;
-    Ok([v[0], v[1], v[2]])
-}
-
-/// Chromaticity (x, y) of CIE 1931 tristimulus values into `out_xy[0..2]`. Returns
-/// IMAP_ERR_NULL_POINTER, IMAP_ERR_NON_FINITE, IMAP_ERR_INVALID_ARGUMENT (black: X + Y + Z
-/// ≤ 0). Thread-safe.
-///
-/// # Safety
-/// `xyz` points to 3 doubles, `out_xy` to 2 writable doubles.
-#[no_mangle]
-pub unsafe extern "C" fn imap_xyz_chromaticity(xyz: *const f64, out_xy: *mut f64) -> ImapStatus {
-    boundary(None, || {
-        let v = xyz_in(xyz)?;
-        let out = slice_mut("out_xy", out_xy, 2)?;
-        let Some(c) = photometry::chromaticity(v) else {
-            bail!(
-                ImapErrInvalidArgument,
-                "xyz = {v:?} is black: it has no chromaticity"
-            );
-        };
-        out.copy_from_slice(&c);
-        Ok(())
-    })
-}
-
-/// Correlated colour temperature (K) of CIE 1931 tristimulus values, and Duv (the signed
-/// distance from the Planckian locus in CIE 1960 uv, positive above it), by search along
-/// the locus (1000–100 000 K). `out_duv` may be NULL. Returns IMAP_ERR_NULL_POINTER,
-/// IMAP_ERR_NON_FINITE, IMAP_ERR_INVALID_ARGUMENT (black, or farther than 0.05 from the
-/// locus: no meaningful CCT). Thread-safe.
-///
-/// # Safety
-/// `xyz` points to 3 doubles; `out_k` is writable; `out_duv` is NULL or writable.
-#[no_mangle]
-pub unsafe extern "C" fn imap_xyz_to_cct(
-    xyz: *const f64,
-    out_k: *mut f64,
-    out_duv: *mut f64,
-) -> ImapStatus {
-    boundary(None, || {
-        let v = xyz_in(xyz)?;
-        check_out("out_k", out_k)?;
-        let Some((t, duv)) = photometry::cct(v).filter(|c| c.1.abs() <= 0.05) else {
-            bail!(
-                ImapErrInvalidArgument,
-                "xyz = {v:?} has no correlated colour temperature (black, or more than 0.05 from the Planckian locus)"
-            );
-        };
-        write_out("out_k", out_k, t)?;
-        write_optional(out_duv, duv)
     })
 }

@@ -1,5 +1,6 @@
 //! The C ABI. Only conversions and calls into the safe API live here, one file per C
-//! object (`context`, `scene`, `run`, `render`); every export goes through `boundary`:
+//! object or concept (`context`, `scene`, `light`, `sky`, `layers`, `run`, `readout`,
+//! `results`, `colour`, `render`, `state`); every export goes through `boundary`:
 //! panics are caught (and never printed), pointers checked, statuses returned and the
 //! message kept for `imap_last_error`.
 //!
@@ -10,10 +11,12 @@
 //! program built against an older `imap.h` keeps working with a newer library, and a newer
 //! program that sets a field an older library does not know is refused, never ignored.
 
+mod colour;
 mod context;
 mod errors;
 mod layers;
 mod light;
+mod readout;
 mod render;
 mod results;
 mod run;
@@ -21,9 +24,11 @@ mod scene;
 mod sky;
 mod state;
 
+pub use colour::*;
 pub use context::*;
 pub use layers::*;
 pub use light::*;
+pub use readout::*;
 pub use render::*;
 pub use results::*;
 pub use run::*;
@@ -32,7 +37,7 @@ pub use sky::*;
 pub use state::*;
 
 use crate::context::Context;
-use crate::error::{Error, ImapStatus, Result};
+use crate::error::{bail, Error, ImapStatus, Result};
 use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::sync::{Arc, Mutex, TryLockError};
 
@@ -358,6 +363,20 @@ pub(crate) fn write_versioned<T: Versioned>(
             std::ptr::write_bytes(dst.add(known), 0, size - known);
         }
     }
+    Ok(())
+}
+
+/// Copies per-band values into the caller's `out[0 .. count)`.
+pub(crate) fn copy_bands(out: *mut f64, count: usize, values: &[f64]) -> Result<()> {
+    let out = slice_mut("out", out, count)?;
+    if out.len() < values.len() {
+        bail!(
+            ImapErrBufferTooSmall,
+            "the output holds {count} values; the context has {} bands",
+            values.len()
+        );
+    }
+    out[..values.len()].copy_from_slice(values);
     Ok(())
 }
 

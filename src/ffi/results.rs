@@ -2,7 +2,9 @@
 //! illuminance and uniformities with their standard errors, and the vertices' areas.
 //! docs/results.md states what each figure means and how its error is computed.
 
-use super::{slice_mut, with_context, write_versioned, ImapContext, Versioned};
+use super::{
+    copy_bands, slice_mut, with_context, write_out, write_versioned, ImapContext, Versioned,
+};
 use crate::context::RegionStats;
 use crate::error::{bail, ImapStatus};
 
@@ -156,19 +158,71 @@ pub unsafe extern "C" fn imap_get_region_band_flux(
     })
 }
 
-/// Each vertex's area of mesh `mesh` — a third of the area of every triangle it belongs
-/// to, m² — into `out[0 .. vertex count)`: E × area summed over a mesh's vertices is the
-/// flux it receives. Any mesh (recording or not). Returns IMAP_ERR_NULL_POINTER,
-/// IMAP_ERR_INDEX_OUT_OF_RANGE, IMAP_ERR_BUFFER_TOO_SMALL, IMAP_ERR_BUSY.
+/// `imap_get_band_balance`: what the photons carried from the lights.
+pub const IMAP_BALANCE_EMITTED: u32 = 0;
+
+/// `imap_get_band_balance`: what all surfaces and media absorbed.
+pub const IMAP_BALANCE_ABSORBED: u32 = 1;
+
+/// `imap_get_band_balance`: what left the scene.
+pub const IMAP_BALANCE_ESCAPED: u32 = 2;
+
+/// `imap_get_band_balance`: what `max_path_events` dropped.
+pub const IMAP_BALANCE_DROPPED: u32 = 3;
+
+/// The power balance per band since the last reset, W per band, into `out[0 .. band
+/// count)`: `IMAP_BALANCE_EMITTED`, `_ABSORBED`, `_ESCAPED` or `_DROPPED` (their sums are
+/// `ImapReport`'s `emitted_w` …, their luminous values its `emitted_lm` …). Zeros before
+/// the first run.
 ///
 /// # Safety
 /// `ctx` is a live handle; `out` holds `count` writable doubles.
 #[no_mangle]
-pub unsafe extern "C" fn imap_get_vertex_areas(
+pub unsafe extern "C" fn imap_get_band_balance(
     ctx: *const ImapContext,
-    mesh: u32,
+    kind: u32,
     out: *mut f64,
     count: usize,
 ) -> ImapStatus {
-    with_context(ctx, |c| c.vertex_areas(mesh, slice_mut("out", out, count)?))
+    with_context(ctx, |c| {
+        if kind > IMAP_BALANCE_DROPPED {
+            bail!(
+                ImapErrInvalidArgument,
+                "kind = {kind} is not an IMAP_BALANCE_* value (0–3)"
+            );
+        }
+        copy_bands(out, count, &c.report().band_w[kind as usize])
+    })
+}
+
+/// Power absorbed by mesh `mesh` (at its surface, or inside it for an absorbing
+/// dielectric), W summed over bands, into `*out_w`.
+///
+/// # Safety
+/// `ctx` is a live handle; `out_w` is writable.
+#[no_mangle]
+pub unsafe extern "C" fn imap_get_mesh_absorbed(
+    ctx: *const ImapContext,
+    mesh: u32,
+    out_w: *mut f64,
+) -> ImapStatus {
+    with_context(ctx, |c| write_out("out_w", out_w, c.absorbed_w(mesh)?))
+}
+
+/// How many triangles of mesh `mesh` were left out because they repeat a vertex (added
+/// with IMAP_MESH_SKIP_DEGENERATE; 0 otherwise), into `*out_count`. (Since 0.2.1.)
+///
+/// Returns IMAP_ERR_NULL_POINTER, IMAP_ERR_INVALID_ARGUMENT (no such mesh).
+///
+/// # Safety
+/// `ctx` is a live handle; `out_count` is writable.
+#[no_mangle]
+pub unsafe extern "C" fn imap_get_mesh_dropped_triangles(
+    ctx: *const ImapContext,
+    mesh: u32,
+    out_count: *mut usize,
+) -> ImapStatus {
+    with_context(ctx, |c| {
+        write_out("out_count", out_count, c.dropped_triangles(mesh)?)
+    })
 }

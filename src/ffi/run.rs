@@ -2,8 +2,8 @@
 //! readout.
 
 use super::{
-    boundary, check_out, read_versioned, slice_mut, with_context, write_defaults, write_out,
-    write_versioned, ImapContext, Versioned,
+    boundary, check_out, read_versioned, with_context, write_defaults, write_out, write_versioned,
+    ImapContext, Versioned,
 };
 use crate::context::Report;
 use crate::error::{bail, ImapStatus, Result};
@@ -32,7 +32,7 @@ pub const IMAP_STOP_REGION_TARGET: u32 = 5;
 
 /// `ImapRunParams::region_measure`: the `region_percentile`-th percentile (default 100:
 /// the largest) of the relative standard errors of the chosen meshes' vertices (band mean,
-/// as `imap_get_vertex_rel_error`; a vertex that received nothing counts as 1). (Since
+/// as `imap_get_vertex_error`; a vertex that received nothing counts as 1). (Since
 /// 0.2.1.)
 pub const IMAP_REGION_VERTICES: u32 = 0;
 /// The relative standard error of each chosen mesh side's average illuminance, the
@@ -613,95 +613,5 @@ pub unsafe extern "C" fn imap_get_history(
 ) -> ImapStatus {
     with_context(ctx, |c| {
         copy_history(c.history(), out, capacity, element_size, out_count)
-    })
-}
-
-/// The number of vertices of mesh `mesh` into `*out`.
-///
-/// # Safety
-/// `ctx` is a live handle; `out` is writable.
-#[no_mangle]
-pub unsafe extern "C" fn imap_get_vertex_count(
-    ctx: *const ImapContext,
-    mesh: u32,
-    out: *mut usize,
-) -> ImapStatus {
-    with_context(ctx, |c| write_out("out", out, c.vertex_count(mesh)?))
-}
-
-/// Irradiance in W/m² in band `band` at every vertex of mesh `mesh` on `side`
-/// (`IMAP_SIDE_FRONT`, or `IMAP_SIDE_BACK` on two-sided meshes), written to `out[0 ..
-/// vertex_count)`; `count` may be larger (the rest of `out` is left as it was). Before the
-/// first run: zeros. Vertices used by no triangle of non-zero area get 0.
-///
-/// Returns IMAP_ERR_NULL_POINTER, IMAP_ERR_INDEX_OUT_OF_RANGE (mesh, side or band),
-/// IMAP_ERR_NOT_RECORDED, IMAP_ERR_BUFFER_TOO_SMALL (`count` < vertex count), IMAP_ERR_BUSY;
-/// nothing is written then.
-///
-/// # Safety
-/// `ctx` is a live handle; `out` holds `count` writable doubles.
-#[no_mangle]
-pub unsafe extern "C" fn imap_get_vertex_energy(
-    ctx: *const ImapContext,
-    mesh: u32,
-    side: u32,
-    band: u32,
-    out: *mut f64,
-    count: usize,
-) -> ImapStatus {
-    with_context(ctx, |c| {
-        c.irradiance(mesh, side, band, slice_mut("out", out, count)?)
-    })
-}
-
-/// Relative standard error (σ/E, dimensionless) of the band-mean irradiance at every vertex
-/// of `mesh` on `side`, from the per-vertex sum over photons of each photon's squared
-/// total contribution (calibrated against independent runs). 1 where nothing has arrived or
-/// the vertex has no area. Buffer and statuses as `imap_get_vertex_energy`.
-///
-/// # Safety
-/// `ctx` is a live handle; `out` holds `count` writable doubles.
-#[no_mangle]
-pub unsafe extern "C" fn imap_get_vertex_error(
-    ctx: *const ImapContext,
-    mesh: u32,
-    side: u32,
-    out: *mut f64,
-    count: usize,
-) -> ImapStatus {
-    with_context(ctx, |c| {
-        c.rel_error(mesh, side, slice_mut("out", out, count)?)
-    })
-}
-
-/// Power absorbed by mesh `mesh` (at its surface, or inside it for an absorbing
-/// dielectric), W summed over bands, into `*out_w`.
-///
-/// # Safety
-/// `ctx` is a live handle; `out_w` is writable.
-#[no_mangle]
-pub unsafe extern "C" fn imap_get_mesh_absorbed(
-    ctx: *const ImapContext,
-    mesh: u32,
-    out_w: *mut f64,
-) -> ImapStatus {
-    with_context(ctx, |c| write_out("out_w", out_w, c.absorbed_w(mesh)?))
-}
-
-/// How many triangles of mesh `mesh` were left out because they repeat a vertex (added
-/// with IMAP_MESH_SKIP_DEGENERATE; 0 otherwise), into `*out_count`. (Since 0.2.1.)
-///
-/// Returns IMAP_ERR_NULL_POINTER, IMAP_ERR_INVALID_ARGUMENT (no such mesh).
-///
-/// # Safety
-/// `ctx` is a live handle; `out_count` is writable.
-#[no_mangle]
-pub unsafe extern "C" fn imap_get_mesh_dropped_triangles(
-    ctx: *const ImapContext,
-    mesh: u32,
-    out_count: *mut usize,
-) -> ImapStatus {
-    with_context(ctx, |c| {
-        write_out("out_count", out_count, c.dropped_triangles(mesh)?)
     })
 }
