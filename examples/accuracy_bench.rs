@@ -25,9 +25,12 @@
 //!         [--samples 0] [--pass-photons 0] [--estimators photons,ls,gather]
 //!         [--scheduler dynamic|classic]   (the estimators' runs; the reference's stays dynamic)
 
-use imap::context::SchedulerKind;
-use imap::scenes::{cornell_box, grey_room, GREY_ROOM_EMITTER_Z, GREY_ROOM_EXITANCE};
+#[path = "common/scenes.rs"]
+mod scenes;
+
+use imap::SchedulerKind;
 use imap::{Config, Context, Estimator, Layer, LayerRequest, MaterialDesc, MeshDesc, RunParams};
+use scenes::{cornell_box, grey_room, GREY_ROOM_EMITTER_Z, GREY_ROOM_EXITANCE};
 use std::f64::consts::PI;
 
 struct Args {

@@ -9,10 +9,13 @@
 //!         [--reps 3]   (rounds alternating the schedulers; medians are printed)
 //!         [--only classic|dynamic|trace]   (one scheduler alone, for profiling)
 
-use imap::context::SchedulerKind;
-use imap::scenes::{build, SceneKind};
-use imap::sched::dynamic::DynamicParams;
+#[path = "common/scenes.rs"]
+mod scenes;
+
+use imap::DynamicParams;
+use imap::SchedulerKind;
 use imap::{Bands, Config, Context, Report, RunParams};
+use scenes::{build, SceneKind};
 
 struct Args {
     scale: f64,

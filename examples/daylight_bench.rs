@@ -22,7 +22,7 @@ mod common;
 
 use common::arg;
 use imap::photometry::Spectrum;
-use imap::scene::light::{cie_luminance, SkyAmount, SkyDesc, SkyKind};
+use imap::{cie_luminance, SkyAmount, SkyDesc, SkyKind};
 use imap::{Config, Context, Estimator, MaterialDesc, MeshDesc, RunParams};
 use std::time::Instant;
 

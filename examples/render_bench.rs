@@ -17,9 +17,12 @@
 //! (BENCHMARKS.md, "The renderer per region"), so its deviation there is partly the
 //! reference's.
 
-use imap::render::RenderReport;
-use imap::scenes::{cornell_box, cornell_camera};
+#[path = "common/scenes.rs"]
+mod scenes;
+
+use imap::RenderReport;
 use imap::{Config, Context, Image, RenderMethod, RenderParams};
+use scenes::{cornell_box, cornell_camera};
 
 struct Args {
     threads: Vec<usize>,

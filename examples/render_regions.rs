@@ -21,11 +21,14 @@
 //!         [--reference-spp 4096] [--max-seconds 64] [--final-gather-only | --semi-only]
 //!         [--verbose]
 
+#[path = "common/scenes.rs"]
+mod scenes;
+
 mod common;
 
 use common::arg;
-use imap::scenes::{grey_room, GREY_ROOM_EMITTER_Z};
 use imap::{CameraDesc, Config, Context, Image, LayerRequest, RenderMethod, RenderParams};
+use scenes::{grey_room, GREY_ROOM_EMITTER_Z};
 use std::time::Instant;
 
 const EMITTER_Z: f64 = GREY_ROOM_EMITTER_Z;

@@ -7,7 +7,7 @@
 //!     cargo run --release --example state_bench -- [cells per side = 1000] [bands = 81]
 //!         [photons = 200000] [folder = /tmp]
 
-use imap::context::state::FLAG_NO_MAP;
+use imap::FLAG_NO_MAP;
 use imap::{Bands, Config, Context, MaterialDesc, MeshDesc, RunParams, Selection};
 use std::time::Instant;
 

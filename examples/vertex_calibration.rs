@@ -11,7 +11,7 @@
 mod scenes;
 
 use imap::photometry::Spectrum;
-use imap::scene::light::Placement;
+use imap::Placement;
 use imap::{Config, Context, Estimator, MaterialDesc, RunParams};
 
 fn run(kind: &str, seed: u64, photons: u64, e: Estimator) -> (Vec<f64>, Vec<f64>) {

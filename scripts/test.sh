@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Runs every test of libimap (after scripts/setup-system.sh has installed the system
-# packages): the Rust unit and integration tests (physics against analytic answers,
+# packages): formatting, clippy and rustdoc without warnings, the Rust unit and integration
+# tests (physics against analytic answers,
 # determinism across schedulers and thread counts, the header drift check), the loom model
 # of the dynamic scheduler's split protocol, the CMake build with the C and C++ examples under
 # ctest, and the package as a user gets it: installed into a prefix that is then moved,
@@ -12,8 +13,14 @@ EMBREE_DIR=$(scripts/setup-embree.sh)
 export EMBREE_DIR
 JOBS=$(nproc)
 
-echo "== cargo test (release: shares the build with CMake)"
-cargo test --release --workspace --all-targets
+echo "== formatting, lints and the API docs: cargo fmt --check, clippy -D warnings, rustdoc -D warnings"
+cargo fmt --all --check
+cargo clippy --workspace --all-targets -- -D warnings
+RUSTDOCFLAGS=-Dwarnings cargo doc --no-deps -p imap
+RUSTDOCFLAGS=-Dwarnings cargo doc --no-deps -p imap-cli
+
+echo "== cargo test (release; with fault injection, which the shipped library leaves out)"
+cargo test --release --workspace --all-targets --features imap/fault-injection
 
 echo "== the README's main job, into a folder of the caller's: scripts/demo.sh --out DIR"
 DEMO=$(mktemp -d)
@@ -23,8 +30,12 @@ rm -rf "$DEMO"
 echo "demo.sh --out: ok"
 
 echo "== ABI of libimap.so against the baseline in abi/ (abidiff and the header's layout)"
-# cargo test builds the library as an rlib only: build the shared library itself.
+# cargo test builds the library as an rlib only (and with fault injection): build the
+# shared library users get, without it, and check it reads no environment variable.
 cargo build --release -p imap --lib
+if strings target/release/libimap.so | grep -c IMAP_TEST_FAULT >/dev/null; then
+  echo "the shipped library reads IMAP_TEST_FAULT" >&2; exit 1
+fi
 scripts/abi-check.sh target/release/libimap.so
 
 echo "== loom: the vertex-group split protocol and the photon maps' active-thread counter"

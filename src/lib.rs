@@ -1,9 +1,17 @@
 //! libimap: illumination maps (irradiance at every mesh vertex, RGB or spectral) by forward
 //! Monte Carlo light tracing on Intel Embree 4, with a C ABI (`include/imap.h`).
 //!
-//! Layout: `scene` (plain data), `accel` (every Embree call), `sampling`, `transport` (the
-//! photon path), `imap` (the map and its readout), `sched` (schedulers), `context` (the safe
-//! API) and `ffi` (the C ABI only).
+//! The Rust API is what this page lists: the `Context` and what it takes and gives
+//! (settings, scene descriptions, lights, skies, reports, images), the photometry toolkit
+//! (`photometry`) and the C ABI (`ffi`). Everything else is the engine's and private to
+//! the crate.
+//!
+//! The engine's floors, top to bottom (`tests/floors.rs` holds every import to them):
+//! `ffi` (the C ABI only) → `context` (the safe API) → `render` (the camera renderers) →
+//! `sched` (the schedulers) → `imap` (the map, its layout and readout) → `transport` (the
+//! photon path and light sampling) → `accel` (every Embree call) → `scene` (plain data: the
+//! scene, its lights, emitters and BSDFs, and its prepared form) → `photometry`, `images`
+//! → `spectral`, `sampling`, `solar`, `progress` → `error`, `files`, `fault`.
 
 #![warn(clippy::undocumented_unsafe_blocks)]
 
@@ -11,44 +19,66 @@
 // other module is hidden from cbindgen, so no internal name can leak into the header.
 
 /// cbindgen:ignore
-pub mod accel;
+mod accel;
 /// cbindgen:ignore
-pub mod context;
-pub mod error;
+mod context;
+mod error;
 /// cbindgen:ignore
 mod fault;
 pub mod ffi;
 /// cbindgen:ignore
-pub mod files;
+mod files;
 /// cbindgen:ignore
-pub mod images;
+mod images;
 /// cbindgen:ignore
-pub mod imap;
+mod imap;
 /// cbindgen:ignore
 pub mod photometry;
 /// cbindgen:ignore
-pub mod progress;
+mod progress;
 /// cbindgen:ignore
-pub mod render;
+mod render;
 /// cbindgen:ignore
-pub mod sampling;
+mod sampling;
 /// cbindgen:ignore
-pub mod scene;
+mod scene;
 /// cbindgen:ignore
-pub mod scenes;
+mod sched;
 /// cbindgen:ignore
-pub mod sched;
+mod solar;
 /// cbindgen:ignore
-pub mod solar;
+mod spectral;
 /// cbindgen:ignore
-pub mod spectral;
-/// cbindgen:ignore
-pub mod transport;
+mod transport;
 
-pub use context::{Config, Context, Layer, RegionStats, Report, SchedulerKind};
+// The context and its settings and reports.
+pub use context::state::{read_state_file, state_info, StateInfo, FLAG_NO_MAP};
+pub use context::{
+    default_memory_budget, Config, Context, Layer, RegionStats, Report, SchedulerKind,
+};
 pub use error::{Error, ImapStatus, Result, Subject};
-pub use render::{CameraDesc, Image, RenderMethod, RenderParams, RenderReport};
-pub use scene::{IorModel, LayerRequest, MaterialDesc, MeshDesc};
-pub use sched::{Progress, RunParams, Selection, StopReason};
-pub use spectral::Bands;
+pub use files::{read_regular, ReadError};
+pub use imap::stats::{extremes, lit_weights, Estimate};
+pub use progress::{Progress, StopReason, MAX_HISTORY};
+pub use sched::dynamic::DynamicParams;
+pub use sched::target::{RegionMeasure, RegionTarget};
+pub use sched::{Counters, RunParams, Selection};
 pub use transport::direct::Estimator;
+// The scene: bands, materials, meshes, lights, skies and the sun.
+pub use scene::light::{
+    cie_luminance, Amount, Distribution, Light, LightDesc, LightKind, Placement, SkyAmount,
+    SkyDesc, SkyKind, SunDesc, CIE_SKY_PARAMETERS, SUN_DIAMETER_DEG,
+};
+pub use scene::{IorModel, LayerRequest, MaterialDesc, MeshDesc};
+pub use solar::{sun_position, sun_position_with, SunTime, STANDARD_ATMOSPHERE};
+pub use spectral::Bands;
+// Camera renders.
+pub use render::{CameraDesc, Image, RenderMethod, RenderParams, RenderReport};
+
+/// The loom models' view of two lock-free protocols (`RUSTFLAGS="--cfg loom"` only).
+#[cfg(loom)]
+#[doc(hidden)]
+pub mod loom_models {
+    pub use crate::render::gate::Gate;
+    pub use crate::sched::groups::GroupTable;
+}

@@ -10,7 +10,7 @@ mod common;
 
 use common::*;
 use imap::photometry::Spectrum;
-use imap::scene::light::{Amount, LightDesc, LightKind};
+use imap::{Amount, LightDesc, LightKind};
 use imap::{Config, Context, SchedulerKind};
 
 const H: f64 = 5.0;

@@ -111,7 +111,7 @@ fn global_error_falls_as_one_over_root_photons() {
 #[test]
 fn light_sampling_errors_hold_per_vertex_early_in_a_run() {
     use imap::photometry::Spectrum;
-    use imap::scene::light::Placement;
+    use imap::Placement;
     let g = sphere_inward(1.0, 4);
     let nv = g.vertex_count();
     let ldt = std::fs::read_to_string(concat!(

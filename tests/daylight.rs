@@ -15,8 +15,8 @@ mod common;
 
 use common::*;
 use imap::photometry::Spectrum;
-use imap::scene::light::{SkyAmount, SkyDesc, SkyKind, SunDesc};
 use imap::{Config, Context, Estimator, MeshDesc};
+use imap::{SkyAmount, SkyDesc, SkyKind, SunDesc};
 use std::f64::consts::PI;
 
 const ESTIMATORS: [Estimator; 3] = [Estimator::Photons, Estimator::DEFAULT, Estimator::GATHER];
@@ -284,7 +284,7 @@ fn cie_skies_through_a_roof_opening_give_the_sky_integral() {
         run_with(&mut ctx, photons(300_000), estimator);
         let (a, z) = (f64::to_radians(az), f64::to_radians(zen));
         let sun = [z.sin() * a.sin(), z.sin() * a.cos(), z.cos()];
-        let abcde = imap::scene::light::CIE_SKY_PARAMETERS[kind as usize - 1];
+        let abcde = imap::CIE_SKY_PARAMETERS[kind as usize - 1];
         // Luminance per band of an equal-energy spectrum whose luminance is L_z: the
         // context's efficacies give the band radiance.
         let eff: f64 = ctx.photometry().luminous(&[1.0, 1.0, 1.0]);
@@ -490,7 +490,7 @@ fn distant_light_keeps_its_energy_balance_and_light_groups() {
     let (w, _) = ctx.light_flux(sun).unwrap();
     assert!((w.iter().sum::<f64>() - 300.0 * 10f64.to_radians().cos()).abs() < 1e-9);
     ctx.set_light_group(sun, 1).unwrap();
-    ctx.set_layers(imap::scene::LayerRequest {
+    ctx.set_layers(imap::LayerRequest {
         groups: true,
         direct: false,
     })
@@ -616,7 +616,7 @@ fn a_glazed_roof_opening_passes_the_sky_by_the_glass_transmittance() {
     .unwrap();
     run_with(&mut ctx, photons(1_500_000), Estimator::DEFAULT);
     let sun = [0.0, -(45f64.to_radians().sin()), 45f64.to_radians().cos()];
-    let abcde = imap::scene::light::CIE_SKY_PARAMETERS[0];
+    let abcde = imap::CIE_SKY_PARAMETERS[0];
     let band_radiance = lz / ctx.photometry().luminous(&[1.0, 1.0, 1.0]);
     let transmit = |d: [f64; 3]| {
         let (rs, rp) = fresnel_sp(d[2], n_glass);
@@ -846,7 +846,7 @@ fn portals_bring_the_sky_and_the_sun_through_the_opening_unbiased() {
     run_with(&mut ctx, photons(300_000), Estimator::Photons);
     let (a, z) = (225f64.to_radians(), 35f64.to_radians());
     let sun = [z.sin() * a.sin(), z.sin() * a.cos(), z.cos()];
-    let abcde = imap::scene::light::CIE_SKY_PARAMETERS[11];
+    let abcde = imap::CIE_SKY_PARAMETERS[11];
     let band_radiance = lz / ctx.photometry().luminous(&[1.0, 1.0, 1.0]);
     let want: Vec<Option<f64>> = (0..floor.vertex_count())
         .map(|v| {

@@ -119,7 +119,7 @@ fn item02_tiny_progress_intervals_are_raised_and_histories_bounded() {
             calls as f64 <= wall / 1e-3 + 2.0,
             "{calls} callbacks in {wall} s"
         );
-        assert!(hist <= imap::sched::MAX_HISTORY);
+        assert!(hist <= imap::MAX_HISTORY);
     }
     // A render with the same interval: its history stays bounded too.
     let hist = within(30.0, "render interval 1e-12", || {
@@ -130,7 +130,7 @@ fn item02_tiny_progress_intervals_are_raised_and_histories_bounded() {
         let (_, report) = ctx.render(&camera(16), &mut rp).unwrap();
         report.history.len()
     });
-    assert!(hist <= imap::sched::MAX_HISTORY, "render history {hist}");
+    assert!(hist <= imap::MAX_HISTORY, "render history {hist}");
 }
 
 fn render_params<'a>() -> RenderParams<'a> {
@@ -519,7 +519,7 @@ fn degenerate_triangles_are_refused_or_skipped_on_request() {
         mats_dirty.push(m);
     }
     let dropped = mats_dirty.len() - nt;
-    let build = |g: &Geometry, mats: &[u32], skip: bool| -> imap::error::Result<(Context, u32)> {
+    let build = |g: &Geometry, mats: &[u32], skip: bool| -> imap::Result<(Context, u32)> {
         let mut ctx = context(cfg());
         lambert(&mut ctx, 0.5);
         lambert(&mut ctx, 0.9);

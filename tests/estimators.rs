@@ -16,7 +16,7 @@ mod common;
 
 use common::*;
 use imap::photometry::Spectrum;
-use imap::scene::light::{Amount, LightDesc, LightKind};
+use imap::{Amount, LightDesc, LightKind};
 use imap::{Config, Context, Estimator, ImapStatus, MeshDesc, RunParams, SchedulerKind};
 use std::f64::consts::PI;
 

@@ -410,6 +410,10 @@ fn child_fault() {
 /// in bounded time, the context answers afterwards (not stuck BUSY), and nothing is
 /// printed on stderr.
 #[test]
+#[cfg_attr(
+    not(feature = "fault-injection"),
+    ignore = "injects faults: needs --features fault-injection (the test command's)"
+)]
 fn item12_lost_threads_return_a_status_and_print_nothing() {
     if is_child() {
         return;

@@ -18,12 +18,12 @@ mod common;
 
 use common::*;
 use imap::photometry::Spectrum;
-use imap::scene::light::Placement;
-use imap::scene::light::{SkyAmount, SkyDesc, SkyKind, SunDesc};
+use imap::Placement;
 use imap::{
     Bands, CameraDesc, Config, Context, Estimator, Image, MeshDesc, RenderMethod, RenderParams,
     SchedulerKind,
 };
+use imap::{SkyAmount, SkyDesc, SkyKind, SunDesc};
 
 const FILE: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data/golden.txt");
 

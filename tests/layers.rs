@@ -444,7 +444,7 @@ fn a_layers_region_figures_have_exact_errors_and_agree_with_a_separate_run() {
             all.flux_lm.value
         );
         assert!(all.flux_lm.sigma < a.flux_lm.sigma + b.flux_lm.sigma);
-        let agree = |what: &str, x: imap::imap::stats::Estimate, y: imap::imap::stats::Estimate| {
+        let agree = |what: &str, x: imap::Estimate, y: imap::Estimate| {
             let z = (x.value - y.value).abs() / x.sigma.hypot(y.sigma);
             eprintln!(
                 "{e:?} {what}: layer {:.4} ± {:.4}, alone {:.4} ± {:.4} ({z:.2} σ)",
@@ -479,7 +479,7 @@ fn a_layers_region_figures_have_exact_errors_and_agree_with_a_separate_run() {
 fn a_layers_region_error_is_the_spread_of_its_runs() {
     // The promise per value: lamp B's layer flux on the floor over 16 seeds spreads as its
     // stated σ says (a layer read from the combined tallies would state the whole floor's).
-    let runs: Vec<imap::imap::stats::Estimate> = (0..16)
+    let runs: Vec<imap::Estimate> = (0..16)
         .map(|s| {
             let (mut ctx, id) = two_lamp_room(100 + s, [true, true], true);
             run_photons_only(&mut ctx, photons(30_000));

@@ -7,7 +7,7 @@
 //! (writes) while a joiner reads them without a happens-before between the two.
 #![cfg(loom)]
 
-use imap::render::gate::Gate;
+use imap::loom_models::Gate;
 use loom::cell::UnsafeCell;
 use loom::sync::Arc;
 use loom::thread;

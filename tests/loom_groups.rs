@@ -8,7 +8,7 @@
 //! writing while the split group's owner still applies a portion.
 #![cfg(loom)]
 
-use imap::sched::groups::GroupTable;
+use imap::loom_models::GroupTable;
 use loom::cell::UnsafeCell;
 use loom::sync::Arc;
 use loom::thread;

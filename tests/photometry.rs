@@ -7,7 +7,7 @@ mod common;
 
 use common::*;
 use imap::photometry::{self, ldt, BandPhotometry, Spectrum};
-use imap::scene::light::{Amount, LightDesc, LightKind, Placement};
+use imap::{Amount, LightDesc, LightKind, Placement};
 use imap::{Bands, Config, Context, ImapStatus, MeshDesc};
 use std::f64::consts::PI;
 
@@ -528,7 +528,7 @@ fn luminous_efficacies_match_their_tabulated_values() {
             Spectrum::Blackbody(5000.0),
             Spectrum::Rgb([1.0, 0.5, 0.2]),
         ] {
-            let l = imap::scene::Light::new(
+            let l = imap::Light::new(
                 &LightDesc {
                     kind: LightKind::Point,
                     position: [0.0; 3],

@@ -522,7 +522,7 @@ fn render_memory_is_reported_and_budgeted() {
 #[test]
 fn floor_under_a_luminaire_and_a_beam() {
     use imap::photometry::Spectrum;
-    use imap::scene::light::{Amount, LightDesc, LightKind, Placement};
+    use imap::{Amount, LightDesc, LightKind, Placement};
     let mut ctx = context(Config {
         threads: 2,
         ..Default::default()
@@ -824,8 +824,8 @@ fn final_gathering_has_no_edge_bias_in_a_furnace() {
 #[test]
 fn final_gathering_shows_the_caustic_of_a_point_light() {
     use imap::photometry::Spectrum;
-    use imap::scene::light::{Amount, LightDesc, LightKind};
     use imap::MaterialDesc;
+    use imap::{Amount, LightDesc, LightKind};
     let mut ctx = context(Config {
         threads: 2,
         seed: 3,
@@ -1016,7 +1016,7 @@ fn final_gathering_agrees_with_the_path_tracer_in_the_mixed_room() {
 /// tracer (they saw black: the sky showed as a disc behind the object only).
 #[test]
 fn the_sky_is_seen_all_round_the_model() {
-    use imap::scene::light::{SkyAmount, SkyDesc, SkyKind};
+    use imap::{SkyAmount, SkyDesc, SkyKind};
     let l = [1.5, 2.0, 0.5];
     let mut ctx = context(Config {
         threads: 2,
@@ -1078,7 +1078,7 @@ fn the_sky_is_seen_all_round_the_model() {
 /// renderer's, whose photons carry caustics anyway.
 #[test]
 fn the_sun_through_glass_is_rendered_with_a_usable_error() {
-    use imap::scene::light::{SkyAmount, SunDesc};
+    use imap::{SkyAmount, SunDesc};
     let mut ctx = context(Config {
         threads: 2,
         seed: 4,

@@ -174,7 +174,7 @@ fn sensors_change_no_other_map() {
 #[test]
 fn region_flux_and_average_have_calibrated_errors() {
     use imap::photometry::Spectrum;
-    use imap::scene::light::{Amount, LightDesc, LightKind};
+    use imap::{Amount, LightDesc, LightKind};
     // The flux through a 2 × 2 square 1 m below an isotropic point: Φ · Ω / 4π, with
     // Ω = 4 atan(a² / (h √(2a² + h²))) for the half-side a = 1.
     let (a, h) = (1.0f64, 1.0f64);
@@ -228,7 +228,7 @@ fn region_flux_and_average_have_calibrated_errors() {
 #[test]
 fn a_uniform_field_reads_its_true_minimum_and_uniformity() {
     use imap::photometry::Spectrum;
-    use imap::scene::light::{Amount, LightDesc, LightKind};
+    use imap::{Amount, LightDesc, LightKind};
     let (mut raw_low, mut within) = (0, 0);
     let seeds = 12;
     for seed in 0..seeds {
@@ -256,7 +256,7 @@ fn a_uniform_field_reads_its_true_minimum_and_uniformity() {
         run_photons_only(&mut ctx, 60_000);
         let s = ctx.region_stats(id, 0, None).unwrap();
         let e = s.extremes.unwrap();
-        let z = |x: imap::imap::stats::Estimate, truth: f64| (x.value - truth).abs() / x.sigma;
+        let z = |x: imap::Estimate, truth: f64| (x.value - truth).abs() / x.sigma;
         if e.min_observed < 500.0 - 2.0 * e.min.sigma {
             raw_low += 1;
         }
@@ -342,8 +342,8 @@ fn parts_add_up_to_their_mesh() {
 /// both schedulers, and the figures read afterwards agree with it.
 #[test]
 fn a_region_target_stops_within_one_progress_interval() {
-    use imap::sched::target::{RegionMeasure, RegionTarget};
     use imap::StopReason;
+    use imap::{RegionMeasure, RegionTarget};
     let cases = [
         (RegionMeasure::Vertices { percentile: 100.0 }, 0.04),
         (RegionMeasure::Vertices { percentile: 90.0 }, 0.03),
@@ -452,8 +452,8 @@ fn box_with_floor(threads: usize, seed: u64, record_walls: bool, sensor: bool) -
 /// would have stopped a run before its target was reached.)
 #[test]
 fn region_targets_measure_the_direct_part_as_the_figures_read_it() {
-    use imap::sched::target::{RegionMeasure, RegionTarget};
     use imap::Estimator;
+    use imap::{RegionMeasure, RegionTarget};
     let estimators = [
         Estimator::LightSampling {
             samples: 0,
@@ -508,7 +508,7 @@ fn region_targets_measure_the_direct_part_as_the_figures_read_it() {
 /// so after 2 photons half its vertices have their direct light and half wait.
 #[test]
 fn a_region_waiting_for_its_direct_passes_has_no_measure_yet() {
-    use imap::sched::target::{RegionMeasure, RegionTarget};
+    use imap::{RegionMeasure, RegionTarget};
     let run = |photons: u64| {
         let (mut ctx, id) = box_with_floor(1, 3, false, false);
         let mut params = imap::RunParams {

@@ -270,10 +270,10 @@ fn the_callback_sees_the_check_that_met_the_target() {
         let r = ctx
             .run(&mut RunParams {
                 target_rel_error: if region { 0.0 } else { 0.05 },
-                region: region.then(|| imap::sched::target::RegionTarget {
+                region: region.then(|| imap::RegionTarget {
                     meshes: vec![ids[0] as usize],
                     part: None,
-                    measure: imap::sched::target::RegionMeasure::Vertices { percentile: 50.0 },
+                    measure: imap::RegionMeasure::Vertices { percentile: 50.0 },
                     target: 0.05,
                 }),
                 time_budget_s: 60.0,

@@ -1,13 +1,16 @@
 //! The generated benchmark scenes: their statistics follow the paper's at a given scale,
 //! they run, close their energy balance and agree between schedulers.
 
+#[path = "../examples/common/scenes.rs"]
+mod scenes;
+
 mod common;
 
 use common::*;
-use imap::context::SchedulerKind;
-use imap::scenes::{build, SceneKind};
-use imap::sched::dynamic::DynamicParams;
 use imap::Config;
+use imap::DynamicParams;
+use imap::SchedulerKind;
+use scenes::{build, SceneKind};
 
 #[test]
 fn scenes_have_the_paper_statistics_and_run() {

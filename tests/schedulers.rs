@@ -5,8 +5,8 @@
 mod common;
 
 use common::*;
-use imap::context::SchedulerKind;
-use imap::sched::dynamic::DynamicParams;
+use imap::DynamicParams;
+use imap::SchedulerKind;
 use imap::{Bands, Config, Context};
 use std::time::Duration;
 

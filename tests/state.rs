@@ -5,7 +5,7 @@
 
 mod common;
 use common::*;
-use imap::context::state::FLAG_NO_MAP;
+use imap::FLAG_NO_MAP;
 use imap::{Bands, Config, Context, ImapStatus, Layer, LayerRequest, RunParams, Selection};
 
 /// The mixed room (dispersion, a spot, a point light and an emitting panel) with light

@@ -8,12 +8,12 @@ mod common;
 
 use common::*;
 use imap::photometry::Spectrum;
-use imap::scene::light::Placement;
-use imap::scene::light::{SkyAmount, SkyDesc};
+use imap::Placement;
 use imap::{
     Bands, CameraDesc, Config, Context, ImapStatus, MeshDesc, RenderMethod, RenderParams,
     StopReason,
 };
+use imap::{SkyAmount, SkyDesc};
 use std::sync::mpsc;
 use std::time::Duration;
 
@@ -87,10 +87,10 @@ fn wavelength_ranges_beyond_the_tables_are_refused_by_name() {
             bands: Bands::spectral(81, 100.0, 100_000.0).unwrap(),
             ..Default::default()
         });
-        let light = imap::scene::light::LightDesc {
-            kind: imap::scene::light::LightKind::Point,
+        let light = imap::LightDesc {
+            kind: imap::LightKind::Point,
             position: [0.0, 0.0, 1.0],
-            amount: imap::scene::light::Amount::Watts(10.0),
+            amount: imap::Amount::Watts(10.0),
             spectrum: imap::photometry::Spectrum::Blackbody(3000.0),
         };
         ctx.add_light_desc(&light).unwrap();

@@ -6,9 +6,9 @@ use crate::diag::printable;
 use crate::lights::{PlacedLight, SpectrumSettings};
 use crate::scene::{fail, CliError, Result};
 use imap::photometry::Spectrum;
-use imap::scene::light::{SkyAmount, SkyDesc, SkyKind, SunDesc};
-use imap::solar::{self, SunTime};
 use imap::Context;
+use imap::{sun_position_with, SunTime, STANDARD_ATMOSPHERE};
+use imap::{SkyAmount, SkyDesc, SkyKind, SunDesc};
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 
@@ -87,7 +87,7 @@ pub struct EnvironmentSettings {
     pub rotation_deg: f64,
 }
 
-/// `[sun]`: at `azimuth_deg`/`zenith_deg`, or at `date` ("YYYY-MM-DD HH:MM[:SS]", local
+/// `[sun]`: at `azimuth_deg`/`zenith_deg`, or at `date` (`"YYYY-MM-DD HH:MM[:SS]"`, local
 /// time `utc_offset_hours` from UTC) and `latitude_deg`/`longitude_deg`; its direct normal
 /// illuminance (lx) or irradiance (W/m²).
 #[derive(Clone, Debug, Deserialize, Serialize)]
@@ -183,10 +183,10 @@ fn sun_angles(s: &SunSettings) -> Result<(f64, f64)> {
             let (year, month, day, hour, minute, second) = parse_date(date, what)?;
             let atmosphere = match (s.pressure_hpa, s.temperature_c) {
                 (Some(p), Some(c)) => (p, c),
-                (None, None) => solar::STANDARD_ATMOSPHERE,
+                (None, None) => STANDARD_ATMOSPHERE,
                 _ => fail!("{what}: give pressure_hpa and temperature_c together"),
             };
-            solar::sun_position_with(&SunTime {
+            sun_position_with(&SunTime {
                 year,
                 month,
                 day,

@@ -23,7 +23,7 @@ pub struct Diagnostics {
 /// of physical memory). A path to a device such as `/dev/zero`, a FIFO or a folder is
 /// refused before anything is read. The error names the path.
 pub fn read_input(path: &Path) -> Result<Vec<u8>, String> {
-    imap::files::read_regular(path, imap::context::default_memory_budget())
+    imap::read_regular(path, imap::default_memory_budget())
         .map_err(|e| format!("{}: {e}", printable(&path.display().to_string())))
 }
 
@@ -37,7 +37,7 @@ pub fn check_input(path: &Path) -> Result<(), String> {
             shown()
         ));
     }
-    let limit = imap::context::default_memory_budget();
+    let limit = imap::default_memory_budget();
     if meta.len() > limit {
         return Err(format!(
             "{}: {} bytes, more than the {limit} bytes allowed",

@@ -15,7 +15,7 @@ use std::path::Path;
 #[derive(Clone, Debug, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct GridSettings {
-    /// Names the outputs (grid_<name>.csv, .png); default "grid1", "grid2", …
+    /// Names the outputs (`grid_<name>.csv`, `.png`); default "grid1", "grid2", …
     #[serde(default)]
     pub name: Option<String>,
     /// A corner of the rectangle.
@@ -520,13 +520,13 @@ pub fn read(ctx: &Context, g: &Grid) -> Result<GridResult> {
         // lands on two (one photon's later bounces may still land on several).
         let sigma: Vec<f64> = lux.iter().zip(&rel_error).map(|(l, r)| l * r).collect();
         let mut stats = ctx.region_stats(g.id, 0, Some(POINTS_PART))?;
-        let weights = imap::imap::stats::lit_weights(&lux, &vec![1.0; lux.len()]);
+        let weights = imap::lit_weights(&lux, &vec![1.0; lux.len()]);
         stats.unlit_vertices = lux.len() - weights.iter().filter(|&&w| w > 0.0).count();
-        stats.average = imap::imap::stats::Estimate {
+        stats.average = imap::Estimate {
             value: lux.iter().sum::<f64>() / lux.len() as f64,
             sigma: sigma.iter().map(|s| s * s).sum::<f64>().sqrt() / lux.len() as f64,
         };
-        stats.extremes = imap::imap::stats::extremes(&lux, &sigma, &weights, stats.average);
+        stats.extremes = imap::extremes(&lux, &sigma, &weights, stats.average);
         return Ok(GridResult {
             lux,
             rel_error,
@@ -553,7 +553,7 @@ pub fn read(ctx: &Context, g: &Grid) -> Result<GridResult> {
     })
 }
 
-fn est(e: imap::imap::stats::Estimate) -> serde_json::Value {
+fn est(e: imap::Estimate) -> serde_json::Value {
     serde_json::json!({"value": e.value, "sigma": e.sigma})
 }
 
@@ -638,7 +638,7 @@ pub fn summary_line(g: &Grid, r: &GridResult) -> String {
 pub fn average_stop_note(r: &GridResult) -> Option<String> {
     let s = &r.stats;
     let x = s.extremes?;
-    let rel = |e: imap::imap::stats::Estimate| {
+    let rel = |e: imap::Estimate| {
         (e.value > 0.0 && e.sigma.is_finite()).then(|| 100.0 * e.sigma / e.value)
     };
     let (min, u0) = (rel(x.min)?, rel(x.u0)?);

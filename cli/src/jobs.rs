@@ -7,7 +7,6 @@
 //! fingerprint), so a model edited between a checkpoint and its resume is caught.
 
 use crate::scene::{fail, CliError, Result, Settings};
-use imap::context::state;
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 
@@ -118,9 +117,9 @@ impl StateMeta {
 /// model path that its flipped bits made up.
 pub fn read_state(path: &Path) -> Result<(Vec<u8>, StateMeta)> {
     let named = |e: imap::Error| CliError(format!("{}: {}", path.display(), e.message));
-    let limit = imap::context::default_memory_budget();
-    let bytes = state::read_file(path, limit).map_err(|e| CliError(e.message))?;
-    let meta = state::parse(&bytes).map_err(named)?.meta;
+    let limit = imap::default_memory_budget();
+    let bytes = imap::read_state_file(path, limit).map_err(|e| CliError(e.message))?;
+    let meta = imap::state_info(&bytes).map_err(named)?.meta;
     let m = match serde_json::from_slice::<StateMeta>(meta) {
         Ok(m) if m.written_by == WRITTEN_BY => m,
         _ => fail!(

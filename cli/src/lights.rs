@@ -5,8 +5,8 @@
 use crate::diag::printable;
 use crate::scene::{fail, CliError, Result};
 use imap::photometry::Spectrum as LightSpectrum;
-use imap::scene::light::{Amount, LightDesc, LightKind, Placement};
 use imap::Context;
+use imap::{Amount, LightDesc, LightKind, Placement};
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 
@@ -133,7 +133,7 @@ pub struct LuminaireSettings {
     pub colour: SpectrumSettings,
 }
 
-/// Positions `start + i·step_a + j·step_b` for i < count[0], j < count[1].
+/// Positions `start + i·step_a + j·step_b` for i < `count[0]`, j < `count[1]`.
 #[derive(Clone, Debug, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct ArraySettings {

@@ -51,7 +51,7 @@ struct RunOptions {
     #[arg(long)]
     target_error: Option<f64>,
     /// Stop when the calculation grids' error is at or below this, e.g. 0.02 (the largest
-    /// point error unless [run] grid_error_measure says otherwise); the global target is
+    /// point error unless the settings' run.grid_error_measure says otherwise); the global target is
     /// then not used.
     #[arg(long)]
     until_grid_error: Option<f64>,
@@ -103,7 +103,7 @@ enum Command {
     Render {
         /// The model (.obj with its MTL libraries, .gltf, .glb, .ply, .stl).
         scene: PathBuf,
-        /// TOML settings: lights, spectra, camera, [render].
+        /// TOML settings: lights, spectra, camera, the render section.
         #[arg(long, short)]
         config: Option<PathBuf>,
         #[command(flatten)]
@@ -424,7 +424,7 @@ fn execute(
         r.target_error
     };
     let (time_s, photons) = (r.time_s, r.photons);
-    let region = (grid_target > 0.0).then(|| imap::sched::target::RegionTarget {
+    let region = (grid_target > 0.0).then(|| imap::RegionTarget {
         meshes: scene.grids.iter().map(|g| g.id as usize).collect(),
         part: Some(grids::POINTS_PART),
         measure: grid_measure,
@@ -609,11 +609,8 @@ fn write_outputs(
         .map(|g| grids::read(ctx, g))
         .collect::<Result<Vec<_>>>()?;
     // A stop on the grids' Eavg leaves their Emin and U0 at whatever error they had then.
-    let on_average = stop == "RegionTarget"
-        && matches!(
-            settings.grid_measure()?,
-            imap::sched::target::RegionMeasure::Average
-        );
+    let on_average =
+        stop == "RegionTarget" && matches!(settings.grid_measure()?, imap::RegionMeasure::Average);
     let notes: Vec<Option<String>> = grid_results
         .iter()
         .map(|r| on_average.then(|| grids::average_stop_note(r)).flatten())

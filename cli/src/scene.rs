@@ -444,8 +444,8 @@ impl Settings {
     }
 
     /// The grids' stop criterion, if any.
-    pub fn grid_measure(&self) -> Result<imap::sched::target::RegionMeasure> {
-        use imap::sched::target::RegionMeasure;
+    pub fn grid_measure(&self) -> Result<imap::RegionMeasure> {
+        use imap::RegionMeasure;
         let r = &self.run;
         let percentile = r.grid_error_percentile.unwrap_or(100.0);
         if !(percentile > 0.0 && percentile <= 100.0) {

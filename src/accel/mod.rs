@@ -370,7 +370,7 @@ impl Accel {
     }
 
     /// Traces one ray and returns the guard words after the hit record (test support).
-    #[doc(hidden)]
+    #[cfg(test)]
     pub fn guard_after_intersect(&self, org: DVec3, dir: DVec3) -> ([u32; 3], bool) {
         let rh = self.trace(org, dir);
         (rh.guard, rh.hit.geom_id != INVALID_ID)

@@ -551,6 +551,33 @@ fn parse_frame(b: &[u8]) -> Result<StateFile<'_>> {
     })
 }
 
+/// What a state holds, read without a context (`state_info`; `imap_state_info` in C).
+#[derive(Clone, Copy, Debug)]
+pub struct StateInfo<'a> {
+    /// Photons traced into it.
+    pub photons: u64,
+    /// Whether it holds the map (not written with `FLAG_NO_MAP`).
+    pub has_map: bool,
+    /// The caller's metadata it was written with.
+    pub meta: &'a [u8],
+}
+
+/// Checks a whole state (frame and checksum) and tells what it holds.
+/// IMAP_ERR_STATE_CORRUPT, IMAP_ERR_UNSUPPORTED.
+pub fn state_info(bytes: &[u8]) -> Result<StateInfo<'_>> {
+    let s = parse(bytes)?;
+    Ok(StateInfo {
+        photons: s.photons(),
+        has_map: s.has_map(),
+        meta: s.meta,
+    })
+}
+
+/// Reads a whole state file of at most `limit` bytes (`read_file`), for `state_info`.
+pub fn read_state_file(path: &Path, limit: u64) -> Result<Vec<u8>> {
+    read_file(path, limit)
+}
+
 /// Reads a whole state file of at most `limit` bytes, naming it in any error: a path that
 /// is not a regular file (`/dev/zero`, a FIFO) is refused before anything is read
 /// (IMAP_ERR_IO), a file over the limit with IMAP_ERR_MEMORY_BUDGET.

@@ -62,10 +62,6 @@ impl DirectAcc {
         self.data.len()
     }
 
-    pub fn is_empty(&self) -> bool {
-        self.data.is_empty()
-    }
-
     #[inline]
     fn add(a: &AtomicU64, x: f64) {
         let mut cur = a.load(Relaxed);

@@ -183,7 +183,8 @@ impl GreySpectra {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scene::{EmitterKind, LightShape, MaterialDesc};
+    use crate::scene::emitter::EmitterKind;
+    use crate::scene::{LightShape, MaterialDesc};
     use crate::spectral::Bands;
     use glam::DVec3;
 

@@ -39,11 +39,9 @@ pub mod regions;
 pub mod stats;
 
 pub use direct::{DirectAcc, DirectCells};
-pub use grey::{most_grey, GreySpectra, GREY_MIN_BANDS, MAX_GREY};
+pub use grey::{most_grey, GreySpectra};
 pub use layout::{LayerLayout, MapLayout, MAX_LIGHT_GROUPS};
-pub use photon::{
-    grey_index, shares, BufferedHit, PhotonBuffer, PhotonOut, FULL, GREY, GREY_WEIGHTED, WEIGHTED,
-};
+pub use photon::{grey_index, shares, BufferedHit, PhotonBuffer, PhotonOut, FULL, GREY, WEIGHTED};
 pub(crate) use readout::NO_DATA_REL_ERROR;
 pub use readout::{Neighbours, Readout};
 
@@ -90,6 +88,7 @@ impl IMap {
     /// Allocates a zeroed map of `slots` slots of `layout.per_slot()` cells each, reporting
     /// allocation failure instead of aborting. Cells are indexed by u32 in the run's
     /// buffers: a map of more cells is refused.
+    #[cfg(test)]
     pub fn try_new(slots: usize, bands: usize, layout: LayerLayout) -> Result<Self> {
         Self::try_new_with(slots, bands, layout, false, GreySpectra::default())
     }
@@ -212,11 +211,6 @@ impl IMap {
         self.direct
             .as_mut()
             .map(|d| Arc::get_mut(d).expect("no run holds the direct accumulators"))
-    }
-
-    /// Accumulators in all: the photon part and the direct part.
-    pub fn value_count(&self) -> usize {
-        self.data.len() + self.direct.as_ref().map_or(0, |d| d.len())
     }
 
     /// Whether sorting a portion by vertex before applying it pays: only when the map does

@@ -181,6 +181,7 @@ impl PhotonBuffer {
 
     /// Records a hit of the current photon (with its vertices' weights, if any).
     #[inline]
+    #[allow(clippy::too_many_arguments)]
     pub fn deposit(
         &mut self,
         scene: &PreparedScene,

@@ -74,7 +74,8 @@ impl Gate {
         debug_assert!(before > 1, "leave without a join");
     }
 
-    /// Current count (for tests and reports).
+    /// Current count (for tests and the loom model).
+    #[cfg(any(test, loom))]
     pub fn active(&self) -> usize {
         self.active.load(Ordering::Relaxed)
     }

@@ -33,7 +33,7 @@ pub mod gather;
 mod monitor;
 mod types;
 
-pub use backward::{EyeStats, EyeTracer};
+pub use backward::EyeTracer;
 pub use camera::{Camera, CameraDesc};
 pub use engine::{bytes_needed, render};
 pub use monitor::RenderMonitor;

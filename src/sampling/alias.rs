@@ -64,14 +64,6 @@ impl AliasTable {
     pub fn pdf(&self, i: usize) -> f64 {
         self.pdf[i]
     }
-
-    pub fn len(&self) -> usize {
-        self.prob.len()
-    }
-
-    pub fn is_empty(&self) -> bool {
-        self.prob.is_empty()
-    }
 }
 
 #[cfg(test)]

@@ -2,7 +2,7 @@
 //! (frozen) form that tracing reads.
 
 pub mod bsdf;
-mod emitter;
+pub(crate) mod emitter;
 pub mod light;
 pub mod material;
 pub mod mesh;
@@ -10,14 +10,12 @@ mod prepared;
 mod prepared_mesh;
 
 pub use crate::spectral::Bands;
-pub use emitter::{
-    Emitter, EmitterKind, Extent, LightSample, Photon, Portals, Receiver, PORTAL_SHARE,
-};
+pub use emitter::{Emitter, Extent, LightSample, Receiver};
 pub use light::{Light, LightShape};
 pub use material::{IorModel, Material, MaterialDesc};
 pub use mesh::{Mesh, MeshDesc};
 pub use prepared::PreparedScene;
-pub use prepared_mesh::{PreparedMesh, MAX_DISTORTION};
+pub use prepared_mesh::PreparedMesh;
 
 /// Everything the caller has described.
 #[derive(Clone, Debug)]

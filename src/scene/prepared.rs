@@ -20,8 +20,6 @@ pub struct PreparedScene {
     /// Radius around the origin of a sphere holding every recorded vertex, sensors included:
     /// where photons from far lights start (`enter`).
     pub enter_radius: f64,
-    /// Whether any mesh is a sensor.
-    pub has_sensors: bool,
     pub meshes: Vec<PreparedMesh>,
     pub emitters: Vec<Emitter>,
     pub emitter_table: AliasTable,
@@ -217,7 +215,6 @@ impl PreparedScene {
             origin,
             radius,
             enter_radius,
-            has_sensors: scene.meshes.iter().any(|m| m.sensor),
             meshes,
             emitters,
             emitter_table,

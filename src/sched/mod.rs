@@ -23,7 +23,7 @@ use std::sync::atomic::Ordering;
 use std::time::{Duration, Instant};
 
 use crate::progress::{deadline, push_history, CostClock, Schedule};
-pub use crate::progress::{Progress, StopReason, MAX_HISTORY};
+pub use crate::progress::{Progress, StopReason};
 
 /// What a run is asked to do.
 pub struct RunParams<'a> {

@@ -325,10 +325,6 @@ impl PhotonSource {
         self.stop.store(true, Ordering::Relaxed);
     }
 
-    pub fn stopped(&self) -> bool {
-        self.stop.load(Ordering::Relaxed)
-    }
-
     /// Records that the photons of `r` were claimed but not traced.
     pub fn give_back(&self, r: Range<u64>) {
         if r.start < r.end {

@@ -333,13 +333,13 @@ pub fn render(
                 continue;
             }
             GatherStep::Caustic(n) => {
-                let eye = host.eye_tracer(&cam, max_events);
+                let eye = host.eye_tracer(cam, max_events);
                 let fwd = host.forward_tracer(max_events);
                 let t0 = Instant::now();
                 stop_flag.store(false, Ordering::Relaxed);
                 let c = caustics.as_ref().expect("with caustics");
                 let (whole, gone) =
-                    caustic_rounds(&eye, &fwd, &delta, c, next_round, n, threads, &stop_flag);
+                    caustic_rounds(&eye, &fwd, delta, c, next_round, n, threads, &stop_flag);
                 done_rounds += whole;
                 next_round += n;
                 t_caustic += t0.elapsed().as_secs_f64();
@@ -359,7 +359,7 @@ pub fn render(
             t_read += t0.elapsed().as_secs_f64();
         }
         // A batch of eye passes.
-        let mut eye = host.eye_tracer(&cam, max_events);
+        let mut eye = host.eye_tracer(cam, max_events);
         eye.map = map.as_ref();
         // The sun through specular surfaces: the caustic rounds bring it.
         eye.sun_by_caustics = with_caustics;

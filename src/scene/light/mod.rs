@@ -23,7 +23,7 @@ mod sun;
 pub use cie::{cie_luminance, CIE_SKY_PARAMETERS};
 pub use direction::unit_vector;
 use direction::{direction, perpendicular};
-pub use distant::{Distant, DistantPart, Radiance, SkyAmount, SkyFrame};
+pub use distant::{Distant, DistantPart, Radiance, SkyAmount};
 pub use luminaire::Luminaire;
 pub use shape::{Aperture, LightShape};
 pub use sky::{SkyDesc, SkyKind};

@@ -1,4 +1,5 @@
-//! Benchmark scenes generated in code with the statistics of the first paper's five test
+//! Benchmark scenes generated in code (shared by the examples and `tests/scenes.rs`; the
+//! library does not carry them) with the statistics of the first paper's five test
 //! scenes (§4): objects, triangles, parts (materials), vertices and lights. `scale`
 //! multiplies the triangle (and so vertex) counts: 1 gives the paper's sizes, tests use
 //! 0.001–0.01. Geometry is made of tessellated boxes, grids and spheres; what matters for
@@ -6,9 +7,9 @@
 //! lights and (for "dispersion") a dispersive prism that concentrates photons on a small
 //! part of the map.
 
-use crate::context::Context;
-use crate::error::Result;
-use crate::scene::{IorModel, MaterialDesc, MeshDesc};
+#![allow(dead_code)]
+
+use imap::{Context, IorModel, MaterialDesc, MeshDesc, Result};
 
 /// The five scenes of the paper.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -365,7 +366,7 @@ pub fn vehicle_sky() -> (usize, usize, Vec<f32>) {
             } else if chi < 1f64.to_radians() {
                 [2.0e3, 1.9e3, 1.7e3]
             } else {
-                let l = crate::scene::light::cie_luminance(12, z, chi, sz);
+                let l = imap::cie_luminance(12, z, chi, sz);
                 [0.6 * l, 0.8 * l, 1.2 * l]
             };
             rgb.extend(px.map(|v| v as f32));
@@ -598,13 +599,13 @@ pub fn build(ctx: &mut Context, kind: SceneKind, scale: f64) -> Result<Built> {
             // The paper's HDR environment (not counted among its 7 lights): a generated
             // equirectangular sky (`vehicle_sky`) giving 100 W/m² on open ground.
             let (w, h, rgb) = vehicle_sky();
-            ctx.add_sky(&crate::scene::light::SkyDesc {
-                kind: crate::scene::light::SkyKind::Image {
+            ctx.add_sky(&imap::SkyDesc {
+                kind: imap::SkyKind::Image {
                     width: w,
                     height: h,
                     rgb: std::sync::Arc::new(rgb),
                 },
-                amount: crate::scene::light::SkyAmount::HorizontalIrradiance(100.0),
+                amount: imap::SkyAmount::HorizontalIrradiance(100.0),
                 ..Default::default()
             })?;
         }
@@ -737,7 +738,7 @@ const CORNELL_SIDE_MM: f64 = 555.0;
 /// Reflectance of a wall given at the R, G and B wavelengths (650, 550, 450 nm) in the
 /// context's bands: RGB as is, spectral bands piecewise linear between them and constant
 /// beyond (as `c_examples/cornell_scene.h` does).
-fn rgb_in_bands(bands: &crate::spectral::Bands, rgb: [f64; 3]) -> Vec<f64> {
+fn rgb_in_bands(bands: &imap::Bands, rgb: [f64; 3]) -> Vec<f64> {
     if bands.rgb {
         return rgb.to_vec();
     }
@@ -836,8 +837,8 @@ pub fn cornell_box(ctx: &mut Context, open_front: bool, n: usize) -> Result<Buil
 
 /// The classic view into the open Cornell box: from (278, 273, −800) mm along +z, 39.3°
 /// vertical field of view.
-pub fn cornell_camera(width: u32, height: u32) -> crate::render::CameraDesc {
-    crate::render::CameraDesc {
+pub fn cornell_camera(width: u32, height: u32) -> imap::CameraDesc {
+    imap::CameraDesc {
         position: [278.0, 273.0, -800.0],
         direction: [0.0, 0.0, 1.0],
         up: [0.0, 1.0, 0.0],
