@@ -3,7 +3,9 @@
 //! false-colour picture with isolux lines, and summarised (Eavg, Emin, Emax, U0, Ud with
 //! their errors) in report.json and on the terminal.
 
-use crate::output::{colour_map, draw_legend, fmt_lux, nice_ceiling, write_png};
+use crate::output::raster::{
+    colour_map, draw_legend, fmt_lux, nice_ceiling, write_png, LEGEND_MAX_PX,
+};
 use crate::scene::{fail, CliError, Result};
 use glam::DVec3;
 use imap::{Context, MeshDesc};
@@ -709,7 +711,7 @@ pub fn write_picture(path: &Path, g: &Grid, r: &GridResult) -> Result<()> {
     let w = ((du * scale).round() as u32).max(160);
     let plot_h = ((dv * scale).round() as u32).max(100);
     // Room for the colour bar below the plot (its strip is at most LEGEND_MAX_PX high).
-    let h = plot_h + crate::output::LEGEND_MAX_PX;
+    let h = plot_h + LEGEND_MAX_PX;
     let mut sorted: Vec<f64> = r.lux.iter().cloned().filter(|x| x.is_finite()).collect();
     sorted.sort_by(f64::total_cmp);
     let top = nice_ceiling(sorted.last().copied().unwrap_or(0.0));
@@ -790,7 +792,7 @@ fn write_point_picture(path: &Path, g: &Grid, r: &GridResult) -> Result<()> {
     let scale = 640.0 / du.max(dv);
     let w = ((du * scale).round() as u32).max(160);
     let plot_h = ((dv * scale).round() as u32).max(100);
-    let h = plot_h + crate::output::LEGEND_MAX_PX;
+    let h = plot_h + LEGEND_MAX_PX;
     let top = nice_ceiling(
         r.lux
             .iter()
