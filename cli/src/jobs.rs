@@ -6,7 +6,8 @@
 //! The library refuses a state whose scene or settings differ from the context's (its
 //! fingerprint), so a model edited between a checkpoint and its resume is caught.
 
-use crate::scene::{fail, CliError, Result, Settings};
+use crate::error::{fail, CliError, Result};
+use crate::settings::Settings;
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 

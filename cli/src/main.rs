@@ -4,26 +4,25 @@
 mod cornell;
 mod daylight;
 mod diag;
-mod gltf_in;
+mod error;
 mod grids;
 mod jobs;
 mod lights;
 mod materials;
-mod meshes_in;
 mod model;
-mod mtl;
-mod obj;
 mod output;
-mod polygon;
-mod rad;
+mod raster;
+mod readers;
 mod render_cmd;
 mod scene;
 mod segments;
+mod settings;
 mod validate;
 
 use clap::{Parser, Subcommand};
+use error::{fail, CliError, Result};
 use indicatif::{ProgressBar, ProgressStyle};
-use scene::{fail, CameraSettings, CliError, Result, Settings};
+use settings::{CameraSettings, Settings};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, OnceLock};
@@ -333,7 +332,7 @@ fn merge(paths: &[PathBuf], out: Option<PathBuf>) -> Result<()> {
     let (bytes, meta) = jobs::read_state(&paths[0])?;
     let settings = meta.settings();
     let out = out.unwrap_or_else(|| meta.out.clone());
-    let (mut ctx, scene, cam) = scene::load_with_camera(&meta.scene, &settings)?;
+    let (mut ctx, scene, cam) = output::load_with_camera(&meta.scene, &settings)?;
     ctx.load_state(&bytes)
         .map_err(|e| CliError(format!("{}: {}", paths[0].display(), e.message)))?;
     drop(bytes);
@@ -398,7 +397,7 @@ fn execute(
     }
     // Everything that can be checked is checked before tracing: a mistake found after an
     // hour's run would throw the hour away.
-    let (mut ctx, scene, cam) = scene::load_with_camera(obj, &settings)?;
+    let (mut ctx, scene, cam) = output::load_with_camera(obj, &settings)?;
     cam.validate()?;
     if let Some((path, bytes)) = state {
         ctx.load_state(&bytes)
@@ -734,7 +733,7 @@ fn write_outputs(
 
 fn info(path: &Path) -> Result<()> {
     let mut d = diag::Diagnostics::default();
-    let m = model::load(path, &mut d).map_err(CliError)?;
+    let m = readers::load(path, &mut d).map_err(CliError)?;
     for (name, v) in m.inward() {
         d.warn(scene::inward_warning(path, &name, v));
     }
@@ -811,7 +810,7 @@ fn demo(opts: &RunOptions) -> Result<()> {
     }
     let settings = Settings {
         unit_m: Some(0.001),
-        run: scene::RunSettings {
+        run: settings::RunSettings {
             target_error: 0.01,
             time_s: 50.0,
             ..Default::default()

@@ -4,38 +4,11 @@
 //! written as a tone-mapped PNG, as radiance (PFM, linear, W/(m²·sr) per RGB channel) with
 //! each pixel's relative error, and with the error history and its plot.
 
+use crate::error::{fail, CliError, Result};
 use crate::output::{self, ToneMap};
-use crate::scene::{self, fail, CliError, Result, Settings};
-use serde::{Deserialize, Serialize};
+use crate::settings::Settings;
 use std::io::Write;
 use std::path::{Path, PathBuf};
-
-/// `[render]` in the settings: how the image is computed.
-#[derive(Clone, Debug, Default, Deserialize, Serialize)]
-#[serde(deny_unknown_fields)]
-pub struct RenderSettings {
-    /// "final-gathering" (default), "semi-synchronous", "synchronous" or "asynchronous".
-    #[serde(default)]
-    pub method: Option<String>,
-    /// Passes over the image (0 = no limit).
-    #[serde(default)]
-    pub passes: u64,
-    /// Seconds (0 = no limit; with no criterion at all, 30 s).
-    #[serde(default)]
-    pub time_s: f64,
-    /// Target relative error of the image (0 = none).
-    #[serde(default)]
-    pub target_error: f64,
-    /// First gathering radius, scene units (0 = four pixel footprints).
-    #[serde(default)]
-    pub initial_radius: f64,
-    /// Radius reduction α in (0, 1) (0 = 2/3).
-    #[serde(default)]
-    pub alpha: f64,
-    /// Semi-synchronous: threads per group (0 = 1).
-    #[serde(default)]
-    pub group_threads: usize,
-}
 
 /// Command-line overrides of `[render]` and the camera's size.
 #[derive(clap::Args, Clone)]
@@ -149,7 +122,7 @@ pub fn render(
         r.time_s = 30.0;
     }
     let m = method(r.method.as_deref())?;
-    let (mut ctx, scene, mut cam) = scene::load_with_camera(model, &settings)?;
+    let (mut ctx, scene, mut cam) = output::load_with_camera(model, &settings)?;
     if let Some((w, h)) = opts.size {
         cam.width = w;
         cam.height = h;

@@ -8,219 +8,13 @@
 //! override any material property.
 
 use crate::diag::{printable, Diagnostics};
-use crate::lights::{self, LightSettings, LuminaireSettings, PlacedLight};
-use crate::materials::{self, MaterialSettings, Resolved};
-use crate::obj;
-use imap::{Bands, Config, Context, MeshDesc, SchedulerKind};
-use serde::{Deserialize, Serialize};
+use crate::error::{fail, name_item, CliError, Result};
+use crate::lights::{self, PlacedLight};
+use crate::materials::{self, Resolved};
+use crate::settings::Settings;
+use imap::{Config, Context, MeshDesc};
 use std::collections::{BTreeMap, HashMap};
-use std::fmt;
 use std::path::Path;
-
-/// An error for the user, one line per problem: what, and where when a file is to blame.
-#[derive(Debug)]
-pub struct CliError(pub String);
-
-impl CliError {
-    /// Every error of a load at once (and how many more there were).
-    pub fn from_diagnostics(d: &crate::diag::Diagnostics) -> Self {
-        let mut lines = d.errors.clone();
-        if d.more > 0 {
-            lines.push(format!(
-                "... and {} more error(s) (the first {} are shown)",
-                d.more,
-                crate::diag::MAX_ERRORS
-            ));
-        }
-        CliError(lines.join("\n"))
-    }
-}
-
-impl fmt::Display for CliError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(&self.0)
-    }
-}
-
-/// What the user calls the context's meshes and lights (the object and file, the
-/// settings entry), by libimap id: a library error about mesh 3 names the object.
-#[derive(Default)]
-pub struct Names {
-    pub meshes: Vec<String>,
-    pub lights: Vec<String>,
-}
-
-pub static NAMES: std::sync::Mutex<Names> = std::sync::Mutex::new(Names {
-    meshes: Vec::new(),
-    lights: Vec::new(),
-});
-
-/// Records the user's name of mesh (or light) `id`.
-pub fn name_item(list: fn(&mut Names) -> &mut Vec<String>, id: u32, name: String) {
-    let mut n = NAMES.lock().unwrap_or_else(|p| p.into_inner());
-    let v = list(&mut n);
-    if v.len() <= id as usize {
-        v.resize(id as usize + 1, String::new());
-    }
-    v[id as usize] = name;
-}
-
-impl From<imap::Error> for CliError {
-    fn from(e: imap::Error) -> Self {
-        let n = NAMES.lock().unwrap_or_else(|p| p.into_inner());
-        let name = match e.subject {
-            Some(imap::Subject::Mesh(i)) => n.meshes.get(i as usize),
-            Some(imap::Subject::Light(i)) => n.lights.get(i as usize),
-            _ => None,
-        };
-        match name.filter(|s| !s.is_empty()) {
-            Some(name) => CliError(format!("{name}: libimap: {}", printable(&e.message))),
-            None => CliError(format!("libimap: {}", printable(&e.message))),
-        }
-    }
-}
-
-pub type Result<T> = std::result::Result<T, CliError>;
-
-macro_rules! fail {
-    ($($arg:tt)*) => { return Err(CliError(format!($($arg)*))) };
-}
-pub(crate) use fail;
-
-/// A per-band value in TOML: one number (grey) or a list (one per band).
-#[derive(Clone, Debug, Deserialize, Serialize)]
-#[serde(untagged)]
-pub enum Spectrum {
-    Grey(f64),
-    Bands(Vec<f64>),
-}
-
-impl Spectrum {
-    pub fn values(&self) -> Vec<f64> {
-        match self {
-            Spectrum::Grey(x) => vec![*x],
-            Spectrum::Bands(v) => v.clone(),
-        }
-    }
-}
-
-#[derive(Clone, Debug, Default, Deserialize, Serialize)]
-#[serde(deny_unknown_fields)]
-pub struct SpectralSettings {
-    pub bands: u32,
-    #[serde(default = "default_min_nm")]
-    pub min_nm: f64,
-    #[serde(default = "default_max_nm")]
-    pub max_nm: f64,
-}
-
-fn default_min_nm() -> f64 {
-    380.0
-}
-fn default_max_nm() -> f64 {
-    780.0
-}
-
-#[derive(Clone, Debug, Deserialize, Serialize)]
-#[serde(deny_unknown_fields)]
-pub struct RunSettings {
-    /// Photons to trace; 0 = no limit.
-    #[serde(default)]
-    pub photons: u64,
-    /// Seconds; 0 = no limit.
-    #[serde(default)]
-    pub time_s: f64,
-    /// Target global relative error; 0 = none.
-    #[serde(default)]
-    pub target_error: f64,
-    #[serde(default)]
-    pub threads: usize,
-    #[serde(default = "default_scheduler")]
-    pub scheduler: String,
-    #[serde(default)]
-    pub seed: u64,
-    #[serde(default = "default_interval")]
-    pub progress_interval_s: f64,
-    /// Stop when the grids' error is at or below this (0 = no grid target); the global
-    /// `target_error` is then not used.
-    #[serde(default)]
-    pub grid_error: f64,
-    /// What `grid_error` measures: "points" (default: the largest, or the
-    /// `grid_error_percentile`-th percentile, of the points' relative errors), "average"
-    /// (each grid's Eavg) or "uniformity" (each grid's U0).
-    #[serde(default)]
-    pub grid_error_measure: Option<String>,
-    /// Percentile of the points' errors for "points", in (0, 100]; default 100.
-    #[serde(default)]
-    pub grid_error_percentile: Option<f64>,
-    /// Aim point-like lights outside the model at it (exact; default true). False traces
-    /// every direction, as the paper's method does.
-    #[serde(default = "yes")]
-    pub aim_lights: bool,
-    /// "light-sampling" (default: direct light by shadow rays from the vertices, photons
-    /// for the indirect part), "gather" (light sampling, and paths from the vertices gather
-    /// diffusely reflected light too) or "photons" (photons bring everything: the first
-    /// paper's method). All are unbiased.
-    #[serde(default = "default_estimator")]
-    pub estimator: String,
-}
-
-fn default_estimator() -> String {
-    "light-sampling".into()
-}
-
-fn yes() -> bool {
-    true
-}
-
-fn default_scheduler() -> String {
-    "dynamic".into()
-}
-fn default_interval() -> f64 {
-    0.25
-}
-
-impl Default for RunSettings {
-    fn default() -> Self {
-        RunSettings {
-            photons: 0,
-            time_s: 60.0,
-            target_error: 0.02,
-            threads: 0,
-            scheduler: default_scheduler(),
-            seed: 0,
-            progress_interval_s: default_interval(),
-            grid_error: 0.0,
-            grid_error_measure: None,
-            grid_error_percentile: None,
-            aim_lights: true,
-            estimator: default_estimator(),
-        }
-    }
-}
-
-#[derive(Clone, Debug, Deserialize, Serialize)]
-#[serde(deny_unknown_fields)]
-pub struct CameraSettings {
-    pub position: [f64; 3],
-    pub look_at: [f64; 3],
-    /// Default: the settings' `up_axis` (filled in by `Settings::load`).
-    #[serde(default)]
-    pub up: Option<[f64; 3]>,
-    #[serde(default = "default_fov")]
-    pub fov_deg: f64,
-    #[serde(default = "default_size")]
-    pub width: u32,
-    #[serde(default = "default_size")]
-    pub height: u32,
-}
-
-fn default_fov() -> f64 {
-    40.0
-}
-fn default_size() -> u32 {
-    640
-}
 
 /// The triangles of the objects `names` as portals, each facing away from the model's
 /// centre: an object whose triangles all face the centre (a window drawn facing in) is
@@ -234,7 +28,7 @@ pub fn portal_triangles(
     let centre = (glam::DVec3::from(lo) + glam::DVec3::from(hi)) * 0.5;
     let (mut positions, mut indices) = (Vec::new(), Vec::new());
     for name in names {
-        let objects: Vec<&crate::obj::Object> =
+        let objects: Vec<&crate::model::Object> =
             model.objects.iter().filter(|o| &o.name == name).collect();
         if objects.is_empty() {
             return Err(format!(
@@ -265,201 +59,6 @@ pub fn portal_triangles(
         }
     }
     Ok((positions, indices))
-}
-
-/// The TOML settings file.
-#[derive(Clone, Debug, Default, Deserialize, Serialize)]
-#[serde(deny_unknown_fields)]
-pub struct Settings {
-    /// Metres per scene unit.
-    #[serde(default)]
-    pub unit_m: Option<f64>,
-    /// The model's up direction: "y" (OBJ and glTF convention, the default), "z" (most CAD
-    /// and STL files), "x", or with a sign ("-z"). Used by the default camera and as the
-    /// camera's default `up`.
-    #[serde(default)]
-    pub up_axis: Option<String>,
-    /// The longest edge, metres, the recorded objects' triangles keep: longer ones are
-    /// split (`Model::refine`), so a wall drawn as two triangles gets a map with a point
-    /// every `refine` metres instead of its four corners. Default: as drawn (with a warning
-    /// for objects far coarser than EN 12464-1's grid spacing).
-    #[serde(default)]
-    pub refine: Option<f64>,
-    #[serde(default)]
-    pub spectral: Option<SpectralSettings>,
-    #[serde(default)]
-    pub run: RunSettings,
-    #[serde(default, rename = "light")]
-    pub lights: Vec<LightSettings>,
-    #[serde(default, rename = "luminaire")]
-    pub luminaires: Vec<LuminaireSettings>,
-    #[serde(default)]
-    pub sky: Option<crate::daylight::SkySettings>,
-    #[serde(default)]
-    pub environment: Option<crate::daylight::EnvironmentSettings>,
-    #[serde(default)]
-    pub sun: Option<crate::daylight::SunSettings>,
-    /// The settings file's folder: luminaire files are relative to it.
-    #[serde(skip)]
-    pub base_dir: std::path::PathBuf,
-    /// The settings file and its text, for messages that name a line of it.
-    #[serde(skip)]
-    pub source: Option<(std::path::PathBuf, std::sync::Arc<str>)>,
-    /// Overrides by MTL material name.
-    #[serde(default)]
-    pub materials: BTreeMap<String, MaterialSettings>,
-    /// OBJ object/group names whose irradiance is recorded; empty = all.
-    #[serde(default)]
-    pub record: Vec<String>,
-    /// Record both sides of every mesh (default: the side the normals face).
-    #[serde(default)]
-    pub two_sided: bool,
-    /// Objects whose triangles are turned round (their normals reversed): a model wound
-    /// inside out records its outside then.
-    #[serde(default)]
-    pub flip_normals: Vec<String>,
-    /// Objects that are the model's openings to the sky (windows, skylights): most of the
-    /// daylight's photons come in through them (`Context::set_portals`, unbiased), far
-    /// faster for rooms lit through windows. Each triangle is taken facing away from the
-    /// model's centre; a pane's triangles facing the centre (its back) are left out.
-    #[serde(default)]
-    pub portals: Vec<String>,
-    /// Every object wholly of glass (a transparent material with an index of refraction:
-    /// Radiance `glass`, an MTL `d < 1` with `Ni`) is a portal too.
-    #[serde(default)]
-    pub glass_portals: bool,
-    #[serde(default)]
-    pub camera: Option<CameraSettings>,
-    /// `imap render`: method and stop criteria.
-    #[serde(default)]
-    pub render: Option<crate::render_cmd::RenderSettings>,
-    /// Calculation grids, recorded as sensors.
-    #[serde(default, rename = "grid")]
-    pub grids: Vec<crate::grids::GridSettings>,
-}
-
-impl Settings {
-    pub fn load(path: &Path) -> Result<Self> {
-        let bytes = crate::diag::read_input(path).map_err(CliError)?;
-        let text = crate::diag::decode(&bytes);
-        let mut s: Settings = toml::from_str(&text).map_err(|e| {
-            let line = e
-                .span()
-                .map(|s| text[..s.start].matches('\n').count() + 1)
-                .unwrap_or(0);
-            let msg = printable(&e.message().replace('\n', " "));
-            CliError(format!("{}:{line}: {msg}", path.display()))
-        })?;
-        s.base_dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
-        s.source = Some((path.to_path_buf(), std::sync::Arc::from(&text[..])));
-        // A camera without its own `up` takes the model's.
-        let up = s.up()?;
-        if let Some(c) = s.camera.as_mut() {
-            c.up.get_or_insert(up);
-        }
-        Ok(s)
-    }
-
-    /// Where the `n`-th (from 0) line starting with `header` is: the settings file and
-    /// the line (0 when there is none).
-    pub fn locate_nth(&self, header: &str, n: usize) -> (std::path::PathBuf, usize) {
-        match &self.source {
-            Some((path, text)) => {
-                let line = text
-                    .lines()
-                    .enumerate()
-                    .filter(|(_, l)| l.trim_start().starts_with(header))
-                    .nth(n)
-                    .map_or(0, |(i, _)| i + 1);
-                (path.clone(), line)
-            }
-            None => ("settings".into(), 0),
-        }
-    }
-
-    /// A message's prefix for the `n`-th `header` entry of the settings, `what`:
-    /// "FILE:LINE: what", or "settings: what" when the settings came from no file.
-    pub fn label(&self, header: &str, n: usize, what: &str) -> String {
-        match self.locate_nth(header, n) {
-            (p, line) if line > 0 => format!("{}:{line}: {what}", p.display()),
-            _ => format!("settings: {what}"),
-        }
-    }
-
-    /// Where a message about the settings points: the settings file and the first line
-    /// whose text starts with `key` (a key or a table header such as `[materials.x]`),
-    /// line 0 when none does; `settings` when the settings came from no file.
-    pub fn locate(&self, key: &str) -> (std::path::PathBuf, usize) {
-        match &self.source {
-            Some((path, text)) => {
-                let line = text
-                    .lines()
-                    .position(|l| l.trim_start().starts_with(key))
-                    .map_or(0, |i| i + 1);
-                (path.clone(), line)
-            }
-            None => ("settings".into(), 0),
-        }
-    }
-
-    /// The up direction from `up_axis`.
-    pub fn up(&self) -> Result<[f64; 3]> {
-        let a = self
-            .up_axis
-            .as_deref()
-            .unwrap_or("y")
-            .trim()
-            .to_ascii_lowercase();
-        let (sign, axis) = match a.strip_prefix('-') {
-            Some(r) => (-1.0, r),
-            None => (1.0, a.strip_prefix('+').unwrap_or(&a)),
-        };
-        let k = match axis {
-            "x" => 0,
-            "y" => 1,
-            "z" => 2,
-            _ => fail!(
-                "up_axis = \"{}\": use \"x\", \"y\" or \"z\" (optionally with a sign)",
-                printable(&a)
-            ),
-        };
-        let mut u = [0.0; 3];
-        u[k] = sign;
-        Ok(u)
-    }
-
-    pub fn bands(&self) -> Result<Bands> {
-        Ok(match &self.spectral {
-            None => Bands::rgb(),
-            Some(s) => Bands::spectral(s.bands, s.min_nm, s.max_nm)?,
-        })
-    }
-
-    pub fn scheduler(&self) -> Result<SchedulerKind> {
-        match self.run.scheduler.as_str() {
-            "dynamic" => Ok(SchedulerKind::Dynamic),
-            "classic" => Ok(SchedulerKind::Classic),
-            s => fail!("run.scheduler = \"{s}\": use \"dynamic\" or \"classic\""),
-        }
-    }
-
-    /// The grids' stop criterion, if any.
-    pub fn grid_measure(&self) -> Result<imap::RegionMeasure> {
-        use imap::RegionMeasure;
-        let r = &self.run;
-        let percentile = r.grid_error_percentile.unwrap_or(100.0);
-        if !(percentile > 0.0 && percentile <= 100.0) {
-            fail!("run.grid_error_percentile = {percentile} is not in (0, 100]");
-        }
-        Ok(match r.grid_error_measure.as_deref() {
-            None | Some("points") => RegionMeasure::Vertices { percentile },
-            Some("average") => RegionMeasure::Average,
-            Some("uniformity") => RegionMeasure::Uniformity,
-            Some(s) => fail!(
-                "run.grid_error_measure = \"{s}\": use \"points\", \"average\" or \"uniformity\""
-            ),
-        })
-    }
 }
 
 /// One mesh as loaded, kept for the outputs.
@@ -510,18 +109,6 @@ impl LoadedScene {
     }
 }
 
-/// The RGB channel (0 red, 1 green, 2 blue) that stands for a wavelength: below 490 nm
-/// blue, 490–580 nm green, above red.
-pub fn channel(nm: f64) -> usize {
-    if nm < 490.0 {
-        2
-    } else if nm < 580.0 {
-        1
-    } else {
-        0
-    }
-}
-
 /// The context's configuration from the settings.
 fn config(settings: &Settings) -> Result<Config> {
     Ok(Config {
@@ -533,28 +120,6 @@ fn config(settings: &Settings) -> Result<Config> {
         aim_lights: settings.run.aim_lights,
         ..Default::default()
     })
-}
-
-/// `load`, with the settings' camera checked first (a mistake found after an hour's run
-/// would throw the hour away) and the load's warnings printed; the camera is the
-/// settings' or the default one (`output::default_camera`), for the caller to check.
-pub fn load_with_camera(
-    path: &Path,
-    settings: &Settings,
-) -> Result<(Context, LoadedScene, CameraSettings)> {
-    if let Some(c) = &settings.camera {
-        c.validate()?;
-    }
-    let up = settings.up()?;
-    let (ctx, scene) = load(path, settings)?;
-    for w in &scene.warnings {
-        eprintln!("imap: warning: {}", printable(w));
-    }
-    let cam = settings
-        .camera
-        .clone()
-        .unwrap_or_else(|| crate::output::default_camera(&scene, up));
-    Ok((ctx, scene, cam))
 }
 
 /// Warnings where the settings leave the model's units or up axis to a default that its
@@ -669,7 +234,7 @@ pub fn inward_warning(path: &Path, name: &str, volume: f64) -> String {
 /// Builds the libimap context from a model file (OBJ, glTF, PLY, STL) and settings.
 pub fn load(path: &Path, settings: &Settings) -> Result<(Context, LoadedScene)> {
     let mut diag = Diagnostics::default();
-    let mut model = crate::model::load(path, &mut diag).map_err(CliError)?;
+    let mut model = crate::readers::load(path, &mut diag).map_err(CliError)?;
     for n in &settings.flip_normals {
         if !model.objects.iter().any(|m| &m.name == n) {
             let (file, line) = settings.locate("flip_normals");
@@ -786,7 +351,7 @@ pub fn load(path: &Path, settings: &Settings) -> Result<(Context, LoadedScene)> 
         // per colour of its emission texture: a texel that is black emits nothing).
         // (emitting material, its emission texture's colour key), or None.
         type Emits = Option<(usize, Option<[u8; 3]>)>;
-        let mut parts: Vec<(Emits, Vec<&obj::Triangle>)> = Vec::new();
+        let mut parts: Vec<(Emits, Vec<&crate::model::Triangle>)> = Vec::new();
         let mut index: HashMap<Emits, usize> = HashMap::new();
         for t in &object.triangles {
             let key = t
@@ -997,7 +562,7 @@ impl<'a> Palette<'a> {
 
     /// The quantised colour of material `i`'s emission texture over triangle `t` (None when
     /// the material has none, or the settings give its emission).
-    fn emission_colour(&self, i: usize, t: &obj::Triangle) -> Option<[u8; 3]> {
+    fn emission_colour(&self, i: usize, t: &crate::model::Triangle) -> Option<[u8; 3]> {
         let m = &self.model.materials[i];
         if self
             .settings
@@ -1016,7 +581,7 @@ impl<'a> Palette<'a> {
     }
 
     /// The colour a triangle takes from a texture or its vertices, if any.
-    fn colour(&self, t: &obj::Triangle) -> Option<[f64; 3]> {
+    fn colour(&self, t: &crate::model::Triangle) -> Option<[f64; 3]> {
         if t.material.is_some_and(|i| self.fixed_colour[i]) {
             return None;
         }
@@ -1053,7 +618,7 @@ impl<'a> Palette<'a> {
             (m, Some(k)) => {
                 let mut base = match m {
                     Some(i) => self.model.materials[i].clone(),
-                    None => crate::mtl::Mtl {
+                    None => crate::model::Mtl {
                         name: "default".into(),
                         ..Default::default()
                     },
@@ -1079,7 +644,7 @@ impl<'a> Palette<'a> {
     }
 
     /// The material id and resolved material of a triangle.
-    fn of(&mut self, t: &obj::Triangle, ctx: &mut Context) -> Result<&(u32, Resolved)> {
+    fn of(&mut self, t: &crate::model::Triangle, ctx: &mut Context) -> Result<&(u32, Resolved)> {
         let key = (t.material, self.colour(t).map(crate::model::colour_key));
         if !self.made.contains_key(&key) {
             let r = self.resolve(key);
@@ -1126,7 +691,7 @@ impl Built {
 
 fn build_mesh(
     name: &str,
-    tris: &[&obj::Triangle],
+    tris: &[&crate::model::Triangle],
     palette: &mut Palette,
     ctx: &mut Context,
     emission: Option<Option<[f64; 3]>>,

@@ -1,6 +1,6 @@
 //! `imap validate`: analytic cases with their expected values, run through libimap.
 
-use crate::scene::Result;
+use crate::error::Result;
 use imap::{Config, Context, IorModel, MaterialDesc, MeshDesc, RunParams};
 use std::f64::consts::PI;
 

@@ -1,8 +1,9 @@
 //! The maps as files: per-vertex irradiance, illuminance and error (CSV), the lit model
 //! (PLY with vertex colours), and the photometric summary of the report.
 
-use super::raster::{create, io};
-use crate::scene::{LoadedScene, Result};
+use crate::error::Result;
+use crate::raster::{create, io};
+use crate::scene::LoadedScene;
 use imap::Context;
 use std::io::Write;
 use std::path::Path;
@@ -244,7 +245,7 @@ pub fn to_rgb(values: &[f64], band_nm: &[f64], rgb: bool) -> [f64; 3] {
     let mut sum = [0.0; 3];
     let mut n = [0usize; 3];
     for (&v, &nm) in values.iter().zip(band_nm) {
-        let c = crate::scene::channel(nm);
+        let c = crate::settings::channel(nm);
         sum[c] += v;
         n[c] += 1;
     }

@@ -1,19 +1,18 @@
 //! Outputs: the output folder, whose files appear together or not at all (`Outputs`);
 //! the maps (`maps`: per-vertex irradiance and error as CSV and PLY, the photometric
-//! summary), pictures (`raster`: PNG, colour scale and legend; `view`: the camera and the
-//! model drawn from it) and the convergence plot (`plot`).
+//! summary), the view (`view`: the camera and the model drawn from it, with `raster`'s
+//! PNG, colour scale and legend) and the convergence plot (`plot`).
 
 pub mod maps;
 pub mod plot;
-pub mod raster;
 pub mod view;
 
+pub use crate::raster::write_png;
 pub use maps::{back_lit, photometric_summary, read_maps, to_rgb, write_csv, write_ply, ToneMap};
 pub use plot::plot_convergence;
-pub use raster::write_png;
-pub use view::{choose_camera, default_camera, render_view};
+pub use view::{choose_camera, load_with_camera, render_view};
 
-use crate::scene::{CliError, Result};
+use crate::error::{CliError, Result};
 use std::path::{Path, PathBuf};
 
 /// A set of output files that appear together or not at all: each is written into a

@@ -1,7 +1,7 @@
 //! convergence.png: the error against run time.
 
-use super::raster::register_font;
-use crate::scene::{CliError, Result};
+use crate::error::{CliError, Result};
+use crate::raster::register_font;
 use imap::Progress;
 use std::path::Path;
 

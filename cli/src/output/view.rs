@@ -2,9 +2,14 @@
 //! from it with its map's colours, in bounded strips.
 
 use super::maps::{luminance, vertex_colours, MeshMap, ToneMap};
-use super::raster::{colour_map, draw_legend, nice_ceiling};
-use crate::scene::{fail, CameraSettings, CliError, LoadedScene, Result};
+use crate::diag::printable;
+use crate::error::{fail, CliError, Result};
+use crate::raster::{colour_map, draw_legend, nice_ceiling};
+use crate::scene::{load, LoadedScene};
+use crate::settings::{CameraSettings, Settings};
 use glam::DVec3;
+use imap::Context;
+use std::path::Path;
 
 impl CameraSettings {
     /// The up vector: the camera's, or +y for a camera made without settings.
@@ -588,6 +593,28 @@ fn rasterize_rows(
         }
     }
     Ok(drawn)
+}
+
+/// `load`, with the settings' camera checked first (a mistake found after an hour's run
+/// would throw the hour away) and the load's warnings printed; the camera is the
+/// settings' or the default one (`default_camera`), for the caller to check.
+pub fn load_with_camera(
+    path: &Path,
+    settings: &Settings,
+) -> Result<(Context, LoadedScene, CameraSettings)> {
+    if let Some(c) = &settings.camera {
+        c.validate()?;
+    }
+    let up = settings.up()?;
+    let (ctx, scene) = load(path, settings)?;
+    for w in &scene.warnings {
+        eprintln!("imap: warning: {}", printable(w));
+    }
+    let cam = settings
+        .camera
+        .clone()
+        .unwrap_or_else(|| default_camera(&scene, up));
+    Ok((ctx, scene, cam))
 }
 
 #[cfg(test)]

@@ -11,26 +11,8 @@
 //! mesh), `usemtl`, `mtllib`. Others (`s`, `l`, `p`, curves) are skipped.
 
 use crate::diag::{logical_lines, Diagnostics};
+use crate::model::{Object, MAX_COORDINATE};
 use std::path::{Path, PathBuf};
-
-/// Largest coordinate magnitude libimap takes (`IMAP_ERR_PRECISION` beyond).
-pub const MAX_COORDINATE: f64 = 1e30;
-
-/// A triangle of an object: global (0-based) vertex indices, texture coordinates when
-/// every corner has one, and its material (index into the OBJ's `usemtl` names).
-#[derive(Clone, Debug)]
-pub struct Triangle {
-    pub v: [u32; 3],
-    pub vt: Option<[u32; 3]>,
-    pub material: Option<usize>,
-}
-
-/// An object (`o` or `g` name) and its triangles.
-#[derive(Clone, Debug)]
-pub struct Object {
-    pub name: String,
-    pub triangles: Vec<Triangle>,
-}
 
 /// A parsed OBJ file.
 #[derive(Debug, Default)]
@@ -49,7 +31,7 @@ pub struct Obj {
     /// Triangles dropped because they repeat a vertex.
     pub degenerate: usize,
     /// What cutting polygons into triangles found.
-    pub faces: crate::polygon::Faces,
+    pub faces: crate::readers::polygon::Faces,
 }
 
 fn number(word: &str) -> Option<f64> {
@@ -222,7 +204,7 @@ pub fn parse(path: &Path, bytes: &[u8], diag: &mut Diagnostics) -> Obj {
                         .iter()
                         .map(|c| glam::DVec3::from(obj.positions[c.0 as usize]))
                         .collect();
-                    let cut = crate::polygon::triangulate(&p, &[]);
+                    let cut = crate::readers::polygon::triangulate(&p, &[]);
                     obj.faces.note(&cut, line);
                     Some(cut.triangles)
                 };

@@ -28,8 +28,8 @@
 
 use crate::diag::{decode, printable, Diagnostics};
 use crate::model::Model;
-use crate::mtl::Mtl;
-use crate::obj::Object;
+use crate::model::Mtl;
+use crate::model::Object;
 use glam::DVec3;
 use std::collections::HashMap;
 use std::f64::consts::PI;
@@ -201,7 +201,7 @@ fn primitives(path: &Path, toks: &[(usize, String)], diag: &mut Diagnostics) -> 
         let mut reals = Vec::with_capacity(nr);
         for (l, w) in &toks[k..k + nr] {
             match w.parse::<f64>() {
-                Ok(x) if x.is_finite() && x.abs() <= crate::obj::MAX_COORDINATE => reals.push(x),
+                Ok(x) if x.is_finite() && x.abs() <= crate::model::MAX_COORDINATE => reals.push(x),
                 _ => {
                     diag.error(
                         path,
@@ -239,7 +239,7 @@ struct Reader<'a> {
     /// Glass polygons, made into slabs once the model's size is known: (object, corners,
     /// material).
     panes: Vec<(usize, Vec<DVec3>, usize)>,
-    faces: crate::polygon::Faces,
+    faces: crate::readers::polygon::Faces,
     /// Counts for the warnings given once.
     rough: Vec<String>,
     left_out: HashMap<String, (usize, usize)>,
@@ -499,7 +499,7 @@ impl Reader<'_> {
                 let tris = if corners.len() == 3 {
                     vec![[0, 1, 2]]
                 } else {
-                    let cut = crate::polygon::triangulate(&corners, &[]);
+                    let cut = crate::readers::polygon::triangulate(&corners, &[]);
                     self.faces.note(&cut, p.line);
                     cut.triangles
                 };
@@ -700,7 +700,7 @@ fn finish(
 
 /// A closed slab of `thickness` behind the polygon `corners` (front: the polygon as wound).
 fn slab(corners: &[DVec3], front: &[[usize; 3]], thickness: f64) -> (Vec<DVec3>, Vec<[usize; 3]>) {
-    let n = crate::polygon::newell(corners).normalize_or_zero();
+    let n = crate::readers::polygon::newell(corners).normalize_or_zero();
     let k = corners.len();
     let mut all: Vec<DVec3> = corners.to_vec();
     all.extend(corners.iter().map(|p| *p - n * thickness));
@@ -793,7 +793,7 @@ pub fn load(path: &Path, bytes: &[u8], diag: &mut Diagnostics) -> Model {
         let diag_len = (DVec3::from(hi) - DVec3::from(lo)).length();
         let t = PANE_SHARE * diag_len;
         for (o, corners, material) in &panes {
-            let cut = crate::polygon::triangulate(corners, &[]);
+            let cut = crate::readers::polygon::triangulate(corners, &[]);
             if corners.len() > 3 {
                 r.faces.note(&cut, r.model.materials[*material].at.1);
             }
@@ -858,7 +858,7 @@ fn area(m: &Model, o: usize) -> f64 {
     m.objects[o]
         .triangles
         .iter()
-        .map(|t: &crate::obj::Triangle| {
+        .map(|t: &crate::model::Triangle| {
             let [a, b, c] = t.v.map(|v| DVec3::from(m.positions[v as usize]));
             (b - a).cross(c - a).length() / 2.0
         })

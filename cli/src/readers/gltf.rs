@@ -17,9 +17,9 @@
 //!   KHR_materials_transmission) is not read: make glass with `[materials.NAME]`.
 
 use crate::diag::{printable, Diagnostics};
+use crate::model::Mtl;
+use crate::model::Object;
 use crate::model::{push_triangle, Model, Texture};
-use crate::mtl::Mtl;
-use crate::obj::Object;
 use glam::{DMat4, DVec3};
 use gltf::mesh::Mode;
 use std::path::Path;

@@ -9,9 +9,9 @@
 //! has f32 coordinates by the format's definition); its vertices are merged by position.
 
 use crate::diag::{printable, Diagnostics};
+use crate::model::Mtl;
+use crate::model::Object;
 use crate::model::{push_triangle, srgb_to_linear, Model};
-use crate::mtl::Mtl;
-use crate::obj::Object;
 use ply_rs_bw::parser::Parser;
 use ply_rs_bw::ply::{DefaultElement, Property};
 use std::path::Path;
@@ -153,7 +153,7 @@ pub fn load_ply(path: &Path, bytes: &[u8], diag: &mut Diagnostics) -> Result<Mod
         triangles: Vec::new(),
     };
     let mut bad = 0usize;
-    let mut faces = crate::polygon::Faces::default();
+    let mut faces = crate::readers::polygon::Faces::default();
     if let Some(face_list) = ply.payload.get("face") {
         for (f, face) in face_list.iter().enumerate() {
             let Some(idx) = face
@@ -186,7 +186,7 @@ pub fn load_ply(path: &Path, bytes: &[u8], diag: &mut Diagnostics) -> Result<Mod
                     .iter()
                     .map(|&i| glam::DVec3::from(model.positions[i as usize]))
                     .collect();
-                let cut = crate::polygon::triangulate(&p, &[]);
+                let cut = crate::readers::polygon::triangulate(&p, &[]);
                 faces.note(&cut, 0);
                 cut.triangles
             };

@@ -7,40 +7,8 @@
 //! the file name; other maps are ignored.
 
 use crate::diag::{logical_lines, Diagnostics};
-use std::path::{Path, PathBuf};
-
-/// One `newmtl` block, as written (nothing mapped yet).
-#[derive(Clone, Debug, Default)]
-pub struct Mtl {
-    pub name: String,
-    /// Where it was defined (file, line).
-    pub at: (PathBuf, usize),
-    pub kd: Option<[f64; 3]>,
-    pub ks: Option<[f64; 3]>,
-    pub ke: Option<[f64; 3]>,
-    pub tf: Option<[f64; 3]>,
-    pub ni: Option<f64>,
-    /// Dissolve (opacity), from `d` or 1 − `Tr`.
-    pub d: Option<f64>,
-    pub illum: Option<i64>,
-    /// `map_Kd`, resolved against the MTL's directory.
-    pub map_kd: Option<PathBuf>,
-    /// The decoded diffuse texture (`map_Kd`, glTF baseColorTexture), when it could be read.
-    pub texture: Option<std::sync::Arc<crate::model::Texture>>,
-    /// The decoded emission texture (glTF emissiveTexture): it multiplies `ke` texel by
-    /// texel.
-    pub emission_texture: Option<std::sync::Arc<crate::model::Texture>>,
-    /// Diffuse transmittance (Radiance's `trans`).
-    pub kt: Option<[f64; 3]>,
-    /// The luminance (cd/m²) the emission `ke` must show: it is scaled to it by the bands'
-    /// efficacies (Radiance's `light` and `glow`).
-    pub ke_luminance: Option<f64>,
-    /// A thin pane read as a slab this thick (scene units): `tf` is its internal
-    /// transmittance at normal incidence (Radiance's `glass`).
-    pub pane: Option<f64>,
-    /// Made by a reader for a file without materials (PLY, STL): vertex colours override it.
-    pub implicit: bool,
-}
+use crate::model::Mtl;
+use std::path::Path;
 
 fn colour(rest: &[&str]) -> Result<[f64; 3], String> {
     let nums: Vec<f64> = rest

@@ -1,7 +1,7 @@
 //! Pictures' common parts: PNG writing, the viridis colour scale, round scale ends and the
 //! lux legend.
 
-use crate::scene::{CliError, Result};
+use crate::error::{CliError, Result};
 use std::path::Path;
 
 pub fn write_png(path: &Path, w: u32, h: u32, rgb: &[u8]) -> Result<()> {
@@ -112,19 +112,19 @@ pub fn fmt_lux(v: f64) -> String {
     }
 }
 
-pub(super) fn create(path: &Path) -> Result<std::io::BufWriter<std::fs::File>> {
+pub fn create(path: &Path) -> Result<std::io::BufWriter<std::fs::File>> {
     std::fs::File::create(path)
         .map(std::io::BufWriter::new)
         .map_err(|e| CliError(format!("{}: {e}", path.display())))
 }
 
-pub(super) fn io(path: &Path) -> impl Fn(std::io::Error) -> CliError + '_ {
+pub fn io(path: &Path) -> impl Fn(std::io::Error) -> CliError + '_ {
     move |e| CliError(format!("{}: {e}", path.display()))
 }
 
 /// Registers a system sans-serif font with plotters (DejaVu on Debian); false when none
 /// is found, and the plot goes without text.
-pub(super) fn register_font() -> bool {
+pub fn register_font() -> bool {
     use std::sync::OnceLock;
     static DONE: OnceLock<bool> = OnceLock::new();
     *DONE.get_or_init(|| {
