@@ -63,9 +63,11 @@ if [ -e "$EMBREE_DIR/libtbb.so.12" ] && [ "${EMBREE_DIR#/usr/}" = "$EMBREE_DIR" 
 fi
 echo "installed layout: libimap in lib/, Embree and TBB in lib/imap/ (runpath \$ORIGIN/imap)"
 cmake -S c_examples -B "$TMP/examples" -DCMAKE_PREFIX_PATH="$TMP/prefix" >/dev/null
+cmake -S c_tests -B "$TMP/tests" -DCMAKE_PREFIX_PATH="$TMP/prefix" >/dev/null
+cmake --build "$TMP/tests" -j "$JOBS"
 cmake --build "$TMP/examples" -j "$JOBS"
 PKG_CONFIG_PATH="$TMP/prefix/lib/pkgconfig" cc -std=c11 -Wall -Wextra -Wpedantic -Werror \
-  c_examples/bad_input.c $(PKG_CONFIG_PATH="$TMP/prefix/lib/pkgconfig" pkg-config --cflags --libs imap) -lm \
+  c_tests/bad_input.c $(PKG_CONFIG_PATH="$TMP/prefix/lib/pkgconfig" pkg-config --cflags --libs imap) -lm \
   -o "$TMP/examples/bad_input_pkgconfig"
 "$TMP/examples/bad_input_pkgconfig" >/dev/null
 echo "pkg-config build of bad_input: ok"

@@ -3,8 +3,8 @@
  * against the classic scheduler on the same seed: the maps must agree to 1e-12. Small
  * enough to run under a race detector:
  *
- *   valgrind --tool=helgrind build/c_examples/threaded_splits 3000
- *   valgrind --tool=drd      build/c_examples/threaded_splits 3000
+ *   valgrind --tool=helgrind build/c_tests/threaded_splits 3000
+ *   valgrind --tool=drd      build/c_tests/threaded_splits 3000
  */
 #include <imap.h>
 
