@@ -12,7 +12,7 @@
 //!         [--reference-seconds 120] [--size 256] [--group-threads 1]
 //!         [--methods sync,async,semi] [--reps 1]
 //!
-//! `--methods` may add `fg` (final gathering from the map, issue 18; not the paper's): its
+//! `--methods` may add `fg` (final gathering from the map; not the paper's): its
 //! accuracy is measured against the same semi-synchronous reference, whose edges read low
 //! (BENCHMARKS.md, "The renderer per region"), so its deviation there is partly the
 //! reference's.

@@ -1,4 +1,4 @@
-//! Issue 18's measurement: the camera renderer against an independent reference, per
+//! A measurement: the camera renderer against an independent reference, per
 //! region of the image. The scene is the issue's room: a 1 m grey cube (ρ = 0.5), a 0.2 m
 //! square emitter 2 cm under the ceiling, the camera at the floor's edge looking across
 //! (90° field of view, 128 × 128 by default).

@@ -1,4 +1,4 @@
-//! Point-like lights aimed at the geometry (issue 14): a light outside the sphere that
+//! Point-like lights aimed at the geometry: a light outside the sphere that
 //! holds the scene emits only toward it, each photon weighted by the light's flux share in
 //! the cone. The map stays unbiased (against the analytic irradiance of a point and of a
 //! cosine light on a small plate far away), the energy balance stays exact, the same seed

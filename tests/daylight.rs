@@ -1,4 +1,4 @@
-//! Daylight and environment light (issue 17) against analytic answers, with every
+//! Daylight and environment light against analytic answers, with every
 //! estimator (photons only, light sampling, gathering):
 //! - a uniform sky of radiance L over an open black plane gives E = πL on it, at any scene
 //!   scale and position; a uniform sphere lights both sides of a two-sided plane;
@@ -682,7 +682,7 @@ fn a_cie_sky_without_its_sun_is_refused_unless_its_type_ignores_the_sun() {
     }
 }
 
-/// The ground's glow (Radiance's ground glow, issue 30): below the horizon a uniform
+/// The ground's glow (Radiance's ground glow): below the horizon a uniform
 /// radiance ρ E_h / π, E_h the horizontal irradiance of the sky and the sun. Under a
 /// uniform sky of 1 W/(m² sr) per band and the sun at 40° (E_n 3 W/m² per band), ρ 0.2:
 /// an open two-sided plane reads E_h on top and ρ E_h below; a vertical plane facing −y,
@@ -785,7 +785,7 @@ fn the_ground_glows_with_rho_e_h_over_pi_below_the_horizon() {
     assert!(e.message.contains("a ground already"), "{}", e.message);
 }
 
-/// Window portals (issue 30): the roof opening declared as a portal, the sky's and the
+/// Window portals: the roof opening declared as a portal, the sky's and the
 /// sun's photons come in through it only. The floor under a uniform sky still reads the
 /// view factor (every estimator), under CIE sky 12 the sky's integral over the opening, the
 /// sun's patch E_n cos θ where it falls and nothing elsewhere; the same photons leave a

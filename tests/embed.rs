@@ -1,4 +1,4 @@
-//! Safe to embed (issue 11): every defect a hostile integrator found, as a regression test.
+//! Safe to embed: every defect a hostile integrator found, as a regression test.
 //! Each test names its item. Hangs are caught by running the body on a thread with a
 //! deadline; panics, aborts and printing are caught by running a child process.
 
@@ -67,10 +67,10 @@ fn config(scheduler: SchedulerKind) -> Config {
     }
 }
 
-/// Item 1: a huge finite time budget or progress interval (a natural "no limit") is taken
+/// A huge finite time budget or progress interval (a natural "no limit") is taken
 /// as no limit, on both schedulers; the run returns and later calls work.
 #[test]
-fn item01_huge_time_budgets_and_intervals_are_no_limit() {
+fn huge_time_budgets_and_intervals_are_no_limit() {
     for s in schedulers() {
         for big in [1e19, 1e100, 1e300] {
             let r = within(30.0, "huge time budget", move || {
@@ -90,11 +90,11 @@ fn item01_huge_time_budgets_and_intervals_are_no_limit() {
     }
 }
 
-/// Item 2: a progress interval of 1e-12 s neither spins for ever nor floods the history:
+/// A progress interval of 1e-12 s neither spins for ever nor floods the history:
 /// it is raised to 1 ms, the history keeps at most 4096 points, and the callback is called
 /// at most once a millisecond.
 #[test]
-fn item02_tiny_progress_intervals_are_raised_and_histories_bounded() {
+fn tiny_progress_intervals_are_raised_and_histories_bounded() {
     for s in schedulers() {
         let (calls, wall, hist) = within(20.0, "interval 1e-12", move || {
             let (mut ctx, _) = floor_scene(config(s));
@@ -152,10 +152,10 @@ fn camera(size: u32) -> CameraDesc {
     }
 }
 
-/// Item 4: a caller buffer larger than the mesh gets the vertex values, and the rest of
+/// A caller buffer larger than the mesh gets the vertex values, and the rest of
 /// it is left as it was.
 #[test]
-fn item04_a_larger_buffer_gets_the_vertices_and_keeps_the_rest() {
+fn a_larger_buffer_gets_the_vertices_and_keeps_the_rest() {
     let (mut ctx, id) = floor_scene(Config::default());
     run_photons(&mut ctx, 10_000);
     let nv = ctx.vertex_count(id).unwrap();
@@ -174,10 +174,10 @@ fn item04_a_larger_buffer_gets_the_vertices_and_keeps_the_rest() {
     assert!(small.iter().all(|x| *x == -7.0));
 }
 
-/// Item 6: vertices no triangle uses do not count; a scene whose extent leaves a mesh's
+/// Vertices no triangle uses do not count; a scene whose extent leaves a mesh's
 /// triangles unresolvable in f32 is refused naming the mesh, never silently wrong.
 #[test]
-fn item06_far_unused_vertices_do_not_count_and_unresolvable_meshes_are_refused() {
+fn far_unused_vertices_do_not_count_and_unresolvable_meshes_are_refused() {
     let (mut plain, id) = floor_scene(Config::default());
     run_photons(&mut plain, 20_000);
     let reference = map_of(&plain, id);
@@ -243,10 +243,10 @@ fn item06_far_unused_vertices_do_not_count_and_unresolvable_meshes_are_refused()
     }
 }
 
-/// Item 7: zero or overflowing emitted power gets its own status naming the light or
+/// Zero or overflowing emitted power gets its own status naming the light or
 /// mesh; unit_m must be a usable number of metres.
 #[test]
-fn item07_zero_and_overflowing_powers_are_refused_by_name() {
+fn zero_and_overflowing_powers_are_refused_by_name() {
     let mut ctx = context(Config::default());
     let grey = lambert(&mut ctx, 0.5);
     // A zero-area emitting mesh (all vertices on a line).
@@ -307,9 +307,9 @@ fn item07_zero_and_overflowing_powers_are_refused_by_name() {
     }
 }
 
-/// Item 8: max_groups = 1 is one group that never splits, and runs like any other.
+/// Max_groups = 1 is one group that never splits, and runs like any other.
 #[test]
-fn item08_max_groups_one_is_one_group() {
+fn max_groups_one_is_one_group() {
     let mut maps = Vec::new();
     for (s, max_groups) in [(SchedulerKind::Classic, 0), (SchedulerKind::Dynamic, 1)] {
         let mut cfg = config(s);
@@ -336,11 +336,11 @@ fn lossless_box(cfg: Config) -> (Context, u32) {
     (ctx, id)
 }
 
-/// Item 10: the time budget and cancel stop a run within about two progress intervals
+/// The time budget and cancel stop a run within about two progress intervals
 /// however long the paths are, and the map stays a sum of whole photons: runs stopped
 /// and resumed give the map of one uninterrupted run.
 #[test]
-fn item10_long_paths_stop_on_time_and_resume_exactly() {
+fn long_paths_stop_on_time_and_resume_exactly() {
     for s in schedulers() {
         let (wall, stop, dropped) = within(20.0, "reflectance-1 box", move || {
             let (mut ctx, _) = lossless_box(config(s));
@@ -405,9 +405,9 @@ fn item10_long_paths_stop_on_time_and_resume_exactly() {
     }
 }
 
-/// Item 11: a gathering radius too small for the scene is refused, not rendered as NaN.
+/// A gathering radius too small for the scene is refused, not rendered as NaN.
 #[test]
-fn item11_tiny_render_radii_are_refused() {
+fn tiny_render_radii_are_refused() {
     let (mut ctx, _) = floor_scene(Config::default());
     for r in [1e-100, 1e-300, 1e-7] {
         let mut rp = render_params();
@@ -424,10 +424,10 @@ fn item11_tiny_render_radii_are_refused() {
     assert!(img.radiance.iter().all(|x| x.is_finite()));
 }
 
-/// Item 13: more than 1024 threads are refused; 1024 threads on a small machine still
+/// More than 1024 threads are refused; 1024 threads on a small machine still
 /// trace 100 000 photons without the per-thread cost of every possible group.
 #[test]
-fn item13_thread_counts_are_bounded_and_many_threads_stay_cheap() {
+fn thread_counts_are_bounded_and_many_threads_stay_cheap() {
     let e = Context::new(Config {
         threads: 4096,
         ..Default::default()
@@ -453,9 +453,9 @@ fn item13_thread_counts_are_bounded_and_many_threads_stay_cheap() {
     }
 }
 
-/// Item 14: messages name the argument at fault, one message per range error.
+/// Messages name the argument at fault, one message per range error.
 #[test]
-fn item14_messages_name_the_argument() {
+fn messages_name_the_argument() {
     let (mut ctx, _) = floor_scene(Config::default());
     type Set = fn(&mut RunParams);
     let cases: [(&str, Set); 6] = [

@@ -1,4 +1,4 @@
-//! The light-sampling estimator (issue 16) against analytic answers, with every light type:
+//! The light-sampling estimator against analytic answers, with every light type:
 //! a black plate (so everything is direct light) under a point, spot, cosine, collimated
 //! beam and an emitting square; each vertex reads the hat average of the analytic
 //! irradiance within its error (largest |z| bounded; mean |z| ≈ √(2/π) ≈ 0.8: the error
@@ -60,7 +60,7 @@ fn z_scores(ctx: &Context, id: u32, g: &Geometry, exact: &dyn Fn([f64; 3]) -> f6
 /// the direct light and the photons' share of it as they are. (With gathering's own
 /// settings, one photon per 64 samples, a beam's vertices read up to 5.7 σ off at 40 000
 /// photons: the photons' sliver of the weights near each support's rim is then a handful
-/// of landings, whose variance estimate is poor; noted for issue 16.)
+/// of landings, whose variance estimate is poor.)
 const GATHER_PLATE: Estimator = Estimator::LightSampling {
     samples: 4,
     pass_photons: 1408,

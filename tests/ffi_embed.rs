@@ -1,4 +1,4 @@
-//! Safe to embed (issue 11), through the C ABI: error-message lifetimes under
+//! Safe to embed, through the C ABI: error-message lifetimes under
 //! concurrency, status names of any int, silence, lost threads and running out of memory.
 //! Tests that need a fault injected or a memory limit run in a child process: this test
 //! binary re-runs itself with `IMAP_EMBED_CHILD` set, so an abort or a print shows.
@@ -119,11 +119,11 @@ fn run_params() -> ImapRunParams {
     }
 }
 
-/// Item 3: a thread's message is its own. While one thread runs, two others get
+/// A thread's message is its own. While one thread runs, two others get
 /// IMAP_ERR_BUSY over and over: each one's message pointer stays valid and unchanged
 /// however often the other fails, and the running thread's own earlier message survives.
 #[test]
-fn item03_error_messages_belong_to_the_calling_thread() {
+fn error_messages_belong_to_the_calling_thread() {
     let (h, mesh, _) = scene();
     let ctx = h.0;
     // The running thread's own failure, before the run: a bad band.
@@ -208,9 +208,9 @@ fn imap_last_error_ptr(ctx: *const ImapContext) -> usize {
     unsafe { imap_last_error(ctx) as usize }
 }
 
-/// Item 9: any int has a name, and the name of a status is its C name.
+/// Any int has a name, and the name of a status is its C name.
 #[test]
-fn item09_every_int_has_a_status_name() {
+fn every_int_has_a_status_name() {
     for v in [-1, 21, 22, 1_000_000, i32::MIN, i32::MAX, 14] {
         // SAFETY: the library returns a static string for any int.
         let name = unsafe { CStr::from_ptr(imap_status_name(v)) }
@@ -290,10 +290,10 @@ fn run_params_with(photons: u64) -> ImapRunParams {
     p
 }
 
-/// Item 4 through the C ABI: a buffer larger than the mesh; out-parameters untouched on
+/// Through the C ABI: a buffer larger than the mesh; out-parameters untouched on
 /// failure.
 #[test]
-fn item04_buffers_through_the_c_abi() {
+fn buffers_through_the_c_abi() {
     let (h, mesh, nv) = scene();
     let ctx = h.0;
     // SAFETY: valid handle and params.
@@ -339,7 +339,7 @@ fn is_child() -> bool {
     std::env::var_os("IMAP_EMBED_CHILD").is_some()
 }
 
-/// The child side of `item12_*`: a run or render with a fault injected; prints the status
+/// The child side of `lost_threads_return_a_status_and_print_nothing`: a run or render with a fault injected; prints the status
 /// and whether the context answers afterwards.
 #[test]
 fn child_fault() {
@@ -405,7 +405,7 @@ fn child_fault() {
     unsafe { imap_destroy(ctx) };
 }
 
-/// Items 12 and the lost-thread paths: a worker that panics (calculating thread,
+/// and the lost-thread paths: a worker that panics (calculating thread,
 /// processing thread, render thread) or a monitor that unwinds: the call returns a status
 /// in bounded time, the context answers afterwards (not stuck BUSY), and nothing is
 /// printed on stderr.
@@ -414,7 +414,7 @@ fn child_fault() {
     not(feature = "fault-injection"),
     ignore = "injects faults: needs --features fault-injection (the test command's)"
 )]
-fn item12_lost_threads_return_a_status_and_print_nothing() {
+fn lost_threads_return_a_status_and_print_nothing() {
     if is_child() {
         return;
     }
@@ -478,7 +478,7 @@ extern "C" {
     fn setrlimit(resource: i32, rlim: *const RLimit) -> i32;
 }
 
-/// The child side of `item05_*`: under an address-space limit, adding a mesh whose copy
+/// The child side of `out_of_memory_is_a_status`: under an address-space limit, adding a mesh whose copy
 /// does not fit, and preparing a scene that does not fit, return IMAP_ERR_OUT_OF_MEMORY;
 /// with the limit raised again the same context works.
 #[test]
@@ -561,9 +561,9 @@ fn child_oom() {
     unsafe { imap_destroy(ctx) };
 }
 
-/// Item 5: running out of memory is a status, never an abort, and the context survives.
+/// Running out of memory is a status, never an abort, and the context survives.
 #[test]
-fn item05_out_of_memory_is_a_status() {
+fn out_of_memory_is_a_status() {
     if is_child() {
         return;
     }
@@ -588,7 +588,7 @@ fn item05_out_of_memory_is_a_status() {
     assert!(!err.contains("memory allocation"), "{err}");
 }
 
-/// Issue 14 through the C ABI: IMAP_MESH_SKIP_DEGENERATE leaves out (and counts) the
+/// Through the C ABI: IMAP_MESH_SKIP_DEGENERATE leaves out (and counts) the
 /// triangles that repeat a vertex; without it they are refused. IMAP_CONFIG_NO_LIGHT_AIMING
 /// is taken, unknown config flags are refused.
 #[test]

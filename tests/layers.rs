@@ -413,7 +413,7 @@ fn rectangle_solid_angle(p: [f64; 3], [x0, x1]: [f64; 2], [y0, y1]: [f64; 2]) ->
 
 #[test]
 fn a_layers_region_figures_have_exact_errors_and_agree_with_a_separate_run() {
-    // Per-layer Eavg, Emin and U0 from one run (issue 30): lamp A's layer of a run with
+    // Per-layer Eavg, Emin and U0 from one run: lamp A's layer of a run with
     // both lamps against a run of lamp A alone, and the direct layer's floor flux against
     // Φ Ω / 4π of each lamp; the group layers' fluxes sum to the floor's.
     let n = photons(600_000);

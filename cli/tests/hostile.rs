@@ -1,4 +1,4 @@
-//! The `imap` command on hostile input (issue 11, items 15–18): malformed MTL colours,
+//! The `imap` command on hostile input: malformed MTL colours,
 //! signals during a run, mistakes that used to be found only after the run, huge
 //! coordinates and raw control bytes.
 
@@ -31,10 +31,10 @@ fn scene(dir: &Path, mtl: &str) -> String {
 
 const MTL: &str = "newmtl grey\nKd 0.5 0.5 0.5\nnewmtl lamp\nKe 20 20 20\n";
 
-/// Item 15: colour lines with fewer than three numbers do not panic: one number is grey,
+/// Colour lines with fewer than three numbers do not panic: one number is grey,
 /// none or two are errors naming the line, and every error of the file is reported at once.
 #[test]
-fn item15_short_mtl_colours_are_read_or_named_not_panicked_on() {
+fn short_mtl_colours_are_read_or_named_not_panicked_on() {
     let d = tempfile::tempdir().unwrap();
     let obj = scene(d.path(), "newmtl grey\nKd 0.5\nnewmtl lamp\nKe 20\n");
     let out = d.path().join("o1");
@@ -91,10 +91,10 @@ fn files(dir: &Path) -> Vec<String> {
     v
 }
 
-/// Item 16: SIGINT or SIGTERM stops the run cleanly: complete outputs of what was computed,
+/// SIGINT or SIGTERM stops the run cleanly: complete outputs of what was computed,
 /// marked interrupted, replacing an older run's; no temporary or truncated file is left.
 #[test]
-fn item16_signals_stop_the_run_and_leave_complete_outputs() {
+fn signals_stop_the_run_and_leave_complete_outputs() {
     let d = tempfile::tempdir().unwrap();
     let obj = scene(d.path(), MTL);
     for (sig, code) in [("-INT", 130), ("-TERM", 143)] {
@@ -161,10 +161,10 @@ fn item16_signals_stop_the_run_and_leave_complete_outputs() {
     }
 }
 
-/// Item 17: camera mistakes are found before tracing (no outputs, fast), and runs with no
+/// Camera mistakes are found before tracing (no outputs, fast), and runs with no
 /// error history (nothing recorded got light, one photon) succeed.
 #[test]
-fn item17_mistakes_are_found_before_tracing_and_empty_histories_are_fine() {
+fn mistakes_are_found_before_tracing_and_empty_histories_are_fine() {
     let d = tempfile::tempdir().unwrap();
     let obj = scene(d.path(), MTL);
     for (camera, what) in [
@@ -233,10 +233,10 @@ fn item17_mistakes_are_found_before_tracing_and_empty_histories_are_fine() {
     }
 }
 
-/// Item 18: coordinates beyond what libimap traces are named with file and line when the
+/// Coordinates beyond what libimap traces are named with file and line when the
 /// file is read; control bytes from an input never reach the terminal.
 #[test]
-fn item18_huge_coordinates_and_control_bytes() {
+fn huge_coordinates_and_control_bytes() {
     let d = tempfile::tempdir().unwrap();
     write(d.path(), "s.mtl", MTL.as_bytes());
     let obj = write(

@@ -1,4 +1,4 @@
-//! Real-world inputs through the `imap` command (issue 14): each reading heuristic with its
+//! Real-world inputs through the `imap` command: each reading heuristic with its
 //! own test, the other model formats (glTF, PLY, STL), the default camera of a Z-up model,
 //! and `imap render`.
 

@@ -596,7 +596,7 @@ fn coarse_objects_are_warned_about_and_refine_splits_them() {
     );
 }
 
-/// Issue 30, 9(b): photons must not leave a closed box through the edge where two walls
+/// photons must not leave a closed box through the edge where two walls
 /// meet. A beam 1 µm wide aimed at the edge of a white, flat box: the tracer's f32
 /// barycentrics put some hits an ulp beyond the edge, and the reflected ray started on or
 /// just behind the other wall (0.46 % of the beam's energy escaped before the fix; one
