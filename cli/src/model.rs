@@ -1,7 +1,6 @@
-//! One model from any supported file: OBJ + MTL (`obj`, `mtl`), glTF 2.0 (`gltf_in`), PLY
-//! and STL (`meshes_in`), as positions in f64, objects of triangles, materials as MTL-like
-//! records, per-vertex colours and textures. The scene builder (`scene`) turns it into
-//! libimap meshes and materials.
+//! One model, whatever file it came from (the `readers`): positions in f64, objects of
+//! triangles, materials as MTL-like records (`Mtl`), per-vertex colours and textures. The
+//! scene builder (`scene`) turns it into libimap meshes and materials.
 
 use crate::diag::{printable, Diagnostics};
 use std::collections::HashMap;

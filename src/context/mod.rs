@@ -542,7 +542,7 @@ impl Context {
         self.add_light(l)
     }
 
-    /// Adds a sky or environment (`scene::sky`): a uniform sky, a CIE standard general
+    /// Adds a sky or environment (`scene::light`): a uniform sky, a CIE standard general
     /// sky or an equirectangular image. Its photons enter through the scene's bounding
     /// sphere.
     pub fn add_sky(&mut self, desc: &SkyDesc) -> Result<u32> {
