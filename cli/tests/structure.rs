@@ -3,51 +3,18 @@
 //! sources: every `crate::module` a file names outside comments is an edge from the
 //! file's top-level module; the graph must have no cycle.
 
+#[path = "../../tests/common/imports.rs"]
+mod imports;
+
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::Path;
-
-fn rust_files(dir: &Path, out: &mut Vec<std::path::PathBuf>) {
-    for e in std::fs::read_dir(dir).unwrap() {
-        let p = e.unwrap().path();
-        if p.is_dir() {
-            rust_files(&p, out);
-        } else if p.extension().is_some_and(|x| x == "rs") {
-            out.push(p);
-        }
-    }
-}
 
 #[test]
 fn the_command_has_no_import_loop() {
     let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
-    let mut files = Vec::new();
-    rust_files(&src, &mut files);
     let mut edges: BTreeMap<String, BTreeSet<String>> = BTreeMap::new();
-    for f in &files {
-        let rel = f.strip_prefix(&src).unwrap();
-        let first = rel
-            .components()
-            .next()
-            .unwrap()
-            .as_os_str()
-            .to_string_lossy();
-        let own = first.trim_end_matches(".rs").to_string();
-        let text = std::fs::read_to_string(f).unwrap();
-        let out = edges.entry(own.clone()).or_default();
-        for line in text.lines() {
-            let code = line.split("//").next().unwrap_or("");
-            let mut rest = code;
-            while let Some(i) = rest.find("crate::") {
-                rest = &rest[i + "crate::".len()..];
-                let name: String = rest
-                    .chars()
-                    .take_while(|c| c.is_ascii_alphanumeric() || *c == '_')
-                    .collect();
-                if !name.is_empty() && name != own {
-                    out.insert(name);
-                }
-            }
-        }
+    for i in imports::crate_imports(&src) {
+        edges.entry(i.from).or_default().insert(i.to);
     }
     assert!(edges.len() > 10, "{edges:?}");
     // Depth-first search for a back edge.
