@@ -6,8 +6,7 @@
 //! into chunks of pixels; a work item is one sample for every pixel of a chunk that has
 //! fewer than the item's pass count. A pixel's k-th sample draws from the stream (seed,
 //! pixel, k), so an image depends on the seed and on the map each sample read, not on the
-//! thread count. The context alternates these passes with runs of the map
-//! (`Context::render_partial`).
+//! thread count. The driver (`driver`) alternates these passes with runs of the map.
 
 pub mod driver;
 
