@@ -189,7 +189,7 @@ fn build(name: &str, config: Config) -> Scene {
 /// Band-mean irradiance of every vertex of `meshes` (and their areas, for dropping
 /// vertices without any).
 fn read(ctx: &Context, meshes: &[u32], layer: Layer) -> Vec<f64> {
-    let nb = ctx.scene().bands.count();
+    let nb = ctx.config().bands.count();
     let mut all = Vec::new();
     for &m in meshes {
         let nv = ctx.vertex_count(m).unwrap();

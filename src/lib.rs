@@ -52,22 +52,22 @@ mod spectral;
 mod transport;
 
 // The context and its settings and reports.
-pub use context::state::{read_state_file, state_info, StateInfo, FLAG_NO_MAP};
+pub use context::state::{read_state_file, state_info, Fingerprint, StateInfo, FLAG_NO_MAP};
 pub use context::{
-    default_memory_budget, Config, Context, Layer, RegionStats, Report, SchedulerKind,
+    default_memory_budget, Config, Context, Layer, MeshInfo, RegionStats, Report, SchedulerKind,
 };
 pub use error::{Error, ImapStatus, Result, Subject};
 pub use files::{read_regular, ReadError};
-pub use imap::stats::{extremes, lit_weights, Estimate};
+pub use imap::stats::{extremes, lit_weights, Estimate, Extremes};
 pub use progress::{Progress, StopReason, MAX_HISTORY};
 pub use sched::dynamic::DynamicParams;
 pub use sched::target::{RegionMeasure, RegionTarget};
-pub use sched::{Counters, RunParams, Selection};
+pub use sched::{Counters, RangeSet, RunParams, Selection};
 pub use transport::direct::Estimator;
 // The scene: bands, materials, meshes, lights, skies and the sun.
 pub use scene::light::{
-    cie_luminance, Amount, Distribution, Light, LightDesc, LightKind, Placement, SkyAmount,
-    SkyDesc, SkyKind, SunDesc, CIE_SKY_PARAMETERS, SUN_DIAMETER_DEG,
+    cie_luminance, Amount, Distribution, LightDesc, LightKind, Placement, SkyAmount, SkyDesc,
+    SkyKind, SunDesc, CIE_SKY_PARAMETERS, SUN_DIAMETER_DEG,
 };
 pub use scene::{IorModel, LayerRequest, MaterialDesc, MeshDesc};
 pub use solar::{sun_position, sun_position_with, SunTime, STANDARD_ATMOSPHERE};

@@ -528,18 +528,20 @@ fn luminous_efficacies_match_their_tabulated_values() {
             Spectrum::Blackbody(5000.0),
             Spectrum::Rgb([1.0, 0.5, 0.2]),
         ] {
-            let l = imap::Light::new(
-                &LightDesc {
+            let mut ctx = context(Config {
+                bands: bands.clone(),
+                ..Default::default()
+            });
+            let id = ctx
+                .add_light_desc(&LightDesc {
                     kind: LightKind::Point,
                     position: [0.0; 3],
                     amount: Amount::Lumens(1000.0),
                     spectrum: s.clone(),
-                },
-                &bands,
-                1.0,
-            )
-            .unwrap();
-            assert!((k.luminous(&l.power) - 1000.0).abs() < 1e-9, "{s:?}");
+                })
+                .unwrap();
+            let (power, _) = ctx.light_flux(id).unwrap();
+            assert!((k.luminous(&power) - 1000.0).abs() < 1e-9, "{s:?}");
         }
     }
 }
@@ -747,7 +749,7 @@ fn malformed_files_get_a_status_and_a_line_and_leave_the_context_usable() {
         assert!(e.message.starts_with("LDT line "), "{what}: {e}");
     }
     // Nothing was added: the scene has no light yet; a good file then works.
-    assert!(ctx.scene().lights.is_empty());
+    assert!(ctx.light_count() == 0);
     ctx.add_luminaire_ies(&good, None, &Placement::default(), &Spectrum::Equal)
         .unwrap();
     ctx.add_luminaire_ldt(&ldt_good, &Placement::default(), &Spectrum::Equal)

@@ -132,7 +132,7 @@ fn schedulers_agree_on_a_generated_scene() {
                 &b.meshes
                     .iter()
                     .copied()
-                    .filter(|&m| ctx.scene().meshes[m as usize].record)
+                    .filter(|&m| ctx.mesh_info(m).unwrap().records)
                     .collect::<Vec<_>>(),
             )
         })

@@ -134,7 +134,7 @@ fn luminaire_tables_are_refused_from_their_counts() {
         .unwrap_err();
     assert_eq!(e.status, ImapStatus::ImapErrMemoryBudget, "{}", e.message);
     // The context is usable and still empty of lights.
-    assert_eq!(ctx.scene().lights.len(), 0);
+    assert_eq!(ctx.light_count(), 0);
 }
 
 /// A luminaire's table counts in the memory the context holds, once however often it is

@@ -240,7 +240,7 @@ fn cells(tris: f64, faces: f64) -> usize {
 /// `count` Lambertian materials with reflectances between 0.2 and 0.8 and a tint that
 /// varies with the band (so spectral runs carry real spectra).
 fn palette(ctx: &mut Context, count: usize) -> Result<Vec<u32>> {
-    let bands = ctx.scene().bands.count();
+    let bands = ctx.config().bands.count();
     (0..count)
         .map(|i| {
             let base = 0.2 + 0.6 * ((i * 7919) % 101) as f64 / 100.0;
@@ -587,7 +587,7 @@ pub fn build(ctx: &mut Context, kind: SceneKind, scale: f64) -> Result<Built> {
                 let own = [mats[1 + k], mats[205 + k.min(7)]];
                 m.add(ctx, &own, true, None, &mut built)?;
             }
-            let bands = ctx.scene().bands.count();
+            let bands = ctx.config().bands.count();
             let warm: Vec<f64> = (0..bands)
                 .map(|b| 2000.0 * (0.6 + 0.8 * b as f64 / (bands.max(2) - 1) as f64))
                 .collect();
@@ -705,7 +705,7 @@ pub fn build(ctx: &mut Context, kind: SceneKind, scale: f64) -> Result<Built> {
                 bx.add(ctx, &mats, true, None, &mut built)?;
             }
             // Two small lamps facing the prism's first face.
-            let bands = ctx.scene().bands.count();
+            let bands = ctx.config().bands.count();
             let white = vec![40_000.0; bands];
             for (i, y) in [-0.4, 0.3].into_iter().enumerate() {
                 let mut lamp = Tess::default();
@@ -760,7 +760,7 @@ fn rgb_in_bands(bands: &imap::Bands, rgb: [f64; 3]) -> Vec<f64> {
 /// needs no illumination map), otherwise every wall records.
 pub fn cornell_box(ctx: &mut Context, open_front: bool, n: usize) -> Result<Built> {
     let n = n.max(1);
-    let bands = ctx.scene().bands.clone();
+    let bands = ctx.config().bands.clone();
     let mut material = |rgb: [f64; 3]| {
         ctx.add_material(&MaterialDesc {
             diffuse_reflect: rgb_in_bands(&bands, rgb),

@@ -5,7 +5,7 @@ mod layers;
 pub mod memory;
 mod readout;
 pub use layers::Layer;
-pub use readout::RegionStats;
+pub use readout::{MeshInfo, RegionStats};
 mod render;
 pub mod state;
 
@@ -378,7 +378,7 @@ impl Context {
         &self.config
     }
 
-    pub fn scene(&self) -> &Scene {
+    pub(crate) fn scene(&self) -> &Scene {
         &self.scene
     }
 
@@ -527,7 +527,7 @@ impl Context {
         Ok(self.scene.meshes.len() as u32 - 1)
     }
 
-    pub fn add_light(&mut self, light: Light) -> Result<u32> {
+    pub(crate) fn add_light(&mut self, light: Light) -> Result<u32> {
         self.check_unlocked("add a light")?;
         self.footprint.add_light(&light);
         self.scene.lights.push(light);

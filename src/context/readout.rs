@@ -7,6 +7,21 @@ use crate::imap::readout::std_error;
 use crate::imap::stats::{self, Estimate, Extremes};
 use crate::imap::Readout;
 
+/// What a mesh of the context is (`Context::mesh_info`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct MeshInfo {
+    pub vertices: usize,
+    pub triangles: usize,
+    /// 1, or 2 for a two-sided mesh (its map has both sides).
+    pub sides: u32,
+    /// Whether its map is kept.
+    pub records: bool,
+    /// Whether it is a sensor (crossed by photons, never stopping them).
+    pub sensor: bool,
+    /// Whether it emits.
+    pub emits: bool,
+}
+
 impl Context {
     pub(crate) fn mesh_index(&self, mesh: u32) -> Result<usize> {
         if mesh as usize >= self.scene.meshes.len() {
@@ -22,6 +37,26 @@ impl Context {
     /// Vertex count of a mesh.
     pub fn vertex_count(&self, mesh: u32) -> Result<usize> {
         Ok(self.scene.meshes[self.mesh_index(mesh)?].positions.len())
+    }
+
+    /// What mesh `mesh` is: its vertex and triangle counts, sides and roles
+    /// (IMAP_ERR_INDEX_OUT_OF_RANGE for no such mesh).
+    pub fn mesh_info(&self, mesh: u32) -> Result<MeshInfo> {
+        let m = &self.scene.meshes[self.mesh_index(mesh)?];
+        Ok(MeshInfo {
+            vertices: m.positions.len(),
+            triangles: m.triangles.len(),
+            sides: if m.two_sided { 2 } else { 1 },
+            records: m.record,
+            sensor: m.sensor,
+            emits: m.exitance.is_some(),
+        })
+    }
+
+    /// Lights added so far (luminaires, skies, the sun and the ground included; emitting
+    /// meshes are meshes).
+    pub fn light_count(&self) -> usize {
+        self.scene.lights.len()
     }
 
     /// The index of recording mesh `mesh`, whose side `side` exists.

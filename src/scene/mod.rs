@@ -70,9 +70,4 @@ impl Scene {
     pub fn slot_count(&self) -> usize {
         self.meshes.iter().map(Mesh::map_slots).sum()
     }
-
-    /// Bytes the map needs for `slots` slots: one f64 per band plus the sum of squares.
-    pub fn map_bytes(&self, slots: usize) -> u128 {
-        slots as u128 * (self.bands.count() as u128 + 1) * 8
-    }
 }

@@ -261,7 +261,7 @@ pub fn mixed_room(config: Config) -> (Context, Vec<u32>) {
 /// `mixed_room`, with its point-like lights or lit by its emitting panel alone.
 pub fn mixed_room_lit(config: Config, point_lights: bool) -> (Context, Vec<u32>) {
     let mut ctx = context(config);
-    let bands = ctx.scene().bands.count();
+    let bands = ctx.config().bands.count();
     let ramp = |a: f64, b: f64| -> Vec<f64> {
         (0..bands)
             .map(|i| a + (b - a) * i as f64 / (bands - 1).max(1) as f64)
@@ -339,7 +339,7 @@ pub fn map_with_errors(ctx: &Context, ids: &[u32]) -> Vec<(f64, f64)> {
     let mut all = Vec::new();
     for &m in ids {
         let n = ctx.vertex_count(m).unwrap();
-        let sides = if ctx.scene().meshes[m as usize].two_sided {
+        let sides = if ctx.mesh_info(m).unwrap().sides == 2 {
             2
         } else {
             1
@@ -347,7 +347,7 @@ pub fn map_with_errors(ctx: &Context, ids: &[u32]) -> Vec<(f64, f64)> {
         for side in 0..sides {
             let mut err = vec![0.0; n];
             ctx.rel_error(m, side, &mut err).unwrap();
-            for band in 0..ctx.scene().bands.count() as u32 {
+            for band in 0..ctx.config().bands.count() as u32 {
                 let mut e = vec![0.0; n];
                 ctx.irradiance(m, side, band, &mut e).unwrap();
                 all.extend(e.into_iter().zip(err.iter().copied()));

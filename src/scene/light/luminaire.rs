@@ -16,8 +16,6 @@ pub struct Luminaire {
     pub frame: [DVec3; 3],
     /// The luminous opening light leaves from, if emission from it was asked for.
     pub opening: Option<Aperture>,
-    /// The TILT factor of the placement (already in the light's power).
-    pub tilt_factor: f64,
     /// Intensity per watt of flux: `dist.intensity / dist.flux`.
     pub(super) inv_flux: f64,
 }

@@ -318,17 +318,6 @@ impl Light {
         })
     }
 
-    /// A goniometric luminaire from photometric data (a parsed file or a table).
-    pub fn luminaire(
-        data: &PhotometricData,
-        place: &Placement,
-        spectrum: &Spectrum,
-        bands: &Bands,
-        unit_m: f64,
-    ) -> Result<Self> {
-        Self::placed(&Distribution::new(data)?, place, spectrum, bands, unit_m)
-    }
-
     /// A goniometric luminaire placed from a prepared distribution.
     pub fn placed(
         distribution: &Distribution,
@@ -414,7 +403,6 @@ impl Light {
                 dist,
                 frame,
                 opening,
-                tilt_factor,
                 inv_flux,
             })),
             power,
@@ -463,6 +451,7 @@ impl Light {
     }
 
     /// Total radiant flux, W.
+    #[cfg(test)]
     pub fn watts(&self) -> f64 {
         self.power.iter().sum()
     }
