@@ -137,10 +137,6 @@ fn roof_room(seed: u64) -> (Context, u32, Geometry) {
     let black = lambert(&mut ctx, 0.0);
     let floor = grid(16, -1.0, 1.0, -1.0, 1.0, 0.0);
     let id = ctx.add_mesh(&floor.desc(black)).unwrap();
-    let quad = |p: [[f64; 3]; 4]| Geometry {
-        positions: p.iter().flatten().copied().collect(),
-        indices: vec![0, 1, 2, 0, 2, 3],
-    };
     let h = HEIGHT;
     let parts = [
         // Walls.

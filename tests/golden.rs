@@ -79,10 +79,6 @@ fn daylit_room(config: Config) -> (Context, Vec<u32>) {
     let black = lambert(&mut ctx, 0.05);
     let floor = grid(8, -1.0, 1.0, -1.0, 1.0, 0.0);
     let mut ids = vec![ctx.add_mesh(&floor.desc(grey)).unwrap()];
-    let quad = |p: [[f64; 3]; 4]| Geometry {
-        positions: p.iter().flatten().copied().collect(),
-        indices: vec![0, 1, 2, 0, 2, 3],
-    };
     let h = 1.0;
     let walls = [
         quad([

@@ -11,11 +11,11 @@ use super::camera::Camera;
 use crate::accel::Accel;
 use crate::sampling::{warp, PhotonRng};
 use crate::scene::bsdf::Lobe;
+use crate::scene::bsdf::{reflect, refract};
 use crate::scene::light::DistantPart;
 use crate::scene::material::fresnel_dielectric;
 use crate::scene::{LightSample, Material, PreparedScene, Receiver, Scene};
 use crate::spectral::collapse_weights;
-use crate::transport::{reflect, refract};
 use glam::DVec3;
 use std::f64::consts::PI;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -865,6 +865,8 @@ impl<'a> EyeTracer<'a> {
                 toward: wi,
                 pdf: q,
                 value: f,
+                reach,
+                norm,
             }) => {
                 // A sky: half by its radiance, half cosine-distributed on the side the
                 // weights favour (one-sample MIS by the mixture's density, as the map's
@@ -873,12 +875,7 @@ impl<'a> EyeTracer<'a> {
                 if let (true, Some((w, _))) = (f > 0.0 && q > 0.0, side(cos)) {
                     let org = p + n_in * (eps * cos.signum());
                     stats.rays += 1;
-                    let (radius, norm) = (
-                        em.distant_radius().expect("distant"),
-                        em.distant_norm().expect("distant"),
-                    );
-                    // Nothing lies beyond the bounding sphere: 2R from any point inside.
-                    if !self.accel.occluded(org, wi, 2.5 * radius) {
+                    if !self.accel.occluded(org, wi, reach) {
                         // L cos / q, with L = power / norm × f per band (norm: π R² ∫f,
                         // or the portals').
                         let cross = norm * self.unit_m * self.unit_m;

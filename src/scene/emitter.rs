@@ -336,9 +336,17 @@ pub enum LightSample {
         axis: DVec3,
         area: f64,
     },
-    /// A direction toward a distant source, drawn with density `pdf` per steradian, and
-    /// the source's relative radiance there (`DistantPart::value`).
-    Direction { toward: DVec3, pdf: f64, value: f64 },
+    /// A direction toward a distant source, drawn with density `pdf` per steradian, the
+    /// source's relative radiance there (`DistantPart::value`), how far a shadow ray must
+    /// look (`reach`: nothing lies beyond the bounding sphere, 2R from any point inside)
+    /// and the radiance's normalisation (radiance per band = power × value / `norm`).
+    Direction {
+        toward: DVec3,
+        pdf: f64,
+        value: f64,
+        reach: f64,
+        norm: f64,
+    },
 }
 
 /// A point receiving light (`Emitter::sample_toward`): its normal, and the probability
@@ -465,7 +473,9 @@ impl Emitter {
                 Some(a) => self.position + a.sample(u[0], u[1]),
                 None => self.position,
             })),
-            EmitterKind::Distant { part, .. } => {
+            EmitterKind::Distant {
+                part, radius, norm, ..
+            } => {
                 let (toward, pdf) = if part.is_sky() {
                     let n = receiver.n;
                     let favour = if pick_front() { n } else { -n };
@@ -492,6 +502,8 @@ impl Emitter {
                     toward,
                     pdf,
                     value: part.value(toward),
+                    reach: 2.5 * radius,
+                    norm: *norm,
                 })
             }
             EmitterKind::Mesh {
@@ -589,23 +601,5 @@ impl Emitter {
     /// Whether it is a distant source (its photons' weight is their share of its radiance).
     pub fn is_distant(&self) -> bool {
         matches!(self.kind, EmitterKind::Distant { .. })
-    }
-
-    /// The radius of the sphere beyond which a distant source lies (a shadow ray toward it
-    /// need go no further than 2.5 of these); None for others.
-    pub fn distant_radius(&self) -> Option<f64> {
-        match &self.kind {
-            EmitterKind::Distant { radius, .. } => Some(*radius),
-            _ => None,
-        }
-    }
-
-    /// A distant source's radiance normalisation: its radiance per band is power × f(ω) /
-    /// norm (scene units²·sr); None for others.
-    pub fn distant_norm(&self) -> Option<f64> {
-        match &self.kind {
-            EmitterKind::Distant { norm, .. } => Some(*norm),
-            _ => None,
-        }
     }
 }

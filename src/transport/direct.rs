@@ -884,14 +884,14 @@ impl DirectSampler<'_> {
                 toward,
                 pdf: q,
                 value: f,
+                reach,
+                norm,
             } => {
                 let cos_x = toward.dot(n);
                 if cos_x <= 0.0 || f <= 0.0 || q <= 0.0 {
                     return None;
                 }
-                // Nothing lies beyond the bounding sphere: 2R from any point inside.
-                let (radius, norm) = (em.distant_radius()?, em.distant_norm()?);
-                if self.accel.occluded(x, toward, 2.5 * radius) {
+                if self.accel.occluded(x, toward, reach) {
                     return None;
                 }
                 let mis = power(at.l, self.photon_density(e, -toward, 1.0, cos_x, 1.0));

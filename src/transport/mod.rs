@@ -11,6 +11,7 @@ use crate::spectral::Colour;
 
 use crate::accel::Accel;
 use crate::sampling::PhotonRng;
+use crate::scene::bsdf::{reflect, refract};
 use crate::scene::material::Polarisation;
 use crate::scene::{Material, PreparedScene};
 use glam::DVec3;
@@ -356,8 +357,7 @@ impl Tracer<'_> {
         let mut rng = PhotonRng::new(self.seed, k);
         // Emit: choose a light by power, then a point and a direction on it.
         let (emitter, photon) = self.scene.emit(&mut rng);
-        let (org, dir, mut weight, cos_y) =
-            (photon.origin, photon.direction, photon.weight, photon.cos);
+        let mut weight = photon.weight;
         colour.reset(&self.scene.emitters[emitter].colour);
         if self.scene.emitters[emitter].is_distant() {
             // A distant photon's weight is its share of the source's radiance (mean 1): it
@@ -392,11 +392,20 @@ impl Tracer<'_> {
         }
         let from = Origin {
             emitter,
-            y: org,
-            cos_y,
+            y: photon.origin,
+            cos_y: photon.cos,
         };
         (
-            self.follow(&from, dir, &mut rng, colour, sink, hits, stop, bounces),
+            self.follow(
+                &from,
+                photon.direction,
+                &mut rng,
+                colour,
+                sink,
+                hits,
+                stop,
+                bounces,
+            ),
             emission,
         )
     }
@@ -616,5 +625,3 @@ impl Tracer<'_> {
         PathEnd::Dropped
     }
 }
-
-pub use crate::scene::bsdf::{reflect, refract};

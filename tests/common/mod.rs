@@ -49,6 +49,14 @@ impl Geometry {
     }
 }
 
+/// One quad of two triangles over its corners in order (its normal by their winding).
+pub fn quad(p: [[f64; 3]; 4]) -> Geometry {
+    Geometry {
+        positions: p.iter().flatten().copied().collect(),
+        indices: vec![0, 1, 2, 0, 2, 3],
+    }
+}
+
 /// A planar grid z = `z` over [x0, x1] × [y0, y1] with n × n cells, normals +z.
 pub fn grid(n: usize, x0: f64, x1: f64, y0: f64, y1: f64, z: f64) -> Geometry {
     grid_rect(n, n, [x0, x1], [y0, y1], z)
