@@ -69,7 +69,9 @@ pub use scene::light::{
     cie_luminance, Amount, Distribution, LightDesc, LightKind, Placement, SkyAmount, SkyDesc,
     SkyKind, SunDesc, CIE_SKY_PARAMETERS, SUN_DIAMETER_DEG,
 };
-pub use scene::{IorModel, LayerRequest, MaterialDesc, MeshDesc};
+pub use scene::{
+    ConductorIndex, IorModel, LayerRequest, MaterialDesc, MeshDesc, Metal, SurfaceModel,
+};
 pub use solar::{sun_position, sun_position_with, SunTime, STANDARD_ATMOSPHERE};
 pub use spectral::Bands;
 // Camera renders.

@@ -10,14 +10,24 @@
 //!   transparency without refraction is read as opaque (a fully transparent black one as
 //!   a pass-through interface), each with a warning.
 //! - `Ke` above 0 → an emitting surface, exitance `Ke` W/m² per band.
+//! - Gloss (`model::Gloss`: glTF roughness/metallic, MTL `Pr`/`Pm`/`Ns`, Radiance's rough
+//!   plastic and metal) with GGX α ≥ 0.01 makes a microfacet surface: a metal (metallic ≥
+//!   0.5) a conductor whose reflectance at normal incidence is the colour (n = 1, k =
+//!   2√(F0 / (1 − F0)) per band), anything else a plastic: the colour under a coat whose
+//!   reflectance at normal incidence is the mean `Ks` (index (1 + √F0) / (1 − √F0)), or 4 %
+//!   (index 1.5) without a `Ks`. A smoother one keeps the ideal mapping above.
 //! - `[materials.NAME]` in the settings overrides any of it: `diffuse`, `specular`,
-//!   `transmit`, `emission`, `ior`, `sellmeier`, `absorption_per_m`, and `dielectric =
-//!   true/false` to make or unmake glass.
+//!   `transmit`, `emission`, `ior`, `sellmeier`, `absorption_per_m`, `dielectric =
+//!   true/false` to make or unmake glass, and `kind = "ideal" | "conductor" | "plastic" |
+//!   "rough-dielectric"` with `roughness` (α, or [α along the tangent, α across]),
+//!   `tangent`, a conductor's `metal` ("aluminium", "silver", "gold", "copper",
+//!   "chromium") or `nk` rows [nm, n, k], a plastic's coat `ior` (default 1.5) over
+//!   `diffuse`.
 
 use crate::diag::{printable, Diagnostics};
 use crate::model::Mtl;
-use crate::settings::{channel, MaterialSettings, Spectrum};
-use imap::{IorModel, MaterialDesc};
+use crate::settings::{channel, MaterialSettings, RoughnessSetting, Spectrum};
+use imap::{ConductorIndex, IorModel, MaterialDesc, Metal, SurfaceModel};
 
 /// A material ready for libimap, with what the outputs need of it.
 #[derive(Clone, Debug)]
@@ -216,15 +226,198 @@ pub fn resolve(
         }
         _ => None,
     };
+    let desc = MaterialDesc {
+        diffuse_reflect: diffuse.clone(),
+        specular_reflect: if dielectric { vec![] } else { specular },
+        diffuse_transmit: if dielectric { vec![] } else { transmit },
+        ior: model,
+        absorption_per_m: if dielectric { absorption } else { vec![] },
+        ..Default::default()
+    };
+    let desc = glossy(desc, m, &o, kd, band_nm, rgb, settings_at, diag);
     Resolved {
-        desc: MaterialDesc {
-            diffuse_reflect: diffuse.clone(),
-            specular_reflect: if dielectric { vec![] } else { specular },
-            diffuse_transmit: if dielectric { vec![] } else { transmit },
-            ior: model,
-            absorption_per_m: if dielectric { absorption } else { vec![] },
-        },
+        desc,
         diffuse,
         emission,
+    }
+}
+
+/// Rows (nm, n, k) with n = 1 and k per band such that the reflectance at normal incidence
+/// is `f0[b]` at band b's wavelength (sorted, padded by a nanometre at each end).
+fn colour_conductor(f0: &[f64], band_nm: &[f64]) -> Vec<[f64; 3]> {
+    let mut rows: Vec<[f64; 3]> = band_nm
+        .iter()
+        .zip(f0)
+        .map(|(&nm, &f)| {
+            let f = f.clamp(0.0, 0.999);
+            [nm, 1.0, 2.0 * (f / (1.0 - f)).sqrt()]
+        })
+        .collect();
+    rows.sort_by(|a, b| a[0].total_cmp(&b[0]));
+    rows.dedup_by(|a, b| a[0] == b[0]);
+    let (first, last) = (rows[0], rows[rows.len() - 1]);
+    rows.insert(0, [first[0] - 1.0, first[1], first[2]]);
+    rows.push([last[0] + 1.0, last[1], last[2]]);
+    rows
+}
+
+/// The microfacet surface `desc` becomes, if any: the settings' `kind`, else the file's
+/// gloss (module docs).
+#[allow(clippy::too_many_arguments)]
+fn glossy(
+    mut desc: MaterialDesc,
+    m: &Mtl,
+    o: &MaterialSettings,
+    kd: Option<[f64; 3]>,
+    band_nm: &[f64],
+    rgb: bool,
+    settings_at: &(std::path::PathBuf, usize),
+    diag: &mut Diagnostics,
+) -> MaterialDesc {
+    let name = printable(&m.name);
+    let error = |diag: &mut Diagnostics, msg: String| {
+        diag.error(
+            &settings_at.0,
+            settings_at.1,
+            format!("[materials.{name}] {msg}"),
+        )
+    };
+    let setting = o.roughness.as_ref().map(|r| match r {
+        RoughnessSetting::One(a) => [*a, 0.0],
+        RoughnessSetting::Two(a) => *a,
+    });
+    let colour = kd.map(|c| expand_rgb(c, band_nm, rgb));
+    let conductor_from = |o: &MaterialSettings, diag: &mut Diagnostics| -> ConductorIndex {
+        if let Some(rows) = &o.nk {
+            return ConductorIndex::Table(rows.clone());
+        }
+        match o.metal.as_deref() {
+            Some("aluminium") | Some("aluminum") => ConductorIndex::Metal(Metal::Aluminium),
+            Some("silver") => ConductorIndex::Metal(Metal::Silver),
+            Some("gold") => ConductorIndex::Metal(Metal::Gold),
+            Some("copper") => ConductorIndex::Metal(Metal::Copper),
+            Some("chromium") => ConductorIndex::Metal(Metal::Chromium),
+            Some(other) => {
+                error(
+                    diag,
+                    format!(
+                        "metal = '{}' is not one of aluminium, silver, gold, copper, chromium",
+                        printable(other)
+                    ),
+                );
+                ConductorIndex::Metal(Metal::Aluminium)
+            }
+            None => ConductorIndex::Table(colour_conductor(
+                colour.as_deref().unwrap_or(&vec![0.9; band_nm.len()]),
+                band_nm,
+            )),
+        }
+    };
+    let coat_from_ks = || -> f64 {
+        let f0 =
+            m.ks.map(|k| (k[0] + k[1] + k[2]) / 3.0)
+                .filter(|&f| f > 0.0)
+                .unwrap_or(0.04)
+                .clamp(0.001, 0.9);
+        let r = f0.sqrt();
+        (1.0 + r) / (1.0 - r)
+    };
+    let kind = o.kind.as_deref();
+    if kind.is_none()
+        && (o.roughness.is_some() || o.metal.is_some() || o.nk.is_some() || o.tangent.is_some())
+    {
+        error(
+            diag,
+            "roughness, metal, nk or tangent need kind = \"conductor\", \"plastic\" or \"rough-dielectric\"".into(),
+        );
+        return desc;
+    }
+    let zero = Vec::new;
+    match kind {
+        Some("ideal") => desc,
+        Some(k @ ("conductor" | "plastic" | "rough-dielectric")) => {
+            let Some(r) = setting.or_else(|| m.gloss.map(|g| [g.alpha, 0.0])) else {
+                error(
+                    diag,
+                    format!("kind = \"{k}\" needs roughness (GGX α in (0, 1])"),
+                );
+                return desc;
+            };
+            desc.roughness = r;
+            desc.tangent = o.tangent;
+            match k {
+                "conductor" => {
+                    desc.surface = SurfaceModel::Conductor(conductor_from(o, diag));
+                    desc.diffuse_reflect = zero();
+                    desc.specular_reflect = zero();
+                    desc.diffuse_transmit = zero();
+                    desc.ior = None;
+                    desc.absorption_per_m = zero();
+                }
+                "plastic" => {
+                    desc.surface = SurfaceModel::Plastic;
+                    let n = o.ior.unwrap_or_else(coat_from_ks);
+                    desc.ior = Some(IorModel::Constant(n));
+                    desc.specular_reflect = zero();
+                    desc.diffuse_transmit = zero();
+                    desc.absorption_per_m = zero();
+                }
+                _ => {
+                    desc.surface = SurfaceModel::RoughDielectric;
+                    if desc.ior.is_none() {
+                        desc.ior =
+                            Some(IorModel::Constant(m.ni.filter(|&n| n > 1.0).unwrap_or(1.5)));
+                    }
+                    desc.diffuse_reflect = zero();
+                    desc.specular_reflect = zero();
+                    desc.diffuse_transmit = zero();
+                }
+            }
+            desc
+        }
+        Some(other) => {
+            error(
+                diag,
+                format!(
+                    "kind = '{}' is not one of ideal, conductor, plastic, rough-dielectric",
+                    printable(other)
+                ),
+            );
+            desc
+        }
+        None => {
+            // The file's gloss, unless the settings made it glass or it is smooth.
+            let Some(g) = m.gloss.filter(|g| g.alpha >= 0.01) else {
+                return desc;
+            };
+            if desc.ior.is_some() {
+                return desc;
+            }
+            desc.roughness = [g.alpha.min(1.0), 0.0];
+            if g.metallic >= 0.5 {
+                desc.surface = SurfaceModel::Conductor(conductor_from(o, diag));
+                desc.diffuse_reflect = zero();
+            } else {
+                desc.surface = SurfaceModel::Plastic;
+                desc.ior = Some(IorModel::Constant(coat_from_ks()));
+            }
+            if g.metallic > 0.0 && g.metallic < 1.0 {
+                diag.warn(format!(
+                    "{}:{}: material '{name}': metallic {} is read as {}",
+                    m.at.0.display(),
+                    m.at.1,
+                    g.metallic,
+                    if g.metallic >= 0.5 {
+                        "a metal"
+                    } else {
+                        "a coated (plastic) surface"
+                    }
+                ));
+            }
+            desc.specular_reflect = zero();
+            desc.diffuse_transmit = zero();
+            desc.absorption_per_m = zero();
+            desc
+        }
     }
 }

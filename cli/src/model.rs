@@ -605,4 +605,18 @@ pub struct Mtl {
     pub pane: Option<f64>,
     /// Made by a reader for a file without materials (PLY, STL): vertex colours override it.
     pub implicit: bool,
+    /// A glossy surface the file describes (glTF roughness/metallic, MTL `Pr`/`Pm`/`Ns`,
+    /// Radiance's rough `plastic`/`metal`).
+    pub gloss: Option<Gloss>,
+}
+
+/// What a file says of a surface's gloss.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Gloss {
+    /// GGX α (glTF's perceptual roughness squared; √(2 / (Ns + 2)) for a Phong exponent;
+    /// Radiance's rms slope as it is).
+    pub alpha: f64,
+    /// 0: a dielectric coat over the diffuse colour (`ks` or 4 % its reflectance at normal
+    /// incidence); 1: a metal whose reflectance at normal incidence is the colour.
+    pub metallic: f64,
 }

@@ -48,8 +48,10 @@ pub struct EyeTracer<'a> {
     /// Whether any material transmits diffusely (only then are BTDF weights kept).
     pub transmit: bool,
     lights: Vec<LightValue>,
-    /// The distant sources, for paths that leave the scene (`EmitterKind::Distant`).
+    /// The distant sources, for paths that leave the scene (`EmitterKind::Distant`), with
+    /// their emitter indices.
     distant: Vec<Arc<DistantPart>>,
+    distant_emitters: Vec<usize>,
     /// Emitter index of each mesh that emits.
     emitter_of_mesh: Vec<Option<u32>>,
     has_mesh_emitters: bool,
@@ -109,6 +111,8 @@ struct Surface {
 /// What an eye path does at a surface (`EyeTracer::surface_step`).
 enum Step {
     Specular,
+    /// A glossy reflector (`EyeTracer::glossy_step` takes it on).
+    Glossy,
     Diffuse(f64),
     End,
 }
@@ -169,6 +173,9 @@ impl<'a> EyeTracer<'a> {
                 .iter()
                 .filter_map(|em| em.distant_part().cloned())
                 .collect(),
+            distant_emitters: (0..scene.emitters.len())
+                .filter(|&e| scene.emitters[e].distant_part().is_some())
+                .collect(),
             lights,
             emitter_of_mesh,
             map: None,
@@ -225,6 +232,10 @@ impl<'a> EyeTracer<'a> {
         let mut band: Option<usize> = None;
         let mut path_len = (org - self.camera.origin).length();
         let mut medium: Option<u32> = None;
+        // The density of the last glossy reflector's direction, while the path has met
+        // nothing since (emission it finds is weighed against that vertex's light sample).
+        let mut glossy_pdf: Option<(f64, DVec3)> = None;
+        let mut glossy_scratch = Vec::new();
 
         for event in 0..self.max_events {
             // A long specular chain must not hold up a stop (the phase is discarded then).
@@ -234,14 +245,15 @@ impl<'a> EyeTracer<'a> {
             stats.rays += 1;
             let Some(hit) = self.accel.intersect(org, dir) else {
                 // The sky (and the sun) seen directly or through specular surfaces.
-                self.add_sky(dir, beta, &mut buf.direct[d0..]);
+                self.add_distant_weighted(dir, beta, &mut buf.direct[d0..], false, glossy_pdf);
                 return;
             };
             path_len += hit.t;
             self.absorb(medium, hit.t, beta);
             let at = self.surface(&hit, dir);
             // Emission seen directly or through specular surfaces.
-            self.add_emission(hit.mesh, at.ng, dir, beta, &mut buf.direct[d0..]);
+            self.add_emission_weighted(&hit, at.ng, dir, beta, &mut buf.direct[d0..], glossy_pdf);
+            glossy_pdf = None;
             let (p_hit, n_in, eps) = (at.p, at.n_in, at.eps);
             let bsdf = self.materials[at.material as usize].bsdf();
             let (rho, tau) = (
@@ -252,6 +264,17 @@ impl<'a> EyeTracer<'a> {
                 match self.surface_step(&at, &mut dir, &mut org, &mut medium, &mut band, beta, rng)
                 {
                     Step::Specular => continue,
+                    Step::Glossy => {
+                        let out = &mut buf.direct[d0..d0 + nb];
+                        let step = (&mut dir, &mut org, beta.as_mut_slice());
+                        match self.glossy_step(&at, step, &mut glossy_scratch, rng, out, stats) {
+                            Some(pdf) => {
+                                glossy_pdf = Some(pdf);
+                                continue;
+                            }
+                            None => return,
+                        }
+                    }
                     Step::End => return,
                     Step::Diffuse(pd) => pd,
                 };
@@ -330,20 +353,28 @@ impl<'a> EyeTracer<'a> {
         // specular surfaces since the last one.
         let mut counts = true;
         let mut diffuse_vertices = 0u32;
+        // As in `trace`: the last glossy reflector's density, straight after it.
+        let mut glossy_pdf: Option<(f64, DVec3)> = None;
+        let mut glossy_scratch = Vec::new();
         for _ in 0..self.max_events {
             stats.rays += 1;
             let Some(hit) = self.accel.intersect(org, dir) else {
                 if counts {
-                    let no_sun = diffuse_vertices > 0 && self.sun_by_caustics;
-                    self.add_distant(dir, beta, out, no_sun);
+                    // The sun through specular surfaces after a diffuse vertex is the
+                    // caustic photons'; straight after a glossy reflector, its light
+                    // sample's and this direction's (weighed).
+                    let no_sun =
+                        diffuse_vertices > 0 && self.sun_by_caustics && glossy_pdf.is_none();
+                    self.add_distant_weighted(dir, beta, out, no_sun, glossy_pdf);
                 }
                 return;
             };
             self.absorb(medium, hit.t, beta);
             let at = self.surface(&hit, dir);
             if counts {
-                self.add_emission(hit.mesh, at.ng, dir, beta, out);
+                self.add_emission_weighted(&hit, at.ng, dir, beta, out, glossy_pdf);
             }
+            glossy_pdf = None;
             let (p_hit, n_in, eps, front) = (at.p, at.n_in, at.eps, at.front);
             let bsdf = self.materials[at.material as usize].bsdf();
             let (rho, tau) = (
@@ -356,6 +387,17 @@ impl<'a> EyeTracer<'a> {
                     Step::Specular => {
                         counts = true;
                         continue;
+                    }
+                    Step::Glossy => {
+                        let step = (&mut dir, &mut org, beta.as_mut_slice());
+                        match self.glossy_step(&at, step, &mut glossy_scratch, rng, out, stats) {
+                            Some(pdf) => {
+                                glossy_pdf = Some(pdf);
+                                counts = true;
+                                continue;
+                            }
+                            None => return,
+                        }
                     }
                     Step::End => return,
                     Step::Diffuse(pd) => pd,
@@ -607,6 +649,199 @@ impl<'a> EyeTracer<'a> {
         }
     }
 
+    /// `add_emission` for a ray that hit `hit`, weighed against the light sample of the
+    /// glossy reflector it left when `glossy_pdf` is its density (power heuristic).
+    #[inline]
+    fn add_emission_weighted(
+        &self,
+        hit: &crate::accel::Hit,
+        ng: DVec3,
+        dir: DVec3,
+        beta: &[f64],
+        out: &mut [f64],
+        glossy_pdf: Option<(f64, DVec3)>,
+    ) {
+        let Some((pb, _)) = glossy_pdf else {
+            return self.add_emission(hit.mesh, ng, dir, beta, out);
+        };
+        if let Some((e, radiance, area, cos_l)) = self.emission(hit.mesh, ng, dir) {
+            if cos_l <= 0.0 {
+                return;
+            }
+            let pl = self.scene.emitter_table.pdf(e) * hit.t * hit.t / (area * cos_l);
+            let w = pb * pb / (pb * pb + pl * pl);
+            for ((o, b), l) in out.iter_mut().zip(beta).zip(radiance) {
+                *o += b * l * w;
+            }
+        }
+    }
+
+    /// `add_distant`, each source weighed against a glossy reflector's light sample when
+    /// `glossy_pdf` is the density the direction was drawn with.
+    #[inline]
+    fn add_distant_weighted(
+        &self,
+        dir: DVec3,
+        beta: &[f64],
+        out: &mut [f64],
+        no_sun: bool,
+        glossy_pdf: Option<(f64, DVec3)>,
+    ) {
+        let Some((pb, n)) = glossy_pdf else {
+            return self.add_distant(dir, beta, out, no_sun);
+        };
+        // The reflector's normal is the one the ray left: its light samples' density
+        // toward `dir` is the emitter's pick times its direction density there.
+        for (part, &e) in self.distant.iter().zip(&self.distant_emitters) {
+            let f = part.value(dir);
+            if f <= 0.0 {
+                continue;
+            }
+            let q = if part.is_sky() {
+                0.5 * part.pdf(dir) + 0.5 * dir.dot(n).max(0.0) / PI
+            } else {
+                part.pdf(dir)
+            };
+            let pl = self.scene.emitter_table.pdf(e) * q;
+            let w = pb * pb / (pb * pb + pl * pl);
+            for ((o, b), l) in out.iter_mut().zip(beta).zip(&part.per_band) {
+                *o += b * l * f * w;
+            }
+        }
+    }
+
+    /// At a glossy reflector: its direct light (one light sample weighed by f, against
+    /// the BSDF's own density by the power heuristic; point-like lights and beams by the
+    /// light sample alone), added to `out`; then the path goes on by the BSDF's sampling
+    /// (`dir`, `org`, `beta` × f cos / pdf). Returns the density of that direction and the
+    /// reflector's normal, for the weight of the light it meets next; None when the path
+    /// ends.
+    fn glossy_step(
+        &self,
+        at: &Surface,
+        (dir, org, beta): (&mut DVec3, &mut DVec3, &mut [f64]),
+        f: &mut Vec<f64>,
+        rng: &mut PhotonRng,
+        out: &mut [f64],
+        stats: &mut EyeStats,
+    ) -> Option<(f64, DVec3)> {
+        let bsdf = self.materials[at.material as usize].bsdf();
+        let g = bsdf.glossy().expect("a glossy surface");
+        let n_in = at.n_in;
+        let frame = bsdf.frame(n_in);
+        let wo = frame.to_local(-*dir);
+        let nb = self.bands;
+        f.resize(nb, 0.0);
+        let p = at.p;
+        let lift = p + n_in * at.eps;
+        let table = &self.scene.emitter_table;
+
+        // Light sampling.
+        let e = table.sample(rng.uniform());
+        let pe = table.pdf(e);
+        let em = &self.scene.emitters[e];
+        let u = [rng.uniform(), rng.uniform(), rng.uniform()];
+        let receiver = Receiver {
+            n: n_in,
+            p_front: 1.0,
+        };
+        let power = |e: usize| match &self.lights[e] {
+            LightValue::Power(power) => power.as_slice(),
+            LightValue::Radiance { .. } => &[][..],
+        };
+        // (direction, radiance-like value per band before f and cos, MIS density or
+        // None for a delta light).
+        let sample = em.sample_toward(&self.scene.meshes, p, receiver, u, || true);
+        let mut add = |wi: DVec3, k: f64, per_band: &[f64], light_pdf: Option<f64>| {
+            let cos = wi.dot(n_in);
+            if cos <= 0.0 || k <= 0.0 {
+                return;
+            }
+            let local = frame.to_local(wi);
+            g.eval(local, wo, 0, true, f);
+            let w = light_pdf.map_or(1.0, |pl| {
+                let pb = g.pdf(wo, local, 0, true);
+                pl * pl / (pl * pl + pb * pb)
+            });
+            for (((o, b), fb), l) in out.iter_mut().zip(beta.iter()).zip(f.iter()).zip(per_band) {
+                *o += b * fb * l * cos * k * w;
+            }
+        };
+        match sample {
+            None => {}
+            Some(LightSample::Beam { axis, area, .. }) => {
+                let wi = -axis;
+                let dist = (lift - em.position).dot(axis);
+                stats.rays += 1;
+                if dist > 0.0 && !self.accel.occluded(lift, wi, dist) {
+                    add(
+                        wi,
+                        1.0 / (area * self.unit_m * self.unit_m * pe),
+                        power(e),
+                        None,
+                    );
+                }
+            }
+            Some(LightSample::Point(y)) => {
+                let to = y - lift;
+                let d2 = to.length_squared();
+                let d = d2.sqrt();
+                let wi = to / d;
+                let per_watt = em.intensity_per_watt(-wi);
+                stats.rays += 1;
+                if per_watt > 0.0 && wi.dot(n_in) > 0.0 && !self.accel.occluded(lift, wi, d) {
+                    let k = per_watt / (d2 * self.unit_m * self.unit_m * pe);
+                    add(wi, k, power(e), None);
+                }
+            }
+            Some(LightSample::Area { point: q, normal }) => {
+                let to = q - lift;
+                let d2 = to.length_squared();
+                let d = d2.sqrt();
+                let wi = to / d;
+                if let Some((_, radiance, area, _)) = self.emission_of(e, normal, wi) {
+                    let cos_l = wi.dot(normal).abs();
+                    let t_max = d - 2.0 * self.scene.offset_at(q);
+                    stats.rays += 1;
+                    if cos_l > 0.0 && t_max > 0.0 && !self.accel.occluded(lift, wi, t_max) {
+                        let pl = pe * d2 / (area * cos_l);
+                        add(wi, 1.0 / pl, radiance, Some(pl));
+                    }
+                }
+            }
+            Some(LightSample::Direction {
+                toward,
+                pdf: q,
+                value: fv,
+                reach,
+                norm,
+            }) => {
+                stats.rays += 1;
+                if fv > 0.0 && q > 0.0 && !self.accel.occluded(lift, toward, reach) {
+                    let cross = norm * self.unit_m * self.unit_m;
+                    add(toward, fv / (q * cross * pe), power(e), Some(q * pe));
+                }
+            }
+        }
+
+        // The path goes on.
+        let u = [rng.uniform(), rng.uniform(), rng.uniform()];
+        let s = g.sample(wo, u, 0, true)?;
+        g.eval(wo, s.wi, 0, true, f);
+        let k = s.wi.z.abs() / s.pdf;
+        let mut any = false;
+        for (b, fb) in beta.iter_mut().zip(f.iter()) {
+            *b *= fb * k;
+            any |= *b > 0.0;
+        }
+        if !any {
+            return None;
+        }
+        *dir = frame.to_world(s.wi);
+        *org = lift;
+        Some((s.pdf, n_in))
+    }
+
     /// A new eye path through `pixel`: unit weight in every band, counted, and its first
     /// ray (its direction alone when it passes the scene's bounding sphere by).
     #[inline]
@@ -695,6 +930,35 @@ impl<'a> EyeTracer<'a> {
     ) -> Step {
         let bsdf = self.materials[at.material as usize].bsdf();
         let n_in = at.n_in;
+        if let Some(g) = bsdf.glossy() {
+            if !g.transmits() {
+                return Step::Glossy;
+            }
+            // A rough dielectric: crossed by sampling alone, as a smooth one.
+            if g.dispersive() && band.is_none() {
+                *band = Some(collapse_weights(beta, rng.uniform()));
+            }
+            let frame = bsdf.frame(n_in);
+            let wo = frame.to_local(-*dir);
+            let u = [rng.uniform(), rng.uniform(), rng.uniform()];
+            let Some(s) = g.sample(wo, u, band.unwrap_or(0), at.front) else {
+                return Step::End;
+            };
+            let mut w = vec![0.0; beta.len()];
+            g.eval(wo, s.wi, band.unwrap_or(0), at.front, &mut w);
+            let k = s.wi.z.abs() / s.pdf;
+            for (b, f) in beta.iter_mut().zip(&w) {
+                *b *= f * k;
+            }
+            *dir = frame.to_world(s.wi);
+            if s.wi.z > 0.0 {
+                *org = at.p + n_in * at.eps;
+            } else {
+                *org = at.p - n_in * at.eps;
+                *medium = at.front.then_some(at.material);
+            }
+            return Step::Specular;
+        }
         if let Some(d) = bsdf.interface() {
             if d.dispersive && band.is_none() {
                 *band = Some(collapse_weights(beta, rng.uniform()));

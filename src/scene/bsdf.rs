@@ -17,9 +17,14 @@
 //! band is its albedo over the chosen probability.
 
 use super::material::{Dielectric, Material};
+use super::microfacet::{Frame, Glossy};
 use crate::sampling::warp;
 use glam::DVec3;
 use std::f64::consts::PI;
+
+/// The least GGX α of a glossy surface the map's gathering paths take light samples at
+/// (`Bsdf::gathers`).
+pub const GATHER_MIN_ALPHA: f64 = 0.1;
 
 /// One way a surface scatters.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -103,7 +108,45 @@ impl<'a> Bsdf<'a> {
     /// The smooth dielectric interface it is, if it is one.
     #[inline]
     pub fn interface(&self) -> Option<&'a Dielectric> {
+        if self.material.glossy.is_some() {
+            return None;
+        }
         self.material.dielectric.as_ref()
+    }
+
+    /// The microfacet surface it is, if it is one.
+    #[inline]
+    pub fn glossy(&self) -> Option<&'a Glossy> {
+        self.material.glossy.as_ref()
+    }
+
+    /// A glossy surface that light sampling evaluates (a rough conductor or a coated
+    /// diffuse base, not a rough dielectric): eye paths take light samples there and the
+    /// map's gathering paths too when it is rough enough (`gathers`).
+    #[inline]
+    pub fn is_glossy(&self) -> bool {
+        self.glossy().is_some_and(|g| !g.transmits())
+    }
+
+    /// Whether the map's gathering paths take light samples here and a photon's first
+    /// event here counts as gathered: diffuse lobes, and glossy surfaces with every α at
+    /// least `GATHER_MIN_ALPHA` (a sharper lobe makes light samples spiky: photons bring
+    /// its light, as a mirror's).
+    #[inline]
+    pub fn gathers(&self) -> bool {
+        match self.glossy() {
+            Some(g) => {
+                let r = g.roughness();
+                !g.transmits() && r.ax.min(r.ay) >= GATHER_MIN_ALPHA
+            }
+            None => self.is_diffuse(),
+        }
+    }
+
+    /// The local frame at a point with normal `n_in` on the arriving side.
+    #[inline]
+    pub fn frame(&self, n_in: DVec3) -> Frame {
+        Frame::new(n_in, self.material.tangent)
     }
 
     /// Whether it has lobe `lobe` (some band's albedo above 0).
@@ -129,13 +172,17 @@ impl<'a> Bsdf<'a> {
     #[inline]
     pub fn is_diffuse(&self) -> bool {
         self.interface().is_none()
+            && self.glossy().is_none()
             && (self.has(Lobe::DiffuseReflection) || self.has(Lobe::DiffuseTransmission))
     }
 
-    /// Whether it has a delta lobe (a mirror, or a smooth interface): where caustics form.
+    /// Whether eye paths cross it by sampling alone (a mirror, a smooth interface or a
+    /// rough dielectric): where caustics form.
     #[inline]
     pub fn is_specular(&self) -> bool {
-        self.interface().is_some() || self.has(Lobe::SpecularReflection)
+        self.interface().is_some()
+            || self.has(Lobe::SpecularReflection)
+            || self.glossy().is_some_and(Glossy::transmits)
     }
 
     /// The lobes it has, in `Lobe::ALL`'s order, with their albedos.

@@ -6,8 +6,69 @@
 //! point to) and a medium with a wavelength-dependent index of refraction (constant, Cauchy
 //! or Sellmeier) and Beer–Lambert absorption inside; it reflects or refracts by Fresnel.
 
+use super::microfacet::{Glossy, Roughness};
 use crate::error::{bail, check_finite, Result};
 use crate::spectral::Bands;
+use glam::DVec3;
+
+/// What kind of surface a material is (`MaterialDesc::surface`).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub enum SurfaceModel {
+    /// Lambertian reflection and transmission and a mirror by their coefficients, or a
+    /// smooth dielectric when an index is given.
+    #[default]
+    Ideal,
+    /// A rough conductor (GGX) of complex index n + ik.
+    Conductor(ConductorIndex),
+    /// A rough dielectric interface (GGX): the index and absorption as a smooth one's.
+    RoughDielectric,
+    /// A Lambertian base (`diffuse_reflect`) under a rough dielectric coat of constant
+    /// index (`ior`).
+    Plastic,
+}
+
+/// A conductor's complex index.
+#[derive(Clone, Debug, PartialEq)]
+pub enum ConductorIndex {
+    /// One of the shipped metals (`scene::metals`).
+    Metal(Metal),
+    /// Rows of (wavelength nm, n, k), wavelengths increasing; read linearly.
+    Table(Vec<[f64; 3]>),
+}
+
+/// The metals whose measured index ships with the library.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Metal {
+    Aluminium,
+    Silver,
+    Gold,
+    Copper,
+    Chromium,
+}
+
+impl Metal {
+    /// Its (nm, n, k) rows.
+    pub fn table(self) -> &'static [[f64; 3]] {
+        use super::metals::*;
+        match self {
+            Metal::Aluminium => ALUMINIUM,
+            Metal::Silver => SILVER,
+            Metal::Gold => GOLD,
+            Metal::Copper => COPPER,
+            Metal::Chromium => CHROMIUM,
+        }
+    }
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Metal::Aluminium => "aluminium",
+            Metal::Silver => "silver",
+            Metal::Gold => "gold",
+            Metal::Copper => "copper",
+            Metal::Chromium => "chromium",
+        }
+    }
+}
 
 /// How the index of refraction depends on the wavelength λ.
 #[derive(Clone, Debug, PartialEq)]
@@ -57,6 +118,11 @@ pub struct Material {
     /// Which of the three non-dielectric events can happen (some band above 0): the tracer
     /// spends no per-band work on the others.
     pub events: [bool; 3],
+    /// A microfacet surface (then the coefficients above are 0 and `dielectric` holds a
+    /// rough dielectric's medium).
+    pub glossy: Option<Glossy>,
+    /// The direction the roughness `ax` runs along (projected onto each triangle).
+    pub tangent: Option<DVec3>,
 }
 
 /// What the caller describes; the per-band arrays hold 0 values (none), 1 (grey) or one per
@@ -68,11 +134,33 @@ pub struct MaterialDesc {
     pub diffuse_transmit: Vec<f64>,
     pub ior: Option<IorModel>,
     pub absorption_per_m: Vec<f64>,
+    /// The kind of surface.
+    pub surface: SurfaceModel,
+    /// GGX α along the tangent and the bitangent (a microfacet surface's; [0, 0] for an
+    /// ideal one); α_y = 0 means α_y = α_x.
+    pub roughness: [f64; 2],
+    /// The tangent direction of anisotropic roughness (world), or None (any).
+    pub tangent: Option<[f64; 3]>,
 }
 
 impl Material {
     /// Validates a description against the band layout.
     pub fn new(desc: &MaterialDesc, bands: &Bands) -> Result<Self> {
+        if desc.surface != SurfaceModel::Ideal {
+            return Self::microfacet(desc, bands);
+        }
+        if desc.roughness != [0.0, 0.0] || desc.tangent.is_some() {
+            bail!(
+                ImapErrBadMaterial,
+                "roughness = {:?} is given but the surface is ideal (Lambertian, mirror or smooth dielectric): choose a microfacet surface",
+                desc.roughness
+            );
+        }
+        Self::ideal(desc, bands)
+    }
+
+    /// An ideal surface's description.
+    fn ideal(desc: &MaterialDesc, bands: &Bands) -> Result<Self> {
         let per_band = |name: &str, v: &[f64]| -> Result<Vec<f64>> {
             if v.is_empty() {
                 return Ok(vec![0.0; bands.count()]);
@@ -162,8 +250,186 @@ impl Material {
             diffuse_transmit,
             dielectric,
             events,
+            glossy: None,
+            tangent: None,
         })
     }
+
+    /// A microfacet surface's description.
+    fn microfacet(desc: &MaterialDesc, bands: &Bands) -> Result<Self> {
+        let nb = bands.count();
+        let [ax, ay] = desc.roughness;
+        for (name, a) in [("roughness[0]", ax), ("roughness[1]", ay)] {
+            if !a.is_finite() {
+                bail!(ImapErrNonFinite, "{name} = {a} is not finite");
+            }
+        }
+        if !(ax > 0.0 && ax <= 1.0 && (0.0..=1.0).contains(&ay)) {
+            bail!(
+                ImapErrBadMaterial,
+                "roughness = [{ax}, {ay}]: GGX α must lie in (0, 1] (roughness[1] = 0 means the same as roughness[0]); for a perfect mirror or smooth glass use an ideal surface"
+            );
+        }
+        let rough = Roughness {
+            ax,
+            ay: if ay == 0.0 { ax } else { ay },
+        };
+        let tangent = match desc.tangent {
+            None => None,
+            Some(t) => {
+                check_finite("tangent", &t)?;
+                let v = DVec3::from(t);
+                if v.length() <= 0.0 {
+                    bail!(ImapErrBadMaterial, "tangent = {t:?} has no direction");
+                }
+                Some(v.normalize())
+            }
+        };
+        let zero = |name: &str, v: &[f64]| -> Result<()> {
+            if v.iter().any(|&x| x != 0.0) {
+                bail!(
+                    ImapErrBadMaterial,
+                    "{name} is given but a {} takes none",
+                    match desc.surface {
+                        SurfaceModel::Conductor(_) => "rough conductor",
+                        SurfaceModel::Plastic => "plastic (coated diffuse) surface",
+                        _ => "rough dielectric",
+                    }
+                );
+            }
+            Ok(())
+        };
+        zero("specular_reflectance", &desc.specular_reflect)?;
+        zero("diffuse_transmittance", &desc.diffuse_transmit)?;
+        let mut dielectric = None;
+        let glossy = match &desc.surface {
+            SurfaceModel::Ideal => unreachable!("ideal surfaces are read by `ideal`"),
+            SurfaceModel::Conductor(index) => {
+                zero("diffuse_reflectance", &desc.diffuse_reflect)?;
+                zero("absorption", &desc.absorption_per_m)?;
+                if desc.ior.is_some() {
+                    bail!(
+                        ImapErrBadMaterial,
+                        "a conductor's index is its n, k table: ior_model must be none"
+                    );
+                }
+                let (eta, k) = conductor_index(index, bands)?;
+                Glossy::conductor(rough, eta, k)
+            }
+            SurfaceModel::RoughDielectric => {
+                zero("diffuse_reflectance", &desc.diffuse_reflect)?;
+                let Some(_) = &desc.ior else {
+                    bail!(
+                        ImapErrBadMaterial,
+                        "a rough dielectric needs an index of refraction (ior_model)"
+                    );
+                };
+                let smooth = Self::ideal(
+                    &MaterialDesc {
+                        ior: desc.ior.clone(),
+                        absorption_per_m: desc.absorption_per_m.clone(),
+                        ..Default::default()
+                    },
+                    bands,
+                )?;
+                let d = smooth.dielectric.expect("an index makes a dielectric");
+                let g = Glossy::Dielectric {
+                    rough,
+                    ior: d.ior.clone(),
+                };
+                dielectric = Some(d);
+                g
+            }
+            SurfaceModel::Plastic => {
+                zero("absorption", &desc.absorption_per_m)?;
+                let n = match desc.ior {
+                    Some(IorModel::Constant(n)) if n.is_finite() && (1.0..100.0).contains(&n) => n,
+                    Some(IorModel::Constant(n)) => bail!(
+                        ImapErrBadMaterial,
+                        "the plastic's coat index {n} must be finite, >= 1 and < 100"
+                    ),
+                    _ => bail!(
+                        ImapErrBadMaterial,
+                        "a plastic (coated diffuse) surface needs its coat's constant index (ior_model constant, ior[0], e.g. 1.5)"
+                    ),
+                };
+                let base = if desc.diffuse_reflect.is_empty() {
+                    vec![0.0; nb]
+                } else {
+                    bands.expand("diffuse_reflectance", &desc.diffuse_reflect)?
+                };
+                if let Some(i) = base.iter().position(|x| !(0.0..=1.0).contains(x)) {
+                    bail!(
+                        ImapErrBadMaterial,
+                        "diffuse_reflectance[{i}] = {} is outside [0, 1]",
+                        base[i]
+                    );
+                }
+                Glossy::plastic(rough, n, base)
+            }
+        };
+        Ok(Material {
+            diffuse_reflect: vec![0.0; nb],
+            specular_reflect: vec![0.0; nb],
+            diffuse_transmit: vec![0.0; nb],
+            dielectric,
+            events: [false; 3],
+            glossy: Some(glossy),
+            tangent,
+        })
+    }
+}
+
+/// A conductor's n and k at every band's wavelength, read linearly from its table.
+fn conductor_index(index: &ConductorIndex, bands: &Bands) -> Result<(Vec<f64>, Vec<f64>)> {
+    let (rows, what): (&[[f64; 3]], String) = match index {
+        ConductorIndex::Metal(m) => (m.table(), m.name().to_string()),
+        ConductorIndex::Table(t) => (t.as_slice(), "the conductor's n, k table".to_string()),
+    };
+    if rows.len() < 2 {
+        bail!(
+            ImapErrBadMaterial,
+            "{what} has {} rows: it needs at least 2 (wavelength nm, n, k)",
+            rows.len()
+        );
+    }
+    for (i, r) in rows.iter().enumerate() {
+        if !r.iter().all(|x| x.is_finite()) {
+            bail!(ImapErrNonFinite, "{what}: row {i} = {r:?} is not finite");
+        }
+        if !(r[0] > 0.0 && r[1] > 0.0 && r[2] >= 0.0) {
+            bail!(
+                ImapErrBadMaterial,
+                "{what}: row {i} = {r:?} needs wavelength > 0, n > 0 and k >= 0"
+            );
+        }
+        if i > 0 && r[0] <= rows[i - 1][0] {
+            bail!(
+                ImapErrBadMaterial,
+                "{what}: row {i}'s wavelength {} nm does not increase",
+                r[0]
+            );
+        }
+    }
+    let (lo, hi) = (rows[0][0], rows[rows.len() - 1][0]);
+    let mut eta = Vec::with_capacity(bands.count());
+    let mut k = Vec::with_capacity(bands.count());
+    for (b, &nm) in bands.wavelengths_nm.iter().enumerate() {
+        if !(lo..=hi).contains(&nm) {
+            bail!(
+                ImapErrBadMaterial,
+                "{what} covers {lo}–{hi} nm but band {b} is at {nm} nm"
+            );
+        }
+        let j = rows
+            .partition_point(|r| r[0] <= nm)
+            .clamp(1, rows.len() - 1);
+        let (a, c) = (rows[j - 1], rows[j]);
+        let f = (nm - a[0]) / (c[0] - a[0]);
+        eta.push(a[1] + (c[1] - a[1]) * f);
+        k.push(a[2] + (c[2] - a[2]) * f);
+    }
+    Ok((eta, k))
 }
 
 /// Real Fresnel amplitude coefficients (r_s, r_p) for a ray going from index `n1` into

@@ -6,13 +6,15 @@ pub(crate) mod emitter;
 pub mod light;
 pub mod material;
 pub mod mesh;
+mod metals;
+pub mod microfacet;
 mod prepared;
 mod prepared_mesh;
 
 pub use crate::spectral::Bands;
 pub use emitter::{Emitter, Extent, LightSample, Receiver};
 pub use light::{Light, LightShape};
-pub use material::{IorModel, Material, MaterialDesc};
+pub use material::{ConductorIndex, IorModel, Material, MaterialDesc, Metal, SurfaceModel};
 pub use mesh::{Mesh, MeshDesc};
 pub use prepared::PreparedScene;
 pub use prepared_mesh::PreparedMesh;

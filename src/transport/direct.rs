@@ -663,7 +663,7 @@ impl DirectSampler<'_> {
                     n,
                     l: LIGHT_SAMPLE_GAIN * density,
                 };
-                if let Some((e, g)) = self.sample_light(&at, a[3], [b[0], b[1], b[2]]) {
+                if let Some((e, g, _)) = self.sample_light(&at, a[3], [b[0], b[1], b[2]]) {
                     self.add(e, g, None, direct, nb);
                 }
                 if self.gather {
@@ -773,6 +773,7 @@ impl DirectSampler<'_> {
         let scene = self.scene;
         let mut dir = warp::cosine_hemisphere(at.n, d.next(), d.next());
         let mut org = at.x;
+        let mut weights: Option<Vec<f64>> = None;
         for _ in 0..self.max_events.min(GATHER_DEPTH) {
             let Some(hit) = self.accel.intersect(org, dir) else {
                 return;
@@ -786,6 +787,57 @@ impl DirectSampler<'_> {
             let ng = mesh.normals[prim].as_dvec3();
             let n_in = if dir.dot(ng) < 0.0 { ng } else { -ng };
             let (p, eps) = scene.leaving_point(mesh, prim, hit.u, hit.v);
+            if let Some(g) = bsdf.glossy() {
+                // A rough dielectric ends the path as a smooth one does; a glossy
+                // reflector takes a light sample weighed by π f toward x when rough enough
+                // (`Bsdf::gathers`, as the photons' first events there), and the path goes
+                // on by its sampling.
+                if g.transmits() {
+                    return;
+                }
+                let frame = bsdf.frame(n_in);
+                let to_x = frame.to_local(-dir);
+                let w = weights.get_or_insert_with(|| vec![0.0; nb]);
+                if bsdf.gathers() {
+                    let y = Point {
+                        on: p,
+                        x: p + n_in * eps,
+                        n: n_in,
+                        l,
+                    };
+                    let u = d.next();
+                    let v = [d.next(), d.next(), d.next()];
+                    if let Some((e, gl, from)) = self.sample_light(&y, u, v) {
+                        g.eval(frame.to_local(from), to_x, 0, true, w);
+                        w.iter_mut().for_each(|x| *x *= PI);
+                        self.add(e, gl, Some((t, w)), sums, nb);
+                    }
+                }
+                let u = [d.next(), d.next(), d.next()];
+                let u_survive = d.next();
+                let Some(s) = g.sample(to_x, u, 0, true) else {
+                    return;
+                };
+                g.eval(to_x, s.wi, 0, true, w);
+                let k = s.wi.z.abs() / s.pdf;
+                w.iter_mut().for_each(|x| *x *= k);
+                let mean = t.weighted_mean(w);
+                if !(mean > 0.0 && mean.is_finite()) {
+                    return;
+                }
+                if t.mean() >= WEIGHTED_BOUNCES_DOWN_TO {
+                    t.reweight(w, 1.0);
+                } else {
+                    let q = mean.min(1.0);
+                    if u_survive >= q {
+                        return;
+                    }
+                    t.reweight(w, q);
+                }
+                dir = frame.to_world(s.wi);
+                org = p + n_in * eps;
+                continue;
+            }
             // Light scattered diffusely toward x: reflected from the side the path arrived
             // on, transmitted from the other.
             for lobe in [Lobe::DiffuseReflection, Lobe::DiffuseTransmission] {
@@ -801,7 +853,7 @@ impl DirectSampler<'_> {
                 };
                 let u = d.next();
                 let w = [d.next(), d.next(), d.next()];
-                if let Some((e, g)) = self.sample_light(&y, u, w) {
+                if let Some((e, g, _)) = self.sample_light(&y, u, w) {
                     self.add(e, g, Some((t, bsdf.albedo(lobe))), sums, nb);
                 }
             }
@@ -856,10 +908,10 @@ impl DirectSampler<'_> {
         Some((dir, r))
     }
 
-    /// One light sample at `at`: the emitter and its irradiance at x per unit of its
-    /// colour (W/m² before `add`'s conversion), MIS-weighted against photons unless
-    /// `at.l` is infinite.
-    fn sample_light(&self, at: &Point, u: f64, w: [f64; 3]) -> Option<(usize, f64)> {
+    /// One light sample at `at`: the emitter, its irradiance at x per unit of its colour
+    /// (W/m² before `add`'s conversion), MIS-weighted against photons unless `at.l` is
+    /// infinite, and the direction it arrives from.
+    fn sample_light(&self, at: &Point, u: f64, w: [f64; 3]) -> Option<(usize, f64, DVec3)> {
         let scene = self.scene;
         let (x, n) = (at.x, at.n);
         let e = scene.emitter_table.sample(u);
@@ -878,7 +930,7 @@ impl DirectSampler<'_> {
                 }
                 self.visible(x, foot)?;
                 let mis = power(at.l, self.photon_density(e, axis, t * t, cos_x, 1.0));
-                Some((e, mis * cos_x / area))
+                Some((e, mis * cos_x / area, -axis))
             }
             LightSample::Direction {
                 toward,
@@ -897,7 +949,7 @@ impl DirectSampler<'_> {
                 let mis = power(at.l, self.photon_density(e, -toward, 1.0, cos_x, 1.0));
                 // L cos / q per watt of the source (L = f / norm per watt).
                 let g = f * cos_x / (q * norm);
-                Some((e, mis * g))
+                Some((e, mis * g, toward))
             }
             LightSample::Point(y) => {
                 let (dir, r) = self.visible(x, y)?;
@@ -908,7 +960,7 @@ impl DirectSampler<'_> {
                 let r2 = (at.on - y).length_squared();
                 let mis = power(at.l, self.photon_density(e, -dir, r2, cos_x, 1.0));
                 let g = em.intensity_per_watt(-dir) * cos_x / (r * r);
-                Some((e, mis * g))
+                Some((e, mis * g, dir))
             }
             LightSample::Area { point: y, normal } => {
                 let two_sided = em.two_sided();
@@ -924,7 +976,7 @@ impl DirectSampler<'_> {
                 let sides = if two_sided { 2.0 } else { 1.0 };
                 let r2 = (at.on - y).length_squared();
                 let mis = power(at.l, self.photon_density(e, -dir, r2, cos_x, cos_y));
-                Some((e, mis * cos_x * cos_y / (PI * sides * r * r)))
+                Some((e, mis * cos_x * cos_y / (PI * sides * r * r), dir))
             }
         }
     }

@@ -111,6 +111,8 @@ pub(crate) struct WeightedBounces {
     meshes: Vec<(u32, f64)>,
     /// Per band: Σ (before − after) over the weighted bounces.
     delta: Vec<f64>,
+    /// Per band: a glossy surface's weights (scratch).
+    weights: Vec<f64>,
 }
 
 /// With light sampling, bounces do not end paths while the photon keeps at least this
@@ -538,6 +540,70 @@ impl Tracer<'_> {
             }
 
             let bsdf = material.bsdf();
+            if let Some(g) = bsdf.glossy() {
+                // A microfacet surface: a direction drawn from it, each band weighed by
+                // f cos / pdf. Polarisation is not followed through rough surfaces.
+                pol = None;
+                if g.transmits() {
+                    gathered = None;
+                } else if bsdf.gathers() {
+                    gathered = gathered.or_else(landing);
+                }
+                if g.dispersive() {
+                    colour.collapse(rng.uniform());
+                }
+                let band = colour.band().unwrap_or(0);
+                let frame = bsdf.frame(n_in);
+                let wo = frame.to_local(-dir);
+                let u = [rng.uniform(), rng.uniform(), rng.uniform()];
+                let u_survive = rng.uniform();
+                let Some(sample) = g.sample(wo, u, band, front) else {
+                    return PathEnd::Absorbed(hit.mesh);
+                };
+                let w = &mut bounces.weights;
+                w.resize(colour.values().len(), 0.0);
+                g.eval(wo, sample.wi, band, front, w);
+                let k = sample.wi.z.abs() / sample.pdf;
+                w.iter_mut().for_each(|x| *x *= k);
+                let mean = colour.weighted_mean(w);
+                if !(mean > 0.0 && mean.is_finite()) {
+                    return PathEnd::Absorbed(hit.mesh);
+                }
+                let weigh_bounce = self.direct.is_some()
+                    && colour.mean() >= WEIGHTED_BOUNCES_DOWN_TO * colour.energy_at_emission();
+                if weigh_bounce {
+                    // The photon goes on with what the surface sends on; the rest is
+                    // tallied as absorbed here.
+                    bounces.meshes.push((hit.mesh, colour.mean()));
+                    for (d, c) in bounces.delta.iter_mut().zip(colour.values()) {
+                        *d += c;
+                    }
+                    colour.reweight(w, 1.0);
+                    if let Some(last) = bounces.meshes.last_mut() {
+                        last.1 -= colour.mean();
+                    }
+                    for (d, c) in bounces.delta.iter_mut().zip(colour.values()) {
+                        *d -= c;
+                    }
+                } else {
+                    let q = mean.min(1.0);
+                    if u_survive >= q {
+                        return PathEnd::Absorbed(hit.mesh);
+                    }
+                    colour.reweight(w, q);
+                }
+                dir = frame.to_world(sample.wi);
+                if sample.wi.z > 0.0 {
+                    org = p_hit + n_in * eps;
+                } else {
+                    org = p_hit - n_in * eps;
+                    medium = front.then_some(Medium {
+                        mesh: hit.mesh,
+                        material: material_id,
+                    });
+                }
+                continue;
+            }
             if let Some(d) = bsdf.interface() {
                 gathered = None;
                 // Smooth dielectric interface: Fresnel reflection or Snell refraction.

@@ -6,9 +6,10 @@
 //! its mesh). Primitives in triangle, strip and fan modes are read; points and lines are
 //! skipped with a warning. Materials (metallic-roughness):
 //! - baseColorFactor × baseColorTexture (sRGB, averaged over each triangle's UV footprint)
-//!   → the reflectance; of it, the metallic share goes to mirror reflection when the
-//!   roughness is below 0.3 and stays diffuse otherwise (a rough metal scatters its light
-//!   about as broadly as a diffuse surface), the rest is diffuse;
+//!   → the colour; roughness and metallic → a microfacet surface (`model::Gloss`, GGX α =
+//!   roughness²): a metal (metallic ≥ 0.5) whose reflectance at normal incidence is the
+//!   colour, or the colour under a dielectric coat of index 1.5 (4 % at normal incidence,
+//!   glTF's dielectric); a smooth one (α < 0.01) is a mirror or a Lambertian surface;
 //! - emissiveFactor × KHR_materials_emissive_strength × emissiveTexture (averaged over
 //!   each triangle's UV footprint, like the base colour) → an emitting surface of that
 //!   exitance, W/m² per band (as an MTL `Ke`); triangles whose texels are black emit
@@ -371,7 +372,10 @@ fn load_checked(path: &Path, diag: &mut Diagnostics) -> Result<Model, String> {
         };
         uv_set.push(set);
         let base = [r, g, b];
-        let mirror = if rough < 0.3 { metal } else { 0.0 };
+        let gloss = crate::model::Gloss {
+            alpha: rough.clamp(0.0, 1.0).powi(2),
+            metallic: metal,
+        };
         let strength = m.emissive_strength().unwrap_or(1.0) as f64;
         let ke = m.emissive_factor().map(|x| x as f64 * strength);
         let label = m
@@ -381,9 +385,9 @@ fn load_checked(path: &Path, diag: &mut Diagnostics) -> Result<Model, String> {
         model.materials.push(Mtl {
             name: label,
             at: (path.to_path_buf(), 0),
-            kd: Some(base.map(|c| c * (1.0 - mirror))),
-            ks: (mirror > 0.0).then(|| base.map(|c| c * mirror)),
+            kd: Some(base),
             ke: ke.iter().any(|&x| x > 0.0).then_some(ke),
+            gloss: Some(gloss),
             texture,
             emission_texture,
             ..Default::default()

@@ -2,7 +2,10 @@
 //!
 //! Colours (`Kd`, `Ks`, `Ke`, `Ka`, `Tf`) take one number (grey) or three; `spectral` and
 //! `xyz` forms are not supported and are skipped with a warning. Scalars: `Ns`, `Ni`, `d`,
-//! `Tr` (= 1 − d), `illum`. Textures: `map_Kd` with its options (`-o`, `-s`, `-t`, `-mm`,
+//! `Tr` (= 1 − d), `illum`, and the PBR extension's `Pr` (roughness) and `Pm` (metallic).
+//! Gloss (`model::Gloss`): `Pr`/`Pm` when given (GGX α = Pr², default Pr 0.5), else `Ns`
+//! when the material has a `Ks` above 0 (α = √(2 / (Ns + 2)), the Phong exponent's
+//! equivalent roughness). Textures: `map_Kd` with its options (`-o`, `-s`, `-t`, `-mm`,
 //! `-bm`, `-boost`, `-texres`, `-blendu`, `-blendv`, `-cc`, `-clamp`, `-imfchan`) skipped to
 //! the file name; other maps are ignored.
 
@@ -67,11 +70,14 @@ fn map_file(rest: &[&str]) -> Option<String> {
 pub fn parse(path: &Path, bytes: &[u8], diag: &mut Diagnostics) -> Vec<Mtl> {
     let dir = path.parent().unwrap_or(Path::new("."));
     let mut out: Vec<Mtl> = Vec::new();
+    // Per material: Ns, Pr, Pm as written.
+    let mut gloss: Vec<[Option<f64>; 3]> = Vec::new();
     for (line, text) in logical_lines(bytes) {
         let mut words = text.split_whitespace();
         let Some(key) = words.next() else { continue };
         let rest: Vec<&str> = words.collect();
         if key == "newmtl" {
+            gloss.push([None; 3]);
             out.push(Mtl {
                 name: rest.join(" "),
                 at: (path.to_path_buf(), line),
@@ -79,7 +85,7 @@ pub fn parse(path: &Path, bytes: &[u8], diag: &mut Diagnostics) -> Vec<Mtl> {
             });
             continue;
         }
-        let Some(m) = out.last_mut() else {
+        let Some(([ns, pr, pm], m)) = gloss.last_mut().zip(out.last_mut()) else {
             if matches!(
                 key,
                 "Kd" | "Ks" | "Ke" | "Ka" | "Tf" | "Ni" | "d" | "Tr" | "illum" | "map_Kd"
@@ -112,12 +118,15 @@ pub fn parse(path: &Path, bytes: &[u8], diag: &mut Diagnostics) -> Vec<Mtl> {
                 let mut unused = None;
                 col(&mut unused, diag);
             }
-            "Ni" | "d" | "Tr" | "Ns" | "illum" => match scalar(&rest) {
+            "Ni" | "d" | "Tr" | "Ns" | "illum" | "Pr" | "Pm" => match scalar(&rest) {
                 Ok(x) => match key {
                     "Ni" => m.ni = Some(x),
                     "d" => m.d = Some(x),
                     "Tr" => m.d = Some(1.0 - x),
                     "illum" => m.illum = Some(x as i64),
+                    "Ns" => *ns = Some(x),
+                    "Pr" => *pr = Some(x),
+                    "Pm" => *pm = Some(x),
                     _ => {}
                 },
                 Err(e) => diag.error(path, line, format!("'{key}': {e}")),
@@ -128,6 +137,21 @@ pub fn parse(path: &Path, bytes: &[u8], diag: &mut Diagnostics) -> Vec<Mtl> {
             },
             _ => {}
         }
+    }
+    for (m, [ns, pr, pm]) in out.iter_mut().zip(gloss) {
+        m.gloss = if pr.is_some() || pm.is_some() {
+            let r = pr.unwrap_or(0.5).clamp(0.0, 1.0);
+            Some(crate::model::Gloss {
+                alpha: r * r,
+                metallic: pm.unwrap_or(0.0).clamp(0.0, 1.0),
+            })
+        } else {
+            ns.filter(|_| m.ks.is_some_and(|k| k.iter().any(|&x| x > 0.0)))
+                .map(|n| crate::model::Gloss {
+                    alpha: (2.0 / (n.max(0.0) + 2.0)).sqrt(),
+                    metallic: 0.0,
+                })
+        };
     }
     out
 }

@@ -20,8 +20,11 @@
 //!   that index whose internal transmittance at normal incidence is tn: the same Fresnel
 //!   reflections, path lengths at oblique incidence and inter-reflections.
 //!
-//! Roughness has no model yet (issue 36): a rough plastic's or metal's specular part is a
-//! mirror, said once per material. Patterns and textures are left out with a warning.
+//! A rough `plastic` or `metal` (roughness > 0 and spec > 0) is a microfacet surface
+//! (`model::Gloss`, GGX α = Radiance's rms slope): plastic its colour under a coat whose
+//! reflectance at normal incidence is `spec`, metal a conductor whose reflectance at normal
+//! incidence is the colour. A rough `trans`'s specular part stays a mirror, said once per
+//! material. Patterns and textures are left out with a warning.
 //! `!` commands, `xform`, `instance`, `mesh` and distant `source`s are refused with a
 //! message that says what to do instead; unknown material types are grey 0.5 with a
 //! warning that names the `[materials.NAME]` override.
@@ -373,11 +376,13 @@ impl Reader<'_> {
                     [spec; 3]
                 });
                 if spec > 0.0 && rough > 0.0 {
-                    self.rough.push(format!(
-                        "'{}' (line {}, roughness {rough})",
-                        printable(&p.id),
-                        p.line
-                    ));
+                    if p.kind == "metal" {
+                        m.kd = Some(c);
+                    }
+                    m.gloss = Some(crate::model::Gloss {
+                        alpha: rough.min(1.0),
+                        metallic: if p.kind == "metal" { 1.0 } else { 0.0 },
+                    });
                 }
             }
             "trans" => {
@@ -812,10 +817,15 @@ pub fn load(path: &Path, bytes: &[u8], diag: &mut Diagnostics) -> Model {
     }
     if !r.rough.is_empty() {
         diag.warn(format!(
-            "{}: {} material(s) have a rough specular part, read as a mirror (libimap has no rough surfaces yet): {}",
+            "{}: {} trans material(s) have a rough specular part, read as a mirror: {}",
             path.display(),
             r.rough.len(),
-            r.rough.iter().take(3).cloned().collect::<Vec<_>>().join(", ")
+            r.rough
+                .iter()
+                .take(3)
+                .cloned()
+                .collect::<Vec<_>>()
+                .join(", ")
         ));
     }
     let mut left: Vec<_> = r.left_out.iter().collect();
@@ -890,7 +900,15 @@ mod tests {
         );
         assert_eq!(w.ks, Some([0.05; 3]));
         let a = &m.materials[1];
-        assert!((a.ks.unwrap()[2] - 0.81).abs() < 1e-12 && (a.kd.unwrap()[0] - 0.08).abs() < 1e-12);
+        // A rough metal: a conductor whose reflectance at normal incidence is its colour.
+        assert_eq!(a.kd, Some([0.8, 0.8, 0.9]));
+        assert_eq!(
+            a.gloss,
+            Some(crate::model::Gloss {
+                alpha: 0.02,
+                metallic: 1.0
+            })
+        );
         // Greg Ward's example: 60 % through, one sixth of it as a beam.
         let o = &m.materials[2];
         assert_eq!(o.kd, Some([0.0; 3]));
@@ -899,11 +917,9 @@ mod tests {
         assert!((l.ke_luminance.unwrap() - 1790.0).abs() < 1e-9);
         assert!((l.ke.unwrap()[0] - 10.0 * PI).abs() < 1e-12);
         assert_eq!(m.materials[4].ks, Some([0.9; 3]));
-        // One warning each: rough metal read as a mirror, trans's beam as diffuse.
+        // The rough metal is read without a warning; trans's beam is diffuse, with one.
         assert!(
-            d.warnings
-                .iter()
-                .any(|w| w.contains("rough specular part") && w.contains("'alu'")),
+            !d.warnings.iter().any(|w| w.contains("'alu'")),
             "{:?}",
             d.warnings
         );

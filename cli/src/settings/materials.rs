@@ -18,4 +18,23 @@ pub struct MaterialSettings {
     pub absorption_per_m: Option<Spectrum>,
     /// Exitance, W/m² per band.
     pub emission: Option<Spectrum>,
+    /// The surface model: "ideal" (Lambert, mirror, smooth glass by the fields above),
+    /// "conductor", "plastic" or "rough-dielectric".
+    pub kind: Option<String>,
+    /// GGX α, one number (isotropic) or two (along the tangent, across it), each in (0, 1].
+    pub roughness: Option<RoughnessSetting>,
+    /// A conductor's metal: "aluminium", "silver", "gold", "copper", "chromium".
+    pub metal: Option<String>,
+    /// A conductor's measured index instead: rows of [wavelength nm, n, k].
+    pub nk: Option<Vec<[f64; 3]>>,
+    /// The direction the first roughness runs along (model coordinates).
+    pub tangent: Option<[f64; 3]>,
+}
+
+/// `roughness = 0.2` or `roughness = [0.1, 0.4]`.
+#[derive(Clone, Debug, Deserialize, Serialize)]
+#[serde(untagged)]
+pub enum RoughnessSetting {
+    One(f64),
+    Two([f64; 2]),
 }

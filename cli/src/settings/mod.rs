@@ -12,7 +12,7 @@ pub mod render;
 pub use daylight::{EnvironmentSettings, SkySettings, SunSettings};
 pub use grids::GridSettings;
 pub use lights::{LightSettings, LuminaireSettings, SpectrumSettings};
-pub use materials::MaterialSettings;
+pub use materials::{MaterialSettings, RoughnessSetting};
 pub use render::RenderSettings;
 
 use crate::diag::printable;

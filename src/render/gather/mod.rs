@@ -545,8 +545,15 @@ impl HitSink for CausticSink<'_> {
             return;
         }
         let m = ev.material;
-        if !m.bsdf().is_diffuse() {
-            // Specular only: the path goes on.
+        let bsdf = m.bsdf();
+        if bsdf.is_glossy() && ev.bounce == 0 {
+            // Light straight onto a glossy reflector: the eye paths' light samples there
+            // have it, and all that follows from it.
+            self.alive = false;
+            return;
+        }
+        if !bsdf.is_diffuse() {
+            // Specular or glossy after a specular start: the path goes on.
             return;
         }
         self.alive = false;
