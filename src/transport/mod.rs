@@ -439,7 +439,8 @@ impl Tracer<'_> {
         let mut gathered = None;
         let gathering = self.direct.filter(|d| d.gather);
         bounces.meshes.clear();
-        if self.direct.is_some() {
+        // (A glossy surface sizes `delta` on its own when it needs it.)
+        if self.direct.is_some() || !bounces.delta.is_empty() {
             bounces.delta.clear();
             bounces.delta.resize(colour.values().len(), 0.0);
         }
@@ -585,12 +586,31 @@ impl Tracer<'_> {
                     for (d, c) in bounces.delta.iter_mut().zip(colour.values()) {
                         *d -= c;
                     }
-                } else {
-                    let q = mean.min(1.0);
-                    if u_survive >= q {
+                } else if mean <= 1.0 {
+                    if u_survive >= mean {
                         return PathEnd::Absorbed(hit.mesh);
                     }
-                    colour.reweight(w, q);
+                    colour.reweight(w, mean);
+                } else {
+                    // This draw sends on more than arrived (f cos / pdf above 1): the
+                    // difference is tallied as a negative absorption here, so that the
+                    // absorbed power stays unbiased.
+                    let nb = colour.values().len();
+                    if bounces.delta.len() != nb {
+                        bounces.delta.clear();
+                        bounces.delta.resize(nb, 0.0);
+                    }
+                    bounces.meshes.push((hit.mesh, colour.mean()));
+                    for (d, c) in bounces.delta.iter_mut().zip(colour.values()) {
+                        *d += c;
+                    }
+                    colour.reweight(w, 1.0);
+                    if let Some(last) = bounces.meshes.last_mut() {
+                        last.1 -= colour.mean();
+                    }
+                    for (d, c) in bounces.delta.iter_mut().zip(colour.values()) {
+                        *d -= c;
+                    }
                 }
                 dir = frame.to_world(sample.wi);
                 if sample.wi.z > 0.0 {
