@@ -127,6 +127,35 @@ int main(void) {
     uint32_t m_grey = 99;
     expect("imap_add_material(valid)", imap_add_material(ctx, &mat, &m_grey), IMAP_OK, ctx);
 
+    /* Rough surfaces. */
+    ImapMaterial rough;
+    imap_material_default(&rough, sizeof rough);
+    rough.surface = IMAP_SURFACE_CONDUCTOR, rough.metal = IMAP_METAL_GOLD;
+    expect("conductor without roughness", imap_add_material(ctx, &rough, &id), IMAP_ERR_BAD_MATERIAL, ctx);
+    rough.roughness[0] = -0.2;
+    expect("negative roughness", imap_add_material(ctx, &rough, &id), IMAP_ERR_BAD_MATERIAL, ctx);
+    rough.roughness[0] = NAN;
+    expect("NaN roughness", imap_add_material(ctx, &rough, &id), IMAP_ERR_NON_FINITE, ctx);
+    rough.roughness[0] = 0.3;
+    rough.metal = 17;
+    expect("unknown metal", imap_add_material(ctx, &rough, &id), IMAP_ERR_INVALID_ARGUMENT, ctx);
+    double nk[6] = {500, 1.0, 2.0, 600, 1.0, 2.0};
+    rough.metal = IMAP_METAL_CUSTOM, rough.conductor_nk = nk, rough.conductor_nk_count = 2;
+    expect("n, k table not covering the bands", imap_add_material(ctx, &rough, &id), IMAP_ERR_BAD_MATERIAL, ctx);
+    rough.conductor_nk = NULL;
+    expect("n, k table NULL", imap_add_material(ctx, &rough, &id), IMAP_ERR_NULL_POINTER, ctx);
+    rough.conductor_nk_count = 0, rough.surface = 9;
+    expect("unknown surface", imap_add_material(ctx, &rough, &id), IMAP_ERR_INVALID_ARGUMENT, ctx);
+    rough.surface = IMAP_SURFACE_PLASTIC;
+    expect("plastic without a coat index", imap_add_material(ctx, &rough, &id), IMAP_ERR_BAD_MATERIAL, ctx);
+    rough.ior_model = IMAP_IOR_CONSTANT, rough.ior[0] = 1.5, rough.diffuse_reflectance = &grey;
+    rough.diffuse_reflectance_count = 1;
+    expect("plastic (valid)", imap_add_material(ctx, &rough, &id), IMAP_OK, ctx);
+    rough.surface = IMAP_SURFACE_CONDUCTOR, rough.metal = IMAP_METAL_ALUMINIUM;
+    expect("conductor with a diffuse reflectance", imap_add_material(ctx, &rough, &id), IMAP_ERR_BAD_MATERIAL, ctx);
+    rough.diffuse_reflectance = NULL, rough.diffuse_reflectance_count = 0, rough.ior_model = IMAP_IOR_NONE;
+    expect("conductor (valid)", imap_add_material(ctx, &rough, &id), IMAP_OK, ctx);
+
     /* Meshes. */
     ImapMesh mesh = square_mesh(m_grey);
     expect("imap_add_mesh(mesh = NULL)", imap_add_mesh(ctx, NULL, &id), IMAP_ERR_NULL_POINTER, ctx);

@@ -452,6 +452,60 @@
 #define IMAP_IOR_SELLMEIER 3
 
 /**
+ * `ImapMaterial::surface`: Lambertian reflection and transmission and a mirror by their
+ * coefficients, or a smooth dielectric when `ior_model` is not NONE (the default).
+ */
+#define IMAP_SURFACE_IDEAL 0
+
+/**
+ * `ImapMaterial::surface`: a rough conductor (GGX, Smith, visible-normal sampling) of
+ * complex index n + ik (`metal`, or `conductor_nk` with `IMAP_METAL_CUSTOM`), its
+ * multiple-scattering energy given back (Kulla–Conty): a white conductor reflects
+ * everything at every roughness. The three coefficients and `ior_model` must be 0/NONE.
+ */
+#define IMAP_SURFACE_CONDUCTOR 1
+
+/**
+ * `ImapMaterial::surface`: a rough dielectric interface (frosted glass; GGX): `ior_model`,
+ * `ior` and `absorption_per_m` as a smooth dielectric's, the three coefficients 0. Light
+ * reflects or refracts at each microfacet by unpolarised Fresnel (the photon's
+ * polarisation is dropped there); the energy that multiple scattering between microfacets
+ * would return is not (at most 1 % up to α = 0.3, 7 % at α = 1 for n = 1.5, normal
+ * incidence: docs/materials.md).
+ */
+#define IMAP_SURFACE_ROUGH_DIELECTRIC 2
+
+/**
+ * `ImapMaterial::surface`: a Lambertian base (`diffuse_reflectance`) under a rough
+ * dielectric coat (GGX) of constant index (`ior_model` CONSTANT, `ior[0]`, e.g. 1.5):
+ * "plastic", paint, a semi-gloss floor. Light the coat does not reflect reaches the base and
+ * bounces between base and coat; a white base reflects everything at every roughness.
+ */
+#define IMAP_SURFACE_PLASTIC 3
+
+/**
+ * `ImapMaterial::metal`: the conductor's index is `conductor_nk`.
+ */
+#define IMAP_METAL_CUSTOM 0
+
+/**
+ * `ImapMaterial::metal`: measured n + ik (Palik's handbook via the luxpop.com database,
+ * 299–886 nm; docs/materials.md).
+ */
+#define IMAP_METAL_ALUMINIUM 1
+
+#define IMAP_METAL_SILVER 2
+
+#define IMAP_METAL_GOLD 3
+
+#define IMAP_METAL_COPPER 4
+
+/**
+ * Chromium: 300–886 nm.
+ */
+#define IMAP_METAL_CHROMIUM 5
+
+/**
  * `ImapMesh::flags`: both sides record (and emit) separately.
  */
 #define IMAP_MESH_TWO_SIDED 1
@@ -1557,6 +1611,32 @@ typedef struct ImapMaterial {
    */
   const double *absorption_per_m;
   size_t absorption_count;
+  /**
+   * `IMAP_SURFACE_*` (0: IDEAL). (Since 0.2.3.)
+   */
+  uint32_t surface;
+  /**
+   * `IMAP_METAL_*`, for IMAP_SURFACE_CONDUCTOR. (Since 0.2.3.)
+   */
+  uint32_t metal;
+  /**
+   * GGX α along the tangent and the bitangent, each in (0, 1] (α is the square of
+   * glTF's perceptual roughness; 0.01 nearly a mirror, 1 very rough); `roughness[1]` = 0
+   * means isotropic (= `roughness[0]`). Must be 0, 0 for IMAP_SURFACE_IDEAL. (Since 0.2.3.)
+   */
+  double roughness[2];
+  /**
+   * The direction `roughness[0]` runs along (world coordinates, projected onto each
+   * triangle); 0, 0, 0: any (enough for isotropic roughness). (Since 0.2.3.)
+   */
+  double tangent[3];
+  /**
+   * With IMAP_METAL_CUSTOM: `conductor_nk_count` rows of (wavelength nm, n, k),
+   * wavelengths increasing, covering every band's wavelength; read linearly.
+   * (Since 0.2.3.)
+   */
+  const double *conductor_nk;
+  size_t conductor_nk_count;
 } ImapMaterial;
 
 /**
