@@ -24,13 +24,15 @@
 //!         [--ref-seconds 60] [--max-seconds 40] [--scenes room,cornell]
 //!         [--samples 0] [--pass-photons 0] [--estimators photons,ls,gather]
 //!         [--scheduler dynamic|classic]   (the estimators' runs; the reference's stays dynamic)
+//!         [--floor lambert|white|aluminium]   (the room's floor: ρ = 0.5, ρ = 0.9, or rough
+//!         aluminium α 0.3, which reflects about as much as the white one)
 
 #[path = "common/scenes.rs"]
 mod scenes;
 
 use imap::SchedulerKind;
 use imap::{Config, Context, Estimator, Layer, LayerRequest, MaterialDesc, MeshDesc, RunParams};
-use scenes::{cornell_box, grey_room, GREY_ROOM_EMITTER_Z, GREY_ROOM_EXITANCE};
+use scenes::{cornell_box, grey_room_with_floor, GREY_ROOM_EMITTER_Z, GREY_ROOM_EXITANCE};
 use std::f64::consts::PI;
 
 struct Args {
@@ -43,6 +45,7 @@ struct Args {
     samples: u32,
     pass_photons: u64,
     estimators: Vec<String>,
+    floor: String,
 }
 
 fn parse() -> Args {
@@ -56,6 +59,7 @@ fn parse() -> Args {
         samples: 0,
         pass_photons: 0,
         estimators: vec!["photons".into(), "ls".into(), "gather".into()],
+        floor: "lambert".into(),
     };
     let argv: Vec<String> = std::env::args().skip(1).collect();
     for pair in argv.chunks(2) {
@@ -76,6 +80,7 @@ fn parse() -> Args {
                 }
             }
             "--estimators" => a.estimators = v.split(',').map(str::to_owned).collect(),
+            "--floor" => a.floor = v,
             other => panic!("unknown argument {other}"),
         }
     }
@@ -115,9 +120,24 @@ struct Scene {
 const ROOM_EMITTER_Z: f64 = GREY_ROOM_EMITTER_Z;
 const ROOM_EXITANCE: f64 = GREY_ROOM_EXITANCE;
 
-fn room(config: Config) -> Scene {
+fn room(config: Config, floor: &str) -> Scene {
     let mut ctx = Context::new(config).unwrap();
-    let r = grey_room(&mut ctx, 40).unwrap();
+    let rough = MaterialDesc {
+        surface: imap::SurfaceModel::Conductor(imap::ConductorIndex::Metal(imap::Metal::Aluminium)),
+        roughness: [0.3, 0.0],
+        ..Default::default()
+    };
+    let white = MaterialDesc {
+        diffuse_reflect: vec![0.9],
+        ..Default::default()
+    };
+    let floor = match floor {
+        "lambert" => None,
+        "white" => Some(&white),
+        "aluminium" => Some(&rough),
+        other => panic!("--floor takes lambert, white or aluminium, not {other}"),
+    };
+    let r = grey_room_with_floor(&mut ctx, 40, floor).unwrap();
     let grid = floor_grid(&mut ctx, [0.05, 0.95], 0.001, 1.0, r.black);
     Scene {
         ctx,
@@ -178,9 +198,9 @@ fn cornell(config: Config) -> Scene {
     }
 }
 
-fn build(name: &str, config: Config) -> Scene {
+fn build(name: &str, config: Config, floor: &str) -> Scene {
     match name {
-        "room" => room(config),
+        "room" => room(config, floor),
         "cornell" => cornell(config),
         other => panic!("unknown scene {other}"),
     }
@@ -330,8 +350,9 @@ fn curve(
     (reference, ref_noise): (&[f64], f64),
     (grid_ref, grid_noise): (&[f64], f64),
     max_s: f64,
+    floor: &str,
 ) -> Curve {
-    let mut s = build(scene, config);
+    let mut s = build(scene, config, floor);
     let mut seg = 0.05;
     let mut points = Vec::new();
     loop {
@@ -385,7 +406,7 @@ fn main() {
             seed,
             ..Default::default()
         };
-        let mut r = build(scene, config(1_000_003));
+        let mut r = build(scene, config(1_000_003), &args.floor);
         r.ctx
             .set_layers(LayerRequest {
                 groups: false,
@@ -466,6 +487,7 @@ fn main() {
                     (&reference, ref_noise),
                     (&grid_ref, grid_noise),
                     args.max_seconds,
+                    &args.floor,
                 );
                 let whole: Vec<(f64, f64)> = c.points.iter().map(|p| (p.0, p.1)).collect();
                 let grid: Vec<(f64, f64)> = c.points.iter().map(|p| (p.0, p.3)).collect();

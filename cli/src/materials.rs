@@ -421,3 +421,117 @@ fn glossy(
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::Gloss;
+
+    fn resolved(m: &Mtl, o: Option<&MaterialSettings>) -> (Resolved, Diagnostics) {
+        let mut diag = Diagnostics::default();
+        let units = Units {
+            efficacy: &[683.0; 3],
+            unit_m: 1.0,
+        };
+        let at = (std::path::PathBuf::from("s.toml"), 1);
+        let r = resolve(m, o, &at, &[612.0, 549.0, 465.0], true, &units, &mut diag);
+        (r, diag)
+    }
+
+    /// A file's gloss maps to the microfacet models: a metal to a conductor whose
+    /// reflectance at normal incidence is its colour, anything else to a plastic whose coat
+    /// reflects `Ks` (or 4 %) at normal incidence; a smooth one keeps the ideal mapping.
+    #[test]
+    fn gloss_maps_to_conductors_and_plastics() {
+        let metal = Mtl {
+            kd: Some([0.9, 0.6, 0.3]),
+            gloss: Some(Gloss {
+                alpha: 0.09,
+                metallic: 1.0,
+            }),
+            ..Default::default()
+        };
+        let (r, _) = resolved(&metal, None);
+        assert_eq!(r.desc.roughness, [0.09, 0.0]);
+        let SurfaceModel::Conductor(ConductorIndex::Table(rows)) = &r.desc.surface else {
+            panic!("{:?}", r.desc.surface)
+        };
+        // n = 1, k = 2√(F0 / (1 − F0)) at each band's wavelength: F0 = k² / (4 + k²).
+        for (nm, f0) in [(612.0, 0.9), (549.0, 0.6), (465.0, 0.3)] {
+            let row = rows.iter().find(|r| r[0] == nm).unwrap();
+            let k = row[2];
+            assert!((k * k / (4.0 + k * k) - f0).abs() < 1e-12, "{nm}: {row:?}");
+        }
+        assert!(r.desc.diffuse_reflect.is_empty());
+
+        let plastic = Mtl {
+            kd: Some([0.5; 3]),
+            ks: Some([0.09; 3]),
+            gloss: Some(Gloss {
+                alpha: 0.2,
+                metallic: 0.0,
+            }),
+            ..Default::default()
+        };
+        let (r, _) = resolved(&plastic, None);
+        assert_eq!(r.desc.surface, SurfaceModel::Plastic);
+        // F0 = 0.09: n = (1 + 0.3) / (1 − 0.3).
+        assert_eq!(r.desc.ior, Some(IorModel::Constant(1.3 / 0.7)));
+        assert_eq!(r.desc.diffuse_reflect, vec![0.5; 3]);
+        assert!(r.desc.specular_reflect.is_empty());
+
+        let smooth = Mtl {
+            kd: Some([0.5; 3]),
+            ks: Some([0.3; 3]),
+            gloss: Some(Gloss {
+                alpha: 0.001,
+                metallic: 0.0,
+            }),
+            ..Default::default()
+        };
+        let (r, _) = resolved(&smooth, None);
+        assert_eq!(r.desc.surface, SurfaceModel::Ideal);
+        assert_eq!(r.desc.specular_reflect, vec![0.3; 3]);
+
+        // A fractional metallic is said.
+        let half = Mtl {
+            gloss: Some(Gloss {
+                alpha: 0.2,
+                metallic: 0.4,
+            }),
+            ..plastic.clone()
+        };
+        let (r, diag) = resolved(&half, None);
+        assert_eq!(r.desc.surface, SurfaceModel::Plastic);
+        assert!(
+            diag.warnings.iter().any(|w| w.contains("metallic 0.4")),
+            "{:?}",
+            diag.warnings
+        );
+    }
+
+    /// The settings' `kind` wins over the file, with a shipped metal.
+    #[test]
+    fn the_settings_kind_makes_the_surface() {
+        let o = MaterialSettings {
+            kind: Some("conductor".into()),
+            metal: Some("gold".into()),
+            roughness: Some(RoughnessSetting::Two([0.1, 0.3])),
+            tangent: Some([0.0, 1.0, 0.0]),
+            ..Default::default()
+        };
+        let m = Mtl {
+            kd: Some([0.5; 3]),
+            ..Default::default()
+        };
+        let (r, diag) = resolved(&m, Some(&o));
+        assert!(diag.errors.is_empty(), "{:?}", diag.errors);
+        assert_eq!(
+            r.desc.surface,
+            SurfaceModel::Conductor(ConductorIndex::Metal(Metal::Gold))
+        );
+        assert_eq!(r.desc.roughness, [0.1, 0.3]);
+        assert_eq!(r.desc.tangent, Some([0.0, 1.0, 0.0]));
+        assert!(r.desc.diffuse_reflect.is_empty());
+    }
+}

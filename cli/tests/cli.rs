@@ -3,7 +3,7 @@
 
 mod common;
 
-use common::{imap, stderr, write};
+use common::{imap, run_photons, stderr, write};
 
 use std::path::Path;
 
@@ -866,5 +866,75 @@ fn a_sky_and_the_sun_light_an_open_plane_by_their_horizontal_amounts() {
         let toml = write(d, "bad.toml", bad);
         let e = fails(&["run", &obj, "--config", &toml, "--photons", "100"]);
         assert!(e.contains(says), "{bad}: {e}");
+    }
+}
+
+/// `[materials.NAME] kind = ...` makes rough surfaces: a rough aluminium floor reflects
+/// more than a grey one and absorbs less, a plastic runs too, and a kind without its
+/// roughness, a roughness out of (0, 1] or an unknown kind or metal is one line naming
+/// the material.
+#[test]
+fn rough_materials_from_the_settings() {
+    let d = tempfile::tempdir().unwrap();
+    write(d.path(), "scene.mtl", MTL);
+    let (obj, _, _) = scene_obj();
+    let path = write(d.path(), "scene.obj", &obj);
+    let run = |name: &str, settings: &str| {
+        let toml = write(d.path(), &format!("{name}.toml"), settings);
+        let out = d.path().join(name);
+        let o = run_photons(&path, &toml, &out, 20_000);
+        (o, out)
+    };
+    let absorbed = |out: &Path| {
+        let r = read_report(out);
+        let e = &r["energy_w"];
+        e["absorbed"].as_f64().unwrap() / e["emitted"].as_f64().unwrap()
+    };
+    let (o, grey) = run("grey", "");
+    assert!(o.status.success(), "{}", stderr(&o));
+    let (o, metal) = run(
+        "metal",
+        "[materials.grey]\nkind = \"conductor\"\nmetal = \"aluminium\"\nroughness = 0.3\n",
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    // Aluminium absorbs ~10 % of what it receives, the grey floor 50 %.
+    assert!(
+        absorbed(&metal) < 0.4 * absorbed(&grey) && absorbed(&metal) > 0.0,
+        "{} vs {}",
+        absorbed(&metal),
+        absorbed(&grey)
+    );
+    let (o, _) = run(
+        "plastic",
+        "[materials.grey]\nkind = \"plastic\"\ndiffuse = 0.5\nior = 1.5\nroughness = [0.1, 0.3]\ntangent = [1, 0, 0]\n",
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    for (name, settings, word) in [
+        (
+            "noalpha",
+            "[materials.grey]\nkind = \"conductor\"\nmetal = \"gold\"\n",
+            "roughness",
+        ),
+        (
+            "zero",
+            "[materials.grey]\nkind = \"conductor\"\nmetal = \"gold\"\nroughness = 0\n",
+            "roughness",
+        ),
+        (
+            "velvet",
+            "[materials.grey]\nkind = \"velvet\"\nroughness = 0.2\n",
+            "velvet",
+        ),
+        (
+            "tin",
+            "[materials.grey]\nkind = \"conductor\"\nmetal = \"tin\"\nroughness = 0.2\n",
+            "tin",
+        ),
+        ("loose", "[materials.grey]\nroughness = 0.2\n", "kind"),
+    ] {
+        let (o, _) = run(name, settings);
+        let e = stderr(&o);
+        assert!(!o.status.success(), "{name}: {e}");
+        assert!(e.contains(word) && e.contains("grey"), "{name}: {e}");
     }
 }

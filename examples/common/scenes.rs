@@ -280,10 +280,21 @@ pub struct GreyRoom {
 /// of ρ = 0.5 (each face `n` × `n` cells), and a black 0.2 m square emitter facing down at
 /// `GREY_ROOM_EMITTER_Z`, exitance `GREY_ROOM_EXITANCE`, not recorded.
 pub fn grey_room(ctx: &mut Context, n: usize) -> Result<GreyRoom> {
+    grey_room_with_floor(ctx, n, None)
+}
+
+/// `grey_room` with its floor's triangles of material `floor` when given (the rest
+/// Lambertian ρ = 0.5).
+pub fn grey_room_with_floor(
+    ctx: &mut Context,
+    n: usize,
+    floor: Option<&MaterialDesc>,
+) -> Result<GreyRoom> {
     let grey = ctx.add_material(&MaterialDesc {
         diffuse_reflect: vec![0.5],
         ..Default::default()
     })?;
+    let floor_m = floor.map(|d| ctx.add_material(d)).transpose()?;
     let black = ctx.add_material(&MaterialDesc::default())?;
     // An n × n grid o + s·u + t·v with normal u × v.
     let quad = |o: [f64; 3],
@@ -315,7 +326,16 @@ pub fn grey_room(ctx: &mut Context, n: usize) -> Result<GreyRoom> {
     quad(y, x, z, n, &mut p, &mut t); // y = 1, −y
     quad([0.0; 3], y, z, n, &mut p, &mut t); // x = 0, +x
     quad(x, z, y, n, &mut p, &mut t); // x = 1, −x
-    let walls = ctx.add_mesh(&MeshDesc::new(&p, &t, grey))?;
+                                      // The floor is the first n² cells (2n² triangles).
+    let parts: Option<Vec<u32>> = floor_m.map(|f| {
+        (0..t.len() / 3)
+            .map(|i| if i < 2 * n * n { f } else { grey })
+            .collect()
+    });
+    let walls = ctx.add_mesh(&MeshDesc {
+        triangle_materials: parts.as_deref(),
+        ..MeshDesc::new(&p, &t, grey)
+    })?;
     let (a, b, h) = (0.4, 0.6, GREY_ROOM_EMITTER_Z);
     let (mut lp, mut lt) = (Vec::new(), Vec::new());
     quad(

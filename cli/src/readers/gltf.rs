@@ -376,6 +376,8 @@ fn load_checked(path: &Path, diag: &mut Diagnostics) -> Result<Model, String> {
             alpha: rough.clamp(0.0, 1.0).powi(2),
             metallic: metal,
         };
+        // A smooth one (α < 0.01): its metallic share a mirror, the rest diffuse.
+        let mirror = if gloss.alpha < 0.01 { metal } else { 0.0 };
         let strength = m.emissive_strength().unwrap_or(1.0) as f64;
         let ke = m.emissive_factor().map(|x| x as f64 * strength);
         let label = m
@@ -385,7 +387,8 @@ fn load_checked(path: &Path, diag: &mut Diagnostics) -> Result<Model, String> {
         model.materials.push(Mtl {
             name: label,
             at: (path.to_path_buf(), 0),
-            kd: Some(base),
+            kd: Some(base.map(|c| c * (1.0 - mirror))),
+            ks: (mirror > 0.0).then(|| base.map(|c| c * mirror)),
             ke: ke.iter().any(|&x| x > 0.0).then_some(ke),
             gloss: Some(gloss),
             texture,

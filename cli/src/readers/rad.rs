@@ -20,7 +20,7 @@
 //!   that index whose internal transmittance at normal incidence is tn: the same Fresnel
 //!   reflections, path lengths at oblique incidence and inter-reflections.
 //!
-//! A rough `plastic` or `metal` (roughness > 0 and spec > 0) is a microfacet surface
+//! A rough `plastic` or `metal` (roughness ≥ 0.01 and spec > 0) is a microfacet surface
 //! (`model::Gloss`, GGX α = Radiance's rms slope): plastic its colour under a coat whose
 //! reflectance at normal incidence is `spec`, metal a conductor whose reflectance at normal
 //! incidence is the colour. A rough `trans`'s specular part stays a mirror, said once per
@@ -375,7 +375,8 @@ impl Reader<'_> {
                 } else {
                     [spec; 3]
                 });
-                if spec > 0.0 && rough > 0.0 {
+                // (Below α = 0.01 the ideal mapping above stands: a mirror.)
+                if spec > 0.0 && rough >= 0.01 {
                     if p.kind == "metal" {
                         m.kd = Some(c);
                     }
