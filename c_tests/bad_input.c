@@ -155,6 +155,35 @@ int main(void) {
     expect("conductor with a diffuse reflectance", imap_add_material(ctx, &rough, &id), IMAP_ERR_BAD_MATERIAL, ctx);
     rough.diffuse_reflectance = NULL, rough.diffuse_reflectance_count = 0, rough.ior_model = IMAP_IOR_NONE;
     expect("conductor (valid)", imap_add_material(ctx, &rough, &id), IMAP_OK, ctx);
+    double recip = -1, alb = -1;
+    expect("table check of a conductor", imap_get_table_check(ctx, id, &recip, &alb), IMAP_ERR_INVALID_ARGUMENT, ctx);
+
+    /* Measured tables: 3 incident and 4 outgoing polar angles, 6 outgoing azimuths. */
+    double lambert_table[3 * 4 * 6];
+    for (int i = 0; i < 3 * 4 * 6; i++) lambert_table[i] = 0.5 / 3.14159265358979;
+    ImapMaterial tab;
+    imap_material_default(&tab, sizeof tab);
+    tab.surface = IMAP_SURFACE_TABLE;
+    tab.table_theta_in_count = 3, tab.table_phi_in_count = 1, tab.table_theta_out_count = 4;
+    tab.table_phi_out_count = 6, tab.table_brdf = lambert_table, tab.table_brdf_count = 3 * 4 * 6 - 1;
+    expect("table of the wrong size", imap_add_material(ctx, &tab, &id), IMAP_ERR_INVALID_ARGUMENT, ctx);
+    tab.table_brdf_count = 3 * 4 * 6;
+    lambert_table[5] = NAN;
+    expect("table holding a NaN", imap_add_material(ctx, &tab, &id), IMAP_ERR_NON_FINITE, ctx);
+    /* f = 1/sr at normal incidence: albedo π. */
+    for (int i = 0; i < 4 * 6; i++) lambert_table[i] = 1.0;
+    expect("table reflecting more than it receives", imap_add_material(ctx, &tab, &id), IMAP_ERR_BAD_MATERIAL, ctx);
+    for (int i = 0; i < 4 * 6; i++) lambert_table[i] = 0.5 / 3.14159265358979;
+    tab.roughness[0] = 0.2;
+    expect("table with a roughness", imap_add_material(ctx, &tab, &id), IMAP_ERR_BAD_MATERIAL, ctx);
+    tab.roughness[0] = 0;
+    expect("table (valid)", imap_add_material(ctx, &tab, &id), IMAP_OK, ctx);
+    expect("table check", imap_get_table_check(ctx, id, &recip, &alb), IMAP_OK, ctx);
+    if (!(recip < 1e-12 && alb > 0.49 && alb < 0.51)) {
+        fprintf(stderr, "FAIL: Lambertian table check: reciprocity %g, albedo %g\n", recip, alb);
+        failures++;
+    }
+    expect("table check of material 999", imap_get_table_check(ctx, 999, &recip, &alb), IMAP_ERR_INDEX_OUT_OF_RANGE, ctx);
 
     /* Meshes. */
     ImapMesh mesh = square_mesh(m_grey);

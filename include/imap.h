@@ -484,6 +484,26 @@
 #define IMAP_SURFACE_PLASTIC 3
 
 /**
+ * `ImapMaterial::surface`: a measured BRDF (and optionally BTDF) table, per band, over
+ * incident and outgoing directions (`table_*` fields). Grid: polar angles θ_j = 90° ·
+ * j / (count − 1) from the normal (both ends included), azimuths φ_k = 360° · k / count
+ * from the tangent (periodic). Values f in 1/sr at the grid's points, laid out as
+ * `[band][θi][φi][θo][φo]` (row-major: φo varies fastest); one band's values stand for
+ * every band. `table_phi_in_count` = 1 makes an isotropic (3-D) table whose φo is the
+ * azimuth relative to the incident one; more makes it anisotropic (4-D), both azimuths
+ * from `tangent`. A BTDF's θo is measured from the other side's normal. Values are read
+ * linearly in θi and φi and bilinearly in (θo, φo); photons, gathering paths and eye paths
+ * draw directions by the table (each incident row's outgoing cells ∝ value × ∫cos dω), so a
+ * narrow lobe costs no more than a broad one. The same table serves both sides of the
+ * surface. Checked on input: a NaN (IMAP_ERR_NON_FINITE), a negative value or a
+ * directional albedo above 1.01 at any incident grid direction and band
+ * (IMAP_ERR_BAD_MATERIAL, naming the direction) are refused; the worst reciprocity
+ * difference is kept for `imap_get_table_check`. The three coefficients, `ior_model`,
+ * `absorption_per_m` and `roughness` must be 0/NONE. (Since 0.2.3.)
+ */
+#define IMAP_SURFACE_TABLE 4
+
+/**
  * `ImapMaterial::metal`: the conductor's index is `conductor_nk`.
  */
 #define IMAP_METAL_CUSTOM 0
@@ -1637,6 +1657,25 @@ typedef struct ImapMaterial {
    */
   const double *conductor_nk;
   size_t conductor_nk_count;
+  /**
+   * IMAP_SURFACE_TABLE: the grid's polar angles of incidence (at least 2), azimuths of
+   * incidence (1: isotropic), outgoing polar angles (at least 2) and outgoing azimuths.
+   * (Since 0.2.3.)
+   */
+  uint32_t table_theta_in_count;
+  uint32_t table_phi_in_count;
+  uint32_t table_theta_out_count;
+  uint32_t table_phi_out_count;
+  /**
+   * The BRDF's values (see IMAP_SURFACE_TABLE), 1/sr. (Since 0.2.3.)
+   */
+  const double *table_brdf;
+  size_t table_brdf_count;
+  /**
+   * The BTDF's values, or NULL/0 for an opaque surface. (Since 0.2.3.)
+   */
+  const double *table_btdf;
+  size_t table_btdf_count;
 } ImapMaterial;
 
 /**
@@ -2436,6 +2475,20 @@ enum ImapStatus imap_mesh_default(struct ImapMesh *out, size_t size);
  * counts of values; `out_id` points to writable storage.
  */
 enum ImapStatus imap_add_material(struct ImapContext *ctx, const struct ImapMaterial *material, uint32_t *out_id);
+
+/**
+ * What checking measured table material `material` (IMAP_SURFACE_TABLE) found:
+ * `*worst_reciprocity` receives the largest |f(a, b) − f(b, a)| over their mean at the
+ * grid's directions (0 for a reciprocal BRDF; measured tables differ by their noise), and
+ * `*worst_albedo` the largest directional albedo (reflected plus transmitted) at an
+ * incident grid direction. Either pointer may be NULL. Returns IMAP_ERR_NULL_POINTER (ctx),
+ * IMAP_ERR_INDEX_OUT_OF_RANGE (no such material), IMAP_ERR_INVALID_ARGUMENT (not a table).
+ * (Since 0.2.3.)
+ *
+ * # Safety
+ * `ctx` is a live handle; the out pointers are NULL or point to writable doubles.
+ */
+enum ImapStatus imap_get_table_check(const struct ImapContext *ctx, uint32_t material, double *worst_reciprocity, double *worst_albedo);
 
 /**
  * Adds a triangle mesh; `*out_id` receives its id (0, 1, ... in order). The arrays are

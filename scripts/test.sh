@@ -80,4 +80,7 @@ PKG_CONFIG_PATH="$TMP/prefix/lib/pkgconfig" cc -std=c11 -Wall -Wextra -Wpedantic
   -o "$TMP/examples/bad_input_pkgconfig"
 "$TMP/examples/bad_input_pkgconfig" >/dev/null
 echo "pkg-config build of bad_input: ok"
-ctest --test-dir "$TMP/examples" --output-on-failure
+# Every example is built against the relocated package; the long physics runs
+# (luminaire_room, the renders) passed above on the same sources, so the installed tree runs
+# the quick ones: linking and running against the package is what is checked here.
+ctest --test-dir "$TMP/examples" --output-on-failure -E 'luminaire_room|render_cornell'

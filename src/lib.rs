@@ -71,6 +71,7 @@ pub use scene::light::{
 };
 pub use scene::{
     ConductorIndex, IorModel, LayerRequest, MaterialDesc, MeshDesc, Metal, SurfaceModel,
+    TableCheck, TableDesc,
 };
 pub use solar::{sun_position, sun_position_with, SunTime, STANDARD_ATMOSPHERE};
 pub use spectral::Bands;

@@ -490,6 +490,25 @@ impl Context {
         Ok(self.scene.materials.len() as u32 - 1)
     }
 
+    /// What checking measured table material `material` found: its worst reciprocity
+    /// difference and its largest directional albedo.
+    pub fn table_check(&self, material: u32) -> Result<crate::scene::TableCheck> {
+        let Some(m) = self.scene.materials.get(material as usize) else {
+            bail!(
+                ImapErrIndexOutOfRange,
+                "material {material} does not exist ({} materials)",
+                self.scene.materials.len()
+            );
+        };
+        match &m.glossy {
+            Some(crate::scene::microfacet::Glossy::Table(t)) => Ok(t.check),
+            _ => bail!(
+                ImapErrInvalidArgument,
+                "material {material} is not a measured table (IMAP_SURFACE_TABLE)"
+            ),
+        }
+    }
+
     /// Bytes a run's buffers take on `threads` threads with the configured scheduler.
     fn run_transient(&self, threads: usize) -> u64 {
         let nb = self.bands();

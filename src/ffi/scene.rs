@@ -6,7 +6,9 @@ use super::{
 };
 use crate::context::Context;
 use crate::error::{bail, ImapStatus, Result};
-use crate::scene::{ConductorIndex, IorModel, MaterialDesc, MeshDesc, Metal, SurfaceModel};
+use crate::scene::{
+    ConductorIndex, IorModel, MaterialDesc, MeshDesc, Metal, SurfaceModel, TableDesc,
+};
 
 /// `ImapMaterial::ior_model`: not a dielectric.
 pub const IMAP_IOR_NONE: u32 = 0;
@@ -37,6 +39,24 @@ pub const IMAP_SURFACE_ROUGH_DIELECTRIC: u32 = 2;
 /// "plastic", paint, a semi-gloss floor. Light the coat does not reflect reaches the base and
 /// bounces between base and coat; a white base reflects everything at every roughness.
 pub const IMAP_SURFACE_PLASTIC: u32 = 3;
+
+/// `ImapMaterial::surface`: a measured BRDF (and optionally BTDF) table, per band, over
+/// incident and outgoing directions (`table_*` fields). Grid: polar angles θ_j = 90° ·
+/// j / (count − 1) from the normal (both ends included), azimuths φ_k = 360° · k / count
+/// from the tangent (periodic). Values f in 1/sr at the grid's points, laid out as
+/// `[band][θi][φi][θo][φo]` (row-major: φo varies fastest); one band's values stand for
+/// every band. `table_phi_in_count` = 1 makes an isotropic (3-D) table whose φo is the
+/// azimuth relative to the incident one; more makes it anisotropic (4-D), both azimuths
+/// from `tangent`. A BTDF's θo is measured from the other side's normal. Values are read
+/// linearly in θi and φi and bilinearly in (θo, φo); photons, gathering paths and eye paths
+/// draw directions by the table (each incident row's outgoing cells ∝ value × ∫cos dω), so a
+/// narrow lobe costs no more than a broad one. The same table serves both sides of the
+/// surface. Checked on input: a NaN (IMAP_ERR_NON_FINITE), a negative value or a
+/// directional albedo above 1.01 at any incident grid direction and band
+/// (IMAP_ERR_BAD_MATERIAL, naming the direction) are refused; the worst reciprocity
+/// difference is kept for `imap_get_table_check`. The three coefficients, `ior_model`,
+/// `absorption_per_m` and `roughness` must be 0/NONE. (Since 0.2.3.)
+pub const IMAP_SURFACE_TABLE: u32 = 4;
 
 /// `ImapMaterial::metal`: the conductor's index is `conductor_nk`.
 pub const IMAP_METAL_CUSTOM: u32 = 0;
@@ -119,6 +139,19 @@ pub struct ImapMaterial {
     /// (Since 0.2.3.)
     pub conductor_nk: *const f64,
     pub conductor_nk_count: usize,
+    /// IMAP_SURFACE_TABLE: the grid's polar angles of incidence (at least 2), azimuths of
+    /// incidence (1: isotropic), outgoing polar angles (at least 2) and outgoing azimuths.
+    /// (Since 0.2.3.)
+    pub table_theta_in_count: u32,
+    pub table_phi_in_count: u32,
+    pub table_theta_out_count: u32,
+    pub table_phi_out_count: u32,
+    /// The BRDF's values (see IMAP_SURFACE_TABLE), 1/sr. (Since 0.2.3.)
+    pub table_brdf: *const f64,
+    pub table_brdf_count: usize,
+    /// The BTDF's values, or NULL/0 for an opaque surface. (Since 0.2.3.)
+    pub table_btdf: *const f64,
+    pub table_btdf_count: usize,
 }
 
 // SAFETY: repr(C), u32 struct_size first, numbers and raw pointers only.
@@ -144,6 +177,14 @@ unsafe impl Versioned for ImapMaterial {
             tangent: [0.0; 3],
             conductor_nk: std::ptr::null(),
             conductor_nk_count: 0,
+            table_theta_in_count: 0,
+            table_phi_in_count: 0,
+            table_theta_out_count: 0,
+            table_phi_out_count: 0,
+            table_brdf: std::ptr::null(),
+            table_brdf_count: 0,
+            table_btdf: std::ptr::null(),
+            table_btdf_count: 0,
         }
     }
 }
@@ -337,14 +378,28 @@ pub unsafe extern "C" fn imap_add_material(
                 }),
                 IMAP_SURFACE_ROUGH_DIELECTRIC => SurfaceModel::RoughDielectric,
                 IMAP_SURFACE_PLASTIC => SurfaceModel::Plastic,
+                IMAP_SURFACE_TABLE => SurfaceModel::Table(TableDesc {
+                    theta_in: m.table_theta_in_count as usize,
+                    phi_in: m.table_phi_in_count as usize,
+                    theta_out: m.table_theta_out_count as usize,
+                    phi_out: m.table_phi_out_count as usize,
+                    brdf: per_band("material.table_brdf", m.table_brdf, m.table_brdf_count)?,
+                    btdf: per_band("material.table_btdf", m.table_btdf, m.table_btdf_count)?,
+                }),
                 other => bail!(
                     ImapErrInvalidArgument,
-                    "material.surface = {other} is not one of IMAP_SURFACE_IDEAL, _CONDUCTOR, _ROUGH_DIELECTRIC, _PLASTIC"
+                    "material.surface = {other} is not one of IMAP_SURFACE_IDEAL, _CONDUCTOR, _ROUGH_DIELECTRIC, _PLASTIC, _TABLE"
                 ),
             },
             roughness: m.roughness,
             tangent: (m.tangent != [0.0; 3]).then_some(m.tangent),
         };
+        if m.surface != IMAP_SURFACE_TABLE && (m.table_brdf_count != 0 || m.table_btdf_count != 0) {
+            bail!(
+                ImapErrBadMaterial,
+                "material.table_brdf / table_btdf are given but material.surface is not IMAP_SURFACE_TABLE"
+            );
+        }
         if m.surface != IMAP_SURFACE_CONDUCTOR && (m.metal != 0 || m.conductor_nk_count != 0) {
             bail!(
                 ImapErrBadMaterial,
@@ -352,6 +407,39 @@ pub unsafe extern "C" fn imap_add_material(
             );
         }
         c.add_material(&desc)
+    })
+}
+
+/// What checking measured table material `material` (IMAP_SURFACE_TABLE) found:
+/// `*worst_reciprocity` receives the largest |f(a, b) − f(b, a)| over their mean at the
+/// grid's directions (0 for a reciprocal BRDF; measured tables differ by their noise), and
+/// `*worst_albedo` the largest directional albedo (reflected plus transmitted) at an
+/// incident grid direction. Either pointer may be NULL. Returns IMAP_ERR_NULL_POINTER (ctx),
+/// IMAP_ERR_INDEX_OUT_OF_RANGE (no such material), IMAP_ERR_INVALID_ARGUMENT (not a table).
+/// (Since 0.2.3.)
+///
+/// # Safety
+/// `ctx` is a live handle; the out pointers are NULL or point to writable doubles.
+#[no_mangle]
+pub unsafe extern "C" fn imap_get_table_check(
+    ctx: *const ImapContext,
+    material: u32,
+    worst_reciprocity: *mut f64,
+    worst_albedo: *mut f64,
+) -> ImapStatus {
+    with_context(ctx, |c| {
+        let check = c.table_check(material)?;
+        if !worst_reciprocity.is_null() {
+            write_out(
+                "worst_reciprocity",
+                worst_reciprocity,
+                check.worst_reciprocity,
+            )?;
+        }
+        if !worst_albedo.is_null() {
+            write_out("worst_albedo", worst_albedo, check.worst_albedo)?;
+        }
+        Ok(())
     })
 }
 

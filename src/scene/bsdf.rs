@@ -129,16 +129,13 @@ impl<'a> Bsdf<'a> {
     }
 
     /// Whether the map's gathering paths take light samples here and a photon's first
-    /// event here counts as gathered: diffuse lobes, and glossy surfaces with every α at
-    /// least `GATHER_MIN_ALPHA` (a sharper lobe makes light samples spiky: photons bring
-    /// its light, as a mirror's).
+    /// event here counts as gathered: diffuse lobes, and glossy reflectors with every α at
+    /// least `GATHER_MIN_ALPHA` (tables: peaking at most `TABLE_GATHER_PEAK`; a sharper lobe
+    /// makes light samples spiky: photons bring its light, as a mirror's).
     #[inline]
     pub fn gathers(&self) -> bool {
         match self.glossy() {
-            Some(g) => {
-                let r = g.roughness();
-                !g.transmits() && r.ax.min(r.ay) >= GATHER_MIN_ALPHA
-            }
+            Some(g) => !g.transmits() && !g.sharper_than(GATHER_MIN_ALPHA),
             None => self.is_diffuse(),
         }
     }

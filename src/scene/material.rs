@@ -7,6 +7,7 @@
 //! or Sellmeier) and Beer–Lambert absorption inside; it reflects or refracts by Fresnel.
 
 use super::microfacet::{Glossy, Roughness};
+use super::table::{BsdfTable, TableDesc};
 use crate::error::{bail, check_finite, Result};
 use crate::spectral::Bands;
 use glam::DVec3;
@@ -25,6 +26,8 @@ pub enum SurfaceModel {
     /// A Lambertian base (`diffuse_reflect`) under a rough dielectric coat of constant
     /// index (`ior`).
     Plastic,
+    /// A measured BRDF (and BTDF) table (`scene::table`).
+    Table(TableDesc),
 }
 
 /// A conductor's complex index.
@@ -255,9 +258,46 @@ impl Material {
         })
     }
 
-    /// A microfacet surface's description.
+    /// A microfacet surface's (or a measured table's) description.
     fn microfacet(desc: &MaterialDesc, bands: &Bands) -> Result<Self> {
         let nb = bands.count();
+        let tangent = match desc.tangent {
+            None => None,
+            Some(t) => {
+                check_finite("tangent", &t)?;
+                let v = DVec3::from(t);
+                if v.length() <= 0.0 {
+                    bail!(ImapErrBadMaterial, "tangent = {t:?} has no direction");
+                }
+                Some(v.normalize())
+            }
+        };
+        if let SurfaceModel::Table(t) = &desc.surface {
+            let given = [
+                ("diffuse_reflectance", desc.diffuse_reflect.is_empty()),
+                ("specular_reflectance", desc.specular_reflect.is_empty()),
+                ("diffuse_transmittance", desc.diffuse_transmit.is_empty()),
+                ("absorption", desc.absorption_per_m.is_empty()),
+                ("ior_model", desc.ior.is_none()),
+                ("roughness", desc.roughness == [0.0, 0.0]),
+            ];
+            if let Some((name, _)) = given.iter().find(|g| !g.1) {
+                bail!(
+                    ImapErrBadMaterial,
+                    "{name} is given but a measured table takes none (its values are the surface)"
+                );
+            }
+            let table = BsdfTable::new(t, nb, "table")?;
+            return Ok(Material {
+                diffuse_reflect: vec![0.0; nb],
+                specular_reflect: vec![0.0; nb],
+                diffuse_transmit: vec![0.0; nb],
+                dielectric: None,
+                events: [false; 3],
+                glossy: Some(Glossy::Table(std::sync::Arc::new(table))),
+                tangent,
+            });
+        }
         let [ax, ay] = desc.roughness;
         for (name, a) in [("roughness[0]", ax), ("roughness[1]", ay)] {
             if !a.is_finite() {
@@ -273,17 +313,6 @@ impl Material {
         let rough = Roughness {
             ax,
             ay: if ay == 0.0 { ax } else { ay },
-        };
-        let tangent = match desc.tangent {
-            None => None,
-            Some(t) => {
-                check_finite("tangent", &t)?;
-                let v = DVec3::from(t);
-                if v.length() <= 0.0 {
-                    bail!(ImapErrBadMaterial, "tangent = {t:?} has no direction");
-                }
-                Some(v.normalize())
-            }
         };
         let zero = |name: &str, v: &[f64]| -> Result<()> {
             if v.iter().any(|&x| x != 0.0) {
@@ -303,7 +332,9 @@ impl Material {
         zero("diffuse_transmittance", &desc.diffuse_transmit)?;
         let mut dielectric = None;
         let glossy = match &desc.surface {
-            SurfaceModel::Ideal => unreachable!("ideal surfaces are read by `ideal`"),
+            SurfaceModel::Ideal | SurfaceModel::Table(_) => {
+                unreachable!("ideal surfaces and tables are read above")
+            }
             SurfaceModel::Conductor(index) => {
                 zero("diffuse_reflectance", &desc.diffuse_reflect)?;
                 zero("absorption", &desc.absorption_per_m)?;

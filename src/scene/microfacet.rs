@@ -21,9 +21,10 @@
 //! cancels on the way out of a closed one, as for the smooth dielectric).
 
 use super::material::fresnel_dielectric;
+use super::table::BsdfTable;
 use glam::DVec3;
 use std::f64::consts::PI;
-use std::sync::OnceLock;
+use std::sync::{Arc, OnceLock};
 
 /// The GGX roughness α along the tangent and the bitangent (α = 0.01 is nearly a mirror,
 /// α = 1 very rough; Mitsuba's and pbrt's `alpha`, the square of glTF's
@@ -309,7 +310,13 @@ pub enum Glossy {
         base: Vec<f64>,
         base_factor: Vec<f64>,
     },
+    /// A measured table (`scene::table`).
+    Table(Arc<BsdfTable>),
 }
+
+/// The largest value (1/sr) of a measured table whose light the map's gathering paths
+/// sample: about a GGX lobe's peak at α = 0.1 (`bsdf::GATHER_MIN_ALPHA`).
+pub const TABLE_GATHER_PEAK: f64 = 8.0;
 
 /// A direction drawn from a glossy surface (`Glossy::sample`).
 #[derive(Clone, Copy, Debug)]
@@ -366,20 +373,26 @@ impl Glossy {
         }
     }
 
-    /// The roughness.
+    /// Whether its lobes are sharper than the map's gathering paths take light samples at:
+    /// an α below `min_alpha`, or a table peaking above `TABLE_GATHER_PEAK`.
     #[inline]
-    pub fn roughness(&self) -> Roughness {
+    pub fn sharper_than(&self, min_alpha: f64) -> bool {
         match self {
             Glossy::Conductor { rough, .. }
             | Glossy::Dielectric { rough, .. }
-            | Glossy::Plastic { rough, .. } => *rough,
+            | Glossy::Plastic { rough, .. } => rough.ax.min(rough.ay) < min_alpha,
+            Glossy::Table(t) => t.peak > TABLE_GATHER_PEAK,
         }
     }
 
     /// Whether light can leave on the other side.
     #[inline]
     pub fn transmits(&self) -> bool {
-        matches!(self, Glossy::Dielectric { .. })
+        match self {
+            Glossy::Dielectric { .. } => true,
+            Glossy::Table(t) => t.transmits(),
+            _ => false,
+        }
     }
 
     /// Whether the dielectric's index differs between bands (a photon then collapses to
@@ -439,11 +452,15 @@ impl Glossy {
     /// f(wo → wi) per band into `out` (1/sr; the photon's kernel, module docs); `band`
     /// picks the dielectric's index, `front` whether `wo` is outside it.
     pub fn eval(&self, wo: DVec3, wi: DVec3, band: usize, front: bool, out: &mut [f64]) {
+        if let Glossy::Table(t) = self {
+            return t.eval(wo, wi, out);
+        }
         out.iter_mut().for_each(|x| *x = 0.0);
         if wo.z <= 0.0 {
             return;
         }
         match self {
+            Glossy::Table(_) => unreachable!("read above"),
             Glossy::Conductor {
                 rough,
                 eta,
@@ -523,6 +540,7 @@ impl Glossy {
             return 0.0;
         }
         match self {
+            Glossy::Table(t) => t.pdf(wo, wi),
             Glossy::Conductor { rough, white, .. } => {
                 if wi.z <= 0.0 {
                     return 0.0;
@@ -572,6 +590,11 @@ impl Glossy {
         // Whether the draw sends light through (a dielectric's refraction).
         let mut through = false;
         let wi = match self {
+            Glossy::Table(t) => {
+                let wi = t.sample(wo, u)?;
+                through = wi.z < 0.0;
+                wi
+            }
             Glossy::Conductor { rough, white, .. } => {
                 let (p_ms, _, _) = Self::conductor_split(*rough, white, wo);
                 if u[0] < p_ms {

@@ -10,6 +10,7 @@ mod metals;
 pub mod microfacet;
 mod prepared;
 mod prepared_mesh;
+pub mod table;
 
 pub use crate::spectral::Bands;
 pub use emitter::{Emitter, Extent, LightSample, Receiver};
@@ -18,6 +19,7 @@ pub use material::{ConductorIndex, IorModel, Material, MaterialDesc, Metal, Surf
 pub use mesh::{Mesh, MeshDesc};
 pub use prepared::PreparedScene;
 pub use prepared_mesh::PreparedMesh;
+pub use table::{TableCheck, TableDesc};
 
 /// Everything the caller has described.
 #[derive(Clone, Debug)]
