@@ -154,6 +154,11 @@ int main(void) {
     rough.surface = IMAP_SURFACE_CONDUCTOR, rough.metal = IMAP_METAL_ALUMINIUM;
     expect("conductor with a diffuse reflectance", imap_add_material(ctx, &rough, &id), IMAP_ERR_BAD_MATERIAL, ctx);
     rough.diffuse_reflectance = NULL, rough.diffuse_reflectance_count = 0, rough.ior_model = IMAP_IOR_NONE;
+    rough.flags = 2;
+    expect("unknown material flag", imap_add_material(ctx, &rough, &id), IMAP_ERR_INVALID_ARGUMENT, ctx);
+    rough.flags = IMAP_MATERIAL_SINGLE_SCATTERING;
+    expect("conductor, single scattering (valid)", imap_add_material(ctx, &rough, &id), IMAP_OK, ctx);
+    rough.flags = 0;
     expect("conductor (valid)", imap_add_material(ctx, &rough, &id), IMAP_OK, ctx);
     double recip = -1, alb = -1;
     expect("table check of a conductor", imap_get_table_check(ctx, id, &recip, &alb), IMAP_ERR_INVALID_ARGUMENT, ctx);

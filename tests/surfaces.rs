@@ -688,3 +688,89 @@ fn a_phong_table_gives_the_lobes_map() {
         "{measured} vs {expected}"
     );
 }
+
+/// Against Mitsuba 3 (`scripts/mitsuba_scenes.py`, tests/data/mitsuba_scenes.txt): the
+/// irradiance a black receiver gets from a rectangular emitter's light sent up by a
+/// Lambertian floor (the control), a rough conductor floor (single scattering, as
+/// Mitsuba's `roughconductor`), and through a frosted slab from a white ground under it.
+#[test]
+fn rough_surfaces_agree_with_mitsuba() {
+    let text = include_str!("data/mitsuba_scenes.txt");
+    let l = 10.0;
+    for line in text.lines().filter(|l| !l.starts_with('#')) {
+        let w: Vec<&str> = line.split_whitespace().collect();
+        let (kind, mi, mi_se): (&str, f64, f64) =
+            (w[0], w[1].parse().unwrap(), w[2].parse().unwrap());
+        let mut ctx = context(seeded(61));
+        let black = lambert(&mut ctx, 0.0);
+        let floor_m = if kind == "lambert" {
+            lambert(&mut ctx, 0.5)
+        } else if kind == "conductor" {
+            // Single scattering, as Mitsuba's roughconductor.
+            ctx.add_material(&MaterialDesc {
+                surface: SurfaceModel::Conductor(ConductorIndex::Table(vec![
+                    [300.0, 1.2, 7.0],
+                    [900.0, 1.2, 7.0],
+                ])),
+                roughness: [0.15, 0.0],
+                single_scattering: true,
+                ..Default::default()
+            })
+            .unwrap()
+        } else {
+            ctx.add_material(&MaterialDesc {
+                surface: SurfaceModel::RoughDielectric,
+                ior: Some(IorModel::Constant(1.5)),
+                roughness: [0.15, 0.0],
+                ..Default::default()
+            })
+            .unwrap()
+        };
+        if kind != "dielectric" {
+            let floor = grid(2, -3.0, 3.0, -3.0, 3.0, 0.0);
+            let mut fd = floor.desc(floor_m);
+            fd.record = false;
+            ctx.add_mesh(&fd).unwrap();
+        } else {
+            let slab = cuboid([-3.0, -3.0, -0.1], [3.0, 3.0, 0.0], 1, false);
+            let mut sd = slab.desc(floor_m);
+            sd.record = false;
+            ctx.add_mesh(&sd).unwrap();
+            let white = lambert(&mut ctx, 0.8);
+            let ground = grid(2, -3.0, 3.0, -3.0, 3.0, -0.12);
+            let mut gd = ground.desc(white);
+            gd.record = false;
+            ctx.add_mesh(&gd).unwrap();
+        }
+        let lamp = grid(1, -1.1, -0.1, -0.5, 0.5, 1.0).flipped();
+        let mut ld = lamp.desc(black);
+        ld.record = false;
+        let exitance = [PI * l];
+        ld.exitance = Some(&exitance);
+        ctx.add_mesh(&ld).unwrap();
+        let receiver = grid(2, 0.4, 0.8, -0.2, 0.2, 1.0).flipped();
+        let mut rd = receiver.desc(black);
+        rd.tally = true;
+        let id = ctx.add_mesh(&rd).unwrap();
+        run_with(&mut ctx, photons(2_000_000), Estimator::Photons);
+        let stats = ctx.region_stats(id, 0, None).unwrap();
+        let e = stats.average_w_m2[0];
+        let sigma = (e.sigma * e.sigma + mi_se * mi_se).sqrt();
+        eprintln!(
+            "{kind}: libimap {:.5} ± {:.5} W/m², Mitsuba {mi:.5} ± {mi_se:.5}, ratio {:.4}",
+            e.value,
+            e.sigma,
+            e.value / mi
+        );
+        // The frosted slab reads 2.5 % above Mitsuba (1.0245 ± 0.0037 with 20 M photons):
+        // Mitsuba's separable masking loses more at the oblique crossings (docs/materials.md
+        // has the single crossings side by side); the rest agree to their errors (Lambert
+        // 0.9999 ± 0.0035, the single-scattering conductor 1.0014 ± 0.0029).
+        let systematic = if kind == "dielectric" { 0.035 } else { 0.005 };
+        assert!(
+            (e.value - mi).abs() < 4.0 * sigma + systematic * mi,
+            "{kind}: {} vs Mitsuba {mi}",
+            e.value
+        );
+    }
+}

@@ -144,11 +144,21 @@ pub struct MaterialDesc {
     pub roughness: [f64; 2],
     /// The tangent direction of anisotropic roughness (world), or None (any).
     pub tangent: Option<[f64; 3]>,
+    /// A conductor without its multiple-scattering lobe: single scattering only, as
+    /// Mitsuba 3's `roughconductor` and most renderers compute it (it then loses energy at
+    /// high roughness: 3 % at α 0.15, docs/materials.md). For comparisons.
+    pub single_scattering: bool,
 }
 
 impl Material {
     /// Validates a description against the band layout.
     pub fn new(desc: &MaterialDesc, bands: &Bands) -> Result<Self> {
+        if desc.single_scattering && !matches!(desc.surface, SurfaceModel::Conductor(_)) {
+            bail!(
+                ImapErrBadMaterial,
+                "single scattering is a conductor's option: this surface has no multiple-scattering lobe to leave out"
+            );
+        }
         if desc.surface != SurfaceModel::Ideal {
             return Self::microfacet(desc, bands);
         }
@@ -345,7 +355,7 @@ impl Material {
                     );
                 }
                 let (eta, k) = conductor_index(index, bands)?;
-                Glossy::conductor(rough, eta, k)
+                Glossy::conductor_with(rough, eta, k, !desc.single_scattering)
             }
             SurfaceModel::RoughDielectric => {
                 zero("diffuse_reflectance", &desc.diffuse_reflect)?;

@@ -296,6 +296,8 @@ pub enum Glossy {
         /// The white albedo E(μ, φ) of anisotropic roughness (isotropic reads the shared
         /// tables).
         white: Option<CosineTable>,
+        /// Whether the multiple-scattering lobe gives back what single scattering loses.
+        compensate: bool,
     },
     /// A rough dielectric interface: index `ior` per band inside (the side the normals
     /// point away from), air outside.
@@ -328,8 +330,20 @@ pub struct GlossySample {
 }
 
 impl Glossy {
-    /// A rough conductor with index `eta` + i`k` per band.
+    /// A rough conductor with index `eta` + i`k` per band, its single-scattering loss given
+    /// back (the tests' shorthand).
+    #[cfg(test)]
     pub fn conductor(rough: Roughness, eta: Vec<f64>, k: Vec<f64>) -> Glossy {
+        Self::conductor_with(rough, eta, k, true)
+    }
+
+    /// A rough conductor, with or without the multiple-scattering lobe (`compensate`).
+    pub fn conductor_with(
+        rough: Roughness,
+        eta: Vec<f64>,
+        k: Vec<f64>,
+        compensate: bool,
+    ) -> Glossy {
         let f_avg = eta
             .iter()
             .zip(&k)
@@ -346,6 +360,7 @@ impl Glossy {
             k,
             f_avg,
             white,
+            compensate,
         }
     }
 
@@ -420,9 +435,18 @@ impl Glossy {
     /// The share of the conductor's sampling given to the multiple-scattering lobe at
     /// local direction `w`, with E(w) and E_avg.
     #[inline]
-    fn conductor_split(rough: Roughness, table: &Option<CosineTable>, w: DVec3) -> (f64, f64, f64) {
+    fn conductor_split(
+        rough: Roughness,
+        table: &Option<CosineTable>,
+        compensate: bool,
+        w: DVec3,
+    ) -> (f64, f64, f64) {
         let (e, avg) = Self::white_at(rough, table, w);
-        let p_ms = if avg < 1.0 - 1e-6 { 1.0 - e } else { 0.0 };
+        let p_ms = if compensate && avg < 1.0 - 1e-6 {
+            1.0 - e
+        } else {
+            0.0
+        };
         (p_ms, e, avg)
     }
 
@@ -467,6 +491,7 @@ impl Glossy {
                 k,
                 f_avg,
                 white,
+                compensate,
             } => {
                 if wi.z <= 0.0 {
                     return;
@@ -474,8 +499,8 @@ impl Glossy {
                 let h = (wo + wi).normalize();
                 let d = rough.d(h) * rough.g2(wo, wi) / (4.0 * wo.z * wi.z);
                 let c = wo.dot(h);
-                let (_, e_o, avg) = Self::conductor_split(*rough, white, wo);
-                let ms = if avg < 1.0 - 1e-6 {
+                let (_, e_o, avg) = Self::conductor_split(*rough, white, *compensate, wo);
+                let ms = if *compensate && avg < 1.0 - 1e-6 {
                     let (e_i, _) = Self::white_at(*rough, white, wi);
                     (1.0 - e_o) * (1.0 - e_i) / (PI * (1.0 - avg))
                 } else {
@@ -541,12 +566,17 @@ impl Glossy {
         }
         match self {
             Glossy::Table(t) => t.pdf(wo, wi),
-            Glossy::Conductor { rough, white, .. } => {
+            Glossy::Conductor {
+                rough,
+                white,
+                compensate,
+                ..
+            } => {
                 if wi.z <= 0.0 {
                     return 0.0;
                 }
                 let h = (wo + wi).normalize();
-                let (p_ms, _, _) = Self::conductor_split(*rough, white, wo);
+                let (p_ms, _, _) = Self::conductor_split(*rough, white, *compensate, wo);
                 (1.0 - p_ms) * rough.pdf_visible(wo, h) / (4.0 * wo.dot(h)) + p_ms * wi.z / PI
             }
             Glossy::Plastic {
@@ -595,8 +625,13 @@ impl Glossy {
                 through = wi.z < 0.0;
                 wi
             }
-            Glossy::Conductor { rough, white, .. } => {
-                let (p_ms, _, _) = Self::conductor_split(*rough, white, wo);
+            Glossy::Conductor {
+                rough,
+                white,
+                compensate,
+                ..
+            } => {
+                let (p_ms, _, _) = Self::conductor_split(*rough, white, *compensate, wo);
                 if u[0] < p_ms {
                     cosine_local(u[1], u[2])
                 } else {
