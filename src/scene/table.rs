@@ -164,17 +164,8 @@ impl BsdfTable {
                     }
                     for j in 0..to - 1 {
                         for l in 0..po {
-                            let mut band_sum = 0.0;
-                            for b in 0..bands {
-                                let c =
-                                    [(j, l), (j + 1, l), (j, (l + 1) % po), (j + 1, (l + 1) % po)];
-                                let m: f64 = c
-                                    .iter()
-                                    .map(|&(jj, ll)| side[t.index(b, i, k, jj, ll)])
-                                    .sum::<f64>()
-                                    / 4.0;
-                                band_sum += m;
-                            }
+                            let band_sum: f64 =
+                                (0..bands).map(|b| t.cell_mean(side, b, i, k, j, l)).sum();
                             weights[s * cells + j * po + l] = band_sum / bands as f64 * cosint[j];
                         }
                     }
@@ -185,14 +176,7 @@ impl BsdfTable {
                     for side in t.sides.iter().filter(|s| !s.is_empty()) {
                         for (j, ci) in cosint.iter().enumerate() {
                             for l in 0..po {
-                                let c =
-                                    [(j, l), (j + 1, l), (j, (l + 1) % po), (j + 1, (l + 1) % po)];
-                                let m: f64 = c
-                                    .iter()
-                                    .map(|&(jj, ll)| side[t.index(b, i, k, jj, ll)])
-                                    .sum::<f64>()
-                                    / 4.0;
-                                a += m * ci;
+                                a += t.cell_mean(side, b, i, k, j, l) * ci;
                             }
                         }
                     }
@@ -229,6 +213,19 @@ impl BsdfTable {
     #[inline]
     fn index(&self, b: usize, i: usize, k: usize, j: usize, l: usize) -> usize {
         (((b * self.ti + i) * self.pi + k) * self.to + j) * self.po + l
+    }
+
+    /// The mean of outgoing cell (j, l)'s four corners on `side`, band `b`, incident row
+    /// (i, k).
+    #[inline]
+    #[allow(clippy::too_many_arguments)]
+    fn cell_mean(&self, side: &[f64], b: usize, i: usize, k: usize, j: usize, l: usize) -> f64 {
+        let l1 = (l + 1) % self.po;
+        [(j, l), (j + 1, l), (j, l1), (j + 1, l1)]
+            .iter()
+            .map(|&(jj, ll)| side[self.index(b, i, k, jj, ll)])
+            .sum::<f64>()
+            / 4.0
     }
 
     /// The worst relative reciprocity difference of the BRDF at grid directions (where the

@@ -115,6 +115,24 @@ pub(crate) struct WeightedBounces {
     weights: Vec<f64>,
 }
 
+impl WeightedBounces {
+    /// A weighted bounce at `mesh`: `colour` goes on times the glossy weights held in
+    /// `weights`, and what it loses (or gains) is tallied as the mesh's absorption.
+    fn weigh(&mut self, mesh: u32, colour: &mut Colour) {
+        self.meshes.push((mesh, colour.mean()));
+        for (d, c) in self.delta.iter_mut().zip(colour.values()) {
+            *d += c;
+        }
+        colour.reweight(&self.weights, 1.0);
+        if let Some(last) = self.meshes.last_mut() {
+            last.1 -= colour.mean();
+        }
+        for (d, c) in self.delta.iter_mut().zip(colour.values()) {
+            *d -= c;
+        }
+    }
+}
+
 /// With light sampling, bounces do not end paths while the photon keeps at least this
 /// share of its energy (Russian roulette takes over below it).
 pub const WEIGHTED_BOUNCES_DOWN_TO: f64 = 0.5;
@@ -575,17 +593,7 @@ impl Tracer<'_> {
                 if weigh_bounce {
                     // The photon goes on with what the surface sends on; the rest is
                     // tallied as absorbed here.
-                    bounces.meshes.push((hit.mesh, colour.mean()));
-                    for (d, c) in bounces.delta.iter_mut().zip(colour.values()) {
-                        *d += c;
-                    }
-                    colour.reweight(w, 1.0);
-                    if let Some(last) = bounces.meshes.last_mut() {
-                        last.1 -= colour.mean();
-                    }
-                    for (d, c) in bounces.delta.iter_mut().zip(colour.values()) {
-                        *d -= c;
-                    }
+                    bounces.weigh(hit.mesh, colour);
                 } else if mean <= 1.0 {
                     if u_survive >= mean {
                         return PathEnd::Absorbed(hit.mesh);
@@ -600,17 +608,7 @@ impl Tracer<'_> {
                         bounces.delta.clear();
                         bounces.delta.resize(nb, 0.0);
                     }
-                    bounces.meshes.push((hit.mesh, colour.mean()));
-                    for (d, c) in bounces.delta.iter_mut().zip(colour.values()) {
-                        *d += c;
-                    }
-                    colour.reweight(w, 1.0);
-                    if let Some(last) = bounces.meshes.last_mut() {
-                        last.1 -= colour.mean();
-                    }
-                    for (d, c) in bounces.delta.iter_mut().zip(colour.values()) {
-                        *d -= c;
-                    }
+                    bounces.weigh(hit.mesh, colour);
                 }
                 dir = frame.to_world(sample.wi);
                 if sample.wi.z > 0.0 {
