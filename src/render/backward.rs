@@ -356,6 +356,9 @@ impl<'a> EyeTracer<'a> {
         // As in `trace`: the last glossy reflector's density, straight after it.
         let mut glossy_pdf: Option<(f64, DVec3)> = None;
         let mut glossy_scratch = Vec::new();
+        // Whether the path has left a glossy reflector: the sun through specular surfaces
+        // behind it is then the caustic photons' too (they splat at glossy reflectors).
+        let mut after_glossy = false;
         for _ in 0..self.max_events {
             stats.rays += 1;
             let Some(hit) = self.accel.intersect(org, dir) else {
@@ -363,8 +366,9 @@ impl<'a> EyeTracer<'a> {
                     // The sun through specular surfaces after a diffuse vertex is the
                     // caustic photons'; straight after a glossy reflector, its light
                     // sample's and this direction's (weighed).
-                    let no_sun =
-                        diffuse_vertices > 0 && self.sun_by_caustics && glossy_pdf.is_none();
+                    let no_sun = (diffuse_vertices > 0 || after_glossy)
+                        && self.sun_by_caustics
+                        && glossy_pdf.is_none();
                     self.add_distant_weighted(dir, beta, out, no_sun, glossy_pdf);
                 }
                 return;
@@ -394,6 +398,7 @@ impl<'a> EyeTracer<'a> {
                             Some(pdf) => {
                                 glossy_pdf = Some(pdf);
                                 counts = true;
+                                after_glossy = true;
                                 continue;
                             }
                             None => return,
@@ -515,11 +520,11 @@ impl<'a> EyeTracer<'a> {
         share / COVERAGE_RAYS as f64
     }
 
-    /// A caustic photon of colour `colour` (W per band: each value times `flux`) landing at
-    /// `z` (normal `n_in` on its side) on a surface of material `m`, seen by the camera: the
-    /// pixel that sees z and what the landing adds to its radiance — the diffuse reflection
-    /// (or transmission) toward the eye, spread over the pixel's footprint. None when the
-    /// camera does not see z.
+    /// A caustic photon of colour `colour` (W per band: each value times `flux`) arriving
+    /// along `arriving` at `z` (normal `n_in` on its side) on a surface of material `m`,
+    /// seen by the camera: the pixel that sees z and what the landing adds to its radiance —
+    /// the diffuse reflection (or transmission), or a glossy reflector's f, toward the eye,
+    /// spread over the pixel's footprint. None when the camera does not see z.
     pub(crate) fn caustic_splat(
         &self,
         z: DVec3,
@@ -527,6 +532,7 @@ impl<'a> EyeTracer<'a> {
         m: &Material,
         colour: &[f64],
         flux: f64,
+        arriving: DVec3,
     ) -> Option<(u32, Vec<f64>)> {
         let to = self.camera.origin - z;
         let dist = to.length();
@@ -536,6 +542,27 @@ impl<'a> EyeTracer<'a> {
         let dir = to / dist;
         let c = dir.dot(n_in);
         let bsdf = m.bsdf();
+        if let Some(g) = bsdf.glossy() {
+            // A glossy reflector: f (arriving → the camera) in place of k/π.
+            let frame = bsdf.frame(n_in);
+            let (wo, wi) = (frame.to_local(-arriving), frame.to_local(dir));
+            if wi.z <= 0.0 || wo.z <= 0.0 {
+                return None;
+            }
+            let (pixel, cos_c) = self.camera.project(z)?;
+            let eps = self.scene.offset_at(z);
+            if dist <= eps || self.accel.occluded(z + n_in * eps, dir, dist - eps) {
+                return None;
+            }
+            let mut f = vec![0.0; colour.len()];
+            g.eval(wo, wi, 0, true, &mut f);
+            let d_m = dist * self.unit_m;
+            let k = c / (d_m * d_m * cos_c.powi(3) * self.camera.pixel_area()) * flux;
+            return Some((
+                pixel,
+                colour.iter().zip(&f).map(|(c, f)| c * f * k).collect(),
+            ));
+        }
         let (k, n) = if c > 0.0 {
             (bsdf.albedo(Lobe::DiffuseReflection), n_in)
         } else if bsdf.has(Lobe::DiffuseTransmission) {

@@ -75,6 +75,8 @@ pub struct SurfaceEvent<'m> {
     pub material: &'m Material,
     /// Surface events before this one: 0 for the first hit after emission (direct light).
     pub bounce: u32,
+    /// The photon's direction of travel as it arrives.
+    pub dir: DVec3,
 }
 
 /// Per-thread tallies of a run; merged after the threads finish.
@@ -550,6 +552,7 @@ impl Tracer<'_> {
                         n_in,
                         material,
                         bounce: event,
+                        dir,
                     },
                     colour,
                 );

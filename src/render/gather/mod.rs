@@ -546,23 +546,35 @@ impl HitSink for CausticSink<'_> {
         }
         let m = ev.material;
         let bsdf = m.bsdf();
-        if bsdf.is_glossy() && ev.bounce == 0 {
-            // Light straight onto a glossy reflector: the eye paths' light samples there
-            // have it, and all that follows from it.
-            self.alive = false;
+        if bsdf.is_glossy() {
+            if ev.bounce == 0 {
+                // Light straight onto a glossy reflector: the eye paths' light samples
+                // there have it, and all that follows from it.
+                self.alive = false;
+                return;
+            }
+            // After a specular start: what the reflector sends to the camera (eye paths
+            // through it do not count the delta light behind the specular surfaces), and
+            // the photon goes on.
+            if let Some(s) =
+                self.eye
+                    .caustic_splat(ev.point, ev.n_in, m, colour.values(), self.flux, ev.dir)
+            {
+                self.splats.push(s);
+            }
             return;
         }
         if !bsdf.is_diffuse() {
-            // Specular or glossy after a specular start: the path goes on.
+            // Specular: the path goes on.
             return;
         }
         self.alive = false;
         if ev.bounce == 0 {
             return; // direct light: the eye paths' light samples have it
         }
-        if let Some(s) = self
-            .eye
-            .caustic_splat(ev.point, ev.n_in, m, colour.values(), self.flux)
+        if let Some(s) =
+            self.eye
+                .caustic_splat(ev.point, ev.n_in, m, colour.values(), self.flux, ev.dir)
         {
             self.splats.push(s);
         }
