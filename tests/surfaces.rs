@@ -79,11 +79,7 @@ fn white_metal() -> ConductorIndex {
 fn glossy_room(config: Config, point_lights: bool) -> (Context, Vec<u32>) {
     let mut ctx = context(config);
     let bands = ctx.config().bands.count();
-    let ramp = |a: f64, b: f64| -> Vec<f64> {
-        (0..bands)
-            .map(|i| a + (b - a) * i as f64 / (bands - 1).max(1) as f64)
-            .collect()
-    };
+    let ramp = |a: f64, b: f64| ramp(bands, a, b);
     let walls = ctx
         .add_material(&MaterialDesc {
             diffuse_reflect: ramp(0.7, 0.4),

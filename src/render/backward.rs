@@ -50,8 +50,7 @@ pub struct EyeTracer<'a> {
     lights: Vec<LightValue>,
     /// The distant sources, for paths that leave the scene (`EmitterKind::Distant`), with
     /// their emitter indices.
-    distant: Vec<Arc<DistantPart>>,
-    distant_emitters: Vec<usize>,
+    distant: Vec<(usize, Arc<DistantPart>)>,
     /// Emitter index of each mesh that emits.
     emitter_of_mesh: Vec<Option<u32>>,
     has_mesh_emitters: bool,
@@ -171,10 +170,8 @@ impl<'a> EyeTracer<'a> {
             distant: scene
                 .emitters
                 .iter()
-                .filter_map(|em| em.distant_part().cloned())
-                .collect(),
-            distant_emitters: (0..scene.emitters.len())
-                .filter(|&e| scene.emitters[e].distant_part().is_some())
+                .enumerate()
+                .filter_map(|(e, em)| em.distant_part().map(|p| (e, p.clone())))
                 .collect(),
             lights,
             emitter_of_mesh,
@@ -549,15 +546,10 @@ impl<'a> EyeTracer<'a> {
             if wi.z <= 0.0 || wo.z <= 0.0 {
                 return None;
             }
-            let (pixel, cos_c) = self.camera.project(z)?;
-            let eps = self.scene.offset_at(z);
-            if dist <= eps || self.accel.occluded(z + n_in * eps, dir, dist - eps) {
-                return None;
-            }
+            let (pixel, den) = self.splat_at(z, n_in, dir, dist)?;
             let mut f = vec![0.0; colour.len()];
             g.eval(wo, wi, 0, true, &mut f);
-            let d_m = dist * self.unit_m;
-            let k = c / (d_m * d_m * cos_c.powi(3) * self.camera.pixel_area()) * flux;
+            let k = c / den * flux;
             return Some((
                 pixel,
                 colour.iter().zip(&f).map(|(c, f)| c * f * k).collect(),
@@ -570,19 +562,28 @@ impl<'a> EyeTracer<'a> {
         } else {
             return None;
         };
+        let (pixel, den) = self.splat_at(z, n, dir, dist)?;
+        // Radiance over the pixel: (k/π) Φ cos θz / (d² cos³ θc · pixel area at unit
+        // distance), d in metres.
+        let g = c.abs() / den / PI * flux;
+        Some((
+            pixel,
+            colour.iter().zip(k).map(|(c, k)| c * k * g).collect(),
+        ))
+    }
+
+    /// The pixel that sees `z` (leaving on the side of normal `n` toward the camera along
+    /// `dir`, `dist` away) with nothing in between, and a splat's denominator there:
+    /// d² cos³ θc · the pixel's area at unit distance, d in metres.
+    #[inline]
+    fn splat_at(&self, z: DVec3, n: DVec3, dir: DVec3, dist: f64) -> Option<(u32, f64)> {
         let (pixel, cos_c) = self.camera.project(z)?;
         let eps = self.scene.offset_at(z);
         if dist <= eps || self.accel.occluded(z + n * eps, dir, dist - eps) {
             return None;
         }
-        // Radiance over the pixel: (k/π) Φ cos θz / (d² cos³ θc · pixel area at unit
-        // distance), d in metres.
         let d_m = dist * self.unit_m;
-        let g = c.abs() / (d_m * d_m * cos_c.powi(3) * self.camera.pixel_area()) / PI * flux;
-        Some((
-            pixel,
-            colour.iter().zip(k).map(|(c, k)| c * k * g).collect(),
-        ))
+        Some((pixel, d_m * d_m * cos_c.powi(3) * self.camera.pixel_area()))
     }
 
     /// Whether the map holds light for side `side` of mesh `mesh` (and the other side too
@@ -717,19 +718,16 @@ impl<'a> EyeTracer<'a> {
         let Some((pb, n)) = glossy_pdf else {
             return self.add_distant(dir, beta, out, no_sun);
         };
-        // The reflector's normal is the one the ray left: its light samples' density
-        // toward `dir` is the emitter's pick times its direction density there.
-        for (part, &e) in self.distant.iter().zip(&self.distant_emitters) {
+        // The reflector's light samples (`glossy_step`: `Receiver` n, front only) draw
+        // `dir` with the emitter's pick times its direction density.
+        let receiver = Receiver { n, p_front: 1.0 };
+        for (e, part) in &self.distant {
             let f = part.value(dir);
             if f <= 0.0 {
                 continue;
             }
-            let q = if part.is_sky() {
-                0.5 * part.pdf(dir) + 0.5 * dir.dot(n).max(0.0) / PI
-            } else {
-                part.pdf(dir)
-            };
-            let pl = self.scene.emitter_table.pdf(e) * q;
+            let q = self.scene.emitters[*e].direction_density(dir, receiver);
+            let pl = self.scene.emitter_table.pdf(*e) * q;
             let w = pb * pb / (pb * pb + pl * pl);
             for ((o, b), l) in out.iter_mut().zip(beta).zip(&part.per_band) {
                 *o += b * l * f * w;
@@ -853,12 +851,10 @@ impl<'a> EyeTracer<'a> {
 
         // The path goes on.
         let u = [rng.uniform(), rng.uniform(), rng.uniform()];
-        let s = g.sample(wo, u, 0, true)?;
-        g.eval(wo, s.wi, 0, true, f);
-        let k = s.wi.z.abs() / s.pdf;
+        let s = g.sample_weighted(wo, u, 0, true, f)?;
         let mut any = false;
-        for (b, fb) in beta.iter_mut().zip(f.iter()) {
-            *b *= fb * k;
+        for (b, w) in beta.iter_mut().zip(f.iter()) {
+            *b *= w;
             any |= *b > 0.0;
         }
         if !any {
@@ -909,7 +905,7 @@ impl<'a> EyeTracer<'a> {
     /// `add_sky`, leaving the sun's disk out when `no_sun`.
     #[inline]
     fn add_distant(&self, dir: DVec3, beta: &[f64], out: &mut [f64], no_sun: bool) {
-        for part in &self.distant {
+        for (_, part) in &self.distant {
             if no_sun && part.is_sun() {
                 continue;
             }
@@ -961,22 +957,19 @@ impl<'a> EyeTracer<'a> {
             if !g.transmits() {
                 return Step::Glossy;
             }
-            // A rough dielectric: crossed by sampling alone, as a smooth one.
+            // A rough dielectric (or a transmitting table): crossed by sampling alone, as a
+            // smooth one.
             if g.dispersive() && band.is_none() {
                 *band = Some(collapse_weights(beta, rng.uniform()));
             }
             let frame = bsdf.frame(n_in);
             let wo = frame.to_local(-*dir);
             let u = [rng.uniform(), rng.uniform(), rng.uniform()];
-            let Some(s) = g.sample(wo, u, band.unwrap_or(0), at.front) else {
+            let mut w = vec![0.0; beta.len()];
+            let Some(s) = g.sample_weighted(wo, u, band.unwrap_or(0), at.front, &mut w) else {
                 return Step::End;
             };
-            let mut w = vec![0.0; beta.len()];
-            g.eval(wo, s.wi, band.unwrap_or(0), at.front, &mut w);
-            let k = s.wi.z.abs() / s.pdf;
-            for (b, f) in beta.iter_mut().zip(&w) {
-                *b *= f * k;
-            }
+            beta.iter_mut().zip(&w).for_each(|(b, w)| *b *= w);
             *dir = frame.to_world(s.wi);
             if s.wi.z > 0.0 {
                 *org = at.p + n_in * at.eps;

@@ -476,28 +476,18 @@ impl Emitter {
             EmitterKind::Distant {
                 part, radius, norm, ..
             } => {
-                let (toward, pdf) = if part.is_sky() {
+                let toward = if part.is_sky() {
                     let n = receiver.n;
                     let favour = if pick_front() { n } else { -n };
-                    let toward = if u[0] < 0.5 {
+                    if u[0] < 0.5 {
                         part.sample([2.0 * u[0], u[1], u[2]]).0
                     } else {
                         warp::cosine_hemisphere(favour, 2.0 * u[0] - 1.0, u[1])
-                    };
-                    let cos = toward.dot(n);
-                    let p_side = if cos > 0.0 {
-                        receiver.p_front
-                    } else {
-                        1.0 - receiver.p_front
-                    };
-                    (
-                        toward,
-                        0.5 * part.pdf(toward) + 0.5 * p_side * cos.abs() / PI,
-                    )
+                    }
                 } else {
-                    let toward = part.sample(u).0;
-                    (toward, part.pdf(toward))
+                    part.sample(u).0
                 };
+                let pdf = distant_density(part, toward, receiver);
                 Some(LightSample::Direction {
                     toward,
                     pdf,
@@ -580,6 +570,13 @@ impl Emitter {
     }
 
     /// A distant source's relative radiance (None for other emitters).
+    /// The density (1/sr) with which `sample_toward` draws direction `toward` for
+    /// `receiver`: 0 for an emitter that is not distant.
+    pub fn direction_density(&self, toward: DVec3, receiver: Receiver) -> f64 {
+        self.distant_part()
+            .map_or(0.0, |part| distant_density(part, toward, receiver))
+    }
+
     pub fn distant_part(&self) -> Option<&Arc<DistantPart>> {
         match &self.kind {
             EmitterKind::Distant { part, .. } => Some(part),
@@ -602,4 +599,21 @@ impl Emitter {
     pub fn is_distant(&self) -> bool {
         matches!(self.kind, EmitterKind::Distant { .. })
     }
+}
+
+/// The density (1/sr) of a distant source's light-sample directions at a receiver: a sky
+/// draws half by its radiance and half cosine-distributed on one side (the front with
+/// probability `p_front`); the sun over its disk.
+#[inline]
+fn distant_density(part: &DistantPart, toward: DVec3, receiver: Receiver) -> f64 {
+    if !part.is_sky() {
+        return part.pdf(toward);
+    }
+    let cos = toward.dot(receiver.n);
+    let p_side = if cos > 0.0 {
+        receiver.p_front
+    } else {
+        1.0 - receiver.p_front
+    };
+    0.5 * part.pdf(toward) + 0.5 * p_side * cos.abs() / PI
 }

@@ -286,30 +286,30 @@ fn white(r: Roughness, mu: f64) -> (f64, f64) {
 /// A microfacet surface with its per-band constants.
 #[derive(Clone, Debug)]
 pub enum Glossy {
-    /// A rough conductor: complex index `eta` + i`k` per band; `f_avg` the hemispherical
-    /// average of its Fresnel reflectance per band (for the multiple-scattering lobe).
+    /// A rough conductor: complex index `eta` + i`k` per band.
     Conductor {
         rough: Roughness,
         eta: Vec<f64>,
         k: Vec<f64>,
-        f_avg: Vec<f64>,
         /// The white albedo E(μ, φ) of anisotropic roughness (isotropic reads the shared
         /// tables).
         white: Option<CosineTable>,
-        /// Whether the multiple-scattering lobe gives back what single scattering loses.
-        compensate: bool,
+        /// The multiple-scattering lobe that gives back what single scattering loses, when
+        /// there is one.
+        ms: Option<MultipleScattering>,
     },
     /// A rough dielectric interface: index `ior` per band inside (the side the normals
     /// point away from), air outside.
     Dielectric { rough: Roughness, ior: Vec<f64> },
-    /// A diffuse base of albedo `base` per band under a rough coat of index `ior`:
-    /// `coat` is the coat's directional albedo E(μ) seen from outside, `base_factor` per
-    /// band ρ / (1 − ρ F_int) / n² (the light's series between base and coat).
+    /// A diffuse base of albedo ρ per band under a rough coat of index `ior`: `coat` is
+    /// the coat's directional albedo E(μ) seen from outside, `base_factor` per band
+    /// ρ / (1 − ρ F_int) / n² (the light's series between base and coat), `base_max` the
+    /// largest ρ (for the choice between coat and base).
     Plastic {
         rough: Roughness,
         ior: f64,
         coat: CosineTable,
-        base: Vec<f64>,
+        base_max: f64,
         base_factor: Vec<f64>,
     },
     /// A measured table (`scene::table`).
@@ -319,6 +319,15 @@ pub enum Glossy {
 /// The largest value (1/sr) of a measured table whose light the map's gathering paths
 /// sample: about a GGX lobe's peak at α = 0.1 (`bsdf::GATHER_MIN_ALPHA`).
 pub const TABLE_GATHER_PEAK: f64 = 8.0;
+
+/// A conductor's Kulla–Conty lobe: the white albedo's hemispherical average E_avg and, per
+/// band, F_ms = F_avg² E_avg / (1 − F_avg (1 − E_avg)) (F_avg the Fresnel reflectance's
+/// hemispherical average).
+#[derive(Clone, Debug)]
+pub struct MultipleScattering {
+    e_avg: f64,
+    f_ms: Vec<f64>,
+}
 
 /// A direction drawn from a glossy surface (`Glossy::sample`).
 #[derive(Clone, Copy, Debug)]
@@ -344,23 +353,29 @@ impl Glossy {
         k: Vec<f64>,
         compensate: bool,
     ) -> Glossy {
-        let f_avg = eta
-            .iter()
-            .zip(&k)
-            .map(|(&n, &k)| CosineTable::build(|mu| fresnel_conductor(mu, n, k)).average)
-            .collect();
         let white = (rough.ax != rough.ay).then(|| {
             CosineTable::build_2d(9, |mu, phi| {
                 single_scattering_albedo(rough, mu, phi, |_| 1.0)
             })
         });
+        let e_avg = Self::white_at(rough, &white, DVec3::Z).1;
+        let ms = (compensate && e_avg < 1.0 - 1e-6).then(|| MultipleScattering {
+            e_avg,
+            f_ms: eta
+                .iter()
+                .zip(&k)
+                .map(|(&n, &k)| {
+                    let fa = CosineTable::build(|mu| fresnel_conductor(mu, n, k)).average;
+                    fa * fa * e_avg / (1.0 - fa * (1.0 - e_avg))
+                })
+                .collect(),
+        });
         Glossy::Conductor {
             rough,
             eta,
             k,
-            f_avg,
             white,
-            compensate,
+            ms,
         }
     }
 
@@ -383,7 +398,7 @@ impl Glossy {
             rough,
             ior,
             coat,
-            base,
+            base_max: base.iter().cloned().fold(0.0, f64::max),
             base_factor,
         }
     }
@@ -433,21 +448,19 @@ impl Glossy {
     }
 
     /// The share of the conductor's sampling given to the multiple-scattering lobe at
-    /// local direction `w`, with E(w) and E_avg.
+    /// local direction `w`: what single scattering loses there.
     #[inline]
     fn conductor_split(
         rough: Roughness,
         table: &Option<CosineTable>,
-        compensate: bool,
+        ms: &Option<MultipleScattering>,
         w: DVec3,
-    ) -> (f64, f64, f64) {
-        let (e, avg) = Self::white_at(rough, table, w);
-        let p_ms = if compensate && avg < 1.0 - 1e-6 {
-            1.0 - e
+    ) -> f64 {
+        if ms.is_some() {
+            1.0 - Self::white_at(rough, table, w).0
         } else {
             0.0
-        };
-        (p_ms, e, avg)
+        }
     }
 
     /// The white albedo E(w) and its average: an anisotropic conductor's own table, or
@@ -462,10 +475,9 @@ impl Glossy {
 
     /// The probability of sampling the coat's reflection rather than the base.
     #[inline]
-    fn plastic_split(coat: &CosineTable, base: &[f64], wo: DVec3) -> f64 {
+    fn plastic_split(coat: &CosineTable, base_max: f64, wo: DVec3) -> f64 {
         let e = coat.at_dir(wo);
-        let b = base.iter().cloned().fold(0.0, f64::max);
-        let d = (1.0 - e) * b;
+        let d = (1.0 - e) * base_max;
         if e + d <= 0.0 {
             1.0
         } else {
@@ -489,9 +501,8 @@ impl Glossy {
                 rough,
                 eta,
                 k,
-                f_avg,
                 white,
-                compensate,
+                ms,
             } => {
                 if wi.z <= 0.0 {
                     return;
@@ -499,18 +510,16 @@ impl Glossy {
                 let h = (wo + wi).normalize();
                 let d = rough.d(h) * rough.g2(wo, wi) / (4.0 * wo.z * wi.z);
                 let c = wo.dot(h);
-                let (_, e_o, avg) = Self::conductor_split(*rough, white, *compensate, wo);
-                let ms = if *compensate && avg < 1.0 - 1e-6 {
-                    let (e_i, _) = Self::white_at(*rough, white, wi);
-                    (1.0 - e_o) * (1.0 - e_i) / (PI * (1.0 - avg))
-                } else {
-                    0.0
-                };
                 for (b, o) in out.iter_mut().enumerate() {
-                    let f = fresnel_conductor(c, eta[b], k[b]);
-                    let fa = f_avg[b];
-                    let fms = fa * fa * avg / (1.0 - fa * (1.0 - avg));
-                    *o = f * d + fms * ms;
+                    *o = fresnel_conductor(c, eta[b], k[b]) * d;
+                }
+                if let Some(ms) = ms {
+                    let e_o = Self::white_at(*rough, white, wo).0;
+                    let e_i = Self::white_at(*rough, white, wi).0;
+                    let lobe = (1.0 - e_o) * (1.0 - e_i) / (PI * (1.0 - ms.e_avg));
+                    for (o, f) in out.iter_mut().zip(&ms.f_ms) {
+                        *o += f * lobe;
+                    }
                 }
             }
             Glossy::Plastic {
@@ -567,26 +576,26 @@ impl Glossy {
         match self {
             Glossy::Table(t) => t.pdf(wo, wi),
             Glossy::Conductor {
+                rough, white, ms, ..
+            } => {
+                if wi.z <= 0.0 {
+                    return 0.0;
+                }
+                let h = (wo + wi).normalize();
+                let p_ms = Self::conductor_split(*rough, white, ms, wo);
+                (1.0 - p_ms) * rough.pdf_visible(wo, h) / (4.0 * wo.dot(h)) + p_ms * wi.z / PI
+            }
+            Glossy::Plastic {
                 rough,
-                white,
-                compensate,
+                coat,
+                base_max,
                 ..
             } => {
                 if wi.z <= 0.0 {
                     return 0.0;
                 }
                 let h = (wo + wi).normalize();
-                let (p_ms, _, _) = Self::conductor_split(*rough, white, *compensate, wo);
-                (1.0 - p_ms) * rough.pdf_visible(wo, h) / (4.0 * wo.dot(h)) + p_ms * wi.z / PI
-            }
-            Glossy::Plastic {
-                rough, coat, base, ..
-            } => {
-                if wi.z <= 0.0 {
-                    return 0.0;
-                }
-                let h = (wo + wi).normalize();
-                let p = Self::plastic_split(coat, base, wo);
+                let p = Self::plastic_split(coat, *base_max, wo);
                 p * rough.pdf_visible(wo, h) / (4.0 * wo.dot(h)) + (1.0 - p) * wi.z / PI
             }
             Glossy::Dielectric { rough, ior } => {
@@ -626,12 +635,9 @@ impl Glossy {
                 wi
             }
             Glossy::Conductor {
-                rough,
-                white,
-                compensate,
-                ..
+                rough, white, ms, ..
             } => {
-                let (p_ms, _, _) = Self::conductor_split(*rough, white, *compensate, wo);
+                let p_ms = Self::conductor_split(*rough, white, ms, wo);
                 if u[0] < p_ms {
                     cosine_local(u[1], u[2])
                 } else {
@@ -640,9 +646,12 @@ impl Glossy {
                 }
             }
             Glossy::Plastic {
-                rough, coat, base, ..
+                rough,
+                coat,
+                base_max,
+                ..
             } => {
-                if u[0] < Self::plastic_split(coat, base, wo) {
+                if u[0] < Self::plastic_split(coat, *base_max, wo) {
                     let h = rough.sample_visible(wo, u[1], u[2]);
                     h * (2.0 * wo.dot(h)) - wo
                 } else {
@@ -674,6 +683,23 @@ impl Glossy {
         }
         let pdf = self.pdf(wo, wi, band, front);
         (pdf > 0.0 && pdf.is_finite()).then_some(GlossySample { wi, pdf })
+    }
+
+    /// `sample`, and each band's weight f cos / pdf of the drawn direction into `w` (what
+    /// light going on along it carries per unit arriving): every estimator's step.
+    pub fn sample_weighted(
+        &self,
+        wo: DVec3,
+        u: [f64; 3],
+        band: usize,
+        front: bool,
+        w: &mut [f64],
+    ) -> Option<GlossySample> {
+        let s = self.sample(wo, u, band, front)?;
+        self.eval(wo, s.wi, band, front, w);
+        let k = s.wi.z.abs() / s.pdf;
+        w.iter_mut().for_each(|x| *x *= k);
+        Some(s)
     }
 }
 

@@ -52,20 +52,14 @@ pub struct BsdfTable {
     bands: usize,
     /// Per side (reflection, transmission): values, or empty.
     sides: [Vec<f64>; 2],
-    /// Per incident row (θi, φi): the distribution over (side, θo cell, φo cell) and each
-    /// cell's ∫cos dω, band-mean cell weights' sum.
-    rows: Vec<Row>,
+    /// Per incident row (θi, φi): the distribution over outgoing cells (side, θo cell, φo
+    /// cell), ∝ the cell's band-mean value × ∫cos dω; None when the row sends nothing.
+    rows: Vec<Option<AliasTable>>,
+    /// Each outgoing θ cell's ∫cos dω: (sin²θ_{j+1} − sin²θ_j)/2 · Δφ.
+    cosint: Vec<f64>,
     /// The largest value: how sharp its lobes are.
     pub peak: f64,
     pub check: TableCheck,
-}
-
-#[derive(Debug)]
-struct Row {
-    /// None when the row sends nothing.
-    cells: Option<AliasTable>,
-    /// Each cell's probability (for the density).
-    prob: Vec<f64>,
 }
 
 /// Most values a table may hold.
@@ -134,6 +128,13 @@ impl BsdfTable {
             sides[s] = full;
         }
         let peak = sides.iter().flatten().cloned().fold(0.0, f64::max);
+        let dphi = 2.0 * PI / po as f64;
+        let cosint: Vec<f64> = (0..to - 1)
+            .map(|j| {
+                let (a, b) = (theta(j, to).sin(), theta(j + 1, to).sin());
+                0.5 * (b * b - a * a) * dphi
+            })
+            .collect();
         let mut t = BsdfTable {
             ti,
             pi,
@@ -142,44 +143,37 @@ impl BsdfTable {
             bands,
             sides,
             rows: Vec::new(),
+            cosint,
             peak,
             check: TableCheck::default(),
         };
-        // Each outgoing cell's ∫cos dω: (sin²θ_{j+1} − sin²θ_j)/2 · Δφ.
-        let dphi = 2.0 * PI / po as f64;
-        let cosint: Vec<f64> = (0..to - 1)
-            .map(|j| {
-                let (a, b) = (theta(j, to).sin(), theta(j + 1, to).sin());
-                0.5 * (b * b - a * a) * dphi
-            })
-            .collect();
+        let cosint = &t.cosint;
+        let mut rows = Vec::with_capacity(ti * pi);
         let cells = (to - 1) * po;
         let mut worst_albedo: f64 = 0.0;
         for i in 0..ti {
             for k in 0..pi {
+                // Each cell's weight, and the directional albedo per band by the same
+                // quadrature (the cells' mean values × ∫cos dω).
                 let mut weights = vec![0.0; 2 * cells];
+                let mut albedo = vec![0.0; bands];
                 for (s, side) in t.sides.iter().enumerate() {
                     if side.is_empty() {
                         continue;
                     }
-                    for j in 0..to - 1 {
+                    for (j, ci) in cosint.iter().enumerate() {
                         for l in 0..po {
-                            let band_sum: f64 =
-                                (0..bands).map(|b| t.cell_mean(side, b, i, k, j, l)).sum();
-                            weights[s * cells + j * po + l] = band_sum / bands as f64 * cosint[j];
+                            let mut band_sum = 0.0;
+                            for (b, a) in albedo.iter_mut().enumerate() {
+                                let m = t.cell_mean(side, b, i, k, j, l);
+                                band_sum += m;
+                                *a += m * ci;
+                            }
+                            weights[s * cells + j * po + l] = band_sum / bands as f64 * ci;
                         }
                     }
                 }
-                // The directional albedo per band by the same quadrature.
-                for b in 0..bands {
-                    let mut a = 0.0;
-                    for side in t.sides.iter().filter(|s| !s.is_empty()) {
-                        for (j, ci) in cosint.iter().enumerate() {
-                            for l in 0..po {
-                                a += t.cell_mean(side, b, i, k, j, l) * ci;
-                            }
-                        }
-                    }
+                for (b, &a) in albedo.iter().enumerate() {
                     worst_albedo = worst_albedo.max(a);
                     if a > 1.0 + 0.01 {
                         bail!(
@@ -191,18 +185,14 @@ impl BsdfTable {
                     }
                 }
                 let total: f64 = weights.iter().sum();
-                let (cells_table, prob) = if total > 0.0 {
-                    let prob: Vec<f64> = weights.iter().map(|w| w / total).collect();
-                    (AliasTable::new(&weights).ok(), prob)
-                } else {
-                    (None, Vec::new())
-                };
-                t.rows.push(Row {
-                    cells: cells_table,
-                    prob,
-                });
+                rows.push(
+                    (total > 0.0)
+                        .then(|| AliasTable::new(&weights).ok())
+                        .flatten(),
+                );
             }
         }
+        t.rows = rows;
         t.check = TableCheck {
             worst_reciprocity: t.reciprocity(),
             worst_albedo,
@@ -341,20 +331,17 @@ impl BsdfTable {
         let (x, y) = self.out_coords(wo, wi);
         let j = (x as usize).min(self.to - 2);
         let l = (y as usize).min(self.po - 1);
-        let (a, c) = (theta(j, self.to).sin(), theta(j + 1, self.to).sin());
-        let cosint = 0.5 * (c * c - a * a) * 2.0 * PI / self.po as f64;
         let cell = s * (self.to - 1) * self.po + j * self.po + l;
         let mut p = 0.0;
         for (i, k, w) in self.rows_of(wo) {
             if w == 0.0 {
                 continue;
             }
-            let row = &self.rows[i * self.pi + k];
-            if let Some(q) = row.prob.get(cell) {
-                p += w * q;
+            if let Some(row) = &self.rows[i * self.pi + k] {
+                p += w * row.pdf(cell);
             }
         }
-        p * wi.z.abs() / cosint
+        p * wi.z.abs() / self.cosint[j]
     }
 
     /// A direction for light from `wo`, from three uniform numbers.
@@ -377,8 +364,7 @@ impl BsdfTable {
         }
         let (i, k) =
             chosen.or_else(|| rows.iter().rev().find(|r| r.2 > 0.0).map(|r| (r.0, r.1)))?;
-        let row = &self.rows[i * self.pi + k];
-        let cell = row.cells.as_ref()?.sample(u0);
+        let cell = self.rows[i * self.pi + k].as_ref()?.sample(u0);
         let cells = (self.to - 1) * self.po;
         let s = cell / cells;
         let (j, l) = ((cell % cells) / self.po, cell % self.po);

@@ -815,12 +815,9 @@ impl DirectSampler<'_> {
                 }
                 let u = [d.next(), d.next(), d.next()];
                 let u_survive = d.next();
-                let Some(s) = g.sample(to_x, u, 0, true) else {
+                let Some(s) = g.sample_weighted(to_x, u, 0, true, w) else {
                     return;
                 };
-                g.eval(to_x, s.wi, 0, true, w);
-                let k = s.wi.z.abs() / s.pdf;
-                w.iter_mut().for_each(|x| *x *= k);
                 let mean = t.weighted_mean(w);
                 if !(mean > 0.0 && mean.is_finite()) {
                     return;

@@ -579,14 +579,11 @@ impl Tracer<'_> {
                 let wo = frame.to_local(-dir);
                 let u = [rng.uniform(), rng.uniform(), rng.uniform()];
                 let u_survive = rng.uniform();
-                let Some(sample) = g.sample(wo, u, band, front) else {
-                    return PathEnd::Absorbed(hit.mesh);
-                };
                 let w = &mut bounces.weights;
                 w.resize(colour.values().len(), 0.0);
-                g.eval(wo, sample.wi, band, front, w);
-                let k = sample.wi.z.abs() / sample.pdf;
-                w.iter_mut().for_each(|x| *x *= k);
+                let Some(sample) = g.sample_weighted(wo, u, band, front, w) else {
+                    return PathEnd::Absorbed(hit.mesh);
+                };
                 let mean = colour.weighted_mean(w);
                 if !(mean > 0.0 && mean.is_finite()) {
                     return PathEnd::Absorbed(hit.mesh);

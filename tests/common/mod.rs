@@ -266,15 +266,18 @@ pub fn mixed_room(config: Config) -> (Context, Vec<u32>) {
     mixed_room_lit(config, true)
 }
 
+/// `bands` values from `a` to `b`, evenly (a coloured coefficient).
+pub fn ramp(bands: usize, a: f64, b: f64) -> Vec<f64> {
+    (0..bands)
+        .map(|i| a + (b - a) * i as f64 / (bands - 1).max(1) as f64)
+        .collect()
+}
+
 /// `mixed_room`, with its point-like lights or lit by its emitting panel alone.
 pub fn mixed_room_lit(config: Config, point_lights: bool) -> (Context, Vec<u32>) {
     let mut ctx = context(config);
     let bands = ctx.config().bands.count();
-    let ramp = |a: f64, b: f64| -> Vec<f64> {
-        (0..bands)
-            .map(|i| a + (b - a) * i as f64 / (bands - 1).max(1) as f64)
-            .collect()
-    };
+    let ramp = |a: f64, b: f64| ramp(bands, a, b);
     let walls = ctx
         .add_material(&MaterialDesc {
             diffuse_reflect: ramp(0.8, 0.3),
