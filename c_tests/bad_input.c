@@ -9,6 +9,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <time.h>
 
 static int failures = 0;
 
@@ -189,6 +190,50 @@ int main(void) {
         failures++;
     }
     expect("table check of material 999", imap_get_table_check(ctx, 999, &recip, &alb), IMAP_ERR_INDEX_OUT_OF_RANGE, ctx);
+
+    /* Window BSDF files. */
+    ImapMaterial xml;
+    imap_material_default(&xml, sizeof xml);
+    xml.surface = IMAP_SURFACE_BSDF_XML;
+    expect("BSDF file path NULL", imap_add_material(ctx, &xml, &id), IMAP_ERR_NULL_POINTER, ctx);
+    xml.bsdf_xml_path = "/nonexistent/blind.xml";
+    expect("BSDF file missing", imap_add_material(ctx, &xml, &id), IMAP_ERR_IO, ctx);
+    char xml_path[64];
+    snprintf(xml_path, sizeof xml_path, "/tmp/imap-bad-input-%ld.xml", (long)time(NULL));
+    const char *head =
+        "<?xml version=\"1.0\"?>\n<WindowElement xmlns=\"http://windows.lbl.gov\"><Optical><Layer>\n"
+        "<DataDefinition><IncidentDataStructure>%s</IncidentDataStructure></DataDefinition>\n"
+        "<WavelengthData><Wavelength unit=\"Integral\">Visible</Wavelength>\n"
+        "<WavelengthDataBlock><WavelengthDataDirection>Transmission Front</WavelengthDataDirection>\n"
+        "<ColumnAngleBasis>LBNL/Klems Quarter</ColumnAngleBasis><RowAngleBasis>LBNL/Klems Quarter</RowAngleBasis>\n"
+        "<ScatteringData>\n";
+    for (int variant = 0; variant < 3; variant++) {
+        FILE *f = fopen(xml_path, "w");
+        if (!f) { fprintf(stderr, "FAIL: cannot write %s\n", xml_path); failures++; break; }
+        fprintf(f, head, variant == 1 ? "TensorTree3" : "Columns");
+        /* A diffuse transmitter: 0.4 / pi from every patch to every patch (41 x 41). */
+        for (int i = 0; i < 41 * 41 - (variant == 2); i++) fprintf(f, "%.9f,%c", 0.4 / 3.14159265358979, i % 41 == 40 ? '\n' : ' ');
+        fprintf(f, "</ScatteringData></WavelengthDataBlock></WavelengthData></Layer></Optical></WindowElement>\n");
+        fclose(f);
+        xml.bsdf_xml_path = xml_path;
+        ImapStatus want = variant == 0 ? IMAP_OK : variant == 1 ? IMAP_ERR_UNSUPPORTED : IMAP_ERR_PARSE;
+        const char *what = variant == 0 ? "BSDF file (valid)" : variant == 1 ? "tensor-tree BSDF file" : "BSDF file one value short";
+        expect(what, imap_add_material(ctx, &xml, &id), want, ctx);
+        if (variant == 2 && !strstr(imap_last_error(ctx), xml_path)) {
+            fprintf(stderr, "FAIL: the short file's message does not name it: %s\n", imap_last_error(ctx));
+            failures++;
+        }
+        if (variant == 0) {
+            expect("BSDF file check", imap_get_table_check(ctx, id, &recip, &alb), IMAP_OK, ctx);
+            if (!(recip < 1e-9 && alb > 0.399 && alb < 0.401)) {
+                fprintf(stderr, "FAIL: diffuse BSDF file check: reciprocity %g, albedo %g\n", recip, alb);
+                failures++;
+            }
+        }
+    }
+    remove(xml_path);
+    xml.surface = IMAP_SURFACE_IDEAL;
+    expect("BSDF file path on an ideal surface", imap_add_material(ctx, &xml, &id), IMAP_ERR_BAD_MATERIAL, ctx);
 
     /* Meshes. */
     ImapMesh mesh = square_mesh(m_grey);

@@ -504,6 +504,29 @@
 #define IMAP_SURFACE_TABLE 4
 
 /**
+ * `ImapMaterial::surface`: a window BSDF file (`bsdf_xml_path`): LBNL WINDOW / Radiance
+ * BSDF XML in a Klems basis (full 145, half, quarter, or one the file defines), front and
+ * back, reflection and transmission; a blind, a fabric or a glazing system as one flat
+ * pane. The mesh's normals point to the file's front side (WINDOW's front: a window's
+ * exterior; Radiance's BSDF primitive points the other way). `tangent` is the file's up
+ * direction (0, 0, 0: +z; where up lies along a triangle's normal, +y projected onto it):
+ * a direction's patch is that of its direction of travel in the frame whose y is up and
+ * whose x is normal × up, as Radiance reads these files, so light travelling straight
+ * through a clear pane keeps its patch. Values are constant over each pair of patches and
+ * directions are drawn inside a patch uniformly in projected solid angle. Only `Visible`
+ * data are read, the same value in every band (Solar, NIR and Radiance's CIE-X/CIE-Z
+ * blocks are skipped); without "Transmission Back" the back transmits the front's by
+ * reciprocity, without a reflection matrix that side reflects nothing. Refused: a file
+ * that cannot be read (IMAP_ERR_IO), does not parse or lacks Visible data
+ * (IMAP_ERR_PARSE, with file and line), a tensor-tree file or an unknown basis
+ * (IMAP_ERR_UNSUPPORTED), a negative value or a patch sending on more than 1.01 of what
+ * arrives (IMAP_ERR_BAD_MATERIAL, naming side and direction); `imap_get_table_check` gives
+ * the worst reciprocity difference and the largest albedo. The three coefficients,
+ * `ior_model`, `absorption_per_m` and `roughness` must be 0/NONE. (Since 0.2.3.)
+ */
+#define IMAP_SURFACE_BSDF_XML 5
+
+/**
  * `ImapMaterial::flags`: a conductor without its multiple-scattering lobe (single
  * scattering only, as Mitsuba 3's `roughconductor` and most renderers compute it; it then
  * loses energy at high roughness, 3 % at α 0.15). For comparisons with such tools.
@@ -1688,6 +1711,11 @@ typedef struct ImapMaterial {
    * `IMAP_MATERIAL_*` flags, or-ed (0: none). (Since 0.2.3.)
    */
   uint32_t flags;
+  /**
+   * IMAP_SURFACE_BSDF_XML: the file's path, NUL-terminated (the bytes as the system
+   * takes them). The library reads it during `imap_add_material`. (Since 0.2.3.)
+   */
+  const char *bsdf_xml_path;
 } ImapMaterial;
 
 /**
@@ -2489,12 +2517,14 @@ enum ImapStatus imap_mesh_default(struct ImapMesh *out, size_t size);
 enum ImapStatus imap_add_material(struct ImapContext *ctx, const struct ImapMaterial *material, uint32_t *out_id);
 
 /**
- * What checking measured table material `material` (IMAP_SURFACE_TABLE) found:
- * `*worst_reciprocity` receives the largest |f(a, b) − f(b, a)| over their mean at the
- * grid's directions (0 for a reciprocal BRDF; measured tables differ by their noise), and
- * `*worst_albedo` the largest directional albedo (reflected plus transmitted) at an
- * incident grid direction. Either pointer may be NULL. Returns IMAP_ERR_NULL_POINTER (ctx),
- * IMAP_ERR_INDEX_OUT_OF_RANGE (no such material), IMAP_ERR_INVALID_ARGUMENT (not a table).
+ * What checking measured table material `material` (IMAP_SURFACE_TABLE or
+ * IMAP_SURFACE_BSDF_XML) found: `*worst_reciprocity` receives the largest |f(a, b) −
+ * f(b, a)| over their mean at the grid's directions (0 for a reciprocal BRDF; measured
+ * tables differ by their noise; for a BSDF file, over its reflections and between its
+ * front and back transmissions, values above 1 % of the largest), and `*worst_albedo` the
+ * largest directional albedo (reflected plus transmitted) at an incident grid direction
+ * or patch. Either pointer may be NULL. Returns IMAP_ERR_NULL_POINTER (ctx),
+ * IMAP_ERR_INDEX_OUT_OF_RANGE (no such material), IMAP_ERR_INVALID_ARGUMENT (neither).
  * (Since 0.2.3.)
  *
  * # Safety

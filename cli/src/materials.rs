@@ -22,7 +22,9 @@
 //!   "rough-dielectric"` with `roughness` (α, or [α along the tangent, α across]),
 //!   `tangent`, a conductor's `metal` ("aluminium", "silver", "gold", "copper",
 //!   "chromium") or `nk` rows [nm, n, k], a plastic's coat `ior` (default 1.5) over
-//!   `diffuse`.
+//!   `diffuse`; or `kind = "bsdf-xml"` with `file` (a window BSDF file, LBNL WINDOW /
+//!   Radiance XML in a Klems basis, relative to the settings file) and `up` (default +z):
+//!   the faces' normals point to the file's front (a window's exterior).
 
 use crate::diag::{printable, Diagnostics};
 use crate::model::Mtl;
@@ -323,6 +325,10 @@ fn glossy(
         (1.0 + r) / (1.0 - r)
     };
     let kind = o.kind.as_deref();
+    if kind != Some("bsdf-xml") && (o.file.is_some() || o.up.is_some()) {
+        error(diag, "file and up need kind = \"bsdf-xml\"".into());
+        return desc;
+    }
     if kind.is_none()
         && (o.roughness.is_some() || o.metal.is_some() || o.nk.is_some() || o.tangent.is_some())
     {
@@ -335,6 +341,42 @@ fn glossy(
     let zero = Vec::new;
     match kind {
         Some("ideal") => desc,
+        Some("bsdf-xml") => {
+            let Some(file) = &o.file else {
+                error(
+                    diag,
+                    "kind = \"bsdf-xml\" needs file = \"…\" (a window BSDF XML file)".into(),
+                );
+                return desc;
+            };
+            let given = [
+                ("roughness", o.roughness.is_some()),
+                ("metal", o.metal.is_some()),
+                ("nk", o.nk.is_some()),
+                ("tangent", o.tangent.is_some()),
+                ("ior", o.ior.is_some() || o.sellmeier.is_some()),
+                ("dielectric", o.dielectric == Some(true)),
+                ("diffuse", o.diffuse.is_some()),
+                ("specular", o.specular.is_some()),
+                ("transmit", o.transmit.is_some()),
+                ("absorption_per_m", o.absorption_per_m.is_some()),
+            ];
+            if let Some((field, _)) = given.iter().find(|g| g.1) {
+                error(
+                    diag,
+                    format!(
+                        "{field} is given but kind = \"bsdf-xml\" takes its optics from the file"
+                    ),
+                );
+                return desc;
+            }
+            let base = settings_at.0.parent().unwrap_or(std::path::Path::new("."));
+            MaterialDesc {
+                surface: SurfaceModel::Klems(base.join(file)),
+                tangent: o.up,
+                ..Default::default()
+            }
+        }
         Some(k @ ("conductor" | "plastic" | "rough-dielectric")) => {
             let Some(r) = setting.or_else(|| m.gloss.map(|g| [g.alpha, 0.0])) else {
                 error(
@@ -379,7 +421,7 @@ fn glossy(
             error(
                 diag,
                 format!(
-                    "kind = '{}' is not one of ideal, conductor, plastic, rough-dielectric",
+                    "kind = '{}' is not one of ideal, conductor, plastic, rough-dielectric, bsdf-xml",
                     printable(other)
                 ),
             );

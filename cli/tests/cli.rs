@@ -938,3 +938,66 @@ fn rough_materials_from_the_settings() {
         assert!(e.contains(word) && e.contains("grey"), "{name}: {e}");
     }
 }
+
+/// `kind = "bsdf-xml"`: a window BSDF file (Klems quarter basis) that reflects 0.2
+/// diffusely from its front makes the floor absorb 0.8 of what it receives against the
+/// grey floor's 0.5; a missing file and stray fields are errors naming the material.
+#[test]
+fn a_window_bsdf_file_from_the_settings() {
+    let d = tempfile::tempdir().unwrap();
+    write(d.path(), "scene.mtl", MTL);
+    let (obj, _, _) = scene_obj();
+    let path = write(d.path(), "scene.obj", &obj);
+    let value = 0.2 / std::f64::consts::PI;
+    let data: Vec<String> = (0..41 * 41).map(|_| format!("{value}")).collect();
+    let xml = format!(
+        "<?xml version=\"1.0\"?>\n<WindowElement xmlns=\"http://windows.lbl.gov\"><Optical><Layer>\n<DataDefinition><IncidentDataStructure>Columns</IncidentDataStructure></DataDefinition>\n<WavelengthData><Wavelength unit=\"Integral\">Visible</Wavelength>\n<WavelengthDataBlock><WavelengthDataDirection>Reflection Front</WavelengthDataDirection>\n<ColumnAngleBasis>LBNL/Klems Quarter</ColumnAngleBasis><RowAngleBasis>LBNL/Klems Quarter</RowAngleBasis>\n<ScatteringData>{}</ScatteringData></WavelengthDataBlock></WavelengthData></Layer></Optical></WindowElement>\n",
+        data.join(",\n")
+    );
+    std::fs::create_dir(d.path().join("bsdf")).unwrap();
+    write(&d.path().join("bsdf"), "matte.xml", &xml);
+    let run = |name: &str, settings: &str| {
+        let toml = write(d.path(), &format!("{name}.toml"), settings);
+        let out = d.path().join(name);
+        let o = run_photons(&path, &toml, &out, 20_000);
+        (o, out)
+    };
+    let absorbed = |out: &Path| {
+        let r = read_report(out);
+        let e = &r["energy_w"];
+        e["absorbed"].as_f64().unwrap() / e["emitted"].as_f64().unwrap()
+    };
+    let (o, grey) = run("grey", "");
+    assert!(o.status.success(), "{}", stderr(&o));
+    let (o, xml) = run(
+        "xml",
+        "[materials.grey]\nkind = \"bsdf-xml\"\nfile = \"bsdf/matte.xml\"\nup = [0, 1, 0]\n",
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    // The lamp (black) takes back some of what the floor reflects: 1.6 less a little.
+    let ratio = absorbed(&xml) / absorbed(&grey);
+    assert!((1.45..1.65).contains(&ratio), "absorbed ratio {ratio}");
+    for (name, settings, word) in [
+        (
+            "missing",
+            "[materials.grey]\nkind = \"bsdf-xml\"\nfile = \"nothing.xml\"\n",
+            "nothing.xml",
+        ),
+        ("nofile", "[materials.grey]\nkind = \"bsdf-xml\"\n", "file"),
+        (
+            "stray",
+            "[materials.grey]\nkind = \"bsdf-xml\"\nfile = \"bsdf/matte.xml\"\nroughness = 0.2\n",
+            "roughness",
+        ),
+        (
+            "noxml",
+            "[materials.grey]\nfile = \"bsdf/matte.xml\"\n",
+            "bsdf-xml",
+        ),
+    ] {
+        let (o, _) = run(name, settings);
+        let e = stderr(&o);
+        assert!(!o.status.success(), "{name}: {e}");
+        assert!(e.contains(word), "{name}: {e}");
+    }
+}

@@ -502,9 +502,10 @@ impl Context {
         };
         match &m.glossy {
             Some(crate::scene::microfacet::Glossy::Table(t)) => Ok(t.check),
+            Some(crate::scene::microfacet::Glossy::Klems(k)) => Ok(k.check),
             _ => bail!(
                 ImapErrInvalidArgument,
-                "material {material} is not a measured table (IMAP_SURFACE_TABLE)"
+                "material {material} is not a measured table or BSDF file (IMAP_SURFACE_TABLE, IMAP_SURFACE_BSDF_XML)"
             ),
         }
     }

@@ -6,6 +6,7 @@
 //! point to) and a medium with a wavelength-dependent index of refraction (constant, Cauchy
 //! or Sellmeier) and Beer–Lambert absorption inside; it reflects or refracts by Fresnel.
 
+use super::klems::KlemsBsdf;
 use super::microfacet::{Glossy, Roughness};
 use super::table::{BsdfTable, TableDesc};
 use crate::error::{bail, check_finite, Result};
@@ -28,6 +29,9 @@ pub enum SurfaceModel {
     Plastic,
     /// A measured BRDF (and BTDF) table (`scene::table`).
     Table(TableDesc),
+    /// A window BSDF file (LBNL WINDOW / Radiance XML, Klems basis; `scene::klems`): the
+    /// mesh's normals point to its front side, `tangent` is its up direction (default +z).
+    Klems(std::path::PathBuf),
 }
 
 /// A conductor's complex index.
@@ -282,7 +286,7 @@ impl Material {
                 Some(v.normalize())
             }
         };
-        if let SurfaceModel::Table(t) = &desc.surface {
+        if let SurfaceModel::Table(_) | SurfaceModel::Klems(_) = &desc.surface {
             let given = [
                 ("diffuse_reflectance", desc.diffuse_reflect.is_empty()),
                 ("specular_reflectance", desc.specular_reflect.is_empty()),
@@ -294,17 +298,29 @@ impl Material {
             if let Some((name, _)) = given.iter().find(|g| !g.1) {
                 bail!(
                     ImapErrBadMaterial,
-                    "{name} is given but a measured table takes none (its values are the surface)"
+                    "{name} is given but a measured table or BSDF file takes none (its values are the surface)"
                 );
             }
-            let table = BsdfTable::new(t, nb, "table")?;
+            let (glossy, tangent) = match &desc.surface {
+                SurfaceModel::Table(t) => (
+                    Glossy::Table(std::sync::Arc::new(BsdfTable::new(t, nb, "table")?)),
+                    tangent,
+                ),
+                SurfaceModel::Klems(path) => (
+                    Glossy::Klems(std::sync::Arc::new(KlemsBsdf::read(path)?)),
+                    // Its up direction: +z unless given (a fixed one where it is along a
+                    // triangle's normal: `Frame::new`).
+                    Some(tangent.unwrap_or(DVec3::Z)),
+                ),
+                _ => unreachable!("matched above"),
+            };
             return Ok(Material {
                 diffuse_reflect: vec![0.0; nb],
                 specular_reflect: vec![0.0; nb],
                 diffuse_transmit: vec![0.0; nb],
                 dielectric: None,
                 events: [false; 3],
-                glossy: Some(Glossy::Table(std::sync::Arc::new(table))),
+                glossy: Some(glossy),
                 tangent,
             });
         }
@@ -342,7 +358,7 @@ impl Material {
         zero("diffuse_transmittance", &desc.diffuse_transmit)?;
         let mut dielectric = None;
         let glossy = match &desc.surface {
-            SurfaceModel::Ideal | SurfaceModel::Table(_) => {
+            SurfaceModel::Ideal | SurfaceModel::Table(_) | SurfaceModel::Klems(_) => {
                 unreachable!("ideal surfaces and tables are read above")
             }
             SurfaceModel::Conductor(index) => {

@@ -20,6 +20,7 @@
 //! same kernel (their transmitted radiance then misses the factor n² inside a medium, which
 //! cancels on the way out of a closed one, as for the smooth dielectric).
 
+use super::klems::KlemsBsdf;
 use super::material::fresnel_dielectric;
 use super::table::BsdfTable;
 use glam::DVec3;
@@ -314,6 +315,8 @@ pub enum Glossy {
     },
     /// A measured table (`scene::table`).
     Table(Arc<BsdfTable>),
+    /// A window BSDF in a Klems basis (`scene::klems`): front and back differ.
+    Klems(Arc<KlemsBsdf>),
 }
 
 /// The largest value (1/sr) of a measured table whose light the map's gathering paths
@@ -412,6 +415,7 @@ impl Glossy {
             | Glossy::Dielectric { rough, .. }
             | Glossy::Plastic { rough, .. } => rough.ax.min(rough.ay) < min_alpha,
             Glossy::Table(t) => t.peak > TABLE_GATHER_PEAK,
+            Glossy::Klems(k) => k.peak > TABLE_GATHER_PEAK,
         }
     }
 
@@ -421,6 +425,7 @@ impl Glossy {
         match self {
             Glossy::Dielectric { .. } => true,
             Glossy::Table(t) => t.transmits(),
+            Glossy::Klems(k) => k.transmits(),
             _ => false,
         }
     }
@@ -491,12 +496,15 @@ impl Glossy {
         if let Glossy::Table(t) = self {
             return t.eval(wo, wi, out);
         }
+        if let Glossy::Klems(k) = self {
+            return k.eval(wo, wi, front, out);
+        }
         out.iter_mut().for_each(|x| *x = 0.0);
         if wo.z <= 0.0 {
             return;
         }
         match self {
-            Glossy::Table(_) => unreachable!("read above"),
+            Glossy::Table(_) | Glossy::Klems(_) => unreachable!("read above"),
             Glossy::Conductor {
                 rough,
                 eta,
@@ -575,6 +583,7 @@ impl Glossy {
         }
         match self {
             Glossy::Table(t) => t.pdf(wo, wi),
+            Glossy::Klems(k) => k.pdf(wo, wi, front),
             Glossy::Conductor {
                 rough, white, ms, ..
             } => {
@@ -631,6 +640,11 @@ impl Glossy {
         let wi = match self {
             Glossy::Table(t) => {
                 let wi = t.sample(wo, u)?;
+                through = wi.z < 0.0;
+                wi
+            }
+            Glossy::Klems(k) => {
+                let wi = k.sample(wo, u, front)?;
                 through = wi.z < 0.0;
                 wi
             }
@@ -737,14 +751,19 @@ pub struct Frame {
 
 impl Frame {
     /// The frame about unit `n` whose tangent is `tangent` projected onto the surface (a
-    /// fixed one when it is none or along the normal).
+    /// fixed one when it is none; along the normal, +y projected, else +x: the same on
+    /// both sides, as a window BSDF's up needs).
     #[inline]
     pub fn new(n: DVec3, tangent: Option<DVec3>) -> Frame {
-        let t = tangent
-            .map(|t| t - n * t.dot(n))
-            .filter(|t| t.length_squared() > 1e-12)
-            .map(|t| t.normalize())
-            .unwrap_or_else(|| n.any_orthonormal_vector());
+        let project = |t: DVec3| Some(t - n * t.dot(n)).filter(|t| t.length_squared() > 1e-12);
+        let t = match tangent {
+            None => n.any_orthonormal_vector(),
+            Some(t) => project(t)
+                .or_else(|| project(DVec3::Y))
+                .or_else(|| project(DVec3::X))
+                .unwrap_or(DVec3::X)
+                .normalize(),
+        };
         Frame {
             t,
             b: n.cross(t),

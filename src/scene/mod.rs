@@ -3,6 +3,7 @@
 
 pub mod bsdf;
 pub(crate) mod emitter;
+pub mod klems;
 pub mod light;
 pub mod material;
 pub mod mesh;

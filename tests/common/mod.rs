@@ -614,3 +614,54 @@ pub fn polygon_irradiance(x: [f64; 3], n: [f64; 3], poly: &[[f64; 3]], l: f64) -
     }
     l / 2.0 * s.abs()
 }
+
+/// The Klems full basis: (lower θ°, upper θ°, azimuth patches) per ring.
+pub const KLEMS_FULL: [(f64, f64, usize); 9] = [
+    (0.0, 5.0, 1),
+    (5.0, 15.0, 8),
+    (15.0, 25.0, 16),
+    (25.0, 35.0, 20),
+    (35.0, 45.0, 24),
+    (45.0, 55.0, 24),
+    (55.0, 65.0, 24),
+    (65.0, 75.0, 16),
+    (75.0, 90.0, 12),
+];
+
+/// Each Klems full patch's ring (lower θ, upper θ in radians) and projected solid angle Λ.
+pub fn klems_patches() -> Vec<(f64, f64, f64)> {
+    KLEMS_FULL
+        .iter()
+        .flat_map(|&(lo, hi, n)| {
+            let (a, b) = (lo.to_radians(), hi.to_radians());
+            let lambda = std::f64::consts::PI * (a.cos().powi(2) - b.cos().powi(2)) / n as f64;
+            std::iter::repeat_n((a, b, lambda), n)
+        })
+        .collect()
+}
+
+/// Writes a WINDOW BSDF XML file in the Klems full basis, incident data in columns as
+/// WINDOW writes them: `blocks` are (direction, e.g. "Transmission Front", values
+/// incident-major: v[i · 145 + o]).
+pub fn write_klems_xml(path: &std::path::Path, blocks: &[(&str, Vec<f64>)]) {
+    let n = 145;
+    let mut s = String::from(
+        "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n<WindowElement xmlns=\"http://windows.lbl.gov\">\n<FileType>BSDF</FileType>\n<Optical>\n<Layer>\n<Material><Name>test</Name></Material>\n<DataDefinition><IncidentDataStructure>Columns</IncidentDataStructure></DataDefinition>\n<WavelengthData><Wavelength unit=\"Integral\">Visible</Wavelength>\n",
+    );
+    for (dir, v) in blocks {
+        s += &format!("<WavelengthDataBlock><WavelengthDataDirection>{dir}</WavelengthDataDirection><ColumnAngleBasis>LBNL/Klems Full</ColumnAngleBasis><RowAngleBasis>LBNL/Klems Full</RowAngleBasis><ScatteringDataType>BTDF</ScatteringDataType><ScatteringData>\n");
+        for o in 0..n {
+            let row: Vec<String> = (0..n).map(|i| format!("{}", v[i * n + o])).collect();
+            s += &row.join(", ");
+            s += ",\n";
+        }
+        s += "</ScatteringData></WavelengthDataBlock>\n";
+    }
+    s += "</WavelengthData>\n</Layer>\n</Optical>\n</WindowElement>\n";
+    std::fs::write(path, s).unwrap();
+}
+
+/// A fresh file path in the system's temporary folder for this test process.
+pub fn scratch_path(name: &str) -> std::path::PathBuf {
+    std::env::temp_dir().join(format!("imap-test-{}-{name}", std::process::id()))
+}

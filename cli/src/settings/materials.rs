@@ -19,8 +19,13 @@ pub struct MaterialSettings {
     /// Exitance, W/m² per band.
     pub emission: Option<Spectrum>,
     /// The surface model: "ideal" (Lambert, mirror, smooth glass by the fields above),
-    /// "conductor", "plastic" or "rough-dielectric".
+    /// "conductor", "plastic", "rough-dielectric" or "bsdf-xml".
     pub kind: Option<String>,
+    /// kind = "bsdf-xml": the window BSDF file (LBNL WINDOW / Radiance XML, Klems basis),
+    /// relative to the settings file.
+    pub file: Option<std::path::PathBuf>,
+    /// kind = "bsdf-xml": the file's up direction (model coordinates; default +z).
+    pub up: Option<[f64; 3]>,
     /// GGX α, one number (isotropic) or two (along the tangent, across it), each in (0, 1].
     pub roughness: Option<RoughnessSetting>,
     /// A conductor's metal: "aluminium", "silver", "gold", "copper", "chromium".
