@@ -527,6 +527,28 @@
 #define IMAP_SURFACE_BSDF_XML 5
 
 /**
+ * `ImapMaterial::surface`: the host's own BSDF (`host_bsdf`: an `ImapHostBsdf` of
+ * callbacks that evaluate, sample and give the density), used by every estimator and
+ * renderer as a measured table is. Checked when added: at 12 incident directions on each
+ * side, 512 of its own draws each, every value must be finite and ≥ 0, each draw's density
+ * what `pdf` gives (to 1e-3), and the directional albedo (mean f cos / pdf) at most 1.05
+ * (IMAP_ERR_BAD_MATERIAL otherwise, naming the direction); `imap_get_table_check` gives
+ * the largest albedo and the worst reciprocity difference among those draws. During a run
+ * or render a callback that fails or gives an invalid value ends that photon or path there
+ * and stops the run at its next progress check; the run or render then returns
+ * IMAP_ERR_HOST_BSDF naming the material, with the count and the first failure (the map
+ * keeps what was accumulated). The three coefficients, `ior_model`, `absorption_per_m`
+ * and `roughness` must be 0/NONE. (Since 0.2.3.)
+ */
+#define IMAP_SURFACE_HOST 6
+
+/**
+ * `ImapHostBsdf::flags`: light can leave on the other side (`sample` may return
+ * directions with z < 0). (Since 0.2.3.)
+ */
+#define IMAP_HOST_BSDF_TRANSMITS 1
+
+/**
  * `ImapMaterial::flags`: a conductor without its multiple-scattering lobe (single
  * scattering only, as Mitsuba 3's `roughconductor` and most renderers compute it; it then
  * loses energy at high roughness, 3 % at α 0.15). For comparisons with such tools.
@@ -798,7 +820,12 @@ typedef enum ImapStatus {
   /**
    * A state to merge holds photons the context holds too: they would count twice.
    */
-  IMAP_ERR_STATE_OVERLAP = 27
+  IMAP_ERR_STATE_OVERLAP = 27,
+  /**
+   * A host BSDF (IMAP_SURFACE_HOST) reported a failure or gave an invalid value during a
+   * run or render: the message names the material. (Since 0.2.3.)
+   */
+  IMAP_ERR_HOST_BSDF = 28
 } ImapStatus;
 
 /**
@@ -1615,6 +1642,64 @@ typedef struct ImapReport {
 } ImapReport;
 
 /**
+ * `ImapHostBsdf::eval`: f(wo → wi) per band into `f[0 .. bands)`, in 1/sr (the light
+ * arriving from `wo` that leaves along `wi`, per unit projected solid angle). Directions
+ * are unit vectors in the local frame at the hit: z the normal on the side light arrives
+ * from (`wo[2] > 0`), x the material's `tangent` projected onto the surface (a fixed
+ * direction without one), y = z × x; `wo` points back to where the light came from, `wi`
+ * where it goes on (`wi[2] < 0`: through to the other side); `front` is 1 when light arrives
+ * on the side the mesh's normals point to. Returns 0, or anything else for a failure.
+ * Called from many threads at once: it must be thread-safe and must not call libimap.
+ */
+typedef int32_t (*ImapBsdfEvalFn)(void *user, const double *wo, const double *wi, int32_t front, double *f, uint32_t bands);
+
+/**
+ * `ImapHostBsdf::sample`: draws a direction `wi` (written to `wi[0..3)`, a unit vector)
+ * for light from `wo` from the three uniform numbers `u` the library draws (so the map
+ * stays the same for a seed) and writes its density per solid angle (1/sr, > 0) to
+ * `*pdf`. Returns 0, 1 when nothing goes on (the light is absorbed), anything else for a
+ * failure. Frame and threads as for `ImapBsdfEvalFn`.
+ */
+typedef int32_t (*ImapBsdfSampleFn)(void *user, const double *wo, const double *u, int32_t front, double *wi, double *pdf);
+
+/**
+ * `ImapHostBsdf::pdf`: the density per solid angle with which `sample` draws `wi` from
+ * `wo`, to `*pdf`. Returns 0, or anything else for a failure. Frame and threads as for
+ * `ImapBsdfEvalFn`.
+ */
+typedef int32_t (*ImapBsdfPdfFn)(void *user, const double *wo, const double *wi, int32_t front, double *pdf);
+
+/**
+ * The host's own BSDF (`IMAP_SURFACE_HOST`). Initialise with
+ * `imap_host_bsdf_default(&b, sizeof b)`. The library keeps the callbacks and `user`
+ * (not the struct) for the context's lifetime: they must stay valid until
+ * `imap_destroy`, and are called from many threads at once. (Since 0.2.3.)
+ */
+typedef struct ImapHostBsdf {
+  /**
+   * `sizeof(ImapHostBsdf)` as the program was compiled; set by `imap_host_bsdf_default`.
+   */
+  uint32_t struct_size;
+  /**
+   * `IMAP_HOST_BSDF_*` flags, or-ed (0: it only reflects).
+   */
+  uint32_t flags;
+  ImapBsdfEvalFn eval;
+  ImapBsdfSampleFn sample;
+  ImapBsdfPdfFn pdf;
+  /**
+   * Passed to every callback.
+   */
+  void *user;
+  /**
+   * The largest value f takes (1/sr), or 0 when unknown: the map's gathering paths take
+   * light samples at a reflector peaking at most 8/sr; sharper or unknown lobes are the
+   * photons' alone, as a mirror's.
+   */
+  double peak;
+} ImapHostBsdf;
+
+/**
  * A material. Initialise with `imap_material_default(&m, sizeof m)` (no reflection, no
  * transmission: black). Per-band arrays hold 1 value (the same in every band) or one per
  * band; a count of 0 (pointer may be NULL) means 0 in every band. The library copies them.
@@ -1716,6 +1801,11 @@ typedef struct ImapMaterial {
    * takes them). The library reads it during `imap_add_material`. (Since 0.2.3.)
    */
   const char *bsdf_xml_path;
+  /**
+   * IMAP_SURFACE_HOST: the host's BSDF (its callbacks and `user` are kept, the struct
+   * itself is copied). (Since 0.2.3.)
+   */
+  const struct ImapHostBsdf *host_bsdf;
 } ImapMaterial;
 
 /**
@@ -2480,6 +2570,16 @@ enum ImapStatus imap_get_report(const struct ImapContext *ctx, struct ImapReport
  * writable.
  */
 enum ImapStatus imap_get_history(const struct ImapContext *ctx, struct ImapProgress *out, size_t capacity, size_t element_size, size_t *out_count);
+
+/**
+ * Fills the `size` bytes at `out` with an empty host BSDF (no callbacks, flags 0, peak 0)
+ * and sets `struct_size = size`. Pass `sizeof *out`. Returns IMAP_ERR_NULL_POINTER,
+ * IMAP_ERR_INVALID_ARGUMENT (size too small). Thread-safe. (Since 0.2.3.)
+ *
+ * # Safety
+ * `out` is NULL or points to `size` writable bytes.
+ */
+enum ImapStatus imap_host_bsdf_default(struct ImapHostBsdf *out, size_t size);
 
 /**
  * Fills the `size` bytes at `out` with a black, non-dielectric material and sets

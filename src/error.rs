@@ -81,11 +81,14 @@ pub enum ImapStatus {
     ImapErrStateMismatch = 26,
     /// A state to merge holds photons the context holds too: they would count twice.
     ImapErrStateOverlap = 27,
+    /// A host BSDF (IMAP_SURFACE_HOST) reported a failure or gave an invalid value during a
+    /// run or render: the message names the material. (Since 0.2.3.)
+    ImapErrHostBsdf = 28,
 }
 
 impl ImapStatus {
     /// Every status, in order of value.
-    pub(crate) const ALL: [ImapStatus; 28] = [
+    pub(crate) const ALL: [ImapStatus; 29] = [
         ImapStatus::ImapOk,
         ImapStatus::ImapErrNullPointer,
         ImapStatus::ImapErrInvalidArgument,
@@ -114,6 +117,7 @@ impl ImapStatus {
         ImapStatus::ImapErrStateCorrupt,
         ImapStatus::ImapErrStateMismatch,
         ImapStatus::ImapErrStateOverlap,
+        ImapStatus::ImapErrHostBsdf,
     ];
 
     /// The C name of the status.
@@ -148,6 +152,7 @@ impl ImapStatus {
             ImapErrStateCorrupt => c"IMAP_ERR_STATE_CORRUPT",
             ImapErrStateMismatch => c"IMAP_ERR_STATE_MISMATCH",
             ImapErrStateOverlap => c"IMAP_ERR_STATE_OVERLAP",
+            ImapErrHostBsdf => c"IMAP_ERR_HOST_BSDF",
         }
     }
 }

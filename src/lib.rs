@@ -65,6 +65,7 @@ pub use sched::target::{RegionMeasure, RegionTarget};
 pub use sched::{Counters, RangeSet, RunParams, Selection};
 pub use transport::direct::Estimator;
 // The scene: bands, materials, meshes, lights, skies and the sun.
+pub use scene::host::{HostBsdf, HostBsdfRef};
 pub use scene::light::{
     cie_luminance, Amount, Distribution, LightDesc, LightKind, Placement, SkyAmount, SkyDesc,
     SkyKind, SunDesc, CIE_SKY_PARAMETERS, SUN_DIAMETER_DEG,

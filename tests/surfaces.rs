@@ -3,7 +3,9 @@
 //! sampling and with gathering, and the same image with the path tracer and final
 //! gathering, in RGB and in N bands; the smooth limit is the mirror; a rough aluminium
 //! reflector conserves its flux and its beam narrows as the roughness goes to 0; a window
-//! BSDF file (Klems) of a clear pane transmits the slab's Fresnel fraction.
+//! BSDF file (Klems) of a clear pane transmits the slab's Fresnel fraction; the host's own
+//! BSDF (a callback material) gives the map of the model it computes, and its failures
+//! are statuses.
 mod common;
 
 use common::*;
@@ -597,28 +599,102 @@ fn rough_surfaces_keep_the_map_deterministic() {
     }
 }
 
-/// A measured table made from Lambert's law (reflecting, and transmitting through a
-/// sheet) gives the map of the ideal Lambertian surface, with photons and with gathering.
+/// A Lambertian reflector and transmitter as the host computes it: ρ/π above, τ/π below,
+/// drawn by the side's share and then cosine-distributed. `fail_after` calls to `eval`
+/// (counted over all threads) it starts failing.
+struct HostLambert {
+    rho: f64,
+    tau: f64,
+    calls: std::sync::atomic::AtomicU64,
+    fail_after: u64,
+}
+
+impl HostLambert {
+    fn new(rho: f64, tau: f64, fail_after: u64) -> HostLambert {
+        HostLambert {
+            rho,
+            tau,
+            calls: Default::default(),
+            fail_after,
+        }
+    }
+}
+
+impl imap::HostBsdf for HostLambert {
+    fn eval(&self, _wo: [f64; 3], wi: [f64; 3], _front: bool, f: &mut [f64]) -> Result<(), String> {
+        let n = self
+            .calls
+            .fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        if n >= self.fail_after {
+            return Err(format!("the host's table is gone (call {n})"));
+        }
+        let v = if wi[2] > 0.0 { self.rho } else { self.tau } / PI;
+        f.iter_mut().for_each(|x| *x = v);
+        Ok(())
+    }
+    fn sample(
+        &self,
+        _wo: [f64; 3],
+        u: [f64; 3],
+        _front: bool,
+    ) -> Result<Option<([f64; 3], f64)>, String> {
+        let total = self.rho + self.tau;
+        let up = u[0] * total < self.rho;
+        let (r, phi) = (u[1].sqrt(), 2.0 * PI * u[2]);
+        let z = (1.0 - u[1]).max(0.0).sqrt();
+        if z <= 0.0 {
+            return Ok(None);
+        }
+        let wi = [r * phi.cos(), r * phi.sin(), if up { z } else { -z }];
+        let share = if up { self.rho } else { self.tau } / total;
+        Ok(Some((wi, share * z / PI)))
+    }
+    fn pdf(&self, _wo: [f64; 3], wi: [f64; 3], _front: bool) -> Result<f64, String> {
+        let share = if wi[2] > 0.0 { self.rho } else { self.tau } / (self.rho + self.tau);
+        Ok(share * wi[2].abs() / PI)
+    }
+    fn transmits(&self) -> bool {
+        self.tau > 0.0
+    }
+    fn peak(&self) -> f64 {
+        self.rho.max(self.tau) / PI
+    }
+}
+
+/// A measured table made from Lambert's law, and the same law as the host's own BSDF
+/// (reflecting, and transmitting through a sheet), give the map of the ideal Lambertian
+/// surface, with photons and with gathering.
 #[test]
-fn a_lambertian_table_gives_lamberts_map() {
-    let build = |tab: bool, seed: u64| {
+fn a_lambertian_table_and_host_bsdf_give_lamberts_map() {
+    // kind: 0 ideal, 1 table, 2 host.
+    let build = |kind: u32, seed: u64| {
         let mut ctx = context(seeded(seed));
         let walls = lambert(&mut ctx, 0.4);
-        let floor_m = if tab {
-            let mut t = table(|_, _| 0.5 / PI, 5, 1, 9, 12);
-            t.btdf = vec![0.2 / PI; t.brdf.len()];
-            ctx.add_material(&MaterialDesc {
-                surface: SurfaceModel::Table(t),
-                ..Default::default()
-            })
-            .unwrap()
-        } else {
-            ctx.add_material(&MaterialDesc {
-                diffuse_reflect: vec![0.5],
-                diffuse_transmit: vec![0.2],
-                ..Default::default()
-            })
-            .unwrap()
+        let floor_m = match kind {
+            1 => {
+                let mut t = table(|_, _| 0.5 / PI, 5, 1, 9, 12);
+                t.btdf = vec![0.2 / PI; t.brdf.len()];
+                ctx.add_material(&MaterialDesc {
+                    surface: SurfaceModel::Table(t),
+                    ..Default::default()
+                })
+                .unwrap()
+            }
+            2 => ctx
+                .add_material(&MaterialDesc {
+                    surface: SurfaceModel::Host(imap::HostBsdfRef(std::sync::Arc::new(
+                        HostLambert::new(0.5, 0.2, u64::MAX),
+                    ))),
+                    ..Default::default()
+                })
+                .unwrap(),
+            _ => ctx
+                .add_material(&MaterialDesc {
+                    diffuse_reflect: vec![0.5],
+                    diffuse_transmit: vec![0.2],
+                    ..Default::default()
+                })
+                .unwrap(),
         };
         let room = cuboid([-1.0, -1.0, -1.0], [1.0, 1.0, 1.0], 4, true);
         let w = ctx.add_mesh(&room.desc(walls)).unwrap();
@@ -630,20 +706,178 @@ fn a_lambertian_table_gives_lamberts_map() {
         (ctx, vec![w, s])
     };
     for (e, n) in [(Estimator::Photons, 400_000), (Estimator::GATHER, 100_000)] {
-        let (mut a, ids) = build(false, 31);
+        let (mut a, ids) = build(0, 31);
         run_with(&mut a, photons(n), e);
-        let (mut b, _) = build(true, 32);
-        run_with(&mut b, photons(n), e);
-        let (ma, mb) = (map_with_errors(&a, &ids), map_with_errors(&b, &ids));
-        let (z, count) = rms_z(&ma, &mb);
-        let ratio = mean(&mb) / mean(&ma);
-        eprintln!("{e:?}: Lambertian table vs Lambert: rms z {z:.3} over {count} values, mean ratio {ratio:.4}");
-        assert!(count > 100);
-        assert!((0.6..1.35).contains(&z), "rms z {z}");
-        assert!((ratio - 1.0).abs() < 0.01, "ratio {ratio}");
+        let ma = map_with_errors(&a, &ids);
+        for (kind, what) in [(1, "table"), (2, "host BSDF")] {
+            let (mut b, _) = build(kind, 31 + u64::from(kind));
+            run_with(&mut b, photons(n), e);
+            let mb = map_with_errors(&b, &ids);
+            let (z, count) = rms_z(&ma, &mb);
+            let ratio = mean(&mb) / mean(&ma);
+            eprintln!("{e:?}: Lambertian {what} vs Lambert: rms z {z:.3} over {count} values, mean ratio {ratio:.4}");
+            assert!(count > 100);
+            assert!((0.6..1.35).contains(&z), "{what}: rms z {z}");
+            assert!((ratio - 1.0).abs() < 0.01, "{what}: ratio {ratio}");
+        }
     }
+    // The path tracer sees a reflecting host surface as the ideal one (a transmitting one
+    // is crossed by sampling, as frosted glass: the point light through it is missing
+    // there, docs/materials.md).
+    let cam = CameraDesc {
+        position: [0.0, -0.9, 0.7],
+        direction: [0.0, 0.8, -0.6],
+        up: [0.0, 0.0, 1.0],
+        fov_y_deg: 70.0,
+        width: 16,
+        height: 16,
+    };
+    let sums: Vec<(f64, f64)> = [false, true]
+        .into_iter()
+        .map(|host| {
+            let mut ctx = context(seeded(40));
+            let walls = lambert(&mut ctx, 0.4);
+            let floor_m = ctx
+                .add_material(&if host {
+                    MaterialDesc {
+                        surface: SurfaceModel::Host(imap::HostBsdfRef(std::sync::Arc::new(
+                            HostLambert::new(0.5, 0.0, u64::MAX),
+                        ))),
+                        ..Default::default()
+                    }
+                } else {
+                    MaterialDesc {
+                        diffuse_reflect: vec![0.5],
+                        ..Default::default()
+                    }
+                })
+                .unwrap();
+            let room = cuboid([-1.0, -1.0, -1.0], [1.0, 1.0, 1.0], 4, true);
+            ctx.add_mesh(&room.desc(walls)).unwrap();
+            let sheet = grid(4, -0.8, 0.8, -0.8, 0.8, 0.0);
+            ctx.add_mesh(&sheet.desc(floor_m)).unwrap();
+            ctx.add_point_light([0.2, 0.1, 0.6], &[10.0]).unwrap();
+            let img = ctx.path_trace(&cam, 256, 1000).unwrap();
+            let (mut sum, mut var) = (0.0, 0.0);
+            for p in 0..16 * 16 {
+                let v = band_mean(&img, p);
+                sum += v;
+                var += (v * img.rel_error[p]).powi(2);
+            }
+            (sum, var)
+        })
+        .collect();
+    let ratio = sums[1].0 / sums[0].0;
+    let sigma = (sums[0].1 + sums[1].1).sqrt() / sums[0].0;
+    eprintln!("path tracer: host / ideal image sum {ratio:.4} (σ {sigma:.4})");
+    assert!(
+        (ratio - 1.0).abs() < 4.0 * sigma + 0.002,
+        "{ratio} (σ {sigma})"
+    );
 }
 
+/// A host BSDF whose calls fail during a run stops it with IMAP_ERR_HOST_BSDF naming the
+/// material, in a run and in a render; one that gains energy, gives NaN or disagrees with
+/// its own density is refused when added; the context stays usable.
+#[test]
+fn a_failing_host_bsdf_is_a_status_not_a_crash() {
+    use imap::{HostBsdf, HostBsdfRef, ImapStatus};
+    use std::sync::Arc;
+    let host = |h: Arc<dyn HostBsdf>| MaterialDesc {
+        surface: SurfaceModel::Host(HostBsdfRef(h)),
+        ..Default::default()
+    };
+    let mut ctx = context(seeded(3));
+    let walls = lambert(&mut ctx, 0.5);
+    // The check at adding makes 12 · 2 · 512 draws (and as many evaluations, and the
+    // reverse ones): failing after 50 000 calls fails during the run.
+    let flaky = Arc::new(HostLambert::new(0.6, 0.0, 50_000));
+    let m = ctx.add_material(&host(flaky.clone())).unwrap();
+    let room = cuboid([-1.0, -1.0, -1.0], [1.0, 1.0, 1.0], 4, true);
+    ctx.add_mesh(&room.desc(walls)).unwrap();
+    let floor = grid(4, -0.8, 0.8, -0.8, 0.8, -0.5);
+    ctx.add_mesh(&floor.desc(m)).unwrap();
+    ctx.add_point_light([0.2, 0.1, 0.6], &[10.0]).unwrap();
+    let e = ctx
+        .run(&mut imap::RunParams {
+            photons: 2_000_000,
+            progress_interval_s: 0.05,
+            estimator: Some(Estimator::Photons),
+            ..Default::default()
+        })
+        .unwrap_err();
+    assert_eq!(e.status, ImapStatus::ImapErrHostBsdf, "{e}");
+    assert!(
+        e.message.contains(&format!("material {m}"))
+            && e.message.contains("the host's table is gone"),
+        "{}",
+        e.message
+    );
+    let report = ctx.report();
+    assert!(
+        report.photons > 0 && report.photons < 2_000_000,
+        "{} photons",
+        report.photons
+    );
+    let cam = CameraDesc {
+        position: [0.0, -0.9, 0.7],
+        direction: [0.0, 0.8, -0.6],
+        up: [0.0, 0.0, 1.0],
+        fov_y_deg: 70.0,
+        width: 8,
+        height: 8,
+    };
+    let e = ctx.path_trace(&cam, 4, 100).unwrap_err();
+    assert_eq!(e.status, ImapStatus::ImapErrHostBsdf, "{e}");
+    // Refused when added: energy gain, NaN, a density that is not its own.
+    struct Bad(u32);
+    impl HostBsdf for Bad {
+        fn eval(&self, _: [f64; 3], _: [f64; 3], _: bool, f: &mut [f64]) -> Result<(), String> {
+            let v = match self.0 {
+                0 => 1.3 / PI,
+                1 => f64::NAN,
+                _ => 0.5 / PI,
+            };
+            f.iter_mut().for_each(|x| *x = v);
+            Ok(())
+        }
+        fn sample(
+            &self,
+            _: [f64; 3],
+            u: [f64; 3],
+            _: bool,
+        ) -> Result<Option<([f64; 3], f64)>, String> {
+            let (r, phi) = (u[1].sqrt(), 2.0 * PI * u[2]);
+            let z = (1.0 - u[1]).max(1e-9).sqrt();
+            Ok(Some(([r * phi.cos(), r * phi.sin(), z], z / PI)))
+        }
+        fn pdf(&self, _: [f64; 3], wi: [f64; 3], _: bool) -> Result<f64, String> {
+            Ok(if self.0 == 2 {
+                1.0 / (2.0 * PI)
+            } else {
+                wi[2] / PI
+            })
+        }
+        fn transmits(&self) -> bool {
+            false
+        }
+        fn peak(&self) -> f64 {
+            0.0
+        }
+    }
+    for (k, word) in [
+        (0, "energy would be created"),
+        (1, "NaN"),
+        (2, "but pdf gives"),
+    ] {
+        let e = ctx.add_material(&host(Arc::new(Bad(k)))).unwrap_err();
+        assert_eq!(e.status, ImapStatus::ImapErrBadMaterial, "{e}");
+        assert!(e.message.contains(word), "{k}: {}", e.message);
+    }
+    // Still usable: a reset and a run without the host's surface in the light's way.
+    ctx.reset();
+    assert_eq!(ctx.report().photons, 0);
+}
 /// A Phong lobe's table under a point light lights a black ceiling as the lobe does: the
 /// ceiling's flux against the lobe integrated over the floor (the table's bilinear reading
 /// of a 5°-spaced grid, and 1.5 % for it).

@@ -10,7 +10,7 @@ mod render;
 pub mod state;
 
 use crate::accel::{Accel, Device};
-use crate::error::{bail, check_finite_scalar, Result};
+use crate::error::{bail, check_finite_scalar, Error, ImapStatus, Result};
 use crate::imap::regions::{RegionShared, RegionTally};
 use crate::imap::{DirectCells, IMap, LayerLayout, MapLayout};
 use crate::photometry::{gonio, BandPhotometry, PhotometricData, Spectrum};
@@ -503,9 +503,10 @@ impl Context {
         match &m.glossy {
             Some(crate::scene::microfacet::Glossy::Table(t)) => Ok(t.check),
             Some(crate::scene::microfacet::Glossy::Klems(k)) => Ok(k.check),
+            Some(crate::scene::microfacet::Glossy::Host(h)) => Ok(h.check),
             _ => bail!(
                 ImapErrInvalidArgument,
-                "material {material} is not a measured table or BSDF file (IMAP_SURFACE_TABLE, IMAP_SURFACE_BSDF_XML)"
+                "material {material} is not a measured table, BSDF file or host BSDF (IMAP_SURFACE_TABLE, _BSDF_XML, _HOST)"
             ),
         }
     }
@@ -975,6 +976,8 @@ impl Context {
             .memory_budget()
             .saturating_sub(held.saturating_add(transient));
         self.prepare()?;
+        let hosts: Vec<_> = self.host_surfaces().into_iter().map(|(_, h)| h).collect();
+        hosts.iter().for_each(|h| h.clear());
         let plan = photons::continue_plan(&self.traced, params.photons, &params.selection);
         let estimator = self.estimator();
         let prepared = self.prepared.as_ref().expect("prepared above");
@@ -1016,6 +1019,7 @@ impl Context {
             pool_bytes,
             hits_before: self.stats.hits,
             elapsed_before_s: self.elapsed_s,
+            host_bsdfs: &hosts,
         };
         let outcome = match self.config.scheduler {
             SchedulerKind::Classic => sched::classic::run(&rc, map, params),
@@ -1050,7 +1054,41 @@ impl Context {
                 "{why}; what that thread had not yet handed over is missing from the map while its photons are counted, so the map may read low: call imap_reset and run again for an exact map"
             );
         }
+        if let Some(e) = self.host_failure("photons") {
+            return Err(e);
+        }
         Ok(self.report())
+    }
+
+    /// The scene's host BSDFs (`IMAP_SURFACE_HOST`) with their material ids.
+    pub(crate) fn host_surfaces(
+        &self,
+    ) -> Vec<(u32, std::sync::Arc<crate::scene::host::HostSurface>)> {
+        self.scene
+            .materials
+            .iter()
+            .enumerate()
+            .filter_map(|(i, m)| match &m.glossy {
+                Some(crate::scene::microfacet::Glossy::Host(h)) => Some((i as u32, h.clone())),
+                _ => None,
+            })
+            .collect()
+    }
+
+    /// The error naming the first host BSDF whose calls failed since it was last cleared;
+    /// `what` ended there (photons or camera paths).
+    pub(crate) fn host_failure(&self, what: &str) -> Option<Error> {
+        self.host_surfaces().into_iter().find_map(|(id, h)| {
+            h.failures().map(|(n, first)| {
+                Error::new(
+                    ImapStatus::ImapErrHostBsdf,
+                    format!(
+                        "material {id}: its host BSDF failed {n} time(s) (first: {first}); the {what} there ended, so the result may read low and the run stopped: fix the BSDF, then imap_reset and run again"
+                    ),
+                )
+                .about(crate::error::Subject::Material(id))
+            })
+        })
     }
 
     /// Worker threads of a run or render: the configured count, or one per core.

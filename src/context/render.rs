@@ -24,11 +24,15 @@ impl Context {
         camera: &CameraDesc,
         params: &mut RenderParams,
     ) -> Result<(Image, RenderReport)> {
+        self.host_surfaces().iter().for_each(|(_, h)| h.clear());
         let (image, report, lost) = self.render_partial(camera, params)?;
-        match lost {
-            Some(e) => Err(e),
-            None => Ok((image, report)),
+        if let Some(e) = lost {
+            return Err(e);
         }
+        if let Some(e) = self.host_failure("camera paths and photons") {
+            return Err(e);
+        }
+        Ok((image, report))
     }
 
     /// Renders the camera's view by plain path tracing, `samples` paths per pixel on the
@@ -43,7 +47,12 @@ impl Context {
         samples: u32,
         max_events: u32,
     ) -> Result<Image> {
-        self.trace_pixels(camera, samples, max_events)
+        self.host_surfaces().iter().for_each(|(_, h)| h.clear());
+        let image = self.trace_pixels(camera, samples, max_events)?;
+        match self.host_failure("camera paths") {
+            Some(e) => Err(e),
+            None => Ok(image),
+        }
     }
 
     /// What final gathering reads from the map per recorded vertex side, with its relative

@@ -407,6 +407,55 @@ mod tests {
         }
     }
 
+    /// Every published struct accepts the size it had in the ABI baseline (abi/layout.txt):
+    /// a program built against that header keeps working after fields are appended.
+    #[test]
+    fn every_struct_accepts_its_baseline_size() {
+        let baseline = include_str!("../../abi/layout.txt");
+        let size_of = |name: &str| {
+            baseline.lines().find_map(|l| {
+                let mut w = l.split_whitespace();
+                (w.next() == Some("struct") && w.next() == Some(name))
+                    .then(|| w.next().and_then(|s| s.parse::<usize>().ok()))
+                    .flatten()
+            })
+        };
+        fn base<T: Versioned>() -> (&'static str, usize) {
+            (T::NAME, T::BASE_SIZE)
+        }
+        let all = [
+            base::<scene::ImapMaterial>(),
+            base::<scene::ImapMesh>(),
+            base::<sky::ImapSky>(),
+            base::<sky::ImapSun>(),
+            base::<sky::ImapSunTime>(),
+            base::<scene::ImapHostBsdf>(),
+            base::<context::ImapConfig>(),
+            base::<results::ImapRegionStats>(),
+            base::<run::ImapProgress>(),
+            base::<run::ImapRunParams>(),
+            base::<run::ImapReport>(),
+            base::<light::ImapSpectrum>(),
+            base::<light::ImapLight>(),
+            base::<light::ImapLuminaire>(),
+            base::<light::ImapPhotometry>(),
+            base::<render::ImapCamera>(),
+            base::<render::ImapRenderParams>(),
+            base::<render::ImapRenderReport>(),
+        ];
+        let mut seen = 0;
+        for (name, base) in all {
+            if let Some(published) = size_of(name) {
+                seen += 1;
+                assert!(
+                    base <= published,
+                    "{name}: BASE_SIZE {base} refuses programs built with its published {published} bytes"
+                );
+            }
+        }
+        assert!(seen >= 12, "{seen} structs found in the baseline");
+    }
+
     #[test]
     fn versioned_structs_grow_both_ways() {
         // An old program (16 bytes) gets the default of the field it does not know.

@@ -6,9 +6,11 @@ use super::{
 };
 use crate::context::Context;
 use crate::error::{bail, ImapStatus, Result};
+use crate::scene::host::{HostBsdf, HostBsdfRef};
 use crate::scene::{
     ConductorIndex, IorModel, MaterialDesc, MeshDesc, Metal, SurfaceModel, TableDesc,
 };
+use std::ffi::c_void;
 
 /// `ImapMaterial::ior_model`: not a dielectric.
 pub const IMAP_IOR_NONE: u32 = 0;
@@ -78,6 +80,252 @@ pub const IMAP_SURFACE_TABLE: u32 = 4;
 /// the worst reciprocity difference and the largest albedo. The three coefficients,
 /// `ior_model`, `absorption_per_m` and `roughness` must be 0/NONE. (Since 0.2.3.)
 pub const IMAP_SURFACE_BSDF_XML: u32 = 5;
+
+/// `ImapMaterial::surface`: the host's own BSDF (`host_bsdf`: an `ImapHostBsdf` of
+/// callbacks that evaluate, sample and give the density), used by every estimator and
+/// renderer as a measured table is. Checked when added: at 12 incident directions on each
+/// side, 512 of its own draws each, every value must be finite and ≥ 0, each draw's density
+/// what `pdf` gives (to 1e-3), and the directional albedo (mean f cos / pdf) at most 1.05
+/// (IMAP_ERR_BAD_MATERIAL otherwise, naming the direction); `imap_get_table_check` gives
+/// the largest albedo and the worst reciprocity difference among those draws. During a run
+/// or render a callback that fails or gives an invalid value ends that photon or path there
+/// and stops the run at its next progress check; the run or render then returns
+/// IMAP_ERR_HOST_BSDF naming the material, with the count and the first failure (the map
+/// keeps what was accumulated). The three coefficients, `ior_model`, `absorption_per_m`
+/// and `roughness` must be 0/NONE. (Since 0.2.3.)
+pub const IMAP_SURFACE_HOST: u32 = 6;
+
+/// `ImapHostBsdf::flags`: light can leave on the other side (`sample` may return
+/// directions with z < 0). (Since 0.2.3.)
+pub const IMAP_HOST_BSDF_TRANSMITS: u32 = 1;
+
+/// `ImapHostBsdf::eval`: f(wo → wi) per band into `f[0 .. bands)`, in 1/sr (the light
+/// arriving from `wo` that leaves along `wi`, per unit projected solid angle). Directions
+/// are unit vectors in the local frame at the hit: z the normal on the side light arrives
+/// from (`wo[2] > 0`), x the material's `tangent` projected onto the surface (a fixed
+/// direction without one), y = z × x; `wo` points back to where the light came from, `wi`
+/// where it goes on (`wi[2] < 0`: through to the other side); `front` is 1 when light arrives
+/// on the side the mesh's normals point to. Returns 0, or anything else for a failure.
+/// Called from many threads at once: it must be thread-safe and must not call libimap.
+pub type ImapBsdfEvalFn = Option<
+    unsafe extern "C" fn(
+        user: *mut c_void,
+        wo: *const f64,
+        wi: *const f64,
+        front: i32,
+        f: *mut f64,
+        bands: u32,
+    ) -> i32,
+>;
+
+/// `ImapHostBsdf::sample`: draws a direction `wi` (written to `wi[0..3)`, a unit vector)
+/// for light from `wo` from the three uniform numbers `u` the library draws (so the map
+/// stays the same for a seed) and writes its density per solid angle (1/sr, > 0) to
+/// `*pdf`. Returns 0, 1 when nothing goes on (the light is absorbed), anything else for a
+/// failure. Frame and threads as for `ImapBsdfEvalFn`.
+pub type ImapBsdfSampleFn = Option<
+    unsafe extern "C" fn(
+        user: *mut c_void,
+        wo: *const f64,
+        u: *const f64,
+        front: i32,
+        wi: *mut f64,
+        pdf: *mut f64,
+    ) -> i32,
+>;
+
+/// `ImapHostBsdf::pdf`: the density per solid angle with which `sample` draws `wi` from
+/// `wo`, to `*pdf`. Returns 0, or anything else for a failure. Frame and threads as for
+/// `ImapBsdfEvalFn`.
+pub type ImapBsdfPdfFn = Option<
+    unsafe extern "C" fn(
+        user: *mut c_void,
+        wo: *const f64,
+        wi: *const f64,
+        front: i32,
+        pdf: *mut f64,
+    ) -> i32,
+>;
+
+/// The host's own BSDF (`IMAP_SURFACE_HOST`). Initialise with
+/// `imap_host_bsdf_default(&b, sizeof b)`. The library keeps the callbacks and `user`
+/// (not the struct) for the context's lifetime: they must stay valid until
+/// `imap_destroy`, and are called from many threads at once. (Since 0.2.3.)
+#[repr(C)]
+#[derive(Clone, Copy, Debug)]
+pub struct ImapHostBsdf {
+    /// `sizeof(ImapHostBsdf)` as the program was compiled; set by `imap_host_bsdf_default`.
+    pub struct_size: u32,
+    /// `IMAP_HOST_BSDF_*` flags, or-ed (0: it only reflects).
+    pub flags: u32,
+    pub eval: ImapBsdfEvalFn,
+    pub sample: ImapBsdfSampleFn,
+    pub pdf: ImapBsdfPdfFn,
+    /// Passed to every callback.
+    pub user: *mut c_void,
+    /// The largest value f takes (1/sr), or 0 when unknown: the map's gathering paths take
+    /// light samples at a reflector peaking at most 8/sr; sharper or unknown lobes are the
+    /// photons' alone, as a mirror's.
+    pub peak: f64,
+}
+
+// SAFETY: repr(C), u32 struct_size first, numbers, function pointers and a raw pointer.
+unsafe impl Versioned for ImapHostBsdf {
+    const NAME: &'static str = "ImapHostBsdf";
+    const INIT: &'static str = "imap_host_bsdf_default";
+    fn defaults() -> Self {
+        ImapHostBsdf {
+            struct_size: std::mem::size_of::<Self>() as u32,
+            flags: 0,
+            eval: None,
+            sample: None,
+            pdf: None,
+            user: std::ptr::null_mut(),
+            peak: 0.0,
+        }
+    }
+}
+
+/// Fills the `size` bytes at `out` with an empty host BSDF (no callbacks, flags 0, peak 0)
+/// and sets `struct_size = size`. Pass `sizeof *out`. Returns IMAP_ERR_NULL_POINTER,
+/// IMAP_ERR_INVALID_ARGUMENT (size too small). Thread-safe. (Since 0.2.3.)
+///
+/// # Safety
+/// `out` is NULL or points to `size` writable bytes.
+#[no_mangle]
+pub unsafe extern "C" fn imap_host_bsdf_default(out: *mut ImapHostBsdf, size: usize) -> ImapStatus {
+    boundary(None, || write_defaults(out, size))
+}
+
+/// A C host BSDF: its callbacks behind `HostBsdf`.
+struct CHostBsdf {
+    eval: unsafe extern "C" fn(*mut c_void, *const f64, *const f64, i32, *mut f64, u32) -> i32,
+    sample:
+        unsafe extern "C" fn(*mut c_void, *const f64, *const f64, i32, *mut f64, *mut f64) -> i32,
+    pdf: unsafe extern "C" fn(*mut c_void, *const f64, *const f64, i32, *mut f64) -> i32,
+    user: *mut c_void,
+    flags: u32,
+    peak: f64,
+}
+
+// SAFETY: the header requires the callbacks and `user` to be thread-safe and valid for the
+// context's lifetime (`ImapHostBsdf`).
+unsafe impl Send for CHostBsdf {}
+// SAFETY: as above.
+unsafe impl Sync for CHostBsdf {}
+
+impl HostBsdf for CHostBsdf {
+    fn eval(
+        &self,
+        a: [f64; 3],
+        b: [f64; 3],
+        front: bool,
+        f: &mut [f64],
+    ) -> std::result::Result<(), String> {
+        // SAFETY: valid pointers to 3 doubles each and `f.len()` writable doubles; the
+        // callback's validity is the caller's promise (`ImapHostBsdf`).
+        let rc = unsafe {
+            (self.eval)(
+                self.user,
+                a.as_ptr(),
+                b.as_ptr(),
+                i32::from(front),
+                f.as_mut_ptr(),
+                f.len() as u32,
+            )
+        };
+        if rc == 0 {
+            Ok(())
+        } else {
+            Err(format!("eval returned {rc}"))
+        }
+    }
+
+    fn sample(
+        &self,
+        a: [f64; 3],
+        u: [f64; 3],
+        front: bool,
+    ) -> std::result::Result<Option<([f64; 3], f64)>, String> {
+        let (mut wi, mut pdf) = ([f64::NAN; 3], f64::NAN);
+        // SAFETY: as in `eval`: 3 readable doubles each, 3 and 1 writable.
+        let rc = unsafe {
+            (self.sample)(
+                self.user,
+                a.as_ptr(),
+                u.as_ptr(),
+                i32::from(front),
+                wi.as_mut_ptr(),
+                &mut pdf,
+            )
+        };
+        match rc {
+            0 => Ok(Some((wi, pdf))),
+            1 => Ok(None),
+            _ => Err(format!("sample returned {rc}")),
+        }
+    }
+
+    fn pdf(&self, a: [f64; 3], b: [f64; 3], front: bool) -> std::result::Result<f64, String> {
+        let mut pdf = f64::NAN;
+        // SAFETY: as in `eval`.
+        let rc = unsafe {
+            (self.pdf)(
+                self.user,
+                a.as_ptr(),
+                b.as_ptr(),
+                i32::from(front),
+                &mut pdf,
+            )
+        };
+        if rc == 0 {
+            Ok(pdf)
+        } else {
+            Err(format!("pdf returned {rc}"))
+        }
+    }
+
+    fn transmits(&self) -> bool {
+        self.flags & IMAP_HOST_BSDF_TRANSMITS != 0
+    }
+
+    fn peak(&self) -> f64 {
+        self.peak
+    }
+}
+
+/// The host BSDF `ptr` describes, checked for its callbacks.
+fn host_bsdf(ptr: *const ImapHostBsdf) -> Result<HostBsdfRef> {
+    let h = read_versioned("material.host_bsdf", ptr)?;
+    let (Some(eval), Some(sample), Some(pdf)) = (h.eval, h.sample, h.pdf) else {
+        bail!(
+            ImapErrNullPointer,
+            "material.host_bsdf: eval, sample and pdf must all be set"
+        );
+    };
+    if h.flags & !IMAP_HOST_BSDF_TRANSMITS != 0 {
+        bail!(
+            ImapErrInvalidArgument,
+            "material.host_bsdf.flags = {:#x} sets a bit that is not an IMAP_HOST_BSDF_* flag",
+            h.flags
+        );
+    }
+    if !(h.peak.is_finite() && h.peak >= 0.0) {
+        bail!(
+            ImapErrInvalidArgument,
+            "material.host_bsdf.peak = {} must be finite and >= 0 (0: unknown)",
+            h.peak
+        );
+    }
+    Ok(HostBsdfRef(std::sync::Arc::new(CHostBsdf {
+        eval,
+        sample,
+        pdf,
+        user: h.user,
+        flags: h.flags,
+        peak: h.peak,
+    })))
+}
 
 /// `ImapMaterial::flags`: a conductor without its multiple-scattering lobe (single
 /// scattering only, as Mitsuba 3's `roughconductor` and most renderers compute it; it then
@@ -184,12 +432,17 @@ pub struct ImapMaterial {
     /// IMAP_SURFACE_BSDF_XML: the file's path, NUL-terminated (the bytes as the system
     /// takes them). The library reads it during `imap_add_material`. (Since 0.2.3.)
     pub bsdf_xml_path: *const std::ffi::c_char,
+    /// IMAP_SURFACE_HOST: the host's BSDF (its callbacks and `user` are kept, the struct
+    /// itself is copied). (Since 0.2.3.)
+    pub host_bsdf: *const ImapHostBsdf,
 }
 
 // SAFETY: repr(C), u32 struct_size first, numbers and raw pointers only.
 unsafe impl Versioned for ImapMaterial {
     const NAME: &'static str = "ImapMaterial";
     const INIT: &'static str = "imap_material_default";
+    /// The 0.2.2 layout, before the surface models.
+    const BASE_SIZE: usize = std::mem::offset_of!(ImapMaterial, surface);
     fn defaults() -> Self {
         ImapMaterial {
             struct_size: std::mem::size_of::<Self>() as u32,
@@ -219,6 +472,7 @@ unsafe impl Versioned for ImapMaterial {
             table_btdf_count: 0,
             flags: 0,
             bsdf_xml_path: std::ptr::null(),
+            host_bsdf: std::ptr::null(),
         }
     }
 }
@@ -420,12 +674,13 @@ pub unsafe extern "C" fn imap_add_material(
                     brdf: per_band("material.table_brdf", m.table_brdf, m.table_brdf_count)?,
                     btdf: per_band("material.table_btdf", m.table_btdf, m.table_btdf_count)?,
                 }),
+                IMAP_SURFACE_HOST => SurfaceModel::Host(host_bsdf(m.host_bsdf)?),
                 IMAP_SURFACE_BSDF_XML => SurfaceModel::Klems(
                     super::state::path_arg("material.bsdf_xml_path", m.bsdf_xml_path)?.to_path_buf(),
                 ),
                 other => bail!(
                     ImapErrInvalidArgument,
-                    "material.surface = {other} is not one of IMAP_SURFACE_IDEAL, _CONDUCTOR, _ROUGH_DIELECTRIC, _PLASTIC, _TABLE, _BSDF_XML"
+                    "material.surface = {other} is not one of IMAP_SURFACE_IDEAL, _CONDUCTOR, _ROUGH_DIELECTRIC, _PLASTIC, _TABLE, _BSDF_XML, _HOST"
                 ),
             },
             roughness: m.roughness,
@@ -437,6 +692,12 @@ pub unsafe extern "C" fn imap_add_material(
                 ImapErrInvalidArgument,
                 "material.flags = {:#x} sets a bit that is not an IMAP_MATERIAL_* flag",
                 m.flags
+            );
+        }
+        if m.surface != IMAP_SURFACE_HOST && !m.host_bsdf.is_null() {
+            bail!(
+                ImapErrBadMaterial,
+                "material.host_bsdf is given but material.surface is not IMAP_SURFACE_HOST"
             );
         }
         if m.surface != IMAP_SURFACE_BSDF_XML && !m.bsdf_xml_path.is_null() {

@@ -32,6 +32,8 @@ pub enum SurfaceModel {
     /// A window BSDF file (LBNL WINDOW / Radiance XML, Klems basis; `scene::klems`): the
     /// mesh's normals point to its front side, `tangent` is its up direction (default +z).
     Klems(std::path::PathBuf),
+    /// The host's own BSDF (`scene::host`), checked when added.
+    Host(super::host::HostBsdfRef),
 }
 
 /// A conductor's complex index.
@@ -286,7 +288,9 @@ impl Material {
                 Some(v.normalize())
             }
         };
-        if let SurfaceModel::Table(_) | SurfaceModel::Klems(_) = &desc.surface {
+        if let SurfaceModel::Table(_) | SurfaceModel::Klems(_) | SurfaceModel::Host(_) =
+            &desc.surface
+        {
             let given = [
                 ("diffuse_reflectance", desc.diffuse_reflect.is_empty()),
                 ("specular_reflectance", desc.specular_reflect.is_empty()),
@@ -311,6 +315,13 @@ impl Material {
                     // Its up direction: +z unless given (a fixed one where it is along a
                     // triangle's normal: `Frame::new`).
                     Some(tangent.unwrap_or(DVec3::Z)),
+                ),
+                SurfaceModel::Host(h) => (
+                    Glossy::Host(std::sync::Arc::new(super::host::HostSurface::new(
+                        h.0.clone(),
+                        nb,
+                    )?)),
+                    tangent,
                 ),
                 _ => unreachable!("matched above"),
             };
@@ -358,7 +369,10 @@ impl Material {
         zero("diffuse_transmittance", &desc.diffuse_transmit)?;
         let mut dielectric = None;
         let glossy = match &desc.surface {
-            SurfaceModel::Ideal | SurfaceModel::Table(_) | SurfaceModel::Klems(_) => {
+            SurfaceModel::Ideal
+            | SurfaceModel::Table(_)
+            | SurfaceModel::Klems(_)
+            | SurfaceModel::Host(_) => {
                 unreachable!("ideal surfaces and tables are read above")
             }
             SurfaceModel::Conductor(index) => {

@@ -20,6 +20,7 @@
 //! same kernel (their transmitted radiance then misses the factor n² inside a medium, which
 //! cancels on the way out of a closed one, as for the smooth dielectric).
 
+use super::host::HostSurface;
 use super::klems::KlemsBsdf;
 use super::material::fresnel_dielectric;
 use super::table::BsdfTable;
@@ -317,6 +318,8 @@ pub enum Glossy {
     Table(Arc<BsdfTable>),
     /// A window BSDF in a Klems basis (`scene::klems`): front and back differ.
     Klems(Arc<KlemsBsdf>),
+    /// The host's own BSDF (`scene::host`).
+    Host(Arc<HostSurface>),
 }
 
 /// The largest value (1/sr) of a measured table whose light the map's gathering paths
@@ -416,6 +419,7 @@ impl Glossy {
             | Glossy::Plastic { rough, .. } => rough.ax.min(rough.ay) < min_alpha,
             Glossy::Table(t) => t.peak > TABLE_GATHER_PEAK,
             Glossy::Klems(k) => k.peak > TABLE_GATHER_PEAK,
+            Glossy::Host(h) => !(h.peak() > 0.0 && h.peak() <= TABLE_GATHER_PEAK),
         }
     }
 
@@ -426,6 +430,7 @@ impl Glossy {
             Glossy::Dielectric { .. } => true,
             Glossy::Table(t) => t.transmits(),
             Glossy::Klems(k) => k.transmits(),
+            Glossy::Host(h) => h.transmits(),
             _ => false,
         }
     }
@@ -499,12 +504,15 @@ impl Glossy {
         if let Glossy::Klems(k) = self {
             return k.eval(wo, wi, front, out);
         }
+        if let Glossy::Host(h) = self {
+            return h.eval(wo, wi, front, out);
+        }
         out.iter_mut().for_each(|x| *x = 0.0);
         if wo.z <= 0.0 {
             return;
         }
         match self {
-            Glossy::Table(_) | Glossy::Klems(_) => unreachable!("read above"),
+            Glossy::Table(_) | Glossy::Klems(_) | Glossy::Host(_) => unreachable!("read above"),
             Glossy::Conductor {
                 rough,
                 eta,
@@ -584,6 +592,7 @@ impl Glossy {
         match self {
             Glossy::Table(t) => t.pdf(wo, wi),
             Glossy::Klems(k) => k.pdf(wo, wi, front),
+            Glossy::Host(h) => h.pdf(wo, wi, front),
             Glossy::Conductor {
                 rough, white, ms, ..
             } => {
@@ -635,6 +644,11 @@ impl Glossy {
         if wo.z <= 0.0 {
             return None;
         }
+        if let Glossy::Host(h) = self {
+            // The host gives the density with the direction (checked there).
+            let (wi, pdf) = h.sample(wo, u, front)?;
+            return Some(GlossySample { wi, pdf });
+        }
         // Whether the draw sends light through (a dielectric's refraction).
         let mut through = false;
         let wi = match self {
@@ -648,6 +662,7 @@ impl Glossy {
                 through = wi.z < 0.0;
                 wi
             }
+            Glossy::Host(_) => unreachable!("drawn above"),
             Glossy::Conductor {
                 rough, white, ms, ..
             } => {

@@ -3,6 +3,7 @@
 
 pub mod bsdf;
 pub(crate) mod emitter;
+pub mod host;
 pub mod klems;
 pub mod light;
 pub mod material;

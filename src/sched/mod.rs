@@ -126,6 +126,9 @@ pub struct RunContext<'a> {
     /// Per mesh of the region target (in its order): each vertex's share of the target's
     /// triangles (scene units²; 0 outside it). Empty without a target.
     pub region_weights: &'a [Vec<f64>],
+    /// The scene's host BSDFs: a failure in one of their calls stops the run at the next
+    /// check (the context then returns IMAP_ERR_HOST_BSDF).
+    pub host_bsdfs: &'a [std::sync::Arc<crate::scene::host::HostSurface>],
 }
 
 /// A calculating thread's region tallies: photons' totals added locally, handed to the
@@ -283,6 +286,9 @@ impl<'p, 'a> RunMonitor<'p, 'a> {
         let now = Instant::now();
         if self.stop.is_none() && self.end.is_some_and(|end| now >= end) {
             self.stop = Some(StopReason::TimeBudget);
+        }
+        if self.stop.is_none() && rc.host_bsdfs.iter().any(|h| h.failed()) {
+            self.stop = Some(StopReason::Cancelled);
         }
         if self.stop.is_none() && self.schedule.next().is_some_and(|t| now >= t) {
             let cost = CostClock::start();
