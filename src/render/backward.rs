@@ -16,6 +16,7 @@ use crate::scene::light::DistantPart;
 use crate::scene::material::fresnel_dielectric;
 use crate::scene::{LightSample, Material, PreparedScene, Receiver, Scene};
 use crate::spectral::collapse_weights;
+use crate::transport::SurfaceEvent;
 use glam::DVec3;
 use std::f64::consts::PI;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -231,7 +232,7 @@ impl<'a> EyeTracer<'a> {
         let mut medium: Option<u32> = None;
         // The density of the last glossy reflector's direction, while the path has met
         // nothing since (emission it finds is weighed against that vertex's light sample).
-        let mut glossy_pdf: Option<(f64, DVec3)> = None;
+        let mut glossy_pdf: Option<(f64, Receiver)> = None;
         let mut glossy_scratch = Vec::new();
 
         for event in 0..self.max_events {
@@ -351,7 +352,7 @@ impl<'a> EyeTracer<'a> {
         let mut counts = true;
         let mut diffuse_vertices = 0u32;
         // As in `trace`: the last glossy reflector's density, straight after it.
-        let mut glossy_pdf: Option<(f64, DVec3)> = None;
+        let mut glossy_pdf: Option<(f64, Receiver)> = None;
         let mut glossy_scratch = Vec::new();
         // Whether the path has left a glossy reflector: the sun through specular surfaces
         // behind it is then the caustic photons' too (they splat at glossy reflectors).
@@ -517,20 +518,19 @@ impl<'a> EyeTracer<'a> {
         share / COVERAGE_RAYS as f64
     }
 
-    /// A caustic photon of colour `colour` (W per band: each value times `flux`) arriving
-    /// along `arriving` at `z` (normal `n_in` on its side) on a surface of material `m`,
-    /// seen by the camera: the pixel that sees z and what the landing adds to its radiance —
-    /// the diffuse reflection (or transmission), or a glossy reflector's f, toward the eye,
-    /// spread over the pixel's footprint. None when the camera does not see z.
+    /// A caustic photon of colour `colour` (W per band: each value times `flux`) at surface
+    /// event `ev` (arriving along `ev.dir` at `ev.point`, normal `ev.n_in` on its side),
+    /// seen by the camera: the pixel that sees the point and what the landing adds to its
+    /// radiance — the diffuse reflection (or transmission), or a glossy surface's f toward
+    /// the eye (through it when it transmits), spread over the pixel's footprint. None when
+    /// the camera does not see the point.
     pub(crate) fn caustic_splat(
         &self,
-        z: DVec3,
-        n_in: DVec3,
-        m: &Material,
+        ev: &SurfaceEvent,
         colour: &[f64],
         flux: f64,
-        arriving: DVec3,
     ) -> Option<(u32, Vec<f64>)> {
+        let (z, n_in, m) = (ev.point, ev.n_in, ev.material);
         let to = self.camera.origin - z;
         let dist = to.length();
         if dist <= 0.0 {
@@ -540,16 +540,16 @@ impl<'a> EyeTracer<'a> {
         let c = dir.dot(n_in);
         let bsdf = m.bsdf();
         if let Some(g) = bsdf.glossy() {
-            // A glossy reflector: f (arriving → the camera) in place of k/π.
-            let frame = bsdf.frame(n_in);
-            let (wo, wi) = (frame.to_local(-arriving), frame.to_local(dir));
-            if wi.z <= 0.0 || wo.z <= 0.0 {
+            // A glossy surface: f (arriving → the camera) in place of k/π.
+            if (-ev.dir).dot(n_in) <= 0.0 || c == 0.0 || (c < 0.0 && !g.transmits()) {
                 return None;
             }
-            let (pixel, den) = self.splat_at(z, n_in, dir, dist)?;
+            let n_cam = if c > 0.0 { n_in } else { -n_in };
+            let (pixel, den) = self.splat_at(z, n_cam, dir, dist)?;
             let mut f = vec![0.0; colour.len()];
-            g.eval(wo, wi, 0, true, &mut f);
-            let k = c / den * flux;
+            let front_cam = if c > 0.0 { ev.front } else { !ev.front };
+            bsdf.eval_toward(n_cam, front_cam, -ev.dir, dir, &mut f);
+            let k = c.abs() / den * flux;
             return Some((
                 pixel,
                 colour.iter().zip(&f).map(|(c, f)| c * f * k).collect(),
@@ -687,7 +687,7 @@ impl<'a> EyeTracer<'a> {
         dir: DVec3,
         beta: &[f64],
         out: &mut [f64],
-        glossy_pdf: Option<(f64, DVec3)>,
+        glossy_pdf: Option<(f64, Receiver)>,
     ) {
         let Some((pb, _)) = glossy_pdf else {
             return self.add_emission(hit.mesh, ng, dir, beta, out);
@@ -713,14 +713,13 @@ impl<'a> EyeTracer<'a> {
         beta: &[f64],
         out: &mut [f64],
         no_sun: bool,
-        glossy_pdf: Option<(f64, DVec3)>,
+        glossy_pdf: Option<(f64, Receiver)>,
     ) {
-        let Some((pb, n)) = glossy_pdf else {
+        let Some((pb, receiver)) = glossy_pdf else {
             return self.add_distant(dir, beta, out, no_sun);
         };
-        // The reflector's light samples (`glossy_step`: `Receiver` n, front only) draw
-        // `dir` with the emitter's pick times its direction density.
-        let receiver = Receiver { n, p_front: 1.0 };
+        // The glossy surface's light samples (`glossy_step`'s `Receiver`) draw `dir` with
+        // the emitter's pick times its direction density.
         for (e, part) in &self.distant {
             let f = part.value(dir);
             if f <= 0.0 {
@@ -735,12 +734,14 @@ impl<'a> EyeTracer<'a> {
         }
     }
 
-    /// At a glossy reflector: its direct light (one light sample weighed by f, against
-    /// the BSDF's own density by the power heuristic; point-like lights and beams by the
-    /// light sample alone), added to `out`; then the path goes on by the BSDF's sampling
-    /// (`dir`, `org`, `beta` × f cos / pdf). Returns the density of that direction and the
-    /// reflector's normal, for the weight of the light it meets next; None when the path
-    /// ends.
+    /// At a glossy surface (a reflector, or a table, window or host BSDF that also
+    /// transmits): its direct light (one light sample weighed by f, from either side when
+    /// it transmits, against the BSDF's own density by the power heuristic; point-like
+    /// lights and beams by the light sample alone), added to `out`; then the path goes on
+    /// by the BSDF's sampling (`dir`, `org`, `beta` × f cos / pdf, f read the way light
+    /// travels: from the drawn direction toward the eye). Returns the density of that
+    /// direction and the light samples' receiver, for the weight of the light it meets
+    /// next; None when the path ends.
     fn glossy_step(
         &self,
         at: &Surface,
@@ -749,16 +750,25 @@ impl<'a> EyeTracer<'a> {
         rng: &mut PhotonRng,
         out: &mut [f64],
         stats: &mut EyeStats,
-    ) -> Option<(f64, DVec3)> {
+    ) -> Option<(f64, Receiver)> {
         let bsdf = self.materials[at.material as usize].bsdf();
         let g = bsdf.glossy().expect("a glossy surface");
         let n_in = at.n_in;
         let frame = bsdf.frame(n_in);
-        let wo = frame.to_local(-*dir);
+        let to_eye = -*dir;
+        let wo = frame.to_local(to_eye);
         let nb = self.bands;
         f.resize(nb, 0.0);
         let p = at.p;
-        let lift = p + n_in * at.eps;
+        let transmits = g.transmits();
+        // Shadow rays leave from the side of the light they aim at.
+        let lift = |toward: DVec3| {
+            if toward.dot(n_in) >= 0.0 {
+                p + n_in * at.eps
+            } else {
+                p - n_in * at.eps
+            }
+        };
         let table = &self.scene.emitter_table;
 
         // Light sampling.
@@ -768,37 +778,35 @@ impl<'a> EyeTracer<'a> {
         let u = [rng.uniform(), rng.uniform(), rng.uniform()];
         let receiver = Receiver {
             n: n_in,
-            p_front: 1.0,
+            p_front: if transmits { 0.5 } else { 1.0 },
         };
         let power = |e: usize| match &self.lights[e] {
             LightValue::Power(power) => power.as_slice(),
             LightValue::Radiance { .. } => &[][..],
         };
-        // (direction, radiance-like value per band before f and cos, MIS density or
-        // None for a delta light).
         let sample = em.sample_toward(&self.scene.meshes, p, receiver, u, || true);
         let mut add = |wi: DVec3, k: f64, per_band: &[f64], light_pdf: Option<f64>| {
             let cos = wi.dot(n_in);
-            if cos <= 0.0 || k <= 0.0 {
+            if (cos <= 0.0 && !transmits) || cos == 0.0 || k <= 0.0 {
                 return;
             }
-            let local = frame.to_local(wi);
-            g.eval(local, wo, 0, true, f);
+            bsdf.eval_toward(n_in, at.front, wi, to_eye, f);
             let w = light_pdf.map_or(1.0, |pl| {
-                let pb = g.pdf(wo, local, 0, true);
+                let pb = g.pdf(wo, frame.to_local(wi), 0, at.front);
                 pl * pl / (pl * pl + pb * pb)
             });
             for (((o, b), fb), l) in out.iter_mut().zip(beta.iter()).zip(f.iter()).zip(per_band) {
-                *o += b * fb * l * cos * k * w;
+                *o += b * fb * l * cos.abs() * k * w;
             }
         };
         match sample {
             None => {}
             Some(LightSample::Beam { axis, area, .. }) => {
                 let wi = -axis;
-                let dist = (lift - em.position).dot(axis);
+                let from = lift(wi);
+                let dist = (from - em.position).dot(axis);
                 stats.rays += 1;
-                if dist > 0.0 && !self.accel.occluded(lift, wi, dist) {
+                if dist > 0.0 && !self.accel.occluded(from, wi, dist) {
                     add(
                         wi,
                         1.0 / (area * self.unit_m * self.unit_m * pe),
@@ -808,19 +816,22 @@ impl<'a> EyeTracer<'a> {
                 }
             }
             Some(LightSample::Point(y)) => {
-                let to = y - lift;
+                let from = lift(y - p);
+                let to = y - from;
                 let d2 = to.length_squared();
                 let d = d2.sqrt();
                 let wi = to / d;
                 let per_watt = em.intensity_per_watt(-wi);
                 stats.rays += 1;
-                if per_watt > 0.0 && wi.dot(n_in) > 0.0 && !self.accel.occluded(lift, wi, d) {
+                let facing = transmits || wi.dot(n_in) > 0.0;
+                if per_watt > 0.0 && facing && !self.accel.occluded(from, wi, d) {
                     let k = per_watt / (d2 * self.unit_m * self.unit_m * pe);
                     add(wi, k, power(e), None);
                 }
             }
             Some(LightSample::Area { point: q, normal }) => {
-                let to = q - lift;
+                let from = lift(q - p);
+                let to = q - from;
                 let d2 = to.length_squared();
                 let d = d2.sqrt();
                 let wi = to / d;
@@ -828,7 +839,7 @@ impl<'a> EyeTracer<'a> {
                     let cos_l = wi.dot(normal).abs();
                     let t_max = d - 2.0 * self.scene.offset_at(q);
                     stats.rays += 1;
-                    if cos_l > 0.0 && t_max > 0.0 && !self.accel.occluded(lift, wi, t_max) {
+                    if cos_l > 0.0 && t_max > 0.0 && !self.accel.occluded(from, wi, t_max) {
                         let pl = pe * d2 / (area * cos_l);
                         add(wi, 1.0 / pl, radiance, Some(pl));
                     }
@@ -842,27 +853,30 @@ impl<'a> EyeTracer<'a> {
                 norm,
             }) => {
                 stats.rays += 1;
-                if fv > 0.0 && q > 0.0 && !self.accel.occluded(lift, toward, reach) {
+                if fv > 0.0 && q > 0.0 && !self.accel.occluded(lift(toward), toward, reach) {
                     let cross = norm * self.unit_m * self.unit_m;
                     add(toward, fv / (q * cross * pe), power(e), Some(q * pe));
                 }
             }
         }
 
-        // The path goes on.
+        // The path goes on: f read from the drawn direction toward the eye.
         let u = [rng.uniform(), rng.uniform(), rng.uniform()];
-        let s = g.sample_weighted(wo, u, 0, true, f)?;
+        let s = g.sample(wo, u, 0, at.front)?;
+        let wi = frame.to_world(s.wi);
+        bsdf.eval_toward(n_in, at.front, wi, to_eye, f);
+        let k = s.wi.z.abs() / s.pdf;
         let mut any = false;
         for (b, w) in beta.iter_mut().zip(f.iter()) {
-            *b *= w;
+            *b *= w * k;
             any |= *b > 0.0;
         }
         if !any {
             return None;
         }
-        *dir = frame.to_world(s.wi);
-        *org = lift;
-        Some((s.pdf, n_in))
+        *dir = wi;
+        *org = lift(wi);
+        Some((s.pdf, receiver))
     }
 
     /// A new eye path through `pixel`: unit weight in every band, counted, and its first
@@ -954,11 +968,10 @@ impl<'a> EyeTracer<'a> {
         let bsdf = self.materials[at.material as usize].bsdf();
         let n_in = at.n_in;
         if let Some(g) = bsdf.glossy() {
-            if !g.transmits() {
+            if !g.refracts() {
                 return Step::Glossy;
             }
-            // A rough dielectric (or a transmitting table): crossed by sampling alone, as a
-            // smooth one.
+            // A rough dielectric: crossed by sampling alone, as a smooth one.
             if g.dispersive() && band.is_none() {
                 *band = Some(collapse_weights(beta, rng.uniform()));
             }

@@ -120,12 +120,42 @@ impl<'a> Bsdf<'a> {
         self.material.glossy.as_ref()
     }
 
-    /// A glossy surface that light sampling evaluates (a rough conductor or a coated
-    /// diffuse base, not a rough dielectric): eye paths take light samples there and the
-    /// map's gathering paths too when it is rough enough (`gathers`).
+    /// A glossy surface that light sampling evaluates (a rough conductor, a coated diffuse
+    /// base, a table, a window BSDF or a host BSDF, reflecting or transmitting; not a rough
+    /// dielectric): eye paths take light samples there, on both sides when it transmits,
+    /// and the map's gathering paths too when it only reflects and is rough enough
+    /// (`gathers`).
     #[inline]
     pub fn is_glossy(&self) -> bool {
-        self.glossy().is_some_and(|g| !g.transmits())
+        self.glossy().is_some_and(|g| !g.refracts())
+    }
+
+    /// f per band into `out` for light arriving from world direction `from` (pointing
+    /// away from the surface, toward where the light comes from) and leaving along world
+    /// direction `to`, at a point whose normal on `to`'s side is `n_to` (`front_to`: that
+    /// side is the one the normals point to). The BSDF is read in the frame of the side
+    /// light arrives on, so surfaces whose two sides differ (window BSDFs, host BSDFs) are
+    /// read the right way round. Zeros when it is not glossy.
+    #[inline]
+    pub fn eval_toward(
+        &self,
+        n_to: DVec3,
+        front_to: bool,
+        from: DVec3,
+        to: DVec3,
+        out: &mut [f64],
+    ) {
+        let Some(g) = self.glossy() else {
+            out.iter_mut().for_each(|x| *x = 0.0);
+            return;
+        };
+        let (n, front) = if from.dot(n_to) >= 0.0 {
+            (n_to, front_to)
+        } else {
+            (-n_to, !front_to)
+        };
+        let frame = self.frame(n);
+        g.eval(frame.to_local(from), frame.to_local(to), 0, front, out);
     }
 
     /// Whether the map's gathering paths take light samples here and a photon's first
@@ -179,7 +209,7 @@ impl<'a> Bsdf<'a> {
     pub fn is_specular(&self) -> bool {
         self.interface().is_some()
             || self.has(Lobe::SpecularReflection)
-            || self.glossy().is_some_and(Glossy::transmits)
+            || self.glossy().is_some_and(Glossy::refracts)
     }
 
     /// The lobes it has, in `Lobe::ALL`'s order, with their albedos.

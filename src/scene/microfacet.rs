@@ -435,6 +435,14 @@ impl Glossy {
         }
     }
 
+    /// Whether it is a rough dielectric interface (a medium's boundary that refracts): eye
+    /// paths cross it by sampling alone, as a smooth one. Every other glossy surface,
+    /// transmitting tables, window BSDFs and host BSDFs too, is evaluated by light samples.
+    #[inline]
+    pub fn refracts(&self) -> bool {
+        matches!(self, Glossy::Dielectric { .. })
+    }
+
     /// Whether the dielectric's index differs between bands (a photon then collapses to
     /// one band, as at a smooth one).
     #[inline]

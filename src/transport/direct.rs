@@ -795,6 +795,7 @@ impl DirectSampler<'_> {
                 if g.transmits() {
                     return;
                 }
+                let front = dir.dot(ng) < 0.0;
                 let frame = bsdf.frame(n_in);
                 let to_x = frame.to_local(-dir);
                 let w = weights.get_or_insert_with(|| vec![0.0; nb]);
@@ -808,16 +809,21 @@ impl DirectSampler<'_> {
                     let u = d.next();
                     let v = [d.next(), d.next(), d.next()];
                     if let Some((e, gl, from)) = self.sample_light(&y, u, v) {
-                        g.eval(frame.to_local(from), to_x, 0, true, w);
+                        g.eval(frame.to_local(from), to_x, 0, front, w);
                         w.iter_mut().for_each(|x| *x *= PI);
                         self.add(e, gl, Some((t, w)), sums, nb);
                     }
                 }
                 let u = [d.next(), d.next(), d.next()];
                 let u_survive = d.next();
-                let Some(s) = g.sample_weighted(to_x, u, 0, true, w) else {
+                // A direction drawn from x's side, f read the way light travels: from it
+                // toward x.
+                let Some(s) = g.sample(to_x, u, 0, front) else {
                     return;
                 };
+                bsdf.eval_toward(n_in, front, frame.to_world(s.wi), -dir, w);
+                let k = s.wi.z.abs() / s.pdf;
+                w.iter_mut().for_each(|x| *x *= k);
                 let mean = t.weighted_mean(w);
                 if !(mean > 0.0 && mean.is_finite()) {
                     return;

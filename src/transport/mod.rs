@@ -77,6 +77,8 @@ pub struct SurfaceEvent<'m> {
     pub bounce: u32,
     /// The photon's direction of travel as it arrives.
     pub dir: DVec3,
+    /// Whether it arrives on the side the mesh's normals point to.
+    pub front: bool,
 }
 
 /// Per-thread tallies of a run; merged after the threads finish.
@@ -553,6 +555,7 @@ impl Tracer<'_> {
                         material,
                         bounce: event,
                         dir,
+                        front,
                     },
                     colour,
                 );

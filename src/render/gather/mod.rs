@@ -556,10 +556,7 @@ impl HitSink for CausticSink<'_> {
             // After a specular start: what the reflector sends to the camera (eye paths
             // through it do not count the delta light behind the specular surfaces), and
             // the photon goes on.
-            if let Some(s) =
-                self.eye
-                    .caustic_splat(ev.point, ev.n_in, m, colour.values(), self.flux, ev.dir)
-            {
+            if let Some(s) = self.eye.caustic_splat(ev, colour.values(), self.flux) {
                 self.splats.push(s);
             }
             return;
@@ -572,10 +569,7 @@ impl HitSink for CausticSink<'_> {
         if ev.bounce == 0 {
             return; // direct light: the eye paths' light samples have it
         }
-        if let Some(s) =
-            self.eye
-                .caustic_splat(ev.point, ev.n_in, m, colour.values(), self.flux, ev.dir)
-        {
+        if let Some(s) = self.eye.caustic_splat(ev, colour.values(), self.flux) {
             self.splats.push(s);
         }
     }
