@@ -24,12 +24,15 @@
 //!   "chromium") or `nk` rows [nm, n, k], a plastic's coat `ior` (default 1.5) over
 //!   `diffuse`; or `kind = "bsdf-xml"` with `file` (a window BSDF file, LBNL WINDOW /
 //!   Radiance XML in a Klems basis, relative to the settings file) and `up` (default +z):
-//!   the faces' normals point to the file's front (a window's exterior).
+//!   the faces' normals point to the file's front (a window's exterior); or `kind =
+//!   "table"` with `grid = [θ in, φ in, θ out, φ out]`, `brdf` and optionally `btdf` (text
+//!   files of values in 1/sr, `[band][θi][φi][θo][φo]`, one band's for all or one per
+//!   band; docs/materials.md) and `tangent`.
 
 use crate::diag::{printable, Diagnostics};
 use crate::model::Mtl;
 use crate::settings::{channel, MaterialSettings, RoughnessSetting, Spectrum};
-use imap::{ConductorIndex, IorModel, MaterialDesc, Metal, SurfaceModel};
+use imap::{ConductorIndex, IorModel, MaterialDesc, Metal, SurfaceModel, TableDesc};
 
 /// A material ready for libimap, with what the outputs need of it.
 #[derive(Clone, Debug)]
@@ -244,6 +247,34 @@ pub fn resolve(
     }
 }
 
+/// The numbers of a table file (separated by spaces, commas or line ends; `#` starts a
+/// comment), or the line and what is wrong.
+fn read_values(path: &std::path::Path) -> Result<Vec<f64>, (usize, String)> {
+    let text = std::fs::read_to_string(path).map_err(|e| (1, format!("cannot read it: {e}")))?;
+    let mut values = Vec::new();
+    for (i, line) in text.lines().enumerate() {
+        let line = line.split('#').next().unwrap_or("");
+        for tok in line.split(|c: char| c == ',' || c.is_whitespace()) {
+            if tok.is_empty() {
+                continue;
+            }
+            match tok.parse::<f64>() {
+                Ok(v) if v.is_finite() => values.push(v),
+                _ => {
+                    return Err((
+                        i + 1,
+                        format!("'{}' is not a finite number", printable(tok)),
+                    ))
+                }
+            }
+        }
+    }
+    if values.is_empty() {
+        return Err((1, "holds no values".into()));
+    }
+    Ok(values)
+}
+
 /// Rows (nm, n, k) with n = 1 and k per band such that the reflectance at normal incidence
 /// is `f0[b]` at band b's wavelength (sorted, padded by a nanometre at each end).
 fn colour_conductor(f0: &[f64], band_nm: &[f64]) -> Vec<[f64; 3]> {
@@ -329,6 +360,10 @@ fn glossy(
         error(diag, "file and up need kind = \"bsdf-xml\"".into());
         return desc;
     }
+    if kind != Some("table") && (o.grid.is_some() || o.brdf.is_some() || o.btdf.is_some()) {
+        error(diag, "grid, brdf and btdf need kind = \"table\"".into());
+        return desc;
+    }
     if kind.is_none()
         && (o.roughness.is_some() || o.metal.is_some() || o.nk.is_some() || o.tangent.is_some())
     {
@@ -341,6 +376,69 @@ fn glossy(
     let zero = Vec::new;
     match kind {
         Some("ideal") => desc,
+        Some("table") => {
+            let (Some(grid), Some(brdf)) = (o.grid, &o.brdf) else {
+                error(
+                    diag,
+                    "kind = \"table\" needs grid = [θ in, φ in, θ out, φ out] and brdf = \"…\" (a file of values)".into(),
+                );
+                return desc;
+            };
+            let given = [
+                ("roughness", o.roughness.is_some()),
+                ("metal", o.metal.is_some()),
+                ("nk", o.nk.is_some()),
+                ("ior", o.ior.is_some() || o.sellmeier.is_some()),
+                ("dielectric", o.dielectric == Some(true)),
+                ("diffuse", o.diffuse.is_some()),
+                ("specular", o.specular.is_some()),
+                ("transmit", o.transmit.is_some()),
+                ("absorption_per_m", o.absorption_per_m.is_some()),
+            ];
+            if let Some((field, _)) = given.iter().find(|g| g.1) {
+                error(
+                    diag,
+                    format!(
+                        "{field} is given but kind = \"table\" takes its optics from its values"
+                    ),
+                );
+                return desc;
+            }
+            let base = settings_at.0.parent().unwrap_or(std::path::Path::new("."));
+            let read = |path: &std::path::Path, diag: &mut Diagnostics| {
+                let path = base.join(path);
+                match read_values(&path) {
+                    Ok(v) => Some(v),
+                    Err((line, msg)) => {
+                        diag.error(&path, line, format!("[materials.{name}] {msg}"));
+                        None
+                    }
+                }
+            };
+            let Some(brdf) = read(brdf, diag) else {
+                return desc;
+            };
+            let btdf = match &o.btdf {
+                Some(p) => match read(p, diag) {
+                    Some(v) => v,
+                    None => return desc,
+                },
+                None => Vec::new(),
+            };
+            let [ti, pi, to, po] = grid.map(|x| x as usize);
+            MaterialDesc {
+                surface: SurfaceModel::Table(TableDesc {
+                    theta_in: ti,
+                    phi_in: pi,
+                    theta_out: to,
+                    phi_out: po,
+                    brdf,
+                    btdf,
+                }),
+                tangent: o.tangent,
+                ..Default::default()
+            }
+        }
         Some("bsdf-xml") => {
             let Some(file) = &o.file else {
                 error(
@@ -421,7 +519,7 @@ fn glossy(
             error(
                 diag,
                 format!(
-                    "kind = '{}' is not one of ideal, conductor, plastic, rough-dielectric, bsdf-xml",
+                    "kind = '{}' is not one of ideal, conductor, plastic, rough-dielectric, table, bsdf-xml",
                     printable(other)
                 ),
             );

@@ -941,7 +941,8 @@ fn rough_materials_from_the_settings() {
 
 /// `kind = "bsdf-xml"`: a window BSDF file (Klems quarter basis) that reflects 0.2
 /// diffusely from its front makes the floor absorb 0.8 of what it receives against the
-/// grey floor's 0.5; a missing file and stray fields are errors naming the material.
+/// grey floor's 0.5, and so does `kind = "table"` with the same law in a values file; a
+/// missing file, a bad value (file and line), a wrong count and stray fields are errors.
 #[test]
 fn a_window_bsdf_file_from_the_settings() {
     let d = tempfile::tempdir().unwrap();
@@ -977,6 +978,24 @@ fn a_window_bsdf_file_from_the_settings() {
     // The lamp (black) takes back some of what the floor reflects: 1.6 less a little.
     let ratio = absorbed(&xml) / absorbed(&grey);
     assert!((1.45..1.65).contains(&ratio), "absorbed ratio {ratio}");
+    // The same matte floor as a measured table read from a file (3 × 1 × 4 × 6 values).
+    let lambert: Vec<String> = (0..72).map(|_| format!("{value}")).collect();
+    write(
+        &d.path().join("bsdf"),
+        "matte.txt",
+        &format!("# rho 0.2\n{}\n", lambert.join(" ")),
+    );
+    let (o, tab) = run(
+        "table",
+        "[materials.grey]\nkind = \"table\"\ngrid = [3, 1, 4, 6]\nbrdf = \"bsdf/matte.txt\"\n",
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let table_ratio = absorbed(&tab) / absorbed(&grey);
+    assert!(
+        (1.45..1.65).contains(&table_ratio),
+        "table: absorbed ratio {table_ratio}"
+    );
+    write(&d.path().join("bsdf"), "bad.txt", "0.1 0.1\n0.1 zero\n");
     for (name, settings, word) in [
         (
             "missing",
@@ -993,6 +1012,21 @@ fn a_window_bsdf_file_from_the_settings() {
             "noxml",
             "[materials.grey]\nfile = \"bsdf/matte.xml\"\n",
             "bsdf-xml",
+        ),
+        (
+            "badtable",
+            "[materials.grey]\nkind = \"table\"\ngrid = [3, 1, 4, 6]\nbrdf = \"bsdf/bad.txt\"\n",
+            "bad.txt:2: [materials.grey] 'zero'",
+        ),
+        (
+            "shorttable",
+            "[materials.grey]\nkind = \"table\"\ngrid = [3, 1, 4, 7]\nbrdf = \"bsdf/matte.txt\"\n",
+            "84",
+        ),
+        (
+            "nogrid",
+            "[materials.grey]\nkind = \"table\"\nbrdf = \"bsdf/matte.txt\"\n",
+            "grid",
         ),
     ] {
         let (o, _) = run(name, settings);

@@ -19,11 +19,19 @@ pub struct MaterialSettings {
     /// Exitance, W/m² per band.
     pub emission: Option<Spectrum>,
     /// The surface model: "ideal" (Lambert, mirror, smooth glass by the fields above),
-    /// "conductor", "plastic", "rough-dielectric" or "bsdf-xml".
+    /// "conductor", "plastic", "rough-dielectric", "table" or "bsdf-xml".
     pub kind: Option<String>,
     /// kind = "bsdf-xml": the window BSDF file (LBNL WINDOW / Radiance XML, Klems basis),
     /// relative to the settings file.
     pub file: Option<std::path::PathBuf>,
+    /// kind = "table": the grid's counts [θ in, φ in, θ out, φ out] (φ in = 1: isotropic).
+    pub grid: Option<[u32; 4]>,
+    /// kind = "table": a text file of the BRDF's values (1/sr; numbers separated by spaces,
+    /// commas or line ends, `#` comments), `[band][θi][φi][θo][φo]`, relative to the
+    /// settings file.
+    pub brdf: Option<std::path::PathBuf>,
+    /// kind = "table": the BTDF's values in the same form (optional).
+    pub btdf: Option<std::path::PathBuf>,
     /// kind = "bsdf-xml": the file's up direction (model coordinates; default +z).
     pub up: Option<[f64; 3]>,
     /// GGX α, one number (isotropic) or two (along the tangent, across it), each in (0, 1].
