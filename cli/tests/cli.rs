@@ -983,7 +983,7 @@ fn a_window_bsdf_file_from_the_settings() {
     write(
         &d.path().join("bsdf"),
         "matte.txt",
-        &format!("# rho 0.2\n{}\n", lambert.join(" ")),
+        format!("# rho 0.2\n{}\n", lambert.join(" ")),
     );
     let (o, tab) = run(
         "table",
