@@ -516,7 +516,9 @@
  * directions are drawn inside a patch uniformly in projected solid angle. Only `Visible`
  * data are read, the same value in every band (Solar, NIR and Radiance's CIE-X/CIE-Z
  * blocks are skipped); without "Transmission Back" the back transmits the front's by
- * reciprocity, without a reflection matrix that side reflects nothing. Refused: a file
+ * reciprocity (rows that would then send on more than arrives scaled down), without a
+ * reflection matrix that side reflects nothing. Checked against Radiance 6.0a's reading
+ * of an asymmetric file (docs/materials.md). Refused: a file
  * that cannot be read (IMAP_ERR_IO), does not parse or lacks Visible data
  * (IMAP_ERR_PARSE, with file and line), a tensor-tree file or an unknown basis
  * (IMAP_ERR_UNSUPPORTED), a negative value or a patch sending on more than 1.01 of what

@@ -1227,3 +1227,86 @@ fn a_klems_clear_pane_transmits_the_slab_fraction() {
     }
     std::fs::remove_file(&path).ok();
 }
+
+/// A window BSDF file read as Radiance reads it: a vertical window whose file sends all
+/// light arriving on its front (the exterior) into one patch, θ 40°, φ 225° (up +z), lights
+/// the floor where Radiance 6.0a puts the light (`scripts/radiance_klems.py`,
+/// `tests/data/radiance_klems.txt`: the lit spot's centroid), down and toward +x (normal ×
+/// up = −x, so φ 225° leans toward +x): a mirrored or rotated frame would put it elsewhere.
+#[test]
+fn a_klems_window_lights_the_floor_where_radiance_does() {
+    let text = std::fs::read_to_string("tests/data/radiance_klems.txt").unwrap();
+    let row: Vec<f64> = text
+        .lines()
+        .find(|l| !l.starts_with('#'))
+        .unwrap()
+        .split_whitespace()
+        .map(|x| x.parse().unwrap())
+        .collect();
+    let (rx, ry) = (row[0], row[1]);
+    let patches = klems_patches();
+    let n = patches.len();
+    // θ 40° is the ring 35–45° (24 patches from index 45); φ 225° its patch 15.
+    let o = 45 + 15;
+    let mut t = vec![0.0; n * n];
+    for i in 0..n {
+        t[i * n + o] = 0.5 / patches[o].2;
+    }
+    let path = scratch_path("redirect.xml");
+    write_klems_xml(&path, &[("Transmission Front", t)]);
+    let mut ctx = context(seeded(61));
+    let black = lambert(&mut ctx, 0.0);
+    let redirect = ctx
+        .add_material(&MaterialDesc {
+            surface: SurfaceModel::Klems(path.clone()),
+            tangent: Some([0.0, 0.0, 1.0]),
+            ..Default::default()
+        })
+        .unwrap();
+    // The window in y = 0 facing −y (its front, the exterior), centre 1.5 m up.
+    let window = quad([
+        [0.5, 0.0, 1.0],
+        [0.5, 0.0, 2.0],
+        [-0.5, 0.0, 2.0],
+        [-0.5, 0.0, 1.0],
+    ]);
+    let mut wd = window.desc(redirect);
+    wd.record = false;
+    ctx.add_mesh(&wd).unwrap();
+    let floor = grid_rect(58, 48, [-3.125, 4.125], [0.0, 6.0], 0.0);
+    let fm = ctx.add_mesh(&floor.desc(black)).unwrap();
+    ctx.add_spot_light([0.0, -2.0, 1.5], [0.0, 1.0, 0.0], 1e-4, &[1.0])
+        .unwrap();
+    let report = run_photons_only(&mut ctx, photons(200_000));
+    let mut e = vec![0.0; floor.vertex_count()];
+    ctx.irradiance(fm, 0, 0, &mut e).unwrap();
+    let area = vertex_areas(&floor);
+    let (mut w, mut cx, mut cy) = (0.0, 0.0, 0.0);
+    for (v, (&ev, &a)) in e.iter().zip(&area).enumerate() {
+        let p = floor.vertex(v);
+        w += ev * a;
+        cx += ev * a * p[0];
+        cy += ev * a * p[1];
+    }
+    let (cx, cy) = (cx / w, cy / w);
+    let floor_share = ctx.absorbed_w(fm).unwrap() / report.emitted_w;
+    eprintln!(
+        "lit spot's centroid ({cx:.3}, {cy:.3}) m, Radiance ({rx:.3}, {ry:.3}); the floor takes {floor_share:.4} of the beam"
+    );
+    assert!(
+        (cx - rx).hypot(cy - ry) < 0.15,
+        "({cx}, {cy}) vs ({rx}, {ry})"
+    );
+    // Half of the light goes on (the file's 0.5), nearly all of it onto the floor.
+    assert!((0.45..=0.5).contains(&floor_share), "{floor_share}");
+    // The file is far from reciprocal (every direction into one patch): the back's
+    // transmission derived from it is scaled to send on at most what arrives, and the
+    // check says how far from reciprocal it is.
+    let check = ctx.table_check(redirect).unwrap();
+    eprintln!("{check:?}");
+    assert!(
+        check.worst_albedo <= 1.0 + 1e-9 && check.worst_reciprocity > 1.0,
+        "{check:?}"
+    );
+    std::fs::remove_file(&path).ok();
+}

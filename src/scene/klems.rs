@@ -16,9 +16,10 @@
 //! the normal reversed.)
 //!
 //! Missing data: without "Transmission Back" the back's transmission is the front's by
-//! reciprocity; without a reflection matrix that side reflects nothing. Only `Visible` data
-//! are read (the same value in every band): Solar and NIR blocks are skipped, and so are
-//! Radiance's CIE-X and CIE-Z colour blocks. Tensor-tree files are refused as unsupported.
+//! reciprocity (a row that would then send on more than arrives, from a file that is not
+//! reciprocal, is scaled down); without a reflection matrix that side reflects nothing.
+//! Only `Visible` data are read (the same value in every band): Solar and NIR blocks are
+//! skipped, and so are Radiance's CIE-X and CIE-Z colour blocks. Tensor-tree files are refused as unsupported.
 //!
 //! Sampling: an incident patch's row is an alias table over (reflect or transmit, outgoing
 //! patch) ∝ value × the patch's projected solid angle Λ, and a direction is drawn uniformly
@@ -270,8 +271,10 @@ impl KlemsBsdf {
         }
         // The back's transmission by reciprocity when only the front's is given (and the
         // other way round): T_b(i → o) = T_f(o' → i'), ' the opposite azimuth.
+        let mut derived = [false; 2];
         for s in 0..2 {
             if m[s][1].is_empty() && !m[1 - s][1].is_empty() {
+                derived[s] = true;
                 let other = &m[1 - s][1];
                 let mut v = vec![0.0; n * n];
                 for i in 0..n {
@@ -295,7 +298,20 @@ impl KlemsBsdf {
                     .zip(lambda.iter().chain(&lambda))
                     .map(|(f, l)| f * l)
                     .collect();
-                let albedo: f64 = weights.iter().sum();
+                let mut weights = weights;
+                let mut albedo: f64 = weights.iter().sum();
+                if albedo > 1.0 && derived[s] {
+                    // A transmission derived by reciprocity from a file that is not
+                    // reciprocal can send on more than arrives: scaled down to what the
+                    // reflection leaves (the file's own values are checked below).
+                    let r: f64 = weights[..n].iter().sum();
+                    let k = ((1.0 - r) / (albedo - r)).max(0.0);
+                    for o in 0..n {
+                        weights[n + o] *= k;
+                        m[s][1][i * n + o] *= k;
+                    }
+                    albedo = weights.iter().sum();
+                }
                 check.worst_albedo = check.worst_albedo.max(albedo);
                 if albedo > 1.01 {
                     let (t, p) = basis.centre_deg(i);
