@@ -235,6 +235,50 @@ int main(void) {
     xml.surface = IMAP_SURFACE_IDEAL;
     expect("BSDF file path on an ideal surface", imap_add_material(ctx, &xml, &id), IMAP_ERR_BAD_MATERIAL, ctx);
 
+    /* Textures and per-vertex factors (in a context of their own). */
+    ImapContext *tctx = NULL;
+    ImapConfig tcfg;
+    imap_config_default(&tcfg, sizeof tcfg);
+    expect("texture context", imap_create(&tcfg, &tctx), IMAP_OK, NULL);
+    double texels[4] = {1.0, 0.5, 0.25, 1.5};
+    ImapTexture tex;
+    imap_texture_default(&tex, sizeof tex);
+    tex.width = 2, tex.height = 2, tex.channels = 1, tex.values = texels, tex.value_count = 4;
+    expect("texture value above 1", imap_add_texture(tctx, &tex, &id), IMAP_ERR_INVALID_ARGUMENT, tctx);
+    texels[3] = 0.75;
+    tex.value_count = 3;
+    expect("texture of the wrong size", imap_add_texture(tctx, &tex, &id), IMAP_ERR_INVALID_ARGUMENT, tctx);
+    tex.value_count = 4, tex.channels = 2;
+    expect("texture of 2 channels", imap_add_texture(tctx, &tex, &id), IMAP_ERR_INVALID_ARGUMENT, tctx);
+    tex.channels = 1, tex.flags = 64;
+    expect("unknown texture flag", imap_add_texture(tctx, &tex, &id), IMAP_ERR_INVALID_ARGUMENT, tctx);
+    tex.flags = IMAP_TEXTURE_NEAREST;
+    uint32_t tex_id;
+    expect("texture (valid)", imap_add_texture(tctx, &tex, &tex_id), IMAP_OK, tctx);
+    ImapMaterial tm;
+    imap_material_default(&tm, sizeof tm);
+    double half = 0.5;
+    tm.diffuse_reflectance = &half, tm.diffuse_reflectance_count = 1;
+    tm.texture = tex_id + 9;
+    expect("material naming a missing texture", imap_add_material(tctx, &tm, &id), IMAP_ERR_INDEX_OUT_OF_RANGE, tctx);
+    tm.texture = tex_id, tm.texture_lobes = 8;
+    expect("unknown texture lobe", imap_add_material(tctx, &tm, &id), IMAP_ERR_INVALID_ARGUMENT, tctx);
+    tm.texture_lobes = IMAP_LOBE_DIFFUSE_REFLECTION;
+    uint32_t m_tex;
+    expect("textured material (valid)", imap_add_material(tctx, &tm, &m_tex), IMAP_OK, tctx);
+    ImapMesh tmesh = square_mesh(m_tex);
+    expect("textured mesh without uvs", imap_add_mesh(tctx, &tmesh, &id), IMAP_ERR_INVALID_ARGUMENT, tctx);
+    double uvs[8] = {0, 0, 1, 0, 1, 1, 0, 1}, factors[4] = {1, 0.5, NAN, 1};
+    tmesh.uvs = uvs;
+    tmesh.vertex_factors = factors;
+    expect("vertex factor NaN", imap_add_mesh(tctx, &tmesh, &id), IMAP_ERR_NON_FINITE, tctx);
+    factors[2] = 0.25;
+    tmesh.vertex_factor_channels = 5;
+    expect("vertex factors of 5 channels", imap_add_mesh(tctx, &tmesh, &id), IMAP_ERR_INVALID_ARGUMENT, tctx);
+    tmesh.vertex_factor_channels = 1;
+    expect("textured mesh with factors (valid)", imap_add_mesh(tctx, &tmesh, &id), IMAP_OK, tctx);
+    imap_destroy(tctx);
+
     /* Meshes. */
     ImapMesh mesh = square_mesh(m_grey);
     expect("imap_add_mesh(mesh = NULL)", imap_add_mesh(ctx, NULL, &id), IMAP_ERR_NULL_POINTER, ctx);

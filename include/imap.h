@@ -551,6 +551,38 @@
 #define IMAP_HOST_BSDF_TRANSMITS 1
 
 /**
+ * `ImapMaterial::texture`: no texture. (Since 0.2.3.)
+ */
+#define IMAP_NO_TEXTURE UINT32_MAX
+
+/**
+ * `ImapMaterial::texture_lobes`: the diffuse reflectance. (Since 0.2.3.)
+ */
+#define IMAP_LOBE_DIFFUSE_REFLECTION 1
+
+/**
+ * `ImapMaterial::texture_lobes`: the specular (mirror) reflectance. (Since 0.2.3.)
+ */
+#define IMAP_LOBE_SPECULAR_REFLECTION 2
+
+/**
+ * `ImapMaterial::texture_lobes`: the diffuse transmittance. (Since 0.2.3.)
+ */
+#define IMAP_LOBE_DIFFUSE_TRANSMISSION 4
+
+/**
+ * `ImapTexture::flags`: read the nearest texel (default: bilinear between texel
+ * centres). (Since 0.2.3.)
+ */
+#define IMAP_TEXTURE_NEAREST 1
+
+/**
+ * `ImapTexture::flags`: coordinates outside [0, 1] clamp to the edge (default: repeat).
+ * (Since 0.2.3.)
+ */
+#define IMAP_TEXTURE_CLAMP 2
+
+/**
  * `ImapMaterial::flags`: a conductor without its multiple-scattering lobe (single
  * scattering only, as Mitsuba 3's `roughconductor` and most renderers compute it; it then
  * loses energy at high roughness, 3 % at α 0.15). For comparisons with such tools.
@@ -1702,6 +1734,38 @@ typedef struct ImapHostBsdf {
 } ImapHostBsdf;
 
 /**
+ * An image of factors in [0, 1] that a material names (`ImapMaterial::texture`): its
+ * values, read at the mesh's texture coordinates, multiply the material's coefficients
+ * (`texture_lobes`), so the tinted coefficients stay within [0, 1] and their sum within
+ * the material's (set the material's coefficient to 1 to give the texture's values
+ * themselves). Initialise with `imap_texture_default(&t, sizeof t)`. (Since 0.2.3.)
+ */
+typedef struct ImapTexture {
+  /**
+   * `sizeof(ImapTexture)` as the program was compiled; set by `imap_texture_default`.
+   */
+  uint32_t struct_size;
+  /**
+   * `IMAP_TEXTURE_*` flags, or-ed.
+   */
+  uint32_t flags;
+  uint32_t width;
+  uint32_t height;
+  /**
+   * 1 (every band), 3 (red, green, blue: RGB runs band by band, spectral runs by each
+   * band's wavelength, blue below 490 nm, green below 580 nm, red above) or the band
+   * count.
+   */
+  uint32_t channels;
+  /**
+   * width · height · channels values in [0, 1], linear (not sRGB-encoded): rows from
+   * v = 0 to v = 1, texels from u = 0 to 1 in a row, channels innermost. Copied.
+   */
+  const double *values;
+  size_t value_count;
+} ImapTexture;
+
+/**
  * A material. Initialise with `imap_material_default(&m, sizeof m)` (no reflection, no
  * transmission: black). Per-band arrays hold 1 value (the same in every band) or one per
  * band; a count of 0 (pointer may be NULL) means 0 in every band. The library copies them.
@@ -1808,6 +1872,17 @@ typedef struct ImapMaterial {
    * itself is copied). (Since 0.2.3.)
    */
   const struct ImapHostBsdf *host_bsdf;
+  /**
+   * A texture (an id from `imap_add_texture`) whose values, read at the mesh's `uvs`,
+   * multiply the coefficients `texture_lobes` names; IMAP_NO_TEXTURE (the default):
+   * none. Ideal non-dielectric surfaces only. (Since 0.2.3.)
+   */
+  uint32_t texture;
+  /**
+   * `IMAP_LOBE_*`, or-ed: which coefficients the texture and a mesh's
+   * `vertex_factors` multiply (0, the default: the diffuse reflectance). (Since 0.2.3.)
+   */
+  uint32_t texture_lobes;
 } ImapMaterial;
 
 /**
@@ -1848,6 +1923,22 @@ typedef struct ImapMesh {
    * Material id (from `imap_add_material`) of every triangle.
    */
   uint32_t material;
+  /**
+   * Texture coordinates: u and v of each vertex (2·vertex_count doubles), or NULL.
+   * Needed by triangles of a textured material. (Since 0.2.3.)
+   */
+  const double *uvs;
+  /**
+   * Per-vertex factors in [0, 1] of the coefficients its materials' `texture_lobes`
+   * name (vertex_count · vertex_factor_channels doubles), mixed barycentrically over
+   * each triangle, or NULL. (Since 0.2.3.)
+   */
+  const double *vertex_factors;
+  /**
+   * 1 (every band), 3 (red, green, blue; spectral runs by each band's wavelength) or
+   * the band count. (Since 0.2.3.)
+   */
+  uint32_t vertex_factor_channels;
 } ImapMesh;
 
 /**
@@ -2582,6 +2673,29 @@ enum ImapStatus imap_get_history(const struct ImapContext *ctx, struct ImapProgr
  * `out` is NULL or points to `size` writable bytes.
  */
 enum ImapStatus imap_host_bsdf_default(struct ImapHostBsdf *out, size_t size);
+
+/**
+ * Fills the `size` bytes at `out` with an empty one-channel texture (no values, flags 0)
+ * and sets `struct_size = size`. Pass `sizeof *out`. Returns IMAP_ERR_NULL_POINTER,
+ * IMAP_ERR_INVALID_ARGUMENT (size too small). Thread-safe. (Since 0.2.3.)
+ *
+ * # Safety
+ * `out` is NULL or points to `size` writable bytes.
+ */
+enum ImapStatus imap_texture_default(struct ImapTexture *out, size_t size);
+
+/**
+ * Adds a texture; `*out_id` receives its id (0, 1, ... in order of addition), for
+ * `ImapMaterial::texture`. The values are copied. Returns IMAP_ERR_NULL_POINTER,
+ * IMAP_ERR_NON_FINITE, IMAP_ERR_INVALID_ARGUMENT (a size, channel count or value count
+ * that does not fit, a value outside [0, 1], an unknown flag), IMAP_ERR_MEMORY_BUDGET,
+ * IMAP_ERR_BUSY, IMAP_ERR_OUT_OF_ORDER. (Since 0.2.3.)
+ *
+ * # Safety
+ * `ctx` is a live handle; `texture` points to an `ImapTexture` whose `values` hold
+ * `value_count` doubles; `out_id` points to writable storage.
+ */
+enum ImapStatus imap_add_texture(struct ImapContext *ctx, const struct ImapTexture *texture, uint32_t *out_id);
 
 /**
  * Fills the `size` bytes at `out` with a black, non-dielectric material and sets

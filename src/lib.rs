@@ -70,6 +70,7 @@ pub use scene::light::{
     cie_luminance, Amount, Distribution, LightDesc, LightKind, Placement, SkyAmount, SkyDesc,
     SkyKind, SunDesc, CIE_SKY_PARAMETERS, SUN_DIAMETER_DEG,
 };
+pub use scene::texture::TextureDesc;
 pub use scene::{
     ConductorIndex, IorModel, LayerRequest, MaterialDesc, MeshDesc, Metal, SurfaceModel,
     TableCheck, TableDesc,

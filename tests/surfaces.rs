@@ -1310,3 +1310,254 @@ fn a_klems_window_lights_the_floor_where_radiance_does() {
     );
     std::fs::remove_file(&path).ok();
 }
+
+/// A floor in a closed room, its material `rho`, and what varies over it: per-vertex
+/// factors, a texture (left half `left`, right half `right`, nearest texel, u = x across
+/// the floor), or two materials split at x = 0.
+fn tinted_room(seed: u64, threads: usize, rho: f64, how: &str) -> (Context, Vec<u32>) {
+    let mut ctx = context(Config {
+        threads,
+        ..seeded(seed)
+    });
+    let walls = lambert(&mut ctx, 0.5);
+    let room = cuboid([-1.0, -1.0, 0.0], [1.0, 1.0, 2.0], 4, true);
+    let w = ctx.add_mesh(&room.desc(walls)).unwrap();
+    let floor = grid(8, -0.9, 0.9, -0.9, 0.9, 0.01);
+    let nv = floor.vertex_count();
+    let uvs: Vec<f64> = (0..nv)
+        .flat_map(|v| {
+            let p = floor.vertex(v);
+            [(p[0] + 0.9) / 1.8, (p[1] + 0.9) / 1.8]
+        })
+        .collect();
+    let half = vec![0.5; nv];
+    let f = match how {
+        "factors" => {
+            let m = lambert(&mut ctx, rho);
+            let mut d = floor.desc(m);
+            d.vertex_factors = Some(&half);
+            ctx.add_mesh(&d).unwrap()
+        }
+        "texture" => {
+            let texels = [1.0, 0.25];
+            let t = ctx
+                .add_texture(&imap::TextureDesc {
+                    width: 2,
+                    height: 1,
+                    channels: 1,
+                    values: &texels,
+                    nearest: true,
+                    clamp: true,
+                })
+                .unwrap();
+            let m = ctx
+                .add_material(&MaterialDesc {
+                    diffuse_reflect: vec![rho],
+                    texture: Some(t),
+                    ..Default::default()
+                })
+                .unwrap();
+            let mut d = floor.desc(m);
+            d.uvs = Some(&uvs);
+            ctx.add_mesh(&d).unwrap()
+        }
+        "split" => {
+            let (a, b) = (lambert(&mut ctx, rho), lambert(&mut ctx, rho * 0.25));
+            let parts: Vec<u32> = floor
+                .indices
+                .chunks_exact(3)
+                .map(|t| {
+                    let x: f64 = t.iter().map(|&i| floor.vertex(i as usize)[0]).sum();
+                    if x < 0.0 {
+                        a
+                    } else {
+                        b
+                    }
+                })
+                .collect();
+            let mut d = floor.desc(a);
+            d.triangle_materials = Some(&parts);
+            ctx.add_mesh(&d).unwrap()
+        }
+        _ => {
+            let m = lambert(&mut ctx, rho);
+            ctx.add_mesh(&floor.desc(m)).unwrap()
+        }
+    };
+    ctx.add_point_light([0.3, -0.2, 1.6], &[10.0]).unwrap();
+    (ctx, vec![w, f])
+}
+
+/// Coefficients that vary over a surface: per-vertex factors of 0.5 on ρ 0.8 give the map
+/// of ρ 0.4, and a two-texel texture (1 and 0.25) gives the map of the floor split into two
+/// materials, with photons, light sampling and gathering, and the same path-traced and
+/// final-gathering images; the same seed gives the same map on any thread count.
+#[test]
+fn textures_and_vertex_factors_vary_the_coefficients() {
+    for (e, n) in [
+        (Estimator::Photons, 150_000),
+        (Estimator::DEFAULT, 50_000),
+        (Estimator::GATHER, 40_000),
+    ] {
+        for (how, same, rho_same) in [("factors", "plain", 0.4), ("texture", "split", 0.8)] {
+            let (mut a, ids) = tinted_room(71, 2, 0.8, how);
+            run_with(&mut a, photons(n), e);
+            let (mut b, _) = tinted_room(72, 2, rho_same, same);
+            run_with(&mut b, photons(n), e);
+            let (ma, mb) = (map_with_errors(&a, &ids), map_with_errors(&b, &ids));
+            let (z, count) = rms_z(&ma, &mb);
+            let ratio = mean(&ma) / mean(&mb);
+            eprintln!(
+                "{e:?}: {how} vs {same}: rms z {z:.3} over {count} values, mean ratio {ratio:.4}"
+            );
+            assert!(count > 150);
+            assert!((0.6..1.35).contains(&z), "{how}: rms z {z}");
+            assert!((ratio - 1.0).abs() < 0.01, "{how}: ratio {ratio}");
+        }
+    }
+    // Images: the textured floor against the split one.
+    let cam = CameraDesc {
+        position: [0.0, -0.95, 1.5],
+        direction: [0.0, 0.7, -0.7],
+        up: [0.0, 0.0, 1.0],
+        fov_y_deg: 70.0,
+        width: 16,
+        height: 16,
+    };
+    let sum = |img: &Image| {
+        let (mut sum, mut var) = (0.0, 0.0);
+        for p in 0..16 * 16 {
+            let v = band_mean(img, p);
+            sum += v;
+            var += (v * img.rel_error[p]).powi(2);
+        }
+        (sum, var)
+    };
+    let (mut split, _) = tinted_room(73, 2, 0.8, "split");
+    let reference = sum(&split.path_trace(&cam, 128, 1000).unwrap());
+    let (mut tex, _) = tinted_room(74, 2, 0.8, "texture");
+    let traced = sum(&tex.path_trace(&cam, 128, 1000).unwrap());
+    let ratio = traced.0 / reference.0;
+    let sigma = (reference.1 + traced.1).sqrt() / reference.0;
+    eprintln!("path tracer: texture / split image sum {ratio:.4} (σ {sigma:.4})");
+    assert!(
+        (ratio - 1.0).abs() < 4.0 * sigma + 0.002,
+        "{ratio} (σ {sigma})"
+    );
+    run_with(&mut tex, photons(50_000), Estimator::GATHER);
+    let mut p = RenderParams {
+        method: RenderMethod::FinalGather,
+        passes: 0,
+        progress_interval_s: 0.05,
+        max_path_events: 1000,
+        time_budget_s: 0.5,
+        ..Default::default()
+    };
+    let gathered = sum(&tex.render(&cam, &mut p).unwrap().0);
+    let ratio = gathered.0 / reference.0;
+    let sigma = (reference.1 + gathered.1).sqrt() / reference.0;
+    eprintln!("final gathering: texture / split path-traced image sum {ratio:.4} (σ {sigma:.4})");
+    assert!(
+        (ratio - 1.0).abs() < 4.0 * sigma + 0.02,
+        "{ratio} (σ {sigma})"
+    );
+    // Determinism: 1 and 3 threads, the same seed.
+    let maps: Vec<Vec<f64>> = [1, 3]
+        .into_iter()
+        .map(|t| {
+            let (mut c, ids) = tinted_room(75, t, 0.8, "texture");
+            run_with(&mut c, photons(20_000), Estimator::GATHER);
+            whole_map(&c, &ids)
+        })
+        .collect();
+    assert_maps_agree(&maps[0], &maps[1], "textured floor, 1 and 3 threads");
+}
+
+/// Bad textures and tinting get their statuses, naming the argument.
+#[test]
+fn bad_textures_are_refused_by_name() {
+    use imap::ImapStatus;
+    let mut ctx = context(seeded(1));
+    let texels = [0.5; 4];
+    let good = imap::TextureDesc {
+        width: 2,
+        height: 2,
+        channels: 1,
+        values: &texels,
+        nearest: false,
+        clamp: false,
+    };
+    let t = ctx.add_texture(&good).unwrap();
+    let over = [0.5, 1.2, 0.3, 0.1];
+    let e = ctx
+        .add_texture(&imap::TextureDesc {
+            values: &over,
+            ..good
+        })
+        .unwrap_err();
+    assert!(
+        e.message.contains("texture.values[1] = 1.2"),
+        "{}",
+        e.message
+    );
+    let e = ctx
+        .add_material(&MaterialDesc {
+            diffuse_reflect: vec![0.5],
+            texture: Some(t + 5),
+            ..Default::default()
+        })
+        .unwrap_err();
+    assert_eq!(e.status, ImapStatus::ImapErrIndexOutOfRange, "{e}");
+    let e = ctx
+        .add_material(&MaterialDesc {
+            ior: Some(IorModel::Constant(1.5)),
+            texture: Some(t),
+            ..Default::default()
+        })
+        .unwrap_err();
+    assert_eq!(e.status, ImapStatus::ImapErrBadMaterial, "{e}");
+    let textured = ctx
+        .add_material(&MaterialDesc {
+            diffuse_reflect: vec![0.5],
+            texture: Some(t),
+            ..Default::default()
+        })
+        .unwrap();
+    let g = grid(1, 0.0, 1.0, 0.0, 1.0, 0.0);
+    let e = ctx.add_mesh(&g.desc(textured)).unwrap_err();
+    assert!(
+        e.message.contains("needs texture coordinates"),
+        "{}",
+        e.message
+    );
+    let short = [0.0; 5];
+    let mut d = g.desc(textured);
+    d.uvs = Some(&short);
+    let e = ctx.add_mesh(&d).unwrap_err();
+    assert!(e.message.contains("uvs has 5 values"), "{}", e.message);
+    let plain = lambert(&mut ctx, 0.5);
+    let factors = [0.5, 0.5, 1.5, 0.5];
+    let mut d = g.desc(plain);
+    d.vertex_factors = Some(&factors);
+    let e = ctx.add_mesh(&d).unwrap_err();
+    assert!(
+        e.message.contains("vertex_factors[2] = 1.5"),
+        "{}",
+        e.message
+    );
+    d.vertex_factors = Some(&factors[..2]);
+    d.vertex_factor_channels = 2;
+    let e = ctx.add_mesh(&d).unwrap_err();
+    assert!(
+        e.message.contains("vertex_factor_channels = 2"),
+        "{}",
+        e.message
+    );
+    // Still usable.
+    let uv = [0.0, 0.0, 1.0, 0.0, 1.0, 1.0, 0.0, 1.0];
+    let mut d = g.desc(textured);
+    d.uvs = Some(&uv);
+    ctx.add_mesh(&d).unwrap();
+    ctx.add_point_light([0.5, 0.5, 1.0], &[1.0]).unwrap();
+    run_photons(&mut ctx, 2000);
+}

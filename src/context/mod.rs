@@ -485,9 +485,33 @@ impl Context {
     }
 
     pub fn add_material(&mut self, desc: &MaterialDesc) -> Result<u32> {
+        if let Some(t) = desc.texture {
+            if t as usize >= self.scene.textures.len() {
+                bail!(
+                    ImapErrIndexOutOfRange,
+                    "texture {t} does not exist ({} textures): add it with add_texture first",
+                    self.scene.textures.len()
+                );
+            }
+        }
         let m = Material::new(desc, &self.scene.bands)?;
         self.scene.materials.push(m);
         Ok(self.scene.materials.len() as u32 - 1)
+    }
+
+    /// Adds a texture for materials to name (`MaterialDesc::texture`); returns its id.
+    pub fn add_texture(&mut self, desc: &crate::scene::texture::TextureDesc) -> Result<u32> {
+        self.check_unlocked("add a texture")?;
+        let t = crate::scene::texture::Texture::new(desc, &self.scene.bands)?;
+        self.check_budget(
+            self.memory_estimate(),
+            t.bytes() as u64,
+            &format!("the texture ({} bytes)", t.bytes()),
+        )?;
+        self.footprint.held = self.footprint.held.saturating_add(t.bytes() as u64);
+        self.scene.textures.push(std::sync::Arc::new(t));
+        self.invalidate();
+        Ok(self.scene.textures.len() as u32 - 1)
     }
 
     /// What checking measured table material `material` found: its worst reciprocity
@@ -542,6 +566,17 @@ impl Context {
             ),
         )?;
         let mesh = Mesh::new(desc, self.scene.materials.len(), &self.scene.bands)?;
+        if mesh.uvs.is_none() && !mesh.sensor {
+            let textured = (0..mesh.triangles.len())
+                .map(|t| mesh.material_of(t))
+                .find(|&m| self.scene.materials[m as usize].texture.is_some());
+            if let Some(m) = textured {
+                bail!(
+                    ImapErrInvalidArgument,
+                    "material {m} is textured: the mesh needs texture coordinates (uvs)"
+                );
+            }
+        }
         self.footprint.add_mesh(&mesh);
         self.scene.meshes.push(mesh);
         self.invalidate();

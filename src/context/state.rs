@@ -97,9 +97,25 @@ impl Fingerprint {
                 m.light_group
             );
             geometry = rest.0;
+            // Only meshes with texture coordinates or vertex factors hash them.
+            if let Some(uv) = &m.uvs {
+                geometry.update(b"|uvs");
+                for c in uv.iter().flatten() {
+                    geometry.update(&c.to_le_bytes());
+                }
+            }
+            if let Some(f) = &m.factors {
+                geometry.update(&(f.channels as u64).to_le_bytes());
+                for c in &f.values {
+                    geometry.update(&c.to_le_bytes());
+                }
+            }
         }
         let mut materials = HashText(Xxh3::new());
         let _ = write!(materials, "{:?}", scene.materials);
+        for t in &scene.textures {
+            t.hash_into(&mut materials.0);
+        }
         let mut lights = HashText(Xxh3::new());
         let _ = write!(lights, "{:?}", scene.lights);
         if !scene.portals.is_empty() {

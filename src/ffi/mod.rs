@@ -430,6 +430,7 @@ mod tests {
             base::<sky::ImapSun>(),
             base::<sky::ImapSunTime>(),
             base::<scene::ImapHostBsdf>(),
+            base::<scene::ImapTexture>(),
             base::<context::ImapConfig>(),
             base::<results::ImapRegionStats>(),
             base::<run::ImapProgress>(),

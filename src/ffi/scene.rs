@@ -199,6 +199,109 @@ pub unsafe extern "C" fn imap_host_bsdf_default(out: *mut ImapHostBsdf, size: us
     boundary(None, || write_defaults(out, size))
 }
 
+/// `ImapMaterial::texture`: no texture. (Since 0.2.3.)
+pub const IMAP_NO_TEXTURE: u32 = u32::MAX;
+/// `ImapMaterial::texture_lobes`: the diffuse reflectance. (Since 0.2.3.)
+pub const IMAP_LOBE_DIFFUSE_REFLECTION: u32 = 1;
+/// `ImapMaterial::texture_lobes`: the specular (mirror) reflectance. (Since 0.2.3.)
+pub const IMAP_LOBE_SPECULAR_REFLECTION: u32 = 2;
+/// `ImapMaterial::texture_lobes`: the diffuse transmittance. (Since 0.2.3.)
+pub const IMAP_LOBE_DIFFUSE_TRANSMISSION: u32 = 4;
+/// `ImapTexture::flags`: read the nearest texel (default: bilinear between texel
+/// centres). (Since 0.2.3.)
+pub const IMAP_TEXTURE_NEAREST: u32 = 1;
+/// `ImapTexture::flags`: coordinates outside [0, 1] clamp to the edge (default: repeat).
+/// (Since 0.2.3.)
+pub const IMAP_TEXTURE_CLAMP: u32 = 2;
+
+/// An image of factors in [0, 1] that a material names (`ImapMaterial::texture`): its
+/// values, read at the mesh's texture coordinates, multiply the material's coefficients
+/// (`texture_lobes`), so the tinted coefficients stay within [0, 1] and their sum within
+/// the material's (set the material's coefficient to 1 to give the texture's values
+/// themselves). Initialise with `imap_texture_default(&t, sizeof t)`. (Since 0.2.3.)
+#[repr(C)]
+#[derive(Clone, Copy, Debug)]
+pub struct ImapTexture {
+    /// `sizeof(ImapTexture)` as the program was compiled; set by `imap_texture_default`.
+    pub struct_size: u32,
+    /// `IMAP_TEXTURE_*` flags, or-ed.
+    pub flags: u32,
+    pub width: u32,
+    pub height: u32,
+    /// 1 (every band), 3 (red, green, blue: RGB runs band by band, spectral runs by each
+    /// band's wavelength, blue below 490 nm, green below 580 nm, red above) or the band
+    /// count.
+    pub channels: u32,
+    /// width · height · channels values in [0, 1], linear (not sRGB-encoded): rows from
+    /// v = 0 to v = 1, texels from u = 0 to 1 in a row, channels innermost. Copied.
+    pub values: *const f64,
+    pub value_count: usize,
+}
+
+// SAFETY: repr(C), u32 struct_size first, numbers and a raw pointer.
+unsafe impl Versioned for ImapTexture {
+    const NAME: &'static str = "ImapTexture";
+    const INIT: &'static str = "imap_texture_default";
+    fn defaults() -> Self {
+        ImapTexture {
+            struct_size: std::mem::size_of::<Self>() as u32,
+            flags: 0,
+            width: 0,
+            height: 0,
+            channels: 1,
+            values: std::ptr::null(),
+            value_count: 0,
+        }
+    }
+}
+
+/// Fills the `size` bytes at `out` with an empty one-channel texture (no values, flags 0)
+/// and sets `struct_size = size`. Pass `sizeof *out`. Returns IMAP_ERR_NULL_POINTER,
+/// IMAP_ERR_INVALID_ARGUMENT (size too small). Thread-safe. (Since 0.2.3.)
+///
+/// # Safety
+/// `out` is NULL or points to `size` writable bytes.
+#[no_mangle]
+pub unsafe extern "C" fn imap_texture_default(out: *mut ImapTexture, size: usize) -> ImapStatus {
+    boundary(None, || write_defaults(out, size))
+}
+
+/// Adds a texture; `*out_id` receives its id (0, 1, ... in order of addition), for
+/// `ImapMaterial::texture`. The values are copied. Returns IMAP_ERR_NULL_POINTER,
+/// IMAP_ERR_NON_FINITE, IMAP_ERR_INVALID_ARGUMENT (a size, channel count or value count
+/// that does not fit, a value outside [0, 1], an unknown flag), IMAP_ERR_MEMORY_BUDGET,
+/// IMAP_ERR_BUSY, IMAP_ERR_OUT_OF_ORDER. (Since 0.2.3.)
+///
+/// # Safety
+/// `ctx` is a live handle; `texture` points to an `ImapTexture` whose `values` hold
+/// `value_count` doubles; `out_id` points to writable storage.
+#[no_mangle]
+pub unsafe extern "C" fn imap_add_texture(
+    ctx: *mut ImapContext,
+    texture: *const ImapTexture,
+    out_id: *mut u32,
+) -> ImapStatus {
+    add_with(ctx, out_id, |c| {
+        let t = read_versioned("texture", texture)?;
+        if t.flags & !(IMAP_TEXTURE_NEAREST | IMAP_TEXTURE_CLAMP) != 0 {
+            bail!(
+                ImapErrInvalidArgument,
+                "texture.flags = {:#x} sets a bit that is not an IMAP_TEXTURE_* flag",
+                t.flags
+            );
+        }
+        let values = slice("texture.values", t.values, t.value_count)?;
+        c.add_texture(&crate::scene::texture::TextureDesc {
+            width: t.width as usize,
+            height: t.height as usize,
+            channels: t.channels as usize,
+            values,
+            nearest: t.flags & IMAP_TEXTURE_NEAREST != 0,
+            clamp: t.flags & IMAP_TEXTURE_CLAMP != 0,
+        })
+    })
+}
+
 /// A C host BSDF: its callbacks behind `HostBsdf`.
 struct CHostBsdf {
     eval: unsafe extern "C" fn(*mut c_void, *const f64, *const f64, i32, *mut f64, u32) -> i32,
@@ -437,6 +540,13 @@ pub struct ImapMaterial {
     /// IMAP_SURFACE_HOST: the host's BSDF (its callbacks and `user` are kept, the struct
     /// itself is copied). (Since 0.2.3.)
     pub host_bsdf: *const ImapHostBsdf,
+    /// A texture (an id from `imap_add_texture`) whose values, read at the mesh's `uvs`,
+    /// multiply the coefficients `texture_lobes` names; IMAP_NO_TEXTURE (the default):
+    /// none. Ideal non-dielectric surfaces only. (Since 0.2.3.)
+    pub texture: u32,
+    /// `IMAP_LOBE_*`, or-ed: which coefficients the texture and a mesh's
+    /// `vertex_factors` multiply (0, the default: the diffuse reflectance). (Since 0.2.3.)
+    pub texture_lobes: u32,
 }
 
 // SAFETY: repr(C), u32 struct_size first, numbers and raw pointers only.
@@ -475,6 +585,8 @@ unsafe impl Versioned for ImapMaterial {
             flags: 0,
             bsdf_xml_path: std::ptr::null(),
             host_bsdf: std::ptr::null(),
+            texture: IMAP_NO_TEXTURE,
+            texture_lobes: 0,
         }
     }
 }
@@ -503,12 +615,24 @@ pub struct ImapMesh {
     pub exitance_count: usize,
     /// Material id (from `imap_add_material`) of every triangle.
     pub material: u32,
+    /// Texture coordinates: u and v of each vertex (2·vertex_count doubles), or NULL.
+    /// Needed by triangles of a textured material. (Since 0.2.3.)
+    pub uvs: *const f64,
+    /// Per-vertex factors in [0, 1] of the coefficients its materials' `texture_lobes`
+    /// name (vertex_count · vertex_factor_channels doubles), mixed barycentrically over
+    /// each triangle, or NULL. (Since 0.2.3.)
+    pub vertex_factors: *const f64,
+    /// 1 (every band), 3 (red, green, blue; spectral runs by each band's wavelength) or
+    /// the band count. (Since 0.2.3.)
+    pub vertex_factor_channels: u32,
 }
 
 // SAFETY: repr(C), u32 struct_size first, numbers and raw pointers only.
 unsafe impl Versioned for ImapMesh {
     const NAME: &'static str = "ImapMesh";
     const INIT: &'static str = "imap_mesh_default";
+    /// The 0.2.2 layout, before texture coordinates.
+    const BASE_SIZE: usize = std::mem::offset_of!(ImapMesh, uvs);
     fn defaults() -> Self {
         ImapMesh {
             struct_size: std::mem::size_of::<Self>() as u32,
@@ -521,6 +645,9 @@ unsafe impl Versioned for ImapMesh {
             exitance: std::ptr::null(),
             exitance_count: 0,
             material: 0,
+            uvs: std::ptr::null(),
+            vertex_factors: std::ptr::null(),
+            vertex_factor_channels: 1,
         }
     }
 }
@@ -688,6 +815,16 @@ pub unsafe extern "C" fn imap_add_material(
             roughness: m.roughness,
             tangent: (m.tangent != [0.0; 3]).then_some(m.tangent),
             single_scattering: m.flags & IMAP_MATERIAL_SINGLE_SCATTERING != 0,
+            texture: (m.texture != IMAP_NO_TEXTURE).then_some(m.texture),
+            texture_lobes: if m.texture_lobes & !7 != 0 {
+                bail!(
+                    ImapErrInvalidArgument,
+                    "material.texture_lobes = {:#x} sets a bit that is not an IMAP_LOBE_* flag",
+                    m.texture_lobes
+                );
+            } else {
+                m.texture_lobes as u8
+            },
         };
         if m.flags & !IMAP_MATERIAL_SINGLE_SCATTERING != 0 {
             bail!(
@@ -838,6 +975,22 @@ pub unsafe extern "C" fn imap_add_mesh(
             sensor: m.flags & IMAP_MESH_SENSOR != 0,
             tally: m.flags & IMAP_MESH_TALLY != 0,
             skip_degenerate: m.flags & IMAP_MESH_SKIP_DEGENERATE != 0,
+            uvs: if m.uvs.is_null() {
+                None
+            } else {
+                Some(slice("mesh.uvs", m.uvs, m.vertex_count.saturating_mul(2))?)
+            },
+            vertex_factors: if m.vertex_factors.is_null() {
+                None
+            } else {
+                let c = m.vertex_factor_channels as usize;
+                Some(slice(
+                    "mesh.vertex_factors",
+                    m.vertex_factors,
+                    m.vertex_count.saturating_mul(c),
+                )?)
+            },
+            vertex_factor_channels: m.vertex_factor_channels as usize,
         };
         c.add_mesh(&desc)
     })

@@ -10,10 +10,11 @@ use super::bmap::{BackwardPhoton, SampleBuf};
 use super::camera::Camera;
 use crate::accel::Accel;
 use crate::sampling::{warp, PhotonRng};
-use crate::scene::bsdf::Lobe;
 use crate::scene::bsdf::{reflect, refract};
+use crate::scene::bsdf::{Bsdf, Lobe};
 use crate::scene::light::DistantPart;
 use crate::scene::material::fresnel_dielectric;
+use crate::scene::texture::TintScratch;
 use crate::scene::{LightSample, Material, PreparedScene, Receiver, Scene};
 use crate::spectral::collapse_weights;
 use crate::transport::SurfaceEvent;
@@ -234,6 +235,7 @@ impl<'a> EyeTracer<'a> {
         // nothing since (emission it finds is weighed against that vertex's light sample).
         let mut glossy_pdf: Option<(f64, Receiver)> = None;
         let mut glossy_scratch = Vec::new();
+        let mut tint = TintScratch::default();
 
         for event in 0..self.max_events {
             // A long specular chain must not hold up a stop (the phase is discarded then).
@@ -253,29 +255,43 @@ impl<'a> EyeTracer<'a> {
             self.add_emission_weighted(&hit, at.ng, dir, beta, &mut buf.direct[d0..], glossy_pdf);
             glossy_pdf = None;
             let (p_hit, n_in, eps) = (at.p, at.n_in, at.eps);
-            let bsdf = self.materials[at.material as usize].bsdf();
+            let material = self.scene.material_at(
+                self.materials,
+                hit.mesh,
+                hit.prim as usize,
+                (hit.u, hit.v),
+                &mut tint,
+            );
+            let bsdf = material.bsdf();
             let (rho, tau) = (
                 bsdf.albedo(Lobe::DiffuseReflection),
                 bsdf.albedo(Lobe::DiffuseTransmission),
             );
-            let pd =
-                match self.surface_step(&at, &mut dir, &mut org, &mut medium, &mut band, beta, rng)
-                {
-                    Step::Specular => continue,
-                    Step::Glossy => {
-                        let out = &mut buf.direct[d0..d0 + nb];
-                        let step = (&mut dir, &mut org, beta.as_mut_slice());
-                        match self.glossy_step(&at, step, &mut glossy_scratch, rng, out, stats) {
-                            Some(pdf) => {
-                                glossy_pdf = Some(pdf);
-                                continue;
-                            }
-                            None => return,
+            let pd = match self.surface_step(
+                &at,
+                bsdf,
+                &mut dir,
+                &mut org,
+                &mut medium,
+                &mut band,
+                beta,
+                rng,
+            ) {
+                Step::Specular => continue,
+                Step::Glossy => {
+                    let out = &mut buf.direct[d0..d0 + nb];
+                    let step = (&mut dir, &mut org, beta.as_mut_slice());
+                    match self.glossy_step(&at, step, &mut glossy_scratch, rng, out, stats) {
+                        Some(pdf) => {
+                            glossy_pdf = Some(pdf);
+                            continue;
                         }
+                        None => return,
                     }
-                    Step::End => return,
-                    Step::Diffuse(pd) => pd,
-                };
+                }
+                Step::End => return,
+                Step::Diffuse(pd) => pd,
+            };
             // The first diffuse vertex: direct light here, and a backward photon.
             let p0 = buf.w_reflect.len();
             buf.w_reflect
@@ -354,6 +370,7 @@ impl<'a> EyeTracer<'a> {
         // As in `trace`: the last glossy reflector's density, straight after it.
         let mut glossy_pdf: Option<(f64, Receiver)> = None;
         let mut glossy_scratch = Vec::new();
+        let mut tint = TintScratch::default();
         // Whether the path has left a glossy reflector: the sun through specular surfaces
         // behind it is then the caustic photons' too (they splat at glossy reflectors).
         let mut after_glossy = false;
@@ -378,33 +395,47 @@ impl<'a> EyeTracer<'a> {
             }
             glossy_pdf = None;
             let (p_hit, n_in, eps, front) = (at.p, at.n_in, at.eps, at.front);
-            let bsdf = self.materials[at.material as usize].bsdf();
+            let material = self.scene.material_at(
+                self.materials,
+                hit.mesh,
+                hit.prim as usize,
+                (hit.u, hit.v),
+                &mut tint,
+            );
+            let bsdf = material.bsdf();
             let (rho, tau) = (
                 bsdf.albedo(Lobe::DiffuseReflection),
                 bsdf.albedo(Lobe::DiffuseTransmission),
             );
-            let pd =
-                match self.surface_step(&at, &mut dir, &mut org, &mut medium, &mut band, beta, rng)
-                {
-                    Step::Specular => {
-                        counts = true;
-                        continue;
-                    }
-                    Step::Glossy => {
-                        let step = (&mut dir, &mut org, beta.as_mut_slice());
-                        match self.glossy_step(&at, step, &mut glossy_scratch, rng, out, stats) {
-                            Some(pdf) => {
-                                glossy_pdf = Some(pdf);
-                                counts = true;
-                                after_glossy = true;
-                                continue;
-                            }
-                            None => return,
+            let pd = match self.surface_step(
+                &at,
+                bsdf,
+                &mut dir,
+                &mut org,
+                &mut medium,
+                &mut band,
+                beta,
+                rng,
+            ) {
+                Step::Specular => {
+                    counts = true;
+                    continue;
+                }
+                Step::Glossy => {
+                    let step = (&mut dir, &mut org, beta.as_mut_slice());
+                    match self.glossy_step(&at, step, &mut glossy_scratch, rng, out, stats) {
+                        Some(pdf) => {
+                            glossy_pdf = Some(pdf);
+                            counts = true;
+                            after_glossy = true;
+                            continue;
                         }
+                        None => return,
                     }
-                    Step::End => return,
-                    Step::Diffuse(pd) => pd,
-                };
+                }
+                Step::End => return,
+                Step::Diffuse(pd) => pd,
+            };
             // A diffuse vertex: its direct light, then on by cosine sampling.
             scratch.clear();
             scratch.extend(beta.iter().zip(rho).map(|(b, k)| b * k / (pd * PI)));
@@ -958,6 +989,7 @@ impl<'a> EyeTracer<'a> {
     fn surface_step(
         &self,
         at: &Surface,
+        bsdf: Bsdf,
         dir: &mut DVec3,
         org: &mut DVec3,
         medium: &mut Option<u32>,
@@ -965,7 +997,6 @@ impl<'a> EyeTracer<'a> {
         beta: &mut [f64],
         rng: &mut PhotonRng,
     ) -> Step {
-        let bsdf = self.materials[at.material as usize].bsdf();
         let n_in = at.n_in;
         if let Some(g) = bsdf.glossy() {
             if !g.refracts() {

@@ -132,6 +132,12 @@ pub struct Material {
     pub glossy: Option<Glossy>,
     /// The direction the roughness `ax` runs along (projected onto each triangle).
     pub tangent: Option<DVec3>,
+    /// The texture (`Scene::textures`) that multiplies its coefficients, read at the
+    /// mesh's texture coordinates (`scene::texture`).
+    pub texture: Option<u32>,
+    /// Which coefficients a texture and a mesh's vertex factors multiply: 1 diffuse
+    /// reflectance, 2 specular reflectance, 4 diffuse transmittance, or-ed.
+    pub tint_lobes: u8,
 }
 
 /// What the caller describes; the per-band arrays hold 0 values (none), 1 (grey) or one per
@@ -154,6 +160,12 @@ pub struct MaterialDesc {
     /// Mitsuba 3's `roughconductor` and most renderers compute it (it then loses energy at
     /// high roughness: 3 % at α 0.15, docs/materials.md). For comparisons.
     pub single_scattering: bool,
+    /// A texture (an id from `Context::add_texture`) that multiplies the coefficients
+    /// `texture_lobes` names, read at the mesh's texture coordinates.
+    pub texture: Option<u32>,
+    /// Which coefficients the texture and a mesh's vertex factors multiply: 1 diffuse
+    /// reflectance, 2 specular reflectance, 4 diffuse transmittance, or-ed; 0 means 1.
+    pub texture_lobes: u8,
 }
 
 impl Material {
@@ -163,6 +175,24 @@ impl Material {
             bail!(
                 ImapErrBadMaterial,
                 "single scattering is a conductor's option: this surface has no multiple-scattering lobe to leave out"
+            );
+        }
+        if desc.texture_lobes > 7 {
+            bail!(
+                ImapErrInvalidArgument,
+                "texture_lobes = {} is not an or of 1 (diffuse reflectance), 2 (specular reflectance) and 4 (diffuse transmittance)",
+                desc.texture_lobes
+            );
+        }
+        if (desc.surface != SurfaceModel::Ideal || desc.ior.is_some()) && desc.texture.is_some() {
+            bail!(
+                ImapErrBadMaterial,
+                "a texture multiplies the ideal coefficients (diffuse and specular reflectance, diffuse transmittance): this material is {} and has none to vary",
+                if desc.ior.is_some() && desc.surface == SurfaceModel::Ideal {
+                    "a dielectric"
+                } else {
+                    "a microfacet or measured surface"
+                }
             );
         }
         if desc.surface != SurfaceModel::Ideal {
@@ -271,6 +301,12 @@ impl Material {
             events,
             glossy: None,
             tangent: None,
+            texture: desc.texture,
+            tint_lobes: if desc.texture_lobes == 0 {
+                1
+            } else {
+                desc.texture_lobes
+            },
         })
     }
 
@@ -333,6 +369,8 @@ impl Material {
                 events: [false; 3],
                 glossy: Some(glossy),
                 tangent,
+                texture: None,
+                tint_lobes: 1,
             });
         }
         let [ax, ay] = desc.roughness;
@@ -447,6 +485,8 @@ impl Material {
             events: [false; 3],
             glossy: Some(glossy),
             tangent,
+            texture: None,
+            tint_lobes: 1,
         })
     }
 }

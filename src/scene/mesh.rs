@@ -1,6 +1,7 @@
 //! Triangle meshes as the caller describes them, validated on entry.
 
-use crate::error::{bail, check_coordinates, try_collect, try_with_capacity, Result};
+use crate::error::{bail, check_coordinates, check_finite, try_collect, try_with_capacity, Result};
+use crate::scene::texture::{check_channels, check_unit, VertexFactors};
 use crate::spectral::Bands;
 
 /// A validated mesh. Positions are kept in f64 as given; the prepared scene recentres them
@@ -32,6 +33,10 @@ pub struct Mesh {
     /// Triangles of the description left out because they repeat a vertex
     /// (`MeshDesc::skip_degenerate`).
     pub dropped_triangles: usize,
+    /// Texture coordinates (u, v) per vertex, for textured materials.
+    pub uvs: Option<Vec<[f32; 2]>>,
+    /// Per-vertex factors of the coefficients its materials' `tint_lobes` name.
+    pub factors: Option<VertexFactors>,
 }
 
 /// What the caller passes to `add_mesh`.
@@ -54,6 +59,13 @@ pub struct MeshDesc<'a> {
     /// vertex instead of refusing the mesh. CAD exports hold many of them; they have no
     /// area and carry no light, so dropping them changes nothing else.
     pub skip_degenerate: bool,
+    /// Texture coordinates, u and v per vertex (textured materials need them).
+    pub uvs: Option<&'a [f64]>,
+    /// Factors in [0, 1] per vertex and channel (`vertex_factor_channels`: 1, 3 or the
+    /// band count) of the coefficients its materials' `texture_lobes` name, mixed
+    /// barycentrically over each triangle.
+    pub vertex_factors: Option<&'a [f64]>,
+    pub vertex_factor_channels: usize,
 }
 
 impl Mesh {
@@ -194,6 +206,50 @@ impl Mesh {
                 Some(e)
             }
         };
+        let uvs = match desc.uvs {
+            None => None,
+            Some(uv) => {
+                if uv.len() != 2 * nv {
+                    bail!(
+                        ImapErrInvalidArgument,
+                        "uvs has {} values for {nv} vertices (u and v per vertex: {})",
+                        uv.len(),
+                        2 * nv
+                    );
+                }
+                check_finite("uvs", uv)?;
+                Some(try_collect(
+                    uv.chunks_exact(2).map(|c| [c[0] as f32, c[1] as f32]),
+                    "the mesh's texture coordinates",
+                )?)
+            }
+        };
+        let factors = match desc.vertex_factors {
+            None => None,
+            Some(f) => {
+                let c = desc.vertex_factor_channels;
+                check_channels("vertex_factor_channels", c, bands)?;
+                if f.len() != c * nv {
+                    bail!(
+                        ImapErrInvalidArgument,
+                        "vertex_factors has {} values for {nv} vertices of {c} channels ({})",
+                        f.len(),
+                        c * nv
+                    );
+                }
+                check_unit("vertex_factors", f)?;
+                Some(VertexFactors {
+                    channels: c,
+                    values: try_collect(f.iter().map(|&x| x as f32), "the mesh's vertex factors")?,
+                })
+            }
+        };
+        if desc.sensor && (uvs.is_some() || factors.is_some()) {
+            bail!(
+                ImapErrInvalidArgument,
+                "a sensor mesh has no surface to texture (give it no uvs or vertex factors)"
+            );
+        }
         Ok(Mesh {
             positions,
             triangles,
@@ -206,6 +262,8 @@ impl Mesh {
             tally: desc.sensor || desc.tally,
             light_group: 0,
             dropped_triangles,
+            uvs,
+            factors,
         })
     }
 
@@ -266,6 +324,9 @@ impl<'a> MeshDesc<'a> {
             sensor: false,
             tally: false,
             skip_degenerate: false,
+            uvs: None,
+            vertex_factors: None,
+            vertex_factor_channels: 1,
         }
     }
 

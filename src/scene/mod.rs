@@ -13,6 +13,7 @@ pub mod microfacet;
 mod prepared;
 mod prepared_mesh;
 pub mod table;
+pub mod texture;
 
 pub use crate::spectral::Bands;
 pub use emitter::{Emitter, Extent, LightSample, Receiver};
@@ -37,6 +38,8 @@ pub struct Scene {
     /// Window portals (scene units, each triangle's normal facing out): when there are
     /// any, distant light enters only through them (`prepared::Portals`).
     pub portals: Vec<[[f64; 3]; 3]>,
+    /// Textures of materials (`scene::texture`).
+    pub textures: Vec<std::sync::Arc<texture::Texture>>,
 }
 
 /// Which layers a map keeps (the map lays them out: `imap::LayerLayout`).
@@ -58,6 +61,7 @@ impl Scene {
             unit_m,
             layers: LayerRequest::default(),
             portals: Vec::new(),
+            textures: Vec::new(),
         }
     }
 

@@ -4,7 +4,8 @@
 use super::emitter::{Aim, Emitter, EmitterKind, Photon, Portals, EMITTER_FLOOR, PORTAL_SHARE};
 use super::mesh::triangle_area;
 use super::prepared_mesh::{check_precision, prepare_mesh, PreparedMesh};
-use super::{LightShape, Mesh, Scene};
+use super::texture::{Texture, TintScratch};
+use super::{Bands, LightShape, Material, Mesh, Scene};
 use crate::error::{bail, try_collect, Error, ImapStatus, Result, Subject};
 use crate::sampling::{AliasTable, PhotonRng};
 use glam::DVec3;
@@ -28,9 +29,32 @@ pub struct PreparedScene {
     pub slots: usize,
     /// Luminous efficacy of each band, lm/W.
     pub efficacy: Vec<f64>,
+    /// The materials' textures (`Scene::textures`) and the bands they are read for.
+    pub textures: Vec<Arc<Texture>>,
+    pub bands: Bands,
 }
 
 impl PreparedScene {
+    /// The material at barycentric (u, v) of triangle `prim` of mesh `mesh`: `materials`'
+    /// own, or a copy in `scratch` with the coefficients its texture and the mesh's vertex
+    /// factors vary (`scene::texture`). A mesh with neither looks nothing up.
+    #[inline]
+    pub fn material_at<'s>(
+        &'s self,
+        materials: &'s [Material],
+        mesh: u32,
+        prim: usize,
+        (u, v): (f32, f32),
+        scratch: &'s mut TintScratch,
+    ) -> &'s Material {
+        let m = &self.meshes[mesh as usize];
+        let base = &materials[m.material(prim) as usize];
+        if !m.tinted() {
+            return base;
+        }
+        scratch.material(base, &self.textures, &self.bands, &m.tint_at(prim, u, v))
+    }
+
     /// Prepares `scene`, whose bands have the luminous efficacies `efficacy` (lm/W, the
     /// context's `BandPhotometry`). The caller has checked that it has meshes and lights.
     ///
@@ -211,6 +235,8 @@ impl PreparedScene {
             )
         })?;
         let mut prepared = PreparedScene {
+            textures: scene.textures.clone(),
+            bands: scene.bands.clone(),
             efficacy: efficacy.to_vec(),
             origin,
             radius,

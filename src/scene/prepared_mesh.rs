@@ -2,6 +2,7 @@
 //! per-vertex area shares and its map slots; the precision check that refuses what f32
 //! cannot resolve.
 
+use super::texture::{TintAt, VertexFactors};
 use super::Mesh;
 use crate::error::{try_collect, try_filled, Error, ImapStatus, Result, Subject};
 use glam::{DVec3, Vec3};
@@ -28,6 +29,9 @@ pub struct PreparedMesh {
     pub sensor: bool,
     /// Its regions are tallied per photon (`Mesh::tally`).
     pub tally: bool,
+    /// Texture coordinates and vertex factors (`Mesh::uvs`, `Mesh::factors`).
+    pub uvs: Option<Vec<[f32; 2]>>,
+    pub factors: Option<VertexFactors>,
 }
 
 impl PreparedMesh {
@@ -37,6 +41,24 @@ impl PreparedMesh {
             self.materials[0]
         } else {
             self.materials[prim]
+        }
+    }
+
+    /// Whether its coefficients vary over it (texture coordinates or vertex factors).
+    #[inline]
+    pub fn tinted(&self) -> bool {
+        self.uvs.is_some() || self.factors.is_some()
+    }
+
+    /// What tinting needs of barycentric (u, v) of triangle `prim`.
+    #[inline]
+    pub fn tint_at(&self, prim: usize, u: f32, v: f32) -> TintAt<'_> {
+        let tri = self.triangles[prim];
+        let (u, v) = (u as f64, v as f64);
+        TintAt {
+            uvs: self.uvs.as_ref().map(|uv| tri.map(|i| uv[i as usize])),
+            factors: self.factors.as_ref().map(|f| (f, tri)),
+            w: [1.0 - u - v, u, v],
         }
     }
 
@@ -149,5 +171,7 @@ pub(super) fn prepare_mesh(
         vertex_area,
         sensor: m.sensor,
         tally: m.tally,
+        uvs: m.uvs.clone(),
+        factors: m.factors.clone(),
     })
 }

@@ -774,13 +774,16 @@ impl DirectSampler<'_> {
         let mut dir = warp::cosine_hemisphere(at.n, d.next(), d.next());
         let mut org = at.x;
         let mut weights: Option<Vec<f64>> = None;
+        let mut tint = crate::scene::texture::TintScratch::default();
         for _ in 0..self.max_events.min(GATHER_DEPTH) {
             let Some(hit) = self.accel.intersect(org, dir) else {
                 return;
             };
             let mesh = &scene.meshes[hit.mesh as usize];
             let prim = hit.prim as usize;
-            let bsdf = self.materials[mesh.material(prim) as usize].bsdf();
+            let bsdf = scene
+                .material_at(self.materials, hit.mesh, prim, (hit.u, hit.v), &mut tint)
+                .bsdf();
             if bsdf.interface().is_some() {
                 return;
             }

@@ -105,6 +105,8 @@ pub struct PathStats {
     /// The photon in flight's absorption at its weighted bounces (`Tracer::direct`),
     /// added to the tallies when its path ends.
     pub(crate) bounces: WeightedBounces,
+    /// A tinted hit's material (`scene::texture`), reused from hit to hit.
+    pub(crate) tint: crate::scene::texture::TintScratch,
 }
 
 /// What a photon left at its weighted bounces (light sampling: the photon goes on with the
@@ -313,7 +315,14 @@ impl Tracer<'_> {
         stop: &AtomicBool,
     ) -> bool {
         let mut hits = 0u64;
-        let (end, emission) = self.trace_path(k, colour, sink, &mut hits, stop, &mut stats.bounces);
+        let (end, emission) = self.trace_path(
+            k,
+            colour,
+            sink,
+            &mut hits,
+            stop,
+            (&mut stats.bounces, &mut stats.tint),
+        );
         let e = colour.mean();
         let band_end = match end {
             PathEnd::Aborted => {
@@ -376,7 +385,10 @@ impl Tracer<'_> {
         sink: &mut S,
         hits: &mut u64,
         stop: &AtomicBool,
-        bounces: &mut WeightedBounces,
+        (bounces, tint): (
+            &mut WeightedBounces,
+            &mut crate::scene::texture::TintScratch,
+        ),
     ) -> (PathEnd, Emission) {
         let mut rng = PhotonRng::new(self.seed, k);
         // Emit: choose a light by power, then a point and a direction on it.
@@ -428,7 +440,7 @@ impl Tracer<'_> {
                 sink,
                 hits,
                 stop,
-                bounces,
+                (bounces, tint),
             ),
             emission,
         )
@@ -445,7 +457,10 @@ impl Tracer<'_> {
         sink: &mut S,
         hits: &mut u64,
         stop: &AtomicBool,
-        bounces: &mut WeightedBounces,
+        (bounces, tint): (
+            &mut WeightedBounces,
+            &mut crate::scene::texture::TintScratch,
+        ),
     ) -> PathEnd {
         // A light far outside the geometry: start where the ray meets its bounding sphere.
         let Some(mut org) = self.scene.enter(from.y, dir) else {
@@ -546,7 +561,9 @@ impl Tracer<'_> {
                     .map(|d| d.landing_density(from.emitter, from.y, from.cos_y, dir, p_hit, ng))
             };
             let material_id = mesh.material(prim);
-            let material = &self.materials[material_id as usize];
+            let material =
+                self.scene
+                    .material_at(self.materials, hit.mesh, prim, (hit.u, hit.v), tint);
             if S::SURFACES {
                 sink.surface(
                     &SurfaceEvent {
