@@ -225,6 +225,65 @@ fn rms_z(a: &[(f64, f64)], b: &[(f64, f64)]) -> (f64, usize) {
     ((z2 / n as f64).sqrt(), n)
 }
 
+/// Asserts two maps agree value by value (rms z in 0.6–1.35 over more than `min_count`
+/// lit values) and in their mean (to 1 %), printing `what`.
+fn assert_same_map(what: &str, a: &[(f64, f64)], b: &[(f64, f64)], min_count: usize) {
+    let (z, count) = rms_z(a, b);
+    let ratio = mean(a) / mean(b);
+    eprintln!("{what}: rms z {z:.3} over {count} values, mean ratio {ratio:.4}");
+    assert!(count > min_count, "{what}: {count} values");
+    assert!((0.6..1.35).contains(&z), "{what}: rms z {z}");
+    assert!((ratio - 1.0).abs() < 0.01, "{what}: ratio {ratio}");
+}
+
+/// A 16 × 16 camera at `position` looking along `direction`, up +z.
+fn small_camera(position: [f64; 3], direction: [f64; 3]) -> CameraDesc {
+    CameraDesc {
+        position,
+        direction,
+        up: [0.0, 0.0, 1.0],
+        fov_y_deg: 70.0,
+        width: 16,
+        height: 16,
+    }
+}
+
+/// An image's sum of band means, and that sum's variance by the pixels' errors.
+fn image_sum(img: &Image) -> (f64, f64) {
+    let (mut sum, mut var) = (0.0, 0.0);
+    for p in 0..img.width as usize * img.height as usize {
+        let v = band_mean(img, p);
+        sum += v;
+        var += (v * img.rel_error[p]).powi(2);
+    }
+    (sum, var)
+}
+
+/// Asserts an image sum `a` is `reference`'s within 4σ plus `slack`, printing `what`.
+fn assert_same_sum(what: &str, a: (f64, f64), reference: (f64, f64), slack: f64) {
+    let ratio = a.0 / reference.0;
+    let sigma = (reference.1 + a.1).sqrt() / reference.0;
+    eprintln!("{what}: image sum ratio {ratio:.4} (σ {sigma:.4})");
+    assert!(
+        (ratio - 1.0).abs() < 4.0 * sigma + slack,
+        "{what}: {ratio} (σ {sigma})"
+    );
+}
+
+/// `ctx`'s view by final gathering (0.5 s) after a gathering run of 20 000 photons.
+fn final_gather_sum(ctx: &mut Context, cam: &CameraDesc) -> (f64, f64) {
+    run_with(ctx, photons(20_000), Estimator::GATHER);
+    let mut p = RenderParams {
+        method: RenderMethod::FinalGather,
+        passes: 0,
+        progress_interval_s: 0.05,
+        max_path_events: 1000,
+        time_budget_s: 0.5,
+        ..Default::default()
+    };
+    image_sum(&ctx.render(cam, &mut p).unwrap().0)
+}
+
 /// Photons alone, light sampling and gathering make the same map of a room of rough
 /// surfaces, value by value within their errors, in RGB and in 9 bands.
 #[test]
@@ -706,7 +765,7 @@ fn a_lambertian_table_and_host_bsdf_give_lamberts_map() {
         ctx.add_point_light([-0.3, 0.2, -0.6], &[6.0]).unwrap();
         (ctx, vec![w, s])
     };
-    for (e, n) in [(Estimator::Photons, 400_000), (Estimator::GATHER, 100_000)] {
+    for (e, n) in [(Estimator::Photons, 200_000), (Estimator::GATHER, 50_000)] {
         let (mut a, ids) = build(0, 31);
         run_with(&mut a, photons(n), e);
         let ma = map_with_errors(&a, &ids);
@@ -714,65 +773,35 @@ fn a_lambertian_table_and_host_bsdf_give_lamberts_map() {
             let (mut b, _) = build(kind, 31 + u64::from(kind));
             run_with(&mut b, photons(n), e);
             let mb = map_with_errors(&b, &ids);
-            let (z, count) = rms_z(&ma, &mb);
-            let ratio = mean(&mb) / mean(&ma);
-            eprintln!("{e:?}: Lambertian {what} vs Lambert: rms z {z:.3} over {count} values, mean ratio {ratio:.4}");
-            assert!(count > 100);
-            assert!((0.6..1.35).contains(&z), "{what}: rms z {z}");
-            assert!((ratio - 1.0).abs() < 0.01, "{what}: ratio {ratio}");
+            assert_same_map(
+                &format!("{e:?}: Lambertian {what} vs Lambert"),
+                &mb,
+                &ma,
+                100,
+            );
         }
     }
     // The path tracer and final gathering see the table and the host's surface as the
     // ideal one: light samples from both sides (the point light below reaches the camera
     // above only through the sheet).
-    let cam = CameraDesc {
-        position: [0.0, -0.9, 0.7],
-        direction: [0.0, 0.8, -0.6],
-        up: [0.0, 0.0, 1.0],
-        fov_y_deg: 70.0,
-        width: 16,
-        height: 16,
-    };
-    let sum = |img: &Image| {
-        let (mut sum, mut var) = (0.0, 0.0);
-        for p in 0..16 * 16 {
-            let v = band_mean(img, p);
-            sum += v;
-            var += (v * img.rel_error[p]).powi(2);
-        }
-        (sum, var)
-    };
+    let cam = small_camera([0.0, -0.9, 0.7], [0.0, 0.8, -0.6]);
     let (mut ideal, _) = build(0, 40);
-    let reference = sum(&ideal.path_trace(&cam, 256, 1000).unwrap());
+    let reference = image_sum(&ideal.path_trace(&cam, 128, 1000).unwrap());
     for (kind, what) in [(1, "table"), (2, "host BSDF")] {
         let (mut ctx, _) = build(kind, 41);
-        let traced = sum(&ctx.path_trace(&cam, 256, 1000).unwrap());
-        let ratio = traced.0 / reference.0;
-        let sigma = (reference.1 + traced.1).sqrt() / reference.0;
-        eprintln!("path tracer: {what} / ideal image sum {ratio:.4} (σ {sigma:.4})");
-        assert!(
-            (ratio - 1.0).abs() < 4.0 * sigma + 0.002,
-            "{what}: {ratio} (σ {sigma})"
+        let traced = image_sum(&ctx.path_trace(&cam, 128, 1000).unwrap());
+        assert_same_sum(
+            &format!("path tracer: {what} / ideal"),
+            traced,
+            reference,
+            0.002,
         );
-        run_with(&mut ctx, photons(50_000), Estimator::GATHER);
-        let mut p = RenderParams {
-            method: RenderMethod::FinalGather,
-            passes: 0,
-            progress_interval_s: 0.05,
-            max_path_events: 1000,
-            time_budget_s: 0.5,
-            ..Default::default()
-        };
-        let (img, _) = ctx.render(&cam, &mut p).unwrap();
-        let gathered = sum(&img);
-        let ratio = gathered.0 / reference.0;
-        let sigma = (reference.1 + gathered.1).sqrt() / reference.0;
-        eprintln!(
-            "final gathering: {what} / ideal path-traced image sum {ratio:.4} (σ {sigma:.4})"
-        );
-        assert!(
-            (ratio - 1.0).abs() < 4.0 * sigma + 0.02,
-            "{what}: {ratio} (σ {sigma})"
+        let gathered = final_gather_sum(&mut ctx, &cam);
+        assert_same_sum(
+            &format!("final gathering: {what} / ideal path-traced"),
+            gathered,
+            reference,
+            0.02,
         );
     }
 }
@@ -1390,83 +1419,42 @@ fn tinted_room(seed: u64, threads: usize, rho: f64, how: &str) -> (Context, Vec<
 
 /// Coefficients that vary over a surface: per-vertex factors of 0.5 on ρ 0.8 give the map
 /// of ρ 0.4, and a two-texel texture (1 and 0.25) gives the map of the floor split into two
-/// materials, with photons, light sampling and gathering, and the same path-traced and
+/// materials, with photons and with gathering, and the same path-traced and
 /// final-gathering images; the same seed gives the same map on any thread count.
 #[test]
 fn textures_and_vertex_factors_vary_the_coefficients() {
-    for (e, n) in [
-        (Estimator::Photons, 150_000),
-        (Estimator::DEFAULT, 50_000),
-        (Estimator::GATHER, 40_000),
-    ] {
+    // Photons and gathering: between them every code path that reads a hit's coefficients
+    // (light sampling's indirect light is the photons').
+    for (e, n) in [(Estimator::Photons, 150_000), (Estimator::GATHER, 20_000)] {
         for (how, same, rho_same) in [("factors", "plain", 0.4), ("texture", "split", 0.8)] {
             let (mut a, ids) = tinted_room(71, 2, 0.8, how);
             run_with(&mut a, photons(n), e);
             let (mut b, _) = tinted_room(72, 2, rho_same, same);
             run_with(&mut b, photons(n), e);
             let (ma, mb) = (map_with_errors(&a, &ids), map_with_errors(&b, &ids));
-            let (z, count) = rms_z(&ma, &mb);
-            let ratio = mean(&ma) / mean(&mb);
-            eprintln!(
-                "{e:?}: {how} vs {same}: rms z {z:.3} over {count} values, mean ratio {ratio:.4}"
-            );
-            assert!(count > 150);
-            assert!((0.6..1.35).contains(&z), "{how}: rms z {z}");
-            assert!((ratio - 1.0).abs() < 0.01, "{how}: ratio {ratio}");
+            assert_same_map(&format!("{e:?}: {how} vs {same}"), &ma, &mb, 150);
         }
     }
     // Images: the textured floor against the split one.
-    let cam = CameraDesc {
-        position: [0.0, -0.95, 1.5],
-        direction: [0.0, 0.7, -0.7],
-        up: [0.0, 0.0, 1.0],
-        fov_y_deg: 70.0,
-        width: 16,
-        height: 16,
-    };
-    let sum = |img: &Image| {
-        let (mut sum, mut var) = (0.0, 0.0);
-        for p in 0..16 * 16 {
-            let v = band_mean(img, p);
-            sum += v;
-            var += (v * img.rel_error[p]).powi(2);
-        }
-        (sum, var)
-    };
+    let cam = small_camera([0.0, -0.95, 1.5], [0.0, 0.7, -0.7]);
     let (mut split, _) = tinted_room(73, 2, 0.8, "split");
-    let reference = sum(&split.path_trace(&cam, 128, 1000).unwrap());
+    let reference = image_sum(&split.path_trace(&cam, 128, 1000).unwrap());
     let (mut tex, _) = tinted_room(74, 2, 0.8, "texture");
-    let traced = sum(&tex.path_trace(&cam, 128, 1000).unwrap());
-    let ratio = traced.0 / reference.0;
-    let sigma = (reference.1 + traced.1).sqrt() / reference.0;
-    eprintln!("path tracer: texture / split image sum {ratio:.4} (σ {sigma:.4})");
-    assert!(
-        (ratio - 1.0).abs() < 4.0 * sigma + 0.002,
-        "{ratio} (σ {sigma})"
-    );
-    run_with(&mut tex, photons(50_000), Estimator::GATHER);
-    let mut p = RenderParams {
-        method: RenderMethod::FinalGather,
-        passes: 0,
-        progress_interval_s: 0.05,
-        max_path_events: 1000,
-        time_budget_s: 0.5,
-        ..Default::default()
-    };
-    let gathered = sum(&tex.render(&cam, &mut p).unwrap().0);
-    let ratio = gathered.0 / reference.0;
-    let sigma = (reference.1 + gathered.1).sqrt() / reference.0;
-    eprintln!("final gathering: texture / split path-traced image sum {ratio:.4} (σ {sigma:.4})");
-    assert!(
-        (ratio - 1.0).abs() < 4.0 * sigma + 0.02,
-        "{ratio} (σ {sigma})"
+    let traced = image_sum(&tex.path_trace(&cam, 128, 1000).unwrap());
+    assert_same_sum("path tracer: texture / split", traced, reference, 0.002);
+    let gathered = final_gather_sum(&mut tex, &cam);
+    assert_same_sum(
+        "final gathering: texture / split path-traced",
+        gathered,
+        reference,
+        0.02,
     );
     // Determinism: 1 and 3 threads, the same seed.
     let maps: Vec<Vec<f64>> = [1, 3]
         .into_iter()
         .map(|t| {
             let (mut c, ids) = tinted_room(75, t, 0.8, "texture");
-            run_with(&mut c, photons(20_000), Estimator::GATHER);
+            run_with(&mut c, photons(5_000), Estimator::GATHER);
             whole_map(&c, &ids)
         })
         .collect();

@@ -247,6 +247,24 @@ pub fn resolve(
     }
 }
 
+/// The first optical field the settings give (coefficients, index, metal, roughness),
+/// which a table or a window BSDF file does not take.
+fn optics_given(o: &MaterialSettings) -> Option<&'static str> {
+    [
+        ("roughness", o.roughness.is_some()),
+        ("metal", o.metal.is_some()),
+        ("nk", o.nk.is_some()),
+        ("ior", o.ior.is_some() || o.sellmeier.is_some()),
+        ("dielectric", o.dielectric == Some(true)),
+        ("diffuse", o.diffuse.is_some()),
+        ("specular", o.specular.is_some()),
+        ("transmit", o.transmit.is_some()),
+        ("absorption_per_m", o.absorption_per_m.is_some()),
+    ]
+    .into_iter()
+    .find_map(|(field, given)| given.then_some(field))
+}
+
 /// The numbers of a table file (separated by spaces, commas or line ends; `#` starts a
 /// comment), or the line and what is wrong.
 fn read_values(path: &std::path::Path) -> Result<Vec<f64>, (usize, String)> {
@@ -374,6 +392,8 @@ fn glossy(
         return desc;
     }
     let zero = Vec::new;
+    // Files the settings name are relative to the settings file.
+    let base = settings_at.0.parent().unwrap_or(std::path::Path::new("."));
     match kind {
         Some("ideal") => desc,
         Some("table") => {
@@ -384,18 +404,7 @@ fn glossy(
                 );
                 return desc;
             };
-            let given = [
-                ("roughness", o.roughness.is_some()),
-                ("metal", o.metal.is_some()),
-                ("nk", o.nk.is_some()),
-                ("ior", o.ior.is_some() || o.sellmeier.is_some()),
-                ("dielectric", o.dielectric == Some(true)),
-                ("diffuse", o.diffuse.is_some()),
-                ("specular", o.specular.is_some()),
-                ("transmit", o.transmit.is_some()),
-                ("absorption_per_m", o.absorption_per_m.is_some()),
-            ];
-            if let Some((field, _)) = given.iter().find(|g| g.1) {
+            if let Some(field) = optics_given(o) {
                 error(
                     diag,
                     format!(
@@ -404,7 +413,6 @@ fn glossy(
                 );
                 return desc;
             }
-            let base = settings_at.0.parent().unwrap_or(std::path::Path::new("."));
             let read = |path: &std::path::Path, diag: &mut Diagnostics| {
                 let path = base.join(path);
                 match read_values(&path) {
@@ -447,19 +455,8 @@ fn glossy(
                 );
                 return desc;
             };
-            let given = [
-                ("roughness", o.roughness.is_some()),
-                ("metal", o.metal.is_some()),
-                ("nk", o.nk.is_some()),
-                ("tangent", o.tangent.is_some()),
-                ("ior", o.ior.is_some() || o.sellmeier.is_some()),
-                ("dielectric", o.dielectric == Some(true)),
-                ("diffuse", o.diffuse.is_some()),
-                ("specular", o.specular.is_some()),
-                ("transmit", o.transmit.is_some()),
-                ("absorption_per_m", o.absorption_per_m.is_some()),
-            ];
-            if let Some((field, _)) = given.iter().find(|g| g.1) {
+            let stray = optics_given(o).or(o.tangent.is_some().then_some("tangent (give up)"));
+            if let Some(field) = stray {
                 error(
                     diag,
                     format!(
@@ -468,7 +465,6 @@ fn glossy(
                 );
                 return desc;
             }
-            let base = settings_at.0.parent().unwrap_or(std::path::Path::new("."));
             MaterialDesc {
                 surface: SurfaceModel::Klems(base.join(file)),
                 tangent: o.up,

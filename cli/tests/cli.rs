@@ -869,6 +869,26 @@ fn a_sky_and_the_sun_light_an_open_plane_by_their_horizontal_amounts() {
     }
 }
 
+/// Runs the model at `model` for 20 000 photons with settings `settings` written to
+/// `dir/NAME.toml`, into `dir/NAME`: the command's output and the output folder.
+fn run_with_settings(
+    dir: &Path,
+    model: &str,
+    name: &str,
+    settings: &str,
+) -> (std::process::Output, std::path::PathBuf) {
+    let toml = write(dir, &format!("{name}.toml"), settings);
+    let out = dir.join(name);
+    (run_photons(model, &toml, &out, 20_000), out)
+}
+
+/// The share of the emitted power the scene absorbed, from a run's report.
+fn absorbed_share(out: &Path) -> f64 {
+    let r = read_report(out);
+    let e = &r["energy_w"];
+    e["absorbed"].as_f64().unwrap() / e["emitted"].as_f64().unwrap()
+}
+
 /// `[materials.NAME] kind = ...` makes rough surfaces: a rough aluminium floor reflects
 /// more than a grey one and absorbs less, a plastic runs too, and a kind without its
 /// roughness, a roughness out of (0, 1] or an unknown kind or metal is one line naming
@@ -879,17 +899,7 @@ fn rough_materials_from_the_settings() {
     write(d.path(), "scene.mtl", MTL);
     let (obj, _, _) = scene_obj();
     let path = write(d.path(), "scene.obj", &obj);
-    let run = |name: &str, settings: &str| {
-        let toml = write(d.path(), &format!("{name}.toml"), settings);
-        let out = d.path().join(name);
-        let o = run_photons(&path, &toml, &out, 20_000);
-        (o, out)
-    };
-    let absorbed = |out: &Path| {
-        let r = read_report(out);
-        let e = &r["energy_w"];
-        e["absorbed"].as_f64().unwrap() / e["emitted"].as_f64().unwrap()
-    };
+    let run = |name: &str, settings: &str| run_with_settings(d.path(), &path, name, settings);
     let (o, grey) = run("grey", "");
     assert!(o.status.success(), "{}", stderr(&o));
     let (o, metal) = run(
@@ -899,10 +909,10 @@ fn rough_materials_from_the_settings() {
     assert!(o.status.success(), "{}", stderr(&o));
     // Aluminium absorbs ~10 % of what it receives, the grey floor 50 %.
     assert!(
-        absorbed(&metal) < 0.4 * absorbed(&grey) && absorbed(&metal) > 0.0,
+        absorbed_share(&metal) < 0.4 * absorbed_share(&grey) && absorbed_share(&metal) > 0.0,
         "{} vs {}",
-        absorbed(&metal),
-        absorbed(&grey)
+        absorbed_share(&metal),
+        absorbed_share(&grey)
     );
     let (o, _) = run(
         "plastic",
@@ -957,17 +967,7 @@ fn a_window_bsdf_file_from_the_settings() {
     );
     std::fs::create_dir(d.path().join("bsdf")).unwrap();
     write(&d.path().join("bsdf"), "matte.xml", &xml);
-    let run = |name: &str, settings: &str| {
-        let toml = write(d.path(), &format!("{name}.toml"), settings);
-        let out = d.path().join(name);
-        let o = run_photons(&path, &toml, &out, 20_000);
-        (o, out)
-    };
-    let absorbed = |out: &Path| {
-        let r = read_report(out);
-        let e = &r["energy_w"];
-        e["absorbed"].as_f64().unwrap() / e["emitted"].as_f64().unwrap()
-    };
+    let run = |name: &str, settings: &str| run_with_settings(d.path(), &path, name, settings);
     let (o, grey) = run("grey", "");
     assert!(o.status.success(), "{}", stderr(&o));
     let (o, xml) = run(
@@ -976,7 +976,7 @@ fn a_window_bsdf_file_from_the_settings() {
     );
     assert!(o.status.success(), "{}", stderr(&o));
     // The lamp (black) takes back some of what the floor reflects: 1.6 less a little.
-    let ratio = absorbed(&xml) / absorbed(&grey);
+    let ratio = absorbed_share(&xml) / absorbed_share(&grey);
     assert!((1.45..1.65).contains(&ratio), "absorbed ratio {ratio}");
     // The same matte floor as a measured table read from a file (3 × 1 × 4 × 6 values).
     let lambert: Vec<String> = (0..72).map(|_| format!("{value}")).collect();
@@ -990,7 +990,7 @@ fn a_window_bsdf_file_from_the_settings() {
         "[materials.grey]\nkind = \"table\"\ngrid = [3, 1, 4, 6]\nbrdf = \"bsdf/matte.txt\"\n",
     );
     assert!(o.status.success(), "{}", stderr(&o));
-    let table_ratio = absorbed(&tab) / absorbed(&grey);
+    let table_ratio = absorbed_share(&tab) / absorbed_share(&grey);
     assert!(
         (1.45..1.65).contains(&table_ratio),
         "table: absorbed ratio {table_ratio}"

@@ -255,14 +255,7 @@ impl<'a> EyeTracer<'a> {
             self.add_emission_weighted(&hit, at.ng, dir, beta, &mut buf.direct[d0..], glossy_pdf);
             glossy_pdf = None;
             let (p_hit, n_in, eps) = (at.p, at.n_in, at.eps);
-            let material = self.scene.material_at(
-                self.materials,
-                hit.mesh,
-                hit.prim as usize,
-                (hit.u, hit.v),
-                &mut tint,
-            );
-            let bsdf = material.bsdf();
+            let bsdf = self.bsdf_at(&hit, &mut tint);
             let (rho, tau) = (
                 bsdf.albedo(Lobe::DiffuseReflection),
                 bsdf.albedo(Lobe::DiffuseTransmission),
@@ -395,14 +388,7 @@ impl<'a> EyeTracer<'a> {
             }
             glossy_pdf = None;
             let (p_hit, n_in, eps, front) = (at.p, at.n_in, at.eps, at.front);
-            let material = self.scene.material_at(
-                self.materials,
-                hit.mesh,
-                hit.prim as usize,
-                (hit.u, hit.v),
-                &mut tint,
-            );
-            let bsdf = material.bsdf();
+            let bsdf = self.bsdf_at(&hit, &mut tint);
             let (rho, tau) = (
                 bsdf.albedo(Lobe::DiffuseReflection),
                 bsdf.albedo(Lobe::DiffuseTransmission),
@@ -677,6 +663,15 @@ impl<'a> EyeTracer<'a> {
                 });
             }
         }
+    }
+
+    /// The scattering at `hit`: its material's, tinted where its coefficients vary.
+    #[inline]
+    fn bsdf_at<'s>(&'s self, hit: &crate::accel::Hit, tint: &'s mut TintScratch) -> Bsdf<'s> {
+        let (prim, uv) = (hit.prim as usize, (hit.u, hit.v));
+        self.scene
+            .material_at(self.materials, hit.mesh, prim, uv, tint)
+            .bsdf()
     }
 
     /// The surface an eye path travelling along `dir` meets at `hit`.

@@ -19,7 +19,8 @@
 //! reciprocity (a row that would then send on more than arrives, from a file that is not
 //! reciprocal, is scaled down); without a reflection matrix that side reflects nothing.
 //! Only `Visible` data are read (the same value in every band): Solar and NIR blocks are
-//! skipped, and so are Radiance's CIE-X and CIE-Z colour blocks. Tensor-tree files are refused as unsupported.
+//! skipped, and so are Radiance's CIE-X and CIE-Z colour blocks. Tensor-tree files are
+//! refused as unsupported.
 //!
 //! Sampling: an incident patch's row is an alias table over (reflect or transmit, outgoing
 //! patch) ∝ value × the patch's projected solid angle Λ, and a direction is drawn uniformly
