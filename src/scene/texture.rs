@@ -236,7 +236,10 @@ impl TintScratch {
     ) -> &'s Material {
         let texture = base.texture.map(|t| &textures[t as usize]);
         let texture = texture.filter(|_| at.uvs.is_some());
-        if texture.is_none() && at.factors.is_none() {
+        // Only ideal, non-dielectric coefficients vary: a mesh's vertex factors leave its
+        // dielectric, microfacet and measured materials as they are.
+        let ideal = base.glossy.is_none() && base.dielectric.is_none();
+        if !ideal || (texture.is_none() && at.factors.is_none()) {
             return base;
         }
         let nb = base.diffuse_reflect.len();
@@ -260,6 +263,8 @@ impl TintScratch {
                 *f *= x;
             }
         }
+        // The scratch keeps the first tinted material's other fields: every tinted material
+        // is ideal and non-dielectric, so they are the same (none).
         let m = self.material.get_or_insert_with(|| base.clone());
         let lobes = base.tint_lobes;
         let tint = |dst: &mut Vec<f64>, src: &[f64], on: bool, f: &[f64]| {
@@ -340,6 +345,44 @@ mod tests {
         .unwrap();
         clamped.sample(1.3, 0.5, &mut out);
         assert!((out[0] - 1.0).abs() < 1e-7, "{out:?}");
+    }
+
+    #[test]
+    fn vertex_factors_vary_ideal_materials_only() {
+        use crate::scene::{IorModel, MaterialDesc};
+        let bands = Bands::rgb();
+        let lambert = Material::new(
+            &MaterialDesc {
+                diffuse_reflect: vec![0.8],
+                ..Default::default()
+            },
+            &bands,
+        )
+        .unwrap();
+        let glass = Material::new(
+            &MaterialDesc {
+                ior: Some(IorModel::Constant(1.5)),
+                ..Default::default()
+            },
+            &bands,
+        )
+        .unwrap();
+        let factors = VertexFactors {
+            channels: 1,
+            values: vec![0.5, 0.5, 0.5],
+        };
+        let at = TintAt {
+            uvs: None,
+            factors: Some((&factors, [0, 1, 2])),
+            w: [0.2, 0.3, 0.5],
+        };
+        let mut scratch = TintScratch::default();
+        let tinted = scratch.material(&lambert, &[], &bands, &at);
+        assert_eq!(tinted.diffuse_reflect, vec![0.4; 3]);
+        // The glass on the same mesh after it: itself, not the scratch.
+        let g = scratch.material(&glass, &[], &bands, &at);
+        assert!(std::ptr::eq(g, &glass));
+        assert!(g.dielectric.is_some());
     }
 
     #[test]
