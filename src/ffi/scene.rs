@@ -75,7 +75,8 @@ pub const IMAP_SURFACE_TABLE: u32 = 4;
 /// reciprocity (rows that would then send on more than arrives scaled down), without a
 /// reflection matrix that side reflects nothing. Checked against Radiance 6.0a's reading
 /// of an asymmetric file (docs/materials.md). Refused: a file
-/// that cannot be read (IMAP_ERR_IO), does not parse or lacks Visible data
+/// that cannot be read (IMAP_ERR_IO) or is over 64 MiB (IMAP_ERR_INVALID_ARGUMENT), does
+/// not parse or lacks Visible data
 /// (IMAP_ERR_PARSE, with file and line), a tensor-tree file or an unknown basis
 /// (IMAP_ERR_UNSUPPORTED), a negative value or a patch sending on more than 1.01 of what
 /// arrives (IMAP_ERR_BAD_MATERIAL, naming side and direction); `imap_get_table_check` gives

@@ -199,6 +199,10 @@ impl KlemsBasis {
     }
 }
 
+/// The largest BSDF file read (bytes): 64 MiB, sixty times a Klems full file's four
+/// matrices written out.
+const MAX_FILE_BYTES: u64 = 64 << 20;
+
 /// Which matrices: [incident side: front, back][reflection, transmission].
 const SIDES: [&str; 2] = ["Front", "Back"];
 const KINDS: [&str; 2] = ["Reflection", "Transmission"];
@@ -359,6 +363,16 @@ impl KlemsBsdf {
 
     /// Reads a BSDF XML file (`bands`: how many bands the values fill).
     pub fn read(path: &Path) -> Result<KlemsBsdf> {
+        // A Klems full file of four matrices is about 1 MB; a file far larger is not one
+        // (and reading it whole could exhaust the host's memory).
+        let len = std::fs::metadata(path).map(|m| m.len()).unwrap_or(0);
+        if len > MAX_FILE_BYTES {
+            bail!(
+                ImapErrInvalidArgument,
+                "bsdf_xml_path {}: {len} bytes is more than a BSDF file holds (at most {MAX_FILE_BYTES})",
+                path.display()
+            );
+        }
         let text = std::fs::read_to_string(path).map_err(|e| {
             Error::new(
                 ImapStatus::ImapErrIo,
@@ -916,6 +930,18 @@ mod tests {
         let e = KlemsBsdf::read(Path::new("/nonexistent/pane.xml")).unwrap_err();
         assert_eq!(e.status, ImapStatus::ImapErrIo);
         assert!(e.message.contains("bsdf_xml_path /nonexistent/pane.xml"));
+        // A file far larger than any BSDF file is refused before it is read.
+        let big = std::env::temp_dir().join(format!("imap-big-{}.xml", std::process::id()));
+        let f = std::fs::File::create(&big).unwrap();
+        f.set_len(MAX_FILE_BYTES + 1).unwrap();
+        let e = KlemsBsdf::read(&big).unwrap_err();
+        std::fs::remove_file(&big).ok();
+        assert_eq!(e.status, ImapStatus::ImapErrInvalidArgument);
+        assert!(
+            e.message.contains("more than a BSDF file holds"),
+            "{}",
+            e.message
+        );
     }
 
     #[test]
