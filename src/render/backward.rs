@@ -888,13 +888,10 @@ impl<'a> EyeTracer<'a> {
 
         // The path goes on: f read from the drawn direction toward the eye.
         let u = [rng.uniform(), rng.uniform(), rng.uniform()];
-        let s = g.sample(wo, u, 0, at.front)?;
-        let wi = frame.to_world(s.wi);
-        bsdf.eval_toward(n_in, at.front, wi, to_eye, f);
-        let k = s.wi.z.abs() / s.pdf;
+        let (wi, pdf) = bsdf.sample_against_light(n_in, at.front, to_eye, u, f)?;
         let mut any = false;
         for (b, w) in beta.iter_mut().zip(f.iter()) {
-            *b *= w * k;
+            *b *= w;
             any |= *b > 0.0;
         }
         if !any {
@@ -902,7 +899,7 @@ impl<'a> EyeTracer<'a> {
         }
         *dir = wi;
         *org = lift(wi);
-        Some((s.pdf, receiver))
+        Some((pdf, receiver))
     }
 
     /// A new eye path through `pixel`: unit weight in every band, counted, and its first

@@ -176,6 +176,30 @@ impl<'a> Bsdf<'a> {
         Frame::new(n_in, self.material.tangent)
     }
 
+    /// A direction for a path travelling against the light (an eye or gathering path) that
+    /// reached this glossy surface from world direction `to` (normal `n_to` on its side,
+    /// `front_to` as in `eval_toward`): drawn by the surface's sampling, with each band's
+    /// f cos / pdf, f read the way light travels (from the drawn direction toward `to`),
+    /// into `out`. The drawn world direction and its density; None when the draw leaves
+    /// nothing or the surface is not glossy.
+    #[inline]
+    pub fn sample_against_light(
+        &self,
+        n_to: DVec3,
+        front_to: bool,
+        to: DVec3,
+        u: [f64; 3],
+        out: &mut [f64],
+    ) -> Option<(DVec3, f64)> {
+        let frame = self.frame(n_to);
+        let s = self.glossy()?.sample(frame.to_local(to), u, 0, front_to)?;
+        let wi = frame.to_world(s.wi);
+        self.eval_toward(n_to, front_to, wi, to, out);
+        let k = s.wi.z.abs() / s.pdf;
+        out.iter_mut().for_each(|x| *x *= k);
+        Some((wi, s.pdf))
+    }
+
     /// Whether it has lobe `lobe` (some band's albedo above 0).
     #[inline]
     pub fn has(&self, lobe: Lobe) -> bool {

@@ -61,9 +61,6 @@ impl KlemsBasis {
             if n == 0 || !(lo >= 0.0 && hi > lo && hi <= 90.0 + 1e-9) || (lo - prev).abs() > 1e-6 {
                 return None;
             }
-            if out.is_empty() && n != 1 && lo == 0.0 {
-                // A polar cap of several patches cannot be told apart at the pole; allowed.
-            }
             out.push(Ring {
                 lo: lo.to_radians(),
                 hi: hi.to_radians(),
@@ -165,15 +162,9 @@ impl KlemsBasis {
     /// The patch opposite `p` in azimuth (φ + 180°): the same ring.
     #[inline]
     fn opposite(&self, p: usize) -> usize {
+        // (An odd ring has no opposite patch: the nearest one; a one-patch cap is its own.)
         let (r, k) = self.locate(p);
-        if r.n % 2 == 0 {
-            r.first + (k + r.n / 2) % r.n
-        } else if r.n == 1 {
-            p
-        } else {
-            // An odd ring has no opposite patch; the nearest one.
-            r.first + (k + r.n / 2) % r.n
-        }
+        r.first + (k + r.n / 2) % r.n
     }
 
     /// A direction (x, y, cos) uniform in projected solid angle inside patch `p`.
@@ -361,7 +352,7 @@ impl KlemsBsdf {
         })
     }
 
-    /// Reads a BSDF XML file (`bands`: how many bands the values fill).
+    /// Reads a BSDF XML file.
     pub fn read(path: &Path) -> Result<KlemsBsdf> {
         // A Klems full file of four matrices is about 1 MB; a file far larger is not one
         // (and reading it whole could exhaust the host's memory).

@@ -821,12 +821,9 @@ impl DirectSampler<'_> {
                 let u_survive = d.next();
                 // A direction drawn from x's side, f read the way light travels: from it
                 // toward x.
-                let Some(s) = g.sample(to_x, u, 0, front) else {
+                let Some((wi, _)) = bsdf.sample_against_light(n_in, front, -dir, u, w) else {
                     return;
                 };
-                bsdf.eval_toward(n_in, front, frame.to_world(s.wi), -dir, w);
-                let k = s.wi.z.abs() / s.pdf;
-                w.iter_mut().for_each(|x| *x *= k);
                 let mean = t.weighted_mean(w);
                 if !(mean > 0.0 && mean.is_finite()) {
                     return;
@@ -840,7 +837,7 @@ impl DirectSampler<'_> {
                     }
                     t.reweight(w, q);
                 }
-                dir = frame.to_world(s.wi);
+                dir = wi;
                 org = p + n_in * eps;
                 continue;
             }
