@@ -24,8 +24,9 @@
 //!         [--ref-seconds 60] [--max-seconds 40] [--scenes room,cornell]
 //!         [--samples 0] [--pass-photons 0] [--estimators photons,ls,gather]
 //!         [--scheduler dynamic|classic]   (the estimators' runs; the reference's stays dynamic)
-//!         [--floor lambert|white|aluminium]   (the room's floor: ρ = 0.5, ρ = 0.9, or rough
-//!         aluminium α 0.3, which reflects about as much as the white one)
+//!         [--floor lambert|white|aluminium|chromium]   (the room's floor: ρ = 0.5, ρ = 0.9, or rough
+//!         aluminium α 0.3, which reflects about as much as the white one, or rough chromium α 0.3,
+//!         about as much as the grey one)
 
 #[path = "common/scenes.rs"]
 mod scenes;
@@ -131,11 +132,16 @@ fn room(config: Config, floor: &str) -> Scene {
         diffuse_reflect: vec![0.9],
         ..Default::default()
     };
+    let chromium = MaterialDesc {
+        surface: imap::SurfaceModel::Conductor(imap::ConductorIndex::Metal(imap::Metal::Chromium)),
+        ..rough.clone()
+    };
     let floor = match floor {
         "lambert" => None,
         "white" => Some(&white),
         "aluminium" => Some(&rough),
-        other => panic!("--floor takes lambert, white or aluminium, not {other}"),
+        "chromium" => Some(&chromium),
+        other => panic!("--floor takes lambert, white, aluminium or chromium, not {other}"),
     };
     let r = grey_room_with_floor(&mut ctx, 40, floor).unwrap();
     let grid = floor_grid(&mut ctx, [0.05, 0.95], 0.001, 1.0, r.black);

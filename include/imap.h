@@ -557,12 +557,15 @@
 #define IMAP_NO_TEXTURE UINT32_MAX
 
 /**
- * `ImapMaterial::texture_lobes`: the diffuse reflectance. (Since 0.2.3.)
+ * `ImapMaterial::texture_lobes`: the diffuse reflectance (an IMAP_SURFACE_PLASTIC's base
+ * albedo). (Since 0.2.3.)
  */
 #define IMAP_LOBE_DIFFUSE_REFLECTION 1
 
 /**
- * `ImapMaterial::texture_lobes`: the specular (mirror) reflectance. (Since 0.2.3.)
+ * `ImapMaterial::texture_lobes`: the specular (mirror) reflectance (an
+ * IMAP_SURFACE_CONDUCTOR's reflectance: its Fresnel factor times the texture's value).
+ * (Since 0.2.3.)
  */
 #define IMAP_LOBE_SPECULAR_REFLECTION 2
 
@@ -570,6 +573,13 @@
  * `ImapMaterial::texture_lobes`: the diffuse transmittance. (Since 0.2.3.)
  */
 #define IMAP_LOBE_DIFFUSE_TRANSMISSION 4
+
+/**
+ * `ImapMaterial::texture_lobes`: a microfacet surface's roughness: α times the mean of
+ * the bands' factors, at least 0.001 (conductors and plastics of isotropic roughness,
+ * rough dielectrics). (Since 0.2.3.)
+ */
+#define IMAP_LOBE_ROUGHNESS 8
 
 /**
  * `ImapTexture::flags`: read the nearest texel (default: bilinear between texel
@@ -590,6 +600,15 @@
  * (Since 0.2.3.)
  */
 #define IMAP_MATERIAL_SINGLE_SCATTERING 1
+
+/**
+ * `ImapMaterial::flags`: a microfacet, measured or host surface's tangent (the direction of
+ * `roughness[0]`, a table's φ = 0, a window BSDF's up) is each triangle's direction of
+ * increasing texture coordinate u; the mesh then needs `uvs`, and `tangent` (when not
+ * zero) serves where a triangle's coordinates are degenerate. An ideal surface has no
+ * tangent: IMAP_ERR_BAD_MATERIAL. (Since 0.2.3.)
+ */
+#define IMAP_MATERIAL_TANGENT_FROM_UVS 2
 
 /**
  * `ImapMaterial::metal`: the conductor's index is `conductor_nk`.
@@ -1876,12 +1895,17 @@ typedef struct ImapMaterial {
   /**
    * A texture (an id from `imap_add_texture`) whose values, read at the mesh's `uvs`,
    * multiply the coefficients `texture_lobes` names; IMAP_NO_TEXTURE (the default):
-   * none. Ideal non-dielectric surfaces only. (Since 0.2.3.)
+   * none. Ideal non-dielectric surfaces, conductors, plastics and rough dielectrics
+   * (not smooth dielectrics, tables, window or host BSDFs: IMAP_ERR_BAD_MATERIAL).
+   * (Since 0.2.3.)
    */
   uint32_t texture;
   /**
    * `IMAP_LOBE_*`, or-ed: which coefficients the texture and a mesh's
-   * `vertex_factors` multiply (0, the default: the diffuse reflectance). (Since 0.2.3.)
+   * `vertex_factors` multiply; 0, the default: the surface's colour (the diffuse
+   * reflectance; a conductor's reflectance; a rough dielectric's roughness). A lobe the
+   * surface does not have is IMAP_ERR_BAD_MATERIAL; the roughness of anisotropic
+   * conductors and plastics IMAP_ERR_UNSUPPORTED. (Since 0.2.3.)
    */
   uint32_t texture_lobes;
 } ImapMaterial;

@@ -73,7 +73,8 @@ pub use scene::light::{
 pub use scene::texture::TextureDesc;
 pub use scene::{
     ConductorIndex, IorModel, LayerRequest, MaterialDesc, MeshDesc, Metal, SurfaceModel,
-    TableCheck, TableDesc,
+    TableCheck, TableDesc, LOBE_DIFFUSE_REFLECT, LOBE_DIFFUSE_TRANSMIT, LOBE_ROUGHNESS,
+    LOBE_SPECULAR_REFLECT,
 };
 pub use solar::{sun_position, sun_position_with, SunTime, STANDARD_ATMOSPHERE};
 pub use spectral::Bands;

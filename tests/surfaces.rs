@@ -1461,6 +1461,264 @@ fn textures_and_vertex_factors_vary_the_coefficients() {
     assert_maps_agree(&maps[0], &maps[1], "textured floor, 1 and 3 threads");
 }
 
+/// A closed room whose floor is `kind` ("plastic": ρ 0.8 under an n 1.5, α 0.2 coat;
+/// "aluminium": α 0.3; "frosted": a rough glass slab, α 0.4), either plain with its colour
+/// or roughness already halved, or at full value with a one-texel texture of 0.5 on that
+/// coefficient (`lobes`), lit by a point light.
+fn glossy_tinted_room(seed: u64, kind: &str, textured: bool) -> (Context, Vec<u32>) {
+    let mut ctx = context(seeded(seed));
+    let walls = lambert(&mut ctx, 0.5);
+    let room = cuboid([-1.0, -1.0, 0.0], [1.0, 1.0, 2.0], 4, true);
+    let w = ctx.add_mesh(&room.desc(walls)).unwrap();
+    let half = [0.5];
+    let texture = textured.then(|| {
+        ctx.add_texture(&imap::TextureDesc {
+            width: 1,
+            height: 1,
+            channels: 1,
+            values: &half,
+            nearest: true,
+            clamp: false,
+        })
+        .unwrap()
+    });
+    let k = if textured { 1.0 } else { 0.5 };
+    let desc = match kind {
+        "plastic" => MaterialDesc {
+            surface: SurfaceModel::Plastic,
+            diffuse_reflect: vec![0.8 * k],
+            ior: Some(IorModel::Constant(1.5)),
+            roughness: [0.2, 0.0],
+            ..Default::default()
+        },
+        "aluminium" => MaterialDesc {
+            surface: SurfaceModel::Conductor(ConductorIndex::Metal(Metal::Aluminium)),
+            roughness: [0.3 * k, 0.0],
+            texture_lobes: imap::LOBE_ROUGHNESS,
+            ..Default::default()
+        },
+        _ => MaterialDesc {
+            surface: SurfaceModel::RoughDielectric,
+            ior: Some(IorModel::Constant(1.5)),
+            roughness: [0.4 * k, 0.0],
+            ..Default::default()
+        },
+    };
+    let m = ctx.add_material(&MaterialDesc { texture, ..desc }).unwrap();
+    let floor = if kind == "frosted" {
+        cuboid([-0.9, -0.9, 0.01], [0.9, 0.9, 0.1], 4, false)
+    } else {
+        grid(8, -0.9, 0.9, -0.9, 0.9, 0.01)
+    };
+    let uvs: Vec<f64> = (0..floor.vertex_count())
+        .flat_map(|v| {
+            let p = floor.vertex(v);
+            [(p[0] + 0.9) / 1.8, (p[1] + 0.9) / 1.8]
+        })
+        .collect();
+    let mut d = floor.desc(m);
+    d.uvs = Some(&uvs);
+    let f = ctx.add_mesh(&d).unwrap();
+    ctx.add_point_light([0.3, -0.2, 1.6], &[10.0]).unwrap();
+    (ctx, vec![w, f])
+}
+
+/// Textures of microfacet surfaces: a plastic's base albedo, a conductor's and a rough
+/// dielectric's roughness, each at half through a texture of 0.5, give exactly (the same
+/// seed) the maps and images of the material with that coefficient halved, with every
+/// estimator and the path tracer; a conductor's reflectance texture halves its light.
+#[test]
+fn textures_vary_microfacet_surfaces() {
+    for kind in ["plastic", "aluminium", "frosted"] {
+        for e in [Estimator::Photons, Estimator::DEFAULT, Estimator::GATHER] {
+            let maps: Vec<Vec<f64>> = [true, false]
+                .into_iter()
+                .map(|textured| {
+                    let (mut c, ids) = glossy_tinted_room(81, kind, textured);
+                    run_with(&mut c, photons(4_000), e);
+                    whole_map(&c, &ids)
+                })
+                .collect();
+            assert_maps_agree(
+                &maps[0],
+                &maps[1],
+                &format!("{kind}, {e:?}: textured / halved"),
+            );
+        }
+        let cam = small_camera([0.0, -0.95, 1.5], [0.0, 0.7, -0.7]);
+        let sums: Vec<(f64, f64)> = [true, false]
+            .into_iter()
+            .map(|textured| {
+                let (mut c, _) = glossy_tinted_room(82, kind, textured);
+                image_sum(&c.path_trace(&cam, 64, 16).unwrap())
+            })
+            .collect();
+        let rel = (sums[0].0 - sums[1].0).abs() / sums[1].0;
+        assert!(
+            sums[1].0 > 0.0 && rel < 1e-12,
+            "{kind}: path-traced {sums:?}"
+        );
+    }
+    // A conductor's reflectance through a texture of 0.5: the floor's reflected light
+    // halves, seen as the walls' light from the floor (photons only, same seed: the same
+    // first bounces).
+    let reflected = |texture: bool| {
+        let mut ctx = context(seeded(83));
+        let black = lambert(&mut ctx, 0.0);
+        let room = cuboid([-1.0, -1.0, 0.0], [1.0, 1.0, 2.0], 4, true);
+        let w = ctx.add_mesh(&room.desc(black)).unwrap();
+        let half = [0.5];
+        let t = texture.then(|| {
+            ctx.add_texture(&imap::TextureDesc {
+                width: 1,
+                height: 1,
+                channels: 1,
+                values: &half,
+                nearest: true,
+                clamp: false,
+            })
+            .unwrap()
+        });
+        let m = ctx
+            .add_material(&MaterialDesc {
+                surface: SurfaceModel::Conductor(ConductorIndex::Metal(Metal::Silver)),
+                roughness: [0.3, 0.0],
+                texture: t,
+                ..Default::default()
+            })
+            .unwrap();
+        let floor = grid(4, -0.9, 0.9, -0.9, 0.9, 0.01);
+        let uvs = vec![0.5; 2 * floor.vertex_count()];
+        let mut d = floor.desc(m);
+        d.uvs = Some(&uvs);
+        ctx.add_mesh(&d).unwrap();
+        ctx.add_point_light([0.0, 0.0, 1.0], &[10.0]).unwrap();
+        run_with(&mut ctx, photons(20_000), Estimator::Photons);
+        whole_map(&ctx, &[w]).iter().sum::<f64>()
+    };
+    let (full, half) = (reflected(false), reflected(true));
+    // The same photons reach the floor; each carries on with half its weight, and the
+    // walls are black, so every wall deposit after the floor is exactly halved — but the
+    // walls' direct light is the same: compare the difference with the floor's light.
+    let direct = {
+        let mut ctx = context(seeded(83));
+        let black = lambert(&mut ctx, 0.0);
+        let room = cuboid([-1.0, -1.0, 0.0], [1.0, 1.0, 2.0], 4, true);
+        let w = ctx.add_mesh(&room.desc(black)).unwrap();
+        let floor = grid(4, -0.9, 0.9, -0.9, 0.9, 0.01);
+        ctx.add_mesh(&floor.desc(black)).unwrap();
+        ctx.add_point_light([0.0, 0.0, 1.0], &[10.0]).unwrap();
+        run_with(&mut ctx, photons(20_000), Estimator::Photons);
+        whole_map(&ctx, &[w]).iter().sum::<f64>()
+    };
+    let (r_full, r_half) = (full - direct, half - direct);
+    assert!(
+        r_full > 0.05 * full,
+        "the silver floor reflects: {r_full} of {full}"
+    );
+    assert!(
+        (r_half / r_full - 0.5).abs() < 0.05,
+        "reflected light {r_half} with the texture, {r_full} without: ratio {}",
+        r_half / r_full
+    );
+}
+
+/// An anisotropic aluminium floor (α 0.08 along its tangent, 0.5 across) oriented by its
+/// texture coordinates: with u running along x, and along y, it gives the maps and images
+/// of the floor given the tangent +x, and +y, with every estimator (the same seed).
+#[test]
+fn a_tangent_from_texture_coordinates_orients_anisotropic_roughness() {
+    let room = |u_along_x: bool, from_uvs: bool| {
+        let mut ctx = context(seeded(91));
+        let walls = lambert(&mut ctx, 0.5);
+        let cube = cuboid([-1.0, -1.0, 0.0], [1.0, 1.0, 2.0], 4, true);
+        let w = ctx.add_mesh(&cube.desc(walls)).unwrap();
+        let tangent = match (from_uvs, u_along_x) {
+            (true, _) => None,
+            (false, true) => Some([1.0, 0.0, 0.0]),
+            (false, false) => Some([0.0, 1.0, 0.0]),
+        };
+        let m = ctx
+            .add_material(&MaterialDesc {
+                surface: SurfaceModel::Conductor(ConductorIndex::Metal(Metal::Aluminium)),
+                roughness: [0.08, 0.5],
+                tangent,
+                tangent_from_uvs: from_uvs,
+                ..Default::default()
+            })
+            .unwrap();
+        let floor = grid(8, -0.9, 0.9, -0.9, 0.9, 0.01);
+        let uvs: Vec<f64> = (0..floor.vertex_count())
+            .flat_map(|v| {
+                let p = floor.vertex(v);
+                let (x, y) = ((p[0] + 0.9) / 1.8, (p[1] + 0.9) / 1.8);
+                if u_along_x {
+                    [x, y]
+                } else {
+                    [y, 1.0 - x]
+                }
+            })
+            .collect();
+        let mut d = floor.desc(m);
+        d.uvs = Some(&uvs);
+        let f = ctx.add_mesh(&d).unwrap();
+        ctx.add_point_light([0.3, -0.2, 1.6], &[10.0]).unwrap();
+        (ctx, vec![w, f])
+    };
+    let cam = small_camera([0.0, -0.95, 1.5], [0.0, 0.7, -0.7]);
+    let mut along = Vec::new();
+    for u_along_x in [true, false] {
+        for e in [Estimator::Photons, Estimator::GATHER] {
+            let maps: Vec<Vec<f64>> = [true, false]
+                .into_iter()
+                .map(|from_uvs| {
+                    let (mut c, ids) = room(u_along_x, from_uvs);
+                    run_with(&mut c, photons(4_000), e);
+                    whole_map(&c, &ids)
+                })
+                .collect();
+            let what = format!("u along {}, {e:?}", if u_along_x { "x" } else { "y" });
+            assert_maps_agree(&maps[0], &maps[1], &what);
+            along.push(maps[0].clone());
+        }
+        let sums: Vec<(f64, f64)> = [true, false]
+            .into_iter()
+            .map(|from_uvs| {
+                let (mut c, _) = room(u_along_x, from_uvs);
+                image_sum(&c.path_trace(&cam, 64, 16).unwrap())
+            })
+            .collect();
+        assert!(
+            (sums[0].0 - sums[1].0).abs() <= 1e-12 * sums[1].0,
+            "path-traced: {sums:?}"
+        );
+    }
+    // The orientation matters: the two orientations' photon maps differ.
+    assert!(along[0] != along[2], "the tangent changed nothing");
+    // No texture coordinates: refused by name.
+    let mut ctx = context(seeded(1));
+    let m = ctx
+        .add_material(&MaterialDesc {
+            surface: SurfaceModel::Conductor(ConductorIndex::Metal(Metal::Aluminium)),
+            roughness: [0.08, 0.5],
+            tangent_from_uvs: true,
+            ..Default::default()
+        })
+        .unwrap();
+    let e = ctx
+        .add_mesh(&grid(1, 0.0, 1.0, 0.0, 1.0, 0.0).desc(m))
+        .unwrap_err();
+    assert!(e.message.contains("tangent_from_uvs"), "{}", e.message);
+    let e = ctx
+        .add_material(&MaterialDesc {
+            diffuse_reflect: vec![0.5],
+            tangent_from_uvs: true,
+            ..Default::default()
+        })
+        .unwrap_err();
+    assert_eq!(e.status, imap::ImapStatus::ImapErrBadMaterial, "{e}");
+}
+
 /// Bad textures and tinting get their statuses, naming the argument.
 #[test]
 fn bad_textures_are_refused_by_name() {
@@ -1504,6 +1762,38 @@ fn bad_textures_are_refused_by_name() {
         })
         .unwrap_err();
     assert_eq!(e.status, ImapStatus::ImapErrBadMaterial, "{e}");
+    // A lobe the surface does not have; a measured table; anisotropic roughness.
+    let metal = |lobes: u8, roughness: [f64; 2]| MaterialDesc {
+        surface: SurfaceModel::Conductor(ConductorIndex::Metal(Metal::Gold)),
+        roughness,
+        texture: Some(t),
+        texture_lobes: lobes,
+        ..Default::default()
+    };
+    let e = ctx
+        .add_material(&metal(imap::LOBE_DIFFUSE_TRANSMIT, [0.3, 0.0]))
+        .unwrap_err();
+    assert_eq!(e.status, ImapStatus::ImapErrBadMaterial, "{e}");
+    assert!(e.message.contains("diffuse transmittance"), "{}", e.message);
+    let e = ctx
+        .add_material(&metal(imap::LOBE_ROUGHNESS, [0.3, 0.1]))
+        .unwrap_err();
+    assert_eq!(e.status, ImapStatus::ImapErrUnsupported, "{e}");
+    assert!(e.message.contains("anisotropic"), "{}", e.message);
+    ctx.add_material(&metal(
+        imap::LOBE_ROUGHNESS | imap::LOBE_SPECULAR_REFLECT,
+        [0.3, 0.3],
+    ))
+    .unwrap();
+    let e = ctx
+        .add_material(&MaterialDesc {
+            surface: SurfaceModel::Table(table(phong(0.7, 8.0), 5, 1, 5, 8)),
+            texture: Some(t),
+            ..Default::default()
+        })
+        .unwrap_err();
+    assert_eq!(e.status, ImapStatus::ImapErrBadMaterial, "{e}");
+    assert!(e.message.contains("measured table"), "{}", e.message);
     let textured = ctx
         .add_material(&MaterialDesc {
             diffuse_reflect: vec![0.5],

@@ -569,11 +569,19 @@ impl Context {
         if mesh.uvs.is_none() && !mesh.sensor {
             let textured = (0..mesh.triangles.len())
                 .map(|t| mesh.material_of(t))
-                .find(|&m| self.scene.materials[m as usize].texture.is_some());
+                .find(|&m| {
+                    let mat = &self.scene.materials[m as usize];
+                    mat.texture.is_some() || mat.uv_tangent
+                });
             if let Some(m) = textured {
                 bail!(
                     ImapErrInvalidArgument,
-                    "material {m} is textured: the mesh needs texture coordinates (uvs)"
+                    "material {m} is {}: the mesh needs texture coordinates (uvs)",
+                    if self.scene.materials[m as usize].texture.is_some() {
+                        "textured"
+                    } else {
+                        "oriented by its texture coordinates (tangent_from_uvs)"
+                    }
                 );
             }
         }

@@ -202,12 +202,19 @@ pub unsafe extern "C" fn imap_host_bsdf_default(out: *mut ImapHostBsdf, size: us
 
 /// `ImapMaterial::texture`: no texture. (Since 0.2.3.)
 pub const IMAP_NO_TEXTURE: u32 = u32::MAX;
-/// `ImapMaterial::texture_lobes`: the diffuse reflectance. (Since 0.2.3.)
+/// `ImapMaterial::texture_lobes`: the diffuse reflectance (an IMAP_SURFACE_PLASTIC's base
+/// albedo). (Since 0.2.3.)
 pub const IMAP_LOBE_DIFFUSE_REFLECTION: u32 = 1;
-/// `ImapMaterial::texture_lobes`: the specular (mirror) reflectance. (Since 0.2.3.)
+/// `ImapMaterial::texture_lobes`: the specular (mirror) reflectance (an
+/// IMAP_SURFACE_CONDUCTOR's reflectance: its Fresnel factor times the texture's value).
+/// (Since 0.2.3.)
 pub const IMAP_LOBE_SPECULAR_REFLECTION: u32 = 2;
 /// `ImapMaterial::texture_lobes`: the diffuse transmittance. (Since 0.2.3.)
 pub const IMAP_LOBE_DIFFUSE_TRANSMISSION: u32 = 4;
+/// `ImapMaterial::texture_lobes`: a microfacet surface's roughness: α times the mean of
+/// the bands' factors, at least 0.001 (conductors and plastics of isotropic roughness,
+/// rough dielectrics). (Since 0.2.3.)
+pub const IMAP_LOBE_ROUGHNESS: u32 = 8;
 /// `ImapTexture::flags`: read the nearest texel (default: bilinear between texel
 /// centres). (Since 0.2.3.)
 pub const IMAP_TEXTURE_NEAREST: u32 = 1;
@@ -438,6 +445,12 @@ fn host_bsdf(ptr: *const ImapHostBsdf) -> Result<HostBsdfRef> {
 /// loses energy at high roughness, 3 % at α 0.15). For comparisons with such tools.
 /// (Since 0.2.3.)
 pub const IMAP_MATERIAL_SINGLE_SCATTERING: u32 = 1;
+/// `ImapMaterial::flags`: a microfacet, measured or host surface's tangent (the direction of
+/// `roughness[0]`, a table's φ = 0, a window BSDF's up) is each triangle's direction of
+/// increasing texture coordinate u; the mesh then needs `uvs`, and `tangent` (when not
+/// zero) serves where a triangle's coordinates are degenerate. An ideal surface has no
+/// tangent: IMAP_ERR_BAD_MATERIAL. (Since 0.2.3.)
+pub const IMAP_MATERIAL_TANGENT_FROM_UVS: u32 = 2;
 
 /// `ImapMaterial::metal`: the conductor's index is `conductor_nk`.
 pub const IMAP_METAL_CUSTOM: u32 = 0;
@@ -543,10 +556,15 @@ pub struct ImapMaterial {
     pub host_bsdf: *const ImapHostBsdf,
     /// A texture (an id from `imap_add_texture`) whose values, read at the mesh's `uvs`,
     /// multiply the coefficients `texture_lobes` names; IMAP_NO_TEXTURE (the default):
-    /// none. Ideal non-dielectric surfaces only. (Since 0.2.3.)
+    /// none. Ideal non-dielectric surfaces, conductors, plastics and rough dielectrics
+    /// (not smooth dielectrics, tables, window or host BSDFs: IMAP_ERR_BAD_MATERIAL).
+    /// (Since 0.2.3.)
     pub texture: u32,
     /// `IMAP_LOBE_*`, or-ed: which coefficients the texture and a mesh's
-    /// `vertex_factors` multiply (0, the default: the diffuse reflectance). (Since 0.2.3.)
+    /// `vertex_factors` multiply; 0, the default: the surface's colour (the diffuse
+    /// reflectance; a conductor's reflectance; a rough dielectric's roughness). A lobe the
+    /// surface does not have is IMAP_ERR_BAD_MATERIAL; the roughness of anisotropic
+    /// conductors and plastics IMAP_ERR_UNSUPPORTED. (Since 0.2.3.)
     pub texture_lobes: u32,
 }
 
@@ -816,8 +834,9 @@ pub unsafe extern "C" fn imap_add_material(
             roughness: m.roughness,
             tangent: (m.tangent != [0.0; 3]).then_some(m.tangent),
             single_scattering: m.flags & IMAP_MATERIAL_SINGLE_SCATTERING != 0,
+            tangent_from_uvs: m.flags & IMAP_MATERIAL_TANGENT_FROM_UVS != 0,
             texture: (m.texture != IMAP_NO_TEXTURE).then_some(m.texture),
-            texture_lobes: if m.texture_lobes & !7 != 0 {
+            texture_lobes: if m.texture_lobes & !15 != 0 {
                 bail!(
                     ImapErrInvalidArgument,
                     "material.texture_lobes = {:#x} sets a bit that is not an IMAP_LOBE_* flag",
@@ -827,7 +846,7 @@ pub unsafe extern "C" fn imap_add_material(
                 m.texture_lobes as u8
             },
         };
-        if m.flags & !IMAP_MATERIAL_SINGLE_SCATTERING != 0 {
+        if m.flags & !(IMAP_MATERIAL_SINGLE_SCATTERING | IMAP_MATERIAL_TANGENT_FROM_UVS) != 0 {
             bail!(
                 ImapErrInvalidArgument,
                 "material.flags = {:#x} sets a bit that is not an IMAP_MATERIAL_* flag",

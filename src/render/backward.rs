@@ -274,7 +274,8 @@ impl<'a> EyeTracer<'a> {
                 Step::Glossy => {
                     let out = &mut buf.direct[d0..d0 + nb];
                     let step = (&mut dir, &mut org, beta.as_mut_slice());
-                    match self.glossy_step(&at, step, &mut glossy_scratch, rng, out, stats) {
+                    match self.glossy_step((&at, bsdf), step, &mut glossy_scratch, rng, out, stats)
+                    {
                         Some(pdf) => {
                             glossy_pdf = Some(pdf);
                             continue;
@@ -409,7 +410,8 @@ impl<'a> EyeTracer<'a> {
                 }
                 Step::Glossy => {
                     let step = (&mut dir, &mut org, beta.as_mut_slice());
-                    match self.glossy_step(&at, step, &mut glossy_scratch, rng, out, stats) {
+                    match self.glossy_step((&at, bsdf), step, &mut glossy_scratch, rng, out, stats)
+                    {
                         Some(pdf) => {
                             glossy_pdf = Some(pdf);
                             counts = true;
@@ -760,8 +762,8 @@ impl<'a> EyeTracer<'a> {
         }
     }
 
-    /// At a glossy surface (a reflector, or a table, window or host BSDF that also
-    /// transmits): its direct light (one light sample weighed by f, from either side when
+    /// At a glossy surface `at` of scattering `bsdf` (tinted where a texture varies it: a
+    /// reflector, or a table, window or host BSDF that also transmits): its direct light (one light sample weighed by f, from either side when
     /// it transmits, against the BSDF's own density by the power heuristic; point-like
     /// lights and beams by the light sample alone), added to `out`; then the path goes on
     /// by the BSDF's sampling (`dir`, `org`, `beta` × f cos / pdf, f read the way light
@@ -770,14 +772,13 @@ impl<'a> EyeTracer<'a> {
     /// next; None when the path ends.
     fn glossy_step(
         &self,
-        at: &Surface,
+        (at, bsdf): (&Surface, Bsdf),
         (dir, org, beta): (&mut DVec3, &mut DVec3, &mut [f64]),
         f: &mut Vec<f64>,
         rng: &mut PhotonRng,
         out: &mut [f64],
         stats: &mut EyeStats,
     ) -> Option<(f64, Receiver)> {
-        let bsdf = self.materials[at.material as usize].bsdf();
         let g = bsdf.glossy().expect("a glossy surface");
         let n_in = at.n_in;
         let frame = bsdf.frame(n_in);

@@ -136,9 +136,22 @@ pub struct Material {
     /// mesh's texture coordinates (`scene::texture`).
     pub texture: Option<u32>,
     /// Which coefficients a texture and a mesh's vertex factors multiply: 1 diffuse
-    /// reflectance, 2 specular reflectance, 4 diffuse transmittance, or-ed.
+    /// reflectance (a plastic's base), 2 specular reflectance (a conductor's
+    /// reflectance), 4 diffuse transmittance, 8 roughness (a microfacet surface's α), or-ed.
     pub tint_lobes: u8,
+    /// Its tangent is each triangle's direction of increasing texture coordinate u
+    /// (`tangent` where the coordinates are degenerate).
+    pub uv_tangent: bool,
 }
+
+/// `tint_lobes`: the diffuse reflectance (a plastic's base albedo).
+pub const LOBE_DIFFUSE_REFLECT: u8 = 1;
+/// `tint_lobes`: the specular reflectance (a conductor's reflectance).
+pub const LOBE_SPECULAR_REFLECT: u8 = 2;
+/// `tint_lobes`: the diffuse transmittance.
+pub const LOBE_DIFFUSE_TRANSMIT: u8 = 4;
+/// `tint_lobes`: a microfacet surface's roughness α.
+pub const LOBE_ROUGHNESS: u8 = 8;
 
 /// What the caller describes; the per-band arrays hold 0 values (none), 1 (grey) or one per
 /// band.
@@ -163,9 +176,17 @@ pub struct MaterialDesc {
     /// A texture (an id from `Context::add_texture`) that multiplies the coefficients
     /// `texture_lobes` names, read at the mesh's texture coordinates.
     pub texture: Option<u32>,
-    /// Which coefficients the texture and a mesh's vertex factors multiply: 1 diffuse
-    /// reflectance, 2 specular reflectance, 4 diffuse transmittance, or-ed; 0 means 1.
+    /// Which coefficients the texture and a mesh's vertex factors multiply (`LOBE_*`,
+    /// or-ed): 1 diffuse reflectance (a plastic's base albedo), 2 specular reflectance (a
+    /// rough conductor's reflectance), 4 diffuse transmittance, 8 roughness (a
+    /// microfacet surface's α, by the mean of the bands' factors); 0 means the surface's
+    /// colour (1; a conductor's 2; a rough dielectric's roughness, 8).
     pub texture_lobes: u8,
+    /// The tangent of a microfacet, measured or host surface (the direction of
+    /// `roughness[0]`, a table's φ = 0, a window BSDF's up) is each triangle's direction of
+    /// increasing texture coordinate u (the mesh then needs `uvs`); `tangent`, when given,
+    /// where a triangle's coordinates are degenerate.
+    pub tangent_from_uvs: bool,
 }
 
 impl Material {
@@ -177,26 +198,26 @@ impl Material {
                 "single scattering is a conductor's option: this surface has no multiple-scattering lobe to leave out"
             );
         }
-        if desc.texture_lobes > 7 {
+        if desc.texture_lobes > 15 {
             bail!(
                 ImapErrInvalidArgument,
-                "texture_lobes = {} is not an or of 1 (diffuse reflectance), 2 (specular reflectance) and 4 (diffuse transmittance)",
+                "texture_lobes = {} is not an or of 1 (diffuse reflectance), 2 (specular reflectance), 4 (diffuse transmittance) and 8 (roughness)",
                 desc.texture_lobes
             );
         }
-        if (desc.surface != SurfaceModel::Ideal || desc.ior.is_some()) && desc.texture.is_some() {
+        let lobes = Self::tint_lobes(desc)?;
+        if desc.surface != SurfaceModel::Ideal {
+            let mut m = Self::microfacet(desc, bands)?;
+            m.texture = desc.texture;
+            m.tint_lobes = lobes;
+            m.uv_tangent = desc.tangent_from_uvs;
+            return Ok(m);
+        }
+        if desc.tangent_from_uvs {
             bail!(
                 ImapErrBadMaterial,
-                "a texture multiplies the ideal coefficients (diffuse and specular reflectance, diffuse transmittance): this material is {} and has none to vary",
-                if desc.ior.is_some() && desc.surface == SurfaceModel::Ideal {
-                    "a dielectric"
-                } else {
-                    "a microfacet or measured surface"
-                }
+                "tangent_from_uvs is set but the surface is ideal (Lambertian, mirror or smooth dielectric): it has no tangent"
             );
-        }
-        if desc.surface != SurfaceModel::Ideal {
-            return Self::microfacet(desc, bands);
         }
         if desc.roughness != [0.0, 0.0] || desc.tangent.is_some() {
             bail!(
@@ -302,12 +323,83 @@ impl Material {
             glossy: None,
             tangent: None,
             texture: desc.texture,
-            tint_lobes: if desc.texture_lobes == 0 {
-                1
-            } else {
-                desc.texture_lobes
-            },
+            tint_lobes: Self::tint_lobes(desc)?,
+            uv_tangent: false,
         })
+    }
+
+    /// The coefficients a texture and vertex factors vary on the surface `desc` describes
+    /// (`MaterialDesc::texture_lobes` resolved): refused with IMAP_ERR_BAD_MATERIAL when
+    /// it names one the surface does not have, or a texture is given to a surface with
+    /// none (a dielectric, a measured table, a window BSDF, the host's).
+    fn tint_lobes(desc: &MaterialDesc) -> Result<u8> {
+        let (what, has, default) = match &desc.surface {
+            SurfaceModel::Ideal if desc.ior.is_some() => ("a smooth dielectric", 0, 0),
+            SurfaceModel::Ideal => (
+                "an ideal surface",
+                LOBE_DIFFUSE_REFLECT | LOBE_SPECULAR_REFLECT | LOBE_DIFFUSE_TRANSMIT,
+                LOBE_DIFFUSE_REFLECT,
+            ),
+            SurfaceModel::Conductor(_) => (
+                "a rough conductor",
+                LOBE_SPECULAR_REFLECT | LOBE_ROUGHNESS,
+                LOBE_SPECULAR_REFLECT,
+            ),
+            SurfaceModel::Plastic => (
+                "a plastic (coated diffuse) surface",
+                LOBE_DIFFUSE_REFLECT | LOBE_ROUGHNESS,
+                LOBE_DIFFUSE_REFLECT,
+            ),
+            SurfaceModel::RoughDielectric => ("a rough dielectric", LOBE_ROUGHNESS, LOBE_ROUGHNESS),
+            SurfaceModel::Table(_) | SurfaceModel::Klems(_) | SurfaceModel::Host(_) => {
+                ("a measured table, window BSDF or host BSDF", 0, 0)
+            }
+        };
+        if has == 0 {
+            if desc.texture.is_some() {
+                bail!(
+                    ImapErrBadMaterial,
+                    "texture: this material is {what}, which has no coefficient a texture can vary"
+                );
+            }
+            return Ok(0);
+        }
+        let lobes = if desc.texture_lobes == 0 {
+            default
+        } else {
+            desc.texture_lobes
+        };
+        if lobes & !has != 0 {
+            let names = [
+                (LOBE_DIFFUSE_REFLECT, "diffuse reflectance"),
+                (LOBE_SPECULAR_REFLECT, "specular reflectance"),
+                (LOBE_DIFFUSE_TRANSMIT, "diffuse transmittance"),
+                (LOBE_ROUGHNESS, "roughness"),
+            ];
+            let (_, name) = names
+                .iter()
+                .find(|(bit, _)| lobes & !has & bit != 0)
+                .expect("a bit outside `has`");
+            bail!(
+                ImapErrBadMaterial,
+                "texture_lobes = {lobes} names the {name}, which {what} does not have to vary"
+            );
+        }
+        if lobes & LOBE_ROUGHNESS != 0
+            && matches!(
+                desc.surface,
+                SurfaceModel::Conductor(_) | SurfaceModel::Plastic
+            )
+            && desc.roughness[1] != 0.0
+            && desc.roughness[1] != desc.roughness[0]
+        {
+            bail!(
+                ImapErrUnsupported,
+                "texture_lobes names the roughness of anisotropic roughness {:?}: a texture varies the roughness of isotropic conductors and plastics (and of any rough dielectric)",
+                desc.roughness
+            );
+        }
+        Ok(lobes)
     }
 
     /// A microfacet surface's (or a measured table's) description.
@@ -371,6 +463,7 @@ impl Material {
                 tangent,
                 texture: None,
                 tint_lobes: 1,
+                uv_tangent: false,
             });
         }
         let [ax, ay] = desc.roughness;
@@ -474,7 +567,12 @@ impl Material {
                         base[i]
                     );
                 }
-                Glossy::plastic(rough, n, base)
+                Glossy::plastic(
+                    rough,
+                    n,
+                    base,
+                    Self::tint_lobes(desc)? & LOBE_ROUGHNESS != 0,
+                )
             }
         };
         Ok(Material {
@@ -487,6 +585,7 @@ impl Material {
             tangent,
             texture: None,
             tint_lobes: 1,
+            uv_tangent: false,
         })
     }
 }

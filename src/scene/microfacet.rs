@@ -105,6 +105,16 @@ impl Roughness {
         self.g1(wo) * c * self.d(h) / wo.z
     }
 
+    /// The roughness a texture's factor `f` (in [0, 1]) makes: α times f, at least
+    /// `MIN_TEXTURED_ALPHA`.
+    #[inline]
+    pub fn scaled(&self, f: f64) -> Roughness {
+        Roughness {
+            ax: (self.ax * f).max(MIN_TEXTURED_ALPHA),
+            ay: (self.ay * f).max(MIN_TEXTURED_ALPHA),
+        }
+    }
+
     /// One α for the isotropic tables (the geometric mean).
     #[inline]
     fn mean(&self) -> f64 {
@@ -132,13 +142,17 @@ pub fn fresnel_conductor(c: f64, n: f64, k: f64) -> f64 {
 
 /// Points in each direction of the albedo tables.
 const TABLE: usize = 32;
+/// The least α a roughness texture makes (its factor 0 is a near mirror, not a delta).
+pub const MIN_TEXTURED_ALPHA: f64 = 1e-3;
+/// Coat tables of a plastic whose roughness a texture varies, over α in [0, its α].
+const COATS: usize = 17;
 /// Stratified points per table entry (per axis).
 const QUAD: usize = 48;
 
 /// A function of the incidence cosine μ (grid μ_i = i / (TABLE − 1)) and, for anisotropic
 /// roughness, of the azimuth from the tangent folded into [0, π/2] (grid of `phis`
 /// points; the distribution is symmetric about both axes), read linearly.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Debug, PartialEq)]
 pub struct CosineTable {
     values: Vec<f64>,
     phis: usize,
@@ -146,7 +160,37 @@ pub struct CosineTable {
     pub average: f64,
 }
 
+impl Clone for CosineTable {
+    fn clone(&self) -> Self {
+        CosineTable {
+            values: self.values.clone(),
+            phis: self.phis,
+            average: self.average,
+        }
+    }
+
+    /// Reuses the values' allocation (a tinted hit's copy, `Glossy::tint_into`).
+    fn clone_from(&mut self, source: &Self) {
+        self.values.clone_from(&source.values);
+        self.phis = source.phis;
+        self.average = source.average;
+    }
+}
+
 impl CosineTable {
+    /// `a` and `b` (the same shape) mixed: (1 − f) a + f b, into `self`.
+    fn mix_from(&mut self, a: &CosineTable, b: &CosineTable, f: f64) {
+        self.values.clear();
+        self.values.extend(
+            a.values
+                .iter()
+                .zip(&b.values)
+                .map(|(x, y)| x * (1.0 - f) + y * f),
+        );
+        self.phis = a.phis;
+        self.average = a.average * (1.0 - f) + b.average * f;
+    }
+
     fn build(f: impl Fn(f64) -> f64) -> Self {
         Self::build_2d(1, |mu, _| f(mu))
     }
@@ -299,6 +343,12 @@ pub enum Glossy {
         /// The multiple-scattering lobe that gives back what single scattering loses, when
         /// there is one.
         ms: Option<MultipleScattering>,
+        /// Each band's Fresnel reflectance averaged over the hemisphere (`F_avg`), when
+        /// the lobe is given back (empty otherwise): a roughness texture's hit rebuilds
+        /// the lobe from it.
+        f_avg: Vec<f64>,
+        /// A texture's factor of its reflectance per band (empty: none).
+        tint: Vec<f64>,
     },
     /// A rough dielectric interface: index `ior` per band inside (the side the normals
     /// point away from), air outside.
@@ -306,13 +356,16 @@ pub enum Glossy {
     /// A diffuse base of albedo ρ per band under a rough coat of index `ior`: `coat` is
     /// the coat's directional albedo E(μ) seen from outside, `base_factor` per band
     /// ρ / (1 − ρ F_int) / n² (the light's series between base and coat), `base_max` the
-    /// largest ρ (for the choice between coat and base).
+    /// largest ρ (for the choice between coat and base); `base` is ρ itself and `coats`
+    /// the coat's albedo over α when a texture varies its roughness.
     Plastic {
         rough: Roughness,
         ior: f64,
         coat: CosineTable,
         base_max: f64,
         base_factor: Vec<f64>,
+        base: Vec<f64>,
+        coats: Option<Arc<CoatStack>>,
     },
     /// A measured table (`scene::table`).
     Table(Arc<BsdfTable>),
@@ -333,6 +386,36 @@ pub const TABLE_GATHER_PEAK: f64 = 8.0;
 pub struct MultipleScattering {
     e_avg: f64,
     f_ms: Vec<f64>,
+}
+
+impl MultipleScattering {
+    /// Sets `ms` to the lobe of white albedo average `e_avg` and Fresnel averages `f_avg`
+    /// (none when nothing is lost or nothing is given back), reusing its allocation.
+    fn set(ms: &mut Option<MultipleScattering>, e_avg: f64, f_avg: &[f64]) {
+        if f_avg.is_empty() || e_avg >= 1.0 - 1e-6 {
+            *ms = None;
+            return;
+        }
+        let m = ms.get_or_insert_with(|| MultipleScattering {
+            e_avg,
+            f_ms: Vec::with_capacity(f_avg.len()),
+        });
+        m.e_avg = e_avg;
+        m.f_ms.clear();
+        m.f_ms.extend(
+            f_avg
+                .iter()
+                .map(|&fa| fa * fa * e_avg / (1.0 - fa * (1.0 - e_avg))),
+        );
+    }
+}
+
+/// A plastic's coat albedo tables at α_j = α j / (COATS − 1) (the least
+/// `MIN_TEXTURED_ALPHA`), for hits whose roughness a texture scales down from α.
+#[derive(Debug)]
+pub struct CoatStack {
+    alpha: f64,
+    tables: Vec<CosineTable>,
 }
 
 /// A direction drawn from a glossy surface (`Glossy::sample`).
@@ -365,47 +448,198 @@ impl Glossy {
             })
         });
         let e_avg = Self::white_at(rough, &white, DVec3::Z).1;
-        let ms = (compensate && e_avg < 1.0 - 1e-6).then(|| MultipleScattering {
-            e_avg,
-            f_ms: eta
-                .iter()
+        let f_avg: Vec<f64> = if compensate {
+            eta.iter()
                 .zip(&k)
-                .map(|(&n, &k)| {
-                    let fa = CosineTable::build(|mu| fresnel_conductor(mu, n, k)).average;
-                    fa * fa * e_avg / (1.0 - fa * (1.0 - e_avg))
-                })
-                .collect(),
-        });
+                .map(|(&n, &k)| CosineTable::build(|mu| fresnel_conductor(mu, n, k)).average)
+                .collect()
+        } else {
+            Vec::new()
+        };
+        let mut ms = None;
+        MultipleScattering::set(&mut ms, e_avg, &f_avg);
         Glossy::Conductor {
             rough,
             eta,
             k,
             white,
             ms,
+            f_avg,
+            tint: Vec::new(),
         }
     }
 
-    /// A coated diffuse base: albedo `base` per band under a coat of index `ior`.
-    pub fn plastic(rough: Roughness, ior: f64, base: Vec<f64>) -> Glossy {
-        // Anisotropic coats vary with the azimuth too (9 azimuths over a quadrant).
-        let phis = if rough.ax == rough.ay { 1 } else { 9 };
-        let coat = CosineTable::build_2d(phis, |mu, phi| {
-            single_scattering_albedo(rough, mu, phi, |c| fresnel_dielectric(c, 1.0, ior))
+    /// A coated diffuse base: albedo `base` per band under a coat of index `ior`; with
+    /// the coat's tables over α when a texture varies its (isotropic) roughness.
+    pub fn plastic(rough: Roughness, ior: f64, base: Vec<f64>, rough_varies: bool) -> Glossy {
+        let coat = Self::coat_albedo(rough, ior);
+        let coats = rough_varies.then(|| {
+            Arc::new(CoatStack {
+                alpha: rough.ax,
+                tables: (0..COATS)
+                    .map(|j| {
+                        let a = (rough.ax * j as f64 / (COATS - 1) as f64).max(MIN_TEXTURED_ALPHA);
+                        Self::coat_albedo(Roughness { ax: a, ay: a }, ior)
+                    })
+                    .collect(),
+            })
         });
-        // Light inside the coat meets it from below diffusely: what does not leave is
-        // reflected back, 1 − (1 − E_avg) / n² (the coat's outside transmittance seen from
-        // inside, by reciprocity).
-        let f_int = 1.0 - (1.0 - coat.average) / (ior * ior);
-        let base_factor = base
-            .iter()
-            .map(|&r| r / (1.0 - r * f_int) / (ior * ior))
-            .collect();
+        let mut base_factor = Vec::with_capacity(base.len());
+        let base_max = Self::plastic_base(coat.average, ior, &base, None, &mut base_factor);
         Glossy::Plastic {
             rough,
             ior,
             coat,
-            base_max: base.iter().cloned().fold(0.0, f64::max),
+            base_max,
             base_factor,
+            base,
+            coats,
+        }
+    }
+
+    /// A coat's directional albedo E(μ) (and over the azimuth when anisotropic: 9
+    /// azimuths over a quadrant).
+    fn coat_albedo(rough: Roughness, ior: f64) -> CosineTable {
+        let phis = if rough.ax == rough.ay { 1 } else { 9 };
+        CosineTable::build_2d(phis, |mu, phi| {
+            single_scattering_albedo(rough, mu, phi, |c| fresnel_dielectric(c, 1.0, ior))
+        })
+    }
+
+    /// A plastic's base factor per band into `out` (its albedo `base` times `tint` when
+    /// given) under a coat of albedo average `coat_avg`, and the largest albedo.
+    fn plastic_base(
+        coat_avg: f64,
+        ior: f64,
+        base: &[f64],
+        tint: Option<&[f64]>,
+        out: &mut Vec<f64>,
+    ) -> f64 {
+        // Light inside the coat meets it from below diffusely: what does not leave is
+        // reflected back, 1 − (1 − E_avg) / n² (the coat's outside transmittance seen from
+        // inside, by reciprocity).
+        let f_int = 1.0 - (1.0 - coat_avg) / (ior * ior);
+        out.clear();
+        let mut max = 0.0f64;
+        for (b, &r) in base.iter().enumerate() {
+            let r = tint.map_or(r, |t| r * t[b]);
+            max = max.max(r);
+            out.push(r / (1.0 - r * f_int) / (ior * ior));
+        }
+        max
+    }
+
+    /// Whether a texture can vary it (`tint_into`): a conductor, a plastic or a rough
+    /// dielectric; not a measured table, a window BSDF or the host's.
+    #[inline]
+    pub fn tintable(&self) -> bool {
+        matches!(
+            self,
+            Glossy::Conductor { .. } | Glossy::Plastic { .. } | Glossy::Dielectric { .. }
+        )
+    }
+
+    /// Makes `dst` this surface as a texture varies it at a hit: its colour coefficient
+    /// (a conductor's reflectance, a plastic's base albedo) times `colour` per band, and
+    /// its α times `alpha` (factors in [0, 1], so no energy is made; `Roughness::scaled`).
+    /// `dst` may hold any earlier copy: its allocations are reused. Varying the roughness
+    /// needs isotropic roughness (a conductor's shared tables, a plastic's `coats`), which
+    /// `Material::new` has checked.
+    pub fn tint_into(&self, colour: Option<&[f64]>, alpha: Option<f64>, dst: &mut Glossy) {
+        let same = std::mem::discriminant(self) == std::mem::discriminant(&*dst);
+        if !same || !self.tintable() {
+            *dst = self.clone();
+        }
+        match (self, dst) {
+            (
+                Glossy::Conductor {
+                    rough,
+                    eta,
+                    k,
+                    white,
+                    ms,
+                    f_avg,
+                    ..
+                },
+                Glossy::Conductor {
+                    rough: r2,
+                    eta: eta2,
+                    k: k2,
+                    white: white2,
+                    ms: ms2,
+                    f_avg: f2,
+                    tint: t2,
+                },
+            ) => {
+                eta2.clone_from(eta);
+                k2.clone_from(k);
+                white2.clone_from(white);
+                f2.clone_from(f_avg);
+                match alpha {
+                    Some(a) => {
+                        *r2 = rough.scaled(a);
+                        MultipleScattering::set(ms2, self::white(*r2, 1.0).1, f_avg);
+                    }
+                    None => {
+                        *r2 = *rough;
+                        match ms {
+                            Some(m) => MultipleScattering::set(ms2, m.e_avg, f_avg),
+                            None => *ms2 = None,
+                        }
+                    }
+                }
+                t2.clear();
+                if let Some(c) = colour {
+                    t2.extend_from_slice(c);
+                }
+            }
+            (
+                Glossy::Plastic {
+                    rough,
+                    ior,
+                    coat,
+                    base,
+                    coats,
+                    ..
+                },
+                Glossy::Plastic {
+                    rough: r2,
+                    ior: ior2,
+                    coat: coat2,
+                    base_max: max2,
+                    base_factor: bf2,
+                    base: base2,
+                    coats: coats2,
+                },
+            ) => {
+                *ior2 = *ior;
+                base2.clone_from(base);
+                coats2.clone_from(coats);
+                match (alpha, coats) {
+                    (Some(a), Some(stack)) => {
+                        *r2 = rough.scaled(a);
+                        let x = (r2.ax / stack.alpha).clamp(0.0, 1.0) * (COATS - 1) as f64;
+                        let j = (x as usize).min(COATS - 2);
+                        coat2.mix_from(&stack.tables[j], &stack.tables[j + 1], x - j as f64);
+                    }
+                    _ => {
+                        *r2 = *rough;
+                        coat2.clone_from(coat);
+                    }
+                }
+                *max2 = Self::plastic_base(coat2.average, *ior, base, colour, bf2);
+            }
+            (
+                Glossy::Dielectric { rough, ior },
+                Glossy::Dielectric {
+                    rough: r2,
+                    ior: ior2,
+                },
+            ) => {
+                ior2.clone_from(ior);
+                *r2 = alpha.map_or(*rough, |a| rough.scaled(a));
+            }
+            _ => {}
         }
     }
 
@@ -527,6 +761,8 @@ impl Glossy {
                 k,
                 white,
                 ms,
+                tint,
+                ..
             } => {
                 if wi.z <= 0.0 {
                     return;
@@ -544,6 +780,9 @@ impl Glossy {
                     for (o, f) in out.iter_mut().zip(&ms.f_ms) {
                         *o += f * lobe;
                     }
+                }
+                for (o, t) in out.iter_mut().zip(tint) {
+                    *o *= t;
                 }
             }
             Glossy::Plastic {
@@ -867,7 +1106,7 @@ mod tests {
                     (e - 1.0).abs() < tol + 4.0 * se,
                     "conductor α ({ax}, {ay}) μ {mu}: albedo {e} ± {se}"
                 );
-                let p = Glossy::plastic(Roughness { ax, ay }, 1.5, vec![1.0]);
+                let p = Glossy::plastic(Roughness { ax, ay }, 1.5, vec![1.0], false);
                 let (e, se, _) = albedo(&p, wo, true, 40_000, 2);
                 assert!(
                     (e - 1.0).abs() < tol + 4.0 * se,
@@ -885,8 +1124,8 @@ mod tests {
             let models = [
                 Glossy::conductor(r, vec![1.2], vec![7.0]),
                 Glossy::conductor(r, vec![0.2], vec![3.0]),
-                Glossy::plastic(r, 1.5, vec![0.5]),
-                Glossy::plastic(r, 1.9, vec![0.9]),
+                Glossy::plastic(r, 1.5, vec![0.5], false),
+                Glossy::plastic(r, 1.9, vec![0.9], false),
                 Glossy::Dielectric {
                     rough: r,
                     ior: vec![1.5],
@@ -931,7 +1170,7 @@ mod tests {
         let c = direction(0.85, 2.0);
         for g in [
             Glossy::conductor(r, vec![1.2, 0.3], vec![7.0, 3.0]),
-            Glossy::plastic(r, 1.5, vec![0.5, 0.8]),
+            Glossy::plastic(r, 1.5, vec![0.5, 0.8], false),
             Glossy::Dielectric {
                 rough: r,
                 ior: vec![1.5, 1.5],
@@ -976,7 +1215,7 @@ mod tests {
                 true,
             ),
             (Glossy::conductor(r, vec![1.2], vec![7.0]), true),
-            (Glossy::plastic(r, 1.5, vec![0.6]), true),
+            (Glossy::plastic(r, 1.5, vec![0.6], false), true),
             (
                 Glossy::Dielectric {
                     rough: r,
@@ -1134,5 +1373,56 @@ mod tests {
             rows += 1;
         }
         assert_eq!(rows, 12);
+    }
+
+    /// A texture's factors: a conductor's α × f is the conductor built at that α (its
+    /// multiple-scattering lobe rebuilt), its reflectance × c scales f by c; a plastic's
+    /// α × f between its coat tables stays within the white furnace and near the plastic
+    /// built at that α; a copy holding another surface is overwritten whole.
+    #[test]
+    fn tinted_copies_are_the_surfaces_they_describe() {
+        let dirs = [
+            (direction(0.9, 0.3), direction(0.7, 3.0)),
+            (direction(0.3, 1.0), direction(0.35, 4.0)),
+            (direction(0.1, 0.0), direction(0.95, 2.0)),
+        ];
+        let eval = |g: &Glossy, wo, wi| {
+            let mut f = vec![0.0; 2];
+            g.eval(wo, wi, 0, true, &mut f);
+            f
+        };
+        let (eta, k) = (vec![1.2, 0.9], vec![7.0, 6.0]);
+        let rough = |a| Roughness { ax: a, ay: a };
+        let base = Glossy::conductor(rough(0.6), eta.clone(), k.clone());
+        let mut copy = Glossy::plastic(rough(0.2), 1.5, vec![0.5, 0.5], false);
+        base.tint_into(None, Some(0.25), &mut copy);
+        let at = Glossy::conductor(rough(0.15), eta.clone(), k.clone());
+        for &(wo, wi) in &dirs {
+            let (a, b) = (eval(&copy, wo, wi), eval(&at, wo, wi));
+            for (x, y) in a.iter().zip(&b) {
+                assert!((x - y).abs() <= 1e-12 * y.abs(), "{a:?} / {b:?}");
+            }
+            assert_eq!(copy.pdf(wo, wi, 0, true), at.pdf(wo, wi, 0, true));
+        }
+        base.tint_into(Some(&[0.5, 0.25]), None, &mut copy);
+        for &(wo, wi) in &dirs {
+            let (a, b) = (eval(&copy, wo, wi), eval(&base, wo, wi));
+            assert!((a[0] - 0.5 * b[0]).abs() <= 1e-15 * b[0], "{a:?} / {b:?}");
+            assert!((a[1] - 0.25 * b[1]).abs() <= 1e-15 * b[1], "{a:?} / {b:?}");
+        }
+        // A white plastic at α 0.5 × 0.37 (between two coat tables).
+        let plastic = Glossy::plastic(rough(0.5), 1.5, vec![1.0], true);
+        let mut copy = base.clone();
+        plastic.tint_into(None, Some(0.37), &mut copy);
+        let at = Glossy::plastic(rough(0.5 * 0.37), 1.5, vec![1.0], false);
+        for (i, mu) in [0.1, 0.5, 0.95].into_iter().enumerate() {
+            let wo = direction(mu, 0.4);
+            let (a, sa, _) = albedo(&copy, wo, true, 40_000, 7 + i as u64);
+            let (b, sb, _) = albedo(&at, wo, true, 40_000, 7 + i as u64);
+            assert!(
+                a <= 1.0 + 4.0 * sa && (a - b).abs() < 5.0 * (sa * sa + sb * sb).sqrt() + 0.01,
+                "μ {mu}: {a} ± {sa} / {b} ± {sb}"
+            );
+        }
     }
 }

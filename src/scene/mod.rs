@@ -18,7 +18,10 @@ pub mod texture;
 pub use crate::spectral::Bands;
 pub use emitter::{Emitter, Extent, LightSample, Receiver};
 pub use light::{Light, LightShape};
-pub use material::{ConductorIndex, IorModel, Material, MaterialDesc, Metal, SurfaceModel};
+pub use material::{
+    ConductorIndex, IorModel, Material, MaterialDesc, Metal, SurfaceModel, LOBE_DIFFUSE_REFLECT,
+    LOBE_DIFFUSE_TRANSMIT, LOBE_ROUGHNESS, LOBE_SPECULAR_REFLECT,
+};
 pub use mesh::{Mesh, MeshDesc};
 pub use prepared::PreparedScene;
 pub use prepared_mesh::PreparedMesh;

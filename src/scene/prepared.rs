@@ -83,7 +83,10 @@ impl PreparedScene {
         let mut slots = 0usize;
         let mut meshes = Vec::with_capacity(scene.meshes.len());
         for (i, m) in scene.meshes.iter().enumerate() {
-            let p = prepare_mesh(m, origin, m.record.then_some(slots))?;
+            let uv_tangents = m.uvs.is_some()
+                && (0..m.triangles.len())
+                    .any(|t| scene.materials[m.material_of(t) as usize].uv_tangent);
+            let p = prepare_mesh(m, origin, m.record.then_some(slots), uv_tangents)?;
             check_precision(i, m, &p, radius)?;
             slots += m.map_slots();
             meshes.push(p);

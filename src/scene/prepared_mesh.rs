@@ -32,6 +32,10 @@ pub struct PreparedMesh {
     /// Texture coordinates and vertex factors (`Mesh::uvs`, `Mesh::factors`).
     pub uvs: Option<Vec<[f32; 2]>>,
     pub factors: Option<VertexFactors>,
+    /// Each triangle's direction of increasing u (∂P/∂u, unit; zero where its texture
+    /// coordinates are degenerate), when one of its materials takes its tangent from the
+    /// texture coordinates (`Material::uv_tangent`).
+    pub uv_tangents: Option<Vec<Vec3>>,
 }
 
 impl PreparedMesh {
@@ -58,6 +62,12 @@ impl PreparedMesh {
         TintAt {
             uvs: self.uvs.as_ref().map(|uv| tri.map(|i| uv[i as usize])),
             factors: self.factors.as_ref().map(|f| (f, tri)),
+            tangent: self
+                .uv_tangents
+                .as_ref()
+                .map(|t| t[prim])
+                .filter(|t| *t != Vec3::ZERO)
+                .map(|t| t.as_dvec3()),
             w: [1.0 - u - v, u, v],
         }
     }
@@ -129,6 +139,7 @@ pub(super) fn prepare_mesh(
     m: &Mesh,
     origin: DVec3,
     slot_base: Option<usize>,
+    uv_tangents: bool,
 ) -> Result<PreparedMesh> {
     let local: Vec<DVec3> = try_collect(
         m.positions.iter().map(|&p| DVec3::from(p) - origin),
@@ -173,5 +184,30 @@ pub(super) fn prepare_mesh(
         tally: m.tally,
         uvs: m.uvs.clone(),
         factors: m.factors.clone(),
+        uv_tangents: match (&m.uvs, uv_tangents) {
+            (Some(uvs), true) => Some(try_collect(
+                m.triangles.iter().map(|tri| {
+                    let p = tri.map(|i| local[i as usize]);
+                    let uv = tri.map(|i| uvs[i as usize].map(f64::from));
+                    uv_tangent(p, uv)
+                }),
+                "the triangles' texture tangents",
+            )?),
+            _ => None,
+        },
     })
+}
+
+/// The unit direction of increasing u over a triangle of corners `p` and texture
+/// coordinates `uv`: ∂P/∂u from the two edges; zero where the coordinates are degenerate.
+fn uv_tangent(p: [DVec3; 3], uv: [[f64; 2]; 3]) -> Vec3 {
+    let (e1, e2) = (p[1] - p[0], p[2] - p[0]);
+    let (du1, dv1) = (uv[1][0] - uv[0][0], uv[1][1] - uv[0][1]);
+    let (du2, dv2) = (uv[2][0] - uv[0][0], uv[2][1] - uv[0][1]);
+    let det = du1 * dv2 - du2 * dv1;
+    let t = (e1 * dv2 - e2 * dv1) / det;
+    if det == 0.0 || !t.is_finite() || t.length_squared() == 0.0 {
+        return Vec3::ZERO;
+    }
+    t.normalize().as_vec3()
 }

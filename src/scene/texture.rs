@@ -15,7 +15,9 @@
 //! Pay for what you use: a hit on a mesh with neither looks up nothing.
 
 use crate::error::{bail, Result};
-use crate::scene::material::Material;
+use crate::scene::material::{
+    Material, LOBE_DIFFUSE_REFLECT, LOBE_ROUGHNESS, LOBE_SPECULAR_REFLECT,
+};
 use crate::spectral::Bands;
 
 /// What the caller describes.
@@ -220,6 +222,9 @@ pub struct TintScratch {
 pub struct TintAt<'a> {
     pub uvs: Option<[[f32; 2]; 3]>,
     pub factors: Option<(&'a VertexFactors, [u32; 3])>,
+    /// The triangle's direction of increasing u, when its mesh keeps one
+    /// (`PreparedMesh::uv_tangents`).
+    pub tangent: Option<glam::DVec3>,
     /// Weights of the three corners.
     pub w: [f64; 3],
 }
@@ -236,11 +241,30 @@ impl TintScratch {
     ) -> &'s Material {
         let texture = base.texture.map(|t| &textures[t as usize]);
         let texture = texture.filter(|_| at.uvs.is_some());
-        // Only ideal, non-dielectric coefficients vary: a mesh's vertex factors leave its
-        // dielectric, microfacet and measured materials as they are.
+        // Ideal non-dielectric coefficients and conductors', plastics' and rough
+        // dielectrics' vary (`Material::tint_lobes`): a mesh's vertex factors leave its
+        // smooth dielectrics, measured tables, window and host BSDFs as they are.
         let ideal = base.glossy.is_none() && base.dielectric.is_none();
-        if !ideal || (texture.is_none() && at.factors.is_none()) {
+        let glossy = base.glossy.as_ref().filter(|g| g.tintable());
+        // The tangent frame from the texture coordinates (`Material::uv_tangent`: a
+        // microfacet, measured or host surface, never an ideal one).
+        let tangent = at.tangent.filter(|_| base.uv_tangent);
+        let tints = (ideal || glossy.is_some())
+            && base.tint_lobes != 0
+            && (texture.is_some() || at.factors.is_some());
+        if !tints && tangent.is_none() {
             return base;
+        }
+        if !tints {
+            let m = self.material.get_or_insert_with(|| base.clone());
+            if m.glossy.is_none() {
+                *m = base.clone();
+            }
+            Self::copy_glossy(base, m);
+            let g = base.glossy.as_ref().expect("a glossy surface");
+            g.tint_into(None, None, m.glossy.as_mut().expect("a glossy copy"));
+            m.tangent = tangent;
+            return m;
         }
         let nb = base.diffuse_reflect.len();
         self.factor.clear();
@@ -263,10 +287,28 @@ impl TintScratch {
                 *f *= x;
             }
         }
-        // The scratch keeps the first tinted material's other fields: every tinted material
-        // is ideal and non-dielectric, so they are the same (none).
-        let m = self.material.get_or_insert_with(|| base.clone());
         let lobes = base.tint_lobes;
+        if let Some(g) = glossy {
+            // A microfacet surface: its copy's fields all rewritten from `base`.
+            let m = self.material.get_or_insert_with(|| base.clone());
+            if m.glossy.is_none() {
+                *m = base.clone();
+            }
+            Self::copy_glossy(base, m);
+            m.tangent = tangent.or(base.tangent);
+            let colour = (lobes & (LOBE_DIFFUSE_REFLECT | LOBE_SPECULAR_REFLECT) != 0)
+                .then_some(&self.factor[..]);
+            let alpha = (lobes & LOBE_ROUGHNESS != 0)
+                .then(|| self.factor.iter().sum::<f64>() / nb.max(1) as f64);
+            g.tint_into(colour, alpha, m.glossy.as_mut().expect("a glossy copy"));
+            return m;
+        }
+        // An ideal surface: the scratch keeps the other fields of the first tinted ideal
+        // material (none: they are the same for every ideal, non-dielectric one).
+        let m = self.material.get_or_insert_with(|| base.clone());
+        if m.glossy.is_some() {
+            *m = base.clone();
+        }
         let tint = |dst: &mut Vec<f64>, src: &[f64], on: bool, f: &[f64]| {
             dst.clear();
             if on {
@@ -295,6 +337,19 @@ impl TintScratch {
         );
         m.events = base.events;
         m
+    }
+
+    /// A glossy copy `m`'s fields but the surface's own (`Glossy::tint_into`) and the
+    /// tangent, from `base`.
+    fn copy_glossy(base: &Material, m: &mut Material) {
+        m.texture = base.texture;
+        m.tint_lobes = base.tint_lobes;
+        m.uv_tangent = base.uv_tangent;
+        if base.dielectric.is_some() {
+            m.dielectric.clone_from(&base.dielectric);
+        } else {
+            m.dielectric = None;
+        }
     }
 }
 
@@ -374,6 +429,7 @@ mod tests {
         let at = TintAt {
             uvs: None,
             factors: Some((&factors, [0, 1, 2])),
+            tangent: None,
             w: [0.2, 0.3, 0.5],
         };
         let mut scratch = TintScratch::default();
