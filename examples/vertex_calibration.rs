@@ -4,17 +4,29 @@
 //! values beyond 2 and 3 estimated standard errors (1-in-20 and 3-in-1000 for a calibrated
 //! normal estimate) and the correlation of value and σ.
 //!
-//! usage: cargo run --release --example vertex_calibration [ldt|ies] [seeds]
+//! With `room`: the benchmark's grey room (its six walls at 40 × 40 cells) by light
+//! sampling and by gathering, against a long gathering reference, also giving the mean of
+//! z² per vertex (1 when calibrated); `REF=photons|ls|gather` and `REF_PHOTONS=n` choose
+//! another reference, `COUNTS=a,b,…` the photon counts (0: until the estimated global
+//! error is 1 %).
+//!
+//! usage: cargo run --release --example vertex_calibration [ldt|ies|room] [seeds]
 
 // The tests' scene builders (the inward sphere).
 #[path = "../tests/common/mod.rs"]
 mod scenes;
+// The benchmarks' (the grey room).
+#[path = "common/scenes.rs"]
+mod bench_scenes;
 
 use imap::photometry::Spectrum;
 use imap::Placement;
 use imap::{Config, Context, Estimator, MaterialDesc, RunParams};
 
 fn run(kind: &str, seed: u64, photons: u64, e: Estimator) -> (Vec<f64>, Vec<f64>) {
+    if kind == "room" {
+        return room(seed, photons, e);
+    }
     let mut ctx = Context::new(Config {
         seed,
         threads: 2,
@@ -53,6 +65,32 @@ fn run(kind: &str, seed: u64, photons: u64, e: Estimator) -> (Vec<f64>, Vec<f64>
     (x, s)
 }
 
+/// The grey room's whole map (band mean) and its σ after `photons`.
+fn room(seed: u64, photons: u64, e: Estimator) -> (Vec<f64>, Vec<f64>) {
+    let mut ctx = Context::new(Config {
+        seed,
+        threads: 2,
+        ..Default::default()
+    })
+    .unwrap();
+    let r = bench_scenes::grey_room(&mut ctx, 40).unwrap();
+    // 0 photons: until the estimated (global) error is 1 %.
+    ctx.run(&mut RunParams {
+        photons: if photons == 0 { u64::MAX } else { photons },
+        target_rel_error: if photons == 0 { 0.01 } else { 0.0 },
+        progress_interval_s: if photons == 0 { 0.05 } else { 10.0 },
+        estimator: Some(e),
+        ..Default::default()
+    })
+    .unwrap();
+    let nv = ctx.vertex_count(r.walls).unwrap();
+    let (mut x, mut rel) = (vec![0.0; nv], vec![0.0; nv]);
+    ctx.irradiance(r.walls, 0, 0, &mut x).unwrap();
+    ctx.rel_error(r.walls, 0, &mut rel).unwrap();
+    let s = x.iter().zip(&rel).map(|(x, r)| x * r).collect();
+    (x, s)
+}
+
 fn main() {
     if std::env::var("TAILS").is_ok() {
         return tails("ldt");
@@ -61,13 +99,46 @@ fn main() {
     let kind = args.get(1).map_or("ldt", String::as_str).to_string();
     let seeds: u64 = args.get(2).and_then(|s| s.parse().ok()).unwrap_or(6);
     // The reference's own error counts in every comparison.
-    let (reference, ref_sigma) = run(&kind, 999, 40_000_000, Estimator::Photons);
-    for (name, e) in [
-        ("photons", Estimator::Photons),
-        ("light sampling", Estimator::DEFAULT),
-    ] {
-        for photons in [100_000u64, 1_000_000, 4_000_000] {
+    let (estimators, counts, ref_count, ref_e) = if kind == "room" {
+        (
+            vec![
+                ("light sampling", Estimator::DEFAULT),
+                ("gathering", Estimator::GATHER),
+            ],
+            match std::env::var("COUNTS") {
+                Ok(c) => c.split(',').filter_map(|x| x.parse().ok()).collect(),
+                Err(_) => vec![30_000u64, 100_000, 400_000, 0],
+            },
+            2_000_000,
+            Estimator::GATHER,
+        )
+    } else {
+        (
+            vec![
+                ("photons", Estimator::Photons),
+                ("light sampling", Estimator::DEFAULT),
+            ],
+            vec![100_000u64, 1_000_000, 4_000_000],
+            40_000_000,
+            Estimator::Photons,
+        )
+    };
+    // REF = photons | ls | gather and REF_PHOTONS choose another reference.
+    let ref_e = match std::env::var("REF").as_deref() {
+        Ok("photons") => Estimator::Photons,
+        Ok("ls") => Estimator::DEFAULT,
+        Ok("gather") => Estimator::GATHER,
+        _ => ref_e,
+    };
+    let ref_count = std::env::var("REF_PHOTONS")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(ref_count);
+    let (reference, ref_sigma) = run(&kind, 999, ref_count, ref_e);
+    for (name, e) in estimators {
+        for &photons in &counts {
             let (mut beyond2, mut beyond3, mut n) = (0usize, 0usize, 0usize);
+            let mut z2 = 0.0;
             let runs: Vec<(Vec<f64>, Vec<f64>)> = (0..seeds)
                 .map(|seed| run(&kind, seed, photons, e))
                 .collect();
@@ -78,6 +149,7 @@ fn main() {
                         continue;
                     }
                     let z = (x[v] - reference[v]).abs() / s[v].hypot(ref_sigma[v]).max(1e-300);
+                    z2 += z * z;
                     beyond2 += usize::from(z > 2.0);
                     beyond3 += usize::from(z > 3.0);
                     n += 1;
@@ -102,9 +174,10 @@ fn main() {
                 }
             }
             println!(
-                "{name:15} {photons:>9} photons: beyond 2σ {:.2} %, beyond 3σ {:.2} % (normal: 4.55, 0.27), corr(value, σ) over seeds {:+.2}",
+                "{name:15} {photons:>9} photons: beyond 2σ {:.2} %, beyond 3σ {:.2} % (normal: 4.55, 0.27), mean z² {:.3}, corr(value, σ) over seeds {:+.2}",
                 100.0 * beyond2 as f64 / n as f64,
                 100.0 * beyond3 as f64 / n as f64,
+                z2 / n as f64,
                 corr / counted.max(1) as f64
             );
         }
