@@ -522,6 +522,15 @@ fn glossy(
             desc
         }
         None => {
+            // A window BSDF file the model names (Radiance's BSDF), unless the settings
+            // give the surface's optics.
+            if let Some((file, up)) = m.window_bsdf.as_ref().filter(|_| optics_given(o).is_none()) {
+                return MaterialDesc {
+                    surface: SurfaceModel::Klems(file.clone()),
+                    tangent: Some(*up),
+                    ..Default::default()
+                };
+            }
             // The file's gloss, unless the settings made it glass or it is smooth.
             let Some(g) = m.gloss.filter(|g| g.alpha >= 0.01) else {
                 return desc;

@@ -608,6 +608,9 @@ pub struct Mtl {
     /// A glossy surface the file describes (glTF roughness/metallic, MTL `Pr`/`Pm`/`Ns`,
     /// Radiance's rough `plastic`/`metal`).
     pub gloss: Option<Gloss>,
+    /// A window BSDF file (Radiance's `BSDF` and `aBSDF`) and its up direction: the
+    /// reader has turned its surfaces to face the file's front (WINDOW's exterior).
+    pub window_bsdf: Option<(PathBuf, [f64; 3])>,
 }
 
 /// What a file says of a surface's gloss.

@@ -338,3 +338,87 @@ fn the_ground_glows_under_the_sky() {
         stderr(&o)
     );
 }
+
+/// Radiance's `BSDF` material: a floor of a window BSDF file that reflects 0.2 diffusely
+/// from WINDOW's front only, under a `light` sphere. Radiance's BSDF surfaces face
+/// WINDOW's back (libBSDF swaps the file's front and back): a floor polygon facing the
+/// lamp shows the lamp its back and reflects nothing; facing away, its front, and the
+/// grid 1 m up, measuring light from below, reads what it reflects — as the same floor
+/// given the file through the settings with its normal toward the lamp reads. The `aBSDF`
+/// form reads alike; an up vector from a function file is left out with a warning.
+#[test]
+fn radiance_bsdf_surfaces_face_the_files_back() {
+    let d = tempfile::tempdir().unwrap();
+    let value = 0.2 / std::f64::consts::PI;
+    let data: Vec<String> = (0..41 * 41).map(|_| format!("{value}")).collect();
+    let xml = format!(
+        "<?xml version=\"1.0\"?>\n<WindowElement xmlns=\"http://windows.lbl.gov\"><Optical><Layer>\n<DataDefinition><IncidentDataStructure>Columns</IncidentDataStructure></DataDefinition>\n<WavelengthData><Wavelength unit=\"Integral\">Visible</Wavelength>\n<WavelengthDataBlock><WavelengthDataDirection>Reflection Front</WavelengthDataDirection>\n<ColumnAngleBasis>LBNL/Klems Quarter</ColumnAngleBasis><RowAngleBasis>LBNL/Klems Quarter</RowAngleBasis>\n<ScatteringData>{}</ScatteringData></WavelengthDataBlock></WavelengthData></Layer></Optical></WindowElement>\n",
+        data.join(",\n")
+    );
+    write(d.path(), "matte.xml", &xml);
+    let up = "-5 -5 0 5 -5 0 5 5 0 -5 5 0";
+    let down = "-5 -5 0 -5 5 0 5 5 0 5 -5 0";
+    let lamp = "void light bulb\n0\n0\n3 100 100 100\nbulb sphere lamp 0 0 4 0 0 2 0.1\n";
+    let toml = write(
+        d.path(),
+        "s.toml",
+        "up_axis = \"z\"\n[run]\nseed = 4\n[[grid]]\nname = \"g\"\norigin = [-0.5, -0.5, 1]\nu = [1, 0, 0]\nv = [0, 1, 0]\nsize = [1, 1]\nspacing = 0.25\nside = \"back\"\n",
+    );
+    let read = |name: &str, material: &str, corners: &str, toml: &str| {
+        let rad = write(
+            d.path(),
+            &format!("{name}.rad"),
+            format!("{lamp}{material}\nmatte polygon floor 0 0 12 {corners}\n"),
+        );
+        let out = d.path().join(name);
+        let o = run_photons(&rad, toml, &out, 400_000);
+        assert!(o.status.success(), "{name}: {}", stderr(&o));
+        (grid_average(&out), stderr(&o))
+    };
+    let bsdf = "void BSDF matte\n6 0 matte.xml 0 1 0 .\n0\n0";
+    let ((facing, _), _) = read("facing", bsdf, up, &toml);
+    let ((away, s_away), _) = read("away", bsdf, down, &toml);
+    let ((absdf, s_absdf), _) = read(
+        "absdf",
+        "void aBSDF matte\n5 matte.xml 0 1 0 .\n0\n0",
+        down,
+        &toml,
+    );
+    // The same floor through the settings: its normal (up) toward the file's front.
+    let settings = write(
+        d.path(),
+        "t.toml",
+        format!(
+            "{}[materials.matte]\nkind = \"bsdf-xml\"\nfile = \"matte.xml\"\nup = [0, 1, 0]\n",
+            std::fs::read_to_string(&toml).unwrap()
+        ),
+    );
+    let ((set, s_set), _) = read(
+        "settings",
+        "void plastic matte\n0\n0\n5 .5 .5 .5 0 0",
+        up,
+        &settings,
+    );
+    eprintln!("facing {facing}, away {away} ± {s_away}, aBSDF {absdf} ± {s_absdf}, settings {set} ± {s_set}");
+    assert!(
+        away > 1.0 && facing < 1e-3 * away,
+        "facing {facing}, away {away}"
+    );
+    for (what, x, s) in [("aBSDF", absdf, s_absdf), ("settings", set, s_set)] {
+        assert!(
+            (x - away).abs() < 4.0 * s.hypot(s_away),
+            "{what} {x} ± {s} against {away} ± {s_away}"
+        );
+    }
+    // An up vector from a function file: left out, named.
+    let (_, e) = read(
+        "func",
+        "void BSDF matte\n6 0 matte.xml up_x up_y up_z dir.cal\n0\n0",
+        up,
+        &toml,
+    );
+    assert!(
+        e.contains("BSDF 'matte' is not read") && e.contains("function file"),
+        "{e}"
+    );
+}

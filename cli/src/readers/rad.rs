@@ -267,7 +267,11 @@ impl Reader<'_> {
         self.model
             .positions
             .extend(corners.iter().map(|p| p.to_array()));
+        // A BSDF surface's normal faces Radiance's front, which is WINDOW's back (libBSDF
+        // swaps them when it reads the file): libimap's faces the file's front.
+        let flip = self.model.materials[material].window_bsdf.is_some();
         for t in tris {
+            let t = if flip { [t[0], t[2], t[1]] } else { *t };
             crate::model::push_triangle(
                 &mut self.model.objects[o].triangles,
                 &mut self.model.degenerate,
@@ -361,6 +365,57 @@ impl Reader<'_> {
             at: (path.to_path_buf(), p.line),
             ..Default::default()
         };
+        if p.kind == "BSDF" || p.kind == "aBSDF" {
+            // BSDF: thick file ux uy uz funcfile [transform]; aBSDF: the same without the
+            // thickness. Read when the up vector is three numbers and no function file or
+            // transform changes it.
+            let s = &p.strings[usize::from(p.kind == "BSDF")..];
+            let at = |i: usize| s.get(i).and_then(|x| x.parse::<f64>().ok());
+            let thick = if p.kind == "BSDF" {
+                p.strings.first().and_then(|x| x.parse::<f64>().ok())
+            } else {
+                Some(0.0)
+            };
+            if s.get(4).is_some_and(|f| f != ".") || s.len() > 5 {
+                return unsupported_material(
+                    self,
+                    p,
+                    diag,
+                    "its up vector comes from a function file or a transform",
+                );
+            }
+            let (Some(thick), Some(file), Some(ux), Some(uy), Some(uz)) =
+                (thick, s.first(), at(1), at(2), at(3))
+            else {
+                return unsupported_material(
+                    self,
+                    p,
+                    diag,
+                    "its arguments are not a thickness (BSDF), a file and an up vector of numbers",
+                );
+            };
+            if thick != 0.0 {
+                diag.warn(format!(
+                    "{}:{}: BSDF '{}': its thickness {thick} is left out (the surface scatters where it is; geometry it would hide is traced)",
+                    path.display(), p.line, printable(&p.id)
+                ));
+            }
+            if p.reals.iter().any(|&x| x != 0.0) {
+                diag.warn(format!(
+                    "{}:{}: BSDF '{}': its added diffuse reflectance and transmittance ({} reals) are left out: the file's data alone",
+                    path.display(), p.line, printable(&p.id), p.reals.len()
+                ));
+            }
+            let dir = path.parent().unwrap_or(Path::new("."));
+            m.kd = Some([0.0; 3]);
+            m.window_bsdf = Some((dir.join(file), [ux, uy, uz]));
+            self.model.materials.push(m);
+            self.names.insert(
+                p.id.clone(),
+                Modifier::Material(self.model.materials.len() - 1),
+            );
+            return;
+        }
         let rgb = |r: &[f64]| [r[0], r[1], r[2]];
         let scaled = |c: [f64; 3], k: f64| c.map(|x| x * k);
         match p.kind.as_str() {
@@ -739,7 +794,7 @@ pub fn load(path: &Path, bytes: &[u8], diag: &mut Diagnostics) -> Model {
     };
     for p in &prims {
         match p.kind.as_str() {
-            "plastic" | "metal" | "trans" | "mirror" | "glass" | "dielectric" | "light" | "glow" | "spotlight" => {
+            "plastic" | "metal" | "trans" | "mirror" | "glass" | "dielectric" | "light" | "glow" | "spotlight" | "BSDF" | "aBSDF" => {
                 r.define_material(p, diag)
             }
             "polygon" | "sphere" | "bubble" | "cone" | "cup" | "cylinder" | "tube" | "ring" => r.surface(p, diag),
@@ -841,6 +896,20 @@ pub fn load(path: &Path, bytes: &[u8], diag: &mut Diagnostics) -> Model {
     r.model
 }
 
+/// A material of a type that is read but whose arguments are not (why): grey, as an
+/// unread type's.
+fn unsupported_material(r: &mut Reader, p: &Primitive, diag: &mut Diagnostics, why: &str) {
+    diag.warn(format!(
+        "{}:{}: {} '{}' is not read ({why}): surfaces with it are grey 0.5; describe it with [materials.{}] in the settings",
+        r.path.display(),
+        p.line,
+        printable(&p.kind),
+        printable(&p.id),
+        printable(&p.id)
+    ));
+    grey_material(r, p);
+}
+
 fn unsupported(r: &mut Reader, p: &Primitive, diag: &mut Diagnostics) {
     diag.warn(format!(
         "{}:{}: material type '{}' ('{}') is not read: surfaces with it are grey 0.5; describe it with [materials.{}] in the settings",
@@ -850,6 +919,11 @@ fn unsupported(r: &mut Reader, p: &Primitive, diag: &mut Diagnostics) {
         printable(&p.id),
         printable(&p.id)
     ));
+    grey_material(r, p);
+}
+
+/// Defines `p`'s name as a grey 0.5 material.
+fn grey_material(r: &mut Reader, p: &Primitive) {
     let m = Mtl {
         name: p.id.clone(),
         at: (r.path.to_path_buf(), p.line),
@@ -977,8 +1051,21 @@ mod tests {
         let (m, d) = read(
             "void glass clear 0 0 3 .96 .96 .96\nclear polygon pane 0 0 12 0 0 0 1 0 0 1 1 0 0 1 0\n\
              void plastic g 0 0 5 .5 .5 .5 0 0\ng polygon floor 0 0 12 -5 -5 -1 5 -5 -1 5 5 -1 -5 5 -1\n\
-             void BSDF blind 6 0 blind.xml 0 1 0 . 0 0\nblind polygon b 0 0 9 0 0 0 1 0 0 0 1 0\n",
+             void BSDF blind 6 0 blind.xml 0 1 0 . 0 0\nblind polygon b 0 0 9 0 0 0 1 0 0 0 1 0\n\
+             void plasfunc pf 2 refl f.cal 0 0\npf polygon c 0 0 9 0 0 0 1 0 0 0 1 0\n",
         );
+        // The BSDF: its file beside the scene, its up vector, its surface turned to face
+        // the file's front (Radiance's normal +z → −z).
+        let blind = m.materials.iter().find(|x| x.name == "blind").unwrap();
+        assert_eq!(
+            blind.window_bsdf,
+            Some((std::path::PathBuf::from("blind.xml"), [0.0, 1.0, 0.0]))
+        );
+        let b = m.objects.iter().find(|o| o.name == "b").unwrap();
+        let [p0, p1, p2] = b.triangles[0]
+            .v
+            .map(|v| DVec3::from(m.positions[v as usize]));
+        assert!(((p1 - p0).cross(p2 - p0).normalize().z + 1.0).abs() < 1e-12);
         assert!(d.errors.is_empty(), "{:?}", d.errors);
         let pane = m.objects.iter().position(|o| o.name == "pane").unwrap();
         let (closed, vol) = m.orientation(pane);
@@ -988,11 +1075,9 @@ mod tests {
             "closed {closed}, volume {vol}, t {t}"
         );
         assert!((t - 1e-3 * (10f64.powi(2) * 2.0 + 1.0).sqrt()).abs() < 1e-12);
-        assert!(d
-            .warnings
-            .iter()
-            .any(|w| w.contains("material type 'BSDF' ('blind') is not read")
-                && w.contains("[materials.blind]")));
+        assert!(d.warnings.iter().any(|w| w
+            .contains("material type 'plasfunc' ('pf') is not read")
+            && w.contains("[materials.pf]")));
         // Refusals say what to do instead, with the line.
         for (text, says) in [
             (
