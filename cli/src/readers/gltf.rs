@@ -6,8 +6,9 @@
 //! its mesh). Primitives in triangle, strip and fan modes are read; points and lines are
 //! skipped with a warning. Materials (metallic-roughness):
 //! - baseColorFactor × baseColorTexture (sRGB, averaged over each triangle's UV footprint)
-//!   → the colour; roughness and metallic → a microfacet surface (`model::Gloss`, GGX α =
-//!   roughness²): a metal (metallic ≥ 0.5) whose reflectance at normal incidence is the
+//!   → the colour; roughness and metallic (their factors times the metallic-roughness
+//!   texture's mean green and blue over its image, with a warning that their variation is
+//!   left out) → a microfacet surface (`model::Gloss`, GGX α = roughness²): a metal (metallic ≥ 0.5) whose reflectance at normal incidence is the
 //!   colour, or the colour under a dielectric coat of index 1.5 (4 % at normal incidence,
 //!   glTF's dielectric); a smooth one (α < 0.01) is a mirror or a Lambertian surface;
 //! - emissiveFactor × KHR_materials_emissive_strength × emissiveTexture (averaged over
@@ -340,13 +341,53 @@ fn load_checked(path: &Path, diag: &mut Diagnostics) -> Result<Model, String> {
             .clone()
     };
 
+    // The mean linear value of each channel of an image (a metallic-roughness texture's
+    // data is linear, not sRGB), decoded once; None when it cannot be read.
+    let mut means: Vec<Option<Option<[f64; 3]>>> = vec![None; doc.images().count()];
+    let mut channel_means = |img: gltf::Image| -> Option<[f64; 3]> {
+        let i = img.index();
+        *means[i].get_or_insert_with(|| {
+            let d = gltf::image::Data::from_source(img.source(), Some(base), &buffers).ok()?;
+            let rgb = rgb8(&d)?;
+            let n = (rgb.len() / 3).max(1) as f64;
+            let mut sum = [0.0f64; 3];
+            for p in rgb.chunks_exact(3) {
+                for k in 0..3 {
+                    sum[k] += p[k] as f64;
+                }
+            }
+            Some(sum.map(|x| x / (255.0 * n)))
+        })
+    };
+
     // Materials, and the texture coordinate set each reads.
     let mut uv_set = Vec::new();
     for m in doc.materials() {
         let pbr = m.pbr_metallic_roughness();
         let [r, g, b, _a] = pbr.base_color_factor().map(|x| x as f64);
-        let metal = (pbr.metallic_factor() as f64).clamp(0.0, 1.0);
-        let rough = pbr.roughness_factor() as f64;
+        let mut metal = (pbr.metallic_factor() as f64).clamp(0.0, 1.0);
+        let mut rough = pbr.roughness_factor() as f64;
+        // glTF's metallic-roughness texture multiplies the factors (roughness in its green
+        // channel, metallic in its blue): read as its mean over the image. Without it, a
+        // file that leaves the factors at their default 1 would be read as a rough metal.
+        if let Some(t) = pbr.metallic_roughness_texture() {
+            let label = m
+                .name()
+                .map(printable)
+                .unwrap_or_else(|| format!("material {}", m.index().unwrap_or(0)));
+            match channel_means(t.texture().source()) {
+                Some([_, g, b]) => {
+                    rough *= g;
+                    metal *= b;
+                    diag.warn(format!(
+                        "{name}: {label}: its metallic-roughness texture is read as its mean over the image (metallic {metal:.3}, roughness {rough:.3}): how they vary over the surface is left out"
+                    ));
+                }
+                None => diag.warn(format!(
+                    "{name}: {label}: its metallic-roughness texture could not be read: metallic {metal}, roughness {rough} from the factors alone"
+                )),
+            }
+        }
         let texture = pbr
             .base_color_texture()
             .and_then(|t| texture_of(t.texture().source(), diag));
@@ -534,4 +575,69 @@ fn load_checked(path: &Path, diag: &mut Diagnostics) -> Result<Model, String> {
         return Err(format!("{name}: the scene has no triangles{why}"));
     }
     Ok(model)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A triangle whose material leaves metallic and roughness at their default factors
+    /// (1) and gives a metallic-roughness texture of roughness 0.5, metallic 0 (green 128,
+    /// blue 0): a rough dielectric-coated surface, α = 0.502², not a rough metal; without
+    /// the texture, the factors alone; an unreadable image, the factors with a warning.
+    #[test]
+    fn the_metallic_roughness_texture_scales_the_factors() {
+        let d = tempfile::tempdir().unwrap();
+        let pos: [f32; 9] = [0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0];
+        let bin: Vec<u8> = pos.iter().flat_map(|x| x.to_le_bytes()).collect();
+        std::fs::write(d.path().join("m.bin"), &bin).unwrap();
+        let img = image::RgbImage::from_pixel(2, 2, image::Rgb([255, 128, 0]));
+        img.save(d.path().join("mr.png")).unwrap();
+        let gltf = |pbr: serde_json::Value, image: &str| {
+            serde_json::json!({
+                "asset": {"version": "2.0"},
+                "scene": 0,
+                "scenes": [{"nodes": [0]}],
+                "nodes": [{"mesh": 0, "name": "tri"}],
+                "meshes": [{"primitives": [{"attributes": {"POSITION": 0}, "material": 0}]}],
+                "materials": [{"pbrMetallicRoughness": pbr}],
+                "images": [{"uri": image}],
+                "textures": [{"source": 0}],
+                "accessors": [{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3", "min": [0, 0, 0], "max": [1, 1, 0]}],
+                "bufferViews": [{"buffer": 0, "byteLength": 36}],
+                "buffers": [{"byteLength": 36, "uri": "m.bin"}]
+            })
+            .to_string()
+        };
+        let read = |text: String| {
+            let path = d.path().join("m.gltf");
+            std::fs::write(&path, text).unwrap();
+            let mut diag = Diagnostics::default();
+            let m = load(&path, &mut diag).unwrap();
+            (m.materials[0].gloss.unwrap(), diag)
+        };
+        let textured = serde_json::json!({"metallicRoughnessTexture": {"index": 0}});
+        let (g, diag) = read(gltf(textured.clone(), "mr.png"));
+        assert_eq!(g.metallic, 0.0);
+        assert!((g.alpha - (128.0f64 / 255.0).powi(2)).abs() < 1e-6, "{g:?}");
+        assert!(
+            diag.warnings
+                .iter()
+                .any(|w| w.contains("mean over the image")),
+            "{:?}",
+            diag.warnings
+        );
+        let (g, _) = read(gltf(serde_json::json!({}), "mr.png"));
+        assert_eq!((g.metallic, g.alpha), (1.0, 1.0));
+        std::fs::write(d.path().join("junk.png"), b"not an image").unwrap();
+        let (g, diag) = read(gltf(textured, "junk.png"));
+        assert_eq!((g.metallic, g.alpha), (1.0, 1.0));
+        assert!(
+            diag.warnings
+                .iter()
+                .any(|w| w.contains("could not be read")),
+            "{:?}",
+            diag.warnings
+        );
+    }
 }
