@@ -118,7 +118,7 @@ pub struct Dielectric {
 }
 
 /// A surface material, with per-band coefficients.
-#[derive(Clone, Debug)]
+#[derive(Clone)]
 pub struct Material {
     pub diffuse_reflect: Vec<f64>,
     pub specular_reflect: Vec<f64>,
@@ -142,6 +142,28 @@ pub struct Material {
     /// Its tangent is each triangle's direction of increasing texture coordinate u
     /// (`tangent` where the coordinates are degenerate).
     pub uv_tangent: bool,
+}
+
+/// As derived, but `uv_tangent` only when set: the state fingerprint hashes this text, and a
+/// scene that does not use a feature keeps the fingerprint it had before the feature
+/// existed (a state saved before it still resumes).
+impl std::fmt::Debug for Material {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let mut d = f.debug_struct("Material");
+        d.field("diffuse_reflect", &self.diffuse_reflect)
+            .field("specular_reflect", &self.specular_reflect)
+            .field("diffuse_transmit", &self.diffuse_transmit)
+            .field("dielectric", &self.dielectric)
+            .field("events", &self.events)
+            .field("glossy", &self.glossy)
+            .field("tangent", &self.tangent)
+            .field("texture", &self.texture)
+            .field("tint_lobes", &self.tint_lobes);
+        if self.uv_tangent {
+            d.field("uv_tangent", &self.uv_tangent);
+        }
+        d.finish()
+    }
 }
 
 /// `tint_lobes`: the diffuse reflectance (a plastic's base albedo).
