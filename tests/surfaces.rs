@@ -1461,6 +1461,19 @@ fn textures_and_vertex_factors_vary_the_coefficients() {
     assert_maps_agree(&maps[0], &maps[1], "textured floor, 1 and 3 threads");
 }
 
+/// A one-texel texture of 0.5 (read exactly: the nearest texel).
+fn half_texture(ctx: &mut Context) -> u32 {
+    ctx.add_texture(&imap::TextureDesc {
+        width: 1,
+        height: 1,
+        channels: 1,
+        values: &[0.5],
+        nearest: true,
+        clamp: false,
+    })
+    .unwrap()
+}
+
 /// A closed room whose floor is `kind` ("plastic": ρ 0.8 under an n 1.5, α 0.2 coat;
 /// "aluminium": α 0.3; "frosted": a rough glass slab, α 0.4), either plain with its colour
 /// or roughness already halved, or at full value with a one-texel texture of 0.5 on that
@@ -1470,18 +1483,7 @@ fn glossy_tinted_room(seed: u64, kind: &str, textured: bool) -> (Context, Vec<u3
     let walls = lambert(&mut ctx, 0.5);
     let room = cuboid([-1.0, -1.0, 0.0], [1.0, 1.0, 2.0], 4, true);
     let w = ctx.add_mesh(&room.desc(walls)).unwrap();
-    let half = [0.5];
-    let texture = textured.then(|| {
-        ctx.add_texture(&imap::TextureDesc {
-            width: 1,
-            height: 1,
-            channels: 1,
-            values: &half,
-            nearest: true,
-            clamp: false,
-        })
-        .unwrap()
-    });
+    let texture = textured.then(|| half_texture(&mut ctx));
     let k = if textured { 1.0 } else { 0.5 };
     let desc = match kind {
         "plastic" => MaterialDesc {
@@ -1567,18 +1569,7 @@ fn textures_vary_microfacet_surfaces() {
         let black = lambert(&mut ctx, 0.0);
         let room = cuboid([-1.0, -1.0, 0.0], [1.0, 1.0, 2.0], 4, true);
         let w = ctx.add_mesh(&room.desc(black)).unwrap();
-        let half = [0.5];
-        let t = texture.then(|| {
-            ctx.add_texture(&imap::TextureDesc {
-                width: 1,
-                height: 1,
-                channels: 1,
-                values: &half,
-                nearest: true,
-                clamp: false,
-            })
-            .unwrap()
-        });
+        let t = texture.then(|| half_texture(&mut ctx));
         let m = ctx
             .add_material(&MaterialDesc {
                 surface: SurfaceModel::Conductor(ConductorIndex::Metal(Metal::Silver)),

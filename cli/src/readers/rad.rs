@@ -899,24 +899,29 @@ pub fn load(path: &Path, bytes: &[u8], diag: &mut Diagnostics) -> Model {
 /// A material of a type that is read but whose arguments are not (why): grey, as an
 /// unread type's.
 fn unsupported_material(r: &mut Reader, p: &Primitive, diag: &mut Diagnostics, why: &str) {
-    diag.warn(format!(
-        "{}:{}: {} '{}' is not read ({why}): surfaces with it are grey 0.5; describe it with [materials.{}] in the settings",
-        r.path.display(),
-        p.line,
+    let what = format!(
+        "{} '{}' is not read ({why})",
         printable(&p.kind),
-        printable(&p.id),
         printable(&p.id)
-    ));
-    grey_material(r, p);
+    );
+    left_grey(r, p, diag, &what);
 }
 
 fn unsupported(r: &mut Reader, p: &Primitive, diag: &mut Diagnostics) {
+    let what = format!(
+        "material type '{}' ('{}') is not read",
+        printable(&p.kind),
+        printable(&p.id)
+    );
+    left_grey(r, p, diag, &what);
+}
+
+/// Warns that `p` (`what`) is not read and defines its name as a grey 0.5 material.
+fn left_grey(r: &mut Reader, p: &Primitive, diag: &mut Diagnostics, what: &str) {
     diag.warn(format!(
-        "{}:{}: material type '{}' ('{}') is not read: surfaces with it are grey 0.5; describe it with [materials.{}] in the settings",
+        "{}:{}: {what}: surfaces with it are grey 0.5; describe it with [materials.{}] in the settings",
         r.path.display(),
         p.line,
-        printable(&p.kind),
-        printable(&p.id),
         printable(&p.id)
     ));
     grey_material(r, p);
