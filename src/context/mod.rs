@@ -567,21 +567,20 @@ impl Context {
         )?;
         let mesh = Mesh::new(desc, self.scene.materials.len(), &self.scene.bands)?;
         if mesh.uvs.is_none() && !mesh.sensor {
-            let textured = (0..mesh.triangles.len())
-                .map(|t| mesh.material_of(t))
-                .find(|&m| {
-                    let mat = &self.scene.materials[m as usize];
-                    mat.texture.is_some() || mat.uv_tangent
-                });
-            if let Some(m) = textured {
+            let needs = (0..mesh.triangles.len()).find_map(|t| {
+                let m = mesh.material_of(t);
+                let mat = &self.scene.materials[m as usize];
+                if mat.texture.is_some() {
+                    Some((m, "textured"))
+                } else {
+                    mat.uv_tangent
+                        .then_some((m, "oriented by its texture coordinates (tangent_from_uvs)"))
+                }
+            });
+            if let Some((m, why)) = needs {
                 bail!(
                     ImapErrInvalidArgument,
-                    "material {m} is {}: the mesh needs texture coordinates (uvs)",
-                    if self.scene.materials[m as usize].texture.is_some() {
-                        "textured"
-                    } else {
-                        "oriented by its texture coordinates (tangent_from_uvs)"
-                    }
+                    "material {m} is {why}: the mesh needs texture coordinates (uvs)"
                 );
             }
         }

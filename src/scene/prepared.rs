@@ -82,8 +82,11 @@ impl PreparedScene {
         };
         let mut slots = 0usize;
         let mut meshes = Vec::with_capacity(scene.meshes.len());
+        // Tangents from texture coordinates only where a material asks for them.
+        let any_uv_tangent = scene.materials.iter().any(|m| m.uv_tangent);
         for (i, m) in scene.meshes.iter().enumerate() {
-            let uv_tangents = m.uvs.is_some()
+            let uv_tangents = any_uv_tangent
+                && m.uvs.is_some()
                 && (0..m.triangles.len())
                     .any(|t| scene.materials[m.material_of(t) as usize].uv_tangent);
             let p = prepare_mesh(m, origin, m.record.then_some(slots), uv_tangents)?;

@@ -205,8 +205,11 @@ fn uv_tangent(p: [DVec3; 3], uv: [[f64; 2]; 3]) -> Vec3 {
     let (du1, dv1) = (uv[1][0] - uv[0][0], uv[1][1] - uv[0][1]);
     let (du2, dv2) = (uv[2][0] - uv[0][0], uv[2][1] - uv[0][1]);
     let det = du1 * dv2 - du2 * dv1;
+    if det == 0.0 {
+        return Vec3::ZERO;
+    }
     let t = (e1 * dv2 - e2 * dv1) / det;
-    if det == 0.0 || !t.is_finite() || t.length_squared() == 0.0 {
+    if !t.is_finite() || t.length_squared() == 0.0 {
         return Vec3::ZERO;
     }
     t.normalize().as_vec3()

@@ -245,31 +245,23 @@ impl TintScratch {
         // dielectrics' vary (`Material::tint_lobes`): a mesh's vertex factors leave its
         // smooth dielectrics, measured tables, window and host BSDFs as they are.
         let ideal = base.glossy.is_none() && base.dielectric.is_none();
-        let glossy = base.glossy.as_ref().filter(|g| g.tintable());
+        let tintable = base.glossy.as_ref().is_some_and(|g| g.tintable());
         // The tangent frame from the texture coordinates (`Material::uv_tangent`: a
         // microfacet, measured or host surface, never an ideal one).
         let tangent = at.tangent.filter(|_| base.uv_tangent);
-        let tints = (ideal || glossy.is_some())
+        let tints = (ideal || tintable)
             && base.tint_lobes != 0
             && (texture.is_some() || at.factors.is_some());
         if !tints && tangent.is_none() {
             return base;
         }
-        if !tints {
-            let m = self.material.get_or_insert_with(|| base.clone());
-            if m.glossy.is_none() {
-                *m = base.clone();
-            }
-            Self::copy_glossy(base, m);
-            let g = base.glossy.as_ref().expect("a glossy surface");
-            g.tint_into(None, None, m.glossy.as_mut().expect("a glossy copy"));
-            m.tangent = tangent;
-            return m;
-        }
+        // The factor per band of the lobes the material names (none when only the tangent
+        // varies).
+        let lobes = if tints { base.tint_lobes } else { 0 };
         let nb = base.diffuse_reflect.len();
         self.factor.clear();
         self.factor.resize(nb, 1.0);
-        if let (Some(t), Some(uv)) = (texture, at.uvs) {
+        if let (Some(t), Some(uv), true) = (texture, at.uvs, tints) {
             let u: f64 = (0..3).map(|k| at.w[k] * uv[k][0] as f64).sum();
             let v: f64 = (0..3).map(|k| at.w[k] * uv[k][1] as f64).sum();
             self.channels.resize(t.channels(), 0.0);
@@ -278,7 +270,7 @@ impl TintScratch {
                 *f *= self.channels[band_channel(bands, t.channels(), b)];
             }
         }
-        if let Some((vf, tri)) = at.factors {
+        if let (Some((vf, tri)), true) = (at.factors, tints) {
             for (b, f) in self.factor.iter_mut().enumerate() {
                 let ch = band_channel(bands, vf.channels, b);
                 let x: f64 = (0..3)
@@ -287,9 +279,9 @@ impl TintScratch {
                 *f *= x;
             }
         }
-        let lobes = base.tint_lobes;
-        if let Some(g) = glossy {
-            // A microfacet surface: its copy's fields all rewritten from `base`.
+        if let Some(g) = &base.glossy {
+            // A microfacet, measured or host surface (tinted only when `tintable`): its
+            // copy's fields all rewritten from `base`.
             let m = self.material.get_or_insert_with(|| base.clone());
             if m.glossy.is_none() {
                 *m = base.clone();
@@ -403,7 +395,7 @@ mod tests {
     }
 
     #[test]
-    fn vertex_factors_vary_ideal_materials_only() {
+    fn vertex_factors_leave_smooth_dielectrics_alone() {
         use crate::scene::{IorModel, MaterialDesc};
         let bands = Bands::rgb();
         let lambert = Material::new(
