@@ -24,7 +24,7 @@
 //!         [--ref-seconds 60] [--max-seconds 40] [--scenes room,cornell]
 //!         [--samples 0] [--pass-photons 0] [--estimators photons,ls,gather]
 //!         [--scheduler dynamic|classic]   (the estimators' runs; the reference's stays dynamic)
-//!         [--floor lambert|white|aluminium|chromium]   (the room's floor: ρ = 0.5, ρ = 0.9, or rough
+//!         [--floor lambert|lambert:ρ|white|aluminium|chromium]   (the room's floor: ρ = 0.5, ρ, ρ = 0.9, or rough
 //!         aluminium α 0.3, which reflects about as much as the white one, or rough chromium α 0.3,
 //!         about as much as the grey one)
 
@@ -136,12 +136,20 @@ fn room(config: Config, floor: &str) -> Scene {
         surface: imap::SurfaceModel::Conductor(imap::ConductorIndex::Metal(imap::Metal::Chromium)),
         ..rough.clone()
     };
+    let lambert;
     let floor = match floor {
         "lambert" => None,
         "white" => Some(&white),
         "aluminium" => Some(&rough),
         "chromium" => Some(&chromium),
-        other => panic!("--floor takes lambert, white, aluminium or chromium, not {other}"),
+        f if f.starts_with("lambert:") => {
+            lambert = MaterialDesc {
+                diffuse_reflect: vec![f[8..].parse().expect("--floor lambert:ρ")],
+                ..Default::default()
+            };
+            Some(&lambert)
+        }
+        other => panic!("--floor takes lambert, lambert:ρ, white, aluminium or chromium, not {other}"),
     };
     let r = grey_room_with_floor(&mut ctx, 40, floor).unwrap();
     let grid = floor_grid(&mut ctx, [0.05, 0.95], 0.001, 1.0, r.black);
