@@ -149,7 +149,9 @@ fn room(config: Config, floor: &str) -> Scene {
             };
             Some(&lambert)
         }
-        other => panic!("--floor takes lambert, lambert:ρ, white, aluminium or chromium, not {other}"),
+        other => {
+            panic!("--floor takes lambert, lambert:ρ, white, aluminium or chromium, not {other}")
+        }
     };
     let r = grey_room_with_floor(&mut ctx, 40, floor).unwrap();
     let grid = floor_grid(&mut ctx, [0.05, 0.95], 0.001, 1.0, r.black);

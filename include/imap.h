@@ -1908,6 +1908,23 @@ typedef struct ImapMaterial {
    * conductors and plastics IMAP_ERR_UNSUPPORTED. (Since 0.2.3.)
    */
   uint32_t texture_lobes;
+  /**
+   * A dielectric's (smooth or rough) scattering coefficient σs inside, 1/m, per band,
+   * ≥ 0: a homogeneous scattering medium (an opal diffuser, a light guide's bulk, a
+   * volume of haze behind an index-1 boundary). Its absorption is `absorption_per_m`;
+   * free flights are drawn per band without bias. Photons scatter in it (so do the
+   * renderer's eye paths); light through a dielectric is the photons' in every
+   * estimator, so light sampling and gathering stay unbiased. Another material gets
+   * IMAP_ERR_BAD_MATERIAL. (Since 0.2.3.)
+   */
+  const double *scattering_per_m;
+  size_t scattering_count;
+  /**
+   * The Henyey–Greenstein asymmetry g of that scattering per band, in (−1, 1); 0 values:
+   * isotropic. Needs `scattering_per_m`. (Since 0.2.3.)
+   */
+  const double *phase_g;
+  size_t phase_g_count;
 } ImapMaterial;
 
 /**

@@ -17,8 +17,9 @@
 //!   reflectance at normal incidence is the mean `Ks` (index (1 + √F0) / (1 − √F0)), or 4 %
 //!   (index 1.5) without a `Ks`. A smoother one keeps the ideal mapping above.
 //! - `[materials.NAME]` in the settings overrides any of it: `diffuse`, `specular`,
-//!   `transmit`, `emission`, `ior`, `sellmeier`, `absorption_per_m`, `dielectric =
-//!   true/false` to make or unmake glass, and `kind = "ideal" | "conductor" | "plastic" |
+//!   `transmit`, `emission`, `ior`, `sellmeier`, `absorption_per_m`, `scattering_per_m`,
+//!   `phase_g` (a dielectric's scattering medium), `dielectric = true/false` to make or
+//!   unmake glass, and `kind = "ideal" | "conductor" | "plastic" |
 //!   "rough-dielectric"` with `roughness` (α, or [α along the tangent, α across]),
 //!   `tangent`, a conductor's `metal` ("aluminium", "silver", "gold", "copper",
 //!   "chromium") or `nk` rows [nm, n, k], a plastic's coat `ior` (default 1.5) over
@@ -237,6 +238,16 @@ pub fn resolve(
         diffuse_transmit: if dielectric { vec![] } else { transmit },
         ior: model,
         absorption_per_m: if dielectric { absorption } else { vec![] },
+        // Given to any material: the library refuses a medium outside a dielectric, naming
+        // it, rather than the settings losing it.
+        scattering_per_m: o
+            .scattering_per_m
+            .as_ref()
+            .map_or(vec![], |s| per_band(s, "scattering_per_m", diag)),
+        phase_g: o
+            .phase_g
+            .as_ref()
+            .map_or(vec![], |s| per_band(s, "phase_g", diag)),
         ..Default::default()
     };
     let desc = glossy(desc, m, &o, kd, band_nm, rgb, settings_at, diag);
@@ -260,6 +271,8 @@ fn optics_given(o: &MaterialSettings) -> Option<&'static str> {
         ("specular", o.specular.is_some()),
         ("transmit", o.transmit.is_some()),
         ("absorption_per_m", o.absorption_per_m.is_some()),
+        ("scattering_per_m", o.scattering_per_m.is_some()),
+        ("phase_g", o.phase_g.is_some()),
     ]
     .into_iter()
     .find_map(|(field, given)| given.then_some(field))

@@ -566,6 +566,19 @@ pub struct ImapMaterial {
     /// surface does not have is IMAP_ERR_BAD_MATERIAL; the roughness of anisotropic
     /// conductors and plastics IMAP_ERR_UNSUPPORTED. (Since 0.2.3.)
     pub texture_lobes: u32,
+    /// A dielectric's (smooth or rough) scattering coefficient σs inside, 1/m, per band,
+    /// ≥ 0: a homogeneous scattering medium (an opal diffuser, a light guide's bulk, a
+    /// volume of haze behind an index-1 boundary). Its absorption is `absorption_per_m`;
+    /// free flights are drawn per band without bias. Photons scatter in it (so do the
+    /// renderer's eye paths); light through a dielectric is the photons' in every
+    /// estimator, so light sampling and gathering stay unbiased. Another material gets
+    /// IMAP_ERR_BAD_MATERIAL. (Since 0.2.3.)
+    pub scattering_per_m: *const f64,
+    pub scattering_count: usize,
+    /// The Henyey–Greenstein asymmetry g of that scattering per band, in (−1, 1); 0 values:
+    /// isotropic. Needs `scattering_per_m`. (Since 0.2.3.)
+    pub phase_g: *const f64,
+    pub phase_g_count: usize,
 }
 
 // SAFETY: repr(C), u32 struct_size first, numbers and raw pointers only.
@@ -606,6 +619,10 @@ unsafe impl Versioned for ImapMaterial {
             host_bsdf: std::ptr::null(),
             texture: IMAP_NO_TEXTURE,
             texture_lobes: 0,
+            scattering_per_m: std::ptr::null(),
+            scattering_count: 0,
+            phase_g: std::ptr::null(),
+            phase_g_count: 0,
         }
     }
 }
@@ -785,6 +802,12 @@ pub unsafe extern "C" fn imap_add_material(
                 m.absorption_per_m,
                 m.absorption_count,
             )?,
+            scattering_per_m: per_band(
+                "material.scattering_per_m",
+                m.scattering_per_m,
+                m.scattering_count,
+            )?,
+            phase_g: per_band("material.phase_g", m.phase_g, m.phase_g_count)?,
             surface: match m.surface {
                 IMAP_SURFACE_IDEAL => SurfaceModel::Ideal,
                 IMAP_SURFACE_CONDUCTOR => SurfaceModel::Conductor(match m.metal {

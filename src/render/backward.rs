@@ -14,6 +14,7 @@ use crate::scene::bsdf::{reflect, refract};
 use crate::scene::bsdf::{Bsdf, Lobe};
 use crate::scene::light::DistantPart;
 use crate::scene::material::fresnel_dielectric;
+use crate::scene::medium::{Flight, Scattering};
 use crate::scene::texture::TintScratch;
 use crate::scene::{LightSample, Material, PreparedScene, Receiver, Scene};
 use crate::spectral::collapse_weights;
@@ -248,8 +249,18 @@ impl<'a> EyeTracer<'a> {
                 self.add_distant_weighted(dir, beta, &mut buf.direct[d0..], false, glossy_pdf);
                 return;
             };
+            match self.flight(medium, hit.t, beta, rng) {
+                Some(Flight::Surface) => {}
+                Some(Flight::Absorbed) => return,
+                Some(Flight::Scatter(t)) => {
+                    path_len += t;
+                    glossy_pdf = None;
+                    self.scatter(medium, t, &mut dir, &mut org, beta, rng);
+                    continue;
+                }
+                None => self.absorb(medium, hit.t, beta),
+            }
             path_len += hit.t;
-            self.absorb(medium, hit.t, beta);
             let at = self.surface(&hit, dir);
             // Emission seen directly or through specular surfaces.
             self.add_emission_weighted(&hit, at.ng, dir, beta, &mut buf.direct[d0..], glossy_pdf);
@@ -382,7 +393,19 @@ impl<'a> EyeTracer<'a> {
                 }
                 return;
             };
-            self.absorb(medium, hit.t, beta);
+            match self.flight(medium, hit.t, beta, rng) {
+                Some(Flight::Surface) => {}
+                Some(Flight::Absorbed) => return,
+                Some(Flight::Scatter(t)) => {
+                    // Light met after a scattering event is found by this path alone (a
+                    // light sample cannot cross the dielectric's surface).
+                    counts = true;
+                    glossy_pdf = None;
+                    self.scatter(medium, t, &mut dir, &mut org, beta, rng);
+                    continue;
+                }
+                None => self.absorb(medium, hit.t, beta),
+            }
             let at = self.surface(&hit, dir);
             if counts {
                 self.add_emission_weighted(&hit, at.ng, dir, beta, out, glossy_pdf);
@@ -953,6 +976,54 @@ impl<'a> EyeTracer<'a> {
                     *o += b * l * f;
                 }
             }
+        }
+    }
+
+    /// A free flight toward a surface `t` scene units away inside `medium` (a dielectric's
+    /// id) when it scatters (`None` when it does not: `absorb` then).
+    #[inline]
+    fn flight(
+        &self,
+        medium: Option<u32>,
+        t: f64,
+        beta: &mut [f64],
+        rng: &mut PhotonRng,
+    ) -> Option<Flight> {
+        let sc = self.scattering(medium)?;
+        let u = [rng.uniform(), rng.uniform(), rng.uniform()];
+        Some(match sc.flight(beta, t * self.unit_m, u) {
+            Flight::Scatter(t_m) => Flight::Scatter(t_m / self.unit_m),
+            other => other,
+        })
+    }
+
+    /// The scattering of `medium` (a dielectric's id), if any.
+    #[inline]
+    fn scattering(&self, medium: Option<u32>) -> Option<&Scattering> {
+        medium.and_then(|m| {
+            self.materials[m as usize]
+                .dielectric
+                .as_ref()
+                .and_then(|d| d.scattering.as_ref())
+        })
+    }
+
+    /// Moves an eye path `t` scene units on to a scattering event in `medium` and turns it
+    /// by the phase function.
+    #[inline]
+    fn scatter(
+        &self,
+        medium: Option<u32>,
+        t: f64,
+        dir: &mut DVec3,
+        org: &mut DVec3,
+        beta: &mut [f64],
+        rng: &mut PhotonRng,
+    ) {
+        if let Some(sc) = self.scattering(medium) {
+            *org += *dir * t;
+            let u = [rng.uniform(), rng.uniform(), rng.uniform()];
+            *dir = sc.scatter(*dir, beta, u);
         }
     }
 

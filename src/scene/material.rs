@@ -107,7 +107,7 @@ impl IorModel {
 }
 
 /// A dielectric medium bounded by the mesh's surface.
-#[derive(Clone, Debug)]
+#[derive(Clone)]
 pub struct Dielectric {
     /// Index of refraction per band.
     pub ior: Vec<f64>,
@@ -115,6 +115,23 @@ pub struct Dielectric {
     pub dispersive: bool,
     /// Beer–Lambert absorption coefficient per band, in 1/m. `None` when clear.
     pub absorption_per_m: Option<Vec<f64>>,
+    /// Scattering inside (`None`: none).
+    pub scattering: Option<crate::scene::medium::Scattering>,
+}
+
+/// As derived, but `scattering` only when present: the state fingerprint hashes this text,
+/// and a scene without scattering keeps the fingerprint it had before scattering existed.
+impl std::fmt::Debug for Dielectric {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let mut d = f.debug_struct("Dielectric");
+        d.field("ior", &self.ior)
+            .field("dispersive", &self.dispersive)
+            .field("absorption_per_m", &self.absorption_per_m);
+        if let Some(s) = &self.scattering {
+            d.field("scattering", s);
+        }
+        d.finish()
+    }
 }
 
 /// A surface material, with per-band coefficients.
@@ -184,6 +201,11 @@ pub struct MaterialDesc {
     pub diffuse_transmit: Vec<f64>,
     pub ior: Option<IorModel>,
     pub absorption_per_m: Vec<f64>,
+    /// A dielectric's scattering coefficient per band, 1/m (empty: none).
+    pub scattering_per_m: Vec<f64>,
+    /// The Henyey–Greenstein asymmetry of its scattering per band, in (−1, 1) (empty: 0,
+    /// isotropic).
+    pub phase_g: Vec<f64>,
     /// The kind of surface.
     pub surface: SurfaceModel,
     /// GGX α along the tangent and the bitangent (a microfacet surface's; [0, 0] for an
@@ -227,6 +249,19 @@ impl Material {
                 desc.texture_lobes
             );
         }
+        let medium = !desc.scattering_per_m.is_empty() || !desc.phase_g.is_empty();
+        if medium
+            && !(desc.ior.is_some()
+                && matches!(
+                    desc.surface,
+                    SurfaceModel::Ideal | SurfaceModel::RoughDielectric
+                ))
+        {
+            bail!(
+                ImapErrBadMaterial,
+                "scattering_per_m or phase_g is given but the material is not a dielectric (smooth or rough, with an index of refraction): a medium is the inside of a dielectric"
+            );
+        }
         let lobes = Self::tint_lobes(desc)?;
         if desc.surface != SurfaceModel::Ideal {
             let mut m = Self::microfacet(desc, bands)?;
@@ -249,6 +284,50 @@ impl Material {
             );
         }
         Self::ideal(desc, bands)
+    }
+
+    /// A dielectric's scattering: σs per band (finite, ≥ 0; all 0 or none: `None`) and g
+    /// per band (finite, in (−1, 1); none: 0).
+    fn scattering(
+        desc: &MaterialDesc,
+        bands: &Bands,
+        absorption: Option<&[f64]>,
+    ) -> Result<Option<crate::scene::medium::Scattering>> {
+        if desc.scattering_per_m.is_empty() {
+            if !desc.phase_g.is_empty() {
+                bail!(
+                    ImapErrBadMaterial,
+                    "phase_g is given but scattering_per_m is not: a phase function needs scattering"
+                );
+            }
+            return Ok(None);
+        }
+        let s = bands.expand("scattering_per_m", &desc.scattering_per_m)?;
+        if let Some(i) = s.iter().position(|x| !(x.is_finite() && *x >= 0.0)) {
+            bail!(
+                ImapErrBadMaterial,
+                "scattering_per_m[{i}] = {} must be finite and >= 0 (1/m)",
+                s[i]
+            );
+        }
+        let g = if desc.phase_g.is_empty() {
+            vec![0.0; bands.count()]
+        } else {
+            bands.expand("phase_g", &desc.phase_g)?
+        };
+        if let Some(i) = g.iter().position(|x| !(x.is_finite() && x.abs() < 1.0)) {
+            bail!(
+                ImapErrBadMaterial,
+                "phase_g[{i}] = {} must be inside (-1, 1) (Henyey-Greenstein asymmetry)",
+                g[i]
+            );
+        }
+        if s.iter().all(|&x| x == 0.0) {
+            return Ok(None);
+        }
+        Ok(Some(crate::scene::medium::Scattering::new(
+            s, absorption, g,
+        )))
     }
 
     /// An ideal surface's description.
@@ -323,10 +402,12 @@ impl Material {
                     }
                     a.iter().any(|&x| x > 0.0).then_some(a)
                 };
+                let scattering = Self::scattering(desc, bands, absorption_per_m.as_deref())?;
                 Some(Dielectric {
                     ior,
                     dispersive,
                     absorption_per_m,
+                    scattering,
                 })
             }
         };
@@ -552,6 +633,8 @@ impl Material {
                     &MaterialDesc {
                         ior: desc.ior.clone(),
                         absorption_per_m: desc.absorption_per_m.clone(),
+                        scattering_per_m: desc.scattering_per_m.clone(),
+                        phase_g: desc.phase_g.clone(),
                         ..Default::default()
                     },
                     bands,

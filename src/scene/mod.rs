@@ -7,6 +7,7 @@ pub mod host;
 pub mod klems;
 pub mod light;
 pub mod material;
+pub mod medium;
 pub mod mesh;
 mod metals;
 pub mod microfacet;

@@ -56,6 +56,12 @@ impl Colour {
         self.emitted
     }
 
+    /// Per-band values to re-weight in place (a medium's free flights and scattering, which
+    /// keep their total).
+    pub(crate) fn values_mut(&mut self) -> &mut [f64] {
+        &mut self.c
+    }
+
     /// Per-band values (all bands; after a collapse only `band()` is non-zero).
     pub fn values(&self) -> &[f64] {
         &self.c

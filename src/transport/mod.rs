@@ -13,6 +13,7 @@ use crate::accel::Accel;
 use crate::sampling::PhotonRng;
 use crate::scene::bsdf::{reflect, refract};
 use crate::scene::material::Polarisation;
+use crate::scene::medium::Flight;
 use crate::scene::{Material, PreparedScene};
 use glam::DVec3;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -136,6 +137,32 @@ impl WeightedBounces {
         for (d, c) in self.delta.iter_mut().zip(colour.values()) {
             *d -= c;
         }
+    }
+}
+
+impl WeightedBounces {
+    /// `f` re-weights the colour's bands keeping their total (a medium's free flight or
+    /// scattering, inside `mesh`): each band's change is tallied as absorbed (a gain as a
+    /// negative absorption), so that the run's balance stays exact per band.
+    fn moved<T>(&mut self, mesh: u32, colour: &mut Colour, f: impl FnOnce(&mut [f64]) -> T) -> T {
+        let nb = colour.values().len();
+        if self.delta.len() != nb {
+            self.delta.clear();
+            self.delta.resize(nb, 0.0);
+        }
+        for (d, c) in self.delta.iter_mut().zip(colour.values()) {
+            *d += c;
+        }
+        let out = f(colour.values_mut());
+        for (d, c) in self.delta.iter_mut().zip(colour.values()) {
+            *d -= c;
+        }
+        // The total is kept: the mesh absorbed nothing here, but the deltas are tallied
+        // at the path's end only when a bounce is listed.
+        if self.meshes.is_empty() {
+            self.meshes.push((mesh, 0.0));
+        }
+        out
     }
 }
 
@@ -489,15 +516,23 @@ impl Tracer<'_> {
             }
             let hit = self.accel.intersect(org, dir);
 
-            // Beer–Lambert: survive the segment through an absorbing medium with the
-            // colour-weighted transmittance, re-weighting the colour by band.
+            // Inside a dielectric: a scattering medium's free flight (which may end before
+            // the surface), or Beer–Lambert: survive the segment through an absorbing
+            // medium with the colour-weighted transmittance, re-weighting the colour by
+            // band.
+            let mut scattered_at = None;
             if let Some(m) = medium {
-                if let Some(alpha) = self.materials[m.material as usize]
-                    .dielectric
-                    .as_ref()
-                    .and_then(|d| d.absorption_per_m.as_ref())
-                {
-                    let dist_m = hit.map_or(f64::INFINITY, |h| h.t) * self.unit_m;
+                let d = self.materials[m.material as usize].dielectric.as_ref();
+                let dist_m = hit.map_or(f64::INFINITY, |h| h.t) * self.unit_m;
+                if let Some(sc) = d.and_then(|d| d.scattering.as_ref()) {
+                    let u = [rng.uniform(), rng.uniform(), rng.uniform()];
+                    let flight = bounces.moved(m.mesh, colour, |c| sc.flight(c, dist_m, u));
+                    match flight {
+                        Flight::Surface => {}
+                        Flight::Absorbed => return PathEnd::Absorbed(m.mesh),
+                        Flight::Scatter(t_m) => scattered_at = Some((sc, t_m / self.unit_m)),
+                    }
+                } else if let Some(alpha) = d.and_then(|d| d.absorption_per_m.as_ref()) {
                     let p = colour.survive_absorption(alpha, dist_m, rng.uniform());
                     if p.is_none() {
                         return PathEnd::Absorbed(m.mesh);
@@ -516,11 +551,15 @@ impl Tracer<'_> {
             };
             if let Some(sensors) = self.sensors {
                 // Sensors on the segment, up to and including the surface it ends on (a
-                // sensor laid on a floor sees the light arriving there).
-                let t_end = hit.map_or(f64::INFINITY, |h| {
-                    let m = &self.scene.meshes[h.mesh as usize];
-                    h.t + 2.0 * self.scene.offset_at(m.point(h.prim as usize, h.u, h.v))
-                });
+                // sensor laid on a floor sees the light arriving there), or up to where
+                // it scatters in a medium.
+                let t_end = match scattered_at {
+                    Some((_, t)) => t,
+                    None => hit.map_or(f64::INFINITY, |h| {
+                        let m = &self.scene.meshes[h.mesh as usize];
+                        h.t + 2.0 * self.scene.offset_at(m.point(h.prim as usize, h.u, h.v))
+                    }),
+                };
                 sensors.crossings(org, dir, t_end, |c| {
                     let mesh = &self.scene.meshes[c.mesh as usize];
                     let front = dir.dot(mesh.normals[c.prim as usize].as_dvec3()) < 0.0;
@@ -529,6 +568,19 @@ impl Tracer<'_> {
                         deposit(sink, weigh, (c.mesh, c.prim, side), (c.u, c.v), dir, colour);
                     }
                 });
+            }
+            if let Some((sc, t)) = scattered_at {
+                // A scattering event in the medium: a new direction by the phase function.
+                if event == 0 {
+                    sink.direct_done();
+                }
+                pol = None;
+                org += dir * t;
+                let u = [rng.uniform(), rng.uniform(), rng.uniform()];
+                dir = bounces.moved(medium.map_or(0, |m| m.mesh), colour, |c| {
+                    sc.scatter(dir, c, u)
+                });
+                continue;
             }
             let Some(hit) = hit else {
                 return PathEnd::Escaped;

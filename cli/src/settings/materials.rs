@@ -16,6 +16,10 @@ pub struct MaterialSettings {
     /// Sellmeier coefficients (λ in µm): b and c, three each.
     pub sellmeier: Option<[[f64; 3]; 2]>,
     pub absorption_per_m: Option<Spectrum>,
+    /// A dielectric's scattering coefficient inside, 1/m (a homogeneous medium).
+    pub scattering_per_m: Option<Spectrum>,
+    /// The Henyey–Greenstein asymmetry of that scattering, in (−1, 1) (default 0).
+    pub phase_g: Option<Spectrum>,
     /// Exitance, W/m² per band.
     pub emission: Option<Spectrum>,
     /// The surface model: "ideal" (Lambert, mirror, smooth glass by the fields above),

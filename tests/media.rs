@@ -1,0 +1,373 @@
+//! Scattering media inside dielectrics: a semi-infinite isotropic scatterer against
+//! Chandrasekhar's H-function (per band, three albedos in one run), the energy balance of a
+//! forward-scattering sphere, photons against gathering through a scattering diffuser,
+//! determinism over threads, and the statuses of bad media.
+
+mod common;
+
+use common::*;
+use imap::{Estimator, IorModel, MaterialDesc};
+
+/// Chandrasekhar's H-function of isotropic scattering with single-scattering albedo `w`,
+/// on a midpoint grid of `n` points of (0, 1), by iterating
+/// 1/H(μ) = 1 − (w/2) μ ∫ H(μ')/(μ + μ') dμ'.
+fn h_function(w: f64, n: usize) -> (Vec<f64>, Vec<f64>) {
+    let mu: Vec<f64> = (0..n).map(|i| (i as f64 + 0.5) / n as f64).collect();
+    let mut h = vec![1.0; n];
+    for _ in 0..2000 {
+        let next: Vec<f64> = mu
+            .iter()
+            .map(|&m| {
+                let s: f64 = mu
+                    .iter()
+                    .zip(&h)
+                    .map(|(&m2, &h2)| h2 / (m + m2))
+                    .sum::<f64>()
+                    / n as f64;
+                1.0 / (1.0 - 0.5 * w * m * s)
+            })
+            .collect();
+        let change = next
+            .iter()
+            .zip(&h)
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0, f64::max);
+        h = next;
+        if change < 1e-12 {
+            break;
+        }
+    }
+    (mu, h)
+}
+
+/// H at μ = 1 (by the integral equation itself, from the grid's H).
+fn h_at(w: f64, mu: &[f64], h: &[f64], m: f64) -> f64 {
+    let s: f64 = mu
+        .iter()
+        .zip(h)
+        .map(|(&m2, &h2)| h2 / (m + m2))
+        .sum::<f64>()
+        / mu.len() as f64;
+    1.0 / (1.0 - 0.5 * w * m * s)
+}
+
+/// A 4 × 4 × 2 m block of index 1 (no Fresnel: the medium alone), its top at z = 0, with
+/// σt = 20/m of albedo `albedo` per band and asymmetry `g`.
+fn block(ctx: &mut imap::Context, albedo: &[f64], g: f64) -> u32 {
+    let sigma_t = 20.0;
+    let m = ctx
+        .add_material(&MaterialDesc {
+            ior: Some(IorModel::Constant(1.0)),
+            scattering_per_m: albedo.iter().map(|w| w * sigma_t).collect(),
+            absorption_per_m: albedo.iter().map(|w| (1.0 - w) * sigma_t).collect(),
+            phase_g: vec![g],
+            ..Default::default()
+        })
+        .unwrap();
+    let geometry = cuboid([-2.0, -2.0, -2.0], [2.0, 2.0, 0.0], 2, false);
+    let mut d = geometry.desc(m);
+    d.record = false;
+    ctx.add_mesh(&d).unwrap()
+}
+
+#[test]
+fn a_semi_infinite_isotropic_scatterer_reflects_as_chandrasekhar_per_band() {
+    // A beam at normal incidence onto a medium 40 mean free paths deep and 40 wide on each
+    // side: its albedo is 1 − H(1) √(1 − ω). Three bands of three albedos in one run
+    // check that one free flight serves every band without bias.
+    let albedos = [0.3, 0.8, 0.95];
+    let mut ctx = context(seeded(11));
+    let id = block(&mut ctx, &albedos, 0.0);
+    ctx.add_spot_light([0.0, 0.0, 1.0], [0.0, 0.0, -1.0], 1e-3, &[1.0])
+        .unwrap();
+    let n = photons(400_000);
+    let report = run_photons_only(&mut ctx, n);
+    let [emitted, absorbed, escaped, dropped] = &report.band_w;
+    for (b, &w) in albedos.iter().enumerate() {
+        let (mu, h) = h_function(w, 4000);
+        // The grid's H must satisfy ∫H dμ = (2/ω)(1 − √(1 − ω)).
+        let h0 = h.iter().sum::<f64>() / h.len() as f64;
+        let h0_exact = 2.0 / w * (1.0 - (1.0 - w).sqrt());
+        assert!((h0 - h0_exact).abs() < 1e-4, "∫H {h0} against {h0_exact}");
+        let expected = 1.0 - h_at(w, &mu, &h, 1.0) * (1.0 - w).sqrt();
+        let r = escaped[b] / emitted[b];
+        let balance = (absorbed[b] + escaped[b] + dropped[b]) / emitted[b] - 1.0;
+        // A binomial error with room for the bands' weights.
+        let sigma = 2.0 * (expected * (1.0 - expected) / n as f64).sqrt();
+        eprintln!(
+            "ω {w}: reflected {r:.5}, Chandrasekhar {expected:.5} ({:+.2} σ); balance {balance:.1e}",
+            (r - expected) / sigma
+        );
+        assert!(
+            (r - expected).abs() < 4.0 * sigma,
+            "ω {w}: {r} against {expected}"
+        );
+        assert!(balance.abs() < 1e-9, "band {b}: balance off by {balance}");
+        let in_block = ctx.absorbed_w(id).unwrap();
+        assert!(in_block > 0.0);
+    }
+}
+
+#[test]
+fn forward_scattering_reflects_less_and_the_balance_holds() {
+    // The same block with g = 0.8 against g = 0: light scattered forward goes deeper and
+    // fewer photons come back out (for ω = 0.9 the similarity relation puts the albedo of
+    // g 0.8 near that of an isotropic medium of ω' = 0.2 ω / (1 − 0.8 ω) = 0.64).
+    let reflect = |g: f64| {
+        let mut ctx = context(seeded(5));
+        block(&mut ctx, &[0.9], g);
+        ctx.add_spot_light([0.0, 0.0, 1.0], [0.0, 0.0, -1.0], 1e-3, &[1.0])
+            .unwrap();
+        let report = run_photons_only(&mut ctx, photons(100_000));
+        let balance =
+            (report.absorbed_w + report.escaped_w + report.dropped_w) / report.emitted_w - 1.0;
+        assert!(balance.abs() < 1e-9, "g {g}: balance off by {balance}");
+        report.escaped_w / report.emitted_w
+    };
+    let (iso, fwd) = (reflect(0.0), reflect(0.8));
+    let (mu, h) = h_function(0.64, 2000);
+    let similar = 1.0 - h_at(0.64, &mu, &h, 1.0) * (1.0f64 - 0.64).sqrt();
+    eprintln!("ω 0.9: g 0 reflects {iso:.4}, g 0.8 {fwd:.4} (similarity relation {similar:.4})");
+    assert!(fwd < 0.75 * iso, "g 0.8 reflects {fwd}, isotropic {iso}");
+    assert!(
+        (fwd - similar).abs() < 0.05,
+        "{fwd} against the similarity relation's {similar}"
+    );
+}
+
+/// A grey room (ρ 0.5, 1 m cube, recorded) with a 4 cm opal slab (n 1.5, σs 60/m, g 0.7,
+/// σa 0.5/m) under a spot at its ceiling: every light that reaches the room passes the
+/// diffuser.
+fn diffuser_room(ctx: &mut imap::Context) -> u32 {
+    let grey = lambert(ctx, 0.5);
+    let opal = ctx
+        .add_material(&MaterialDesc {
+            ior: Some(IorModel::Constant(1.5)),
+            scattering_per_m: vec![60.0],
+            absorption_per_m: vec![0.5],
+            phase_g: vec![0.7],
+            ..Default::default()
+        })
+        .unwrap();
+    let room = cuboid([0.0, 0.0, 0.0], [1.0, 1.0, 1.0], 8, true);
+    let walls = ctx.add_mesh(&room.desc(grey)).unwrap();
+    let slab = cuboid([0.3, 0.3, 0.8], [0.7, 0.7, 0.84], 1, false);
+    let mut d = slab.desc(opal);
+    d.record = false;
+    ctx.add_mesh(&d).unwrap();
+    ctx.add_spot_light([0.5, 0.5, 0.95], [0.0, 0.0, -1.0], 0.5, &[10.0])
+        .unwrap();
+    walls
+}
+
+#[test]
+fn gathering_agrees_with_photons_through_a_scattering_diffuser() {
+    let map = |e: Estimator, n: u64, seed: u64| {
+        let mut ctx = context(seeded(seed));
+        let walls = diffuser_room(&mut ctx);
+        run_with(&mut ctx, n, e);
+        let nv = ctx.vertex_count(walls).unwrap();
+        let (mut x, mut r) = (vec![0.0; nv], vec![0.0; nv]);
+        ctx.irradiance(walls, 0, 0, &mut x).unwrap();
+        ctx.rel_error(walls, 0, &mut r).unwrap();
+        let s: Vec<f64> = x.iter().zip(&r).map(|(x, r)| x * r).collect();
+        (x, s)
+    };
+    let (a, sa) = map(Estimator::Photons, photons(300_000), 1);
+    let (b, sb) = map(Estimator::GATHER, photons(100_000), 2);
+    let (mut z2, mut n) = (0.0, 0);
+    let (mut ta, mut tb) = (0.0, 0.0);
+    for v in 0..a.len() {
+        ta += a[v];
+        tb += b[v];
+        let s = sa[v].hypot(sb[v]);
+        if s > 0.0 {
+            z2 += ((a[v] - b[v]) / s).powi(2);
+            n += 1;
+        }
+    }
+    let z2 = z2 / n as f64;
+    eprintln!(
+        "diffuser room: total photons {ta:.4}, gathering {tb:.4} ({:+.2} %); mean z² {z2:.3} over {n} vertices",
+        100.0 * (tb / ta - 1.0)
+    );
+    assert!(n > 300);
+    assert!(z2 < 1.5, "mean z² {z2}");
+    assert!((tb / ta - 1.0).abs() < 0.02);
+}
+
+#[test]
+fn scattering_maps_do_not_depend_on_the_thread_count() {
+    let map = |threads: usize| {
+        let mut ctx = context(imap::Config {
+            seed: 9,
+            threads,
+            ..Default::default()
+        });
+        let walls = diffuser_room(&mut ctx);
+        run_with(&mut ctx, 20_000, Estimator::GATHER);
+        let mut x = vec![0.0; ctx.vertex_count(walls).unwrap()];
+        ctx.irradiance(walls, 0, 1, &mut x).unwrap();
+        x
+    };
+    let (one, two) = (map(1), map(2));
+    let worst = one
+        .iter()
+        .zip(&two)
+        .map(|(a, b)| (a - b).abs() / a.abs().max(1e-300))
+        .fold(0.0, f64::max);
+    assert!(worst < 1e-12, "maps differ by {worst}");
+    assert!(one.iter().any(|&x| x > 0.0));
+}
+
+#[test]
+fn bad_media_get_a_status_naming_the_field() {
+    let mut ctx = context(seeded(1));
+    let cases: Vec<(MaterialDesc, &str)> = vec![
+        (
+            MaterialDesc {
+                ior: Some(IorModel::Constant(1.5)),
+                scattering_per_m: vec![-1.0],
+                ..Default::default()
+            },
+            "scattering_per_m[0]",
+        ),
+        (
+            MaterialDesc {
+                ior: Some(IorModel::Constant(1.5)),
+                scattering_per_m: vec![1.0],
+                phase_g: vec![1.0],
+                ..Default::default()
+            },
+            "phase_g[0]",
+        ),
+        (
+            MaterialDesc {
+                ior: Some(IorModel::Constant(1.5)),
+                phase_g: vec![0.5],
+                ..Default::default()
+            },
+            "phase_g is given but scattering_per_m is not",
+        ),
+        (
+            MaterialDesc {
+                diffuse_reflect: vec![0.5],
+                scattering_per_m: vec![1.0],
+                ..Default::default()
+            },
+            "not a dielectric",
+        ),
+    ];
+    for (desc, words) in cases {
+        let e = ctx.add_material(&desc).unwrap_err();
+        assert_eq!(e.status, imap::ImapStatus::ImapErrBadMaterial, "{e}");
+        assert!(e.to_string().contains(words), "{e}");
+    }
+    // Not finite: the generic status of a non-finite number.
+    let e = ctx
+        .add_material(&MaterialDesc {
+            ior: Some(IorModel::Constant(1.5)),
+            scattering_per_m: vec![f64::NAN],
+            ..Default::default()
+        })
+        .unwrap_err();
+    assert!(e.to_string().contains("scattering_per_m"), "{e}");
+    // The context stays usable.
+    assert!(ctx
+        .add_material(&MaterialDesc {
+            ior: Some(IorModel::Constant(1.5)),
+            scattering_per_m: vec![1.0],
+            phase_g: vec![0.3],
+            ..Default::default()
+        })
+        .is_ok());
+}
+
+/// The furnace: a closed box whose grey walls (ρ 0.5) all emit π W/m² per band, radiance 2
+/// everywhere, with a lossless scattering sphere (index `n`, σs 20/m, g 0.5, no absorption)
+/// at its centre. A lossless medium does not change a uniform radiance field: every pixel
+/// that sees the sphere shows 2, and the walls' irradiance stays 2π.
+fn furnace_with_sphere(n: f64, threads: usize) -> (imap::Context, u32) {
+    let mut ctx = context(imap::Config {
+        seed: 4,
+        threads,
+        ..Default::default()
+    });
+    let wall = lambert(&mut ctx, 0.5);
+    let g = cuboid([0.0; 3], [1.0; 3], 6, true);
+    let walls = ctx
+        .add_mesh(&imap::MeshDesc {
+            exitance: Some(&[std::f64::consts::PI]),
+            ..g.desc(wall)
+        })
+        .unwrap();
+    let medium = ctx
+        .add_material(&MaterialDesc {
+            ior: Some(IorModel::Constant(n)),
+            scattering_per_m: vec![20.0],
+            phase_g: vec![0.5],
+            ..Default::default()
+        })
+        .unwrap();
+    let sphere = sphere_inward(0.3, 3).flipped().translated([0.5, 0.5, 0.5]);
+    let mut d = sphere.desc(medium);
+    d.record = false;
+    ctx.add_mesh(&d).unwrap();
+    (ctx, walls)
+}
+
+#[test]
+fn a_lossless_scattering_sphere_leaves_a_furnace_uniform() {
+    let cam = imap::CameraDesc {
+        position: [0.5, 0.02, 0.5],
+        direction: [0.0, 1.0, 0.0],
+        up: [0.0, 0.0, 1.0],
+        fov_y_deg: 40.0,
+        width: 16,
+        height: 16,
+    };
+    for n in [1.0, 1.5] {
+        // The path tracer: eye paths scatter in the sphere.
+        let (mut ctx, _) = furnace_with_sphere(n, 2);
+        let img = ctx.path_trace(&cam, 64, 100_000).unwrap();
+        let pixels = (cam.width * cam.height) as usize;
+        let (mut z2, mut mean) = (0.0, 0.0);
+        for p in 0..pixels {
+            let v = img.radiance[p * 3];
+            z2 += ((v - 2.0) / (2.0 * img.rel_error[p])).powi(2);
+            mean += v / pixels as f64;
+        }
+        let z2 = z2 / pixels as f64;
+        eprintln!("furnace, sphere n {n}: path tracer mean {mean:.4} (2), mean z² {z2:.2}");
+        assert!((mean - 2.0).abs() < 0.02, "mean {mean}");
+        assert!(z2 < 2.0, "mean z² {z2}");
+        // Final gathering (the renderer's photon maps without their boundary bias): eye
+        // paths scatter in the sphere up to their first diffuse vertex (the walls).
+        let (img, _) = ctx
+            .render(
+                &cam,
+                &mut imap::RenderParams {
+                    method: imap::RenderMethod::FinalGather,
+                    passes: 16,
+                    progress_interval_s: 0.05,
+                    max_path_events: 100_000,
+                    ..Default::default()
+                },
+            )
+            .unwrap();
+        let mean_r = img.radiance.iter().step_by(3).sum::<f64>() / pixels as f64;
+        let est = (img.rel_error.iter().map(|r| r * r).sum::<f64>() / pixels as f64).sqrt();
+        eprintln!(
+            "furnace, sphere n {n}: photon-map render mean {mean_r:.4} (2), rms estimate {est:.4}"
+        );
+        assert!((mean_r / 2.0 - 1.0).abs() < 3.0 * est / (pixels as f64).sqrt() + 0.01);
+        // The photons: the walls' irradiance stays 2π.
+        let (mut ctx, walls) = furnace_with_sphere(n, 2);
+        run_photons_only(&mut ctx, photons(100_000));
+        let mut e = vec![0.0; ctx.vertex_count(walls).unwrap()];
+        ctx.irradiance(walls, 0, 0, &mut e).unwrap();
+        let mean_e = e.iter().sum::<f64>() / e.len() as f64;
+        eprintln!("furnace, sphere n {n}: walls' mean irradiance {mean_e:.4} (2π = 6.2832)");
+        assert!((mean_e / (2.0 * std::f64::consts::PI) - 1.0).abs() < 0.01);
+    }
+}
