@@ -329,6 +329,52 @@ enum PathEnd {
     Aborted,
 }
 
+/// How a photon's segment inside a dielectric's medium ended (`Tracer::through_medium`).
+enum Segment<'m> {
+    /// It reaches the surface it was going to.
+    Through,
+    Absorbed,
+    /// It scatters this many scene units along.
+    Scatter(&'m crate::scene::medium::Scattering, f64),
+}
+
+impl<'a> Tracer<'a> {
+    /// A photon's segment inside medium `m` up to its surface `t` scene units away (None:
+    /// none): a scattering medium's free flight (which may end before the surface), or
+    /// Beer–Lambert: survive the segment with the colour-weighted transmittance,
+    /// re-weighting the colour by band. Kept out of the path loop, which scenes without
+    /// dielectrics run.
+    #[inline(never)]
+    fn through_medium(
+        &self,
+        m: Medium,
+        t: Option<f64>,
+        colour: &mut Colour,
+        rng: &mut PhotonRng,
+        bounces: &mut WeightedBounces,
+    ) -> Segment<'a> {
+        let d = self.materials[m.material as usize].dielectric.as_ref();
+        let dist_m = t.unwrap_or(f64::INFINITY) * self.unit_m;
+        if let Some(sc) = d.and_then(|d| d.scattering.as_ref()) {
+            let u = [rng.uniform(), rng.uniform(), rng.uniform()];
+            return match bounces.moved(m.mesh, colour, |c| sc.flight(c, dist_m, u)) {
+                Flight::Surface => Segment::Through,
+                Flight::Absorbed => Segment::Absorbed,
+                Flight::Scatter(t_m) => Segment::Scatter(sc, t_m / self.unit_m),
+            };
+        }
+        if let Some(alpha) = d.and_then(|d| d.absorption_per_m.as_ref()) {
+            if colour
+                .survive_absorption(alpha, dist_m, rng.uniform())
+                .is_none()
+            {
+                return Segment::Absorbed;
+            }
+        }
+        Segment::Through
+    }
+}
+
 impl Tracer<'_> {
     /// Traces photon `k` from its emission to its end and returns true, or returns false
     /// when `stop` was raised during the path: then the sink was told to forget the photon
@@ -522,21 +568,10 @@ impl Tracer<'_> {
             // band.
             let mut scattered_at = None;
             if let Some(m) = medium {
-                let d = self.materials[m.material as usize].dielectric.as_ref();
-                let dist_m = hit.map_or(f64::INFINITY, |h| h.t) * self.unit_m;
-                if let Some(sc) = d.and_then(|d| d.scattering.as_ref()) {
-                    let u = [rng.uniform(), rng.uniform(), rng.uniform()];
-                    let flight = bounces.moved(m.mesh, colour, |c| sc.flight(c, dist_m, u));
-                    match flight {
-                        Flight::Surface => {}
-                        Flight::Absorbed => return PathEnd::Absorbed(m.mesh),
-                        Flight::Scatter(t_m) => scattered_at = Some((sc, t_m / self.unit_m)),
-                    }
-                } else if let Some(alpha) = d.and_then(|d| d.absorption_per_m.as_ref()) {
-                    let p = colour.survive_absorption(alpha, dist_m, rng.uniform());
-                    if p.is_none() {
-                        return PathEnd::Absorbed(m.mesh);
-                    }
+                match self.through_medium(m, hit.map(|h| h.t), colour, rng, bounces) {
+                    Segment::Through => {}
+                    Segment::Absorbed => return PathEnd::Absorbed(m.mesh),
+                    Segment::Scatter(sc, t) => scattered_at = Some((sc, t)),
                 }
             }
 
@@ -577,9 +612,8 @@ impl Tracer<'_> {
                 pol = None;
                 org += dir * t;
                 let u = [rng.uniform(), rng.uniform(), rng.uniform()];
-                dir = bounces.moved(medium.map_or(0, |m| m.mesh), colour, |c| {
-                    sc.scatter(dir, c, u)
-                });
+                let mesh = medium.map_or(0, |m| m.mesh);
+                dir = bounces.moved(mesh, colour, |c| sc.scatter(dir, c, u));
                 continue;
             }
             let Some(hit) = hit else {
