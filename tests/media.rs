@@ -371,3 +371,58 @@ fn a_lossless_scattering_sphere_leaves_a_furnace_uniform() {
         assert!((mean_e / (2.0 * std::f64::consts::PI) - 1.0).abs() < 0.01);
     }
 }
+
+#[test]
+fn a_light_guide_without_extraction_keeps_its_light_by_total_internal_reflection() {
+    // A 300 × 200 × 4 mm plate (n 1.49 > √2) lit through its edge x = 0 by a small
+    // Lambertian emitter: every ray that enters the edge refracts to within the critical
+    // angle of the edge's normal, so it meets the top and bottom faces beyond the critical
+    // angle and is totally reflected. No light crosses the sensors over and under the plate
+    // (away from the lit edge); it leaves through the other edges.
+    let mut ctx = context(seeded(3));
+    let black = lambert(&mut ctx, 0.0);
+    let pmma = ctx
+        .add_material(&MaterialDesc {
+            ior: Some(IorModel::Constant(1.49)),
+            ..Default::default()
+        })
+        .unwrap();
+    let plate = cuboid([0.0, 0.0, 0.0], [0.3, 0.2, 0.004], 1, false);
+    let mut d = plate.desc(pmma);
+    d.record = false;
+    ctx.add_mesh(&d).unwrap();
+    // The emitter: 3 × 1.5 mm facing +x, 0.3 mm from the edge.
+    let led = quad([
+        [-0.0003, 0.0985, 0.00125],
+        [-0.0003, 0.1015, 0.00125],
+        [-0.0003, 0.1015, 0.00275],
+        [-0.0003, 0.0985, 0.00275],
+    ]);
+    ctx.add_mesh(&imap::MeshDesc {
+        record: false,
+        exitance: Some(&[1000.0]),
+        ..led.desc(black)
+    })
+    .unwrap();
+    let sensor = |ctx: &mut imap::Context, z: f64, up: bool| {
+        let g = grid(8, 0.01, 0.3, 0.0, 0.2, z);
+        let g = if up { g } else { g.flipped() };
+        ctx.add_mesh(&imap::MeshDesc {
+            sensor: true,
+            ..g.desc(black)
+        })
+        .unwrap()
+    };
+    let over = sensor(&mut ctx, 0.0045, false);
+    let under = sensor(&mut ctx, -0.0005, true);
+    let report = run_photons_only(&mut ctx, photons(100_000));
+    for (id, what) in [(over, "over"), (under, "under")] {
+        let mut e = vec![0.0; ctx.vertex_count(id).unwrap()];
+        ctx.irradiance(id, 0, 0, &mut e).unwrap();
+        let total: f64 = e.iter().sum();
+        assert_eq!(total, 0.0, "light crossed the sensor {what} the plate");
+    }
+    // All of it escaped (the plate is clear; the emitter's own surface takes back what the
+    // edge reflects toward it).
+    assert!(report.escaped_w > 0.9 * report.emitted_w, "{report:?}");
+}
