@@ -426,3 +426,45 @@ fn a_light_guide_without_extraction_keeps_its_light_by_total_internal_reflection
     // edge reflects toward it).
     assert!(report.escaped_w > 0.9 * report.emitted_w, "{report:?}");
 }
+
+#[test]
+fn light_leaves_a_medium_through_a_translucent_triangle_of_its_mesh() {
+    // A 1 mm absorbing block (index 1, σa 100/m) whose top face transmits diffusely (a
+    // print that lets light through), lit by a beam from below: the light crosses 1 mm of
+    // medium (e^(−0.1)) and leaves through the top into air, where nothing absorbs it.
+    let mut ctx = context(seeded(2));
+    let medium = ctx
+        .add_material(&MaterialDesc {
+            ior: Some(IorModel::Constant(1.0)),
+            absorption_per_m: vec![100.0],
+            ..Default::default()
+        })
+        .unwrap();
+    let print = ctx
+        .add_material(&MaterialDesc {
+            diffuse_transmit: vec![1.0],
+            ..Default::default()
+        })
+        .unwrap();
+    let block = cuboid([-0.5, -0.5, 0.0], [0.5, 0.5, 0.001], 1, false);
+    // cuboid's faces: per axis, the low face then the high one; two triangles each. The top
+    // (z = 0.001) is the sixth face.
+    let materials: Vec<u32> = (0..12)
+        .map(|t| if t / 2 == 5 { print } else { medium })
+        .collect();
+    ctx.add_mesh(&imap::MeshDesc {
+        record: false,
+        triangle_materials: Some(&materials),
+        ..block.desc(medium)
+    })
+    .unwrap();
+    ctx.add_spot_light([0.0, 0.0, -1.0], [0.0, 0.0, 1.0], 1e-3, &[1.0])
+        .unwrap();
+    let n = photons(50_000);
+    let report = run_photons_only(&mut ctx, n);
+    let t = report.escaped_w / report.emitted_w;
+    let expected = (-0.1f64).exp();
+    let sigma = (expected * (1.0 - expected) / n as f64).sqrt();
+    eprintln!("through the translucent top: {t:.4}, e^(−0.1) = {expected:.4}");
+    assert!((t - expected).abs() < 4.0 * sigma, "{t} against {expected}");
+}

@@ -478,6 +478,12 @@ impl<'a> EyeTracer<'a> {
             let n = lobe.leaving_normal(n_in);
             dir = lobe.direction(dir, n_in, rng.uniform(), rng.uniform());
             org = p_hit + n * eps;
+            if lobe == Lobe::DiffuseTransmission {
+                // Through a translucent triangle from inside a dielectric: out of its medium
+                // (the photons check that the triangle is the dielectric's own mesh; eye
+                // paths take every translucent surface met inside a medium as its boundary).
+                medium = None;
+            }
             counts = false;
             diffuse_vertices += 1;
             // Russian roulette after two diffuse vertices, by the path's largest weight.

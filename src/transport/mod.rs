@@ -11,7 +11,7 @@ use crate::spectral::Colour;
 
 use crate::accel::Accel;
 use crate::sampling::PhotonRng;
-use crate::scene::bsdf::{reflect, refract};
+use crate::scene::bsdf::{reflect, refract, Lobe};
 use crate::scene::material::Polarisation;
 use crate::scene::medium::Flight;
 use crate::scene::{Material, PreparedScene};
@@ -800,6 +800,11 @@ impl Tracer<'_> {
                 }
                 let n = lobe.leaving_normal(n_in);
                 org = p_hit + n * eps;
+                if lobe == Lobe::DiffuseTransmission && medium.is_some_and(|m| m.mesh == hit.mesh) {
+                    // Through a translucent triangle of the dielectric it was inside (a
+                    // print on a light guide that transmits): out of its medium.
+                    medium = None;
+                }
                 continue;
             }
             // Absorbed: the path ends here (after a weighted bounce only by rounding: then
