@@ -11,6 +11,7 @@
 //! grey medium takes exactly the one-band free flight and weights of 1; with no
 //! scattering it is Beer–Lambert absorption.
 
+use crate::spectral::pick_band;
 use glam::DVec3;
 use std::f64::consts::PI;
 
@@ -65,16 +66,7 @@ impl Scattering {
             return Flight::Absorbed;
         }
         // The band that draws the distance, by the colour.
-        let mut target = u[0] * total;
-        let mut band = c.len() - 1;
-        for (i, &x) in c.iter().enumerate() {
-            if target < x {
-                band = i;
-                break;
-            }
-            target -= x;
-        }
-        let st = self.sigma_t[band];
+        let st = self.sigma_t[pick_band(c, total, u[0])];
         let t = if st > 0.0 {
             -(1.0 - u[1]).ln() / st
         } else {
@@ -141,17 +133,7 @@ impl Scattering {
             self.g[0]
         } else {
             // The band whose phase function draws the direction, by the colour.
-            let total: f64 = c.iter().sum();
-            let mut target = u[2] * total;
-            let mut band = c.len() - 1;
-            for (i, &x) in c.iter().enumerate() {
-                if target < x {
-                    band = i;
-                    break;
-                }
-                target -= x;
-            }
-            self.g[band]
+            self.g[pick_band(c, c.iter().sum(), u[2])]
         };
         let cos = hg_sample_cos(g, u[0]);
         if !self.one_g {

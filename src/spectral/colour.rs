@@ -151,11 +151,9 @@ impl Colour {
     }
 }
 
-/// Collapses per-band weights `w` to one band chosen with probability proportional to its
-/// weight (`u` uniform in [0, 1)), which gets the total: every band keeps its expectation.
-/// Returns the band.
-pub fn collapse_weights(w: &mut [f64], u: f64) -> usize {
-    let total: f64 = w.iter().sum();
+/// A band chosen with probability proportional to its weight in `w` (of sum `total`; `u`
+/// uniform in [0, 1)); a zero-weight band never, even at the rounding edge.
+pub fn pick_band(w: &[f64], total: f64, u: f64) -> usize {
     let mut target = u * total;
     let mut chosen = w.len() - 1;
     for (i, &c) in w.iter().enumerate() {
@@ -165,10 +163,18 @@ pub fn collapse_weights(w: &mut [f64], u: f64) -> usize {
         }
         target -= c;
     }
-    // A zero-weight band can never be chosen, even at the rounding edge.
     while w[chosen] == 0.0 && chosen > 0 {
         chosen -= 1;
     }
+    chosen
+}
+
+/// Collapses per-band weights `w` to one band chosen with probability proportional to its
+/// weight (`u` uniform in [0, 1)), which gets the total: every band keeps its expectation.
+/// Returns the band.
+pub fn collapse_weights(w: &mut [f64], u: f64) -> usize {
+    let total: f64 = w.iter().sum();
+    let chosen = pick_band(w, total, u);
     w.iter_mut().for_each(|c| *c = 0.0);
     w[chosen] = total;
     chosen
