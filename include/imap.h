@@ -1306,8 +1306,8 @@ typedef struct ImapRenderParams {
    */
   uint32_t remask_phases;
   /**
-   * Safety limit on surface events per path (≥ 1); longer paths are dropped and counted
-   * in `ImapRenderReport::dropped_paths`.
+   * Safety limit on events (surface events and scatterings in a medium) per path (≥ 1);
+   * longer paths are dropped and counted in `ImapRenderReport::dropped_paths`.
    */
   uint32_t max_path_events;
   /**
@@ -1466,8 +1466,8 @@ typedef struct ImapRunParams {
    */
   uint32_t struct_size;
   /**
-   * Safety limit on surface events per photon path (≥ 1); photons reaching it are
-   * counted in `ImapReport::dropped_w` (never silently).
+   * Safety limit on events (surface events and scatterings in a medium) per photon path
+   * (≥ 1); photons reaching it are counted in `ImapReport::dropped_w` (never silently).
    */
   uint32_t max_path_events;
   /**

@@ -468,3 +468,65 @@ fn light_leaves_a_medium_through_a_translucent_triangle_of_its_mesh() {
     eprintln!("through the translucent top: {t:.4}, e^(−0.1) = {expected:.4}");
     assert!((t - expected).abs() < 4.0 * sigma, "{t} against {expected}");
 }
+
+/// Against Mitsuba 3's `homogeneous` medium and `volpath` (`scripts/mitsuba_media.py`,
+/// tests/data/mitsuba_media.txt): the irradiance a black receiver gets from a rectangular
+/// emitter's light sent up by a 0.1 m slab holding a medium (σt 20/m, albedo 0.8, g 0.5)
+/// over a white ground, behind a smooth surface of index 1.5 (glass) or 1 (haze).
+#[test]
+fn a_scattering_slab_agrees_with_mitsuba() {
+    let text = include_str!("data/mitsuba_media.txt");
+    let l = 10.0;
+    for line in text.lines().filter(|l| !l.starts_with('#')) {
+        let w: Vec<&str> = line.split_whitespace().collect();
+        let (kind, mi, mi_se): (&str, f64, f64) =
+            (w[0], w[1].parse().unwrap(), w[2].parse().unwrap());
+        let mut ctx = context(seeded(62));
+        let black = lambert(&mut ctx, 0.0);
+        let n = if kind == "glass" { 1.5 } else { 1.0 };
+        let medium = ctx
+            .add_material(&MaterialDesc {
+                ior: Some(IorModel::Constant(n)),
+                scattering_per_m: vec![16.0],
+                absorption_per_m: vec![4.0],
+                phase_g: vec![0.5],
+                ..Default::default()
+            })
+            .unwrap();
+        let slab = cuboid([-3.0, -3.0, -0.1], [3.0, 3.0, 0.0], 1, false);
+        let mut sd = slab.desc(medium);
+        sd.record = false;
+        ctx.add_mesh(&sd).unwrap();
+        let white = lambert(&mut ctx, 0.8);
+        let ground = grid(2, -3.0, 3.0, -3.0, 3.0, -0.12);
+        let mut gd = ground.desc(white);
+        gd.record = false;
+        ctx.add_mesh(&gd).unwrap();
+        let lamp = grid(1, -1.1, -0.1, -0.5, 0.5, 1.0).flipped();
+        let mut ld = lamp.desc(black);
+        ld.record = false;
+        let exitance = [std::f64::consts::PI * l];
+        ld.exitance = Some(&exitance);
+        ctx.add_mesh(&ld).unwrap();
+        let receiver = grid(2, 0.4, 0.8, -0.2, 0.2, 1.0).flipped();
+        let mut rd = receiver.desc(black);
+        rd.tally = true;
+        let id = ctx.add_mesh(&rd).unwrap();
+        // With 10 M photons: glass 1.0103 ± 0.0090 of Mitsuba's, haze 1.0086 ± 0.0071.
+        run_with(&mut ctx, photons(3_000_000), Estimator::Photons);
+        let stats = ctx.region_stats(id, 0, None).unwrap();
+        let e = stats.average_w_m2[0];
+        let sigma = (e.sigma * e.sigma + mi_se * mi_se).sqrt();
+        eprintln!(
+            "{kind}: libimap {:.5} ± {:.5} W/m², Mitsuba {mi:.5} ± {mi_se:.5}, ratio {:.4}",
+            e.value,
+            e.sigma,
+            e.value / mi
+        );
+        assert!(
+            (e.value - mi).abs() < 4.0 * sigma,
+            "{kind}: {} vs Mitsuba {mi}",
+            e.value
+        );
+    }
+}

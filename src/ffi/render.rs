@@ -92,8 +92,8 @@ pub struct ImapRenderParams {
     pub group_threads: u32,
     /// Semi-synchronous: phases between re-randomised tile masks (0 = 4).
     pub remask_phases: u32,
-    /// Safety limit on surface events per path (≥ 1); longer paths are dropped and counted
-    /// in `ImapRenderReport::dropped_paths`.
+    /// Safety limit on events (surface events and scatterings in a medium) per path (≥ 1);
+    /// longer paths are dropped and counted in `ImapRenderReport::dropped_paths`.
     pub max_path_events: u32,
     /// Forward photons per pass over the image (0 = one per pixel). Final gathering: the
     /// map's photons per pass (`IMAP_RENDER_FINAL_GATHER`; 0 = balanced by time).

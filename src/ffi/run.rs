@@ -92,8 +92,8 @@ pub type ImapProgressFn =
 pub struct ImapRunParams {
     /// `sizeof(ImapRunParams)` as the program was compiled; set by `imap_run_params_default`.
     pub struct_size: u32,
-    /// Safety limit on surface events per photon path (≥ 1); photons reaching it are
-    /// counted in `ImapReport::dropped_w` (never silently).
+    /// Safety limit on events (surface events and scatterings in a medium) per photon path
+    /// (≥ 1); photons reaching it are counted in `ImapReport::dropped_w` (never silently).
     pub max_path_events: u32,
     /// Photons to trace in this run; 0 = no limit.
     pub photons: u64,

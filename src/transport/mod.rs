@@ -243,7 +243,7 @@ pub struct Tracer<'a> {
     pub seed: u64,
     /// Metres per scene unit (Beer–Lambert coefficients are per metre).
     pub unit_m: f64,
-    /// Safety limit on surface events per path.
+    /// Safety limit on events (surface events and scatterings in a medium) per path.
     pub max_events: u32,
     /// The light-sampling estimator's direct passes: photons then deposit only indirect
     /// light (from their second surface event on), and each photon that ends does its
