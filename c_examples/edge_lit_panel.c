@@ -39,8 +39,10 @@ static void check(ImapContext *ctx, const char *what, ImapStatus s) {
 enum { BX = 120, BY = 80, NX = 30, NY = 20 };
 
 /* A closed box [lo, hi] with outward faces, its bottom face (z = lo) a BX × BY grid and the
- * other five faces two triangles each; `bottom_material` gives each bottom cell's material,
- * `other` the rest. Returns the triangle count. */
+ * other five faces two triangles each (its bottom's edges are split where the sides' are
+ * not: closed as a surface, though not edge for edge, which a clear dielectric allows);
+ * `bottom_material` gives each bottom cell's material, `other` the rest. Returns the
+ * triangle count. */
 static uint32_t slab(const double lo[3], const double hi[3], double *xyz, uint32_t *idx, uint32_t *mat,
                      const uint32_t *bottom_material, uint32_t other, uint32_t *vertex_count) {
     uint32_t nv = 0, nt = 0;
@@ -55,7 +57,7 @@ static uint32_t slab(const double lo[3], const double hi[3], double *xyz, uint32
             /* Normal −z: clockwise seen from above. */
             uint32_t *t = idx + 3 * nt;
             t[0] = a, t[1] = c, t[2] = b, t[3] = a, t[4] = d, t[5] = c;
-            mat[nt] = mat[nt + 1] = bottom_material ? bottom_material[j * BX + i] : other;
+            mat[nt] = mat[nt + 1] = bottom_material[j * BX + i];
             nt += 2;
         }
     /* The eight corners: bit 0 x, bit 1 y, bit 2 z. */
@@ -73,6 +75,23 @@ static uint32_t slab(const double lo[3], const double hi[3], double *xyz, uint32
     for (int k = 0; k < 10; k++) mat[nt + k] = other;
     *vertex_count = nv;
     return nt + 10;
+}
+
+/* A closed box [lo, hi] with outward faces, as 12 triangles sharing its 8 corners (a
+ * scattering medium needs a closed mesh: every edge shared by two triangles). */
+static void closed_box(const double lo[3], const double hi[3], double xyz[24], uint32_t idx[36]) {
+    for (int k = 0; k < 8; k++) {
+        xyz[3 * k] = (k & 1) ? hi[0] : lo[0];
+        xyz[3 * k + 1] = (k & 2) ? hi[1] : lo[1];
+        xyz[3 * k + 2] = (k & 4) ? hi[2] : lo[2];
+    }
+    static const uint32_t faces[36] = {0, 2, 3, 0, 3, 1, /* z = lo: normal −z */
+                                       4, 5, 7, 4, 7, 6, /* z = hi: normal +z */
+                                       0, 1, 5, 0, 5, 4, /* y = lo: normal −y */
+                                       2, 6, 7, 2, 7, 3, /* y = hi: normal +y */
+                                       0, 4, 6, 0, 6, 2, /* x = lo: normal −x */
+                                       1, 3, 7, 1, 7, 5}; /* x = hi: normal +x */
+    memcpy(idx, faces, sizeof faces);
 }
 
 int main(int argc, char **argv) {
@@ -132,9 +151,11 @@ int main(int argc, char **argv) {
     check(ctx, "light guide", imap_add_mesh(ctx, &mesh, &guide));
     /* The diffuser sheet, 2 mm thick, 2 mm over the guide. */
     const double d_lo[3] = {0, 0, T + 0.002}, d_hi[3] = {W, D, T + 0.004};
-    nt = slab(d_lo, d_hi, xyz, idx, mat, NULL, opal, &nv);
-    mesh.positions = xyz, mesh.vertex_count = nv, mesh.indices = idx, mesh.triangle_count = nt;
-    mesh.triangle_materials = mat, mesh.material = opal;
+    double box[24];
+    uint32_t box_idx[36];
+    closed_box(d_lo, d_hi, box, box_idx);
+    mesh.positions = box, mesh.vertex_count = 8, mesh.indices = box_idx, mesh.triangle_count = 12;
+    mesh.triangle_materials = NULL, mesh.material = opal;
     check(ctx, "diffuser", imap_add_mesh(ctx, &mesh, &diffuser));
     /* The back reflector 1 mm under the guide, facing up. */
     double quad[12] = {-0.005, -0.005, -0.001, W + 0.005, -0.005, -0.001, W + 0.005, D + 0.005, -0.001,

@@ -272,6 +272,28 @@ fn bad_media_get_a_status_naming_the_field() {
         })
         .unwrap_err();
     assert!(e.to_string().contains("scattering_per_m"), "{e}");
+    // An open mesh cannot bound a medium.
+    let opal = ctx
+        .add_material(&MaterialDesc {
+            ior: Some(IorModel::Constant(1.5)),
+            scattering_per_m: vec![1.0],
+            ..Default::default()
+        })
+        .unwrap();
+    let sheet = grid(2, 0.0, 1.0, 0.0, 1.0, 0.0);
+    let e = ctx.add_mesh(&sheet.desc(opal)).unwrap_err();
+    assert_eq!(e.status, imap::ImapStatus::ImapErrInvalidArgument, "{e}");
+    assert!(e.to_string().contains("not closed"), "{e}");
+    // A closed one can, and a clear dielectric sheet stays allowed.
+    let cube = cuboid([0.0; 3], [1.0; 3], 2, false);
+    ctx.add_mesh(&cube.desc(opal)).unwrap();
+    let glass = ctx
+        .add_material(&MaterialDesc {
+            ior: Some(IorModel::Constant(1.5)),
+            ..Default::default()
+        })
+        .unwrap();
+    ctx.add_mesh(&sheet.desc(glass)).unwrap();
     // The context stays usable.
     assert!(ctx
         .add_material(&MaterialDesc {

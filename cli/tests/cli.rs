@@ -949,6 +949,37 @@ fn rough_materials_from_the_settings() {
     }
 }
 
+/// `scattering_per_m` and `phase_g` in `[materials.NAME]` reach the library: on the
+/// scene's open floor made a dielectric they are refused (a medium needs a closed mesh),
+/// on a material that is not a dielectric, or with g out of range, they are errors naming
+/// the material and the field.
+#[test]
+fn a_scattering_medium_from_the_settings() {
+    let d = tempfile::tempdir().unwrap();
+    write(d.path(), "scene.mtl", MTL);
+    let (obj, _, _) = scene_obj();
+    let path = write(d.path(), "scene.obj", &obj);
+    let run = |name: &str, settings: &str| run_with_settings(d.path(), &path, name, settings);
+    let (o, _) = run(
+        "opal",
+        "[materials.grey]\ndielectric = true\nior = 1.5\nscattering_per_m = 50\nphase_g = 0.5\n",
+    );
+    let e = stderr(&o);
+    assert!(!o.status.success(), "{e}");
+    assert!(e.contains("not closed"), "{e}");
+    let (o, _) = run("lambert", "[materials.grey]\nscattering_per_m = 50\n");
+    let e = stderr(&o);
+    assert!(!o.status.success(), "{e}");
+    assert!(e.contains("grey") && e.contains("scattering_per_m"), "{e}");
+    let (o, _) = run(
+        "badg",
+        "[materials.grey]\ndielectric = true\nior = 1.5\nscattering_per_m = 50\nphase_g = 1.5\n",
+    );
+    let e = stderr(&o);
+    assert!(!o.status.success(), "{e}");
+    assert!(e.contains("grey") && e.contains("phase_g"), "{e}");
+}
+
 /// `kind = "bsdf-xml"`: a window BSDF file (Klems quarter basis) that reflects 0.2
 /// diffusely from its front makes the floor absorb 0.8 of what it receives against the
 /// grey floor's 0.5, and so does `kind = "table"` with the same law in a values file; a

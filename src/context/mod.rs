@@ -584,6 +584,29 @@ impl Context {
                 );
             }
         }
+        // (A sensor's material is not used, nor checked.)
+        let scattering = |m: u32| {
+            self.scene
+                .materials
+                .get(m as usize)
+                .and_then(|x| x.dielectric.as_ref())
+                .is_some_and(|d| d.scattering.is_some())
+        };
+        let medium = if mesh.sensor {
+            None
+        } else {
+            (0..mesh.triangles.len())
+                .map(|t| mesh.material_of(t))
+                .find(|&m| scattering(m))
+        };
+        if let Some(m) = medium {
+            if let Some((a, b)) = open_edge(&mesh) {
+                bail!(
+                    ImapErrInvalidArgument,
+                    "mesh: material {m} holds a scattering medium, but the mesh that bounds it is not closed (the edge {a:?} to {b:?} is not shared by a triangle running the other way): a medium needs a closed mesh"
+                );
+            }
+        }
         self.footprint.add_mesh(&mesh);
         self.scene.meshes.push(mesh);
         self.invalidate();
@@ -1350,4 +1373,29 @@ fn check_run_params(p: &RunParams) -> Result<()> {
         );
     }
     Ok(())
+}
+
+/// An edge of `mesh` (its corners merged by position) that no triangle runs the other way
+/// (or that too many run one way): the mesh is not a closed surface. None when closed.
+fn open_edge(mesh: &crate::scene::Mesh) -> Option<([f64; 3], [f64; 3])> {
+    let mut id: std::collections::HashMap<[u64; 3], u32> = std::collections::HashMap::new();
+    let key: Vec<u32> = mesh
+        .positions
+        .iter()
+        .map(|p| {
+            let n = id.len() as u32;
+            *id.entry(p.map(f64::to_bits)).or_insert(n)
+        })
+        .collect();
+    let mut edges: std::collections::HashMap<(u32, u32), i64> = std::collections::HashMap::new();
+    for t in &mesh.triangles {
+        for e in 0..3 {
+            let (ka, kb) = (key[t[e] as usize], key[t[(e + 1) % 3] as usize]);
+            *edges.entry((ka.min(kb), ka.max(kb))).or_default() += if ka < kb { 1 } else { -1 };
+        }
+    }
+    edges.iter().find(|(_, c)| **c != 0).map(|(&(ka, kb), _)| {
+        let at = |k: u32| mesh.positions[key.iter().position(|&x| x == k).unwrap_or(0)];
+        (at(ka), at(kb))
+    })
 }

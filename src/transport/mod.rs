@@ -355,7 +355,12 @@ impl<'a> Tracer<'a> {
     ) -> Segment<'a> {
         let d = self.materials[m.material as usize].dielectric.as_ref();
         let dist_m = t.unwrap_or(f64::INFINITY) * self.unit_m;
-        if let Some(sc) = d.and_then(|d| d.scattering.as_ref()) {
+        if let Some(sc) = d
+            .and_then(|d| d.scattering.as_ref())
+            .filter(|_| t.is_some())
+        {
+            // (No surface ahead: the photon has slipped out of its closed mesh through a
+            // crack; it leaves the scene rather than wander in an unbounded medium.)
             let u = [rng.uniform(), rng.uniform(), rng.uniform()];
             return match bounces.moved(m.mesh, colour, |c| sc.flight(c, dist_m, u)) {
                 Flight::Surface => Segment::Through,
