@@ -18,27 +18,18 @@ The receiver sees what the slab and the ground send up. Each row: scene, irradia
 Run: pip install mitsuba==3.9.1; python3 scripts/mitsuba_media.py > tests/data/mitsuba_media.txt
 """
 import math
+import os
+import sys
 
 import mitsuba as mi
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from mitsuba_scenes import rect  # noqa: E402  (the same rectangles as the surfaces' comparison)
 
 mi.set_variant("scalar_rgb")
 L = 10.0  # emitter radiance, W/(m² sr) per channel
 RUNS = 16
 SPP = 1 << 18
-
-
-def rect(cx, cy, z, sx, sy, down, bsdf=None, emitter=None, sensor=None):
-    # Mitsuba's rectangle spans [-1, 1]² in xy with normal +z.
-    t = mi.ScalarTransform4f().translate([cx, cy, z]).scale([sx / 2, sy / 2, 1.0])
-    if down:
-        t = mi.ScalarTransform4f().translate([cx, cy, z]).rotate([1, 0, 0], 180).scale([sx / 2, sy / 2, 1.0])
-    d = {"type": "rectangle", "to_world": t}
-    d["bsdf"] = bsdf or {"type": "diffuse", "reflectance": {"type": "rgb", "value": [0.0, 0.0, 0.0]}}
-    if emitter:
-        d["emitter"] = emitter
-    if sensor:
-        d["sensor"] = sensor
-    return d
 
 
 def scene(kind, seed):

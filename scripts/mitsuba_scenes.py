@@ -70,13 +70,14 @@ def scene(kind, seed):
     return mi.load_dict(d)
 
 
-print("# Mitsuba %s scalar_rgb path tracing, %d renders × %d samples; L = %g W/(m² sr)"
-      % (mi.__version__, RUNS, SPP, L))
-for kind in ("lambert", "conductor", "dielectric"):
-    vals = []
-    for r in range(RUNS):
-        img = mi.render(scene(kind, r + 1), seed=r + 1)
-        vals.append(float(img.array[0]) if hasattr(img, "array") else float(mi.TensorXf(img).array[0]))
-    m = sum(vals) / RUNS
-    sd = math.sqrt(sum((v - m) ** 2 for v in vals) / (RUNS - 1))
-    print("%s %.6f %.6f" % (kind, m, sd / math.sqrt(RUNS)), flush=True)
+if __name__ == "__main__":
+    print("# Mitsuba %s scalar_rgb path tracing, %d renders × %d samples; L = %g W/(m² sr)"
+          % (mi.__version__, RUNS, SPP, L))
+    for kind in ("lambert", "conductor", "dielectric"):
+        vals = []
+        for r in range(RUNS):
+            img = mi.render(scene(kind, r + 1), seed=r + 1)
+            vals.append(float(img.array[0]) if hasattr(img, "array") else float(mi.TensorXf(img).array[0]))
+        m = sum(vals) / RUNS
+        sd = math.sqrt(sum((v - m) ** 2 for v in vals) / (RUNS - 1))
+        print("%s %.6f %.6f" % (kind, m, sd / math.sqrt(RUNS)), flush=True)

@@ -519,21 +519,7 @@ fn a_scattering_slab_agrees_with_mitsuba() {
         let mut sd = slab.desc(medium);
         sd.record = false;
         ctx.add_mesh(&sd).unwrap();
-        let white = lambert(&mut ctx, 0.8);
-        let ground = grid(2, -3.0, 3.0, -3.0, 3.0, -0.12);
-        let mut gd = ground.desc(white);
-        gd.record = false;
-        ctx.add_mesh(&gd).unwrap();
-        let lamp = grid(1, -1.1, -0.1, -0.5, 0.5, 1.0).flipped();
-        let mut ld = lamp.desc(black);
-        ld.record = false;
-        let exitance = [std::f64::consts::PI * l];
-        ld.exitance = Some(&exitance);
-        ctx.add_mesh(&ld).unwrap();
-        let receiver = grid(2, 0.4, 0.8, -0.2, 0.2, 1.0).flipped();
-        let mut rd = receiver.desc(black);
-        rd.tally = true;
-        let id = ctx.add_mesh(&rd).unwrap();
+        let id = mitsuba_rig(&mut ctx, black, l, true);
         // With 10 M photons: glass 1.0103 ± 0.0090 of Mitsuba's, haze 1.0086 ± 0.0071.
         run_with(&mut ctx, photons(3_000_000), Estimator::Photons);
         let stats = ctx.region_stats(id, 0, None).unwrap();

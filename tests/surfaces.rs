@@ -1042,22 +1042,8 @@ fn rough_surfaces_agree_with_mitsuba() {
             let mut sd = slab.desc(floor_m);
             sd.record = false;
             ctx.add_mesh(&sd).unwrap();
-            let white = lambert(&mut ctx, 0.8);
-            let ground = grid(2, -3.0, 3.0, -3.0, 3.0, -0.12);
-            let mut gd = ground.desc(white);
-            gd.record = false;
-            ctx.add_mesh(&gd).unwrap();
         }
-        let lamp = grid(1, -1.1, -0.1, -0.5, 0.5, 1.0).flipped();
-        let mut ld = lamp.desc(black);
-        ld.record = false;
-        let exitance = [PI * l];
-        ld.exitance = Some(&exitance);
-        ctx.add_mesh(&ld).unwrap();
-        let receiver = grid(2, 0.4, 0.8, -0.2, 0.2, 1.0).flipped();
-        let mut rd = receiver.desc(black);
-        rd.tally = true;
-        let id = ctx.add_mesh(&rd).unwrap();
+        let id = mitsuba_rig(&mut ctx, black, l, kind == "dielectric");
         run_with(&mut ctx, photons(2_000_000), Estimator::Photons);
         let stats = ctx.region_stats(id, 0, None).unwrap();
         let e = stats.average_w_m2[0];

@@ -14,7 +14,7 @@ use crate::scene::bsdf::{reflect, refract};
 use crate::scene::bsdf::{Bsdf, Lobe};
 use crate::scene::light::DistantPart;
 use crate::scene::material::fresnel_dielectric;
-use crate::scene::medium::{Flight, Scattering};
+use crate::scene::medium::Flight;
 use crate::scene::texture::TintScratch;
 use crate::scene::{LightSample, Material, PreparedScene, Receiver, Scene};
 use crate::spectral::collapse_weights;
@@ -249,16 +249,14 @@ impl<'a> EyeTracer<'a> {
                 self.add_distant_weighted(dir, beta, &mut buf.direct[d0..], false, glossy_pdf);
                 return;
             };
-            match self.flight(medium, hit.t, beta, rng) {
-                Some(Flight::Surface) => {}
-                Some(Flight::Absorbed) => return,
-                Some(Flight::Scatter(t)) => {
+            match self.through_medium(medium, hit.t, (&mut dir, &mut org), beta, rng) {
+                Flight::Surface => {}
+                Flight::Absorbed => return,
+                Flight::Scatter(t) => {
                     path_len += t;
                     glossy_pdf = None;
-                    self.scatter(medium, t, &mut dir, &mut org, beta, rng);
                     continue;
                 }
-                None => self.absorb(medium, hit.t, beta),
             }
             path_len += hit.t;
             let at = self.surface(&hit, dir);
@@ -393,18 +391,16 @@ impl<'a> EyeTracer<'a> {
                 }
                 return;
             };
-            match self.flight(medium, hit.t, beta, rng) {
-                Some(Flight::Surface) => {}
-                Some(Flight::Absorbed) => return,
-                Some(Flight::Scatter(t)) => {
+            match self.through_medium(medium, hit.t, (&mut dir, &mut org), beta, rng) {
+                Flight::Surface => {}
+                Flight::Absorbed => return,
+                Flight::Scatter(_) => {
                     // Light met after a scattering event is found by this path alone (a
                     // light sample cannot cross the dielectric's surface).
                     counts = true;
                     glossy_pdf = None;
-                    self.scatter(medium, t, &mut dir, &mut org, beta, rng);
                     continue;
                 }
-                None => self.absorb(medium, hit.t, beta),
             }
             let at = self.surface(&hit, dir);
             if counts {
@@ -985,68 +981,41 @@ impl<'a> EyeTracer<'a> {
         }
     }
 
-    /// A free flight toward a surface `t` scene units away inside `medium` (a dielectric's
-    /// id) when it scatters (`None` when it does not: `absorb` then).
+    /// An eye path's segment toward a surface `t` scene units away inside `medium` (a
+    /// dielectric's id; None: air): a scattering medium's free flight, which may end before
+    /// the surface (`Flight::Scatter` with the distance in scene units: the path is then
+    /// moved there and turned by the phase function), or Beer–Lambert attenuation.
     #[inline]
-    fn flight(
+    fn through_medium(
         &self,
         medium: Option<u32>,
         t: f64,
+        (dir, org): (&mut DVec3, &mut DVec3),
         beta: &mut [f64],
         rng: &mut PhotonRng,
-    ) -> Option<Flight> {
-        let sc = self.scattering(medium)?;
-        let u = [rng.uniform(), rng.uniform(), rng.uniform()];
-        Some(match sc.flight(beta, t * self.unit_m, u) {
-            Flight::Scatter(t_m) => Flight::Scatter(t_m / self.unit_m),
-            other => other,
-        })
-    }
-
-    /// The scattering of `medium` (a dielectric's id), if any.
-    #[inline]
-    fn scattering(&self, medium: Option<u32>) -> Option<&Scattering> {
-        medium.and_then(|m| {
-            self.materials[m as usize]
-                .dielectric
-                .as_ref()
-                .and_then(|d| d.scattering.as_ref())
-        })
-    }
-
-    /// Moves an eye path `t` scene units on to a scattering event in `medium` and turns it
-    /// by the phase function.
-    #[inline]
-    fn scatter(
-        &self,
-        medium: Option<u32>,
-        t: f64,
-        dir: &mut DVec3,
-        org: &mut DVec3,
-        beta: &mut [f64],
-        rng: &mut PhotonRng,
-    ) {
-        if let Some(sc) = self.scattering(medium) {
-            *org += *dir * t;
+    ) -> Flight {
+        let Some(d) = medium.and_then(|m| self.materials[m as usize].dielectric.as_ref()) else {
+            return Flight::Surface;
+        };
+        if let Some(sc) = &d.scattering {
             let u = [rng.uniform(), rng.uniform(), rng.uniform()];
-            *dir = sc.scatter(*dir, beta, u);
+            let flight = sc.flight(beta, t * self.unit_m, u);
+            if let Flight::Scatter(t_m) = flight {
+                let t = t_m / self.unit_m;
+                *org += *dir * t;
+                let u = [rng.uniform(), rng.uniform(), rng.uniform()];
+                *dir = sc.scatter(*dir, beta, u);
+                return Flight::Scatter(t);
+            }
+            return flight;
         }
-    }
-
-    /// Beer–Lambert over `t` scene units inside `medium` (a dielectric's id), if absorbing.
-    #[inline]
-    fn absorb(&self, medium: Option<u32>, t: f64, beta: &mut [f64]) {
-        if let Some(alpha) = medium.and_then(|m| {
-            self.materials[m as usize]
-                .dielectric
-                .as_ref()
-                .and_then(|d| d.absorption_per_m.as_ref())
-        }) {
+        if let Some(alpha) = &d.absorption_per_m {
             let dist_m = t * self.unit_m;
             for (b, a) in beta.iter_mut().zip(alpha) {
                 *b *= (-a * dist_m).exp();
             }
         }
+        Flight::Surface
     }
 
     /// An eye path's event at a surface: a dielectric reflects or refracts it (Fresnel;

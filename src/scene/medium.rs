@@ -19,10 +19,10 @@ use std::f64::consts::PI;
 /// `absorption_per_m`).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Scattering {
-    /// σs per band, 1/m.
-    pub sigma_s: Vec<f64>,
     /// σt = σa + σs per band, 1/m.
     pub sigma_t: Vec<f64>,
+    /// The single-scattering albedo σs / σt per band (0 where σt is 0).
+    pub albedo: Vec<f64>,
     /// Henyey–Greenstein asymmetry per band, in (−1, 1).
     pub g: Vec<f64>,
     /// Whether every band has the same g (a direction then needs no re-weighting).
@@ -43,15 +43,20 @@ pub enum Flight {
 impl Scattering {
     /// Per-band σs, σa (σa may be None: clear) and g, already checked.
     pub fn new(sigma_s: Vec<f64>, sigma_a: Option<&[f64]>, g: Vec<f64>) -> Scattering {
-        let sigma_t = sigma_s
+        let sigma_t: Vec<f64> = sigma_s
             .iter()
             .enumerate()
             .map(|(b, s)| s + sigma_a.map_or(0.0, |a| a[b]))
             .collect();
+        let albedo = sigma_s
+            .iter()
+            .zip(&sigma_t)
+            .map(|(s, t)| if *t > 0.0 { s / t } else { 0.0 })
+            .collect();
         let one_g = g.iter().all(|&x| x == g[0]);
         Scattering {
-            sigma_s,
             sigma_t,
+            albedo,
             g,
             one_g,
         }
@@ -74,56 +79,26 @@ impl Scattering {
         };
         if t >= dist_m {
             // Through to the surface: each band by its transmittance over the mixture's.
-            let tr = |s: f64| if s == 0.0 { 1.0 } else { (-s * dist_m).exp() };
-            let p: f64 = c
-                .iter()
-                .zip(&self.sigma_t)
-                .map(|(x, &s)| x * tr(s))
-                .sum::<f64>()
-                / total;
-            if p.is_nan() || p <= 0.0 {
-                return Flight::Absorbed;
-            }
-            for (x, &s) in c.iter_mut().zip(&self.sigma_t) {
-                *x *= tr(s) / p;
-            }
-            return Flight::Surface;
+            let tr = |b: usize| match self.sigma_t[b] {
+                0.0 => 1.0,
+                s => (-s * dist_m).exp(),
+            };
+            return match reweigh(c, total, tr) {
+                Some(_) => Flight::Surface,
+                None => Flight::Absorbed,
+            };
         }
-        // A collision at t: each band by its collision density over the mixture's.
-        let density = |s: f64| s * (-s * t).exp();
-        let p: f64 = c
-            .iter()
-            .zip(&self.sigma_t)
-            .map(|(x, &s)| x * density(s))
-            .sum::<f64>()
-            / total;
-        if !(p > 0.0 && p.is_finite()) {
+        // A collision at t: each band by its collision density over the mixture's, then
+        // scattered with the colour-weighted albedo (each band by its albedo over it), or
+        // absorbed (the path ends, whatever its weights).
+        let density = |b: usize| self.sigma_t[b] * (-self.sigma_t[b] * t).exp();
+        if reweigh(c, total, density).is_none() {
             return Flight::Absorbed;
         }
-        for (x, &s) in c.iter_mut().zip(&self.sigma_t) {
-            *x *= density(s) / p;
+        match reweigh(c, total, |b| self.albedo[b]) {
+            Some(w) if u[2] < w => Flight::Scatter(t),
+            _ => Flight::Absorbed,
         }
-        // Scattered with the colour-weighted albedo, or absorbed.
-        let albedo = |b: usize| {
-            if self.sigma_t[b] > 0.0 {
-                self.sigma_s[b] / self.sigma_t[b]
-            } else {
-                0.0
-            }
-        };
-        let w: f64 = c
-            .iter()
-            .enumerate()
-            .map(|(b, x)| x * albedo(b))
-            .sum::<f64>()
-            / total;
-        if w.is_nan() || u[2] >= w {
-            return Flight::Absorbed;
-        }
-        for (b, x) in c.iter_mut().enumerate() {
-            *x *= albedo(b) / w;
-        }
-        Flight::Scatter(t)
     }
 
     /// A new direction at a scattering event of a path travelling along `dir` with
@@ -137,24 +112,31 @@ impl Scattering {
         };
         let cos = hg_sample_cos(g, u[0]);
         if !self.one_g {
-            let total: f64 = c.iter().sum();
-            let mix: f64 = c
-                .iter()
-                .zip(&self.g)
-                .map(|(x, &g)| x * hg_pdf(g, cos))
-                .sum::<f64>()
-                / total;
-            if mix > 0.0 {
-                for (x, &g) in c.iter_mut().zip(&self.g) {
-                    *x *= hg_pdf(g, cos) / mix;
-                }
-            }
+            // Each band by its phase function's density over the mixture's (all positive).
+            reweigh(c, c.iter().sum(), |b| hg_pdf(self.g[b], cos));
         }
         let sin = (1.0 - cos * cos).max(0.0).sqrt();
         let phi = 2.0 * PI * u[1];
         let (t, b) = dir.any_orthonormal_pair();
         (dir * cos + t * (sin * phi.cos()) + b * (sin * phi.sin())).normalize()
     }
+}
+
+/// Multiplies each band of `c` (of sum `total`) by `k(band)` over the colour-weighted mean
+/// of k, so that the sum is kept, and returns that mean; None (with `c` left scaled by k
+/// alone) when the mean is not positive and finite.
+fn reweigh(c: &mut [f64], total: f64, k: impl Fn(usize) -> f64) -> Option<f64> {
+    let mut sum = 0.0;
+    for (b, x) in c.iter_mut().enumerate() {
+        *x *= k(b);
+        sum += *x;
+    }
+    let mean = sum / total;
+    if !(mean > 0.0 && mean.is_finite()) {
+        return None;
+    }
+    c.iter_mut().for_each(|x| *x /= mean);
+    Some(mean)
 }
 
 /// The Henyey–Greenstein phase function's density (1/sr) at cosine `cos` between the

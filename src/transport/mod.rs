@@ -126,41 +126,41 @@ impl WeightedBounces {
     /// A weighted bounce at `mesh`: `colour` goes on times the glossy weights held in
     /// `weights`, and what it loses (or gains) is tallied as the mesh's absorption.
     fn weigh(&mut self, mesh: u32, colour: &mut Colour) {
-        self.meshes.push((mesh, colour.mean()));
-        for (d, c) in self.delta.iter_mut().zip(colour.values()) {
-            *d += c;
-        }
-        colour.reweight(&self.weights, 1.0);
-        if let Some(last) = self.meshes.last_mut() {
-            last.1 -= colour.mean();
-        }
-        for (d, c) in self.delta.iter_mut().zip(colour.values()) {
-            *d -= c;
-        }
+        self.shift(mesh, colour, |c, w| c.reweight(w, 1.0));
     }
-}
 
-impl WeightedBounces {
     /// `f` re-weights the colour's bands keeping their total (a medium's free flight or
-    /// scattering, inside `mesh`): each band's change is tallied as absorbed (a gain as a
-    /// negative absorption), so that the run's balance stays exact per band.
+    /// scattering, inside `mesh`); each band's change is tallied as absorbed.
     fn moved<T>(&mut self, mesh: u32, colour: &mut Colour, f: impl FnOnce(&mut [f64]) -> T) -> T {
+        self.shift(mesh, colour, |c, _| f(c.values_mut()))
+    }
+
+    /// `f` changes `colour` at `mesh` (given the glossy weights): what the colour loses in
+    /// total is tallied as the mesh's absorption and each band's change in `delta` (a gain
+    /// as a negative absorption), so that the run's balance stays exact per band. Sizes
+    /// `delta` on first use; the path's end tallies both when a mesh is listed.
+    fn shift<T>(
+        &mut self,
+        mesh: u32,
+        colour: &mut Colour,
+        f: impl FnOnce(&mut Colour, &[f64]) -> T,
+    ) -> T {
         let nb = colour.values().len();
         if self.delta.len() != nb {
             self.delta.clear();
             self.delta.resize(nb, 0.0);
         }
+        let before = colour.mean();
         for (d, c) in self.delta.iter_mut().zip(colour.values()) {
             *d += c;
         }
-        let out = f(colour.values_mut());
+        let out = f(colour, &self.weights);
         for (d, c) in self.delta.iter_mut().zip(colour.values()) {
             *d -= c;
         }
-        // The total is kept: the mesh absorbed nothing here, but the deltas are tallied
-        // at the path's end only when a bounce is listed.
-        if self.meshes.is_empty() {
-            self.meshes.push((mesh, 0.0));
+        let lost = before - colour.mean();
+        if lost != 0.0 || self.meshes.is_empty() {
+            self.meshes.push((mesh, lost));
         }
         out
     }
@@ -554,7 +554,7 @@ impl Tracer<'_> {
         let mut gathered = None;
         let gathering = self.direct.filter(|d| d.gather);
         bounces.meshes.clear();
-        // (A glossy surface sizes `delta` on its own when it needs it.)
+        // (A glossy bounce or a medium sizes `delta` on first use: `WeightedBounces::shift`.)
         if self.direct.is_some() || !bounces.delta.is_empty() {
             bounces.delta.clear();
             bounces.delta.resize(colour.values().len(), 0.0);
@@ -576,7 +576,7 @@ impl Tracer<'_> {
                 match self.through_medium(m, hit.map(|h| h.t), colour, rng, bounces) {
                     Segment::Through => {}
                     Segment::Absorbed => return PathEnd::Absorbed(m.mesh),
-                    Segment::Scatter(sc, t) => scattered_at = Some((sc, t)),
+                    Segment::Scatter(sc, t) => scattered_at = Some((sc, t, m.mesh)),
                 }
             }
 
@@ -594,7 +594,7 @@ impl Tracer<'_> {
                 // sensor laid on a floor sees the light arriving there), or up to where
                 // it scatters in a medium.
                 let t_end = match scattered_at {
-                    Some((_, t)) => t,
+                    Some((_, t, _)) => t,
                     None => hit.map_or(f64::INFINITY, |h| {
                         let m = &self.scene.meshes[h.mesh as usize];
                         h.t + 2.0 * self.scene.offset_at(m.point(h.prim as usize, h.u, h.v))
@@ -609,7 +609,7 @@ impl Tracer<'_> {
                     }
                 });
             }
-            if let Some((sc, t)) = scattered_at {
+            if let Some((sc, t, mesh)) = scattered_at {
                 // A scattering event in the medium: a new direction by the phase function.
                 if event == 0 {
                     sink.direct_done();
@@ -617,7 +617,6 @@ impl Tracer<'_> {
                 pol = None;
                 org += dir * t;
                 let u = [rng.uniform(), rng.uniform(), rng.uniform()];
-                let mesh = medium.map_or(0, |m| m.mesh);
                 dir = bounces.moved(mesh, colour, |c| sc.scatter(dir, c, u));
                 continue;
             }
@@ -714,11 +713,6 @@ impl Tracer<'_> {
                     // This draw sends on more than arrived (f cos / pdf above 1): the
                     // difference is tallied as a negative absorption here, so that the
                     // absorbed power stays unbiased.
-                    let nb = colour.values().len();
-                    if bounces.delta.len() != nb {
-                        bounces.delta.clear();
-                        bounces.delta.resize(nb, 0.0);
-                    }
                     bounces.weigh(hit.mesh, colour);
                 }
                 dir = frame.to_world(sample.wi);

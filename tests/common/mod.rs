@@ -665,3 +665,27 @@ pub fn write_klems_xml(path: &std::path::Path, blocks: &[(&str, Vec<f64>)]) {
 pub fn scratch_path(name: &str) -> std::path::PathBuf {
     std::env::temp_dir().join(format!("imap-test-{}-{name}", std::process::id()))
 }
+
+/// The rig of the Mitsuba comparisons (scripts/mitsuba_scenes.py, mitsuba_media.py): a
+/// 1 × 1 m emitter of radiance `l` at z = 1 facing down, centred at (−0.6, 0), and a black
+/// 0.4 × 0.4 m receiver beside it facing down, centred at (+0.6, 0), tallied (its id
+/// returned); `ground`: a white ground (ρ 0.8) 6 × 6 m at z = −0.12 too.
+pub fn mitsuba_rig(ctx: &mut Context, black: u32, l: f64, ground: bool) -> u32 {
+    if ground {
+        let white = lambert(ctx, 0.8);
+        let g = grid(2, -3.0, 3.0, -3.0, 3.0, -0.12);
+        let mut gd = g.desc(white);
+        gd.record = false;
+        ctx.add_mesh(&gd).unwrap();
+    }
+    let lamp = grid(1, -1.1, -0.1, -0.5, 0.5, 1.0).flipped();
+    let mut ld = lamp.desc(black);
+    ld.record = false;
+    let exitance = [std::f64::consts::PI * l];
+    ld.exitance = Some(&exitance);
+    ctx.add_mesh(&ld).unwrap();
+    let receiver = grid(2, 0.4, 0.8, -0.2, 0.2, 1.0).flipped();
+    let mut rd = receiver.desc(black);
+    rd.tally = true;
+    ctx.add_mesh(&rd).unwrap()
+}
