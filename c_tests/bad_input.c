@@ -377,6 +377,10 @@ int main(void) {
     double bf[6];
     expect("region band flux of 5 for 3 bands", imap_get_region_band_flux(ctx, floor_id, 0, IMAP_ALL_PARTS, bf, 5),
            IMAP_ERR_BUFFER_TOO_SMALL, ctx);
+    expect("medium absorbed by a floor, which holds none", imap_get_medium_absorbed(ctx, floor_id, bf, 6),
+           IMAP_ERR_INVALID_ARGUMENT, ctx);
+    expect("medium absorbed by mesh 999", imap_get_medium_absorbed(ctx, 999, bf, 6), IMAP_ERR_INDEX_OUT_OF_RANGE, ctx);
+    expect("medium absorbed into NULL", imap_get_medium_absorbed(ctx, floor_id, NULL, 6), IMAP_ERR_NULL_POINTER, ctx);
     expect("vertex areas of 3 for 4 vertices", imap_get_vertex_areas(ctx, floor_id, after, 3), IMAP_ERR_BUFFER_TOO_SMALL, ctx);
     ImapRunParams rt;
     imap_run_params_default(&rt, sizeof rt);

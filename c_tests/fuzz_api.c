@@ -401,14 +401,17 @@ int main(int argc, char **argv) {
             break;
         }
         case 8: { /* counts and absorbed power */
-            what = "imap_get_vertex_count/absorbed/dropped_triangles";
+            what = "imap_get_vertex_count/mesh_absorbed/medium_absorbed/dropped_triangles";
             size_t nv;
             double w;
             if (chance(0.4))
                 s = imap_get_vertex_count(ctx, below(sl->meshes + 2), chance(0.03) ? NULL : &nv);
-            else if (chance(0.7))
+            else if (chance(0.5))
                 s = imap_get_mesh_absorbed(ctx, below(sl->meshes + 2), chance(0.03) ? NULL : &w);
-            else
+            else if (chance(0.6)) {
+                double media[64];
+                s = imap_get_medium_absorbed(ctx, below(sl->meshes + 2), chance(0.03) ? NULL : media, below(65));
+            } else
                 s = imap_get_mesh_dropped_triangles(ctx, below(sl->meshes + 2), chance(0.03) ? NULL : &nv);
             break;
         }

@@ -740,9 +740,10 @@
 #define IMAP_STATE_NO_MAP 1
 
 /**
- * The state format version this library writes and reads. (Since 0.2.2.)
+ * The state format version this library writes. (Since 0.2.2; 2 since 0.2.3, which adds
+ * what media absorbed. It reads version 1 too, but for a scene with media.)
  */
-#define IMAP_STATE_FORMAT_VERSION 1
+#define IMAP_STATE_FORMAT_VERSION 2
 
 /**
  * Status returned by every `imap_*` call. `IMAP_OK` (0) is success; every other value names
@@ -2636,6 +2637,23 @@ enum ImapStatus imap_get_band_balance(const struct ImapContext *ctx, uint32_t ki
  * `ctx` is a live handle; `out_w` is writable.
  */
 enum ImapStatus imap_get_mesh_absorbed(const struct ImapContext *ctx, uint32_t mesh, double *out_w);
+
+/**
+ * What the medium inside mesh `mesh` absorbed since the last reset (a dielectric with
+ * `absorption_per_m` or `scattering_per_m`: light guides, diffusers, haze in a box), with
+ * standard errors from the photons' own totals there. Into `out`, 2 × (bands + 1) doubles:
+ * per band its power, W, and that power's standard error; then the same in lm. What the
+ * mesh's surfaces absorb (a print on a light guide) does not count here;
+ * `imap_get_mesh_absorbed` has both, summed over bands. (Since 0.2.3.)
+ *
+ * Returns IMAP_ERR_NULL_POINTER, IMAP_ERR_INDEX_OUT_OF_RANGE (no such mesh),
+ * IMAP_ERR_INVALID_ARGUMENT (none of its materials holds a medium),
+ * IMAP_ERR_BUFFER_TOO_SMALL. Zeros before the first run.
+ *
+ * # Safety
+ * `ctx` is a live handle; `out` holds `count` writable doubles.
+ */
+enum ImapStatus imap_get_medium_absorbed(const struct ImapContext *ctx, uint32_t mesh, double *out, size_t count);
 
 /**
  * How many triangles of mesh `mesh` were left out because they repeat a vertex (added

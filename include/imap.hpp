@@ -462,6 +462,13 @@ public:
         check(imap_get_mesh_absorbed(ctx_, mesh, &w), ctx_);
         return w;
     }
+    /// What the medium inside `mesh` absorbed: {W, sigma} per band, then {lm, sigma} last
+    /// (imap_get_medium_absorbed).
+    std::vector<std::array<double, 2>> medium_absorbed(uint32_t mesh) const {
+        std::vector<std::array<double, 2>> out(bands_ + 1);
+        check(imap_get_medium_absorbed(ctx_, mesh, out[0].data(), 2 * out.size()), ctx_);
+        return out;
+    }
     void reset() { check(imap_reset(ctx_), ctx_); }
 
     /// The state (map, counters, history, `meta`) as bytes (imap_state_write; `flags`

@@ -54,7 +54,8 @@ mod transport;
 // The context and its settings and reports.
 pub use context::state::{read_state_file, state_info, Fingerprint, StateInfo, FLAG_NO_MAP};
 pub use context::{
-    default_memory_budget, Config, Context, Layer, MeshInfo, RegionStats, Report, SchedulerKind,
+    default_memory_budget, Config, Context, Layer, MediumAbsorbed, MeshInfo, RegionStats, Report,
+    SchedulerKind,
 };
 pub use error::{Error, ImapStatus, Result, Subject};
 pub use files::{read_regular, ReadError};

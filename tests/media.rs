@@ -538,3 +538,200 @@ fn a_scattering_slab_agrees_with_mitsuba() {
         );
     }
 }
+
+/// A slab of index 1 (no Fresnel), `thick` m thick under z = 0 and 4 m wide, absorbing
+/// `alpha` per band (1/m); optionally scattering too.
+fn absorbing_slab(ctx: &mut imap::Context, alpha: &[f64], scattering: &[f64], thick: f64) -> u32 {
+    let m = ctx
+        .add_material(&MaterialDesc {
+            ior: Some(IorModel::Constant(1.0)),
+            absorption_per_m: alpha.to_vec(),
+            scattering_per_m: scattering.to_vec(),
+            ..Default::default()
+        })
+        .unwrap();
+    let geometry = cuboid([-2.0, -2.0, -thick], [2.0, 2.0, 0.0], 2, false);
+    let mut d = geometry.desc(m);
+    d.record = false;
+    ctx.add_mesh(&d).unwrap()
+}
+
+fn run_range(ctx: &mut imap::Context, a: u64, b: u64) {
+    ctx.run(&mut imap::RunParams {
+        selection: imap::Selection::range(a, b),
+        estimator: Some(Estimator::Photons),
+        progress_interval_s: 1.0,
+        ..Default::default()
+    })
+    .expect("run");
+}
+
+#[test]
+fn what_an_absorbing_slab_takes_per_band_is_beer_lambert_with_promised_errors() {
+    // A normal beam through a 0.1 m slab absorbing 1, 5 and 20 per metre: each band loses
+    // 1 − exp(−α d) of its power in the slab, whatever photons the other bands' Russian
+    // roulette kills. Each value's error is checked over seeds at a low count (mean z²
+    // per band and in lm) and at a high count against the exact value.
+    let alpha = [1.0, 5.0, 20.0];
+    let d = 0.1;
+    let exact: Vec<f64> = alpha.iter().map(|a| 1.0 - f64::exp(-a * d)).collect();
+    let measure = |seed: u64, n: u64| {
+        let mut ctx = context(seeded(seed));
+        let id = absorbing_slab(&mut ctx, &alpha, &[], d);
+        ctx.add_spot_light([0.0, 0.0, 1.0], [0.0, 0.0, -1.0], 1e-3, &[1.0, 1.0, 1.0])
+            .unwrap();
+        let report = run_photons_only(&mut ctx, n);
+        let a = ctx.medium_absorbed(id).unwrap();
+        // Everything absorbed is the medium's: the per-band balance says the same, to
+        // rounding.
+        for (b, e) in a.band_w.iter().enumerate() {
+            let all = report.band_w[1][b];
+            assert!(
+                (e.value - all).abs() <= 1e-9 * all,
+                "band {b}: {} against {all}",
+                e.value
+            );
+        }
+        assert!((a.lm.value - report.absorbed_lm).abs() <= 1e-9 * report.absorbed_lm);
+        (a, report)
+    };
+    let ctx_lm = |w: &[f64]| context(seeded(0)).photometry().luminous(w);
+    let mut z2 = [0.0; 4];
+    let seeds = 48;
+    for seed in 0..seeds {
+        let (a, report) = measure(100 + seed, 4000);
+        for (b, e) in a.band_w.iter().enumerate() {
+            let want = exact[b] * report.band_w[0][b];
+            z2[b] += ((e.value - want) / e.sigma).powi(2) / seeds as f64;
+        }
+        let want_w: Vec<f64> = (0..3).map(|b| exact[b] * report.band_w[0][b]).collect();
+        let want_lm = ctx_lm(&want_w);
+        z2[3] += ((a.lm.value - want_lm) / a.lm.sigma).powi(2) / seeds as f64;
+    }
+    eprintln!("mean z² over {seeds} seeds (bands, lm; one photon's roulette serves every band, so they move together): {z2:.2?}");
+    for (i, z) in z2.iter().enumerate() {
+        // 48 draws of χ²₁ averaged: 99.9 % within [0.45, 1.8].
+        assert!((0.45..1.8).contains(z), "value {i}: mean z² {z}");
+    }
+    let (a, report) = measure(7, photons(400_000));
+    for (b, e) in a.band_w.iter().enumerate() {
+        let want = exact[b] * report.band_w[0][b];
+        let z = (e.value - want) / e.sigma;
+        eprintln!(
+            "α {}: absorbed {:.5} of the band, exact {:.5} ({z:+.2} σ, σ {:.1e})",
+            alpha[b],
+            e.value / report.band_w[0][b],
+            exact[b],
+            e.sigma / want
+        );
+        assert!(z.abs() < 4.0, "band {b}: {z} σ off");
+        assert!(e.sigma < 0.03 * want, "band {b}: σ {} of {want}", e.sigma);
+    }
+}
+
+#[test]
+fn a_semi_infinite_scatterer_absorbs_what_it_does_not_reflect_per_band() {
+    // The Chandrasekhar block: its medium absorbs 1 − R per band, and the tallies of what
+    // it absorbs are the run's whole absorption (there is nothing else) band by band.
+    let albedos = [0.3, 0.8, 0.95];
+    let mut ctx = context(seeded(3));
+    let id = block(&mut ctx, &albedos, 0.0);
+    let grey = lambert(&mut ctx, 0.5);
+    let g = quad([
+        [-1.0, -1.0, -9.0],
+        [1.0, -1.0, -9.0],
+        [1.0, 1.0, -9.0],
+        [-1.0, 1.0, -9.0],
+    ]);
+    let plain = ctx.add_mesh(&g.desc(grey)).unwrap();
+    ctx.add_spot_light([0.0, 0.0, 1.0], [0.0, 0.0, -1.0], 1e-3, &[1.0])
+        .unwrap();
+    let report = run_photons_only(&mut ctx, photons(200_000));
+    let a = ctx.medium_absorbed(id).unwrap();
+    for (b, &w) in albedos.iter().enumerate() {
+        let (mu, h) = h_function(w, 4000);
+        let expected = h_at(w, &mu, &h, 1.0) * (1.0 - w).sqrt();
+        let e = a.band_w[b];
+        let z = (e.value / report.band_w[0][b] - expected) / (e.sigma / report.band_w[0][b]);
+        eprintln!(
+            "ω {w}: absorbed {:.5}, 1 − R {expected:.5} ({z:+.2} σ)",
+            e.value / report.band_w[0][b]
+        );
+        assert!(z.abs() < 4.0, "ω {w}: {z} σ");
+        assert!((e.value - report.band_w[1][b]).abs() <= 1e-9 * e.value);
+    }
+    // A mesh without a medium is refused by name (a floor far below, which no light
+    // reaches).
+    let e = ctx.medium_absorbed(plain).unwrap_err();
+    assert_eq!(e.status, imap::ImapStatus::ImapErrInvalidArgument, "{e}");
+    assert!(
+        e.message.contains("mesh = ") && e.message.contains("no medium"),
+        "{e}"
+    );
+}
+
+#[test]
+fn what_media_absorbed_survives_resume_and_shards_bit_for_bit_and_may_be_negative() {
+    // A chromatic scattering medium whose first band absorbs nothing: the re-weighting of
+    // free flights gives that band as much as it takes, so its tally is as often below
+    // zero as above. States with such a tally load; the medium's figures after ranges
+    // merged or a run resumed equal one run's.
+    let build = |seed: u64| {
+        let mut ctx = context(seeded(seed));
+        let id = absorbing_slab(&mut ctx, &[0.0, 2.0, 6.0], &[30.0, 10.0, 2.0], 0.05);
+        ctx.add_spot_light([0.0, 0.0, 1.0], [0.0, 0.0, -1.0], 0.3, &[1.0, 1.0, 1.0])
+            .unwrap();
+        (ctx, id)
+    };
+    let n = 3000;
+    let mut negative = None;
+    for seed in 0..40 {
+        let (mut ctx, id) = build(seed);
+        run_range(&mut ctx, 0, n);
+        if ctx.medium_absorbed(id).unwrap().band_w[0].value < 0.0 {
+            negative = Some(seed);
+            break;
+        }
+    }
+    let seed = negative.expect("a seed whose first band's tally is below zero");
+    let (mut one, id) = build(seed);
+    run_range(&mut one, 0, n);
+    let want = one.medium_absorbed(id).unwrap();
+    // Resumed from a state written half way.
+    let (mut a, _) = build(seed);
+    run_range(&mut a, 0, n / 2);
+    let half = a.state_bytes(0, &[]).unwrap();
+    let (mut b, _) = build(seed);
+    b.load_state(&half).unwrap();
+    run_range(&mut b, n / 2, n);
+    // Two halves merged.
+    let (mut c, _) = build(seed);
+    run_range(&mut c, n / 2, n);
+    let second = c.state_bytes(0, &[]).unwrap();
+    let (mut merged, _) = build(seed);
+    merged.load_state(&half).unwrap();
+    merged.merge_state(&second).unwrap();
+    for (what, ctx) in [("resumed", &b), ("merged", &merged)] {
+        let got = ctx.medium_absorbed(id).unwrap();
+        for (g, w) in got
+            .band_w
+            .iter()
+            .chain([&got.lm])
+            .zip(want.band_w.iter().chain([&want.lm]))
+        {
+            assert!(
+                (g.value - w.value).abs() <= 1e-12 * w.value.abs().max(1e-300) + 1e-15,
+                "{what}: {g:?} against {w:?}"
+            );
+            assert!(
+                (g.sigma - w.sigma).abs() <= 1e-9 * w.sigma,
+                "{what}: {g:?} against {w:?}"
+            );
+        }
+    }
+    // And the negative tally went through a state written whole.
+    let whole = one.state_bytes(0, &[]).unwrap();
+    let (mut d, _) = build(seed);
+    d.load_state(&whole).unwrap();
+    assert_eq!(d.medium_absorbed(id).unwrap(), want);
+}

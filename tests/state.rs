@@ -379,3 +379,97 @@ fn dead_pid() -> u32 {
     c.wait().unwrap();
     pid
 }
+
+/// The scene of `tests/data/state_v1_*.bin` (written by libimap 0.2.3 before the state
+/// format kept media's tallies, commit 09dbe57): a grey floor under a spot light, with or
+/// without a box of absorbing glass between them.
+pub fn v1_scene(medium: bool) -> imap::Context {
+    use imap::{Config, Context, IorModel, MaterialDesc, MeshDesc};
+    let mut ctx = Context::new(Config {
+        seed: 3,
+        threads: 1,
+        ..Default::default()
+    })
+    .unwrap();
+    let grey = ctx
+        .add_material(&MaterialDesc {
+            diffuse_reflect: vec![0.5],
+            ..Default::default()
+        })
+        .unwrap();
+    let floor = [
+        -1.0, -1.0, 0.0, 1.0, -1.0, 0.0, 1.0, 1.0, 0.0, -1.0, 1.0, 0.0,
+    ];
+    ctx.add_mesh(&MeshDesc::new(&floor, &[0, 1, 2, 0, 2, 3], grey))
+        .unwrap();
+    if medium {
+        let glass = ctx
+            .add_material(&MaterialDesc {
+                ior: Some(IorModel::Constant(1.5)),
+                absorption_per_m: vec![3.0],
+                ..Default::default()
+            })
+            .unwrap();
+        let (lo, hi) = ([-0.5, -0.5, 0.2], [0.5, 0.5, 0.4]);
+        let mut p = Vec::new();
+        for k in 0..8 {
+            p.extend([
+                if k & 1 == 0 { lo[0] } else { hi[0] },
+                if k & 2 == 0 { lo[1] } else { hi[1] },
+                if k & 4 == 0 { lo[2] } else { hi[2] },
+            ]);
+        }
+        // Outward faces of the box (corner k has bit 0 for x, 1 for y, 2 for z).
+        let faces = [
+            0, 2, 3, 0, 3, 1, 4, 5, 7, 4, 7, 6, 0, 1, 5, 0, 5, 4, 2, 6, 7, 2, 7, 3, 0, 4, 6, 0, 6,
+            2, 1, 3, 7, 1, 7, 5,
+        ];
+        let mut d = MeshDesc::new(&p, &faces, glass);
+        d.record = false;
+        ctx.add_mesh(&d).unwrap();
+    }
+    ctx.add_spot_light([0.0, 0.0, 1.0], [0.0, 0.0, -1.0], 0.5, &[1.0])
+        .unwrap();
+    ctx
+}
+
+#[test]
+fn a_state_of_the_format_before_media_tallies_resumes_a_scene_without_media() {
+    // States written in format 1 (before the media's tallies) by the library of commit
+    // 09dbe57: the scene without media resumes from one and goes on; the scene with a
+    // box of absorbing glass refuses its own, saying why, and stays usable.
+    let data = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data");
+    let floor = std::fs::read(data.join("state_v1_floor.bin")).unwrap();
+    assert_eq!(u32::from_le_bytes(floor[8..12].try_into().unwrap()), 1);
+    let mut ctx = v1_scene(false);
+    assert_eq!(ctx.load_state(&floor).unwrap(), b"v1");
+    assert_eq!(ctx.report().photons, 2000);
+    let before = ctx.report().absorbed_w;
+    assert!(before > 0.0);
+    run(&mut ctx, 2000, Selection::ALL);
+    assert_eq!(ctx.report().photons, 4000);
+    // The same 4000 photons in one run of this library: the same energy balance.
+    let mut one = v1_scene(false);
+    one.run(&mut RunParams {
+        photons: 4000,
+        estimator: Some(imap::Estimator::Photons),
+        ..Default::default()
+    })
+    .unwrap();
+    let (a, b) = (ctx.report().absorbed_w, one.report().absorbed_w);
+    assert!((a - b).abs() <= 1e-12 * b, "{a} against {b}");
+    // And it writes format 2.
+    let again = ctx.state_bytes(0, &[]).unwrap();
+    assert_eq!(u32::from_le_bytes(again[8..12].try_into().unwrap()), 2);
+
+    let glass = std::fs::read(data.join("state_v1_glass.bin")).unwrap();
+    let mut ctx = v1_scene(true);
+    let e = ctx.load_state(&glass).unwrap_err();
+    assert_eq!(e.status, ImapStatus::ImapErrUnsupported, "{e}");
+    assert!(
+        e.message.contains("state format 1") && e.message.contains("media (mesh 1)"),
+        "{e}"
+    );
+    run(&mut ctx, 1000, Selection::ALL);
+    assert!(ctx.medium_absorbed(1).unwrap().lm.value > 0.0);
+}

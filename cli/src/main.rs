@@ -648,16 +648,28 @@ fn write_outputs(
         },
         "settings": settings,
         "bands_nm": scene.band_nm,
-        "meshes": scene.meshes.iter().zip(&photometry.meshes).map(|(m, lux)| serde_json::json!({
-            "name": m.name, "vertices": m.positions.len() / 3,
-            "triangles": m.indices.len() / 3, "recorded": m.id.is_some(),
-            "emitting": m.emission.is_some(),
-            "illuminance_lx": lux
-        })).collect::<Vec<_>>(),
+        "meshes": scene.meshes.iter().zip(&photometry.meshes).map(|(m, lux)| {
+            let mut j = serde_json::json!({
+                "name": m.name, "vertices": m.positions.len() / 3,
+                "triangles": m.indices.len() / 3, "recorded": m.id.is_some(),
+                "emitting": m.emission.is_some(),
+                "illuminance_lx": lux
+            });
+            // A mesh whose material holds a medium: what the medium absorbed.
+            if let Ok(a) = ctx.medium_absorbed(m.mesh) {
+                j["medium_absorbed"] = serde_json::json!({
+                    "w_per_band": a.band_w.iter().map(|e| e.value).collect::<Vec<_>>(),
+                    "w_per_band_sigma": a.band_w.iter().map(|e| e.sigma).collect::<Vec<_>>(),
+                    "lm": a.lm.value, "lm_sigma": a.lm.sigma
+                });
+            }
+            j
+        }).collect::<Vec<_>>(),
         "lights": scene.lights,
         "units": {
             "energy_w": "W, radiant, summed over the bands",
             "energy_w_per_band": "W in each band (bands_nm)",
+            "medium_absorbed": "what the medium inside a mesh absorbed (its surfaces' share left out): W per band and lm, each with its standard error (_sigma)",
             "luminous_lm": "lm",
             "illuminance_lx": "lx, area-weighted over the recorded vertices (front side)",
             "csv": "E_* in W/m2 per band, rel_error dimensionless, lux in lx"

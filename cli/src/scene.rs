@@ -72,6 +72,8 @@ pub struct LoadedMesh {
     pub file_vertex: Vec<u32>,
     /// libimap's mesh id when recorded.
     pub id: Option<u32>,
+    /// libimap's mesh id.
+    pub mesh: u32,
     /// Diffuse reflectance per band of each vertex (the mean of its triangles'; for the
     /// rendered view) and exitance if emitting.
     pub diffuse: Vec<Vec<f64>>,
@@ -387,6 +389,7 @@ pub fn load(path: &Path, settings: &Settings) -> Result<(Context, LoadedScene)> 
             name_item(|n| &mut n.meshes, id, label);
             meshes.push(LoadedMesh {
                 id: mesh.record.then_some(id),
+                mesh: id,
                 ..mesh.loaded
             });
         }
@@ -759,6 +762,7 @@ fn build_mesh(
             indices,
             file_vertex: used,
             id: None,
+            mesh: 0,
             diffuse,
             emission: exitance.clone(),
         },

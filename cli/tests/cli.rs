@@ -978,6 +978,71 @@ fn a_scattering_medium_from_the_settings() {
     let e = stderr(&o);
     assert!(!o.status.success(), "{e}");
     assert!(e.contains("grey") && e.contains("phase_g"), "{e}");
+    // A closed box of haze under the lamp: report.json gives what its medium absorbed,
+    // per band and in lm with errors; the floor, which holds none, has no such entry.
+    let (obj, _, _) = scene_obj();
+    let mut obj = obj;
+    let base = obj.lines().filter(|l| l.starts_with("v ")).count();
+    obj.push_str("o haze\nusemtl opal\n");
+    for z in [0.2, 1.0] {
+        for (x, y) in [(0.5, 0.5), (1.5, 0.5), (1.5, 1.5), (0.5, 1.5)] {
+            obj.push_str(&format!("v {x} {y} {z}\n"));
+        }
+    }
+    // Outward faces of the box (vertices 1–4 below, 5–8 above, counted from `base`).
+    for f in [
+        [1, 3, 2],
+        [1, 4, 3],
+        [5, 6, 7],
+        [5, 7, 8],
+        [1, 2, 6],
+        [1, 6, 5],
+        [2, 3, 7],
+        [2, 7, 6],
+        [3, 4, 8],
+        [3, 8, 7],
+        [4, 1, 5],
+        [4, 5, 8],
+    ] {
+        let [a, b, c] = f.map(|i| i + base);
+        obj.push_str(&format!("f {a} {b} {c}\n"));
+    }
+    write(
+        d.path(),
+        "scene.mtl",
+        format!("{MTL}newmtl opal\nKd 0 0 0\n"),
+    );
+    let path = write(d.path(), "haze.obj", &obj);
+    let (o, out) = run_with_settings(
+        d.path(),
+        &path,
+        "haze",
+        "[materials.opal]\ndielectric = true\nior = 1.0\nabsorption_per_m = 1\nscattering_per_m = 4\n",
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let r = read_report(&out);
+    let meshes = r["meshes"].as_array().unwrap();
+    let haze = meshes
+        .iter()
+        .find(|m| m["name"] == "haze")
+        .expect("the haze mesh");
+    let a = &haze["medium_absorbed"];
+    let (lm, sigma) = (a["lm"].as_f64().unwrap(), a["lm_sigma"].as_f64().unwrap());
+    // About half the lamp's light enters the box (its top half a metre below the lamp,
+    // as wide as it is far) and crosses 0.8 m of haze absorbing 1/m and scattering
+    // 4/m: a good part of that is absorbed there (a fifth of the lamp's output).
+    let emitted = r["luminous_lm"]["emitted"].as_f64().unwrap();
+    assert!(
+        lm > 0.1 * emitted && lm < 0.5 * emitted,
+        "{lm} of {emitted} lm"
+    );
+    assert!(sigma > 0.0 && sigma < 0.05 * lm, "σ {sigma} of {lm}");
+    assert_eq!(a["w_per_band"].as_array().unwrap().len(), 3);
+    let floor = meshes
+        .iter()
+        .find(|m| m["medium_absorbed"].is_null())
+        .expect("a mesh without a medium");
+    assert_ne!(floor["name"], "haze");
 }
 
 /// `kind = "bsdf-xml"`: a window BSDF file (Klems quarter basis) that reflects 0.2

@@ -80,6 +80,14 @@ impl Default for Config {
     }
 }
 
+/// What a medium absorbed (`Context::medium_absorbed`): per band, W, and in lm, each with
+/// its standard error.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct MediumAbsorbed {
+    pub band_w: Vec<crate::imap::stats::Estimate>,
+    pub lm: crate::imap::stats::Estimate,
+}
+
 /// Totals since the map was last reset, and the last run's own figures.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Report {
@@ -1222,6 +1230,70 @@ impl Context {
     pub fn dropped_triangles(&self, mesh: u32) -> Result<usize> {
         self.mesh_index(mesh)?;
         Ok(self.scene.meshes[mesh as usize].dropped_triangles)
+    }
+
+    /// Whether mesh `mesh` (an index that exists) has a triangle whose material holds a
+    /// medium: a dielectric that absorbs or scatters inside.
+    pub(crate) fn holds_medium(&self, mesh: usize) -> bool {
+        let m = &self.scene.meshes[mesh];
+        let medium = |id: u32| {
+            self.scene
+                .materials
+                .get(id as usize)
+                .and_then(|mat| mat.dielectric.as_ref())
+                .is_some_and(|d| d.absorption_per_m.is_some() || d.scattering.is_some())
+        };
+        !m.sensor
+            && match &m.triangle_materials {
+                None => medium(m.material),
+                Some(ids) => {
+                    let mut seen: Vec<u32> = ids.clone();
+                    seen.sort_unstable();
+                    seen.dedup();
+                    seen.into_iter().any(medium)
+                }
+            }
+    }
+
+    /// What the medium inside mesh `mesh` absorbed since the last reset: per band, W, and
+    /// in lm, each with its standard error (from the photons' own totals there, exact as a
+    /// region's flux error). What the mesh's surfaces absorb does not count
+    /// (`absorbed_w` has both). Fails with `IMAP_ERR_INVALID_ARGUMENT` for a mesh whose
+    /// materials hold no medium (no dielectric with `absorption_per_m` or
+    /// `scattering_per_m`).
+    pub fn medium_absorbed(&self, mesh: u32) -> Result<MediumAbsorbed> {
+        self.mesh_index(mesh)?;
+        if !self.holds_medium(mesh as usize) {
+            bail!(
+                ImapErrInvalidArgument,
+                "mesh = {mesh} holds no medium: none of its materials is a dielectric with absorption_per_m or scattering_per_m"
+            );
+        }
+        let nb = self.bands();
+        let mut out = MediumAbsorbed {
+            band_w: vec![Default::default(); nb],
+            lm: Default::default(),
+        };
+        let n = self.photons();
+        let (Some(p), Some((sum, sq, sq_lum))) = (&self.prepared, self.stats.volumes.of(mesh))
+        else {
+            return Ok(out);
+        };
+        if n == 0 {
+            return Ok(out);
+        }
+        let nf = n as f64;
+        let wpu = p.scene.total_power / (nf * nb as f64);
+        let est = |s: f64, q: f64| crate::imap::stats::Estimate {
+            value: s * wpu,
+            sigma: crate::imap::readout::std_error(s, q, nf) * wpu,
+        };
+        for (o, (&s, &q)) in out.band_w.iter_mut().zip(sum.iter().zip(sq)) {
+            *o = est(s, q);
+        }
+        let lum: f64 = sum.iter().zip(&p.scene.efficacy).map(|(s, e)| s * e).sum();
+        out.lm = est(lum, sq_lum);
+        Ok(out)
     }
 
     /// Power absorbed by a mesh (at its surface or inside its medium), W.

@@ -10,7 +10,8 @@
 //! Layout (little-endian): `IMAPSTAT`, format version (u32), flags (u32), total length
 //! (u64), the fingerprint (four 128-bit hashes: settings, geometry, materials, lights), the
 //! library version, the map's dimensions, the photon ranges, run time and history, energy
-//! and region tallies, the caller's metadata, the map (unless `flags` says it was left
+//! and region tallies (format 2: then the media's tallies, `transport::volumes`), the
+//! caller's metadata, the map (unless `flags` says it was left
 //! out; 8-byte aligned) and an XXH3-128 checksum of everything before it.
 
 use super::Context;
@@ -25,8 +26,11 @@ use std::path::Path;
 use xxhash_rust::xxh3::Xxh3;
 
 const MAGIC: &[u8; 8] = b"IMAPSTAT";
-/// The state format this library writes and reads.
-pub const FORMAT_VERSION: u32 = 1;
+/// The state format this library writes (it reads this one and `FORMAT_VERSION - 1`).
+pub const FORMAT_VERSION: u32 = 2;
+/// The format before the media's tallies: read as a state without them, which a scene
+/// with media refuses (`Context::check_state`).
+const FORMAT_WITHOUT_VOLUMES: u32 = 1;
 /// `flags`: the map's accumulators are not in the state (an MPI rank's ledger: its map is
 /// summed by the caller, e.g. with `MPI_Reduce`).
 pub const FLAG_NO_MAP: u32 = 1;
@@ -194,6 +198,8 @@ impl Dims {
 
 /// A state read from bytes, checked against its checksum.
 pub struct StateFile<'a> {
+    /// Its format (`FORMAT_VERSION`, or `FORMAT_WITHOUT_VOLUMES`).
+    version: u32,
     pub flags: u32,
     pub fingerprint: Fingerprint,
     /// The libimap version that wrote it.
@@ -227,6 +233,18 @@ fn check_number(what: &str, x: f64) -> Result<()> {
     Ok(())
 }
 
+/// `check_number` for a tally that may be negative: what was absorbed, per mesh and per
+/// band (a glossy draw that sends on more than arrived, or a medium's re-weighting that
+/// gives to a band, tallies a negative absorption; the sum over photons of a band that
+/// absorbs nothing is as often below zero as above).
+fn check_signed(what: &str, x: f64) -> Result<()> {
+    check_number(what, x.abs()).map_err(|_| {
+        corrupt(format!(
+            "state is corrupt: its {what} is {x} (a run writes finite values within ±{MAX_STATE_NUMBER:e})"
+        ))
+    })
+}
+
 impl StateFile<'_> {
     /// Checks every number of the state (checksums catch damage, not a state written by a
     /// faulty or hostile program): run time, history, tallies, the estimator's settings
@@ -250,18 +268,28 @@ impl StateFile<'_> {
         ] {
             check_number(what, x)?;
         }
-        let lists: [(&str, &[f64]); 3] = [
-            ("absorbed energy", &st.absorbed),
+        let lists: [(&str, &[f64]); 5] = [
             ("region sums", &self.regions.sum),
             ("region squares", &self.regions.sq),
+            ("region luminous squares", &self.regions.sq_lum),
+            ("media's squares", &st.volumes.sq),
+            ("media's luminous squares", &st.volumes.sq_lum),
         ];
-        for (what, xs) in lists
-            .into_iter()
-            .chain(st.bands.iter().map(|b| ("energy per band", &b[..])))
-            .chain([("region luminous squares", &self.regions.sq_lum[..])])
-        {
+        for (what, xs) in lists {
             for (i, &x) in xs.iter().enumerate() {
                 check_number(&format!("{what} [{i}]"), x)?;
+            }
+        }
+        let signed = [
+            ("absorbed energy", &st.absorbed[..]),
+            ("media's sums", &st.volumes.sum),
+        ];
+        for (what, xs) in signed
+            .into_iter()
+            .chain(st.bands.iter().map(|b| ("energy per band", &b[..])))
+        {
+            for (i, &x) in xs.iter().enumerate() {
+                check_signed(&format!("{what} [{i}]"), x)?;
             }
         }
         let samples = self.dims.samples & !GATHER_BIT;
@@ -426,10 +454,10 @@ fn parse_frame(b: &[u8]) -> Result<StateFile<'_>> {
     }
     let mut r = Reader { b, at: 8 };
     let version = r.u32("version")?;
-    if version != FORMAT_VERSION {
+    if version != FORMAT_VERSION && version != FORMAT_WITHOUT_VOLUMES {
         bail!(
             ImapErrUnsupported,
-            "state format version {version}; this library (libimap {}) reads version {FORMAT_VERSION}",
+            "state format version {version}; this library (libimap {}) reads versions {FORMAT_WITHOUT_VOLUMES} and {FORMAT_VERSION}",
             env!("CARGO_PKG_VERSION")
         );
     }
@@ -529,6 +557,25 @@ fn parse_frame(b: &[u8]) -> Result<StateFile<'_>> {
         sq: r.counted_f64s("region tally")?,
         sq_lum: r.counted_f64s("region tally")?,
     };
+    if version >= 2 {
+        let v = &mut stats.volumes;
+        v.bands = r.u32("media's tally")? as usize;
+        let n = r.u64("media's tally")?;
+        if n > (body.len() / 4) as u64 {
+            return Err(corrupt(format!("state is malformed: {n} media")));
+        }
+        v.meshes = (0..n)
+            .map(|_| r.u32("media's tally"))
+            .collect::<Result<_>>()?;
+        v.sum = r.counted_f64s("media's tally")?;
+        v.sq = r.counted_f64s("media's tally")?;
+        v.sq_lum = r.counted_f64s("media's tally")?;
+        if !v.consistent() {
+            return Err(corrupt(
+                "state is malformed: its media's tallies do not match their mesh list",
+            ));
+        }
+    }
     let n = r.u64("metadata")?;
     let meta = r.take(n, "metadata")?;
     let pad = (8 - r.at % 8) % 8;
@@ -553,6 +600,7 @@ fn parse_frame(b: &[u8]) -> Result<StateFile<'_>> {
         )));
     }
     Ok(StateFile {
+        version,
         flags,
         fingerprint: Fingerprint(fp),
         library,
@@ -712,6 +760,15 @@ impl Context {
         h.f64s(&t.sum);
         h.f64s(&t.sq);
         h.f64s(&t.sq_lum);
+        let v = &s.volumes;
+        h.u32(v.bands as u32);
+        h.u64(v.meshes.len() as u64);
+        for &m in &v.meshes {
+            h.u32(m);
+        }
+        h.f64s(&v.sum);
+        h.f64s(&v.sq);
+        h.f64s(&v.sq_lum);
         h.u64(meta.len() as u64);
         h.0.extend_from_slice(meta);
         let pad = (8 - (PREFIX + h.0.len()) % 8) % 8;
@@ -854,6 +911,23 @@ impl Context {
             return Err(corrupt(
                 "state is malformed: its tallies do not match its map's dimensions",
             ));
+        }
+        let v = &s.stats.volumes;
+        if (!v.meshes.is_empty() && v.bands != dims.bands as usize)
+            || v.meshes.last().is_some_and(|&m| m >= dims.meshes)
+        {
+            return Err(corrupt(
+                "state is malformed: its media's tallies do not match its map's dimensions",
+            ));
+        }
+        if s.version == FORMAT_WITHOUT_VOLUMES && s.photons() > 0 {
+            if let Some(m) = (0..self.scene.meshes.len()).find(|&m| self.holds_medium(m)) {
+                bail!(
+                    ImapErrUnsupported,
+                    "the state was written by libimap {} in state format {FORMAT_WITHOUT_VOLUMES}, which keeps no tallies of what media absorb, and this scene has media (mesh {m}): run it again from the start",
+                    s.library
+                );
+            }
         }
         if s.has_map() && s.map.len() as u64 != dims.values() * 8 {
             return Err(corrupt("state is malformed: its map has the wrong size"));

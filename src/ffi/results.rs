@@ -209,6 +209,46 @@ pub unsafe extern "C" fn imap_get_mesh_absorbed(
     with_context(ctx, |c| write_out("out_w", out_w, c.absorbed_w(mesh)?))
 }
 
+/// What the medium inside mesh `mesh` absorbed since the last reset (a dielectric with
+/// `absorption_per_m` or `scattering_per_m`: light guides, diffusers, haze in a box), with
+/// standard errors from the photons' own totals there. Into `out`, 2 × (bands + 1) doubles:
+/// per band its power, W, and that power's standard error; then the same in lm. What the
+/// mesh's surfaces absorb (a print on a light guide) does not count here;
+/// `imap_get_mesh_absorbed` has both, summed over bands. (Since 0.2.3.)
+///
+/// Returns IMAP_ERR_NULL_POINTER, IMAP_ERR_INDEX_OUT_OF_RANGE (no such mesh),
+/// IMAP_ERR_INVALID_ARGUMENT (none of its materials holds a medium),
+/// IMAP_ERR_BUFFER_TOO_SMALL. Zeros before the first run.
+///
+/// # Safety
+/// `ctx` is a live handle; `out` holds `count` writable doubles.
+#[no_mangle]
+pub unsafe extern "C" fn imap_get_medium_absorbed(
+    ctx: *const ImapContext,
+    mesh: u32,
+    out: *mut f64,
+    count: usize,
+) -> ImapStatus {
+    with_context(ctx, |c| {
+        let out = slice_mut("out", out, count)?;
+        let a = c.medium_absorbed(mesh)?;
+        let need = 2 * (a.band_w.len() + 1);
+        if out.len() < need {
+            bail!(
+                ImapErrBufferTooSmall,
+                "out holds {} values but the medium's band powers, its lm and their errors need {need} (2 × ({} bands + 1))",
+                out.len(),
+                a.band_w.len()
+            );
+        }
+        for (o, e) in out.chunks_exact_mut(2).zip(a.band_w.iter().chain([&a.lm])) {
+            o[0] = e.value;
+            o[1] = e.sigma;
+        }
+        Ok(())
+    })
+}
+
 /// How many triangles of mesh `mesh` were left out because they repeat a vertex (added
 /// with IMAP_MESH_SKIP_DEGENERATE; 0 otherwise), into `*out_count`. (Since 0.2.1.)
 ///

@@ -10,8 +10,9 @@ use std::path::Path;
 /// caller sums the maps itself, see `imap_map_accumulators`). (Since 0.2.2.)
 pub const IMAP_STATE_NO_MAP: u32 = 1;
 const _: () = assert!(IMAP_STATE_NO_MAP == state::FLAG_NO_MAP);
-/// The state format version this library writes and reads. (Since 0.2.2.)
-pub const IMAP_STATE_FORMAT_VERSION: u32 = 1;
+/// The state format version this library writes. (Since 0.2.2; 2 since 0.2.3, which adds
+/// what media absorbed. It reads version 1 too, but for a scene with media.)
+pub const IMAP_STATE_FORMAT_VERSION: u32 = 2;
 const _: () = assert!(IMAP_STATE_FORMAT_VERSION == state::FORMAT_VERSION);
 
 /// A path from a NUL-terminated C string (bytes as the system takes them).

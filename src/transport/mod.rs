@@ -6,6 +6,7 @@
 //! albedo), never by a silent depth cut: the safety limit on events reports what it drops.
 
 pub mod direct;
+pub mod volumes;
 
 use crate::spectral::Colour;
 
@@ -108,6 +109,8 @@ pub struct PathStats {
     pub(crate) bounces: WeightedBounces,
     /// A tinted hit's material (`scene::texture`), reused from hit to hit.
     pub(crate) tint: crate::scene::texture::TintScratch,
+    /// What media absorbed, per mesh and band, with its squares (`volumes`).
+    pub volumes: volumes::VolumeTally,
 }
 
 /// What a photon left at its weighted bounces (light sampling: the photon goes on with the
@@ -120,6 +123,8 @@ pub(crate) struct WeightedBounces {
     delta: Vec<f64>,
     /// Per band: a glossy surface's weights (scratch).
     weights: Vec<f64>,
+    /// The photon in flight's changes in media, per mesh (`volumes`).
+    media: volumes::PhotonVolumes,
 }
 
 impl WeightedBounces {
@@ -129,10 +134,19 @@ impl WeightedBounces {
         self.shift(mesh, colour, |c, w| c.reweight(w, 1.0));
     }
 
-    /// `f` re-weights the colour's bands keeping their total (a medium's free flight or
-    /// scattering, inside `mesh`); each band's change is tallied as absorbed.
-    fn moved<T>(&mut self, mesh: u32, colour: &mut Colour, f: impl FnOnce(&mut [f64]) -> T) -> T {
-        self.shift(mesh, colour, |c, _| f(c.values_mut()))
+    /// `f` re-weights the colour's bands keeping their total (a medium's free flight,
+    /// scattering or Beer–Lambert survival, inside `mesh`); each band's change is tallied
+    /// as absorbed, by the mesh and by its medium (`volumes`).
+    fn moved<T>(&mut self, mesh: u32, colour: &mut Colour, f: impl FnOnce(&mut Colour) -> T) -> T {
+        self.media.add(mesh, colour.values(), 1.0);
+        let out = self.shift(mesh, colour, |c, _| f(c));
+        self.media.add(mesh, colour.values(), -1.0);
+        out
+    }
+
+    /// The path ends absorbed in `mesh`'s medium with `colour`.
+    fn absorbed_in(&mut self, mesh: u32, colour: &Colour) {
+        self.media.add(mesh, colour.values(), 1.0);
     }
 
     /// `f` changes `colour` at `mesh` (given the glossy weights): what the colour loses in
@@ -195,6 +209,7 @@ impl PathStats {
         self.escaped_photons += o.escaped_photons;
         self.dropped += o.dropped;
         self.dropped_photons += o.dropped_photons;
+        self.volumes.merge(&o.volumes);
         for (a, b) in self.bands.iter_mut().zip(&o.bands) {
             if a.len() < b.len() {
                 a.resize(b.len(), 0.0);
@@ -362,15 +377,16 @@ impl<'a> Tracer<'a> {
             // (No surface ahead: the photon has slipped out of its closed mesh through a
             // crack; it leaves the scene rather than wander in an unbounded medium.)
             let u = [rng.uniform(), rng.uniform(), rng.uniform()];
-            return match bounces.moved(m.mesh, colour, |c| sc.flight(c, dist_m, u)) {
+            return match bounces.moved(m.mesh, colour, |c| sc.flight(c.values_mut(), dist_m, u)) {
                 Flight::Surface => Segment::Through,
                 Flight::Absorbed => Segment::Absorbed,
                 Flight::Scatter(t_m) => Segment::Scatter(sc, t_m / self.unit_m),
             };
         }
         if let Some(alpha) = d.and_then(|d| d.absorption_per_m.as_ref()) {
-            if colour
-                .survive_absorption(alpha, dist_m, rng.uniform())
+            let u = rng.uniform();
+            if bounces
+                .moved(m.mesh, colour, |c| c.survive_absorption(alpha, dist_m, u))
                 .is_none()
             {
                 return Segment::Absorbed;
@@ -405,6 +421,7 @@ impl Tracer<'_> {
         let band_end = match end {
             PathEnd::Aborted => {
                 stats.bounces.meshes.clear();
+                stats.bounces.media.clear();
                 sink.abort_photon();
                 return false;
             }
@@ -438,6 +455,12 @@ impl Tracer<'_> {
             {
                 *a += d * k;
             }
+        }
+        if !stats.bounces.media.is_empty() {
+            stats
+                .volumes
+                .add_photon(&stats.bounces.media, &self.scene.efficacy);
+            stats.bounces.media.clear();
         }
         if emission.weight != 1.0 {
             // An aimed photon: its light sent the rest of its flux outside the cone, where
@@ -554,6 +577,7 @@ impl Tracer<'_> {
         let mut gathered = None;
         let gathering = self.direct.filter(|d| d.gather);
         bounces.meshes.clear();
+        bounces.media.clear();
         // (A glossy bounce or a medium sizes `delta` on first use: `WeightedBounces::shift`.)
         if self.direct.is_some() || !bounces.delta.is_empty() {
             bounces.delta.clear();
@@ -575,7 +599,10 @@ impl Tracer<'_> {
             if let Some(m) = medium {
                 match self.through_medium(m, hit.map(|h| h.t), colour, rng, bounces) {
                     Segment::Through => {}
-                    Segment::Absorbed => return PathEnd::Absorbed(m.mesh),
+                    Segment::Absorbed => {
+                        bounces.absorbed_in(m.mesh, colour);
+                        return PathEnd::Absorbed(m.mesh);
+                    }
                     Segment::Scatter(sc, t) => scattered_at = Some((sc, t, m.mesh)),
                 }
             }
@@ -617,7 +644,7 @@ impl Tracer<'_> {
                 pol = None;
                 org += dir * t;
                 let u = [rng.uniform(), rng.uniform(), rng.uniform()];
-                dir = bounces.moved(mesh, colour, |c| sc.scatter(dir, c, u));
+                dir = bounces.moved(mesh, colour, |c| sc.scatter(dir, c.values_mut(), u));
                 continue;
             }
             let Some(hit) = hit else {
