@@ -164,6 +164,19 @@ int main(void) {
     double recip = -1, alb = -1;
     expect("table check of a conductor", imap_get_table_check(ctx, id, &recip, &alb), IMAP_ERR_INVALID_ARGUMENT, ctx);
 
+    /* A scattering medium with a tabulated phase function. */
+    ImapMaterial haze;
+    imap_material_default(&haze, sizeof haze);
+    double sig = 5, ang[3] = {0, 90, 180}, val[3] = {3, 1, 1};
+    haze.ior_model = IMAP_IOR_CONSTANT, haze.ior[0] = 1.0;
+    haze.scattering_per_m = &sig, haze.scattering_count = 1;
+    haze.phase_angles_deg = ang, haze.phase_values = NULL, haze.phase_table_count = 3;
+    expect("phase table values NULL", imap_add_material(ctx, &haze, &id), IMAP_ERR_NULL_POINTER, ctx);
+    haze.phase_values = val, ang[2] = 170;
+    expect("phase table ending at 170 degrees", imap_add_material(ctx, &haze, &id), IMAP_ERR_BAD_MATERIAL, ctx);
+    ang[2] = 180;
+    expect("phase table (valid)", imap_add_material(ctx, &haze, &id), IMAP_OK, ctx);
+
     /* Measured tables: 3 incident and 4 outgoing polar angles, 6 outgoing azimuths. */
     double lambert_table[3 * 4 * 6];
     for (int i = 0; i < 3 * 4 * 6; i++) lambert_table[i] = 0.5 / 3.14159265358979;

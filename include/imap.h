@@ -1926,6 +1926,17 @@ typedef struct ImapMaterial {
    */
   const double *phase_g;
   size_t phase_g_count;
+  /**
+   * A tabulated phase function instead of `phase_g`, for all bands (a measured or Mie
+   * table): `phase_table_count` scattering angles in degrees, 0 first, 180 last,
+   * increasing, and the function's values at them (finite, ≥ 0, any scale: normalised
+   * over the sphere), linear in the angle between them; 2 to 100 000 points. Drawn
+   * exactly (no rejection). Needs `scattering_per_m`; with `phase_g` too, or bad
+   * points: IMAP_ERR_BAD_MATERIAL naming the field. (Since 0.2.3.)
+   */
+  const double *phase_angles_deg;
+  const double *phase_values;
+  size_t phase_table_count;
 } ImapMaterial;
 
 /**

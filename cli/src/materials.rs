@@ -18,7 +18,8 @@
 //!   (index 1.5) without a `Ks`. A smoother one keeps the ideal mapping above.
 //! - `[materials.NAME]` in the settings overrides any of it: `diffuse`, `specular`,
 //!   `transmit`, `emission`, `ior`, `sellmeier`, `absorption_per_m`, `scattering_per_m`,
-//!   `phase_g` (a dielectric's scattering medium), `dielectric = true/false` to make or
+//!   `phase_g` or `phase_table` (rows of [angle in degrees, value] from 0 to 180: a
+//!   dielectric's scattering medium), `dielectric = true/false` to make or
 //!   unmake glass, and `kind = "ideal" | "conductor" | "plastic" |
 //!   "rough-dielectric"` with `roughness` (α, or [α along the tangent, α across]),
 //!   `tangent`, a conductor's `metal` ("aluminium", "silver", "gold", "copper",
@@ -248,6 +249,14 @@ pub fn resolve(
             .phase_g
             .as_ref()
             .map_or(vec![], |s| per_band(s, "phase_g", diag)),
+        phase_angles_deg: o
+            .phase_table
+            .as_ref()
+            .map_or(vec![], |t| t.iter().map(|r| r[0]).collect()),
+        phase_values: o
+            .phase_table
+            .as_ref()
+            .map_or(vec![], |t| t.iter().map(|r| r[1]).collect()),
         ..Default::default()
     };
     let desc = glossy(desc, m, &o, kd, band_nm, rgb, settings_at, diag);
@@ -273,6 +282,7 @@ fn optics_given(o: &MaterialSettings) -> Option<&'static str> {
         ("absorption_per_m", o.absorption_per_m.is_some()),
         ("scattering_per_m", o.scattering_per_m.is_some()),
         ("phase_g", o.phase_g.is_some()),
+        ("phase_table", o.phase_table.is_some()),
     ]
     .into_iter()
     .find_map(|(field, given)| given.then_some(field))

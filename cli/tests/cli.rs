@@ -1017,7 +1017,7 @@ fn a_scattering_medium_from_the_settings() {
         d.path(),
         &path,
         "haze",
-        "[materials.opal]\ndielectric = true\nior = 1.0\nabsorption_per_m = 1\nscattering_per_m = 4\n",
+        "[materials.opal]\ndielectric = true\nior = 1.0\nabsorption_per_m = 1\nscattering_per_m = 4\nphase_table = [[0, 3], [90, 1], [180, 1]]\n",
     );
     assert!(o.status.success(), "{}", stderr(&o));
     let r = read_report(&out);
@@ -1038,6 +1038,16 @@ fn a_scattering_medium_from_the_settings() {
     );
     assert!(sigma > 0.0 && sigma < 0.05 * lm, "σ {sigma} of {lm}");
     assert_eq!(a["w_per_band"].as_array().unwrap().len(), 3);
+    // A phase table that stops short of 180°: one line naming the material and why.
+    let (o, _) = run_with_settings(
+        d.path(),
+        &path,
+        "short",
+        "[materials.opal]\ndielectric = true\nior = 1.0\nscattering_per_m = 4\nphase_table = [[0, 3], [90, 1]]\n",
+    );
+    let e = stderr(&o);
+    assert!(!o.status.success(), "{e}");
+    assert!(e.contains("opal") && e.contains("from 0 to 180"), "{e}");
     let floor = meshes
         .iter()
         .find(|m| m["medium_absorbed"].is_null())

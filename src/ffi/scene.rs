@@ -579,6 +579,15 @@ pub struct ImapMaterial {
     /// isotropic. Needs `scattering_per_m`. (Since 0.2.3.)
     pub phase_g: *const f64,
     pub phase_g_count: usize,
+    /// A tabulated phase function instead of `phase_g`, for all bands (a measured or Mie
+    /// table): `phase_table_count` scattering angles in degrees, 0 first, 180 last,
+    /// increasing, and the function's values at them (finite, ≥ 0, any scale: normalised
+    /// over the sphere), linear in the angle between them; 2 to 100 000 points. Drawn
+    /// exactly (no rejection). Needs `scattering_per_m`; with `phase_g` too, or bad
+    /// points: IMAP_ERR_BAD_MATERIAL naming the field. (Since 0.2.3.)
+    pub phase_angles_deg: *const f64,
+    pub phase_values: *const f64,
+    pub phase_table_count: usize,
 }
 
 // SAFETY: repr(C), u32 struct_size first, numbers and raw pointers only.
@@ -623,6 +632,9 @@ unsafe impl Versioned for ImapMaterial {
             scattering_count: 0,
             phase_g: std::ptr::null(),
             phase_g_count: 0,
+            phase_angles_deg: std::ptr::null(),
+            phase_values: std::ptr::null(),
+            phase_table_count: 0,
         }
     }
 }
@@ -808,6 +820,16 @@ pub unsafe extern "C" fn imap_add_material(
                 m.scattering_count,
             )?,
             phase_g: per_band("material.phase_g", m.phase_g, m.phase_g_count)?,
+            phase_angles_deg: per_band(
+                "material.phase_angles_deg",
+                m.phase_angles_deg,
+                m.phase_table_count,
+            )?,
+            phase_values: per_band(
+                "material.phase_values",
+                m.phase_values,
+                m.phase_table_count,
+            )?,
             surface: match m.surface {
                 IMAP_SURFACE_IDEAL => SurfaceModel::Ideal,
                 IMAP_SURFACE_CONDUCTOR => SurfaceModel::Conductor(match m.metal {

@@ -206,6 +206,11 @@ pub struct MaterialDesc {
     /// The Henyey–Greenstein asymmetry of its scattering per band, in (−1, 1) (empty: 0,
     /// isotropic).
     pub phase_g: Vec<f64>,
+    /// A tabulated phase function instead, for all bands: scattering angles in degrees (0
+    /// first, 180 last, increasing) and the function's values there (≥ 0, any scale: it is
+    /// normalised), linear in the angle between them. Both empty: none.
+    pub phase_angles_deg: Vec<f64>,
+    pub phase_values: Vec<f64>,
     /// The kind of surface.
     pub surface: SurfaceModel,
     /// GGX α along the tangent and the bitangent (a microfacet surface's; [0, 0] for an
@@ -249,7 +254,10 @@ impl Material {
                 desc.texture_lobes
             );
         }
-        let medium = !desc.scattering_per_m.is_empty() || !desc.phase_g.is_empty();
+        let medium = !desc.scattering_per_m.is_empty()
+            || !desc.phase_g.is_empty()
+            || !desc.phase_angles_deg.is_empty()
+            || !desc.phase_values.is_empty();
         if medium
             && !(desc.ior.is_some()
                 && matches!(
@@ -259,7 +267,7 @@ impl Material {
         {
             bail!(
                 ImapErrBadMaterial,
-                "scattering_per_m or phase_g is given but the material is not a dielectric (smooth or rough, with an index of refraction): a medium is the inside of a dielectric"
+                "scattering_per_m, phase_g or a phase table is given but the material is not a dielectric (smooth or rough, with an index of refraction): a medium is the inside of a dielectric"
             );
         }
         let lobes = Self::tint_lobes(desc)?;
@@ -293,15 +301,32 @@ impl Material {
         bands: &Bands,
         absorption: Option<&[f64]>,
     ) -> Result<Option<crate::scene::medium::Scattering>> {
+        let table = !desc.phase_angles_deg.is_empty() || !desc.phase_values.is_empty();
         if desc.scattering_per_m.is_empty() {
-            if !desc.phase_g.is_empty() {
+            if !desc.phase_g.is_empty() || table {
                 bail!(
                     ImapErrBadMaterial,
-                    "phase_g is given but scattering_per_m is not: a phase function needs scattering"
+                    "{} is given but scattering_per_m is not: a phase function needs scattering",
+                    if table {
+                        "a phase table (phase_angles_deg, phase_values)"
+                    } else {
+                        "phase_g"
+                    }
                 );
             }
             return Ok(None);
         }
+        let table = if table {
+            if !desc.phase_g.is_empty() {
+                bail!(
+                    ImapErrBadMaterial,
+                    "phase_g and a phase table (phase_angles_deg, phase_values) are both given: give one phase function"
+                );
+            }
+            Some(std::sync::Arc::new(Self::phase_table(desc)?))
+        } else {
+            None
+        };
         let s = bands.expand("scattering_per_m", &desc.scattering_per_m)?;
         if let Some(i) = s.iter().position(|x| !(x.is_finite() && *x >= 0.0)) {
             bail!(
@@ -325,9 +350,58 @@ impl Material {
         if s.iter().all(|&x| x == 0.0) {
             return Ok(None);
         }
-        Ok(Some(crate::scene::medium::Scattering::new(
-            s, absorption, g,
-        )))
+        let mut sc = crate::scene::medium::Scattering::new(s, absorption, g);
+        sc.table = table;
+        Ok(Some(sc))
+    }
+
+    /// The most points a phase table may have.
+    const MAX_PHASE_POINTS: usize = 100_000;
+
+    /// A tabulated phase function, checked: as many values as angles (2 … 100 000), the
+    /// angles from 0 to 180 degrees increasing, the values finite, ≥ 0, not all 0.
+    fn phase_table(desc: &MaterialDesc) -> Result<crate::scene::medium::PhaseTable> {
+        let (a, v) = (&desc.phase_angles_deg, &desc.phase_values);
+        if a.len() != v.len() || a.len() < 2 || a.len() > Self::MAX_PHASE_POINTS {
+            bail!(
+                ImapErrBadMaterial,
+                "the phase table has {} angles (phase_angles_deg) and {} values (phase_values): give as many of each, 2 to {}",
+                a.len(),
+                v.len(),
+                Self::MAX_PHASE_POINTS
+            );
+        }
+        if a[0] != 0.0 || a[a.len() - 1] != 180.0 {
+            bail!(
+                ImapErrBadMaterial,
+                "the phase table's angles (phase_angles_deg) run from {} to {}: they must run from 0 to 180 (degrees)",
+                a[0],
+                a[a.len() - 1]
+            );
+        }
+        if let Some(i) = (1..a.len()).find(|&i| !(a[i] > a[i - 1] && a[i].is_finite())) {
+            bail!(
+                ImapErrBadMaterial,
+                "the phase table's angle {i} (phase_angles_deg[{i}]) = {} does not follow angle {} = {}: the angles must increase",
+                a[i],
+                i - 1,
+                a[i - 1]
+            );
+        }
+        if let Some(i) = v.iter().position(|x| !(x.is_finite() && *x >= 0.0)) {
+            bail!(
+                ImapErrBadMaterial,
+                "the phase table's value {i} (phase_values[{i}]) = {} must be finite and >= 0",
+                v[i]
+            );
+        }
+        if v.iter().all(|&x| x == 0.0) {
+            bail!(
+                ImapErrBadMaterial,
+                "the phase table's values (phase_values) are all 0: a phase function must scatter somewhere"
+            );
+        }
+        Ok(crate::scene::medium::PhaseTable::new(a, v))
     }
 
     /// An ideal surface's description.
@@ -635,6 +709,8 @@ impl Material {
                         absorption_per_m: desc.absorption_per_m.clone(),
                         scattering_per_m: desc.scattering_per_m.clone(),
                         phase_g: desc.phase_g.clone(),
+                        phase_angles_deg: desc.phase_angles_deg.clone(),
+                        phase_values: desc.phase_values.clone(),
                         ..Default::default()
                     },
                     bands,

@@ -1,5 +1,6 @@
 //! Scattering inside a dielectric: a homogeneous medium of absorption σa and scattering σs
-//! per band (1/m) with a Henyey–Greenstein phase function of asymmetry g per band.
+//! per band (1/m) with a Henyey–Greenstein phase function of asymmetry g per band, or a
+//! tabulated phase function (`PhaseTable`) shared by all bands.
 //!
 //! One free flight serves every band at once, unbiased per band (spectral tracking with
 //! the path's own weights): the distance is drawn from the mixture Σ w_b σt_b e^(−σt_b t)
@@ -17,7 +18,7 @@ use std::f64::consts::PI;
 
 /// The scattering part of a dielectric's medium (its absorption is the dielectric's
 /// `absorption_per_m`).
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, PartialEq)]
 pub struct Scattering {
     /// σt = σa + σs per band, 1/m.
     pub sigma_t: Vec<f64>,
@@ -27,6 +28,24 @@ pub struct Scattering {
     pub g: Vec<f64>,
     /// Whether every band has the same g (a direction then needs no re-weighting).
     pub one_g: bool,
+    /// A tabulated phase function for all bands, in place of Henyey–Greenstein's.
+    pub table: Option<std::sync::Arc<PhaseTable>>,
+}
+
+/// As derived, but `table` only when present: the state fingerprint hashes this text, and
+/// a medium without a table keeps the fingerprint it had before tables existed.
+impl std::fmt::Debug for Scattering {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let mut d = f.debug_struct("Scattering");
+        d.field("sigma_t", &self.sigma_t)
+            .field("albedo", &self.albedo)
+            .field("g", &self.g)
+            .field("one_g", &self.one_g);
+        if let Some(t) = &self.table {
+            d.field("table", t);
+        }
+        d.finish()
+    }
 }
 
 /// What a free flight of a path inside a medium ended with.
@@ -59,6 +78,7 @@ impl Scattering {
             albedo,
             g,
             one_g,
+            table: None,
         }
     }
 
@@ -104,6 +124,9 @@ impl Scattering {
     /// A new direction at a scattering event of a path travelling along `dir` with
     /// per-band weights `c` (re-weighted when the bands' g differ), from uniforms `u`.
     pub fn scatter(&self, dir: DVec3, c: &mut [f64], u: [f64; 3]) -> DVec3 {
+        if let Some(t) = &self.table {
+            return turn(dir, t.sample_cos(u[0]), u[1]);
+        }
         let g = if self.one_g {
             self.g[0]
         } else {
@@ -115,11 +138,118 @@ impl Scattering {
             // Each band by its phase function's density over the mixture's (all positive).
             reweigh(c, c.iter().sum(), |b| hg_pdf(self.g[b], cos));
         }
-        let sin = (1.0 - cos * cos).max(0.0).sqrt();
-        let phi = 2.0 * PI * u[1];
-        let (t, b) = dir.any_orthonormal_pair();
-        (dir * cos + t * (sin * phi.cos()) + b * (sin * phi.sin())).normalize()
+        turn(dir, cos, u[1])
     }
+}
+
+/// `dir` turned by the angle of cosine `cos`, about it by 2π `u`.
+fn turn(dir: DVec3, cos: f64, u: f64) -> DVec3 {
+    let sin = (1.0 - cos * cos).max(0.0).sqrt();
+    let phi = 2.0 * PI * u;
+    let (t, b) = dir.any_orthonormal_pair();
+    (dir * cos + t * (sin * phi.cos()) + b * (sin * phi.sin())).normalize()
+}
+
+/// A phase function given as values at scattering angles from 0 to π (a measured or Mie
+/// table), linear in the angle between them, normalised over the sphere. Drawn exactly:
+/// the segment by the table's cumulative integral, the angle in it by inverting the
+/// segment's closed-form integral ∫ p(θ) 2π sin θ dθ (Newton steps kept inside a
+/// bisection bracket).
+#[derive(Clone, Debug, PartialEq)]
+pub struct PhaseTable {
+    /// The angles, radians: 0 first, π last, increasing.
+    theta: Vec<f64>,
+    /// The density at each angle, 1/sr (the given values over their integral).
+    p: Vec<f64>,
+    /// The integral up to each angle (0 first, 1 last).
+    cdf: Vec<f64>,
+}
+
+impl PhaseTable {
+    /// From angles in degrees (0 first, 180 last, increasing) and values (finite, ≥ 0,
+    /// some positive), already checked by the caller.
+    pub fn new(angles_deg: &[f64], values: &[f64]) -> PhaseTable {
+        let theta: Vec<f64> = angles_deg.iter().map(|a| a.to_radians()).collect();
+        let mut cdf = vec![0.0; theta.len()];
+        for i in 1..theta.len() {
+            cdf[i] = cdf[i - 1]
+                + segment_integral(
+                    theta[i - 1],
+                    theta[i] - theta[i - 1],
+                    values[i - 1],
+                    values[i],
+                    theta[i] - theta[i - 1],
+                );
+        }
+        let total = *cdf.last().unwrap();
+        let p = values.iter().map(|v| v / total).collect();
+        cdf.iter_mut().for_each(|c| *c /= total);
+        *cdf.last_mut().unwrap() = 1.0;
+        PhaseTable { theta, p, cdf }
+    }
+
+    /// The density (1/sr) at cosine `cos` of the scattering angle.
+    #[cfg(test)]
+    pub fn pdf(&self, cos: f64) -> f64 {
+        let th = cos.clamp(-1.0, 1.0).acos();
+        let i = self
+            .theta
+            .partition_point(|&t| t <= th)
+            .clamp(1, self.theta.len() - 1)
+            - 1;
+        let (t0, t1) = (self.theta[i], self.theta[i + 1]);
+        let x = ((th - t0) / (t1 - t0)).clamp(0.0, 1.0);
+        self.p[i] + (self.p[i + 1] - self.p[i]) * x
+    }
+
+    /// The cosine of a scattering angle drawn from the table with uniform `u`.
+    pub fn sample_cos(&self, u: f64) -> f64 {
+        let n = self.theta.len();
+        let i = self.cdf.partition_point(|&c| c <= u).clamp(1, n - 1) - 1;
+        let (t0, h) = (self.theta[i], self.theta[i + 1] - self.theta[i]);
+        let (p0, p1) = (self.p[i], self.p[i + 1]);
+        let target = u - self.cdf[i];
+        let whole = self.cdf[i + 1] - self.cdf[i];
+        if whole <= 0.0 {
+            return t0.cos();
+        }
+        // Solve F(x) = target on [0, h], F increasing, F(0) = 0, F(h) = whole.
+        let (mut lo, mut hi) = (0.0, h);
+        let mut x = h * (target / whole).clamp(0.0, 1.0);
+        for _ in 0..60 {
+            let f = segment_integral(t0, x, p0, p1, h) - target;
+            if f.abs() <= 1e-16 || hi - lo <= 1e-15 * h {
+                break;
+            }
+            if f > 0.0 {
+                hi = x;
+            } else {
+                lo = x;
+            }
+            let d = 2.0 * PI * (p0 + (p1 - p0) * x / h) * (t0 + x).sin();
+            let next = x - f / d;
+            x = if d > 0.0 && next > lo && next < hi {
+                next
+            } else {
+                0.5 * (lo + hi)
+            };
+        }
+        (t0 + x).cos()
+    }
+}
+
+/// ∫ over θ from `t0` to `t0 + x` of p(θ) 2π sin θ, p linear from `p0` at t0 to `p1` at
+/// t0 + `h` (in forms that keep their precision for small angles and steps).
+fn segment_integral(t0: f64, x: f64, p0: f64, p1: f64, h: f64) -> f64 {
+    let s = if h > 0.0 { (p1 - p0) / h } else { 0.0 };
+    let half = (0.5 * x).sin();
+    let mid = t0 + 0.5 * x;
+    // cos t0 − cos(t0 + x), and sin(t0 + x) − sin t0.
+    let dcos = 2.0 * mid.sin() * half;
+    let dsin = 2.0 * mid.cos() * half;
+    // ∫ x' sin(t0 + x') dx' over [0, x] = sin(t0 + x) − sin t0 − x cos(t0 + x).
+    let lin = dsin - x * (t0 + x).cos();
+    2.0 * PI * (p0 * dcos + s * lin)
 }
 
 /// Multiplies each band of `c` (of sum `total`) by `k(band)` over the colour-weighted mean
@@ -215,6 +345,81 @@ mod tests {
             // 19 degrees of freedom: χ² above 43.8 has probability 0.001.
             assert!(chi2 < 43.8, "g {g}: χ² {chi2}");
         }
+    }
+
+    /// A table of Henyey–Greenstein g = 0.9 at every degree: it integrates to one, its
+    /// density is the interpolated table's, and its draws follow that density (χ² over
+    /// bins equal in angle, the forward peak included).
+    #[test]
+    fn a_phase_table_is_normalised_and_drawn_by_its_density() {
+        let g = 0.9;
+        let angles: Vec<f64> = (0..=180).map(f64::from).collect();
+        // Values in arbitrary units: the table is normalised.
+        let values: Vec<f64> = angles
+            .iter()
+            .map(|a: &f64| 7.0 * hg_pdf(g, a.to_radians().cos()))
+            .collect();
+        let t = PhaseTable::new(&angles, &values);
+        let n = 400_000;
+        let (mut s, mut m) = (0.0, 0.0);
+        for i in 0..n {
+            let th = PI * (i as f64 + 0.5) / n as f64;
+            let w = t.pdf(th.cos()) * 2.0 * PI * th.sin() * PI / n as f64;
+            s += w;
+            m += w * th.cos();
+        }
+        assert!((s - 1.0).abs() < 1e-6, "∫p = {s}");
+        // The interpolated table's mean cosine is HG's to the table's resolution.
+        assert!((m - g).abs() < 0.01, "mean cosine {m}");
+        for a in [0.0, 0.5, 10.0, 90.0, 179.5] {
+            let c = f64::to_radians(a).cos();
+            let rel = t.pdf(c) / hg_pdf(g, c) - 1.0;
+            assert!(
+                rel.abs() < 0.02,
+                "at {a}°: table {} against HG {}",
+                t.pdf(c),
+                hg_pdf(g, c)
+            );
+        }
+        let bins = 36;
+        let mut h = vec![0.0; bins];
+        let mut state = 0x2545_F491_4F6C_DD1Du64;
+        let draws = 400_000;
+        for _ in 0..draws {
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            let u = (state >> 11) as f64 / (1u64 << 53) as f64;
+            let c = t.sample_cos(u);
+            assert!((-1.0..=1.0).contains(&c));
+            let k = ((c.acos() / PI * bins as f64) as usize).min(bins - 1);
+            h[k] += 1.0;
+        }
+        let mut chi2 = 0.0;
+        for (k, &o) in h.iter().enumerate() {
+            let (a, b) = (
+                PI * k as f64 / bins as f64,
+                PI * (k + 1) as f64 / bins as f64,
+            );
+            let m = 400;
+            let e: f64 = (0..m)
+                .map(|j| {
+                    let th = a + (b - a) * (j as f64 + 0.5) / m as f64;
+                    t.pdf(th.cos()) * 2.0 * PI * th.sin() * (b - a) / m as f64
+                })
+                .sum::<f64>()
+                * draws as f64;
+            chi2 += (o - e) * (o - e) / e;
+        }
+        // 35 degrees of freedom: χ² above 66.6 has probability 0.001.
+        assert!(chi2 < 66.6, "χ² {chi2}");
+        // A flat table is isotropic: cos = 1 − 2u.
+        let flat = PhaseTable::new(&[0.0, 45.0, 180.0], &[1.0, 1.0, 1.0]);
+        for u in [0.0, 0.1, 0.25, 0.5, 0.9, 0.999_999] {
+            let c = flat.sample_cos(u);
+            assert!((c - (1.0 - 2.0 * u)).abs() < 1e-9, "u {u}: {c}");
+        }
+        assert!((flat.pdf(0.3) - 0.25 / PI).abs() < 1e-12);
     }
 
     #[test]

@@ -20,6 +20,9 @@ pub struct MaterialSettings {
     pub scattering_per_m: Option<Spectrum>,
     /// The Henyey–Greenstein asymmetry of that scattering, in (−1, 1) (default 0).
     pub phase_g: Option<Spectrum>,
+    /// A tabulated phase function instead: rows of [scattering angle in degrees, value],
+    /// from 0 to 180, increasing (any scale: normalised).
+    pub phase_table: Option<Vec<[f64; 2]>>,
     /// Exitance, W/m² per band.
     pub emission: Option<Spectrum>,
     /// The surface model: "ideal" (Lambert, mirror, smooth glass by the fields above),
