@@ -177,6 +177,15 @@ int main(void) {
     ang[2] = 180;
     expect("phase table (valid)", imap_add_material(ctx, &haze, &id), IMAP_OK, ctx);
 
+    /* Fluorescence in an RGB context: refused, RGB has no wavelengths to shift between. */
+    ImapMaterial fl;
+    imap_material_default(&fl, sizeof fl);
+    double shares[9] = {0, 0.2, 0, 0, 0, 0, 0, 0, 0};
+    fl.fluorescence = shares, fl.fluorescence_count = 9;
+    expect("fluorescence in RGB", imap_add_material(ctx, &fl, &id), IMAP_ERR_UNSUPPORTED, ctx);
+    fl.fluorescence = NULL;
+    expect("fluorescence NULL", imap_add_material(ctx, &fl, &id), IMAP_ERR_NULL_POINTER, ctx);
+
     /* Measured tables: 3 incident and 4 outgoing polar angles, 6 outgoing azimuths. */
     double lambert_table[3 * 4 * 6];
     for (int i = 0; i < 3 * 4 * 6; i++) lambert_table[i] = 0.5 / 3.14159265358979;
@@ -687,6 +696,12 @@ int main(void) {
     double black[3] = {0, 0, 0};
     expect("CCT of black", imap_xyz_to_cct(black, &cct, NULL), IMAP_ERR_INVALID_ARGUMENT, NULL);
     expect("balance kind 9", imap_get_band_balance(ctx, 9, lux, 4), IMAP_ERR_INVALID_ARGUMENT, ctx);
+    expect("balance kind 5", imap_get_band_balance(ctx, 5, lux, 4), IMAP_ERR_INVALID_ARGUMENT, ctx);
+    double fluoresced[3] = {1, 1, 1};
+    expect("balance fluoresced", imap_get_band_balance(ctx, IMAP_BALANCE_FLUORESCED, fluoresced, 3), IMAP_OK, ctx);
+    if (fluoresced[0] != 0 || fluoresced[1] != 0 || fluoresced[2] != 0)
+        printf("FAIL fluoresced without fluorescent surfaces: %g %g %g\n", fluoresced[0], fluoresced[1], fluoresced[2]),
+            failures++;
 
     /* States: sizes, bad buffers, damaged states and files; the map survives each. */
     size_t size = 0;

@@ -350,6 +350,13 @@
 #define IMAP_BALANCE_DROPPED 3
 
 /**
+ * `imap_get_band_balance`: what fluorescent surfaces re-emitted into each band (then
+ * emitted + fluoresced = absorbed + escaped + dropped per band, and absorbed includes what
+ * the surfaces took to re-emit). (Since 0.2.3.)
+ */
+#define IMAP_BALANCE_FLUORESCED 4
+
+/**
  * Side index of `imap_get_vertex_energy`: the side the normal (v1−v0)×(v2−v0) points to.
  */
 #define IMAP_SIDE_FRONT 0
@@ -1629,7 +1636,9 @@ typedef struct ImapReport {
    */
   double emitted_w;
   /**
-   * Power absorbed by all surfaces and media, W (estimate from the photons traced).
+   * Power absorbed by all surfaces and media, W (estimate from the photons traced;
+   * with fluorescent surfaces it includes what they re-emit: emitted + fluoresced =
+   * absorbed + escaped + dropped).
    */
   double absorbed_w;
   /**
@@ -1694,6 +1703,13 @@ typedef struct ImapReport {
    * The context's band count.
    */
   uint64_t bands;
+  /**
+   * What fluorescent surfaces re-emitted (`ImapMaterial::fluorescence`), W and lm; 0
+   * without them. Per band: `imap_get_band_balance` with IMAP_BALANCE_FLUORESCED.
+   * (Since 0.2.3.)
+   */
+  double fluoresced_w;
+  double fluoresced_lm;
 } ImapReport;
 
 /**
@@ -1937,6 +1953,21 @@ typedef struct ImapMaterial {
   const double *phase_angles_deg;
   const double *phase_values;
   size_t phase_table_count;
+  /**
+   * Fluorescence of a Lambertian reflector (spectral runs only; RGB:
+   * IMAP_ERR_UNSUPPORTED): `fluorescence_count` = bands × bands shares, row-major, row i
+   * the excitation band and column j the emission band: of the power arriving in band
+   * i, the share re-emitted diffusely (Lambertian, on the side it arrived) in band j.
+   * Only toward longer wavelengths; per band, the diffuse reflectance plus the shares
+   * re-emitted from it at most 1. From an excitation spectrum a_i (the absorbed share
+   * that fluoresces), a quantum yield Φ and an emission spectrum in photons e_j (sum 1):
+   * m_ij = a_i Φ e_j λ_i / λ_j. Not with specular reflectance, transmittance, an index
+   * or a texture (IMAP_ERR_BAD_MATERIAL / IMAP_ERR_UNSUPPORTED naming the field). Every
+   * estimator and renderer carries it; the run's balance gains
+   * IMAP_BALANCE_FLUORESCED. (Since 0.2.3.)
+   */
+  const double *fluorescence;
+  size_t fluorescence_count;
 } ImapMaterial;
 
 /**
@@ -2631,7 +2662,7 @@ enum ImapStatus imap_get_region_band_flux(const struct ImapContext *ctx, uint32_
 
 /**
  * The power balance per band since the last reset, W per band, into `out[0 .. band
- * count)`: `IMAP_BALANCE_EMITTED`, `_ABSORBED`, `_ESCAPED` or `_DROPPED` (their sums are
+ * count)`: `IMAP_BALANCE_EMITTED`, `_ABSORBED`, `_ESCAPED`, `_DROPPED` or `_FLUORESCED` (their sums are
  * `ImapReport`'s `emitted_w` …, their luminous values its `emitted_lm` …). Zeros before
  * the first run.
  *

@@ -82,7 +82,7 @@ fn a_semi_infinite_isotropic_scatterer_reflects_as_chandrasekhar_per_band() {
         .unwrap();
     let n = photons(400_000);
     let report = run_photons_only(&mut ctx, n);
-    let [emitted, absorbed, escaped, dropped] = &report.band_w;
+    let [emitted, absorbed, escaped, dropped, _] = &report.band_w;
     for (b, &w) in albedos.iter().enumerate() {
         let (mu, h) = h_function(w, 4000);
         // The grid's H must satisfy ∫H dμ = (2/ω)(1 − √(1 − ω)).

@@ -688,15 +688,17 @@ fn write_outputs(
         "energy_w": {
             "emitted": report.emitted_w, "absorbed": report.absorbed_w,
             "escaped": report.escaped_w, "dropped": report.dropped_w,
-            "dropped_photons": report.dropped_photons
+            "dropped_photons": report.dropped_photons, "fluoresced": report.fluoresced_w
         },
         "energy_w_per_band": {
             "emitted": report.band_w[0], "absorbed": report.band_w[1],
-            "escaped": report.band_w[2], "dropped": report.band_w[3]
+            "escaped": report.band_w[2], "dropped": report.band_w[3],
+            "fluoresced": report.band_w[4]
         },
         "luminous_lm": {
             "emitted": report.emitted_lm, "absorbed": report.absorbed_lm,
-            "escaped": report.escaped_lm, "dropped": report.dropped_lm
+            "escaped": report.escaped_lm, "dropped": report.dropped_lm,
+            "fluoresced": report.fluoresced_lm
         },
         "light_on_recorded_surfaces": photometry.colour,
         "counters": {

@@ -19,7 +19,8 @@
 //! - `[materials.NAME]` in the settings overrides any of it: `diffuse`, `specular`,
 //!   `transmit`, `emission`, `ior`, `sellmeier`, `absorption_per_m`, `scattering_per_m`,
 //!   `phase_g` or `phase_table` (rows of [angle in degrees, value] from 0 to 180: a
-//!   dielectric's scattering medium), `dielectric = true/false` to make or
+//!   dielectric's scattering medium), `fluorescence = { excitation, quantum_yield,
+//!   emission }` (spectral runs), `dielectric = true/false` to make or
 //!   unmake glass, and `kind = "ideal" | "conductor" | "plastic" |
 //!   "rough-dielectric"` with `roughness` (α, or [α along the tangent, α across]),
 //!   `tangent`, a conductor's `metal` ("aluminium", "silver", "gold", "copper",
@@ -249,6 +250,14 @@ pub fn resolve(
             .phase_g
             .as_ref()
             .map_or(vec![], |s| per_band(s, "phase_g", diag)),
+        fluorescence: o.fluorescence.as_ref().map_or(vec![], |f| {
+            fluorescence_matrix(
+                &per_band(&f.excitation, "fluorescence.excitation", diag),
+                f.quantum_yield,
+                &per_band(&f.emission, "fluorescence.emission", diag),
+                band_nm,
+            )
+        }),
         phase_angles_deg: o
             .phase_table
             .as_ref()
@@ -267,6 +276,25 @@ pub fn resolve(
     }
 }
 
+/// The excitation–emission matrix of an excitation share a_i per band, a quantum yield Φ
+/// and an emission spectrum in photons e_j: m_ij = a_i Φ ê_ij λ_i / λ_j, where ê_ij is e
+/// over the bands longer than band i, normalised there (light is re-emitted at longer
+/// wavelengths only; the photon's energy scales by λ_i / λ_j). The library checks it.
+fn fluorescence_matrix(a: &[f64], q: f64, e: &[f64], nm: &[f64]) -> Vec<f64> {
+    let nb = nm.len();
+    let mut m = vec![0.0; nb * nb];
+    for i in 0..nb {
+        let longer: f64 = (0..nb).filter(|&j| nm[j] > nm[i]).map(|j| e[j]).sum();
+        if longer <= 0.0 {
+            continue;
+        }
+        for j in (0..nb).filter(|&j| nm[j] > nm[i]) {
+            m[i * nb + j] = a[i] * q * e[j] / longer * nm[i] / nm[j];
+        }
+    }
+    m
+}
+
 /// The first optical field the settings give (coefficients, index, metal, roughness),
 /// which a table or a window BSDF file does not take.
 fn optics_given(o: &MaterialSettings) -> Option<&'static str> {
@@ -283,6 +311,7 @@ fn optics_given(o: &MaterialSettings) -> Option<&'static str> {
         ("scattering_per_m", o.scattering_per_m.is_some()),
         ("phase_g", o.phase_g.is_some()),
         ("phase_table", o.phase_table.is_some()),
+        ("fluorescence", o.fluorescence.is_some()),
     ]
     .into_iter()
     .find_map(|(field, given)| given.then_some(field))

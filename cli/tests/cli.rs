@@ -1055,6 +1055,49 @@ fn a_scattering_medium_from_the_settings() {
     assert_ne!(floor["name"], "haze");
 }
 
+/// `[materials.NAME.fluorescence]`: a spectral run's floor re-emits at longer wavelengths
+/// what it absorbs at shorter ones (report.json's `fluoresced`, per band only above the
+/// first band, and the balance emitted + fluoresced = absorbed + escaped + dropped); an RGB
+/// run refuses it naming the material and spectral bands.
+#[test]
+fn a_fluorescent_floor_from_the_settings() {
+    let d = tempfile::tempdir().unwrap();
+    write(d.path(), "scene.mtl", MTL);
+    let (obj, _, _) = scene_obj();
+    let path = write(d.path(), "scene.obj", &obj);
+    let fl = "[materials.grey.fluorescence]\nexcitation = [0.8, 0.4, 0, 0, 0]\nquantum_yield = 0.9\nemission = [0, 0, 1, 2, 1]\n";
+    let (o, out) = run_with_settings(
+        d.path(),
+        &path,
+        "spectral",
+        &format!("[spectral]\nbands = 5\n[materials.grey]\ndiffuse = 0.1\n{fl}"),
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let r = read_report(&out);
+    let e = &r["energy_w"];
+    let f = |k: &str| e[k].as_f64().unwrap();
+    assert!(f("fluoresced") > 0.02 * f("emitted"), "{e}");
+    let off = f("emitted") + f("fluoresced") - f("absorbed") - f("escaped") - f("dropped");
+    assert!(off.abs() < 1e-9 * f("emitted"), "balance off by {off}");
+    let per_band: Vec<f64> = r["energy_w_per_band"]["fluoresced"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|x| x.as_f64().unwrap())
+        .collect();
+    assert_eq!(per_band[0], 0.0, "{per_band:?}");
+    assert!(
+        per_band[3] > per_band[2] && per_band[3] > per_band[4],
+        "{per_band:?}"
+    );
+    let grey =
+        "[materials.grey.fluorescence]\nexcitation = 0.5\nquantum_yield = 0.9\nemission = 1\n";
+    let (o, _) = run_with_settings(d.path(), &path, "rgb", grey);
+    let e = stderr(&o);
+    assert!(!o.status.success(), "{e}");
+    assert!(e.contains("grey") && e.contains("spectral"), "{e}");
+}
+
 /// `kind = "bsdf-xml"`: a window BSDF file (Klems quarter basis) that reflects 0.2
 /// diffusely from its front makes the floor absorb 0.8 of what it receives against the
 /// grey floor's 0.5, and so does `kind = "table"` with the same law in a values file; a

@@ -24,7 +24,7 @@ use crate::sched::{self, photons, Counters, RangeSet, RunContext, RunParams};
 use crate::spectral::Bands;
 use crate::transport::direct::{self as direct, DirectPlan, DirectSampler, Estimator};
 use crate::transport::{
-    PathStats, Tracer, BAND_ABSORBED, BAND_DROPPED, BAND_EMITTED, BAND_ESCAPED,
+    PathStats, Tracer, BAND_ABSORBED, BAND_DROPPED, BAND_EMITTED, BAND_ESCAPED, BAND_FLUORESCED,
 };
 
 /// Most calculating threads a context accepts.
@@ -101,21 +101,28 @@ pub struct Report {
     pub stop: Option<StopReason>,
     pub threads: usize,
     pub scheduler: SchedulerKind,
-    /// Energy balance in watts: emitted = absorbed + escaped + dropped (up to rounding).
+    /// Energy balance in watts: emitted + fluoresced = absorbed + escaped + dropped (up to
+    /// rounding; fluoresced is 0 without fluorescent surfaces, and absorbed includes what
+    /// they re-emitted).
     /// `emitted_w` is what the traced photons carried; its expectation is the lights' total
     /// power (equal to it exactly with a single light).
     pub emitted_w: f64,
     pub absorbed_w: f64,
     pub escaped_w: f64,
     pub dropped_w: f64,
+    /// What fluorescent surfaces re-emitted, W (in longer-wavelength bands than they
+    /// absorbed it in).
+    pub fluoresced_w: f64,
     pub dropped_photons: u64,
     /// The same balance in lumens (the bands' luminous value).
     pub emitted_lm: f64,
     pub absorbed_lm: f64,
     pub escaped_lm: f64,
     pub dropped_lm: f64,
-    /// The balance per band, W: emitted, absorbed, escaped, dropped (`BalanceKind` order).
-    pub band_w: [Vec<f64>; 4],
+    pub fluoresced_lm: f64,
+    /// The balance per band, W: emitted, absorbed, escaped, dropped, fluoresced
+    /// (`IMAP_BALANCE_*` order).
+    pub band_w: [Vec<f64>; 5],
     pub counters: Counters,
     pub map_bytes: u64,
 }
@@ -1196,6 +1203,8 @@ impl Context {
             absorbed_lm: lm(BAND_ABSORBED),
             escaped_lm: lm(BAND_ESCAPED),
             dropped_lm: lm(BAND_DROPPED),
+            fluoresced_lm: lm(BAND_FLUORESCED),
+            fluoresced_w: band_w[BAND_FLUORESCED].iter().sum(),
             photons: n,
             hits: self.stats.hits,
             elapsed_s: self.elapsed_s,

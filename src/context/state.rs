@@ -548,7 +548,9 @@ fn parse_frame(b: &[u8]) -> Result<StateFile<'_>> {
         dropped_photons: r.u64("energy tally")?,
         ..Default::default()
     };
-    for b in &mut stats.bands {
+    // Format 1 had no fluoresced tally.
+    let kinds = if version >= 2 { 5 } else { 4 };
+    for b in stats.bands.iter_mut().take(kinds) {
         *b = r.counted_f64s("band tally")?;
     }
     let regions = crate::imap::regions::RegionTally {

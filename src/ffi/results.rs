@@ -170,8 +170,13 @@ pub const IMAP_BALANCE_ESCAPED: u32 = 2;
 /// `imap_get_band_balance`: what `max_path_events` dropped.
 pub const IMAP_BALANCE_DROPPED: u32 = 3;
 
+/// `imap_get_band_balance`: what fluorescent surfaces re-emitted into each band (then
+/// emitted + fluoresced = absorbed + escaped + dropped per band, and absorbed includes what
+/// the surfaces took to re-emit). (Since 0.2.3.)
+pub const IMAP_BALANCE_FLUORESCED: u32 = 4;
+
 /// The power balance per band since the last reset, W per band, into `out[0 .. band
-/// count)`: `IMAP_BALANCE_EMITTED`, `_ABSORBED`, `_ESCAPED` or `_DROPPED` (their sums are
+/// count)`: `IMAP_BALANCE_EMITTED`, `_ABSORBED`, `_ESCAPED`, `_DROPPED` or `_FLUORESCED` (their sums are
 /// `ImapReport`'s `emitted_w` …, their luminous values its `emitted_lm` …). Zeros before
 /// the first run.
 ///
@@ -185,10 +190,10 @@ pub unsafe extern "C" fn imap_get_band_balance(
     count: usize,
 ) -> ImapStatus {
     with_context(ctx, |c| {
-        if kind > IMAP_BALANCE_DROPPED {
+        if kind > IMAP_BALANCE_FLUORESCED {
             bail!(
                 ImapErrInvalidArgument,
-                "kind = {kind} is not an IMAP_BALANCE_* value (0–3)"
+                "kind = {kind} is not an IMAP_BALANCE_* value (0–4)"
             );
         }
         copy_bands(out, count, &c.report().band_w[kind as usize])

@@ -292,7 +292,9 @@ pub struct ImapReport {
     /// of their watts (a light of 12.57 W in each of 3 bands emits 37.7 W). Its expectation
     /// is the lights' total power, which it equals exactly with one light.
     pub emitted_w: f64,
-    /// Power absorbed by all surfaces and media, W (estimate from the photons traced).
+    /// Power absorbed by all surfaces and media, W (estimate from the photons traced;
+    /// with fluorescent surfaces it includes what they re-emit: emitted + fluoresced =
+    /// absorbed + escaped + dropped).
     pub absorbed_w: f64,
     /// Power leaving the scene, W.
     pub escaped_w: f64,
@@ -328,6 +330,11 @@ pub struct ImapReport {
     pub dropped_lm: f64,
     /// The context's band count.
     pub bands: u64,
+    /// What fluorescent surfaces re-emitted (`ImapMaterial::fluorescence`), W and lm; 0
+    /// without them. Per band: `imap_get_band_balance` with IMAP_BALANCE_FLUORESCED.
+    /// (Since 0.2.3.)
+    pub fluoresced_w: f64,
+    pub fluoresced_lm: f64,
 }
 
 // SAFETY: repr(C), u32 struct_size first, plain numbers only.
@@ -410,6 +417,8 @@ fn report_to_c(r: &Report, history_len: usize) -> ImapReport {
         escaped_lm: r.escaped_lm,
         dropped_lm: r.dropped_lm,
         bands: r.band_w[0].len() as u64,
+        fluoresced_w: r.fluoresced_w,
+        fluoresced_lm: r.fluoresced_lm,
     }
 }
 

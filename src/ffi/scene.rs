@@ -588,6 +588,19 @@ pub struct ImapMaterial {
     pub phase_angles_deg: *const f64,
     pub phase_values: *const f64,
     pub phase_table_count: usize,
+    /// Fluorescence of a Lambertian reflector (spectral runs only; RGB:
+    /// IMAP_ERR_UNSUPPORTED): `fluorescence_count` = bands × bands shares, row-major, row i
+    /// the excitation band and column j the emission band: of the power arriving in band
+    /// i, the share re-emitted diffusely (Lambertian, on the side it arrived) in band j.
+    /// Only toward longer wavelengths; per band, the diffuse reflectance plus the shares
+    /// re-emitted from it at most 1. From an excitation spectrum a_i (the absorbed share
+    /// that fluoresces), a quantum yield Φ and an emission spectrum in photons e_j (sum 1):
+    /// m_ij = a_i Φ e_j λ_i / λ_j. Not with specular reflectance, transmittance, an index
+    /// or a texture (IMAP_ERR_BAD_MATERIAL / IMAP_ERR_UNSUPPORTED naming the field). Every
+    /// estimator and renderer carries it; the run's balance gains
+    /// IMAP_BALANCE_FLUORESCED. (Since 0.2.3.)
+    pub fluorescence: *const f64,
+    pub fluorescence_count: usize,
 }
 
 // SAFETY: repr(C), u32 struct_size first, numbers and raw pointers only.
@@ -635,6 +648,8 @@ unsafe impl Versioned for ImapMaterial {
             phase_angles_deg: std::ptr::null(),
             phase_values: std::ptr::null(),
             phase_table_count: 0,
+            fluorescence: std::ptr::null(),
+            fluorescence_count: 0,
         }
     }
 }
@@ -829,6 +844,11 @@ pub unsafe extern "C" fn imap_add_material(
                 "material.phase_values",
                 m.phase_values,
                 m.phase_table_count,
+            )?,
+            fluorescence: per_band(
+                "material.fluorescence",
+                m.fluorescence,
+                m.fluorescence_count,
             )?,
             surface: match m.surface {
                 IMAP_SURFACE_IDEAL => SurfaceModel::Ideal,

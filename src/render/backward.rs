@@ -17,7 +17,7 @@ use crate::scene::material::fresnel_dielectric;
 use crate::scene::medium::Flight;
 use crate::scene::texture::TintScratch;
 use crate::scene::{LightSample, Material, PreparedScene, Receiver, Scene};
-use crate::spectral::collapse_weights;
+use crate::spectral::{collapse_weights, pick_band};
 use crate::transport::SurfaceEvent;
 use glam::DVec3;
 use std::f64::consts::PI;
@@ -66,6 +66,40 @@ pub struct EyeTracer<'a> {
     /// cosine-sampled direction finds it once in 10⁵ paths, and a render's error with the
     /// sun through glass read 600–1400 %.)
     pub sun_by_caustics: bool,
+    /// 1 in every band: the reflectance a fluorescent surface has for an eye path once its
+    /// weights are taken through the surface (`through_fluorescent`).
+    white: Vec<f64>,
+    /// Whether some material fluoresces (backward photons then record their pixel band).
+    fluorescent: bool,
+}
+
+/// Where an eye path's light goes (`EyeTracer::path_sample`): the pixel's bands, each into
+/// its own; or, once a fluorescent surface has picked the pixel band `band` for the path,
+/// per band of the arriving light into `arriving`, summed into that pixel band when the
+/// path ends (dropped).
+struct PathOut<'o> {
+    out: &'o mut [f64],
+    arriving: Vec<f64>,
+    band: Option<usize>,
+}
+
+impl PathOut<'_> {
+    #[inline]
+    fn to(&mut self) -> &mut [f64] {
+        if self.band.is_some() {
+            &mut self.arriving
+        } else {
+            self.out
+        }
+    }
+}
+
+impl Drop for PathOut<'_> {
+    fn drop(&mut self) {
+        if let Some(j) = self.band {
+            self.out[j] += self.arriving.iter().sum::<f64>();
+        }
+    }
 }
 
 /// The illumination map's indirect irradiance (combined minus direct layer) at every
@@ -180,6 +214,8 @@ impl<'a> EyeTracer<'a> {
             emitter_of_mesh,
             map: None,
             sun_by_caustics: false,
+            white: vec![1.0; source.bands.count()],
+            fluorescent: source.materials.iter().any(|m| m.fluorescence.is_some()),
         }
     }
 
@@ -295,6 +331,12 @@ impl<'a> EyeTracer<'a> {
                 Step::End => return,
                 Step::Diffuse(pd) => pd,
             };
+            let mut out_band = None;
+            let Some(rho) =
+                self.through_fluorescent((bsdf, rho), beta, (&mut band, &mut out_band), rng)
+            else {
+                return;
+            };
             // The first diffuse vertex: direct light here, and a backward photon.
             let p0 = buf.w_reflect.len();
             buf.w_reflect
@@ -304,16 +346,21 @@ impl<'a> EyeTracer<'a> {
                     .extend(beta.iter().zip(tau).map(|(b, k)| b * k / (pd * PI)));
             }
             let wt = self.transmit.then(|| &buf.w_transmit[p0..p0 + nb]);
-            self.direct_light(
-                p_hit,
-                n_in,
-                eps,
-                &buf.w_reflect[p0..p0 + nb],
-                wt,
-                rng,
-                &mut buf.direct[d0..d0 + nb],
-                stats,
-            );
+            let wr = &buf.w_reflect[p0..p0 + nb];
+            let direct = &mut buf.direct[d0..d0 + nb];
+            match out_band {
+                None => self.direct_light(p_hit, n_in, eps, wr, wt, rng, direct, stats),
+                // On a fluorescent surface: each band of the arriving light counts into
+                // the pixel band the path picked.
+                Some(j) => {
+                    let at = (p_hit, n_in, eps);
+                    direct[j] += self.direct_arriving(at, (wr, wt), rng, stats);
+                }
+            }
+            if self.fluorescent {
+                buf.out_band
+                    .push(out_band.map_or(super::bmap::NO_BAND, |j| j as u32));
+            }
             let r2 = if r2_pixel > 0.0 {
                 r2_pixel
             } else if self.initial_radius > 0.0 {
@@ -364,6 +411,13 @@ impl<'a> EyeTracer<'a> {
             Ok(ray) => ray,
             Err(dir) => return self.add_sky(dir, beta, out),
         };
+        // Where the path's light goes: each band into its own pixel band, until a
+        // fluorescent surface picks one pixel band for all the arriving light's bands.
+        let mut out = PathOut {
+            out,
+            arriving: Vec::new(),
+            band: None,
+        };
         let mut band: Option<usize> = None;
         let mut medium: Option<u32> = None;
         // Whether emission met now is counted: before the first diffuse vertex, or through
@@ -387,7 +441,7 @@ impl<'a> EyeTracer<'a> {
                     let no_sun = (diffuse_vertices > 0 || after_glossy)
                         && self.sun_by_caustics
                         && glossy_pdf.is_none();
-                    self.add_distant_weighted(dir, beta, out, no_sun, glossy_pdf);
+                    self.add_distant_weighted(dir, beta, out.to(), no_sun, glossy_pdf);
                 }
                 return;
             };
@@ -404,7 +458,7 @@ impl<'a> EyeTracer<'a> {
             }
             let at = self.surface(&hit, dir);
             if counts {
-                self.add_emission_weighted(&hit, at.ng, dir, beta, out, glossy_pdf);
+                self.add_emission_weighted(&hit, at.ng, dir, beta, out.to(), glossy_pdf);
             }
             glossy_pdf = None;
             let (p_hit, n_in, eps, front) = (at.p, at.n_in, at.eps, at.front);
@@ -429,8 +483,14 @@ impl<'a> EyeTracer<'a> {
                 }
                 Step::Glossy => {
                     let step = (&mut dir, &mut org, beta.as_mut_slice());
-                    match self.glossy_step((&at, bsdf), step, &mut glossy_scratch, rng, out, stats)
-                    {
+                    match self.glossy_step(
+                        (&at, bsdf),
+                        step,
+                        &mut glossy_scratch,
+                        rng,
+                        out.to(),
+                        stats,
+                    ) {
                         Some(pdf) => {
                             glossy_pdf = Some(pdf);
                             counts = true;
@@ -443,6 +503,14 @@ impl<'a> EyeTracer<'a> {
                 Step::End => return,
                 Step::Diffuse(pd) => pd,
             };
+            let Some(rho) =
+                self.through_fluorescent((bsdf, rho), beta, (&mut band, &mut out.band), rng)
+            else {
+                return;
+            };
+            if out.band.is_some() && out.arriving.is_empty() {
+                out.arriving.resize(nb, 0.0);
+            }
             // A diffuse vertex: its direct light, then on by cosine sampling.
             scratch.clear();
             scratch.extend(beta.iter().zip(rho).map(|(b, k)| b * k / (pd * PI)));
@@ -453,11 +521,11 @@ impl<'a> EyeTracer<'a> {
             let side = if front { 0 } else { 1 };
             let read = diffuse_vertices >= 1 && self.map_has(hit.mesh, side, wt.is_some());
             if !read || !self.map.is_some_and(|m| m.combined) {
-                self.direct_light(p_hit, n_in, eps, wr, wt, rng, out, stats);
+                self.direct_light(p_hit, n_in, eps, wr, wt, rng, out.to(), stats);
             }
             if read {
                 let (prim, uv) = (hit.prim as usize, (hit.u, hit.v));
-                self.map_read(hit.mesh, prim, uv, side, wr, wt, out, reads);
+                self.map_read(hit.mesh, prim, uv, side, wr, wt, out.to(), reads);
                 return;
             }
             let sr: f64 = (0..nb).map(|b| beta[b] * rho[b]).sum();
@@ -468,7 +536,7 @@ impl<'a> EyeTracer<'a> {
             } else {
                 (Lobe::DiffuseTransmission, st / (sr + st))
             };
-            for (b, k) in beta.iter_mut().zip(bsdf.albedo(lobe)) {
+            for (b, k) in beta.iter_mut().zip(if reflect_side { rho } else { tau }) {
                 *b *= k / (pd * p_side);
             }
             let n = lobe.leaving_normal(n_in);
@@ -610,6 +678,12 @@ impl<'a> EyeTracer<'a> {
         // Radiance over the pixel: (k/π) Φ cos θz / (d² cos³ θc · pixel area at unit
         // distance), d in metres.
         let g = c.abs() / den / PI * flux;
+        if let Some(fl) = bsdf.fluorescence() {
+            // What a fluorescent surface sends on: reflected and re-emitted light.
+            let (mut out, mut re) = (vec![0.0; colour.len()], vec![0.0; colour.len()]);
+            fl.send_on(k, colour, &mut out, &mut re);
+            return Some((pixel, out.iter().map(|x| x * g).collect()));
+        }
         Some((
             pixel,
             colour.iter().zip(k).map(|(c, k)| c * k * g).collect(),
@@ -1018,6 +1092,75 @@ impl<'a> EyeTracer<'a> {
         Flight::Surface
     }
 
+    /// `direct_light` summed over the bands of the arriving light (a path on a fluorescent
+    /// surface that counts them all into one pixel band).
+    #[cold]
+    #[inline(never)]
+    fn direct_arriving(
+        &self,
+        (p, n_in, eps): (DVec3, DVec3, f64),
+        (wr, wt): (&[f64], Option<&[f64]>),
+        rng: &mut PhotonRng,
+        stats: &mut EyeStats,
+    ) -> f64 {
+        let mut arriving = vec![0.0; self.bands];
+        self.direct_light(p, n_in, eps, wr, wt, rng, &mut arriving, stats);
+        arriving.iter().sum()
+    }
+
+    /// At a diffuse vertex: the reflectance `rho` the path reads there; for a fluorescent
+    /// surface white, after taking the path's weights through it. A path that still counts
+    /// each band into its own pixel band (`out_band` None) picks the pixel band j it will
+    /// count into from now on, with probability β_j / Σβ, and its weights become, per band
+    /// i of the arriving light, Σβ (ρ_i δ_ij + m_ij); a path that has picked one already
+    /// takes β_i ← ρ_i β_i + Σ_j m_ij β_j. A path collapsed to one band spreads again. None:
+    /// the path carries nothing.
+    #[inline]
+    fn through_fluorescent<'s>(
+        &'s self,
+        (bsdf, rho): (Bsdf<'s>, &'s [f64]),
+        beta: &mut [f64],
+        (band, out_band): (&mut Option<usize>, &mut Option<usize>),
+        rng: &mut PhotonRng,
+    ) -> Option<&'s [f64]> {
+        let Some(fl) = bsdf.fluorescence() else {
+            return Some(rho);
+        };
+        self.take_through(fl, rho, beta, (band, out_band), rng)
+    }
+
+    /// `through_fluorescent` at a fluorescent surface `fl` (out of line: most scenes have
+    /// none).
+    #[cold]
+    #[inline(never)]
+    fn take_through(
+        &self,
+        fl: &crate::scene::material::Fluorescence,
+        rho: &[f64],
+        beta: &mut [f64],
+        (band, out_band): (&mut Option<usize>, &mut Option<usize>),
+        rng: &mut PhotonRng,
+    ) -> Option<&[f64]> {
+        *band = None;
+        if out_band.is_some() {
+            let mut scratch = Vec::with_capacity(beta.len());
+            fl.take_from(rho, beta, &mut scratch);
+            return Some(&self.white);
+        }
+        let total: f64 = beta.iter().sum();
+        if !(total > 0.0 && total.is_finite()) {
+            return None;
+        }
+        let j = pick_band(beta, total, rng.uniform());
+        let nb = beta.len();
+        for (i, b) in beta.iter_mut().enumerate() {
+            let r = if i == j { rho[i] } else { 0.0 };
+            *b = total * (r + fl.m[i * nb + j]);
+        }
+        *out_band = Some(j);
+        Some(&self.white)
+    }
+
     /// An eye path's event at a surface: a dielectric reflects or refracts it (Fresnel;
     /// a dispersive one first collapses it to one band) and a mirror reflects it — both
     /// move `dir`/`org` on (`Step::Specular`) — or the diffuse event is chosen with its
@@ -1078,6 +1221,11 @@ impl<'a> EyeTracer<'a> {
                 *medium = at.front.then_some(at.material);
             }
             return Step::Specular;
+        }
+        if bsdf.fluorescence().is_some() {
+            // A fluorescent Lambertian reflector: diffuse, whatever its reflectance (the
+            // caller takes the path's weights through it).
+            return Step::Diffuse(1.0);
         }
         let nb = self.bands;
         let (rho, tau) = (

@@ -57,7 +57,14 @@ pub struct SampleBuf {
     /// Per photon: the share of its gathering disc its surface covers (`EyeTracer::
     /// coverage`), NaN where it was not probed this phase.
     pub coverage: Vec<f32>,
+    /// Per photon, in scenes with a fluorescent surface only (empty otherwise): the pixel
+    /// band a photon on a fluorescent surface counts all it gathers into (its weights are
+    /// then per band of the arriving light), or `NO_BAND`.
+    pub out_band: Vec<u32>,
 }
+
+/// `SampleBuf::out_band` of a photon that counts each band into its own.
+pub const NO_BAND: u32 = u32::MAX;
 
 impl SampleBuf {
     pub fn clear(&mut self) {
@@ -67,6 +74,7 @@ impl SampleBuf {
         self.w_reflect.clear();
         self.w_transmit.clear();
         self.coverage.clear();
+        self.out_band.clear();
     }
 
     pub fn bytes(&self) -> usize {
@@ -74,6 +82,7 @@ impl SampleBuf {
             + (self.direct.capacity() + self.w_reflect.capacity() + self.w_transmit.capacity()) * 8
             + self.photons.capacity() * std::mem::size_of::<BackwardPhoton>()
             + self.coverage.capacity() * 4
+            + self.out_band.capacity() * 4
     }
 }
 
@@ -129,6 +138,7 @@ impl BackwardMap {
             s.w_reflect.extend_from_slice(&b.w_reflect);
             s.w_transmit.extend_from_slice(&b.w_transmit);
             s.coverage.extend_from_slice(&b.coverage);
+            s.out_band.extend_from_slice(&b.out_band);
             b.clear();
         }
         self.photon_of.clear();
@@ -168,6 +178,24 @@ impl BackwardMap {
     /// photons it reached.
     #[inline]
     pub fn gather(&self, y: Vec3, n_in: Vec3, c: &[f64], band: Option<usize>) -> u32 {
+        if self.samples.out_band.is_empty() {
+            self.gather_into::<false>(y, n_in, c, band)
+        } else {
+            self.gather_into::<true>(y, n_in, c, band)
+        }
+    }
+
+    /// `gather`; with `FLUORESCENT` (a scene with a fluorescent surface), a backward photon
+    /// on one (`SampleBuf::out_band`) counts every band of the arriving light into the one
+    /// pixel band its path chose.
+    #[inline]
+    fn gather_into<const FLUORESCENT: bool>(
+        &self,
+        y: Vec3,
+        n_in: Vec3,
+        c: &[f64],
+        band: Option<usize>,
+    ) -> u32 {
         let nb = self.bands;
         let mut reached = 0;
         for &i in self.grid.candidates(y) {
@@ -184,6 +212,20 @@ impl BackwardMap {
                 continue;
             };
             let acc = &self.acc[i as usize * nb..][..nb];
+            reached += 1;
+            if FLUORESCENT {
+                let j = self.samples.out_band[i as usize];
+                if j != NO_BAND {
+                    let x: f64 = match band {
+                        Some(b) => w[b] * c[b],
+                        None => w.iter().zip(c).map(|(w, c)| w * c).sum(),
+                    };
+                    if x != 0.0 {
+                        atomic_add_f64(&acc[j as usize], x);
+                    }
+                    continue;
+                }
+            }
             match band {
                 Some(b) => atomic_add_f64(&acc[b], w[b] * c[b]),
                 None => {
@@ -195,7 +237,6 @@ impl BackwardMap {
                     }
                 }
             }
-            reached += 1;
         }
         reached
     }

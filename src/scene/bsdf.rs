@@ -206,6 +206,12 @@ impl<'a> Bsdf<'a> {
         self.material.events[lobe.index()]
     }
 
+    /// A fluorescent Lambertian reflector's re-emission (`Material::fluorescence`).
+    #[inline]
+    pub fn fluorescence(&self) -> Option<&'a super::material::Fluorescence> {
+        self.material.fluorescence.as_deref()
+    }
+
     /// The albedo per band of `lobe` (0 in every band for one it lacks, and for an
     /// interface).
     #[inline]

@@ -159,6 +159,55 @@ pub struct Material {
     /// Its tangent is each triangle's direction of increasing texture coordinate u
     /// (`tangent` where the coordinates are degenerate).
     pub uv_tangent: bool,
+    /// A Lambertian surface's fluorescence (spectral runs): what it re-emits diffusely in
+    /// longer-wavelength bands.
+    pub fluorescence: Option<std::sync::Arc<Fluorescence>>,
+}
+
+/// Fluorescence of a Lambertian surface: of the power arriving in band i, the share
+/// `m[i][j]` is re-emitted diffusely (Lambertian, on the side it arrived) in band j, only
+/// for bands of longer wavelength. With the diffuse reflectance ρ the surface sends on, per
+/// band j, ρ_j c_j + Σ_i m[i][j] c_i of an arriving colour c (`send_on`); read backward (an
+/// eye path's weights β), it takes ρ_i β_i + Σ_j m[i][j] β_j from band i (`take_from`).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Fluorescence {
+    /// Band count; `m` is bands × bands, row i the excitation band.
+    pub bands: usize,
+    pub m: Vec<f64>,
+}
+
+impl Fluorescence {
+    /// What the surface of diffuse reflectance `rho` sends on per band for arriving `c`:
+    /// `out` = ρ∘c + mᵀc, and the re-emitted part alone, mᵀc, into `emitted`.
+    #[inline]
+    pub fn send_on(&self, rho: &[f64], c: &[f64], out: &mut [f64], emitted: &mut [f64]) {
+        let nb = self.bands;
+        emitted.iter_mut().for_each(|x| *x = 0.0);
+        for (i, &ci) in c.iter().enumerate() {
+            if ci == 0.0 {
+                continue;
+            }
+            for (e, m) in emitted.iter_mut().zip(&self.m[i * nb..(i + 1) * nb]) {
+                *e += ci * m;
+            }
+        }
+        for j in 0..nb {
+            out[j] = rho[j] * c[j] + emitted[j];
+        }
+    }
+
+    /// The adjoint, for eye paths: `beta` ← ρ∘β + mβ (the weight each band of arriving
+    /// light has toward what the path carries), using `scratch`.
+    #[inline]
+    pub fn take_from(&self, rho: &[f64], beta: &mut [f64], scratch: &mut Vec<f64>) {
+        let nb = self.bands;
+        scratch.clear();
+        scratch.extend((0..nb).map(|i| {
+            let row = &self.m[i * nb..(i + 1) * nb];
+            rho[i] * beta[i] + row.iter().zip(beta.iter()).map(|(m, b)| m * b).sum::<f64>()
+        }));
+        beta.copy_from_slice(scratch);
+    }
 }
 
 /// As derived, but `uv_tangent` only when set: the state fingerprint hashes this text, and a
@@ -178,6 +227,9 @@ impl std::fmt::Debug for Material {
             .field("tint_lobes", &self.tint_lobes);
         if self.uv_tangent {
             d.field("uv_tangent", &self.uv_tangent);
+        }
+        if let Some(f) = &self.fluorescence {
+            d.field("fluorescence", f);
         }
         d.finish()
     }
@@ -211,6 +263,11 @@ pub struct MaterialDesc {
     /// normalised), linear in the angle between them. Both empty: none.
     pub phase_angles_deg: Vec<f64>,
     pub phase_values: Vec<f64>,
+    /// Fluorescence of a Lambertian surface (spectral runs only): bands × bands shares,
+    /// row i the excitation band, column j the emission band, of the power arriving in
+    /// band i that the surface re-emits diffusely in band j (0 unless band j's wavelength
+    /// is longer). Empty: none.
+    pub fluorescence: Vec<f64>,
     /// The kind of surface.
     pub surface: SurfaceModel,
     /// GGX α along the tangent and the bitangent (a microfacet surface's; [0, 0] for an
@@ -291,7 +348,94 @@ impl Material {
                 desc.roughness
             );
         }
+        if !desc.fluorescence.is_empty() {
+            return Self::fluorescent(desc, bands);
+        }
         Self::ideal(desc, bands)
+    }
+
+    /// A fluorescent Lambertian reflector, checked: a spectral run, an ideal surface
+    /// without index, specular reflectance, transmittance or texture, bands × bands finite
+    /// shares ≥ 0, none toward a band of shorter or equal wavelength, and per excitation
+    /// band the reflectance and the re-emitted shares at most 1.
+    fn fluorescent(desc: &MaterialDesc, bands: &Bands) -> Result<Self> {
+        if bands.rgb {
+            bail!(
+                ImapErrUnsupported,
+                "fluorescence needs a spectral run: RGB bands have no wavelengths for light to shift between (configure spectral bands)"
+            );
+        }
+        if desc.surface != SurfaceModel::Ideal || desc.ior.is_some() {
+            bail!(
+                ImapErrBadMaterial,
+                "fluorescence is given but the surface is not a Lambertian reflector (an ideal surface without an index of refraction)"
+            );
+        }
+        let any = |v: &[f64]| v.iter().any(|&x| x != 0.0);
+        if any(&desc.specular_reflect) || any(&desc.diffuse_transmit) {
+            bail!(
+                ImapErrBadMaterial,
+                "fluorescence is given with a specular reflectance or diffuse transmittance: a fluorescent surface is a Lambertian reflector"
+            );
+        }
+        if desc.texture.is_some() {
+            bail!(
+                ImapErrUnsupported,
+                "fluorescence with a texture is not supported: give the fluorescent part its own material"
+            );
+        }
+        let nb = bands.count();
+        let m = &desc.fluorescence;
+        if m.len() != nb * nb {
+            bail!(
+                ImapErrBadMaterial,
+                "fluorescence has {} values: it needs bands × bands = {nb} × {nb} = {} (row: the excitation band, column: the emission band)",
+                m.len(),
+                nb * nb
+            );
+        }
+        let nm = &bands.wavelengths_nm;
+        for (k, &x) in m.iter().enumerate() {
+            let (i, j) = (k / nb, k % nb);
+            if !x.is_finite() {
+                bail!(ImapErrNonFinite, "fluorescence[{k}] = {x} is not finite");
+            }
+            if x < 0.0 {
+                bail!(
+                    ImapErrBadMaterial,
+                    "fluorescence[{k}] = {x} (excitation band {i}, emission band {j}) must be >= 0"
+                );
+            }
+            if x > 0.0 && nm[j] <= nm[i] {
+                bail!(
+                    ImapErrBadMaterial,
+                    "fluorescence[{k}] = {x} re-emits band {i} ({} nm) in band {j} ({} nm): fluorescence re-emits at longer wavelengths only",
+                    nm[i],
+                    nm[j]
+                );
+            }
+        }
+        let mut mat = Self::ideal(desc, bands)?;
+        for i in 0..nb {
+            let total = mat.diffuse_reflect[i] + m[i * nb..(i + 1) * nb].iter().sum::<f64>();
+            if total > 1.0 + 1e-12 {
+                bail!(
+                    ImapErrBadMaterial,
+                    "band {i} ({} nm): the diffuse reflectance {} and the shares re-emitted from it (fluorescence[{}..{}]) add up to {total}, above 1",
+                    nm[i],
+                    mat.diffuse_reflect[i],
+                    i * nb,
+                    (i + 1) * nb
+                );
+            }
+        }
+        // Diffuse even where ρ is 0 everywhere: the surface sends light on.
+        mat.events[0] = true;
+        mat.fluorescence = Some(std::sync::Arc::new(Fluorescence {
+            bands: nb,
+            m: m.clone(),
+        }));
+        Ok(mat)
     }
 
     /// A dielectric's scattering: σs per band (finite, ≥ 0; all 0 or none: `None`) and g
@@ -502,6 +646,7 @@ impl Material {
             texture: desc.texture,
             tint_lobes: Self::tint_lobes(desc)?,
             uv_tangent: false,
+            fluorescence: None,
         })
     }
 
@@ -641,6 +786,7 @@ impl Material {
                 texture: None,
                 tint_lobes: 1,
                 uv_tangent: false,
+                fluorescence: None,
             });
         }
         let [ax, ay] = desc.roughness;
@@ -767,6 +913,7 @@ impl Material {
             texture: None,
             tint_lobes: 1,
             uv_tangent: false,
+            fluorescence: None,
         })
     }
 }

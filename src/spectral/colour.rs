@@ -112,6 +112,17 @@ impl Colour {
         }
     }
 
+    /// Replaces the per-band values by `v` (a fluorescent surface's: light moved between
+    /// bands, so a collapsed photon spreads again); the photon's energy follows its mean.
+    pub(crate) fn replace(&mut self, v: &[f64]) {
+        let before = self.mean();
+        self.c.copy_from_slice(v);
+        self.band = None;
+        if before > 0.0 {
+            self.energy *= self.mean() / before;
+        }
+    }
+
     /// Collapses to one band chosen with probability proportional to its weight, keeping
     /// unit energy: the chosen band gets the whole mean times the band count.
     pub fn collapse(&mut self, u: f64) {

@@ -759,7 +759,7 @@ impl DirectSampler<'_> {
     /// would (the same events, weighted while it keeps half its throughput, then Russian
     /// roulette). It ends at a dielectric: light through smooth interfaces (caustics) stays
     /// the photons' (`Tracer::follow` keeps those deposits), as does light whose first
-    /// surface event was specular.
+    /// surface event was specular, and light from a fluorescent surface.
     #[allow(clippy::too_many_arguments)]
     fn gather(
         &self,
@@ -781,10 +781,12 @@ impl DirectSampler<'_> {
             };
             let mesh = &scene.meshes[hit.mesh as usize];
             let prim = hit.prim as usize;
-            let bsdf = scene
-                .material_at(self.materials, hit.mesh, prim, (hit.u, hit.v), &mut tint)
-                .bsdf();
-            if bsdf.interface().is_some() {
+            let material =
+                scene.material_at(self.materials, hit.mesh, prim, (hit.u, hit.v), &mut tint);
+            let bsdf = material.bsdf();
+            // A dielectric or a fluorescent surface ends the path: the light through or
+            // from it is the photons' (`Tracer::follow` keeps those deposits whole).
+            if bsdf.interface().is_some() || material.fluorescence.is_some() {
                 return;
             }
             let ng = mesh.normals[prim].as_dvec3();

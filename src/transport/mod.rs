@@ -101,9 +101,10 @@ pub struct PathStats {
     pub dropped: f64,
     pub dropped_photons: u64,
     /// The same balance per band (photon units; each photon's band values over the band
-    /// count, so the bands sum to the totals above): emitted, absorbed, escaped, dropped.
-    /// Sized on the first photon.
-    pub bands: [Vec<f64>; 4],
+    /// count, so the bands sum to the totals above): emitted, absorbed, escaped, dropped,
+    /// and what fluorescent surfaces re-emitted (emitted + fluoresced = absorbed + escaped
+    /// + dropped per band; absorbed includes what fluoresced). Sized on the first photon.
+    pub bands: [Vec<f64>; 5],
     /// The photon in flight's absorption at its weighted bounces (`Tracer::direct`),
     /// added to the tallies when its path ends.
     pub(crate) bounces: WeightedBounces,
@@ -125,6 +126,11 @@ pub(crate) struct WeightedBounces {
     weights: Vec<f64>,
     /// The photon in flight's changes in media, per mesh (`volumes`).
     media: volumes::PhotonVolumes,
+    /// Per band: what fluorescent surfaces re-emitted along the photon's path (sized on
+    /// first use, emptied when the path's tallies are taken).
+    fluoresced: Vec<f64>,
+    /// Per band: a fluorescent surface's re-emission (scratch).
+    emitted: Vec<f64>,
 }
 
 impl WeightedBounces {
@@ -142,6 +148,58 @@ impl WeightedBounces {
         let out = self.shift(mesh, colour, |c, _| f(c));
         self.media.add(mesh, colour.values(), -1.0);
         out
+    }
+
+    /// A fluorescent Lambertian reflector at `mesh` (diffuse reflectance `rho`): the photon
+    /// goes on with what the surface sends on (ρ∘c + mᵀc), whole with a weighted bounce
+    /// (`weigh`), else with probability p, its colour-weighted share, divided by p (`u`
+    /// uniform). Each band's change plus its re-emission is tallied as the mesh's
+    /// absorption, the re-emission as fluoresced. False: absorbed here.
+    fn fluoresce(
+        &mut self,
+        mesh: u32,
+        (fl, rho): (&crate::scene::material::Fluorescence, &[f64]),
+        colour: &mut Colour,
+        weigh: bool,
+        u: f64,
+    ) -> bool {
+        let nb = colour.values().len();
+        self.weights.resize(nb, 0.0);
+        self.emitted.resize(nb, 0.0);
+        fl.send_on(rho, colour.values(), &mut self.weights, &mut self.emitted);
+        let had: f64 = colour.values().iter().sum();
+        let p = self.weights.iter().sum::<f64>() / had;
+        if !(p > 0.0 && p.is_finite()) {
+            return false;
+        }
+        let k = if weigh {
+            1.0
+        } else if u < p {
+            1.0 / p
+        } else {
+            return false;
+        };
+        if self.delta.len() != nb {
+            self.delta.clear();
+            self.delta.resize(nb, 0.0);
+        }
+        if self.fluoresced.len() != nb {
+            self.fluoresced.clear();
+            self.fluoresced.resize(nb, 0.0);
+        }
+        let before = colour.mean();
+        let mut re = 0.0;
+        for b in 0..nb {
+            let (o, e) = (self.weights[b] * k, self.emitted[b] * k);
+            self.delta[b] += colour.values()[b] - o + e;
+            self.fluoresced[b] += e;
+            self.weights[b] = o;
+            re += e;
+        }
+        colour.replace(&self.weights);
+        self.meshes
+            .push((mesh, before - colour.mean() + re / nb as f64));
+        true
     }
 
     /// The path ends absorbed in `mesh`'s medium with `colour`.
@@ -189,6 +247,7 @@ pub const BAND_EMITTED: usize = 0;
 pub const BAND_ABSORBED: usize = 1;
 pub const BAND_ESCAPED: usize = 2;
 pub const BAND_DROPPED: usize = 3;
+pub const BAND_FLUORESCED: usize = 4;
 
 impl PathStats {
     pub fn new(meshes: usize) -> Self {
@@ -422,6 +481,7 @@ impl Tracer<'_> {
             PathEnd::Aborted => {
                 stats.bounces.meshes.clear();
                 stats.bounces.media.clear();
+                stats.bounces.fluoresced.clear();
                 sink.abort_photon();
                 return false;
             }
@@ -455,6 +515,16 @@ impl Tracer<'_> {
             {
                 *a += d * k;
             }
+        }
+        if !stats.bounces.fluoresced.is_empty() {
+            let k = 1.0 / stats.bounces.fluoresced.len() as f64;
+            for (a, f) in stats.bands[BAND_FLUORESCED]
+                .iter_mut()
+                .zip(&stats.bounces.fluoresced)
+            {
+                *a += f * k;
+            }
+            stats.bounces.fluoresced.clear();
         }
         if !stats.bounces.media.is_empty() {
             stats
@@ -783,6 +853,24 @@ impl Tracer<'_> {
                 continue;
             }
 
+            if let Some(fl) = &material.fluorescence {
+                // A fluorescent Lambertian reflector: light of every band goes on in a
+                // Lambertian direction, each band's share reflected and what the other
+                // bands re-emit into it. What follows is the photons' alone in every
+                // estimator (gathering paths end here, as at a dielectric).
+                pol = None;
+                gathered = None;
+                let weigh = self.direct.is_some()
+                    && colour.mean() >= WEIGHTED_BOUNCES_DOWN_TO * colour.energy_at_emission();
+                let u = rng.uniform();
+                let rho = &material.diffuse_reflect;
+                if !bounces.fluoresce(hit.mesh, (fl, rho), colour, weigh, u) {
+                    return PathEnd::Absorbed(hit.mesh);
+                }
+                dir = Lobe::DiffuseReflection.direction(dir, n_in, rng.uniform(), rng.uniform());
+                org = p_hit + n_in * eps;
+                continue;
+            }
             // Opaque or translucent surface: choose the lobe by colour-weighted albedos,
             // spending no per-band work on lobes this surface does not have.
             pol = None;

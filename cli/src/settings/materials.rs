@@ -23,6 +23,8 @@ pub struct MaterialSettings {
     /// A tabulated phase function instead: rows of [scattering angle in degrees, value],
     /// from 0 to 180, increasing (any scale: normalised).
     pub phase_table: Option<Vec<[f64; 2]>>,
+    /// Fluorescence of a Lambertian surface (spectral runs).
+    pub fluorescence: Option<FluorescenceSettings>,
     /// Exitance, W/m² per band.
     pub emission: Option<Spectrum>,
     /// The surface model: "ideal" (Lambert, mirror, smooth glass by the fields above),
@@ -49,6 +51,17 @@ pub struct MaterialSettings {
     pub nk: Option<Vec<[f64; 3]>>,
     /// The direction the first roughness runs along (model coordinates).
     pub tangent: Option<[f64; 3]>,
+}
+
+/// `[materials.NAME.fluorescence]`: the share of the light arriving in each band that is
+/// absorbed to fluoresce, the quantum yield (photons out per photon absorbed) and the
+/// emission spectrum in photons per band (any scale).
+#[derive(Clone, Debug, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct FluorescenceSettings {
+    pub excitation: Spectrum,
+    pub quantum_yield: f64,
+    pub emission: Spectrum,
 }
 
 /// `roughness = 0.2` or `roughness = [0.1, 0.4]`.
