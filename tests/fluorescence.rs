@@ -360,3 +360,34 @@ fn bad_fluorescence_gets_a_status_naming_the_field() {
     // The context stays usable.
     assert!(ctx.add_material(&desc(m)).is_ok());
 }
+
+#[test]
+fn what_fluoresced_survives_a_resume_bit_for_bit() {
+    let run = |ctx: &mut imap::Context, a: u64, b: u64| {
+        ctx.run(&mut imap::RunParams {
+            selection: imap::Selection::range(a, b),
+            estimator: Some(Estimator::Photons),
+            progress_interval_s: 1.0,
+            ..Default::default()
+        })
+        .unwrap()
+    };
+    let n = 20_000;
+    let (mut one, _, _) = plate_in_black_box(spectral(4, 2));
+    let want = run(&mut one, 0, n).band_w;
+    assert!(want[4].iter().sum::<f64>() > 0.0);
+    let (mut half, _, _) = plate_in_black_box(spectral(4, 2));
+    run(&mut half, 0, n / 2);
+    let state = half.state_bytes(0, &[]).unwrap();
+    let (mut resumed, _, _) = plate_in_black_box(spectral(4, 2));
+    resumed.load_state(&state).unwrap();
+    let got = run(&mut resumed, n / 2, n).band_w;
+    for (k, (g, w)) in got.iter().zip(&want).enumerate() {
+        for (b, (x, y)) in g.iter().zip(w).enumerate() {
+            assert!(
+                (x - y).abs() <= 1e-12 * y.abs().max(1e-300),
+                "kind {k} band {b}: {x} against {y}"
+            );
+        }
+    }
+}
