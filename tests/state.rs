@@ -384,19 +384,13 @@ fn dead_pid() -> u32 {
 /// format kept media's tallies, commit 09dbe57): a grey floor under a spot light, with or
 /// without a box of absorbing glass between them.
 pub fn v1_scene(medium: bool) -> imap::Context {
-    use imap::{Config, Context, IorModel, MaterialDesc, MeshDesc};
-    let mut ctx = Context::new(Config {
+    use imap::{IorModel, MaterialDesc, MeshDesc};
+    let mut ctx = context(Config {
         seed: 3,
         threads: 1,
         ..Default::default()
-    })
-    .unwrap();
-    let grey = ctx
-        .add_material(&MaterialDesc {
-            diffuse_reflect: vec![0.5],
-            ..Default::default()
-        })
-        .unwrap();
+    });
+    let grey = lambert(&mut ctx, 0.5);
     let floor = [
         -1.0, -1.0, 0.0, 1.0, -1.0, 0.0, 1.0, 1.0, 0.0, -1.0, 1.0, 0.0,
     ];
