@@ -851,3 +851,53 @@ fn a_tabulated_phase_function_scatters_as_the_function_it_tabulates() {
         "a forward table reflects {tab}, a flat one {flat}"
     );
 }
+
+#[test]
+fn a_light_inside_a_medium_is_refused_not_silently_wrong() {
+    // Photons start in air: a point light inside a closed mesh of medium would send them
+    // across its surface as if leaving it, and the medium would take nothing (all 6 W
+    // escaped where a deep medium absorbs all). The run is refused naming the light and
+    // the mesh; a clear glass sphere around a light stays allowed, and so does a light
+    // outside the medium.
+    let build = |absorbing: bool, at: [f64; 3]| {
+        let mut ctx = context(seeded(8));
+        let m = ctx
+            .add_material(&MaterialDesc {
+                ior: Some(IorModel::Constant(1.0)),
+                scattering_per_m: if absorbing { vec![50.0] } else { vec![] },
+                absorption_per_m: if absorbing { vec![5.0] } else { vec![] },
+                ..Default::default()
+            })
+            .unwrap();
+        let ball = sphere_inward(2.0, 2).flipped();
+        let mut d = ball.desc(m);
+        d.record = false;
+        ctx.add_mesh(&d).unwrap();
+        ctx.add_point_light(at, &[1.0, 2.0, 3.0]).unwrap();
+        ctx
+    };
+    let mut ctx = build(true, [0.1, 0.2, 0.3]);
+    let e = ctx
+        .run(&mut imap::RunParams {
+            photons: 1000,
+            ..Default::default()
+        })
+        .unwrap_err();
+    assert_eq!(e.status, imap::ImapStatus::ImapErrUnsupported, "{e}");
+    assert!(
+        e.message.contains("light 0") && e.message.contains("inside mesh 0"),
+        "{e}"
+    );
+    assert_eq!(e.subject, Some(imap::Subject::Light(0)));
+    // Still usable: nothing was traced, and the report says so.
+    assert_eq!(ctx.report().photons, 0);
+    // (The last: inside the sphere's bounding box, outside the sphere.)
+    for (absorbing, at) in [
+        (false, [0.1, 0.2, 0.3]),
+        (true, [0.0, 0.0, 2.5]),
+        (true, [1.8, 1.8, 0.0]),
+    ] {
+        let mut ctx = build(absorbing, at);
+        run_photons_only(&mut ctx, 1000);
+    }
+}

@@ -267,6 +267,50 @@ impl Mesh {
         })
     }
 
+    /// Whether point `p` lies inside the mesh, taken as closed: an odd number of its
+    /// triangles cross a ray from `p` in a fixed direction of no special alignment (a
+    /// point outside its bounding box is outside).
+    pub fn contains(&self, p: [f64; 3]) -> bool {
+        let mut lo = [f64::INFINITY; 3];
+        let mut hi = [f64::NEG_INFINITY; 3];
+        for v in &self.positions {
+            for k in 0..3 {
+                lo[k] = lo[k].min(v[k]);
+                hi[k] = hi[k].max(v[k]);
+            }
+        }
+        if (0..3).any(|k| !(p[k] > lo[k] && p[k] < hi[k])) {
+            return false;
+        }
+        let p = glam::DVec3::from(p);
+        let d = glam::DVec3::new(0.5773, 0.6121, 0.5401).normalize();
+        let mut crossings = 0u32;
+        for t in &self.triangles {
+            let [a, b, c] = t.map(|i| glam::DVec3::from(self.positions[i as usize]));
+            // Möller–Trumbore, both sides.
+            let (e1, e2) = (b - a, c - a);
+            let q = d.cross(e2);
+            let det = e1.dot(q);
+            if det.abs() < 1e-300 {
+                continue;
+            }
+            let s = p - a;
+            let u = s.dot(q) / det;
+            if !(0.0..=1.0).contains(&u) {
+                continue;
+            }
+            let r = s.cross(e1);
+            let v = d.dot(r) / det;
+            if v < 0.0 || u + v > 1.0 {
+                continue;
+            }
+            if e2.dot(r) / det > 0.0 {
+                crossings += 1;
+            }
+        }
+        crossings % 2 == 1
+    }
+
     /// The material (for a sensor: the part label) of triangle `t`.
     pub fn material_of(&self, t: usize) -> u32 {
         self.triangle_materials
