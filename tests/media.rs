@@ -857,15 +857,15 @@ fn a_light_inside_a_medium_is_refused_not_silently_wrong() {
     // Photons start in air: a point light inside a closed mesh of medium would send them
     // across its surface as if leaving it, and the medium would take nothing (all 6 W
     // escaped where a deep medium absorbs all). The run is refused naming the light and
-    // the mesh; a clear glass sphere around a light stays allowed, and so does a light
-    // outside the medium.
-    let build = |absorbing: bool, at: [f64; 3]| {
+    // the mesh; a clear or merely absorbing sphere around a light stays allowed (a lamp's
+    // globe drawn as one closed surface), and so does a light outside the medium.
+    let build = |scattering: bool, at: [f64; 3]| {
         let mut ctx = context(seeded(8));
         let m = ctx
             .add_material(&MaterialDesc {
                 ior: Some(IorModel::Constant(1.0)),
-                scattering_per_m: if absorbing { vec![50.0] } else { vec![] },
-                absorption_per_m: if absorbing { vec![5.0] } else { vec![] },
+                scattering_per_m: if scattering { vec![50.0] } else { vec![] },
+                absorption_per_m: vec![5.0],
                 ..Default::default()
             })
             .unwrap();
@@ -885,19 +885,20 @@ fn a_light_inside_a_medium_is_refused_not_silently_wrong() {
         .unwrap_err();
     assert_eq!(e.status, imap::ImapStatus::ImapErrUnsupported, "{e}");
     assert!(
-        e.message.contains("light 0") && e.message.contains("inside mesh 0"),
+        e.message.contains("light 0")
+            && e.message.contains("inside mesh 0, whose material scatters"),
         "{e}"
     );
     assert_eq!(e.subject, Some(imap::Subject::Light(0)));
     // Still usable: nothing was traced, and the report says so.
     assert_eq!(ctx.report().photons, 0);
     // (The last: inside the sphere's bounding box, outside the sphere.)
-    for (absorbing, at) in [
+    for (scattering, at) in [
         (false, [0.1, 0.2, 0.3]),
         (true, [0.0, 0.0, 2.5]),
         (true, [1.8, 1.8, 0.0]),
     ] {
-        let mut ctx = build(absorbing, at);
+        let mut ctx = build(scattering, at);
         run_photons_only(&mut ctx, 1000);
     }
 }

@@ -1005,13 +1005,29 @@ impl Context {
         Ok(())
     }
 
-    /// Refuses a run whose point-like light lies inside a closed mesh that holds a medium
-    /// (`holds_medium`): its photons would start in air and cross the mesh's surface as if
-    /// leaving it, so the medium would take nothing from them. Lights inside media are not
+    /// Refuses a run whose point-like light lies inside a closed mesh with a scattering
+    /// medium: its photons would start in air and cross the mesh's surface as if leaving
+    /// it, so the medium would neither scatter nor absorb them. Lights inside media are not
     /// followed yet (issue 32); a wrong answer without a word is worse than a refusal.
+    /// (A clear or merely absorbing dielectric around a light is left as it was: models
+    /// draw a lamp's glass globe as one closed surface, and its light leaves through it.)
     fn check_lights_outside_media(&self) -> Result<()> {
+        let scatters = |id: u32| {
+            self.scene
+                .materials
+                .get(id as usize)
+                .and_then(|m| m.dielectric.as_ref())
+                .is_some_and(|d| d.scattering.is_some())
+        };
         let media: Vec<usize> = (0..self.scene.meshes.len())
-            .filter(|&m| self.holds_medium(m))
+            .filter(|&m| {
+                let mesh = &self.scene.meshes[m];
+                !mesh.sensor
+                    && match &mesh.triangle_materials {
+                        None => scatters(mesh.material),
+                        Some(ids) => ids.iter().any(|&id| scatters(id)),
+                    }
+            })
             .collect();
         if media.is_empty() {
             return Ok(());
@@ -1025,7 +1041,7 @@ impl Context {
                 return Err(Error::new(
                     ImapStatus::ImapErrUnsupported,
                     format!(
-                        "light {l} at ({}, {}, {}) lies inside mesh {m}, whose material holds a medium (absorption_per_m or scattering_per_m): lights inside a medium are not followed yet (their photons would start outside it, and the medium would take nothing from them); move the light out of the mesh, or give the mesh a clear material",
+                        "light {l} at ({}, {}, {}) lies inside mesh {m}, whose material scatters (scattering_per_m): lights inside a scattering medium are not followed yet (their photons would start outside it, and the medium would neither scatter nor absorb them); move the light out of the mesh",
                         p[0], p[1], p[2]
                     ),
                 )
