@@ -599,22 +599,7 @@ impl Context {
                 );
             }
         }
-        // (A sensor's material is not used, nor checked.)
-        let scattering = |m: u32| {
-            self.scene
-                .materials
-                .get(m as usize)
-                .and_then(|x| x.dielectric.as_ref())
-                .is_some_and(|d| d.scattering.is_some())
-        };
-        let medium = if mesh.sensor {
-            None
-        } else {
-            (0..mesh.triangles.len())
-                .map(|t| mesh.material_of(t))
-                .find(|&m| scattering(m))
-        };
-        if let Some(m) = medium {
+        if let Some(m) = self.mesh_material(&mesh, Material::scatters) {
             if let Some((a, b)) = open_edge(&mesh) {
                 bail!(
                     ImapErrInvalidArgument,
@@ -1012,32 +997,20 @@ impl Context {
     /// (A clear or merely absorbing dielectric around a light is left as it was: models
     /// draw a lamp's glass globe as one closed surface, and its light leaves through it.)
     fn check_lights_outside_media(&self) -> Result<()> {
-        let scatters = |id: u32| {
-            self.scene
-                .materials
-                .get(id as usize)
-                .and_then(|m| m.dielectric.as_ref())
-                .is_some_and(|d| d.scattering.is_some())
-        };
-        let media: Vec<usize> = (0..self.scene.meshes.len())
-            .filter(|&m| {
-                let mesh = &self.scene.meshes[m];
-                !mesh.sensor
-                    && match &mesh.triangle_materials {
-                        None => scatters(mesh.material),
-                        Some(ids) => ids.iter().any(|&id| scatters(id)),
-                    }
-            })
-            .collect();
-        if media.is_empty() {
-            return Ok(());
-        }
-        for (l, light) in self.scene.lights.iter().enumerate() {
-            if matches!(light.shape, crate::scene::light::LightShape::Distant(_)) {
+        for (m, mesh) in self.scene.meshes.iter().enumerate() {
+            if self.mesh_material(mesh, Material::scatters).is_none() {
                 continue;
             }
-            let p = light.position.to_array();
-            if let Some(&m) = media.iter().find(|&&m| self.scene.meshes[m].contains(p)) {
+            let inside = mesh.inside();
+            let lights =
+                self.scene.lights.iter().enumerate().filter(|(_, l)| {
+                    !matches!(l.shape, crate::scene::light::LightShape::Distant(_))
+                });
+            for (l, light) in lights {
+                let p = light.position.to_array();
+                if !inside(p) {
+                    continue;
+                }
                 return Err(Error::new(
                     ImapStatus::ImapErrUnsupported,
                     format!(
@@ -1288,27 +1261,24 @@ impl Context {
         Ok(self.scene.meshes[mesh as usize].dropped_triangles)
     }
 
+    /// The first material of `mesh`'s triangles that `is` holds for (a sensor's materials
+    /// are part labels, never looked up: None).
+    fn mesh_material(&self, mesh: &Mesh, is: impl Fn(&Material) -> bool) -> Option<u32> {
+        let is = |id: u32| self.scene.materials.get(id as usize).is_some_and(&is);
+        if mesh.sensor {
+            return None;
+        }
+        match &mesh.triangle_materials {
+            None => is(mesh.material).then_some(mesh.material),
+            Some(ids) => ids.iter().copied().find(|&id| is(id)),
+        }
+    }
+
     /// Whether mesh `mesh` (an index that exists) has a triangle whose material holds a
     /// medium: a dielectric that absorbs or scatters inside.
     pub(crate) fn holds_medium(&self, mesh: usize) -> bool {
-        let m = &self.scene.meshes[mesh];
-        let medium = |id: u32| {
-            self.scene
-                .materials
-                .get(id as usize)
-                .and_then(|mat| mat.dielectric.as_ref())
-                .is_some_and(|d| d.absorption_per_m.is_some() || d.scattering.is_some())
-        };
-        !m.sensor
-            && match &m.triangle_materials {
-                None => medium(m.material),
-                Some(ids) => {
-                    let mut seen: Vec<u32> = ids.clone();
-                    seen.sort_unstable();
-                    seen.dedup();
-                    seen.into_iter().any(medium)
-                }
-            }
+        self.mesh_material(&self.scene.meshes[mesh], Material::holds_medium)
+            .is_some()
     }
 
     /// What the medium inside mesh `mesh` absorbed since the last reset: per band, W, and
@@ -1340,10 +1310,7 @@ impl Context {
         }
         let nf = n as f64;
         let wpu = p.scene.total_power / (nf * nb as f64);
-        let est = |s: f64, q: f64| crate::imap::stats::Estimate {
-            value: s * wpu,
-            sigma: crate::imap::readout::std_error(s, q, nf) * wpu,
-        };
+        let est = |s: f64, q: f64| crate::imap::readout::photon_total(s, q, nf, wpu);
         for (o, (&s, &q)) in out.band_w.iter_mut().zip(sum.iter().zip(sq)) {
             *o = est(s, q);
         }

@@ -3,7 +3,7 @@
 use super::Context;
 use super::Layer;
 use crate::error::{bail, Result};
-use crate::imap::readout::std_error;
+use crate::imap::readout::photon_total;
 use crate::imap::stats::{self, Estimate, Extremes};
 use crate::imap::Readout;
 
@@ -347,10 +347,7 @@ impl Context {
             let t = &self.region_tally;
             let nf = n as f64;
             let wpu = p.scene.total_power / (nf * nb as f64);
-            let est = |sum: f64, sq: f64| Estimate {
-                value: sum * wpu,
-                sigma: std_error(sum, sq, nf) * wpu,
-            };
+            let est = |sum: f64, sq: f64| photon_total(sum, sq, nf, wpu);
             for b in 0..nb {
                 out.flux_w[b] = est(t.sum[r * nb + b], t.sq[r * nb + b]);
             }

@@ -24,6 +24,16 @@ pub(crate) fn std_error(sum: f64, sq: f64, n: f64) -> f64 {
     (sq - sum * sum / n).max(0.0).sqrt()
 }
 
+/// A total of `n` photons' contributions (their sum and the sum of their squares) in
+/// units of `unit` each, with its standard error.
+#[inline]
+pub(crate) fn photon_total(sum: f64, sq: f64, n: f64, unit: f64) -> super::stats::Estimate {
+    super::stats::Estimate {
+        value: sum * unit,
+        sigma: std_error(sum, sq, n) * unit,
+    }
+}
+
 /// The direct part of a region (the light-sampling estimator's vertex passes), in the
 /// direct accumulators' unit (W): per band and luminous (weighted by the bands' efficacies),
 /// its flux and variance.

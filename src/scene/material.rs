@@ -235,6 +235,22 @@ impl std::fmt::Debug for Material {
     }
 }
 
+impl Material {
+    /// Whether it is a dielectric whose inside scatters.
+    pub fn scatters(&self) -> bool {
+        self.dielectric
+            .as_ref()
+            .is_some_and(|d| d.scattering.is_some())
+    }
+
+    /// Whether it is a dielectric whose inside absorbs or scatters: a medium.
+    pub fn holds_medium(&self) -> bool {
+        self.dielectric
+            .as_ref()
+            .is_some_and(|d| d.absorption_per_m.is_some() || d.scattering.is_some())
+    }
+}
+
 /// `tint_lobes`: the diffuse reflectance (a plastic's base albedo).
 pub const LOBE_DIFFUSE_REFLECT: u8 = 1;
 /// `tint_lobes`: the specular reflectance (a conductor's reflectance).

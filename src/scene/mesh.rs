@@ -267,10 +267,10 @@ impl Mesh {
         })
     }
 
-    /// Whether point `p` lies inside the mesh, taken as closed: an odd number of its
-    /// triangles cross a ray from `p` in a fixed direction of no special alignment (a
-    /// point outside its bounding box is outside).
-    pub fn contains(&self, p: [f64; 3]) -> bool {
+    /// A test of whether a point lies inside the mesh, taken as closed: an odd number of
+    /// its triangles cross a ray from the point in a fixed direction of no special
+    /// alignment (a point outside its bounding box, found once, is outside).
+    pub fn inside(&self) -> impl Fn([f64; 3]) -> bool + '_ {
         let mut lo = [f64::INFINITY; 3];
         let mut hi = [f64::NEG_INFINITY; 3];
         for v in &self.positions {
@@ -279,9 +279,11 @@ impl Mesh {
                 hi[k] = hi[k].max(v[k]);
             }
         }
-        if (0..3).any(|k| !(p[k] > lo[k] && p[k] < hi[k])) {
-            return false;
-        }
+        move |p| (0..3).all(|k| p[k] > lo[k] && p[k] < hi[k]) && self.crossings(p) % 2 == 1
+    }
+
+    /// How many triangles a ray from `p` along `inside`'s direction crosses.
+    fn crossings(&self, p: [f64; 3]) -> u32 {
         let p = glam::DVec3::from(p);
         let d = glam::DVec3::new(0.5773, 0.6121, 0.5401).normalize();
         let mut crossings = 0u32;
@@ -308,7 +310,7 @@ impl Mesh {
                 crossings += 1;
             }
         }
-        crossings % 2 == 1
+        crossings
     }
 
     /// The material (for a sensor: the part label) of triangle `t`.

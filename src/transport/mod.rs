@@ -456,6 +456,15 @@ impl<'a> Tracer<'a> {
 }
 
 impl Tracer<'_> {
+    /// Whether a bounce is weighed (the photon goes on with what the surface sends on, and
+    /// what it keeps is tallied as absorbed): with light sampling, while the photon keeps
+    /// at least `WEIGHTED_BOUNCES_DOWN_TO` of its energy; otherwise Russian roulette.
+    #[inline]
+    fn weighs(&self, colour: &Colour) -> bool {
+        self.direct.is_some()
+            && colour.mean() >= WEIGHTED_BOUNCES_DOWN_TO * colour.energy_at_emission()
+    }
+
     /// Traces photon `k` from its emission to its end and returns true, or returns false
     /// when `stop` was raised during the path: then the sink was told to forget the photon
     /// and `stats` are unchanged. `colour` is scratch space reused between photons.
@@ -795,8 +804,7 @@ impl Tracer<'_> {
                 if !(mean > 0.0 && mean.is_finite()) {
                     return PathEnd::Absorbed(hit.mesh);
                 }
-                let weigh_bounce = self.direct.is_some()
-                    && colour.mean() >= WEIGHTED_BOUNCES_DOWN_TO * colour.energy_at_emission();
+                let weigh_bounce = self.weighs(colour);
                 if weigh_bounce {
                     // The photon goes on with what the surface sends on; the rest is
                     // tallied as absorbed here.
@@ -860,8 +868,7 @@ impl Tracer<'_> {
                 // estimator (gathering paths end here, as at a dielectric).
                 pol = None;
                 gathered = None;
-                let weigh = self.direct.is_some()
-                    && colour.mean() >= WEIGHTED_BOUNCES_DOWN_TO * colour.energy_at_emission();
+                let weigh = self.weighs(colour);
                 let u = rng.uniform();
                 let rho = &material.diffuse_reflect;
                 if !bounces.fluoresce(hit.mesh, (fl, rho), colour, weigh, u) {
@@ -879,8 +886,7 @@ impl Tracer<'_> {
             // with the reflected (or transmitted) share of its colour, so every photon
             // brings indirect light (the photons' whole task then); what the surface
             // absorbed is tallied when the path ends.
-            let weigh_bounce = self.direct.is_some()
-                && colour.mean() >= WEIGHTED_BOUNCES_DOWN_TO * colour.energy_at_emission();
+            let weigh_bounce = self.weighs(colour);
             let mut survive = 1.0;
             if weigh_bounce {
                 survive = bsdf.survival(|k| colour.weighted_mean(k));
