@@ -176,6 +176,12 @@ int main(void) {
     expect("phase table ending at 170 degrees", imap_add_material(ctx, &haze, &id), IMAP_ERR_BAD_MATERIAL, ctx);
     ang[2] = 180;
     expect("phase table (valid)", imap_add_material(ctx, &haze, &id), IMAP_OK, ctx);
+    /* The scene's medium: a medium of index 1 only; IMAP_NO_MEDIUM empties it again. */
+    expect("scene medium of a grey surface", imap_set_scene_medium(ctx, m_grey), IMAP_ERR_INVALID_ARGUMENT, ctx);
+    expect("scene medium of material 999", imap_set_scene_medium(ctx, 999), IMAP_ERR_INVALID_ARGUMENT, ctx);
+    expect("scene medium (valid)", imap_set_scene_medium(ctx, id), IMAP_OK, ctx);
+    expect("no scene medium (valid)", imap_set_scene_medium(ctx, IMAP_NO_MEDIUM), IMAP_OK, ctx);
+    expect("scene medium on NULL", imap_set_scene_medium(NULL, id), IMAP_ERR_NULL_POINTER, NULL);
 
     /* Fluorescence in an RGB context: refused, RGB has no wavelengths to shift between. */
     ImapMaterial fl;
@@ -402,6 +408,8 @@ int main(void) {
     expect("medium absorbed by a floor, which holds none", imap_get_medium_absorbed(ctx, floor_id, bf, 6),
            IMAP_ERR_INVALID_ARGUMENT, ctx);
     expect("medium absorbed by mesh 999", imap_get_medium_absorbed(ctx, 999, bf, 6), IMAP_ERR_INDEX_OUT_OF_RANGE, ctx);
+    expect("scene medium absorbed without one", imap_get_medium_absorbed(ctx, IMAP_SCENE_MEDIUM, bf, 6),
+           IMAP_ERR_INVALID_ARGUMENT, ctx);
     expect("medium absorbed into NULL", imap_get_medium_absorbed(ctx, floor_id, NULL, 6), IMAP_ERR_NULL_POINTER, ctx);
     expect("vertex areas of 3 for 4 vertices", imap_get_vertex_areas(ctx, floor_id, after, 3), IMAP_ERR_BUFFER_TOO_SMALL, ctx);
     ImapRunParams rt;

@@ -410,7 +410,8 @@ int main(int argc, char **argv) {
                 s = imap_get_mesh_absorbed(ctx, below(sl->meshes + 2), chance(0.03) ? NULL : &w);
             else if (chance(0.6)) {
                 double media[64];
-                s = imap_get_medium_absorbed(ctx, below(sl->meshes + 2), chance(0.03) ? NULL : media, below(65));
+                uint32_t mm = chance(0.1) ? IMAP_SCENE_MEDIUM : below(sl->meshes + 2);
+                s = imap_get_medium_absorbed(ctx, mm, chance(0.03) ? NULL : media, below(65));
             } else
                 s = imap_get_mesh_dropped_triangles(ctx, below(sl->meshes + 2), chance(0.03) ? NULL : &nv);
             break;
@@ -589,7 +590,14 @@ int main(int argc, char **argv) {
                 switch (below(4)) {
                 case 0: s = imap_set_layers(ctx, below(5)); break;
                 case 1: s = imap_set_light_group(ctx, below(4), chance(0.9) ? below(4) : IMAP_MAX_LIGHT_GROUPS - below(2)); break;
-                case 2: s = imap_set_mesh_light_group(ctx, m, below(300)); break;
+                case 2:
+                    /* Or the scene's medium: any material id, or none. */
+                    if (chance(0.3)) {
+                        s = imap_set_scene_medium(ctx, chance(0.3) ? IMAP_NO_MEDIUM : below(sl->materials + 2));
+                        break;
+                    }
+                    s = imap_set_mesh_light_group(ctx, m, below(300));
+                    break;
                 default: s = imap_get_layers(ctx, chance(0.5) ? &g : NULL, chance(0.5) ? &d : NULL); break;
                 }
                 break;

@@ -330,6 +330,12 @@
 #define IMAP_ALL_PARTS UINT32_MAX
 
 /**
+ * `mesh` argument of `imap_get_medium_absorbed`: the scene's medium, outside the meshes
+ * (`imap_set_scene_medium`). (Since 0.2.3.)
+ */
+#define IMAP_SCENE_MEDIUM UINT32_MAX
+
+/**
  * `imap_get_band_balance`: what the photons carried from the lights.
  */
 #define IMAP_BALANCE_EMITTED 0
@@ -739,6 +745,12 @@
  * `ImapSunTime::flags`: `delta_t_s` is given. (Since 0.2.3.)
  */
 #define IMAP_SUN_TIME_DELTA_T 4
+
+/**
+ * `material` argument of `imap_set_scene_medium`: no medium outside the meshes (air).
+ * (Since 0.2.3.)
+ */
+#define IMAP_NO_MEDIUM UINT32_MAX
 
 /**
  * `imap_state_write` flag: leave the map's accumulators out (an MPI rank's "ledger": the
@@ -2686,10 +2698,13 @@ enum ImapStatus imap_get_mesh_absorbed(const struct ImapContext *ctx, uint32_t m
  * standard errors from the photons' own totals there. Into `out`, 2 × (bands + 1) doubles:
  * per band its power, W, and that power's standard error; then the same in lm. What the
  * mesh's surfaces absorb (a print on a light guide) does not count here;
- * `imap_get_mesh_absorbed` has both, summed over bands. (Since 0.2.3.)
+ * `imap_get_mesh_absorbed` has both, summed over bands. `mesh` = IMAP_SCENE_MEDIUM: what
+ * the scene's medium absorbed (`imap_set_scene_medium`; the report's `absorbed_w`
+ * includes it). (Since 0.2.3.)
  *
  * Returns IMAP_ERR_NULL_POINTER, IMAP_ERR_INDEX_OUT_OF_RANGE (no such mesh),
- * IMAP_ERR_INVALID_ARGUMENT (none of its materials holds a medium),
+ * IMAP_ERR_INVALID_ARGUMENT (none of its materials holds a medium; IMAP_SCENE_MEDIUM
+ * without a scene medium),
  * IMAP_ERR_BUFFER_TOO_SMALL. Zeros before the first run.
  *
  * # Safety
@@ -2999,6 +3014,37 @@ enum ImapStatus imap_add_ground(struct ImapContext *ctx, const double *reflectan
  * 3 × `triangle_count` indices (either may be NULL when its count is 0).
  */
 enum ImapStatus imap_set_portals(struct ImapContext *ctx, const double *positions, size_t vertex_count, const uint32_t *indices, size_t triangle_count);
+
+/**
+ * Fills the space outside every closed mesh that holds a medium with the medium of
+ * material `material` (haze in a room, fog in a tunnel or on a stage), or empties it
+ * (IMAP_NO_MEDIUM). The material (`imap_add_material`) must be a smooth dielectric of
+ * index 1 in every band (IMAP_IOR_CONSTANT with `ior[0]` = 1) with `absorption_per_m`
+ * or `scattering_per_m` (and its `phase_g` or phase table). The medium fills the sphere
+ * around the geometry's centre that holds the geometry and every light but the distant
+ * ones; a sky's and the sun's light crosses it from its surface, and lights inside it
+ * shine from their own position.
+ * - Photons scatter and are absorbed in it, so surfaces and sensors receive what
+ *   arrives through it (light scattered in it included).
+ * - Light sampling and gathering attenuate their light samples and paths by its
+ *   transmittance, per band; light scattered in it is the photons' there.
+ * - Sensors read the light that crosses them (by its expected value along each photon's
+ *   segment).
+ * - `imap_get_medium_absorbed(ctx, IMAP_SCENE_MEDIUM, ...)`: what it absorbed, per band
+ *   and in lm, with errors.
+ * - `imap_render` refuses a scene with it (IMAP_ERR_UNSUPPORTED): the camera's paths do
+ *   not yet take light scattered toward them in the medium.
+ *
+ * Changing it discards the prepared scene, like adding a mesh. (Since 0.2.3.)
+ *
+ * Returns IMAP_ERR_INVALID_ARGUMENT naming the material (no such material, not a
+ * medium, index not 1, rough), IMAP_ERR_OUT_OF_ORDER after photons were traced (call
+ * imap_reset first).
+ *
+ * # Safety
+ * `ctx` is a live handle.
+ */
+enum ImapStatus imap_set_scene_medium(struct ImapContext *ctx, uint32_t material);
 
 /**
  * The sun's apparent position at a local date and time and a place: azimuth (degrees from

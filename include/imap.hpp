@@ -323,6 +323,10 @@ public:
                                indices.size() / 3),
               ctx_);
     }
+    /// The medium of `material` (an index-1 dielectric that absorbs or scatters) fills the
+    /// space outside the meshes (haze, fog); IMAP_NO_MEDIUM empties it
+    /// (imap_set_scene_medium). What it absorbed: medium_absorbed(IMAP_SCENE_MEDIUM).
+    void set_scene_medium(uint32_t material) { check(imap_set_scene_medium(ctx_, material), ctx_); }
     /// Illuminance in lux at every vertex of `mesh` on `side`.
     std::vector<double> illuminance(uint32_t mesh, uint32_t side) const {
         std::vector<double> e(vertex_count(mesh));

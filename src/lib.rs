@@ -65,6 +65,7 @@ pub use sched::dynamic::DynamicParams;
 pub use sched::target::{RegionMeasure, RegionTarget};
 pub use sched::{Counters, RangeSet, RunParams, Selection};
 pub use transport::direct::Estimator;
+pub use transport::SCENE_MEDIUM;
 // The scene: bands, materials, meshes, lights, skies and the sun.
 pub use scene::host::{HostBsdf, HostBsdfRef};
 pub use scene::light::{

@@ -666,10 +666,16 @@ fn write_outputs(
             j
         }).collect::<Vec<_>>(),
         "lights": scene.lights,
+        // The scene's medium ([medium]): what it absorbed.
+        "scene_medium_absorbed": ctx.medium_absorbed(imap::SCENE_MEDIUM).ok().map(|a| serde_json::json!({
+            "w_per_band": a.band_w.iter().map(|e| e.value).collect::<Vec<_>>(),
+            "w_per_band_sigma": a.band_w.iter().map(|e| e.sigma).collect::<Vec<_>>(),
+            "lm": a.lm.value, "lm_sigma": a.lm.sigma
+        })),
         "units": {
             "energy_w": "W, radiant, summed over the bands",
             "energy_w_per_band": "W in each band (bands_nm)",
-            "medium_absorbed": "what the medium inside a mesh absorbed (its surfaces' share left out): W per band and lm, each with its standard error (_sigma)",
+            "medium_absorbed": "what the medium inside a mesh absorbed (its surfaces' share left out): W per band and lm, each with its standard error (_sigma); scene_medium_absorbed: the same for [medium]",
             "luminous_lm": "lm",
             "illuminance_lx": "lx, area-weighted over the recorded vertices (front side)",
             "csv": "E_* in W/m2 per band, rel_error dimensionless, lux in lx"

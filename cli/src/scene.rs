@@ -447,6 +447,9 @@ pub fn load(path: &Path, settings: &Settings) -> Result<(Context, LoadedScene)> 
         ctx.set_portals(&positions, &indices)
             .map_err(|e| CliError(format!("{}:{line}: portals: {}", file.display(), e.message)))?;
     }
+    if let Some(m) = &settings.medium {
+        scene_medium(&mut ctx, m, settings, band_nm.len())?;
+    }
     for (id, l) in placed.iter().enumerate() {
         name_item(
             |n| &mut n.lights,
@@ -509,6 +512,45 @@ pub fn load(path: &Path, settings: &Settings) -> Result<(Context, LoadedScene)> 
 
 /// A file material (None: the default grey) and a colour key (None: its own colour).
 type MaterialKey = (Option<usize>, Option<[u8; 3]>);
+
+/// `[medium]`: a material of index 1 with the medium's coefficients, made the scene's
+/// medium; errors name the settings' line.
+fn scene_medium(
+    ctx: &mut imap::Context,
+    m: &crate::settings::MediumSettings,
+    settings: &Settings,
+    nb: usize,
+) -> Result<()> {
+    let (file, line) = settings.locate("[medium]");
+    let at = |e: String| CliError(format!("{}:{line}: [medium] {e}", file.display()));
+    let per_band = |s: &Option<crate::settings::Spectrum>, what: &str| -> Result<Vec<f64>> {
+        let v = s.as_ref().map_or(vec![], |s| s.values());
+        match v.len() {
+            0 | 1 => Ok(v),
+            n if n == nb => Ok(v),
+            n => Err(at(format!(
+                "{what} has {n} values; give 1 or {nb} (one per band)"
+            ))),
+        }
+    };
+    let table = m.phase_table.as_deref().unwrap_or(&[]);
+    let desc = imap::MaterialDesc {
+        ior: Some(imap::IorModel::Constant(1.0)),
+        absorption_per_m: per_band(&m.absorption_per_m, "absorption_per_m")?,
+        scattering_per_m: per_band(&m.scattering_per_m, "scattering_per_m")?,
+        phase_g: per_band(&m.phase_g, "phase_g")?,
+        phase_angles_deg: table.iter().map(|r| r[0]).collect(),
+        phase_values: table.iter().map(|r| r[1]).collect(),
+        ..Default::default()
+    };
+    if desc.absorption_per_m.is_empty() && desc.scattering_per_m.is_empty() {
+        return Err(at(
+            "gives neither absorption_per_m nor scattering_per_m: a medium needs one".into(),
+        ));
+    }
+    let id = ctx.add_material(&desc).map_err(|e| at(e.message))?;
+    ctx.set_scene_medium(Some(id)).map_err(|e| at(e.message))
+}
 
 /// The libimap materials of a model, made on first use: one per file material, and one per
 /// (material, colour) where a texture or vertex colours give triangles their own colour.

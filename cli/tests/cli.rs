@@ -1184,3 +1184,68 @@ fn a_window_bsdf_file_from_the_settings() {
         assert!(e.contains(word), "{name}: {e}");
     }
 }
+
+/// `[medium]`: haze around the model absorbs light (report.json says how much, with its
+/// error, and the balance holds with it; a clear scene's report has none); a medium without
+/// coefficients and a wrong count name `[medium]` and its line.
+#[test]
+fn a_hazy_scene_from_the_settings() {
+    let d = tempfile::tempdir().unwrap();
+    write(d.path(), "scene.mtl", MTL);
+    let (obj, _, _) = scene_obj();
+    let path = write(d.path(), "scene.obj", &obj);
+    let run = |name: &str, settings: &str| run_with_settings(d.path(), &path, name, settings);
+    let (o, clear) = run("clear", "");
+    assert!(o.status.success(), "{}", stderr(&o));
+    let (o, hazy) = run(
+        "hazy",
+        "[medium]\nabsorption_per_m = 0.2\nscattering_per_m = [0.5, 0.4, 0.3]\nphase_g = 0.6\n",
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let (c, h) = (read_report(&clear), read_report(&hazy));
+    assert!(
+        c["scene_medium_absorbed"].is_null(),
+        "{}",
+        c["scene_medium_absorbed"]
+    );
+    let a = &h["scene_medium_absorbed"];
+    let lm = a["lm"].as_f64().unwrap();
+    assert!(
+        lm > 0.0 && a["lm_sigma"].as_f64().unwrap() < 0.1 * lm,
+        "{a}"
+    );
+    let e = &h["energy_w"];
+    let f = |k: &str| e[k].as_f64().unwrap();
+    let off = f("emitted") - f("absorbed") - f("escaped") - f("dropped");
+    assert!(off.abs() < 1e-9 * f("emitted"), "balance off by {off}");
+    let haze_w: f64 = a["w_per_band"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|x| x.as_f64().unwrap())
+        .sum();
+    assert!(
+        haze_w > 0.0 && haze_w < f("absorbed"),
+        "{haze_w} of {}",
+        f("absorbed")
+    );
+    for (settings, want) in [
+        (
+            "[medium]\nphase_g = 0.5\n",
+            "neither absorption_per_m nor scattering_per_m",
+        ),
+        (
+            "[medium]\nabsorption_per_m = [1, 2]\n",
+            "absorption_per_m has 2 values",
+        ),
+        ("[medium]\nscattering_per_m = -1\n", "scattering_per_m[0]"),
+    ] {
+        let (o, _) = run("bad", settings);
+        let e = stderr(&o);
+        assert!(!o.status.success(), "{settings}: {e}");
+        assert!(
+            e.contains("bad.toml:1: [medium]") && e.contains(want),
+            "{e}"
+        );
+    }
+}

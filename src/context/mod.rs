@@ -740,6 +740,48 @@ impl Context {
         Ok(())
     }
 
+    /// Fills the space outside every closed mesh that holds a medium with the medium of
+    /// material `material` (haze in a room, fog in a tunnel or on a stage), or empties it
+    /// (None). The material must be a smooth dielectric of index 1 in every band (the
+    /// space refracts nothing) with `absorption_per_m` or `scattering_per_m`; its phase
+    /// function is its own. The medium fills the sphere around the geometry's centre that
+    /// holds the geometry and every light but the distant ones (a sky's and the sun's
+    /// light crosses it from its surface); lights inside it are followed from their own
+    /// position. Photons scatter and are absorbed in it; light samples and gathering paths
+    /// are attenuated by its transmittance (they never scatter in it: light scattered
+    /// there is the photons'); sensors read the light that crosses them. What it absorbed:
+    /// `medium_absorbed(SCENE_MEDIUM)`. Fails with `IMAP_ERR_INVALID_ARGUMENT` naming the
+    /// material when it is no such medium.
+    pub fn set_scene_medium(&mut self, material: Option<u32>) -> Result<()> {
+        self.check_unlocked("set the scene's medium")?;
+        if let Some(id) = material {
+            let Some(m) = self.scene.materials.get(id as usize) else {
+                bail!(
+                    ImapErrInvalidArgument,
+                    "material = {id}: no such material ({} added)",
+                    self.scene.materials.len()
+                );
+            };
+            let Some(d) = m.dielectric.as_ref().filter(|_| m.holds_medium()) else {
+                bail!(
+                    ImapErrInvalidArgument,
+                    "material = {id} holds no medium: the scene's medium is a dielectric of index 1 with absorption_per_m or scattering_per_m"
+                );
+            };
+            if m.glossy.is_some() || d.ior.iter().any(|&n| n != 1.0) {
+                bail!(
+                    ImapErrInvalidArgument,
+                    "material = {id}: the scene's medium must be a smooth dielectric of index 1 in every band (IMAP_IOR_CONSTANT with ior[0] = 1, no roughness): the space around the meshes refracts nothing"
+                );
+            }
+        }
+        if self.scene.medium != material {
+            self.scene.medium = material;
+            self.invalidate();
+        }
+        Ok(())
+    }
+
     /// Adds the ground's glow (Radiance's ground glow): a uniform radiance below the
     /// horizon of `zenith`, L = ρ E_h / π per band, with E_h the horizontal irradiance of
     /// the skies and suns added so far (add them first) and ρ `reflectance` (one grey
@@ -1239,7 +1281,8 @@ impl Context {
             threads,
             scheduler: self.config.scheduler,
             emitted_w: self.stats.emitted * w,
-            absorbed_w: self.stats.absorbed.iter().sum::<f64>() * w,
+            absorbed_w: (self.stats.absorbed.iter().sum::<f64>() + self.scene_medium_absorbed())
+                * w,
             escaped_w: self.stats.escaped * w,
             dropped_w: self.stats.dropped * w,
             dropped_photons: self.stats.dropped_photons,
@@ -1288,8 +1331,17 @@ impl Context {
     /// materials hold no medium (no dielectric with `absorption_per_m` or
     /// `scattering_per_m`).
     pub fn medium_absorbed(&self, mesh: u32) -> Result<MediumAbsorbed> {
-        self.mesh_index(mesh)?;
-        if !self.holds_medium(mesh as usize) {
+        if mesh == crate::transport::SCENE_MEDIUM {
+            if self.scene.medium.is_none() {
+                bail!(
+                    ImapErrInvalidArgument,
+                    "mesh = SCENE_MEDIUM ({mesh:#x}): the scene has no medium outside its meshes (set_scene_medium)"
+                );
+            }
+        } else if !self
+            .mesh_index(mesh)
+            .map(|_| self.holds_medium(mesh as usize))?
+        {
             bail!(
                 ImapErrInvalidArgument,
                 "mesh = {mesh} holds no medium: none of its materials is a dielectric with absorption_per_m or scattering_per_m"
@@ -1317,6 +1369,17 @@ impl Context {
         let lum: f64 = sum.iter().zip(&p.scene.efficacy).map(|(s, e)| s * e).sum();
         out.lm = est(lum, sq_lum);
         Ok(out)
+    }
+
+    /// What the scene's medium absorbed, in photon units (the mean over bands of its
+    /// tally); 0 without one.
+    fn scene_medium_absorbed(&self) -> f64 {
+        self.stats
+            .volumes
+            .of(crate::transport::SCENE_MEDIUM)
+            .map_or(0.0, |(sum, _, _)| {
+                sum.iter().sum::<f64>() / sum.len().max(1) as f64
+            })
     }
 
     /// Power absorbed by a mesh (at its surface or inside its medium), W.

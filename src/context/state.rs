@@ -117,6 +117,10 @@ impl Fingerprint {
         }
         let mut materials = HashText(Xxh3::new());
         let _ = write!(materials, "{:?}", scene.materials);
+        if let Some(m) = scene.medium {
+            // Only scenes with a medium outside the meshes hash it.
+            let _ = write!(materials, "|scene medium {m}");
+        }
         for t in &scene.textures {
             t.hash_into(&mut materials.0);
         }
@@ -915,15 +919,21 @@ impl Context {
             ));
         }
         let v = &s.stats.volumes;
+        // (The scene's medium is the tally's last entry, `SCENE_MEDIUM`; the fingerprint
+        // says whether the scene has one.)
+        let scene_medium = self.scene.medium.is_some();
+        let beyond =
+            |m: u32| m >= dims.meshes && !(scene_medium && m == crate::transport::SCENE_MEDIUM);
         if (!v.meshes.is_empty() && v.bands != dims.bands as usize)
-            || v.meshes.last().is_some_and(|&m| m >= dims.meshes)
+            || v.meshes.iter().any(|&m| beyond(m))
         {
             return Err(corrupt(
                 "state is malformed: its media's tallies do not match its map's dimensions",
             ));
         }
         if s.version == FORMAT_WITHOUT_VOLUMES && s.photons() > 0 {
-            if let Some(m) = (0..self.scene.meshes.len()).find(|&m| self.holds_medium(m)) {
+            let media = (0..self.scene.meshes.len()).find(|&m| self.holds_medium(m));
+            if let Some(m) = media.or(self.scene.medium.map(|_| self.scene.meshes.len())) {
                 bail!(
                     ImapErrUnsupported,
                     "the state was written by libimap {} in state format {FORMAT_WITHOUT_VOLUMES}, which keeps no tallies of what media absorb, and this scene has media (mesh {m}): run it again from the start",

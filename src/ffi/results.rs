@@ -11,6 +11,11 @@ use crate::error::{bail, ImapStatus};
 /// `part` argument of the region functions: the whole mesh side, all its materials.
 pub const IMAP_ALL_PARTS: u32 = u32::MAX;
 
+/// `mesh` argument of `imap_get_medium_absorbed`: the scene's medium, outside the meshes
+/// (`imap_set_scene_medium`). (Since 0.2.3.)
+pub const IMAP_SCENE_MEDIUM: u32 = u32::MAX;
+const _: () = assert!(IMAP_SCENE_MEDIUM == crate::transport::SCENE_MEDIUM);
+
 /// A region's figures (`imap_get_region_stats`), each with its standard error (`*_sigma`,
 /// the same unit). Filled by the library; `struct_size` says how many bytes are valid.
 /// (Since 0.2.1.)
@@ -219,10 +224,13 @@ pub unsafe extern "C" fn imap_get_mesh_absorbed(
 /// standard errors from the photons' own totals there. Into `out`, 2 × (bands + 1) doubles:
 /// per band its power, W, and that power's standard error; then the same in lm. What the
 /// mesh's surfaces absorb (a print on a light guide) does not count here;
-/// `imap_get_mesh_absorbed` has both, summed over bands. (Since 0.2.3.)
+/// `imap_get_mesh_absorbed` has both, summed over bands. `mesh` = IMAP_SCENE_MEDIUM: what
+/// the scene's medium absorbed (`imap_set_scene_medium`; the report's `absorbed_w`
+/// includes it). (Since 0.2.3.)
 ///
 /// Returns IMAP_ERR_NULL_POINTER, IMAP_ERR_INDEX_OUT_OF_RANGE (no such mesh),
-/// IMAP_ERR_INVALID_ARGUMENT (none of its materials holds a medium),
+/// IMAP_ERR_INVALID_ARGUMENT (none of its materials holds a medium; IMAP_SCENE_MEDIUM
+/// without a scene medium),
 /// IMAP_ERR_BUFFER_TOO_SMALL. Zeros before the first run.
 ///
 /// # Safety

@@ -452,6 +452,44 @@ pub unsafe extern "C" fn imap_set_portals(
     })
 }
 
+/// `material` argument of `imap_set_scene_medium`: no medium outside the meshes (air).
+/// (Since 0.2.3.)
+pub const IMAP_NO_MEDIUM: u32 = u32::MAX;
+
+/// Fills the space outside every closed mesh that holds a medium with the medium of
+/// material `material` (haze in a room, fog in a tunnel or on a stage), or empties it
+/// (IMAP_NO_MEDIUM). The material (`imap_add_material`) must be a smooth dielectric of
+/// index 1 in every band (IMAP_IOR_CONSTANT with `ior[0]` = 1) with `absorption_per_m`
+/// or `scattering_per_m` (and its `phase_g` or phase table). The medium fills the sphere
+/// around the geometry's centre that holds the geometry and every light but the distant
+/// ones; a sky's and the sun's light crosses it from its surface, and lights inside it
+/// shine from their own position.
+/// - Photons scatter and are absorbed in it, so surfaces and sensors receive what
+///   arrives through it (light scattered in it included).
+/// - Light sampling and gathering attenuate their light samples and paths by its
+///   transmittance, per band; light scattered in it is the photons' there.
+/// - Sensors read the light that crosses them (by its expected value along each photon's
+///   segment).
+/// - `imap_get_medium_absorbed(ctx, IMAP_SCENE_MEDIUM, ...)`: what it absorbed, per band
+///   and in lm, with errors.
+/// - `imap_render` refuses a scene with it (IMAP_ERR_UNSUPPORTED): the camera's paths do
+///   not yet take light scattered toward them in the medium.
+///
+/// Changing it discards the prepared scene, like adding a mesh. (Since 0.2.3.)
+///
+/// Returns IMAP_ERR_INVALID_ARGUMENT naming the material (no such material, not a
+/// medium, index not 1, rough), IMAP_ERR_OUT_OF_ORDER after photons were traced (call
+/// imap_reset first).
+///
+/// # Safety
+/// `ctx` is a live handle.
+#[no_mangle]
+pub unsafe extern "C" fn imap_set_scene_medium(ctx: *mut ImapContext, material: u32) -> ImapStatus {
+    with_context(ctx, |c| {
+        c.set_scene_medium((material != IMAP_NO_MEDIUM).then_some(material))
+    })
+}
+
 /// The sun's apparent position at a local date and time and a place: azimuth (degrees from
 /// north toward east) into `*out_azimuth_deg`, zenith angle (degrees; above 90 when it is
 /// below the horizon) into `*out_zenith_deg`. NREL's Solar Position Algorithm (±0.0003°,

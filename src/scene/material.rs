@@ -243,6 +243,17 @@ impl Material {
             .is_some_and(|d| d.scattering.is_some())
     }
 
+    /// A medium's extinction coefficient σt per band (1/m): its scattering medium's, or
+    /// its absorption; None for anything else (a clear dielectric too).
+    #[inline]
+    pub fn extinction(&self) -> Option<&[f64]> {
+        let d = self.dielectric.as_ref()?;
+        match &d.scattering {
+            Some(sc) => Some(&sc.sigma_t),
+            None => d.absorption_per_m.as_deref(),
+        }
+    }
+
     /// Whether it is a dielectric whose inside absorbs or scatters: a medium.
     pub fn holds_medium(&self) -> bool {
         self.dielectric

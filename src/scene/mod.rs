@@ -24,7 +24,7 @@ pub use material::{
     LOBE_DIFFUSE_TRANSMIT, LOBE_ROUGHNESS, LOBE_SPECULAR_REFLECT,
 };
 pub use mesh::{Mesh, MeshDesc};
-pub use prepared::PreparedScene;
+pub use prepared::{Haze, PreparedScene};
 pub use prepared_mesh::PreparedMesh;
 pub use table::{TableCheck, TableDesc};
 
@@ -44,6 +44,11 @@ pub struct Scene {
     pub portals: Vec<[[f64; 3]; 3]>,
     /// Textures of materials (`scene::texture`).
     pub textures: Vec<std::sync::Arc<texture::Texture>>,
+    /// The material whose medium fills the space outside every closed mesh that holds
+    /// one (haze in a room, fog in a tunnel): an index-1 dielectric that absorbs or
+    /// scatters (`Context::set_scene_medium`). It fills the bounding sphere of the
+    /// geometry and the lights (`PreparedScene::haze`).
+    pub medium: Option<u32>,
 }
 
 /// Which layers a map keeps (the map lays them out: `imap::LayerLayout`).
@@ -66,6 +71,7 @@ impl Scene {
             layers: LayerRequest::default(),
             portals: Vec::new(),
             textures: Vec::new(),
+            medium: None,
         }
     }
 

@@ -32,6 +32,40 @@ pub struct PreparedScene {
     /// The materials' textures (`Scene::textures`) and the bands they are read for.
     pub textures: Vec<Arc<Texture>>,
     pub bands: Bands,
+    /// The scene's medium (`Scene::medium`) and the ball it fills.
+    pub haze: Option<Haze>,
+}
+
+/// The medium outside the meshes (`Scene::medium`): its material, and the ball around the
+/// local origin it fills (the sphere rays enter the scene by, which then holds every light
+/// but the distant ones too).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Haze {
+    pub material: u32,
+    /// Local scene units.
+    pub radius: f64,
+}
+
+impl Haze {
+    /// The part (t0, t1) of the ray `org + t dir` (unit `dir`), 0 ≤ t ≤ `t_max`, that lies
+    /// inside the ball; t0 = t1 when none does.
+    #[inline]
+    pub fn span(&self, org: DVec3, dir: DVec3, t_max: f64) -> (f64, f64) {
+        let b = org.dot(dir);
+        let c = org.length_squared() - self.radius * self.radius;
+        let disc = b * b - c;
+        if disc.is_nan() || disc <= 0.0 {
+            return (0.0, 0.0);
+        }
+        let s = disc.sqrt();
+        let t0 = (-b - s).max(0.0);
+        let t1 = (-b + s).min(t_max);
+        if t1 > t0 {
+            (t0, t1)
+        } else {
+            (t0, t0)
+        }
+    }
 }
 
 impl PreparedScene {
@@ -73,13 +107,29 @@ impl PreparedScene {
         });
         let origin = (lo + hi) * 0.5;
         let radius = ((hi - lo).length() * 0.5).max(f64::MIN_POSITIVE);
-        let enter_radius = match bounds(scene, |m| m.sensor) {
+        let mut enter_radius = match bounds(scene, |m| m.sensor) {
             Some((slo, shi)) => {
                 let far = |p: DVec3| (p - origin).abs();
                 radius.max(far(slo).max(far(shi)).length())
             }
             None => radius,
         };
+        if scene.medium.is_some() {
+            // The scene's medium fills the entering sphere, which then holds every light
+            // but the distant ones: their photons start in it, and their light samples'
+            // shadow rays lie in it whole.
+            for l in &scene.lights {
+                let extent = match &l.shape {
+                    LightShape::Distant(_) => continue,
+                    LightShape::Beam { aperture, .. } => aperture.u.length() + aperture.v.length(),
+                    LightShape::Luminaire(lum) => {
+                        lum.opening.map_or(0.0, |a| a.u.length() + a.v.length())
+                    }
+                    _ => 0.0,
+                };
+                enter_radius = enter_radius.max((l.position - origin).length() + extent);
+            }
+        }
         let mut slots = 0usize;
         let mut meshes = Vec::with_capacity(scene.meshes.len());
         // Tangents from texture coordinates only where a material asks for them.
@@ -252,7 +302,12 @@ impl PreparedScene {
             emitter_table,
             total_power,
             slots,
+            haze: None,
         };
+        prepared.haze = scene.medium.map(|material| Haze {
+            material,
+            radius: prepared.sphere_radius(),
+        });
         if aim_lights {
             let r = prepared.sphere_radius();
             for em in &mut prepared.emitters {

@@ -123,6 +123,24 @@ impl Colour {
         }
     }
 
+    /// Becomes `from` with each band times its transmittance e^(−σ_b d) over `dist_m`
+    /// metres (`sigma` per band, 1/m): the expected colour of `from` after that much of a
+    /// medium (what a sensor crossed there reads).
+    pub(crate) fn transmitted(&mut self, from: &Colour, sigma: &[f64], dist_m: f64) {
+        self.clone_from(from);
+        self.attenuate(sigma, dist_m);
+    }
+
+    /// Each band times its transmittance e^(−σ_b d) over `dist_m` metres (`sigma` per
+    /// band, 1/m): a throughput through a medium.
+    pub(crate) fn attenuate(&mut self, sigma: &[f64], dist_m: f64) {
+        for (c, s) in self.c.iter_mut().zip(sigma) {
+            if *s != 0.0 {
+                *c *= (-s * dist_m).exp();
+            }
+        }
+    }
+
     /// Collapses to one band chosen with probability proportional to its weight, keeping
     /// unit energy: the chosen band gets the whole mean times the band count.
     pub fn collapse(&mut self, u: f64) {

@@ -663,8 +663,8 @@ impl DirectSampler<'_> {
                     n,
                     l: LIGHT_SAMPLE_GAIN * density,
                 };
-                if let Some((e, g, _)) = self.sample_light(&at, a[3], [b[0], b[1], b[2]]) {
-                    self.add(e, g, None, direct, nb);
+                if let Some((e, g, _, haze)) = self.sample_light(&at, a[3], [b[0], b[1], b[2]]) {
+                    self.add(e, (g, haze), None, direct, nb);
                 }
                 if self.gather {
                     let index = (pass.wrapping_mul(self.plan.slots as u64) + i as u64)
@@ -716,12 +716,13 @@ impl DirectSampler<'_> {
 
     /// Adds `weight` (W/m² per unit of the emitter's colour) of emitter `e` to `sums`,
     /// per band times `through` (a gathering path's throughput) and `k` (the reflectance
-    /// or transmittance that sends the light on), when given.
+    /// or transmittance that sends the light on), when given, and times the scene
+    /// medium's transmittance over `haze_m` metres.
     #[inline]
     fn add(
         &self,
         e: usize,
-        weight: f64,
+        (weight, haze_m): (f64, f64),
         path: Option<(&Colour, &[f64])>,
         sums: &mut [f64],
         nb: usize,
@@ -733,6 +734,11 @@ impl DirectSampler<'_> {
         let g = em.layer as usize;
         let k = weight * self.scene.total_power / nb as f64 / (self.unit_m * self.unit_m);
         let s = &mut sums[g * nb..(g + 1) * nb];
+        if haze_m > 0.0 {
+            // Through the scene's medium: per band, its own transmittance (cold: a scene
+            // without one never comes here).
+            return self.add_through_haze(em, k, haze_m, path, s);
+        }
         match path {
             None => {
                 for (s, c) in s.iter_mut().zip(&em.colour) {
@@ -748,6 +754,45 @@ impl DirectSampler<'_> {
                 {
                     *s += k * c * t * r;
                 }
+            }
+        }
+    }
+
+    /// `add` for light that crossed `haze_m` metres of the scene's medium.
+    #[cold]
+    #[inline(never)]
+    fn add_through_haze(
+        &self,
+        em: &crate::scene::emitter::Emitter,
+        k: f64,
+        haze_m: f64,
+        path: Option<(&Colour, &[f64])>,
+        s: &mut [f64],
+    ) {
+        let sigma = self.haze().map_or(&[][..], |(_, s)| s);
+        for (b, (s, c)) in s.iter_mut().zip(&em.colour).enumerate() {
+            let tr = sigma.get(b).map_or(1.0, |x| (-x * haze_m).exp());
+            let p = path.map_or(1.0, |(t, r)| t.values()[b] * r[b]);
+            *s += k * c * tr * p;
+        }
+    }
+
+    /// The scene's medium and its extinction per band (1/m), when there is one.
+    #[inline]
+    fn haze(&self) -> Option<(crate::scene::Haze, &[f64])> {
+        let h = self.scene.haze?;
+        Some((h, self.materials[h.material as usize].extinction()?))
+    }
+
+    /// The metres of the scene's medium on the segment from `x` along unit `dir` over `t`
+    /// scene units (infinite: out of the scene); 0 without one.
+    #[inline]
+    fn haze_m(&self, x: DVec3, dir: DVec3, t: f64) -> f64 {
+        match self.scene.haze {
+            None => 0.0,
+            Some(h) => {
+                let (t0, t1) = h.span(x, dir, t);
+                (t1 - t0) * self.unit_m
             }
         }
     }
@@ -779,6 +824,11 @@ impl DirectSampler<'_> {
             let Some(hit) = self.accel.intersect(org, dir) else {
                 return;
             };
+            if let Some((_, sigma)) = self.haze() {
+                // Through the scene's medium, unscattered (light scattered in it is the
+                // photons').
+                t.attenuate(sigma, self.haze_m(org, dir, hit.t));
+            }
             let mesh = &scene.meshes[hit.mesh as usize];
             let prim = hit.prim as usize;
             let material =
@@ -813,10 +863,10 @@ impl DirectSampler<'_> {
                     };
                     let u = d.next();
                     let v = [d.next(), d.next(), d.next()];
-                    if let Some((e, gl, from)) = self.sample_light(&y, u, v) {
+                    if let Some((e, gl, from, haze)) = self.sample_light(&y, u, v) {
                         g.eval(frame.to_local(from), to_x, 0, front, w);
                         w.iter_mut().for_each(|x| *x *= PI);
-                        self.add(e, gl, Some((t, w)), sums, nb);
+                        self.add(e, (gl, haze), Some((t, w)), sums, nb);
                     }
                 }
                 let u = [d.next(), d.next(), d.next()];
@@ -858,8 +908,8 @@ impl DirectSampler<'_> {
                 };
                 let u = d.next();
                 let w = [d.next(), d.next(), d.next()];
-                if let Some((e, g, _)) = self.sample_light(&y, u, w) {
-                    self.add(e, g, Some((t, bsdf.albedo(lobe))), sums, nb);
+                if let Some((e, g, _, haze)) = self.sample_light(&y, u, w) {
+                    self.add(e, (g, haze), Some((t, bsdf.albedo(lobe))), sums, nb);
                 }
             }
             // Go on as a photon would.
@@ -915,8 +965,10 @@ impl DirectSampler<'_> {
 
     /// One light sample at `at`: the emitter, its irradiance at x per unit of its colour
     /// (W/m² before `add`'s conversion), MIS-weighted against photons unless `at.l` is
-    /// infinite, and the direction it arrives from.
-    fn sample_light(&self, at: &Point, u: f64, w: [f64; 3]) -> Option<(usize, f64, DVec3)> {
+    /// infinite, the direction it arrives from, and the metres of the scene's medium its
+    /// light crossed (0 without one). The MIS weights leave the medium out on both sides
+    /// (the photons' `deposit` too): they stay a partition of unity.
+    fn sample_light(&self, at: &Point, u: f64, w: [f64; 3]) -> Option<(usize, f64, DVec3, f64)> {
         let scene = self.scene;
         let (x, n) = (at.x, at.n);
         let e = scene.emitter_table.sample(u);
@@ -933,9 +985,10 @@ impl DirectSampler<'_> {
                 if cos_x <= 0.0 {
                     return None;
                 }
-                self.visible(x, foot)?;
+                let (_, r) = self.visible(x, foot)?;
                 let mis = power(at.l, self.photon_density(e, axis, t * t, cos_x, 1.0));
-                Some((e, mis * cos_x / area, -axis))
+                let haze = self.haze_m(x, -axis, r);
+                Some((e, mis * cos_x / area, -axis, haze))
             }
             LightSample::Direction {
                 toward,
@@ -954,7 +1007,7 @@ impl DirectSampler<'_> {
                 let mis = power(at.l, self.photon_density(e, -toward, 1.0, cos_x, 1.0));
                 // L cos / q per watt of the source (L = f / norm per watt).
                 let g = f * cos_x / (q * norm);
-                Some((e, mis * g, toward))
+                Some((e, mis * g, toward, self.haze_m(x, toward, f64::INFINITY)))
             }
             LightSample::Point(y) => {
                 let (dir, r) = self.visible(x, y)?;
@@ -965,7 +1018,7 @@ impl DirectSampler<'_> {
                 let r2 = (at.on - y).length_squared();
                 let mis = power(at.l, self.photon_density(e, -dir, r2, cos_x, 1.0));
                 let g = em.intensity_per_watt(-dir) * cos_x / (r * r);
-                Some((e, mis * g, dir))
+                Some((e, mis * g, dir, self.haze_m(x, dir, r)))
             }
             LightSample::Area { point: y, normal } => {
                 let two_sided = em.two_sided();
@@ -981,7 +1034,8 @@ impl DirectSampler<'_> {
                 let sides = if two_sided { 2.0 } else { 1.0 };
                 let r2 = (at.on - y).length_squared();
                 let mis = power(at.l, self.photon_density(e, -dir, r2, cos_x, cos_y));
-                Some((e, mis * cos_x * cos_y / (PI * sides * r * r), dir))
+                let g = mis * cos_x * cos_y / (PI * sides * r * r);
+                Some((e, g, dir, self.haze_m(x, dir, r)))
             }
         }
     }

@@ -131,6 +131,9 @@ pub(crate) struct WeightedBounces {
     fluoresced: Vec<f64>,
     /// Per band: a fluorescent surface's re-emission (scratch).
     emitted: Vec<f64>,
+    /// The colour as a segment through a medium began, and as a sensor crossed on it
+    /// reads it (scratch, with sensors in media only).
+    before: Option<(Colour, Colour)>,
 }
 
 impl WeightedBounces {
@@ -325,7 +328,12 @@ pub struct Tracer<'a> {
     pub direct: Option<&'a direct::DirectSampler<'a>>,
 }
 
-/// The medium a photon travels in: air, or the inside of a dielectric mesh.
+/// The mesh id that stands for the scene's medium (`Scene::medium`) in the media's tally
+/// (`volumes`) and at a path's end.
+pub const SCENE_MEDIUM: u32 = u32::MAX;
+
+/// The medium a photon travels in: air, the scene's medium (`SCENE_MEDIUM`), or the
+/// inside of a dielectric mesh.
 #[derive(Clone, Copy)]
 struct Medium {
     mesh: u32,
@@ -422,12 +430,21 @@ impl<'a> Tracer<'a> {
     fn through_medium(
         &self,
         m: Medium,
-        t: Option<f64>,
+        (org, dir, t): (DVec3, DVec3, Option<f64>),
         colour: &mut Colour,
         rng: &mut PhotonRng,
         bounces: &mut WeightedBounces,
     ) -> Segment<'a> {
         let d = self.materials[m.material as usize].dielectric.as_ref();
+        // The scene's medium: the part of the segment inside its ball (all of it but for
+        // a distant light's photon still on its way in, or one leaving the scene).
+        let (t0, t) = match self.scene.haze.filter(|_| m.mesh == SCENE_MEDIUM) {
+            Some(h) => {
+                let (t0, t1) = h.span(org, dir, t.unwrap_or(f64::INFINITY));
+                (t0, Some(t1 - t0))
+            }
+            None => (0.0, t),
+        };
         let dist_m = t.unwrap_or(f64::INFINITY) * self.unit_m;
         if let Some(sc) = d
             .and_then(|d| d.scattering.as_ref())
@@ -439,7 +456,7 @@ impl<'a> Tracer<'a> {
             return match bounces.moved(m.mesh, colour, |c| sc.flight(c.values_mut(), dist_m, u)) {
                 Flight::Surface => Segment::Through,
                 Flight::Absorbed => Segment::Absorbed,
-                Flight::Scatter(t_m) => Segment::Scatter(sc, t_m / self.unit_m),
+                Flight::Scatter(t_m) => Segment::Scatter(sc, t0 + t_m / self.unit_m),
             };
         }
         if let Some(alpha) = d.and_then(|d| d.absorption_per_m.as_ref()) {
@@ -456,6 +473,13 @@ impl<'a> Tracer<'a> {
 }
 
 impl Tracer<'_> {
+    /// The extinction coefficient σt per band (1/m) of medium `m`: its scattering
+    /// medium's, or its absorption; None for a clear dielectric.
+    #[inline]
+    fn extinction(&self, m: Medium) -> Option<&[f64]> {
+        self.materials[m.material as usize].extinction()
+    }
+
     /// Whether a bounce is weighed (the photon goes on with what the surface sends on, and
     /// what it keeps is tallied as absorbed): with light sampling, while the photon keeps
     /// at least `WEIGHTED_BOUNCES_DOWN_TO` of its energy; otherwise Russian roulette.
@@ -495,7 +519,10 @@ impl Tracer<'_> {
                 return false;
             }
             PathEnd::Absorbed(m) => {
-                stats.absorbed[m as usize] += e;
+                // (The scene's medium has no mesh: its tally is the media's, `volumes`.)
+                if let Some(a) = stats.absorbed.get_mut(m as usize) {
+                    *a += e;
+                }
                 BAND_ABSORBED
             }
             PathEnd::Escaped => {
@@ -514,7 +541,9 @@ impl Tracer<'_> {
         if !stats.bounces.meshes.is_empty() {
             // The shares weighted bounces absorbed (the photon went on with the rest).
             for &(m, e) in &stats.bounces.meshes {
-                stats.absorbed[m as usize] += e;
+                if let Some(a) = stats.absorbed.get_mut(m as usize) {
+                    *a += e;
+                }
             }
             stats.bounces.meshes.clear();
             let k = 1.0 / stats.bounces.delta.len() as f64;
@@ -646,7 +675,12 @@ impl Tracer<'_> {
         let Some(mut org) = self.scene.enter(from.y, dir) else {
             return PathEnd::Escaped;
         };
-        let mut medium: Option<Medium> = None;
+        // Outside every mesh: air, or the scene's medium.
+        let outside = self.scene.haze.map(|h| Medium {
+            mesh: SCENE_MEDIUM,
+            material: h.material,
+        });
+        let mut medium = outside;
         // Unpolarised until a dielectric interface (`Polarisation`); diffuse and
         // coefficient (mirror) surfaces depolarise.
         let mut pol: Option<Polarisation> = None;
@@ -670,18 +704,32 @@ impl Tracer<'_> {
             }
             let hit = self.accel.intersect(org, dir);
 
-            // Inside a dielectric: a scattering medium's free flight (which may end before
-            // the surface), or Beer–Lambert: survive the segment through an absorbing
-            // medium with the colour-weighted transmittance, re-weighting the colour by
-            // band.
+            // Sensors in a medium read the light that crosses them by its expected value:
+            // the colour the segment began with times each band's transmittance to the
+            // crossing, whatever the free flight below draws (its draw could not tell
+            // the crossings before its end from those after).
+            let attenuating = match (self.sensors, medium) {
+                (Some(_), Some(m)) => self.extinction(m),
+                _ => None,
+            };
+            if attenuating.is_some() {
+                let n = colour.values().len();
+                let (b, _) = bounces
+                    .before
+                    .get_or_insert_with(|| (Colour::new(n), Colour::new(n)));
+                b.clone_from(colour);
+            }
+
+            // Inside a dielectric or the scene's medium: a scattering medium's free flight
+            // (which may end before the surface), or Beer–Lambert: survive the segment
+            // through an absorbing medium with the colour-weighted transmittance,
+            // re-weighting the colour by band.
             let mut scattered_at = None;
+            let mut absorbed_in = None;
             if let Some(m) = medium {
-                match self.through_medium(m, hit.map(|h| h.t), colour, rng, bounces) {
+                match self.through_medium(m, (org, dir, hit.map(|h| h.t)), colour, rng, bounces) {
                     Segment::Through => {}
-                    Segment::Absorbed => {
-                        bounces.absorbed_in(m.mesh, colour);
-                        return PathEnd::Absorbed(m.mesh);
-                    }
+                    Segment::Absorbed => absorbed_in = Some(m.mesh),
                     Segment::Scatter(sc, t) => scattered_at = Some((sc, t, m.mesh)),
                 }
             }
@@ -697,23 +745,45 @@ impl Tracer<'_> {
             };
             if let Some(sensors) = self.sensors {
                 // Sensors on the segment, up to and including the surface it ends on (a
-                // sensor laid on a floor sees the light arriving there), or up to where
-                // it scatters in a medium.
-                let t_end = match scattered_at {
+                // sensor laid on a floor sees the light arriving there), or, in air, up to
+                // where it scatters in a medium.
+                let t_end = match scattered_at.filter(|_| attenuating.is_none()) {
                     Some((_, t, _)) => t,
                     None => hit.map_or(f64::INFINITY, |h| {
                         let m = &self.scene.meshes[h.mesh as usize];
                         h.t + 2.0 * self.scene.offset_at(m.point(h.prim as usize, h.u, h.v))
                     }),
                 };
+                // (Where the segment lies in the medium: the scene's medium fills a ball.)
+                let span = match (attenuating, medium) {
+                    (Some(_), Some(m)) if m.mesh == SCENE_MEDIUM => self
+                        .scene
+                        .haze
+                        .map_or((0.0, 0.0), |h| h.span(org, dir, f64::INFINITY)),
+                    _ => (0.0, f64::INFINITY),
+                };
+                let unit_m = self.unit_m;
+                let mut before = bounces.before.as_mut();
                 sensors.crossings(org, dir, t_end, |c| {
                     let mesh = &self.scene.meshes[c.mesh as usize];
                     let front = dir.dot(mesh.normals[c.prim as usize].as_dvec3()) < 0.0;
                     if front || mesh.two_sided {
                         let side = u8::from(!front);
-                        deposit(sink, weigh, (c.mesh, c.prim, side), (c.u, c.v), dir, colour);
+                        let at = (c.mesh, c.prim, side);
+                        match (attenuating, before.as_deref_mut()) {
+                            (Some(sigma), Some((from, read))) => {
+                                let inside = c.t.clamp(span.0, span.1) - span.0;
+                                read.transmitted(from, sigma, inside * unit_m);
+                                deposit(sink, weigh, at, (c.u, c.v), dir, read);
+                            }
+                            _ => deposit(sink, weigh, at, (c.u, c.v), dir, colour),
+                        }
                     }
                 });
+            }
+            if let Some(mesh) = absorbed_in {
+                bounces.absorbed_in(mesh, colour);
+                return PathEnd::Absorbed(mesh);
             }
             if let Some((sc, t, mesh)) = scattered_at {
                 // A scattering event in the medium: a new direction by the phase function.
@@ -721,6 +791,8 @@ impl Tracer<'_> {
                     sink.direct_done();
                 }
                 pol = None;
+                // Light scattered in a medium is the photons' in every estimator.
+                gathered = None;
                 org += dir * t;
                 let u = [rng.uniform(), rng.uniform(), rng.uniform()];
                 dir = bounces.moved(mesh, colour, |c| sc.scatter(dir, c.values_mut(), u));
@@ -825,10 +897,13 @@ impl Tracer<'_> {
                     org = p_hit + n_in * eps;
                 } else {
                     org = p_hit - n_in * eps;
-                    medium = front.then_some(Medium {
-                        mesh: hit.mesh,
-                        material: material_id,
-                    });
+                    medium = match front {
+                        true => Some(Medium {
+                            mesh: hit.mesh,
+                            material: material_id,
+                        }),
+                        false => outside,
+                    };
                 }
                 continue;
             }
@@ -853,10 +928,13 @@ impl Tracer<'_> {
                 } else {
                     dir = refract(dir, n_in, cos_i, n1 / n2);
                     org = p_hit - n_in * eps;
-                    medium = front.then_some(Medium {
-                        mesh: hit.mesh,
-                        material: material_id,
-                    });
+                    medium = match front {
+                        true => Some(Medium {
+                            mesh: hit.mesh,
+                            material: material_id,
+                        }),
+                        false => outside,
+                    };
                 }
                 continue;
             }
@@ -923,7 +1001,7 @@ impl Tracer<'_> {
                 if lobe == Lobe::DiffuseTransmission && medium.is_some_and(|m| m.mesh == hit.mesh) {
                     // Through a translucent triangle of the dielectric it was inside (a
                     // print on a light guide that transmits): out of its medium.
-                    medium = None;
+                    medium = outside;
                 }
                 continue;
             }

@@ -229,6 +229,22 @@ pub struct Settings {
     /// Calculation grids, recorded as sensors.
     #[serde(default, rename = "grid")]
     pub grids: Vec<GridSettings>,
+    /// A medium filling the space around the model (haze, fog): `[medium]`.
+    #[serde(default)]
+    pub medium: Option<MediumSettings>,
+}
+
+/// `[medium]`: the scene's medium, outside every object (`Context::set_scene_medium`):
+/// absorption and scattering per band (1/m) and the scattering's phase function.
+#[derive(Clone, Debug, Default, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct MediumSettings {
+    pub absorption_per_m: Option<Spectrum>,
+    pub scattering_per_m: Option<Spectrum>,
+    /// Henyey–Greenstein asymmetry in (−1, 1) (default 0: isotropic).
+    pub phase_g: Option<Spectrum>,
+    /// A tabulated phase function instead: rows of [angle in degrees, value], 0 to 180.
+    pub phase_table: Option<Vec<[f64; 2]>>,
 }
 
 impl Settings {

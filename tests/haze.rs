@@ -1,0 +1,376 @@
+//! The scene's medium (haze outside the meshes, `Context::set_scene_medium`): Beer–Lambert
+//! per band under a point light in every estimator and on a sensor, a very large
+//! scattering medium around a point source that absorbs all of its light, estimators that
+//! agree in a hazy room, the exact balance, determinism, and the statuses.
+
+mod common;
+
+use common::*;
+use imap::{Estimator, ImapStatus, IorModel, MaterialDesc, SCENE_MEDIUM};
+
+/// A haze material: index 1, absorbing `alpha` and scattering `sigma_s` per band (1/m).
+fn haze(ctx: &mut imap::Context, alpha: &[f64], sigma_s: &[f64], g: f64) -> u32 {
+    ctx.add_material(&MaterialDesc {
+        ior: Some(IorModel::Constant(1.0)),
+        absorption_per_m: alpha.to_vec(),
+        scattering_per_m: sigma_s.to_vec(),
+        phase_g: if sigma_s.is_empty() { vec![] } else { vec![g] },
+        ..Default::default()
+    })
+    .unwrap()
+}
+
+/// The flux per band onto the square [−1, 1]² at z = 0 from an isotropic point source of 1 W
+/// per band `h` above its centre, through a medium of extinction `sigma` per band (1/m):
+/// Φ/(4π) ∫ h/r³ e^(−σr) dA, by the midpoint rule.
+fn floor_flux(h: f64, sigma: &[f64]) -> Vec<f64> {
+    let n = 600;
+    let d = 2.0 / n as f64;
+    let mut out = vec![0.0; sigma.len()];
+    for i in 0..n {
+        for j in 0..n {
+            let x = -1.0 + (i as f64 + 0.5) * d;
+            let y = -1.0 + (j as f64 + 0.5) * d;
+            let r = (x * x + y * y + h * h).sqrt();
+            for (o, s) in out.iter_mut().zip(sigma) {
+                *o += h / (r * r * r) * (-s * r).exp() * d * d;
+            }
+        }
+    }
+    out.iter()
+        .map(|v| v / (4.0 * std::f64::consts::PI))
+        .collect()
+}
+
+/// A floor [−1, 1]² (black, tallied) in haze absorbing `alpha`, a point light of 1 W per band
+/// 1 m above it, and optionally a sensor of the same square 0.5 m above the floor.
+fn hazy_floor(seed: u64, alpha: &[f64], sensor: bool) -> (imap::Context, u32, Option<u32>) {
+    let mut ctx = context(seeded(seed));
+    let black = lambert(&mut ctx, 0.0);
+    let floor = grid(8, -1.0, 1.0, -1.0, 1.0, 0.0);
+    let mut d = floor.desc(black);
+    d.tally = true;
+    let f = ctx.add_mesh(&d).unwrap();
+    let s = sensor.then(|| {
+        let plane = grid(8, -1.0, 1.0, -1.0, 1.0, 0.5);
+        let mut d = plane.desc(black);
+        d.sensor = true;
+        ctx.add_mesh(&d).unwrap()
+    });
+    let h = haze(&mut ctx, alpha, &[], 0.0);
+    ctx.set_scene_medium(Some(h)).unwrap();
+    ctx.add_point_light([0.0, 0.0, 1.0], &[1.0, 1.0, 1.0])
+        .unwrap();
+    (ctx, f, s)
+}
+
+#[test]
+fn an_absorbing_haze_attenuates_by_beer_lambert_per_band_in_every_estimator() {
+    // Flux per band onto a black floor 1 m under a point light through haze absorbing
+    // 0.3, 1 and 3 per metre: photons only, light sampling and gathering each within 4 σ
+    // of the exact integral, and a sensor 0.5 m under the light reads its own.
+    let alpha = [0.3, 1.0, 3.0];
+    let exact = floor_flux(1.0, &alpha);
+    let exact_sensor = floor_flux(0.5, &alpha);
+    let clear = floor_flux(1.0, &[0.0, 0.0, 0.0]);
+    for (name, estimator, n) in [
+        ("photons only", Estimator::Photons, photons(300_000)),
+        ("light sampling", Estimator::DEFAULT, photons(100_000)),
+        ("gathering", Estimator::GATHER, photons(100_000)),
+    ] {
+        let (mut ctx, floor, sensor) = hazy_floor(3, &alpha, true);
+        let report = run_with(&mut ctx, n, estimator);
+        let r = ctx.region_stats(floor, 0, None).unwrap();
+        let s = ctx.region_stats(sensor.unwrap(), 0, None).unwrap();
+        for b in 0..3 {
+            let (e, want) = (&r.flux_w[b], exact[b]);
+            let z = (e.value - want) / e.sigma;
+            eprintln!(
+                "{name}: band {b} (α {}): floor {:.5} W, exact {want:.5} (clear {:.5}), {z:+.2} σ; sensor {:.5}, exact {:.5}",
+                alpha[b], e.value, clear[b], s.flux_w[b].value, exact_sensor[b]
+            );
+            assert!(
+                z.abs() < 4.0,
+                "{name}, band {b}: {} against {want}",
+                e.value
+            );
+            assert!(e.sigma < 0.02 * want, "{name}, band {b}: σ {}", e.sigma);
+            let e = &s.flux_w[b];
+            let z = (e.value - exact_sensor[b]) / e.sigma;
+            assert!(z.abs() < 4.0, "{name}, sensor, band {b}: {z} σ");
+        }
+        // The balance per band: emitted = absorbed (floor and haze) + escaped, and what the
+        // haze absorbed is in the report's absorbed power.
+        let a = ctx.medium_absorbed(SCENE_MEDIUM).unwrap();
+        for b in 0..3 {
+            let (em, ab, es) = (
+                report.band_w[0][b],
+                report.band_w[1][b],
+                report.band_w[2][b],
+            );
+            assert!((em - ab - es).abs() < 1e-9 * em, "{name}, band {b}");
+            assert!(
+                a.band_w[b].value > 0.0 && a.band_w[b].value < ab,
+                "{name}, band {b}"
+            );
+        }
+        let floor_w = ctx.absorbed_w(floor).unwrap();
+        let haze_w: f64 = a.band_w.iter().map(|e| e.value).sum();
+        assert!(
+            (report.absorbed_w - floor_w - haze_w).abs() < 1e-9 * report.absorbed_w,
+            "{name}: absorbed {} against floor {floor_w} + haze {haze_w}",
+            report.absorbed_w
+        );
+    }
+}
+
+#[test]
+fn a_very_large_scattering_medium_absorbs_all_of_a_point_source() {
+    // An isotropic point source at the centre of a haze of albedo 0.9 whose radius is 100
+    // mean free paths (two specks of geometry 1 m away set the ball): the diffusion
+    // approximation leaves e^(−R √(3 σa σt)) ≈ e^(−55) to escape, so the medium absorbs
+    // everything but what the specks take (their solid angle is 1e-7 of the sphere's).
+    let mut ctx = context(seeded(11));
+    let black = lambert(&mut ctx, 0.0);
+    for x in [-1.0, 1.0] {
+        let speck = quad([
+            [x, -1e-4, -1e-4],
+            [x, 1e-4, -1e-4],
+            [x, 1e-4, 1e-4],
+            [x, -1e-4, 1e-4],
+        ]);
+        let mut d = speck.desc(black);
+        d.two_sided = true;
+        ctx.add_mesh(&d).unwrap();
+    }
+    let h = haze(&mut ctx, &[10.0], &[90.0], 0.5);
+    ctx.set_scene_medium(Some(h)).unwrap();
+    ctx.add_point_light([0.0, 0.0, 0.0], &[1.0, 2.0, 3.0])
+        .unwrap();
+    let report = run_photons_only(&mut ctx, photons(20_000));
+    let a = ctx.medium_absorbed(SCENE_MEDIUM).unwrap();
+    for b in 0..3 {
+        let share = a.band_w[b].value / report.band_w[0][b];
+        eprintln!("band {b}: the medium absorbed {share:.6} of the emitted power");
+        assert!((share - 1.0).abs() < 1e-4, "band {b}: {share}");
+    }
+    assert!(
+        report.escaped_w < 1e-6 * report.emitted_w,
+        "{}",
+        report.escaped_w
+    );
+    // Each photon scatters about 1/(1 − ω) = 10 times before it is absorbed.
+    assert!(
+        report.run_hits < report.photons / 100,
+        "{}",
+        report.run_hits
+    );
+}
+
+/// A closed 2 m grey room (ρ 0.5, floor tallied) filled with chromatic scattering haze,
+/// a point light near its ceiling and a sensor plane at mid-height.
+fn hazy_room(seed: u64, threads: usize) -> (imap::Context, u32, u32) {
+    let mut ctx = context(imap::Config {
+        threads,
+        ..seeded(seed)
+    });
+    let grey = lambert(&mut ctx, 0.5);
+    let room = cuboid([0.0, 0.0, 0.0], [2.0, 2.0, 2.0], 6, true);
+    let mut d = room.desc(grey);
+    d.tally = true;
+    let walls = ctx.add_mesh(&d).unwrap();
+    let plane = grid(6, 0.2, 1.8, 0.2, 1.8, 1.0);
+    let mut d = plane.desc(grey);
+    d.sensor = true;
+    let sensor = ctx.add_mesh(&d).unwrap();
+    let h = haze(&mut ctx, &[0.1, 0.2, 0.3], &[0.8, 0.5, 0.2], 0.4);
+    ctx.set_scene_medium(Some(h)).unwrap();
+    ctx.add_point_light([1.0, 1.0, 1.8], &[1.0, 1.0, 1.0])
+        .unwrap();
+    (ctx, walls, sensor)
+}
+
+#[test]
+fn the_estimators_agree_in_a_hazy_room() {
+    // Photons only is the analogue reference (every path as light takes it); light
+    // sampling attenuates its shadow rays, gathering its paths too, and both leave light
+    // scattered in the haze to the photons. Each band of the room's flux and of the
+    // sensor's agrees within 4 combined σ.
+    let run = |e: Estimator, n: u64| {
+        let (mut ctx, walls, sensor) = hazy_room(21, 2);
+        let report = run_with(&mut ctx, n, e);
+        for b in 0..3 {
+            let (em, ab, es) = (
+                report.band_w[0][b],
+                report.band_w[1][b],
+                report.band_w[2][b],
+            );
+            assert!((em - ab - es).abs() < 1e-9 * em, "band {b}");
+        }
+        let w = ctx.region_stats(walls, 0, None).unwrap().flux_w;
+        let s = ctx.region_stats(sensor, 0, None).unwrap().flux_w;
+        (w, s)
+    };
+    let (w0, s0) = run(Estimator::Photons, photons(400_000));
+    for (name, e) in [
+        ("light sampling", Estimator::DEFAULT),
+        ("gathering", Estimator::GATHER),
+    ] {
+        let (w, s) = run(e, photons(150_000));
+        for b in 0..3 {
+            for (what, a, r) in [("room", &w[b], &w0[b]), ("sensor", &s[b], &s0[b])] {
+                let z = (a.value - r.value) / a.sigma.hypot(r.sigma);
+                eprintln!(
+                    "{name}, {what}, band {b}: {:.5} ± {:.5} W against photons' {:.5} ± {:.5} ({z:+.2} σ)",
+                    a.value, a.sigma, r.value, r.sigma
+                );
+                assert!(z.abs() < 4.0, "{name}, {what}, band {b}: {z} σ");
+            }
+        }
+    }
+}
+
+#[test]
+fn a_hazy_map_does_not_depend_on_the_thread_count() {
+    let map = |threads: usize| {
+        let (mut ctx, walls, _) = hazy_room(5, threads);
+        run_with(&mut ctx, 20_000, Estimator::GATHER);
+        let mut e = vec![0.0; ctx.vertex_count(walls).unwrap()];
+        ctx.illuminance(walls, 0, &mut e).unwrap();
+        (e, ctx.medium_absorbed(SCENE_MEDIUM).unwrap().lm.value)
+    };
+    // (Deposits from different threads add in a different order: the last bits may move.)
+    let (one, three) = (map(1), map(3));
+    assert!(one.1 > 0.0, "{}", one.1);
+    let worst = one
+        .0
+        .iter()
+        .zip(&three.0)
+        .map(|(a, b)| (a - b).abs() / a.abs().max(1e-300))
+        .fold(0.0, f64::max);
+    assert!(worst < 1e-12, "maps differ by {worst}");
+    assert!((one.1 - three.1).abs() < 1e-12 * one.1);
+}
+
+#[test]
+fn a_scene_medium_gets_a_status_naming_what_is_wrong() {
+    let mut ctx = context(seeded(2));
+    let grey = lambert(&mut ctx, 0.5);
+    let glass = ctx
+        .add_material(&MaterialDesc {
+            ior: Some(IorModel::Constant(1.5)),
+            absorption_per_m: vec![1.0],
+            ..Default::default()
+        })
+        .unwrap();
+    let clear = ctx
+        .add_material(&MaterialDesc {
+            ior: Some(IorModel::Constant(1.0)),
+            ..Default::default()
+        })
+        .unwrap();
+    for (id, want) in [
+        (99, "material = 99: no such material"),
+        (grey, "holds no medium"),
+        (clear, "holds no medium"),
+        (glass, "index 1 in every band"),
+    ] {
+        let e = ctx.set_scene_medium(Some(id)).unwrap_err();
+        assert_eq!(e.status, ImapStatus::ImapErrInvalidArgument, "{e}");
+        assert!(e.message.contains(want), "{e}");
+    }
+    let e = ctx.medium_absorbed(SCENE_MEDIUM).unwrap_err();
+    assert_eq!(e.status, ImapStatus::ImapErrInvalidArgument, "{e}");
+    assert!(e.message.contains("no medium outside its meshes"), "{e}");
+    // Still usable: a run with a good medium, then the renderer says plainly it does not
+    // show it, and the medium cannot change under the photons traced.
+    let (mut ctx, floor, _) = hazy_floor(4, &[1.0], false);
+    let n = 2000;
+    run_photons_only(&mut ctx, n);
+    let cam = imap::CameraDesc {
+        position: [0.0, 0.0, 0.9],
+        direction: [0.0, 0.0, -1.0],
+        up: [0.0, 1.0, 0.0],
+        fov_y_deg: 60.0,
+        width: 8,
+        height: 8,
+    };
+    let e = ctx
+        .render(
+            &cam,
+            &mut imap::RenderParams {
+                passes: 1,
+                ..Default::default()
+            },
+        )
+        .unwrap_err();
+    assert_eq!(e.status, ImapStatus::ImapErrUnsupported, "{e}");
+    assert!(e.message.contains("renderer does not show it"), "{e}");
+    let e = ctx.set_scene_medium(None).unwrap_err();
+    assert_eq!(e.status, ImapStatus::ImapErrOutOfOrder, "{e}");
+    assert_eq!(ctx.report().photons, n);
+    assert!(ctx.region_stats(floor, 0, None).unwrap().flux_lm.value > 0.0);
+    // After a reset it may go: the same floor in air then reads the clear flux.
+    ctx.reset();
+    ctx.set_scene_medium(None).unwrap();
+    run_photons_only(&mut ctx, photons(100_000));
+    let r = ctx.region_stats(floor, 0, None).unwrap();
+    let clear = floor_flux(1.0, &[0.0])[0];
+    let z = (r.flux_w[0].value - clear) / r.flux_w[0].sigma;
+    assert!(z.abs() < 4.0, "{} against {clear}", r.flux_w[0].value);
+}
+
+#[test]
+fn the_sun_through_haze_agrees_between_estimators() {
+    // The sun's photons start outside the haze's ball and cross it from its surface; light
+    // samples and gathering paths toward the sun are attenuated to the ball's edge. A
+    // black floor under the sun at 30° reads the same per band in every estimator, less
+    // than in clear air by at least the transmittance of the floor's own height (0) and
+    // at most of the ball's diameter.
+    let alpha = [0.2, 0.5, 1.0];
+    let flux = |e: Estimator, n: u64, hazy: bool| {
+        let mut ctx = context(seeded(31));
+        let black = lambert(&mut ctx, 0.0);
+        let floor = grid(8, -1.0, 1.0, -1.0, 1.0, 0.0);
+        let mut d = floor.desc(black);
+        d.tally = true;
+        let f = ctx.add_mesh(&d).unwrap();
+        if hazy {
+            let h = haze(&mut ctx, &alpha, &[], 0.0);
+            ctx.set_scene_medium(Some(h)).unwrap();
+        }
+        ctx.add_sun(&imap::SunDesc {
+            azimuth_deg: 40.0,
+            zenith_deg: 30.0,
+            amount: imap::SkyAmount::NormalIrradiance(300.0),
+            spectrum: imap::photometry::Spectrum::Equal,
+            ..imap::SunDesc::default()
+        })
+        .unwrap();
+        run_with(&mut ctx, n, e);
+        ctx.region_stats(f, 0, None).unwrap().flux_w
+    };
+    let clear = flux(Estimator::DEFAULT, photons(20_000), false);
+    let reference = flux(Estimator::Photons, photons(300_000), true);
+    // The ball holds the floor (radius √2 · 1.01).
+    let diameter = 2.0 * 2f64.sqrt() * 1.01;
+    for b in 0..3 {
+        let r = reference[b].value / clear[b].value;
+        eprintln!("band {b}: haze leaves {r:.4} of the sun's clear flux");
+        assert!(r < 1.0 && r > (-alpha[b] * diameter).exp(), "band {b}: {r}");
+    }
+    for (name, e) in [
+        ("light sampling", Estimator::DEFAULT),
+        ("gathering", Estimator::GATHER),
+    ] {
+        let f = flux(e, photons(100_000), true);
+        for b in 0..3 {
+            let z = (f[b].value - reference[b].value) / f[b].sigma.hypot(reference[b].sigma);
+            eprintln!(
+                "{name}, band {b}: {:.4} against photons' {:.4} ({z:+.2} σ)",
+                f[b].value, reference[b].value
+            );
+            assert!(z.abs() < 4.0, "{name}, band {b}: {z} σ");
+        }
+    }
+}
