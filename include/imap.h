@@ -3032,8 +3032,10 @@ enum ImapStatus imap_set_portals(struct ImapContext *ctx, const double *position
  *   segment).
  * - `imap_get_medium_absorbed(ctx, IMAP_SCENE_MEDIUM, ...)`: what it absorbed, per band
  *   and in lm, with errors.
- * - `imap_render` refuses a scene with it (IMAP_ERR_UNSUPPORTED): the camera's paths do
- *   not yet take light scattered toward them in the medium.
+ * - `imap_render` (every method) and the path tracer show it: eye paths are attenuated
+ *   and scattered by it, and where they scatter they take a light sample of the lights
+ *   no path can meet (points, spots, beams, luminaires and the sun: a lamp's glow and a
+ *   beam in fog), attenuated by it; emitting meshes and skies are met by the paths.
  *
  * Changing it discards the prepared scene, like adding a mesh. (Since 0.2.3.)
  *

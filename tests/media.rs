@@ -920,14 +920,13 @@ fn a_sensor_inside_an_absorbing_slab_reads_the_light_at_its_depth() {
         .unwrap();
     let report = run_photons_only(&mut ctx, photons(100_000));
     let s = ctx.region_stats(sensor, 0, None).unwrap();
-    for b in 0..3 {
-        let want = report.band_w[0][b] * (-alpha[b] * 0.05).exp();
+    for (b, a) in alpha.iter().enumerate() {
+        let want = report.band_w[0][b] * (-a * 0.05).exp();
         let e = &s.flux_w[b];
         // Every photon of the beam crosses the sensor with the same expected value (σ 0);
         // the depth is the f32 geometry's, and the segment starts an offset inside.
         eprintln!(
-            "α {}: the sensor reads {:.7} of the band, e^(−α d/2) = {:.7} (σ {:.1e})",
-            alpha[b],
+            "α {a}: the sensor reads {:.7} of the band, e^(−α d/2) = {:.7} (σ {:.1e})",
             e.value / report.band_w[0][b],
             want / report.band_w[0][b],
             e.sigma / want

@@ -749,9 +749,11 @@ impl Context {
     /// light crosses it from its surface); lights inside it are followed from their own
     /// position. Photons scatter and are absorbed in it; light samples and gathering paths
     /// are attenuated by its transmittance (they never scatter in it: light scattered
-    /// there is the photons'); sensors read the light that crosses them. What it absorbed:
-    /// `medium_absorbed(SCENE_MEDIUM)`. Fails with `IMAP_ERR_INVALID_ARGUMENT` naming the
-    /// material when it is no such medium.
+    /// there is the photons'); sensors read the light that crosses them. The renderers'
+    /// eye paths are attenuated and scattered by it and take a light sample where they
+    /// scatter (`render::backward`). What it absorbed: `medium_absorbed(SCENE_MEDIUM)`.
+    /// Fails with `IMAP_ERR_INVALID_ARGUMENT` naming the material when it is no such
+    /// medium.
     pub fn set_scene_medium(&mut self, material: Option<u32>) -> Result<()> {
         self.check_unlocked("set the scene's medium")?;
         if let Some(id) = material {
@@ -1306,7 +1308,7 @@ impl Context {
 
     /// The first material of `mesh`'s triangles that `is` holds for (a sensor's materials
     /// are part labels, never looked up: None).
-    fn mesh_material(&self, mesh: &Mesh, is: impl Fn(&Material) -> bool) -> Option<u32> {
+    pub(crate) fn mesh_material(&self, mesh: &Mesh, is: impl Fn(&Material) -> bool) -> Option<u32> {
         let is = |id: u32| self.scene.materials.get(id as usize).is_some_and(&is);
         if mesh.sensor {
             return None;

@@ -55,20 +55,6 @@ impl Context {
         }
     }
 
-    /// Refuses a picture of a scene with a medium outside its meshes: the camera's paths
-    /// do not take light scattered toward them on the way (a haze's glow around a lamp,
-    /// its veil over the view), so the picture would be wrong without a word. The
-    /// illumination map, sensors and the light-sampling estimators take it.
-    fn check_no_scene_medium(&self) -> Result<()> {
-        if let Some(m) = self.scene.medium {
-            bail!(
-                ImapErrUnsupported,
-                "the scene has a medium outside its meshes (material {m}, set_scene_medium): the renderer does not show it yet (its camera paths take no light scattered toward them in the medium, so the picture would be wrong); the illumination map and sensors do take it; remove the scene's medium to render"
-            );
-        }
-        Ok(())
-    }
-
     /// What final gathering reads from the map per recorded vertex side, with its relative
     /// error: the indirect irradiance (combined minus the direct layer) when the direct
     /// layer is kept, else the whole irradiance (`MapIndirect::combined`).
@@ -144,7 +130,6 @@ impl Context {
             );
         }
         self.prepare_scene()?;
-        self.check_no_scene_medium()?;
         let origin = self.prepared.as_ref().expect("prepared above").scene.origin;
         let cam = Camera::new(camera, origin)?;
         let eye = self.eye_tracer(&cam, max_events, 0.0);
@@ -216,7 +201,6 @@ impl Context {
     ) -> Result<(Image, RenderReport, Option<Error>)> {
         check_render_params(params)?;
         self.prepare_scene()?;
-        self.check_no_scene_medium()?;
         if params.method == RenderMethod::FinalGather {
             return self.render_gather(camera, params);
         }
@@ -287,7 +271,12 @@ impl Context {
                 .map(|e| e.extent() == Extent::PointLike)
                 .collect()
         };
-        let specular = self.scene.materials.iter().any(|m| m.bsdf().is_specular());
+        // (The materials meshes use: the scene's medium is a dielectric too, and light
+        // scattered in it is the eye paths'.)
+        let specular = self.scene.meshes.iter().any(|m| {
+            self.mesh_material(m, |mat| mat.bsdf().is_specular())
+                .is_some()
+        });
         let with_caustics = specular && delta.iter().any(|&d| d);
         let read_bytes = (slots * (nb + 1) * 8) as u64;
         let caustic_bytes = if with_caustics {

@@ -34,6 +34,25 @@ enum LightValue {
     Radiance { radiance: Vec<f64>, area: f64 },
 }
 
+/// The scene medium's transmittance per band on a shadow segment (`EyeTracer::haze_tr`):
+/// 1 in every band without one.
+#[derive(Clone, Copy)]
+struct Tr<'s> {
+    sigma: &'s [f64],
+    /// Metres of the segment in the medium.
+    d_m: f64,
+}
+
+impl Tr<'_> {
+    #[inline]
+    fn at(&self, band: usize) -> f64 {
+        match self.sigma.get(band) {
+            Some(&s) if s != 0.0 && self.d_m > 0.0 => (-s * self.d_m).exp(),
+            _ => 1.0,
+        }
+    }
+}
+
 /// Gathering radius of a pixel's first sample: this many pixel footprints.
 pub(crate) const INITIAL_RADIUS_FOOTPRINTS: f64 = 4.0;
 
@@ -268,6 +287,8 @@ impl<'a> EyeTracer<'a> {
         let mut band: Option<usize> = None;
         let mut path_len = (org - self.camera.origin).length();
         let mut medium: Option<u32> = None;
+        // Whether the path's last event was a scattering in the scene's medium.
+        let mut after_haze = false;
         // The density of the last glossy reflector's direction, while the path has met
         // nothing since (emission it finds is weighed against that vertex's light sample).
         let mut glossy_pdf: Option<(f64, Receiver)> = None;
@@ -280,20 +301,34 @@ impl<'a> EyeTracer<'a> {
                 return;
             }
             stats.rays += 1;
-            let Some(hit) = self.accel.intersect(org, dir) else {
-                // The sky (and the sun) seen directly or through specular surfaces.
-                self.add_distant_weighted(dir, beta, &mut buf.direct[d0..], false, glossy_pdf);
-                return;
+            let hit = self.accel.intersect(org, dir);
+            let t = hit.map_or(f64::INFINITY, |h| h.t);
+            let flight = match hit.is_some() || (medium.is_none() && self.scene.haze.is_some()) {
+                // (Out of the scene through the scene's medium: its flight to the ball's edge.)
+                true => {
+                    let path = ((&mut dir, &mut org), beta.as_mut_slice());
+                    self.through_medium(medium, t, path, rng, (&mut buf.direct[d0..], stats))
+                }
+                false => Flight::Surface,
             };
-            match self.through_medium(medium, hit.t, (&mut dir, &mut org), beta, rng) {
+            match flight {
                 Flight::Surface => {}
                 Flight::Absorbed => return,
                 Flight::Scatter(t) => {
                     path_len += t;
                     glossy_pdf = None;
+                    after_haze = medium.is_none();
                     continue;
                 }
             }
+            let Some(hit) = hit else {
+                // The sky (and the sun) seen directly or through specular surfaces (the sun
+                // straight after a scattering in the scene's medium is its light sample's).
+                let out = &mut buf.direct[d0..];
+                self.add_distant_weighted(dir, beta, out, after_haze, glossy_pdf);
+                return;
+            };
+            after_haze = false;
             path_len += hit.t;
             let at = self.surface(&hit, dir);
             // Emission seen directly or through specular surfaces.
@@ -431,31 +466,49 @@ impl<'a> EyeTracer<'a> {
         // Whether the path has left a glossy reflector: the sun through specular surfaces
         // behind it is then the caustic photons' too (they splat at glossy reflectors).
         let mut after_glossy = false;
+        // Whether the path's last event was a scattering in the scene's medium.
+        let mut after_haze = false;
         for _ in 0..self.max_events {
             stats.rays += 1;
-            let Some(hit) = self.accel.intersect(org, dir) else {
-                if counts {
-                    // The sun through specular surfaces after a diffuse vertex is the
-                    // caustic photons'; straight after a glossy reflector, its light
-                    // sample's and this direction's (weighed).
-                    let no_sun = (diffuse_vertices > 0 || after_glossy)
-                        && self.sun_by_caustics
-                        && glossy_pdf.is_none();
-                    self.add_distant_weighted(dir, beta, out.to(), no_sun, glossy_pdf);
+            let hit = self.accel.intersect(org, dir);
+            let t = hit.map_or(f64::INFINITY, |h| h.t);
+            let flight = match hit.is_some() || (medium.is_none() && self.scene.haze.is_some()) {
+                // (Out of the scene through the scene's medium: its flight to the ball's edge.)
+                true => {
+                    let path = ((&mut dir, &mut org), beta.as_mut_slice());
+                    self.through_medium(medium, t, path, rng, (out.to(), stats))
                 }
-                return;
+                false => Flight::Surface,
             };
-            match self.through_medium(medium, hit.t, (&mut dir, &mut org), beta, rng) {
+            match flight {
                 Flight::Surface => {}
                 Flight::Absorbed => return,
                 Flight::Scatter(_) => {
                     // Light met after a scattering event is found by this path alone (a
-                    // light sample cannot cross the dielectric's surface).
+                    // light sample cannot cross the dielectric's surface), but for the
+                    // lights no path meets and the sun, after a scattering in the scene's
+                    // medium: their light samples there have them.
                     counts = true;
                     glossy_pdf = None;
+                    after_haze = medium.is_none();
                     continue;
                 }
             }
+            let Some(hit) = hit else {
+                if counts {
+                    // The sun through specular surfaces after a diffuse vertex is the
+                    // caustic photons'; straight after a glossy reflector, its light
+                    // sample's and this direction's (weighed); straight after a scattering
+                    // in the scene's medium, its light sample's there.
+                    let no_sun = after_haze
+                        || ((diffuse_vertices > 0 || after_glossy)
+                            && self.sun_by_caustics
+                            && glossy_pdf.is_none());
+                    self.add_distant_weighted(dir, beta, out.to(), no_sun, glossy_pdf);
+                }
+                return;
+            };
+            after_haze = false;
             let at = self.surface(&hit, dir);
             if counts {
                 self.add_emission_weighted(&hit, at.ng, dir, beta, out.to(), glossy_pdf);
@@ -911,7 +964,7 @@ impl<'a> EyeTracer<'a> {
             LightValue::Radiance { .. } => &[][..],
         };
         let sample = em.sample_toward(&self.scene.meshes, p, receiver, u, || true);
-        let mut add = |wi: DVec3, k: f64, per_band: &[f64], light_pdf: Option<f64>| {
+        let mut add = |wi: DVec3, k: f64, per_band: &[f64], light_pdf: Option<f64>, tr: Tr| {
             let cos = wi.dot(n_in);
             if (cos <= 0.0 && !transmits) || cos == 0.0 || k <= 0.0 {
                 return;
@@ -921,8 +974,15 @@ impl<'a> EyeTracer<'a> {
                 let pb = g.pdf(wo, frame.to_local(wi), 0, at.front);
                 pl * pl / (pl * pl + pb * pb)
             });
-            for (((o, b), fb), l) in out.iter_mut().zip(beta.iter()).zip(f.iter()).zip(per_band) {
-                *o += b * fb * l * cos.abs() * k * w;
+            let k = cos.abs() * k * w;
+            for (b, (((o, bt), fb), l)) in out
+                .iter_mut()
+                .zip(beta.iter())
+                .zip(f.iter())
+                .zip(per_band)
+                .enumerate()
+            {
+                *o += bt * fb * l * k * tr.at(b);
             }
         };
         match sample {
@@ -938,6 +998,7 @@ impl<'a> EyeTracer<'a> {
                         1.0 / (area * self.unit_m * self.unit_m * pe),
                         power(e),
                         None,
+                        self.haze_tr(from, wi, dist),
                     );
                 }
             }
@@ -952,7 +1013,7 @@ impl<'a> EyeTracer<'a> {
                 let facing = transmits || wi.dot(n_in) > 0.0;
                 if per_watt > 0.0 && facing && !self.accel.occluded(from, wi, d) {
                     let k = per_watt / (d2 * self.unit_m * self.unit_m * pe);
-                    add(wi, k, power(e), None);
+                    add(wi, k, power(e), None, self.haze_tr(from, wi, d));
                 }
             }
             Some(LightSample::Area { point: q, normal }) => {
@@ -967,7 +1028,13 @@ impl<'a> EyeTracer<'a> {
                     stats.rays += 1;
                     if cos_l > 0.0 && t_max > 0.0 && !self.accel.occluded(from, wi, t_max) {
                         let pl = pe * d2 / (area * cos_l);
-                        add(wi, 1.0 / pl, radiance, Some(pl));
+                        add(
+                            wi,
+                            1.0 / pl,
+                            radiance,
+                            Some(pl),
+                            self.haze_tr(from, wi, t_max),
+                        );
                     }
                 }
             }
@@ -979,9 +1046,11 @@ impl<'a> EyeTracer<'a> {
                 norm,
             }) => {
                 stats.rays += 1;
-                if fv > 0.0 && q > 0.0 && !self.accel.occluded(lift(toward), toward, reach) {
+                let from = lift(toward);
+                if fv > 0.0 && q > 0.0 && !self.accel.occluded(from, toward, reach) {
                     let cross = norm * self.unit_m * self.unit_m;
-                    add(toward, fv / (q * cross * pe), power(e), Some(q * pe));
+                    let tr = self.haze_tr(from, toward, f64::INFINITY);
+                    add(toward, fv / (q * cross * pe), power(e), Some(q * pe), tr);
                 }
             }
         }
@@ -1059,24 +1128,39 @@ impl<'a> EyeTracer<'a> {
     /// dielectric's id; None: air): a scattering medium's free flight, which may end before
     /// the surface (`Flight::Scatter` with the distance in scene units: the path is then
     /// moved there and turned by the phase function), or Beer–Lambert attenuation.
+    /// In the scene's medium (`medium` None with one: the part of the segment in its ball;
+    /// `t` may be infinite there), a scattering point takes a light sample of the lights
+    /// no path meets (`haze_light`) into `out` before the path turns.
     #[inline]
     fn through_medium(
         &self,
         medium: Option<u32>,
         t: f64,
-        (dir, org): (&mut DVec3, &mut DVec3),
-        beta: &mut [f64],
+        ((dir, org), beta): ((&mut DVec3, &mut DVec3), &mut [f64]),
         rng: &mut PhotonRng,
+        (out, stats): (&mut [f64], &mut EyeStats),
     ) -> Flight {
-        let Some(d) = medium.and_then(|m| self.materials[m as usize].dielectric.as_ref()) else {
+        let (d, t0, t) = match (medium, self.scene.haze) {
+            (Some(m), _) => (self.materials[m as usize].dielectric.as_ref(), 0.0, t),
+            (None, Some(h)) => {
+                let (t0, t1) = h.span(*org, *dir, t);
+                let d = self.materials[h.material as usize].dielectric.as_ref();
+                (d, t0, t1 - t0)
+            }
+            (None, None) => return Flight::Surface,
+        };
+        let Some(d) = d else {
             return Flight::Surface;
         };
         if let Some(sc) = &d.scattering {
             let u = [rng.uniform(), rng.uniform(), rng.uniform()];
             let flight = sc.flight(beta, t * self.unit_m, u);
             if let Flight::Scatter(t_m) = flight {
-                let t = t_m / self.unit_m;
+                let t = t0 + t_m / self.unit_m;
                 *org += *dir * t;
+                if medium.is_none() {
+                    self.haze_light(*org, *dir, sc, beta, rng, out, stats);
+                }
                 let u = [rng.uniform(), rng.uniform(), rng.uniform()];
                 *dir = sc.scatter(*dir, beta, u);
                 return Flight::Scatter(t);
@@ -1090,6 +1174,114 @@ impl<'a> EyeTracer<'a> {
             }
         }
         Flight::Surface
+    }
+
+    /// The scene medium's transmittance on the segment from `org` along unit `dir` over `t`
+    /// scene units (infinite: out of the scene): 1 in every band without one.
+    #[inline]
+    fn haze_tr(&self, org: DVec3, dir: DVec3, t: f64) -> Tr<'_> {
+        let clear = Tr {
+            sigma: &[],
+            d_m: 0.0,
+        };
+        let Some(h) = self.scene.haze else {
+            return clear;
+        };
+        let Some(sigma) = self.materials[h.material as usize].extinction() else {
+            return clear;
+        };
+        let (t0, t1) = h.span(org, dir, t);
+        Tr {
+            sigma,
+            d_m: (t1 - t0) * self.unit_m,
+        }
+    }
+
+    /// At a scattering point `p` of an eye path travelling along `dir` in the scene's
+    /// medium `sc` (weights `beta`, the collision's already in them): one light sample of
+    /// the lights no path can meet — points, spots, beams, luminaires and the sun — times
+    /// the phase function toward the eye and the medium's transmittance, added to `out`.
+    /// Emitting meshes and skies are left to the path, which meets them after the
+    /// scattering (the light picked is then skipped: the pick's density divides the rest).
+    #[cold]
+    #[inline(never)]
+    #[allow(clippy::too_many_arguments)]
+    fn haze_light(
+        &self,
+        p: DVec3,
+        dir: DVec3,
+        sc: &crate::scene::medium::Scattering,
+        beta: &[f64],
+        rng: &mut PhotonRng,
+        out: &mut [f64],
+        stats: &mut EyeStats,
+    ) {
+        let table = &self.scene.emitter_table;
+        let e = table.sample(rng.uniform());
+        let pe = table.pdf(e);
+        let em = &self.scene.emitters[e];
+        let u = [rng.uniform(), rng.uniform(), rng.uniform()];
+        let u_side = rng.uniform();
+        let LightValue::Power(power) = &self.lights[e] else {
+            return;
+        };
+        let sun = match &em.kind {
+            crate::scene::emitter::EmitterKind::Light(_) => false,
+            crate::scene::emitter::EmitterKind::Distant { part, .. } if part.is_sun() => true,
+            _ => return,
+        };
+        // (No surface here: the receiver's normal only shapes a luminaire's sampling.)
+        let receiver = Receiver {
+            n: -dir,
+            p_front: 0.5,
+        };
+        let sample = em.sample_toward(&self.scene.meshes, p, receiver, u, || u_side < 0.5);
+        let unit2 = self.unit_m * self.unit_m;
+        let (wi, k, tr) = match sample {
+            Some(LightSample::Beam { axis, area, .. }) if !sun => {
+                let wi = -axis;
+                let dist = (p - em.position).dot(axis);
+                stats.rays += 1;
+                if dist <= 0.0 || self.accel.occluded(p, wi, dist) {
+                    return;
+                }
+                (wi, 1.0 / (area * unit2 * pe), self.haze_tr(p, wi, dist))
+            }
+            Some(LightSample::Point(y)) if !sun => {
+                let to = y - p;
+                let d = to.length();
+                if d.is_nan() || d <= 0.0 {
+                    return;
+                }
+                let wi = to / d;
+                let per_watt = em.intensity_per_watt(-wi);
+                stats.rays += 1;
+                if per_watt <= 0.0 || self.accel.occluded(p, wi, d) {
+                    return;
+                }
+                (wi, per_watt / (d * d * unit2 * pe), self.haze_tr(p, wi, d))
+            }
+            Some(LightSample::Direction {
+                toward,
+                pdf: q,
+                value: f,
+                reach,
+                norm,
+            }) if sun => {
+                stats.rays += 1;
+                if f <= 0.0 || q <= 0.0 || self.accel.occluded(p, toward, reach) {
+                    return;
+                }
+                let k = f / (q * norm * unit2 * pe);
+                (toward, k, self.haze_tr(p, toward, f64::INFINITY))
+            }
+            _ => return,
+        };
+        // Light travels along −wi, then on toward the eye along −dir.
+        let cos = wi.dot(dir);
+        for (b, ((o, bt), pw)) in out.iter_mut().zip(beta).zip(power).enumerate() {
+            *o += bt * sc.phase(b, cos) * pw * k * tr.at(b);
+        }
     }
 
     /// `direct_light` summed over the bands of the arriving light (a path on a fluorescent
@@ -1316,8 +1508,9 @@ impl<'a> EyeTracer<'a> {
                     stats.rays += 1;
                     if dist > 0.0 && !self.accel.occluded(org, wi, dist) {
                         let k = cos.abs() / (area * self.unit_m * self.unit_m * pe);
-                        for ((o, w), pw) in out.iter_mut().zip(w).zip(power()) {
-                            *o += w * pw * k;
+                        let tr = self.haze_tr(org, wi, dist);
+                        for (b, ((o, w), pw)) in out.iter_mut().zip(w).zip(power()).enumerate() {
+                            *o += w * pw * k * tr.at(b);
                         }
                     }
                 }
@@ -1339,8 +1532,9 @@ impl<'a> EyeTracer<'a> {
                     let dist = to_light.length();
                     if !self.accel.occluded(org, to_light / dist, dist) {
                         let k = per_watt * cos.abs() / (d2 * self.unit_m * self.unit_m * pe);
-                        for ((o, w), pw) in out.iter_mut().zip(w).zip(power()) {
-                            *o += w * pw * k;
+                        let tr = self.haze_tr(org, to_light / dist, dist);
+                        for (b, ((o, w), pw)) in out.iter_mut().zip(w).zip(power()).enumerate() {
+                            *o += w * pw * k * tr.at(b);
                         }
                     }
                 }
@@ -1370,8 +1564,9 @@ impl<'a> EyeTracer<'a> {
                         let pl = pe * d2 / (area * cos_l);
                         let pb = ps * cos.abs() / PI;
                         let k = cos.abs() / pl * pl * pl / (pl * pl + pb * pb);
-                        for ((o, w), l) in out.iter_mut().zip(w).zip(radiance) {
-                            *o += w * l * k;
+                        let tr = self.haze_tr(org, (q - org) / dist, t_max);
+                        for (b, ((o, w), l)) in out.iter_mut().zip(w).zip(radiance).enumerate() {
+                            *o += w * l * k * tr.at(b);
                         }
                     }
                 }
@@ -1395,8 +1590,9 @@ impl<'a> EyeTracer<'a> {
                         // or the portals').
                         let cross = norm * self.unit_m * self.unit_m;
                         let k = f * cos.abs() / (q * cross * pe);
-                        for ((o, w), pw) in out.iter_mut().zip(w).zip(power()) {
-                            *o += w * pw * k;
+                        let tr = self.haze_tr(org, wi, f64::INFINITY);
+                        for (b, ((o, w), pw)) in out.iter_mut().zip(w).zip(power()).enumerate() {
+                            *o += w * pw * k * tr.at(b);
                         }
                     }
                 }
@@ -1433,7 +1629,8 @@ impl<'a> EyeTracer<'a> {
             return;
         };
         stats.rays += 1;
-        let Some(hit) = self.accel.intersect(p + n * eps, wi) else {
+        let from = p + n * eps;
+        let Some(hit) = self.accel.intersect(from, wi) else {
             return;
         };
         let ng = self.scene.meshes[hit.mesh as usize].normals[hit.prim as usize].as_dvec3();
@@ -1446,8 +1643,9 @@ impl<'a> EyeTracer<'a> {
         let pl = self.scene.emitter_table.pdf(e) * hit.t * hit.t / (area * cos_l);
         let pb = ps * cos.abs() / PI;
         let k = cos.abs() / pb * pb * pb / (pb * pb + pl * pl);
-        for ((o, w), l) in out.iter_mut().zip(w).zip(radiance) {
-            *o += w * l * k;
+        let tr = self.haze_tr(from, wi, hit.t);
+        for (b, ((o, w), l)) in out.iter_mut().zip(w).zip(radiance).enumerate() {
+            *o += w * l * k * tr.at(b);
         }
     }
 }

@@ -121,6 +121,16 @@ impl Scattering {
         }
     }
 
+    /// The phase function of band `b` (1/sr) at the cosine `cos` of the scattering angle
+    /// (between the directions of travel before and after).
+    #[inline]
+    pub fn phase(&self, b: usize, cos: f64) -> f64 {
+        match &self.table {
+            Some(t) => t.pdf(cos),
+            None => hg_pdf(self.g[b], cos),
+        }
+    }
+
     /// A new direction at a scattering event of a path travelling along `dir` with
     /// per-band weights `c` (re-weighted when the bands' g differ), from uniforms `u`.
     pub fn scatter(&self, dir: DVec3, c: &mut [f64], u: [f64; 3]) -> DVec3 {
@@ -189,7 +199,6 @@ impl PhaseTable {
     }
 
     /// The density (1/sr) at cosine `cos` of the scattering angle.
-    #[cfg(test)]
     pub fn pdf(&self, cos: f64) -> f64 {
         let th = cos.clamp(-1.0, 1.0).acos();
         let i = self

@@ -43,6 +43,10 @@ pub trait HitSink {
     /// arrival.
     fn surface(&mut self, _event: &SurfaceEvent, _colour: &Colour) {}
 
+    /// The photon scattered in the scene's medium (`Scene::medium`; renders' sinks, with
+    /// `SURFACES`); `wants_more` is asked after it.
+    fn scattered_in_haze(&mut self) {}
+
     /// After `surface`: whether the photon's path is still of use to the sink (false ends
     /// it there, counted as escaped; a render's sink that wants only some paths).
     fn wants_more(&self) -> bool {
@@ -793,6 +797,12 @@ impl Tracer<'_> {
                 pol = None;
                 // Light scattered in a medium is the photons' in every estimator.
                 gathered = None;
+                if S::SURFACES && mesh == SCENE_MEDIUM {
+                    sink.scattered_in_haze();
+                    if !sink.wants_more() {
+                        return PathEnd::Escaped;
+                    }
+                }
                 org += dir * t;
                 let u = [rng.uniform(), rng.uniform(), rng.uniform()];
                 dir = bounces.moved(mesh, colour, |c| sc.scatter(dir, c.values_mut(), u));

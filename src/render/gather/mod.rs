@@ -524,6 +524,8 @@ struct CausticSink<'a> {
     /// W per photon-colour unit of a round's photon, per band: total power / (bands · photons).
     flux: f64,
     alive: bool,
+    /// Whether the photon has met a surface (a specular one: a diffuse one ends it).
+    after_surface: bool,
     splats: Vec<(u32, Vec<f64>)>,
 }
 
@@ -534,6 +536,16 @@ impl HitSink for CausticSink<'_> {
 
     fn begin_photon(&mut self, emitter: usize) {
         self.alive = self.delta.get(emitter).copied().unwrap_or(false);
+        self.after_surface = false;
+    }
+
+    fn scattered_in_haze(&mut self) {
+        // Light scattered in the scene's medium straight from its light: the eye paths'
+        // light samples at their scattering points have it, and what follows from it.
+        // (After specular surfaces the photon goes on: no eye path sees its light.)
+        if !self.after_surface {
+            self.alive = false;
+        }
     }
 
     fn wants_more(&self) -> bool {
@@ -544,6 +556,7 @@ impl HitSink for CausticSink<'_> {
         if !self.alive {
             return;
         }
+        self.after_surface = true;
         let m = ev.material;
         let bsdf = m.bsdf();
         if bsdf.is_glossy() {
@@ -609,6 +622,7 @@ pub fn caustic_rounds(
                 delta,
                 flux,
                 alive: false,
+                after_surface: false,
                 splats: Vec::new(),
             };
             let whole = (0..CAUSTIC_ROUND).all(|k| {
