@@ -662,3 +662,52 @@ fn a_hazy_room_renders_as_mitsuba_renders_it() {
         assert!(z.abs() < 4.0, "{name}: {sum} against {total} ({z} σ)");
     }
 }
+
+#[test]
+fn a_ball_of_haze_in_a_black_world_lets_out_what_it_does_not_absorb() {
+    // Two black specks 1 m either side of a point light set the haze's ball: radius 1.01 m
+    // (the bounds' half-diagonal, widened by 1 %, docs/materials.md). A purely absorbing
+    // haze (σa 2/m) lets e^(−σa R) of the light out; one that also scatters (σs 2/m) lets
+    // out more than e^(−σt R) and less than e^(−σa R), and what escapes and what the haze
+    // absorbs make up what the light emitted, per band.
+    let run = |sigma_s: &[f64], seed: u64| {
+        let mut ctx = context(seeded(seed));
+        let black = lambert(&mut ctx, 0.0);
+        for x in [-1.0, 1.0] {
+            let speck = quad([
+                [x, -1e-4, -1e-4],
+                [x, 1e-4, -1e-4],
+                [x, 1e-4, 1e-4],
+                [x, -1e-4, 1e-4],
+            ]);
+            let mut d = speck.desc(black);
+            d.two_sided = true;
+            ctx.add_mesh(&d).unwrap();
+        }
+        let h = haze(&mut ctx, &[2.0], sigma_s, 0.0);
+        ctx.set_scene_medium(Some(h)).unwrap();
+        ctx.add_point_light([0.0, 0.0, 0.0], &[1.0, 1.0, 1.0])
+            .unwrap();
+        let report = run_photons_only(&mut ctx, photons(200_000));
+        let a = ctx.medium_absorbed(SCENE_MEDIUM).unwrap();
+        for b in 0..3 {
+            let (em, es) = (report.band_w[0][b], report.band_w[2][b]);
+            let off = em - es - a.band_w[b].value;
+            // (The specks take about 1e-8 of it.)
+            assert!(off.abs() < 1e-6 * em, "band {b}: {off} of {em}");
+        }
+        (report.escaped_w / report.emitted_w, report.photons)
+    };
+    let r = 1.01 * (1.0f64 + 2e-8).sqrt();
+    let (out, n) = run(&[], 81);
+    let want = (-2.0 * r).exp();
+    let sigma = (want * (1.0 - want) / n as f64).sqrt();
+    eprintln!("absorbing haze lets out {out:.5}, e^(−σa R) = {want:.5} (σ {sigma:.1e})");
+    assert!((out - want).abs() < 4.0 * sigma, "{out} against {want}");
+    let (out, _) = run(&[2.0], 82);
+    eprintln!(
+        "scattering haze lets out {out:.5}, between e^(−σt R) = {:.5} and e^(−σa R) = {want:.5}",
+        (-4.0 * r).exp()
+    );
+    assert!(out > (-4.0 * r).exp() && out < want, "{out}");
+}
