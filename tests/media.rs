@@ -938,3 +938,88 @@ fn a_sensor_inside_an_absorbing_slab_reads_the_light_at_its_depth() {
         );
     }
 }
+
+#[test]
+fn a_guide_printed_white_underneath_sends_out_what_ray_optics_says() {
+    // The simplest extracting light guide: a 0.4 × 0.4 × 0.01 m plate of n 1.5, its bottom
+    // face printed all over in white (Lambertian ρ 0.8, scattering back into the plate),
+    // its edges mirrors, lit by a normal beam through its top face. Ray optics: the top
+    // reflects R0 = ((n − 1)/(n + 1))² of the beam; the rest reaches the print, and each
+    // time the print scatters light up, the top lets out p = ∫ T(θ) 2 cos θ sin θ dθ of
+    // it (T the unpolarised Fresnel transmittance from inside, 0 beyond the critical
+    // angle) and sends the rest back to the print by reflection. So the plate sends out
+    // R0 + (1 − R0) ρ p / (1 − ρ (1 − p)), the extraction efficiency of a guide whose
+    // extraction fraction is 1.
+    let (n, rho) = (1.5f64, 0.8);
+    let fresnel = |cos_i: f64| {
+        // From inside (n) to air.
+        let sin_t = n * (1.0 - cos_i * cos_i).sqrt();
+        if sin_t >= 1.0 {
+            return 1.0;
+        }
+        let cos_t = (1.0 - sin_t * sin_t).sqrt();
+        let rs = ((n * cos_i - cos_t) / (n * cos_i + cos_t)).powi(2);
+        let rp = ((cos_i - n * cos_t) / (cos_i + n * cos_t)).powi(2);
+        0.5 * (rs + rp)
+    };
+    let steps = 200_000;
+    let p: f64 = (0..steps)
+        .map(|i| {
+            let th = (i as f64 + 0.5) / steps as f64 * std::f64::consts::FRAC_PI_2;
+            (1.0 - fresnel(th.cos())) * 2.0 * th.cos() * th.sin() * std::f64::consts::FRAC_PI_2
+                / steps as f64
+        })
+        .sum();
+    let r0 = ((n - 1.0) / (n + 1.0)).powi(2);
+    let want = r0 + (1.0 - r0) * rho * p / (1.0 - rho * (1.0 - p));
+    let mut ctx = context(seeded(14));
+    let glass = ctx
+        .add_material(&MaterialDesc {
+            ior: Some(IorModel::Constant(n)),
+            ..Default::default()
+        })
+        .unwrap();
+    let white = lambert(&mut ctx, rho);
+    let mirror = ctx
+        .add_material(&MaterialDesc {
+            specular_reflect: vec![1.0],
+            ..Default::default()
+        })
+        .unwrap();
+    let plate = cuboid([-0.2, -0.2, -0.01], [0.2, 0.2, 0.0], 1, false);
+    let mats: Vec<u32> = plate
+        .indices
+        .chunks_exact(3)
+        .map(|t| {
+            let [a, b, c] = [0, 1, 2].map(|k| plate.vertex(t[k] as usize));
+            let (u, v) = (
+                [b[0] - a[0], b[1] - a[1], b[2] - a[2]],
+                [c[0] - a[0], c[1] - a[1], c[2] - a[2]],
+            );
+            let nz = u[0] * v[1] - u[1] * v[0];
+            let len = ((u[1] * v[2] - u[2] * v[1]).powi(2)
+                + (u[2] * v[0] - u[0] * v[2]).powi(2)
+                + nz * nz)
+                .sqrt();
+            match nz / len {
+                z if z > 0.5 => glass,
+                z if z < -0.5 => white,
+                _ => mirror,
+            }
+        })
+        .collect();
+    assert_eq!(mats.iter().filter(|&&m| m == glass).count(), 2);
+    let mut d = plate.desc(glass);
+    d.triangle_materials = Some(&mats);
+    d.record = false;
+    ctx.add_mesh(&d).unwrap();
+    ctx.add_spot_light([0.0, 0.0, 0.5], [0.0, 0.0, -1.0], 1e-3, &[1.0, 1.0, 1.0])
+        .unwrap();
+    let report = run_photons_only(&mut ctx, photons(200_000));
+    let out = report.escaped_w / report.emitted_w;
+    let sigma = (out * (1.0 - out) / report.photons as f64).sqrt();
+    eprintln!(
+        "the plate sends out {out:.5} of the beam; ray optics {want:.5} (p {p:.5}, R0 {r0:.3}; σ {sigma:.1e})"
+    );
+    assert!((out - want).abs() < 4.0 * sigma, "{out} against {want}");
+}
