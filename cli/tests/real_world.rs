@@ -543,6 +543,26 @@ fn render_writes_png_pfm_and_history_with_the_right_radiance() {
         (got / expected - 1.0).abs() < 0.02 + 4.0 * sigma / expected,
         "final gathering: {got} vs {expected} (σ {sigma})"
     );
+    // In haze absorbing 0.5 per metre ([medium]) the centre sees e^(−0.5 (1 + R)) of it:
+    // the light's metre to the floor, and the camera's ray from where it enters the haze's
+    // ball (radius R = 1.01 √2 about the floor's centre: the camera is outside it).
+    let hazy = write(
+        d.path(),
+        "haze.toml",
+        &format!("{settings}[medium]\nabsorption_per_m = 0.5\n"),
+    );
+    let out = d.path().join("haze");
+    let o = render_to(&hazy, &out);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let (w, _, _, px) = read_pfm(&out.join("radiance.pfm"));
+    let (_, _, _, err) = read_pfm(&out.join("rel_error.pfm"));
+    let (got, rel) = centre_green(&px, &err, w);
+    let want = expected * (-0.5 * (1.0 + 1.01 * 2f64.sqrt())).exp();
+    let sigma = want * rel / 9.0 / 3.0;
+    assert!(
+        (got / want - 1.0).abs() < 0.05 + 4.0 * sigma / want,
+        "haze: {got} vs {want} (σ {sigma})"
+    );
     // A bad method and size are named.
     let o = imap(&["render", &obj, "--config", &toml, "--method", "fast"]);
     assert_eq!(o.status.code(), Some(2));
