@@ -1,7 +1,9 @@
 //! The scene's medium (haze outside the meshes, `Context::set_scene_medium`): Beer–Lambert
-//! per band under a point light in every estimator and on a sensor, a very large
-//! scattering medium around a point source that absorbs all of its light, estimators that
-//! agree in a hazy room, the exact balance, determinism, and the statuses.
+//! per band under a point light and the sun in every estimator and on a sensor, each
+//! vertex's error, a very large scattering medium around a point source that absorbs all
+//! of its light, a ball of haze in a black world, estimators that agree in a hazy room,
+//! determinism over threads, resume and shards; pictures through haze (exact lines of
+//! sight, a lossless furnace, Mitsuba 3's volpath on a hazy room); and the statuses.
 
 mod common;
 
@@ -710,4 +712,86 @@ fn a_ball_of_haze_in_a_black_world_lets_out_what_it_does_not_absorb() {
         (-4.0 * r).exp()
     );
     assert!(out > (-4.0 * r).exp() && out < want, "{out}");
+}
+
+#[test]
+fn hazy_maps_and_the_haze_tally_survive_resume_and_shards() {
+    // The hazy room's map, report and the haze's tally after a run resumed from a state
+    // written half way, and after two halves merged, equal one run's (to rounding); a state
+    // of the room without haze does not load into the hazy one.
+    let n = 6000;
+    let run = |ctx: &mut imap::Context, a: u64, b: u64| {
+        ctx.run(&mut imap::RunParams {
+            selection: imap::Selection::range(a, b),
+            estimator: Some(Estimator::GATHER),
+            progress_interval_s: 1.0,
+            ..Default::default()
+        })
+        .expect("run");
+    };
+    let read = |ctx: &imap::Context, walls: u32| {
+        let mut e = vec![0.0; ctx.vertex_count(walls).unwrap()];
+        ctx.illuminance(walls, 0, &mut e).unwrap();
+        let a = ctx.medium_absorbed(SCENE_MEDIUM).unwrap();
+        (e, a, ctx.report().absorbed_w)
+    };
+    let (mut one, walls, _) = hazy_room(91, 2);
+    run(&mut one, 0, n);
+    let want = read(&one, walls);
+    let (mut a, _, _) = hazy_room(91, 2);
+    run(&mut a, 0, n / 2);
+    let half = a.state_bytes(0, &[]).unwrap();
+    let (mut b, _, _) = hazy_room(91, 2);
+    b.load_state(&half).unwrap();
+    run(&mut b, n / 2, n);
+    let (mut c, _, _) = hazy_room(91, 2);
+    run(&mut c, n / 2, n);
+    let second = c.state_bytes(0, &[]).unwrap();
+    let (mut merged, _, _) = hazy_room(91, 2);
+    merged.load_state(&half).unwrap();
+    merged.merge_state(&second).unwrap();
+    let close = |x: f64, y: f64| (x - y).abs() <= 1e-10 * y.abs().max(1e-300);
+    for (what, ctx) in [("resumed", &b), ("merged", &merged)] {
+        let got = read(ctx, walls);
+        assert!(
+            got.0.iter().zip(&want.0).all(|(x, y)| close(*x, *y)),
+            "{what}: the map differs"
+        );
+        for (g, w) in got
+            .1
+            .band_w
+            .iter()
+            .chain([&got.1.lm])
+            .zip(want.1.band_w.iter().chain([&want.1.lm]))
+        {
+            assert!(
+                close(g.value, w.value) && close(g.sigma, w.sigma),
+                "{what}: {g:?} against {w:?}"
+            );
+        }
+        assert!(
+            close(got.2, want.2),
+            "{what}: absorbed {} against {}",
+            got.2,
+            want.2
+        );
+    }
+    // The same room in clear air (the haze's material added, but not made the scene's
+    // medium) has another fingerprint.
+    let mut clear = context(seeded(91));
+    let grey = lambert(&mut clear, 0.5);
+    let room = cuboid([0.0, 0.0, 0.0], [2.0, 2.0, 2.0], 6, true);
+    let mut d = room.desc(grey);
+    d.tally = true;
+    clear.add_mesh(&d).unwrap();
+    let plane = grid(6, 0.2, 1.8, 0.2, 1.8, 1.0);
+    let mut d = plane.desc(grey);
+    d.sensor = true;
+    clear.add_mesh(&d).unwrap();
+    haze(&mut clear, &[0.1, 0.2, 0.3], &[0.8, 0.5, 0.2], 0.4);
+    clear
+        .add_point_light([1.0, 1.0, 1.8], &[1.0, 1.0, 1.0])
+        .unwrap();
+    let e = clear.load_state(&half).unwrap_err();
+    assert_eq!(e.status, ImapStatus::ImapErrStateMismatch, "{e}");
 }
