@@ -549,7 +549,7 @@ fn render_writes_png_pfm_and_history_with_the_right_radiance() {
     let hazy = write(
         d.path(),
         "haze.toml",
-        &format!("{settings}[medium]\nabsorption_per_m = 0.5\n"),
+        format!("{settings}[medium]\nabsorption_per_m = 0.5\n"),
     );
     let out = d.path().join("haze");
     let o = render_to(&hazy, &out);
