@@ -14,7 +14,7 @@ use crate::scene::bsdf::{reflect, refract};
 use crate::scene::bsdf::{Bsdf, Lobe};
 use crate::scene::light::DistantPart;
 use crate::scene::material::fresnel_dielectric;
-use crate::scene::medium::Flight;
+use crate::scene::medium::{Flight, MediumStack};
 use crate::scene::texture::TintScratch;
 use crate::scene::{LightSample, Material, PreparedScene, Receiver, Scene};
 use crate::spectral::{collapse_weights, pick_band};
@@ -160,6 +160,7 @@ struct Surface {
     n_in: DVec3,
     eps: f64,
     front: bool,
+    mesh: u32,
     material: u32,
 }
 
@@ -287,6 +288,8 @@ impl<'a> EyeTracer<'a> {
         let mut band: Option<usize> = None;
         let mut path_len = (org - self.camera.origin).length();
         let mut medium: Option<u32> = None;
+        // The dielectrics the path is inside (`medium` is the innermost's material).
+        let mut media = MediumStack::default();
         // Whether the path's last event was a scattering in the scene's medium.
         let mut after_haze = false;
         // The density of the last glossy reflector's direction, while the path has met
@@ -345,7 +348,7 @@ impl<'a> EyeTracer<'a> {
                 bsdf,
                 &mut dir,
                 &mut org,
-                &mut medium,
+                (&mut medium, &mut media),
                 &mut band,
                 beta,
                 rng,
@@ -455,6 +458,8 @@ impl<'a> EyeTracer<'a> {
         };
         let mut band: Option<usize> = None;
         let mut medium: Option<u32> = None;
+        // The dielectrics the path is inside (`medium` is the innermost's material).
+        let mut media = MediumStack::default();
         // Whether emission met now is counted: before the first diffuse vertex, or through
         // specular surfaces since the last one.
         let mut counts = true;
@@ -525,7 +530,7 @@ impl<'a> EyeTracer<'a> {
                 bsdf,
                 &mut dir,
                 &mut org,
-                &mut medium,
+                (&mut medium, &mut media),
                 &mut band,
                 beta,
                 rng,
@@ -599,7 +604,10 @@ impl<'a> EyeTracer<'a> {
                 // Through a translucent triangle from inside a dielectric: out of its medium
                 // (the photons check that the triangle is the dielectric's own mesh; eye
                 // paths take every translucent surface met inside a medium as its boundary).
-                medium = None;
+                if let Some((mesh, material)) = media.current() {
+                    media.cross(mesh, material, false);
+                }
+                medium = media.current().map(|(_, m)| m);
             }
             counts = false;
             diffuse_vertices += 1;
@@ -842,6 +850,7 @@ impl<'a> EyeTracer<'a> {
             n_in: if front { ng } else { -ng },
             eps,
             front,
+            mesh: hit.mesh,
             material: mesh.material(prim),
         }
     }
@@ -1366,7 +1375,7 @@ impl<'a> EyeTracer<'a> {
         bsdf: Bsdf,
         dir: &mut DVec3,
         org: &mut DVec3,
-        medium: &mut Option<u32>,
+        (medium, media): (&mut Option<u32>, &mut MediumStack),
         band: &mut Option<usize>,
         beta: &mut [f64],
         rng: &mut PhotonRng,
@@ -1393,7 +1402,8 @@ impl<'a> EyeTracer<'a> {
                 *org = at.p + n_in * at.eps;
             } else {
                 *org = at.p - n_in * at.eps;
-                *medium = at.front.then_some(at.material);
+                media.cross(at.mesh, at.material, at.front);
+                *medium = media.current().map(|(_, m)| m);
             }
             return Step::Specular;
         }
@@ -1410,7 +1420,8 @@ impl<'a> EyeTracer<'a> {
             } else {
                 *dir = refract(*dir, n_in, cos_i, n1 / n2);
                 *org = at.p - n_in * at.eps;
-                *medium = at.front.then_some(at.material);
+                media.cross(at.mesh, at.material, at.front);
+                *medium = media.current().map(|(_, m)| m);
             }
             return Step::Specular;
         }

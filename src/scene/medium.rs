@@ -48,6 +48,38 @@ impl std::fmt::Debug for Scattering {
     }
 }
 
+/// The dielectric meshes a path is inside, innermost last, each with its material: media
+/// nest (a glass ball in a fog box, a bubble in a light guide). Crossing a mesh's surface
+/// from its front enters it; from its back leaves it, whichever mesh was innermost (a path
+/// that leaves a mesh it never entered — a lamp inside a glass globe starts outside it —
+/// changes nothing).
+#[derive(Clone, Debug, Default)]
+pub struct MediumStack {
+    inside: Vec<(u32, u32)>,
+}
+
+impl MediumStack {
+    pub fn clear(&mut self) {
+        self.inside.clear();
+    }
+
+    /// Crosses the surface of `mesh` (material `material`) into it (`front`) or out of it.
+    #[inline]
+    pub fn cross(&mut self, mesh: u32, material: u32, front: bool) {
+        if front {
+            self.inside.push((mesh, material));
+        } else if let Some(i) = self.inside.iter().rposition(|&(m, _)| m == mesh) {
+            self.inside.remove(i);
+        }
+    }
+
+    /// The innermost mesh and its material; None outside every mesh.
+    #[inline]
+    pub fn current(&self) -> Option<(u32, u32)> {
+        self.inside.last().copied()
+    }
+}
+
 /// What a free flight of a path inside a medium ended with.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Flight {

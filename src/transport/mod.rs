@@ -138,6 +138,8 @@ pub(crate) struct WeightedBounces {
     /// The colour as a segment through a medium began, and as a sensor crossed on it
     /// reads it (scratch, with sensors in media only).
     before: Option<(Colour, Colour)>,
+    /// The dielectric meshes the photon is inside (scratch: allocated at the first one).
+    media_in: crate::scene::medium::MediumStack,
 }
 
 impl WeightedBounces {
@@ -685,6 +687,16 @@ impl Tracer<'_> {
             material: h.material,
         });
         let mut medium = outside;
+        bounces.media_in.clear();
+        // The medium after crossing the surface of `mesh` (material `material`) into it
+        // (`front`) or out of it: the innermost mesh the photon is in, or `outside`.
+        let cross = |media_in: &mut crate::scene::medium::MediumStack, mesh, material, front| {
+            media_in.cross(mesh, material, front);
+            match media_in.current() {
+                Some((mesh, material)) => Some(Medium { mesh, material }),
+                None => outside,
+            }
+        };
         // Unpolarised until a dielectric interface (`Polarisation`); diffuse and
         // coefficient (mirror) surfaces depolarise.
         let mut pol: Option<Polarisation> = None;
@@ -907,13 +919,7 @@ impl Tracer<'_> {
                     org = p_hit + n_in * eps;
                 } else {
                     org = p_hit - n_in * eps;
-                    medium = match front {
-                        true => Some(Medium {
-                            mesh: hit.mesh,
-                            material: material_id,
-                        }),
-                        false => outside,
-                    };
+                    medium = cross(&mut bounces.media_in, hit.mesh, material_id, front);
                 }
                 continue;
             }
@@ -938,13 +944,7 @@ impl Tracer<'_> {
                 } else {
                     dir = refract(dir, n_in, cos_i, n1 / n2);
                     org = p_hit - n_in * eps;
-                    medium = match front {
-                        true => Some(Medium {
-                            mesh: hit.mesh,
-                            material: material_id,
-                        }),
-                        false => outside,
-                    };
+                    medium = cross(&mut bounces.media_in, hit.mesh, material_id, front);
                 }
                 continue;
             }
@@ -1011,7 +1011,7 @@ impl Tracer<'_> {
                 if lobe == Lobe::DiffuseTransmission && medium.is_some_and(|m| m.mesh == hit.mesh) {
                     // Through a translucent triangle of the dielectric it was inside (a
                     // print on a light guide that transmits): out of its medium.
-                    medium = outside;
+                    medium = cross(&mut bounces.media_in, hit.mesh, material_id, false);
                 }
                 continue;
             }
