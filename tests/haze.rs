@@ -126,13 +126,10 @@ fn an_absorbing_haze_attenuates_by_beer_lambert_per_band_in_every_estimator() {
     }
 }
 
-#[test]
-fn a_very_large_scattering_medium_absorbs_all_of_a_point_source() {
-    // An isotropic point source at the centre of a haze of albedo 0.9 whose radius is 100
-    // mean free paths (two specks of geometry 1 m away set the ball): the diffusion
-    // approximation leaves e^(−R √(3 σa σt)) ≈ e^(−55) to escape, so the medium absorbs
-    // everything but what the specks take (their solid angle is 1e-7 of the sphere's).
-    let mut ctx = context(seeded(11));
+/// A context whose only geometry is two black specks 0.2 mm wide at x = ±1 (the haze's
+/// ball then has radius 1.01 about the origin).
+fn specks(seed: u64) -> imap::Context {
+    let mut ctx = context(seeded(seed));
     let black = lambert(&mut ctx, 0.0);
     for x in [-1.0, 1.0] {
         let speck = quad([
@@ -145,6 +142,16 @@ fn a_very_large_scattering_medium_absorbs_all_of_a_point_source() {
         d.two_sided = true;
         ctx.add_mesh(&d).unwrap();
     }
+    ctx
+}
+
+#[test]
+fn a_very_large_scattering_medium_absorbs_all_of_a_point_source() {
+    // An isotropic point source at the centre of a haze of albedo 0.9 whose radius is 100
+    // mean free paths (two specks of geometry 1 m away set the ball): the diffusion
+    // approximation leaves e^(−R √(3 σa σt)) ≈ e^(−55) to escape, so the medium absorbs
+    // everything but what the specks take (their solid angle is 1e-7 of the sphere's).
+    let mut ctx = specks(11);
     let h = haze(&mut ctx, &[10.0], &[90.0], 0.5);
     ctx.set_scene_medium(Some(h)).unwrap();
     ctx.add_point_light([0.0, 0.0, 0.0], &[1.0, 2.0, 3.0])
@@ -673,19 +680,7 @@ fn a_ball_of_haze_in_a_black_world_lets_out_what_it_does_not_absorb() {
     // out more than e^(−σt R) and less than e^(−σa R), and what escapes and what the haze
     // absorbs make up what the light emitted, per band.
     let run = |sigma_s: &[f64], seed: u64| {
-        let mut ctx = context(seeded(seed));
-        let black = lambert(&mut ctx, 0.0);
-        for x in [-1.0, 1.0] {
-            let speck = quad([
-                [x, -1e-4, -1e-4],
-                [x, 1e-4, -1e-4],
-                [x, 1e-4, 1e-4],
-                [x, -1e-4, 1e-4],
-            ]);
-            let mut d = speck.desc(black);
-            d.two_sided = true;
-            ctx.add_mesh(&d).unwrap();
-        }
+        let mut ctx = specks(seed);
         let h = haze(&mut ctx, &[2.0], sigma_s, 0.0);
         ctx.set_scene_medium(Some(h)).unwrap();
         ctx.add_point_light([0.0, 0.0, 0.0], &[1.0, 1.0, 1.0])
