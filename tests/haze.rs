@@ -22,6 +22,12 @@ fn haze(ctx: &mut imap::Context, alpha: &[f64], sigma_s: &[f64], g: f64) -> u32 
     .unwrap()
 }
 
+/// Makes a haze material (`haze`) the scene's medium.
+fn fill_with_haze(ctx: &mut imap::Context, alpha: &[f64], sigma_s: &[f64], g: f64) {
+    let h = haze(ctx, alpha, sigma_s, g);
+    ctx.set_scene_medium(Some(h)).unwrap();
+}
+
 /// The flux per band onto the square [−1, 1]² at z = 0 from an isotropic point source of 1 W
 /// per band `h` above its centre, through a medium of extinction `sigma` per band (1/m):
 /// Φ/(4π) ∫ h/r³ e^(−σr) dA, by the midpoint rule.
@@ -59,8 +65,7 @@ fn hazy_floor(seed: u64, alpha: &[f64], sensor: bool) -> (imap::Context, u32, Op
         d.sensor = true;
         ctx.add_mesh(&d).unwrap()
     });
-    let h = haze(&mut ctx, alpha, &[], 0.0);
-    ctx.set_scene_medium(Some(h)).unwrap();
+    fill_with_haze(&mut ctx, alpha, &[], 0.0);
     ctx.add_point_light([0.0, 0.0, 1.0], &[1.0, 1.0, 1.0])
         .unwrap();
     (ctx, f, s)
@@ -152,8 +157,7 @@ fn a_very_large_scattering_medium_absorbs_all_of_a_point_source() {
     // approximation leaves e^(−R √(3 σa σt)) ≈ e^(−55) to escape, so the medium absorbs
     // everything but what the specks take (their solid angle is 1e-7 of the sphere's).
     let mut ctx = specks(11);
-    let h = haze(&mut ctx, &[10.0], &[90.0], 0.5);
-    ctx.set_scene_medium(Some(h)).unwrap();
+    fill_with_haze(&mut ctx, &[10.0], &[90.0], 0.5);
     ctx.add_point_light([0.0, 0.0, 0.0], &[1.0, 2.0, 3.0])
         .unwrap();
     let report = run_photons_only(&mut ctx, photons(20_000));
@@ -192,8 +196,7 @@ fn hazy_room(seed: u64, threads: usize) -> (imap::Context, u32, u32) {
     let mut d = plane.desc(grey);
     d.sensor = true;
     let sensor = ctx.add_mesh(&d).unwrap();
-    let h = haze(&mut ctx, &[0.1, 0.2, 0.3], &[0.8, 0.5, 0.2], 0.4);
-    ctx.set_scene_medium(Some(h)).unwrap();
+    fill_with_haze(&mut ctx, &[0.1, 0.2, 0.3], &[0.8, 0.5, 0.2], 0.4);
     ctx.add_point_light([1.0, 1.0, 1.8], &[1.0, 1.0, 1.0])
         .unwrap();
     (ctx, walls, sensor)
@@ -326,8 +329,7 @@ fn the_sun_through_haze_agrees_between_estimators() {
         d.tally = true;
         let f = ctx.add_mesh(&d).unwrap();
         if hazy {
-            let h = haze(&mut ctx, &alpha, &[], 0.0);
-            ctx.set_scene_medium(Some(h)).unwrap();
+            fill_with_haze(&mut ctx, &alpha, &[], 0.0);
         }
         ctx.add_sun(&imap::SunDesc {
             azimuth_deg: 40.0,
@@ -483,8 +485,7 @@ fn render_scene(seed: u64, alpha: &[f64], sigma_s: &[f64], g: f64, panel: bool) 
         d.record = false;
         ctx.add_mesh(&d).unwrap();
     }
-    let h = haze(&mut ctx, alpha, sigma_s, g);
-    ctx.set_scene_medium(Some(h)).unwrap();
+    fill_with_haze(&mut ctx, alpha, sigma_s, g);
     ctx.add_point_light([0.0, 0.0, 1.0], &[1.0, 1.0, 1.0])
         .unwrap();
     ctx
@@ -565,8 +566,7 @@ fn lossless_haze_leaves_a_furnace_uniform_in_every_renderer() {
                 ..g.desc(wall)
             })
             .unwrap();
-        let h = haze(&mut ctx, &[], &[3.0], 0.5);
-        ctx.set_scene_medium(Some(h)).unwrap();
+        fill_with_haze(&mut ctx, &[], &[3.0], 0.5);
         (ctx, walls)
     };
     let (mut ctx, walls) = build(61);
@@ -634,8 +634,7 @@ fn a_hazy_room_renders_as_mitsuba_renders_it() {
     let grey = lambert(&mut ctx, 0.5);
     let room = cuboid([0.0; 3], [2.0; 3], 4, true);
     ctx.add_mesh(&room.desc(grey)).unwrap();
-    let h = haze(&mut ctx, &[0.2], &[0.8], 0.5);
-    ctx.set_scene_medium(Some(h)).unwrap();
+    fill_with_haze(&mut ctx, &[0.2], &[0.8], 0.5);
     ctx.add_point_light([1.0, 1.0, 1.6], &[1.0, 1.0, 1.0])
         .unwrap();
     let cam = imap::CameraDesc {
@@ -681,8 +680,7 @@ fn a_ball_of_haze_in_a_black_world_lets_out_what_it_does_not_absorb() {
     // absorbs make up what the light emitted, per band.
     let run = |sigma_s: &[f64], seed: u64| {
         let mut ctx = specks(seed);
-        let h = haze(&mut ctx, &[2.0], sigma_s, 0.0);
-        ctx.set_scene_medium(Some(h)).unwrap();
+        fill_with_haze(&mut ctx, &[2.0], sigma_s, 0.0);
         ctx.add_point_light([0.0, 0.0, 0.0], &[1.0, 1.0, 1.0])
             .unwrap();
         let report = run_photons_only(&mut ctx, photons(200_000));

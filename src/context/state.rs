@@ -932,8 +932,9 @@ impl Context {
             ));
         }
         if s.version == FORMAT_WITHOUT_VOLUMES && s.photons() > 0 {
-            let media = (0..self.scene.meshes.len()).find(|&m| self.holds_medium(m));
-            if let Some(m) = media.or(self.scene.medium.map(|_| self.scene.meshes.len())) {
+            // (A scene with a medium outside its meshes never matches an older state's
+            // fingerprint.)
+            if let Some(m) = (0..self.scene.meshes.len()).find(|&m| self.holds_medium(m)) {
                 bail!(
                     ImapErrUnsupported,
                     "the state was written by libimap {} in state format {FORMAT_WITHOUT_VOLUMES}, which keeps no tallies of what media absorb, and this scene has media (mesh {m}): run it again from the start",

@@ -14,7 +14,7 @@ use crate::scene::bsdf::{reflect, refract};
 use crate::scene::bsdf::{Bsdf, Lobe};
 use crate::scene::light::DistantPart;
 use crate::scene::material::fresnel_dielectric;
-use crate::scene::medium::{Flight, MediumStack};
+use crate::scene::medium::{Flight, MediumStack, Transmittance as Tr};
 use crate::scene::texture::TintScratch;
 use crate::scene::{LightSample, Material, PreparedScene, Receiver, Scene};
 use crate::spectral::{collapse_weights, pick_band};
@@ -32,25 +32,6 @@ enum LightValue {
     Power(Vec<f64>),
     /// Radiance of an emitting mesh, W/(m²·sr), and its emitting area (scene units²).
     Radiance { radiance: Vec<f64>, area: f64 },
-}
-
-/// The scene medium's transmittance per band on a shadow segment (`EyeTracer::haze_tr`):
-/// 1 in every band without one.
-#[derive(Clone, Copy)]
-struct Tr<'s> {
-    sigma: &'s [f64],
-    /// Metres of the segment in the medium.
-    d_m: f64,
-}
-
-impl Tr<'_> {
-    #[inline]
-    fn at(&self, band: usize) -> f64 {
-        match self.sigma.get(band) {
-            Some(&s) if s != 0.0 && self.d_m > 0.0 => (-s * self.d_m).exp(),
-            _ => 1.0,
-        }
-    }
 }
 
 /// Gathering radius of a pixel's first sample: this many pixel footprints.
@@ -306,15 +287,8 @@ impl<'a> EyeTracer<'a> {
             stats.rays += 1;
             let hit = self.accel.intersect(org, dir);
             let t = hit.map_or(f64::INFINITY, |h| h.t);
-            let flight = match hit.is_some() || (medium.is_none() && self.scene.haze.is_some()) {
-                // (Out of the scene through the scene's medium: its flight to the ball's edge.)
-                true => {
-                    let path = ((&mut dir, &mut org), beta.as_mut_slice());
-                    self.through_medium(medium, t, path, rng, (&mut buf.direct[d0..], stats))
-                }
-                false => Flight::Surface,
-            };
-            match flight {
+            let path = ((&mut dir, &mut org), beta.as_mut_slice());
+            match self.through_medium(medium, t, path, rng, (&mut buf.direct[d0..], stats)) {
                 Flight::Surface => {}
                 Flight::Absorbed => return,
                 Flight::Scatter(t) => {
@@ -477,15 +451,8 @@ impl<'a> EyeTracer<'a> {
             stats.rays += 1;
             let hit = self.accel.intersect(org, dir);
             let t = hit.map_or(f64::INFINITY, |h| h.t);
-            let flight = match hit.is_some() || (medium.is_none() && self.scene.haze.is_some()) {
-                // (Out of the scene through the scene's medium: its flight to the ball's edge.)
-                true => {
-                    let path = ((&mut dir, &mut org), beta.as_mut_slice());
-                    self.through_medium(medium, t, path, rng, (out.to(), stats))
-                }
-                false => Flight::Surface,
-            };
-            match flight {
+            let path = ((&mut dir, &mut org), beta.as_mut_slice());
+            match self.through_medium(medium, t, path, rng, (out.to(), stats)) {
                 Flight::Surface => {}
                 Flight::Absorbed => return,
                 Flight::Scatter(_) => {
@@ -1138,8 +1105,10 @@ impl<'a> EyeTracer<'a> {
     /// the surface (`Flight::Scatter` with the distance in scene units: the path is then
     /// moved there and turned by the phase function), or Beer–Lambert attenuation.
     /// In the scene's medium (`medium` None with one: the part of the segment in its ball;
-    /// `t` may be infinite there), a scattering point takes a light sample of the lights
-    /// no path meets (`haze_light`) into `out` before the path turns.
+    /// `t` infinite, out of the scene, to the ball's edge), a scattering point takes a
+    /// light sample of the lights no path meets (`haze_light`) into `out` before the path
+    /// turns. Inside a mesh with no surface ahead (a crack: `t` infinite) the path leaves
+    /// untouched.
     #[inline]
     fn through_medium(
         &self,
@@ -1149,7 +1118,8 @@ impl<'a> EyeTracer<'a> {
         rng: &mut PhotonRng,
         (out, stats): (&mut [f64], &mut EyeStats),
     ) -> Flight {
-        let (d, t0, t) = match (medium, self.scene.haze) {
+        let (d, t0, t) = match (medium, self.scene.haze.as_ref()) {
+            (Some(_), _) if t == f64::INFINITY => return Flight::Surface,
             (Some(m), _) => (self.materials[m as usize].dielectric.as_ref(), 0.0, t),
             (None, Some(h)) => {
                 let (t0, t1) = h.span(*org, *dir, t);
@@ -1189,21 +1159,10 @@ impl<'a> EyeTracer<'a> {
     /// scene units (infinite: out of the scene): 1 in every band without one.
     #[inline]
     fn haze_tr(&self, org: DVec3, dir: DVec3, t: f64) -> Tr<'_> {
-        let clear = Tr {
-            sigma: &[],
-            d_m: 0.0,
-        };
-        let Some(h) = self.scene.haze else {
-            return clear;
-        };
-        let Some(sigma) = self.materials[h.material as usize].extinction() else {
-            return clear;
-        };
-        let (t0, t1) = h.span(org, dir, t);
-        Tr {
-            sigma,
-            d_m: (t1 - t0) * self.unit_m,
-        }
+        self.scene
+            .haze
+            .as_ref()
+            .map_or(Tr::CLEAR, |h| h.transmittance(org, dir, t, self.unit_m))
     }
 
     /// At a scattering point `p` of an eye path travelling along `dir` in the scene's

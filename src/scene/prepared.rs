@@ -39,14 +39,33 @@ pub struct PreparedScene {
 /// The medium outside the meshes (`Scene::medium`): its material, and the ball around the
 /// local origin it fills (the sphere rays enter the scene by, which then holds every light
 /// but the distant ones too).
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct Haze {
     pub material: u32,
     /// Local scene units.
     pub radius: f64,
+    /// Its extinction σt per band, 1/m (`Material::extinction`).
+    pub sigma: Vec<f64>,
 }
 
 impl Haze {
+    /// Its transmittance on the part of the ray `org + t dir`, 0 ≤ t ≤ `t_max` (infinite:
+    /// to the ball's edge), inside the ball; `unit_m` metres per scene unit.
+    #[inline]
+    pub fn transmittance(
+        &self,
+        org: DVec3,
+        dir: DVec3,
+        t_max: f64,
+        unit_m: f64,
+    ) -> super::medium::Transmittance<'_> {
+        let (t0, t1) = self.span(org, dir, t_max);
+        super::medium::Transmittance {
+            sigma: &self.sigma,
+            d_m: (t1 - t0) * unit_m,
+        }
+    }
+
     /// The part (t0, t1) of the ray `org + t dir` (unit `dir`), 0 ≤ t ≤ `t_max`, that lies
     /// inside the ball; t0 = t1 when none does.
     #[inline]
@@ -307,6 +326,10 @@ impl PreparedScene {
         prepared.haze = scene.medium.map(|material| Haze {
             material,
             radius: prepared.sphere_radius(),
+            // (`Context::set_scene_medium` took only a material that holds a medium.)
+            sigma: scene.materials[material as usize]
+                .extinction()
+                .map_or_else(Vec::new, <[f64]>::to_vec),
         });
         if aim_lights {
             let r = prepared.sphere_radius();

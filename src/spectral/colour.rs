@@ -1,6 +1,8 @@
 //! A photon's colour vector: per-band weights with band mean exactly 1 (unit energy).
 //! After dispersion the photon is collapsed to one band and the vector is that band alone.
 
+use crate::scene::medium::Transmittance;
+
 /// The colour of a photon in flight.
 #[derive(Clone, Debug)]
 pub struct Colour {
@@ -123,21 +125,20 @@ impl Colour {
         }
     }
 
-    /// Becomes `from` with each band times its transmittance e^(−σ_b d) over `dist_m`
-    /// metres (`sigma` per band, 1/m): the expected colour of `from` after that much of a
-    /// medium (what a sensor crossed there reads).
-    pub(crate) fn transmitted(&mut self, from: &Colour, sigma: &[f64], dist_m: f64) {
+    /// Becomes `from` times `tr` per band: the expected colour of `from` after that much
+    /// of a medium (what a sensor crossed there reads).
+    pub(crate) fn transmitted(&mut self, from: &Colour, tr: Transmittance) {
         self.clone_from(from);
-        self.attenuate(sigma, dist_m);
+        self.attenuate(tr);
     }
 
-    /// Each band times its transmittance e^(−σ_b d) over `dist_m` metres (`sigma` per
-    /// band, 1/m): a throughput through a medium.
-    pub(crate) fn attenuate(&mut self, sigma: &[f64], dist_m: f64) {
-        for (c, s) in self.c.iter_mut().zip(sigma) {
-            if *s != 0.0 {
-                *c *= (-s * dist_m).exp();
-            }
+    /// Each band times its transmittance `tr`: a throughput through a medium.
+    pub(crate) fn attenuate(&mut self, tr: Transmittance) {
+        if tr.is_clear() {
+            return;
+        }
+        for (b, c) in self.c.iter_mut().enumerate() {
+            *c *= tr.at(b);
         }
     }
 

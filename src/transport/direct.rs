@@ -44,6 +44,7 @@ use super::{Colour, WEIGHTED_BOUNCES_DOWN_TO};
 use crate::accel::Accel;
 use crate::sampling::{warp, PhotonRng};
 use crate::scene::bsdf::Lobe;
+use crate::scene::medium::Transmittance;
 use crate::scene::{LightSample, Material, PreparedScene, Receiver};
 use glam::DVec3;
 use std::f64::consts::PI;
@@ -663,8 +664,8 @@ impl DirectSampler<'_> {
                     n,
                     l: LIGHT_SAMPLE_GAIN * density,
                 };
-                if let Some((e, g, _, haze)) = self.sample_light(&at, a[3], [b[0], b[1], b[2]]) {
-                    self.add(e, (g, haze), None, direct, nb);
+                if let Some((e, g, _, tr)) = self.sample_light(&at, a[3], [b[0], b[1], b[2]]) {
+                    self.add(e, (g, tr), None, direct, nb);
                 }
                 if self.gather {
                     let index = (pass.wrapping_mul(self.plan.slots as u64) + i as u64)
@@ -717,12 +718,12 @@ impl DirectSampler<'_> {
     /// Adds `weight` (W/m² per unit of the emitter's colour) of emitter `e` to `sums`,
     /// per band times `through` (a gathering path's throughput) and `k` (the reflectance
     /// or transmittance that sends the light on), when given, and times the scene
-    /// medium's transmittance over `haze_m` metres.
+    /// medium's transmittance `tr` on the light's way.
     #[inline]
     fn add(
         &self,
         e: usize,
-        (weight, haze_m): (f64, f64),
+        (weight, tr): (f64, Transmittance),
         path: Option<(&Colour, &[f64])>,
         sums: &mut [f64],
         nb: usize,
@@ -734,10 +735,10 @@ impl DirectSampler<'_> {
         let g = em.layer as usize;
         let k = weight * self.scene.total_power / nb as f64 / (self.unit_m * self.unit_m);
         let s = &mut sums[g * nb..(g + 1) * nb];
-        if haze_m > 0.0 {
+        if !tr.is_clear() {
             // Through the scene's medium: per band, its own transmittance (cold: a scene
             // without one never comes here).
-            return self.add_through_haze(em, k, haze_m, path, s);
+            return add_through_haze(&em.colour, k, tr, path, s);
         }
         match path {
             None => {
@@ -758,43 +759,13 @@ impl DirectSampler<'_> {
         }
     }
 
-    /// `add` for light that crossed `haze_m` metres of the scene's medium.
-    #[cold]
-    #[inline(never)]
-    fn add_through_haze(
-        &self,
-        em: &crate::scene::emitter::Emitter,
-        k: f64,
-        haze_m: f64,
-        path: Option<(&Colour, &[f64])>,
-        s: &mut [f64],
-    ) {
-        let sigma = self.haze().map_or(&[][..], |(_, s)| s);
-        for (b, (s, c)) in s.iter_mut().zip(&em.colour).enumerate() {
-            let tr = sigma.get(b).map_or(1.0, |x| (-x * haze_m).exp());
-            let p = path.map_or(1.0, |(t, r)| t.values()[b] * r[b]);
-            *s += k * c * tr * p;
-        }
-    }
-
-    /// The scene's medium and its extinction per band (1/m), when there is one.
+    /// The scene medium's transmittance on the segment from `x` along unit `dir` over `t`
+    /// scene units (infinite: out of the scene); clear without one.
     #[inline]
-    fn haze(&self) -> Option<(crate::scene::Haze, &[f64])> {
-        let h = self.scene.haze?;
-        Some((h, self.materials[h.material as usize].extinction()?))
-    }
-
-    /// The metres of the scene's medium on the segment from `x` along unit `dir` over `t`
-    /// scene units (infinite: out of the scene); 0 without one.
-    #[inline]
-    fn haze_m(&self, x: DVec3, dir: DVec3, t: f64) -> f64 {
-        match self.scene.haze {
-            None => 0.0,
-            Some(h) => {
-                let (t0, t1) = h.span(x, dir, t);
-                (t1 - t0) * self.unit_m
-            }
-        }
+    fn haze_tr(&self, x: DVec3, dir: DVec3, t: f64) -> Transmittance<'_> {
+        self.scene.haze.as_ref().map_or(Transmittance::CLEAR, |h| {
+            h.transmittance(x, dir, t, self.unit_m)
+        })
     }
 
     /// The indirect light at a sample's point `at`, added to `sums` (W/m² per group): a
@@ -824,11 +795,8 @@ impl DirectSampler<'_> {
             let Some(hit) = self.accel.intersect(org, dir) else {
                 return;
             };
-            if let Some((_, sigma)) = self.haze() {
-                // Through the scene's medium, unscattered (light scattered in it is the
-                // photons').
-                t.attenuate(sigma, self.haze_m(org, dir, hit.t));
-            }
+            // Through the scene's medium, unscattered (light scattered in it is the photons').
+            t.attenuate(self.haze_tr(org, dir, hit.t));
             let mesh = &scene.meshes[hit.mesh as usize];
             let prim = hit.prim as usize;
             let material =
@@ -863,10 +831,10 @@ impl DirectSampler<'_> {
                     };
                     let u = d.next();
                     let v = [d.next(), d.next(), d.next()];
-                    if let Some((e, gl, from, haze)) = self.sample_light(&y, u, v) {
+                    if let Some((e, gl, from, tr)) = self.sample_light(&y, u, v) {
                         g.eval(frame.to_local(from), to_x, 0, front, w);
                         w.iter_mut().for_each(|x| *x *= PI);
-                        self.add(e, (gl, haze), Some((t, w)), sums, nb);
+                        self.add(e, (gl, tr), Some((t, w)), sums, nb);
                     }
                 }
                 let u = [d.next(), d.next(), d.next()];
@@ -908,8 +876,8 @@ impl DirectSampler<'_> {
                 };
                 let u = d.next();
                 let w = [d.next(), d.next(), d.next()];
-                if let Some((e, g, _, haze)) = self.sample_light(&y, u, w) {
-                    self.add(e, (g, haze), Some((t, bsdf.albedo(lobe))), sums, nb);
+                if let Some((e, g, _, tr)) = self.sample_light(&y, u, w) {
+                    self.add(e, (g, tr), Some((t, bsdf.albedo(lobe))), sums, nb);
                 }
             }
             // Go on as a photon would.
@@ -965,10 +933,15 @@ impl DirectSampler<'_> {
 
     /// One light sample at `at`: the emitter, its irradiance at x per unit of its colour
     /// (W/m² before `add`'s conversion), MIS-weighted against photons unless `at.l` is
-    /// infinite, the direction it arrives from, and the metres of the scene's medium its
-    /// light crossed (0 without one). The MIS weights leave the medium out on both sides
-    /// (the photons' `deposit` too): they stay a partition of unity.
-    fn sample_light(&self, at: &Point, u: f64, w: [f64; 3]) -> Option<(usize, f64, DVec3, f64)> {
+    /// infinite, the direction it arrives from, and the scene medium's transmittance on its
+    /// way (clear without one). The MIS weights leave the medium out on both sides (the
+    /// photons' `deposit` too): they stay a partition of unity.
+    fn sample_light(
+        &self,
+        at: &Point,
+        u: f64,
+        w: [f64; 3],
+    ) -> Option<(usize, f64, DVec3, Transmittance<'_>)> {
         let scene = self.scene;
         let (x, n) = (at.x, at.n);
         let e = scene.emitter_table.sample(u);
@@ -987,8 +960,8 @@ impl DirectSampler<'_> {
                 }
                 let (_, r) = self.visible(x, foot)?;
                 let mis = power(at.l, self.photon_density(e, axis, t * t, cos_x, 1.0));
-                let haze = self.haze_m(x, -axis, r);
-                Some((e, mis * cos_x / area, -axis, haze))
+                let tr = self.haze_tr(x, -axis, r);
+                Some((e, mis * cos_x / area, -axis, tr))
             }
             LightSample::Direction {
                 toward,
@@ -1007,7 +980,7 @@ impl DirectSampler<'_> {
                 let mis = power(at.l, self.photon_density(e, -toward, 1.0, cos_x, 1.0));
                 // L cos / q per watt of the source (L = f / norm per watt).
                 let g = f * cos_x / (q * norm);
-                Some((e, mis * g, toward, self.haze_m(x, toward, f64::INFINITY)))
+                Some((e, mis * g, toward, self.haze_tr(x, toward, f64::INFINITY)))
             }
             LightSample::Point(y) => {
                 let (dir, r) = self.visible(x, y)?;
@@ -1018,7 +991,7 @@ impl DirectSampler<'_> {
                 let r2 = (at.on - y).length_squared();
                 let mis = power(at.l, self.photon_density(e, -dir, r2, cos_x, 1.0));
                 let g = em.intensity_per_watt(-dir) * cos_x / (r * r);
-                Some((e, mis * g, dir, self.haze_m(x, dir, r)))
+                Some((e, mis * g, dir, self.haze_tr(x, dir, r)))
             }
             LightSample::Area { point: y, normal } => {
                 let two_sided = em.two_sided();
@@ -1035,9 +1008,26 @@ impl DirectSampler<'_> {
                 let r2 = (at.on - y).length_squared();
                 let mis = power(at.l, self.photon_density(e, -dir, r2, cos_x, cos_y));
                 let g = mis * cos_x * cos_y / (PI * sides * r * r);
-                Some((e, g, dir, self.haze_m(x, dir, r)))
+                Some((e, g, dir, self.haze_tr(x, dir, r)))
             }
         }
+    }
+}
+
+/// `DirectSampler::add` for light of colour `colour` (`k` W/m² per unit of it) that
+/// crossed the scene's medium with transmittance `tr`.
+#[cold]
+#[inline(never)]
+fn add_through_haze(
+    colour: &[f64],
+    k: f64,
+    tr: Transmittance,
+    path: Option<(&Colour, &[f64])>,
+    s: &mut [f64],
+) {
+    for (b, (s, c)) in s.iter_mut().zip(colour).enumerate() {
+        let p = path.map_or(1.0, |(t, r)| t.values()[b] * r[b]);
+        *s += k * c * tr.at(b) * p;
     }
 }
 

@@ -14,7 +14,7 @@ use crate::accel::Accel;
 use crate::sampling::PhotonRng;
 use crate::scene::bsdf::{reflect, refract, Lobe};
 use crate::scene::material::Polarisation;
-use crate::scene::medium::Flight;
+use crate::scene::medium::{Flight, Transmittance};
 use crate::scene::{Material, PreparedScene};
 use glam::DVec3;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -444,7 +444,7 @@ impl<'a> Tracer<'a> {
         let d = self.materials[m.material as usize].dielectric.as_ref();
         // The scene's medium: the part of the segment inside its ball (all of it but for
         // a distant light's photon still on its way in, or one leaving the scene).
-        let (t0, t) = match self.scene.haze.filter(|_| m.mesh == SCENE_MEDIUM) {
+        let (t0, t) = match self.scene.haze.as_ref().filter(|_| m.mesh == SCENE_MEDIUM) {
             Some(h) => {
                 let (t0, t1) = h.span(org, dir, t.unwrap_or(f64::INFINITY));
                 (t0, Some(t1 - t0))
@@ -479,13 +479,6 @@ impl<'a> Tracer<'a> {
 }
 
 impl Tracer<'_> {
-    /// The extinction coefficient σt per band (1/m) of medium `m`: its scattering
-    /// medium's, or its absorption; None for a clear dielectric.
-    #[inline]
-    fn extinction(&self, m: Medium) -> Option<&[f64]> {
-        self.materials[m.material as usize].extinction()
-    }
-
     /// Whether a bounce is weighed (the photon goes on with what the surface sends on, and
     /// what it keeps is tallied as absorbed): with light sampling, while the photon keeps
     /// at least `WEIGHTED_BOUNCES_DOWN_TO` of its energy; otherwise Russian roulette.
@@ -682,7 +675,7 @@ impl Tracer<'_> {
             return PathEnd::Escaped;
         };
         // Outside every mesh: air, or the scene's medium.
-        let outside = self.scene.haze.map(|h| Medium {
+        let outside = self.scene.haze.as_ref().map(|h| Medium {
             mesh: SCENE_MEDIUM,
             material: h.material,
         });
@@ -725,7 +718,7 @@ impl Tracer<'_> {
             // crossing, whatever the free flight below draws (its draw could not tell
             // the crossings before its end from those after).
             let attenuating = match (self.sensors, medium) {
-                (Some(_), Some(m)) => self.extinction(m),
+                (Some(_), Some(m)) => self.materials[m.material as usize].extinction(),
                 _ => None,
             };
             if attenuating.is_some() {
@@ -775,6 +768,7 @@ impl Tracer<'_> {
                     (Some(_), Some(m)) if m.mesh == SCENE_MEDIUM => self
                         .scene
                         .haze
+                        .as_ref()
                         .map_or((0.0, 0.0), |h| h.span(org, dir, f64::INFINITY)),
                     _ => (0.0, f64::INFINITY),
                 };
@@ -789,7 +783,8 @@ impl Tracer<'_> {
                         match (attenuating, before.as_deref_mut()) {
                             (Some(sigma), Some((from, read))) => {
                                 let inside = c.t.clamp(span.0, span.1) - span.0;
-                                read.transmitted(from, sigma, inside * unit_m);
+                                let d_m = inside * unit_m;
+                                read.transmitted(from, Transmittance { sigma, d_m });
                                 deposit(sink, weigh, at, (c.u, c.v), dir, read);
                             }
                             _ => deposit(sink, weigh, at, (c.u, c.v), dir, colour),
