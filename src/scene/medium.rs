@@ -48,36 +48,6 @@ impl std::fmt::Debug for Scattering {
     }
 }
 
-/// A medium's transmittance per band over a path: e^(−σ_b d) for extinction `sigma` per
-/// band (1/m) over `d_m` metres. `CLEAR`: 1 in every band (no medium on the path).
-#[derive(Clone, Copy, Debug)]
-pub struct Transmittance<'s> {
-    pub sigma: &'s [f64],
-    pub d_m: f64,
-}
-
-impl Transmittance<'_> {
-    pub const CLEAR: Transmittance<'static> = Transmittance {
-        sigma: &[],
-        d_m: 0.0,
-    };
-
-    /// Whether it is 1 in every band.
-    #[inline]
-    pub fn is_clear(&self) -> bool {
-        self.sigma.is_empty() || self.d_m <= 0.0
-    }
-
-    /// Band `band`'s transmittance.
-    #[inline]
-    pub fn at(&self, band: usize) -> f64 {
-        match self.sigma.get(band) {
-            Some(&s) if s != 0.0 && self.d_m > 0.0 => (-s * self.d_m).exp(),
-            _ => 1.0,
-        }
-    }
-}
-
 /// The dielectric meshes a path is inside, innermost last, each with its material: media
 /// nest (a glass ball in a fog box, a bubble in a light guide). Crossing a mesh's surface
 /// from its front enters it; from its back leaves it, whichever mesh was innermost (a path

@@ -58,9 +58,9 @@ impl Haze {
         dir: DVec3,
         t_max: f64,
         unit_m: f64,
-    ) -> super::medium::Transmittance<'_> {
+    ) -> crate::spectral::Transmittance<'_> {
         let (t0, t1) = self.span(org, dir, t_max);
-        super::medium::Transmittance {
+        crate::spectral::Transmittance {
             sigma: &self.sigma,
             d_m: (t1 - t0) * unit_m,
         }

@@ -5,4 +5,4 @@ mod bands;
 mod colour;
 
 pub use bands::Bands;
-pub use colour::{collapse_weights, pick_band, Colour};
+pub use colour::{collapse_weights, pick_band, Colour, Transmittance};

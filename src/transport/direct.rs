@@ -44,8 +44,8 @@ use super::{Colour, WEIGHTED_BOUNCES_DOWN_TO};
 use crate::accel::Accel;
 use crate::sampling::{warp, PhotonRng};
 use crate::scene::bsdf::Lobe;
-use crate::scene::medium::Transmittance;
 use crate::scene::{LightSample, Material, PreparedScene, Receiver};
+use crate::spectral::Transmittance;
 use glam::DVec3;
 use std::f64::consts::PI;
 

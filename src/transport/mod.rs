@@ -14,8 +14,9 @@ use crate::accel::Accel;
 use crate::sampling::PhotonRng;
 use crate::scene::bsdf::{reflect, refract, Lobe};
 use crate::scene::material::Polarisation;
-use crate::scene::medium::{Flight, Transmittance};
+use crate::scene::medium::Flight;
 use crate::scene::{Material, PreparedScene};
+use crate::spectral::Transmittance;
 use glam::DVec3;
 use std::sync::atomic::{AtomicBool, Ordering};
 
