@@ -20,7 +20,9 @@
 //!   `transmit`, `emission`, `ior`, `sellmeier`, `absorption_per_m`, `scattering_per_m`,
 //!   `phase_g` or `phase_table` (rows of [angle in degrees, value] from 0 to 180: a
 //!   dielectric's scattering medium), `fluorescence = { excitation, quantum_yield,
-//!   emission }` (spectral runs), `dielectric = true/false` to make or
+//!   emission }` (spectral runs: a Lambertian surface's, or an absorbing dielectric's
+//!   medium's, `excitation` then the share of its absorption that fluoresces),
+//!   `dielectric = true/false` to make or
 //!   unmake glass, and `kind = "ideal" | "conductor" | "plastic" |
 //!   "rough-dielectric"` with `roughness` (α, or [α along the tangent, α across]),
 //!   `tangent`, a conductor's `metal` ("aluminium", "silver", "gold", "copper",

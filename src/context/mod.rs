@@ -770,6 +770,12 @@ impl Context {
                     "material = {id} holds no medium: the scene's medium is a dielectric of index 1 with absorption_per_m or scattering_per_m"
                 );
             };
+            if m.fluoresces() {
+                bail!(
+                    ImapErrUnsupported,
+                    "material = {id} fluoresces: a fluorescent medium must be inside a mesh; the scene's medium does not re-emit (the renderers' light samples in it would miss the re-emitted light)"
+                );
+            }
             if m.glossy.is_some() || d.ior.iter().any(|&n| n != 1.0) {
                 bail!(
                     ImapErrInvalidArgument,
@@ -1058,7 +1064,7 @@ impl Context {
                 return Err(Error::new(
                     ImapStatus::ImapErrUnsupported,
                     format!(
-                        "light {l} at ({}, {}, {}) lies inside mesh {m}, whose material scatters (scattering_per_m): lights inside a scattering medium are not followed yet (their photons would start outside it, and the medium would neither scatter nor absorb them); move the light out of the mesh",
+                        "light {l} at ({}, {}, {}) lies inside mesh {m}, whose material scatters (scattering_per_m) or fluoresces: lights inside a scattering medium are not followed yet (their photons would start outside it, and the medium would neither scatter nor absorb them); move the light out of the mesh",
                         p[0], p[1], p[2]
                     ),
                 )

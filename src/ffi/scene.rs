@@ -595,10 +595,16 @@ pub struct ImapMaterial {
     /// Only toward longer wavelengths; per band, the diffuse reflectance plus the shares
     /// re-emitted from it at most 1. From an excitation spectrum a_i (the absorbed share
     /// that fluoresces), a quantum yield Φ and an emission spectrum in photons e_j (sum 1):
-    /// m_ij = a_i Φ e_j λ_i / λ_j. Not with specular reflectance, transmittance, an index
-    /// or a texture (IMAP_ERR_BAD_MATERIAL / IMAP_ERR_UNSUPPORTED naming the field). Every
-    /// estimator and renderer carries it; the run's balance gains
-    /// IMAP_BALANCE_FLUORESCED. (Since 0.2.3.)
+    /// m_ij = a_i Φ e_j λ_i / λ_j. Not with specular reflectance, transmittance or a
+    /// texture, nor on microfacet, measured or host surfaces (IMAP_ERR_BAD_MATERIAL /
+    /// IMAP_ERR_UNSUPPORTED naming the field). On a dielectric (smooth or rough) with
+    /// `absorption_per_m` it is its medium's: of the power the medium
+    /// absorbs in band i, the share re-emitted isotropically in band j, each row's sum at
+    /// most 1 (a_i is then the share of the absorption that excites the fluorophore); a
+    /// medium without absorption is refused, and so is a fluorescent scene medium
+    /// (`imap_set_scene_medium`: IMAP_ERR_UNSUPPORTED). What a medium re-emits counts in
+    /// what it absorbed (`imap_get_medium_absorbed`). Every estimator and renderer carries
+    /// it; the run's balance gains IMAP_BALANCE_FLUORESCED. (Since 0.2.3.)
     pub fluorescence: *const f64,
     pub fluorescence_count: usize,
 }

@@ -14,7 +14,7 @@ use crate::scene::bsdf::{reflect, refract};
 use crate::scene::bsdf::{Bsdf, Lobe};
 use crate::scene::light::DistantPart;
 use crate::scene::material::fresnel_dielectric;
-use crate::scene::medium::{Flight, MediumStack};
+use crate::scene::medium::{Flight, MediumStack, Way};
 use crate::scene::texture::TintScratch;
 use crate::scene::{LightSample, Material, PreparedScene, Receiver, Scene};
 use crate::spectral::{collapse_weights, pick_band, Transmittance as Tr};
@@ -216,7 +216,7 @@ impl<'a> EyeTracer<'a> {
             map: None,
             sun_by_caustics: false,
             white: vec![1.0; source.bands.count()],
-            fluorescent: source.materials.iter().any(|m| m.fluorescence.is_some()),
+            fluorescent: source.materials.iter().any(Material::fluoresces),
         }
     }
 
@@ -266,6 +266,12 @@ impl<'a> EyeTracer<'a> {
             // A ray that passes the whole scene by sees the sky.
             Err(dir) => return self.add_sky(dir, beta, &mut buf.direct[d0..]),
         };
+        // The pixel's bands, until a fluorescent medium or surface picks one for the path.
+        let mut out = PathOut {
+            out: &mut buf.direct[d0..d0 + nb],
+            arriving: Vec::new(),
+            band: None,
+        };
         let mut band: Option<usize> = None;
         let mut path_len = (org - self.camera.origin).length();
         let mut medium: Option<u32> = None;
@@ -288,7 +294,7 @@ impl<'a> EyeTracer<'a> {
             let hit = self.accel.intersect(org, dir);
             let t = hit.map_or(f64::INFINITY, |h| h.t);
             let path = ((&mut dir, &mut org), beta.as_mut_slice());
-            match self.through_medium(medium, t, path, rng, (&mut buf.direct[d0..], stats)) {
+            match self.through_medium(medium, t, path, rng, (out.to(), stats)) {
                 Flight::Surface => {}
                 Flight::Absorbed => return,
                 Flight::Scatter(t) => {
@@ -297,19 +303,25 @@ impl<'a> EyeTracer<'a> {
                     after_haze = medium.is_none();
                     continue;
                 }
+                Flight::Fluoresce(t, _) => {
+                    self.re_emit(medium, beta, (&mut band, &mut out), rng);
+                    path_len += t;
+                    glossy_pdf = None;
+                    after_haze = false;
+                    continue;
+                }
             }
             let Some(hit) = hit else {
                 // The sky (and the sun) seen directly or through specular surfaces (the sun
                 // straight after a scattering in the scene's medium is its light sample's).
-                let out = &mut buf.direct[d0..];
-                self.add_distant_weighted(dir, beta, out, after_haze, glossy_pdf);
+                self.add_distant_weighted(dir, beta, out.to(), after_haze, glossy_pdf);
                 return;
             };
             after_haze = false;
             path_len += hit.t;
             let at = self.surface(&hit, dir);
             // Emission seen directly or through specular surfaces.
-            self.add_emission_weighted(&hit, at.ng, dir, beta, &mut buf.direct[d0..], glossy_pdf);
+            self.add_emission_weighted(&hit, at.ng, dir, beta, out.to(), glossy_pdf);
             glossy_pdf = None;
             let (p_hit, n_in, eps) = (at.p, at.n_in, at.eps);
             let bsdf = self.bsdf_at(&hit, &mut tint);
@@ -329,10 +341,9 @@ impl<'a> EyeTracer<'a> {
             ) {
                 Step::Specular => continue,
                 Step::Glossy => {
-                    let out = &mut buf.direct[d0..d0 + nb];
                     let step = (&mut dir, &mut org, beta.as_mut_slice());
-                    match self.glossy_step((&at, bsdf), step, &mut glossy_scratch, rng, out, stats)
-                    {
+                    let to = out.to();
+                    match self.glossy_step((&at, bsdf), step, &mut glossy_scratch, rng, to, stats) {
                         Some(pdf) => {
                             glossy_pdf = Some(pdf);
                             continue;
@@ -343,12 +354,12 @@ impl<'a> EyeTracer<'a> {
                 Step::End => return,
                 Step::Diffuse(pd) => pd,
             };
-            let mut out_band = None;
             let Some(rho) =
-                self.through_fluorescent((bsdf, rho), beta, (&mut band, &mut out_band), rng)
+                self.through_fluorescent((bsdf, rho), beta, (&mut band, &mut out.band), rng)
             else {
                 return;
             };
+            let out_band = out.band;
             // The first diffuse vertex: direct light here, and a backward photon.
             let p0 = buf.w_reflect.len();
             buf.w_reflect
@@ -359,14 +370,13 @@ impl<'a> EyeTracer<'a> {
             }
             let wt = self.transmit.then(|| &buf.w_transmit[p0..p0 + nb]);
             let wr = &buf.w_reflect[p0..p0 + nb];
-            let direct = &mut buf.direct[d0..d0 + nb];
             match out_band {
-                None => self.direct_light(p_hit, n_in, eps, wr, wt, rng, direct, stats),
-                // On a fluorescent surface: each band of the arriving light counts into
-                // the pixel band the path picked.
+                None => self.direct_light(p_hit, n_in, eps, wr, wt, rng, out.out, stats),
+                // After a fluorescent surface or medium: each band of the arriving light
+                // counts into the pixel band the path picked.
                 Some(j) => {
                     let at = (p_hit, n_in, eps);
-                    direct[j] += self.direct_arriving(at, (wr, wt), rng, stats);
+                    out.out[j] += self.direct_arriving(at, (wr, wt), rng, stats);
                 }
             }
             if self.fluorescent {
@@ -455,6 +465,15 @@ impl<'a> EyeTracer<'a> {
             match self.through_medium(medium, t, path, rng, (out.to(), stats)) {
                 Flight::Surface => {}
                 Flight::Absorbed => return,
+                Flight::Fluoresce(..) => {
+                    // Re-emitted light: as after a scattering (there is no haze to
+                    // fluoresce, so no light sample took the lights no path meets).
+                    self.re_emit(medium, beta, (&mut band, &mut out), rng);
+                    counts = true;
+                    glossy_pdf = None;
+                    after_haze = false;
+                    continue;
+                }
                 Flight::Scatter(_) => {
                     // Light met after a scattering event is found by this path alone (a
                     // light sample cannot cross the dielectric's surface), but for the
@@ -1133,7 +1152,14 @@ impl<'a> EyeTracer<'a> {
         };
         if let Some(sc) = &d.scattering {
             let u = [rng.uniform(), rng.uniform(), rng.uniform()];
-            let flight = sc.flight(beta, t * self.unit_m, u);
+            let flight = sc.flight(beta, t * self.unit_m, u, Way::Importance);
+            if let Flight::Fluoresce(t_m, k) = flight {
+                // (Only a mesh's medium fluoresces: the scene's may not.)
+                let t = t0 + t_m / self.unit_m;
+                *org += *dir * t;
+                *dir = crate::sampling::warp::uniform_sphere(rng.uniform(), rng.uniform());
+                return Flight::Fluoresce(t, k);
+            }
             if let Flight::Scatter(t_m) = flight {
                 let t = t0 + t_m / self.unit_m;
                 *org += *dir * t;
@@ -1287,6 +1313,30 @@ impl<'a> EyeTracer<'a> {
             return Some(rho);
         };
         self.take_through(fl, rho, beta, (band, out_band), rng)
+    }
+
+    /// At a re-emission in the fluorescent medium of material `medium` (`Flight::Fluoresce`):
+    /// the path's weights toward the light arriving there, its pixel band picked if it had
+    /// none (`Scattering::emit_importance`). A path collapsed to one band by dispersion
+    /// spreads again.
+    #[cold]
+    #[inline(never)]
+    fn re_emit(
+        &self,
+        medium: Option<u32>,
+        beta: &mut [f64],
+        (band, out): (&mut Option<usize>, &mut PathOut<'_>),
+        rng: &mut PhotonRng,
+    ) {
+        let sc = medium
+            .and_then(|m| self.materials[m as usize].dielectric.as_ref())
+            .and_then(|d| d.scattering.as_ref())
+            .expect("a fluorescent medium re-emits");
+        *band = None;
+        sc.emit_importance(beta, &mut out.band, rng.uniform());
+        if out.band.is_some() && out.arriving.is_empty() {
+            out.arriving.resize(beta.len(), 0.0);
+        }
     }
 
     /// `through_fluorescent` at a fluorescent surface `fl` (out of line: most scenes have

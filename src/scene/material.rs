@@ -255,6 +255,17 @@ impl Material {
     }
 
     /// Whether it is a dielectric whose inside absorbs or scatters: a medium.
+    /// Whether the material fluoresces: a fluorescent surface, or a dielectric whose
+    /// medium re-emits what it absorbs.
+    pub fn fluoresces(&self) -> bool {
+        self.fluorescence.is_some()
+            || self
+                .dielectric
+                .as_ref()
+                .and_then(|d| d.scattering.as_ref())
+                .is_some_and(|s| s.fluorescence.is_some())
+    }
+
     pub fn holds_medium(&self) -> bool {
         self.dielectric
             .as_ref()
@@ -293,7 +304,9 @@ pub struct MaterialDesc {
     /// Fluorescence of a Lambertian surface (spectral runs only): bands × bands shares,
     /// row i the excitation band, column j the emission band, of the power arriving in
     /// band i that the surface re-emits diffusely in band j (0 unless band j's wavelength
-    /// is longer). Empty: none.
+    /// is longer). For a dielectric with `absorption_per_m` (smooth or rough): of the power
+    /// its medium absorbs in band i, the share it re-emits isotropically in band j (each
+    /// row's sum at most 1). Empty: none.
     pub fluorescence: Vec<f64>,
     /// The kind of surface.
     pub surface: SurfaceModel,
@@ -354,6 +367,17 @@ impl Material {
                 "scattering_per_m, phase_g or a phase table is given but the material is not a dielectric (smooth or rough, with an index of refraction): a medium is the inside of a dielectric"
             );
         }
+        if !desc.fluorescence.is_empty()
+            && !matches!(
+                desc.surface,
+                SurfaceModel::Ideal | SurfaceModel::RoughDielectric
+            )
+        {
+            bail!(
+                ImapErrBadMaterial,
+                "fluorescence is given but the surface is neither a Lambertian reflector nor a dielectric (whose medium would fluoresce)"
+            );
+        }
         let lobes = Self::tint_lobes(desc)?;
         if desc.surface != SurfaceModel::Ideal {
             let mut m = Self::microfacet(desc, bands)?;
@@ -375,7 +399,7 @@ impl Material {
                 desc.roughness
             );
         }
-        if !desc.fluorescence.is_empty() {
+        if !desc.fluorescence.is_empty() && desc.ior.is_none() {
             return Self::fluorescent(desc, bands);
         }
         Self::ideal(desc, bands)
@@ -386,12 +410,6 @@ impl Material {
     /// shares ≥ 0, none toward a band of shorter or equal wavelength, and per excitation
     /// band the reflectance and the re-emitted shares at most 1.
     fn fluorescent(desc: &MaterialDesc, bands: &Bands) -> Result<Self> {
-        if bands.rgb {
-            bail!(
-                ImapErrUnsupported,
-                "fluorescence needs a spectral run: RGB bands have no wavelengths for light to shift between (configure spectral bands)"
-            );
-        }
         if desc.surface != SurfaceModel::Ideal || desc.ior.is_some() {
             bail!(
                 ImapErrBadMaterial,
@@ -409,6 +427,75 @@ impl Material {
             bail!(
                 ImapErrUnsupported,
                 "fluorescence with a texture is not supported: give the fluorescent part its own material"
+            );
+        }
+        let m = Self::fluorescence_matrix(desc, bands)?;
+        let nb = bands.count();
+        let nm = &bands.wavelengths_nm;
+        let mut mat = Self::ideal(desc, bands)?;
+        for i in 0..nb {
+            let total = mat.diffuse_reflect[i] + m[i * nb..(i + 1) * nb].iter().sum::<f64>();
+            if total > 1.0 + 1e-12 {
+                bail!(
+                    ImapErrBadMaterial,
+                    "band {i} ({} nm): the diffuse reflectance {} and the shares re-emitted from it (fluorescence[{}..{}]) add up to {total}, above 1",
+                    nm[i],
+                    mat.diffuse_reflect[i],
+                    i * nb,
+                    (i + 1) * nb
+                );
+            }
+        }
+        // Diffuse even where ρ is 0 everywhere: the surface sends light on.
+        mat.events[0] = true;
+        mat.fluorescence = Some(std::sync::Arc::new(Fluorescence {
+            bands: nb,
+            m: m.to_vec(),
+        }));
+        Ok(mat)
+    }
+
+    /// A fluorescent medium's re-emission (a dielectric with absorption), checked as a
+    /// surface's matrix (`fluorescence_matrix`), and per excitation band the shares
+    /// re-emitted of what the medium absorbs at most 1.
+    fn medium_fluorescence(
+        desc: &MaterialDesc,
+        bands: &Bands,
+        absorption: Option<&[f64]>,
+    ) -> Result<Fluorescence> {
+        let m = Self::fluorescence_matrix(desc, bands)?;
+        if absorption.is_none() {
+            bail!(
+                ImapErrBadMaterial,
+                "fluorescence is given to a dielectric whose medium absorbs nothing (absorption is 0 in every band): a medium re-emits what it absorbs"
+            );
+        }
+        let nb = bands.count();
+        for i in 0..nb {
+            let total = m[i * nb..(i + 1) * nb].iter().sum::<f64>();
+            if total > 1.0 + 1e-12 {
+                bail!(
+                    ImapErrBadMaterial,
+                    "band {i} ({} nm): the shares of what the medium absorbs that it re-emits (fluorescence[{}..{}]) add up to {total}, above 1",
+                    bands.wavelengths_nm[i],
+                    i * nb,
+                    (i + 1) * nb
+                );
+            }
+        }
+        Ok(Fluorescence {
+            bands: nb,
+            m: m.to_vec(),
+        })
+    }
+
+    /// A fluorescence matrix, checked: a spectral run, bands × bands finite shares ≥ 0,
+    /// none toward a band of shorter or equal wavelength.
+    fn fluorescence_matrix<'d>(desc: &'d MaterialDesc, bands: &Bands) -> Result<&'d [f64]> {
+        if bands.rgb {
+            bail!(
+                ImapErrUnsupported,
+                "fluorescence needs a spectral run: RGB bands have no wavelengths for light to shift between (configure spectral bands)"
             );
         }
         let nb = bands.count();
@@ -442,27 +529,7 @@ impl Material {
                 );
             }
         }
-        let mut mat = Self::ideal(desc, bands)?;
-        for i in 0..nb {
-            let total = mat.diffuse_reflect[i] + m[i * nb..(i + 1) * nb].iter().sum::<f64>();
-            if total > 1.0 + 1e-12 {
-                bail!(
-                    ImapErrBadMaterial,
-                    "band {i} ({} nm): the diffuse reflectance {} and the shares re-emitted from it (fluorescence[{}..{}]) add up to {total}, above 1",
-                    nm[i],
-                    mat.diffuse_reflect[i],
-                    i * nb,
-                    (i + 1) * nb
-                );
-            }
-        }
-        // Diffuse even where ρ is 0 everywhere: the surface sends light on.
-        mat.events[0] = true;
-        mat.fluorescence = Some(std::sync::Arc::new(Fluorescence {
-            bands: nb,
-            m: m.clone(),
-        }));
-        Ok(mat)
+        Ok(m)
     }
 
     /// A dielectric's scattering: σs per band (finite, ≥ 0; all 0 or none: `None`) and g
@@ -473,6 +540,7 @@ impl Material {
         absorption: Option<&[f64]>,
     ) -> Result<Option<crate::scene::medium::Scattering>> {
         let table = !desc.phase_angles_deg.is_empty() || !desc.phase_values.is_empty();
+        let fluorescent = !desc.fluorescence.is_empty();
         if desc.scattering_per_m.is_empty() {
             if !desc.phase_g.is_empty() || table {
                 bail!(
@@ -485,7 +553,9 @@ impl Material {
                     }
                 );
             }
-            return Ok(None);
+            if !fluorescent {
+                return Ok(None);
+            }
         }
         let table = if table {
             if !desc.phase_g.is_empty() {
@@ -498,7 +568,12 @@ impl Material {
         } else {
             None
         };
-        let s = bands.expand("scattering_per_m", &desc.scattering_per_m)?;
+        let s = if desc.scattering_per_m.is_empty() {
+            // A fluorescent medium that only absorbs: its collisions re-emit.
+            vec![0.0; bands.count()]
+        } else {
+            bands.expand("scattering_per_m", &desc.scattering_per_m)?
+        };
         if let Some(i) = s.iter().position(|x| !(x.is_finite() && *x >= 0.0)) {
             bail!(
                 ImapErrBadMaterial,
@@ -518,11 +593,15 @@ impl Material {
                 g[i]
             );
         }
-        if s.iter().all(|&x| x == 0.0) {
+        if s.iter().all(|&x| x == 0.0) && !fluorescent {
             return Ok(None);
         }
         let mut sc = crate::scene::medium::Scattering::new(s, absorption, g);
         sc.table = table;
+        if fluorescent {
+            let fl = Self::medium_fluorescence(desc, bands, absorption)?;
+            sc.fluorescence = Some(std::sync::Arc::new(fl));
+        }
         Ok(Some(sc))
     }
 
@@ -884,6 +963,7 @@ impl Material {
                         phase_g: desc.phase_g.clone(),
                         phase_angles_deg: desc.phase_angles_deg.clone(),
                         phase_values: desc.phase_values.clone(),
+                        fluorescence: desc.fluorescence.clone(),
                         ..Default::default()
                     },
                     bands,

@@ -11,10 +11,18 @@
 //! re-weighted by the bands' albedos over it; otherwise the path is absorbed there. A
 //! grey medium takes exactly the one-band free flight and weights of 1; with no
 //! scattering it is Beer–Lambert absorption.
+//!
+//! A fluorescent medium (spectral runs) re-emits, isotropically, the share m_ij of what it
+//! absorbs in band i in band j (`Fluorescence`, the matrix a fluorescent surface has). A
+//! collision there is a scattering, a re-emission or an absorption, chosen by the path's
+//! weights toward each (`Way`: a photon's power, or an eye path's importance, for which
+//! the matrix is read backward), and the weights are divided by the chance of the choice.
 
+use crate::scene::material::Fluorescence;
 use crate::spectral::pick_band;
 use glam::DVec3;
 use std::f64::consts::PI;
+use std::sync::Arc;
 
 /// The scattering part of a dielectric's medium (its absorption is the dielectric's
 /// `absorption_per_m`).
@@ -30,6 +38,9 @@ pub struct Scattering {
     pub one_g: bool,
     /// A tabulated phase function for all bands, in place of Henyey–Greenstein's.
     pub table: Option<std::sync::Arc<PhaseTable>>,
+    /// What the medium re-emits of what it absorbs (spectral runs): of band i's absorbed
+    /// power, the share m_ij in band j, isotropically.
+    pub fluorescence: Option<Arc<Fluorescence>>,
 }
 
 /// As derived, but `table` only when present: the state fingerprint hashes this text, and
@@ -43,6 +54,9 @@ impl std::fmt::Debug for Scattering {
             .field("one_g", &self.one_g);
         if let Some(t) = &self.table {
             d.field("table", t);
+        }
+        if let Some(f) = &self.fluorescence {
+            d.field("fluorescence", f);
         }
         d.finish()
     }
@@ -87,8 +101,23 @@ pub enum Flight {
     Surface,
     /// It scatters `t_m` metres along its direction (colour re-weighted).
     Scatter(f64),
+    /// A fluorescent medium re-emits what it absorbs `t_m` metres along (the first field),
+    /// isotropically; the second is one over the chance of that choice. The colour is the
+    /// colliding colour still: `emit_light` or `emit_importance` turns it into the
+    /// re-emitted one.
+    Fluoresce(f64, f64),
     /// It is absorbed in the medium.
     Absorbed,
+}
+
+/// Which way a path carries its weights, for a fluorescent medium's choice at a collision.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Way {
+    /// A photon: its weights are power per band (it re-emits mᵀ((1 − albedo)∘c)).
+    Light,
+    /// An eye path: its weights are importance per band of the light it reads (light of
+    /// band i re-emitted here reaches it with Σ_b β_b σa_i m_ib / σt_b).
+    Importance,
 }
 
 impl Scattering {
@@ -111,13 +140,17 @@ impl Scattering {
             g,
             one_g,
             table: None,
+            fluorescence: None,
         }
     }
 
     /// A free flight toward a surface `dist_m` metres away (infinite: none) for a path of
     /// per-band weights `c`, with uniform numbers `u`: the band whose exponential draws the
     /// distance, the distance, and the scattering-or-absorption choice.
-    pub fn flight(&self, c: &mut [f64], dist_m: f64, u: [f64; 3]) -> Flight {
+    pub fn flight(&self, c: &mut [f64], dist_m: f64, u: [f64; 3], way: Way) -> Flight {
+        if let (Some(fl), Way::Importance) = (&self.fluorescence, way) {
+            return self.flight_importance(fl, c, dist_m, u);
+        }
         let total: f64 = c.iter().sum();
         if !(total > 0.0 && total.is_finite()) {
             return Flight::Absorbed;
@@ -147,9 +180,212 @@ impl Scattering {
         if reweigh(c, total, density).is_none() {
             return Flight::Absorbed;
         }
+        if let Some(fl) = &self.fluorescence {
+            return self.collide_fluorescent(fl, c, total, (t, u[2]));
+        }
         match reweigh(c, total, |b| self.albedo[b]) {
             Some(w) if u[2] < w => Flight::Scatter(t),
             _ => Flight::Absorbed,
+        }
+    }
+
+    /// A photon's collision at `t` metres in a fluorescent medium, its colour `c` of total
+    /// `total`: s = Σ_b c_b albedo_b goes on scattered, f = Σ_i c_i (1 − albedo_i) Σ_j m_ij
+    /// re-emitted. The photon scatters with chance s/total (its colour albedo∘c over that
+    /// chance), is re-emitted with chance f/total (`Flight::Fluoresce` with one over it),
+    /// or is absorbed: its colour keeps its total, as elsewhere.
+    #[cold]
+    #[inline(never)]
+    fn collide_fluorescent(
+        &self,
+        fl: &Fluorescence,
+        c: &mut [f64],
+        total: f64,
+        (t, u): (f64, f64),
+    ) -> Flight {
+        let nb = fl.bands;
+        let s: f64 = c.iter().zip(&self.albedo).map(|(x, a)| x * a).sum();
+        let f: f64 = c
+            .iter()
+            .enumerate()
+            .map(|(i, x)| {
+                x * (1.0 - self.albedo[i]) * fl.m[i * nb..(i + 1) * nb].iter().sum::<f64>()
+            })
+            .sum();
+        if u * total < s {
+            let k = total / s;
+            c.iter_mut()
+                .zip(&self.albedo)
+                .for_each(|(x, a)| *x *= a * k);
+            Flight::Scatter(t)
+        } else if u * total < s + f {
+            Flight::Fluoresce(t, total / f)
+        } else {
+            Flight::Absorbed
+        }
+    }
+
+    /// σa of band `b` (1/m).
+    #[inline]
+    fn sigma_a(&self, b: usize) -> f64 {
+        self.sigma_t[b] * (1.0 - self.albedo[b])
+    }
+
+    /// κ_b = Σ_a σa_a m_ab (1/m): how densely the medium re-emits into band b the light it
+    /// absorbs in other bands, per unit of their fluence over 4π.
+    fn kappa(&self, fl: &Fluorescence, b: usize) -> f64 {
+        let nb = fl.bands;
+        (0..nb).map(|a| self.sigma_a(a) * fl.m[a * nb + b]).sum()
+    }
+
+    /// An eye path's free flight through a fluorescent medium toward a surface `dist_m`
+    /// metres away, its weights `c` (importance per band), uniforms `u`.
+    ///
+    /// Light of band b reaching the path here is e^(−σt_b D) L_b(D) from the surface plus
+    /// ∫ e^(−σt_b t) (σs_b L^s_b + κ_b ψ_b) dt along the way: in-scattered light, and light
+    /// re-emitted from the other bands (ψ_b = Σ_a σa_a m_ab φ_a / (4π κ_b)). The emission
+    /// can be where band b itself is clear (σt_b = 0), so the collisions cannot be drawn
+    /// from σt alone. Per band the surface term has weight P_b = e^(−σt_b D) and the
+    /// collisions C_b = (σs_b + κ_b)(1 − e^(−σt_b D))/σt_b (κ_b D when σt_b is 0). The path
+    /// reaches the surface with chance P/(P + C), P = Σ c_b P_b, C = Σ c_b C_b, each band
+    /// then c_b P_b (P + C)/P; otherwise it collides at t drawn from the bands' truncated
+    /// exponentials mixed by c_b C_b, each band then c_b e^(−σt_b t)(σs_b + κ_b)(P + C)/M(t),
+    /// M(t) = Σ c_b (σs_b + κ_b) e^(−σt_b t), and scatters or is re-emitted by the bands'
+    /// shares σs_b : κ_b of that weight (`Flight::Fluoresce` with the weights toward ψ_b:
+    /// `emit_importance` takes them on). Unbiased per band; absorption is in the weights.
+    #[cold]
+    #[inline(never)]
+    fn flight_importance(
+        &self,
+        fl: &Fluorescence,
+        c: &mut [f64],
+        dist_m: f64,
+        u: [f64; 3],
+    ) -> Flight {
+        let nb = c.len();
+        if !dist_m.is_finite() {
+            return Flight::Surface;
+        }
+        let sigma_s = |b: usize| self.sigma_t[b] * self.albedo[b];
+        let pass = |b: usize| (-self.sigma_t[b] * dist_m).exp();
+        let collide = |b: usize| {
+            let st = self.sigma_t[b];
+            let on = sigma_s(b) + self.kappa(fl, b);
+            if st > 0.0 {
+                on * -(-st * dist_m).exp_m1() / st
+            } else {
+                on * dist_m
+            }
+        };
+        let (mut p, mut cw) = (0.0, Vec::with_capacity(nb));
+        for (b, x) in c.iter().enumerate() {
+            p += x * pass(b);
+            cw.push(if *x != 0.0 { x * collide(b) } else { 0.0 });
+        }
+        let cc: f64 = cw.iter().sum();
+        let all = p + cc;
+        if !(all > 0.0 && all.is_finite()) {
+            return Flight::Absorbed;
+        }
+        if u[0] * all < p {
+            c.iter_mut()
+                .enumerate()
+                .for_each(|(b, x)| *x *= pass(b) * all / p);
+            return Flight::Surface;
+        }
+        // The band whose truncated exponential draws the distance, by its collision weight.
+        let k = pick_band(&cw, cc, u[1]);
+        let st = self.sigma_t[k];
+        let t = if st > 0.0 {
+            // Inverse of (1 − e^(−σt t)) / (1 − e^(−σt D)) = u.
+            -(u[2] * (-st * dist_m).exp_m1()).ln_1p() / st
+        } else {
+            u[2] * dist_m
+        }
+        .clamp(0.0, dist_m);
+        let mut m = 0.0;
+        let mut s_part = 0.0;
+        for (b, x) in c.iter_mut().enumerate() {
+            let on = sigma_s(b) + self.kappa(fl, b);
+            let w = *x * on * (-self.sigma_t[b] * t).exp();
+            m += w;
+            s_part += if on > 0.0 { w * sigma_s(b) / on } else { 0.0 };
+            *x = w;
+        }
+        if !(m > 0.0 && m.is_finite()) {
+            return Flight::Absorbed;
+        }
+        // Each band's weight at the collision is x (P + C)/M; it splits by σs_b : κ_b.
+        let scale = all / m;
+        let f_part = m - s_part;
+        let t_m = t;
+        if u[0] * all < p + cc * s_part / m {
+            // Scattered: each band its σs share, over the chance s_part/m of scattering.
+            for (b, x) in c.iter_mut().enumerate() {
+                let on = sigma_s(b) + self.kappa(fl, b);
+                *x = if on > 0.0 {
+                    *x * sigma_s(b) / on * scale * m / s_part
+                } else {
+                    0.0
+                };
+            }
+            Flight::Scatter(t_m)
+        } else {
+            // Re-emitted: each band its κ share, over the chance f_part/m.
+            for (b, x) in c.iter_mut().enumerate() {
+                let on = sigma_s(b) + self.kappa(fl, b);
+                *x = if on > 0.0 {
+                    *x * self.kappa(fl, b) / on * scale * m / f_part
+                } else {
+                    0.0
+                };
+            }
+            Flight::Fluoresce(t_m, 1.0)
+        }
+    }
+
+    /// A photon's colour `c` at a re-emission (`Flight::Fluoresce` with `k`): what the
+    /// medium re-emits of it, k mᵀ((1 − albedo)∘c), into `scratch` and back into `c`.
+    pub fn emit_light(&self, c: &mut [f64], k: f64, scratch: &mut Vec<f64>) {
+        let fl = self.fluorescence.as_ref().expect("a fluorescent medium");
+        let nb = fl.bands;
+        scratch.clear();
+        scratch.resize(nb, 0.0);
+        for (i, &ci) in c.iter().enumerate() {
+            let absorbed = ci * (1.0 - self.albedo[i]) * k;
+            if absorbed == 0.0 {
+                continue;
+            }
+            for (e, m) in scratch.iter_mut().zip(&fl.m[i * nb..(i + 1) * nb]) {
+                *e += absorbed * m;
+            }
+        }
+        c.copy_from_slice(scratch);
+    }
+
+    /// An eye path's weights `beta` at a re-emission (`Flight::Fluoresce`; `beta` then
+    /// holds each path band b's weight toward ψ_b): per band a of the light arriving here,
+    /// its weight toward what the path reads, Σ_b β_b σa_a m_ab / κ_b. A path that still
+    /// reads each band into its own pixel band (`pick` None) first picks the pixel band j
+    /// it will read into from now on, with chance β_j / Σβ, which takes the whole weight.
+    pub fn emit_importance(&self, beta: &mut [f64], pick: &mut Option<usize>, u: f64) {
+        let fl = self.fluorescence.as_ref().expect("a fluorescent medium");
+        let nb = fl.bands;
+        let mut from = beta.to_vec();
+        if pick.is_none() {
+            let total: f64 = from.iter().sum();
+            let j = pick_band(&from, total, u);
+            from.iter_mut().for_each(|x| *x = 0.0);
+            from[j] = total;
+            *pick = Some(j);
+        }
+        let kappa: Vec<f64> = (0..nb).map(|b| self.kappa(fl, b)).collect();
+        for (a, x) in beta.iter_mut().enumerate() {
+            let sa = self.sigma_a(a);
+            *x = (0..nb)
+                .filter(|&b| from[b] != 0.0 && kappa[b] > 0.0)
+                .map(|b| from[b] * sa * fl.m[a * nb + b] / kappa[b])
+                .sum::<f64>();
         }
     }
 
@@ -476,10 +712,11 @@ mod tests {
                 ((i * 7919) % n) as f64 / n as f64,
                 ((i * 104_729) % n) as f64 / n as f64,
             ];
-            match m.flight(&mut c, 0.5, u) {
+            match m.flight(&mut c, 0.5, u, Way::Light) {
                 Flight::Surface => through += 1,
                 Flight::Scatter(t) => assert!(t < 0.5),
                 Flight::Absorbed => {}
+                Flight::Fluoresce(..) => unreachable!("the medium does not fluoresce"),
             }
             assert!(c.iter().all(|&x| (x - 1.0).abs() < 1e-12), "{c:?}");
         }
@@ -505,7 +742,7 @@ mod tests {
         };
         for _ in 0..n {
             let mut c = [1.0; 3];
-            let f = m.flight(&mut c, d, [next(), next(), next()]);
+            let f = m.flight(&mut c, d, [next(), next(), next()], Way::Light);
             if f != Flight::Absorbed {
                 assert!((c.iter().sum::<f64>() - 3.0).abs() < 1e-9);
             }
@@ -523,5 +760,91 @@ mod tests {
                 "band {b}: {got} against {expected}"
             );
         }
+    }
+
+    #[test]
+    fn an_eye_paths_flight_through_a_fluorescent_medium_is_unbiased_per_band() {
+        // Three bands: 0 absorbs (σa 6, σs 1) and re-emits into 1 (m 0.5) and 2 (m 0.25);
+        // 1 scatters (σs 2) and is otherwise clear; 2 is clear (σt 0). Per band b, over
+        // the draws, the weight that reaches the surface has mean e^(−σt_b d); the weight
+        // that scatters, σs_b (1 − e^(−σt_b d))/σt_b; the weight toward re-emission,
+        // κ_b (1 − e^(−σt_b d))/σt_b (κ_b d where σt_b is 0), κ_b = Σ_a σa_a m_ab. Then
+        // an eye path's weights through the re-emission read band 0 with Σ_b β_b σa_0 m_0b
+        // / κ_b.
+        let mut m = Scattering::new(vec![1.0, 2.0, 0.0], Some(&[6.0, 0.0, 0.0]), vec![0.0; 3]);
+        m.fluorescence = Some(Arc::new(Fluorescence {
+            bands: 3,
+            m: vec![0.0, 0.5, 0.25, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+        }));
+        let kappa = [0.0, 3.0, 1.5];
+        let d = 0.4;
+        let n = 400_000;
+        let mut state = 99u64;
+        let mut next = || {
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let (mut pass, mut scatter, mut emit) = ([0.0; 3], [0.0; 3], [0.0; 3]);
+        let mut read = 0.0;
+        for _ in 0..n {
+            let mut c = [1.0; 3];
+            let f = m.flight(&mut c, d, [next(), next(), next()], Way::Importance);
+            let into = match f {
+                Flight::Surface => &mut pass,
+                Flight::Scatter(t) => {
+                    assert!((0.0..=d).contains(&t));
+                    &mut scatter
+                }
+                Flight::Fluoresce(t, k) => {
+                    assert!((0.0..=d).contains(&t) && k == 1.0);
+                    for (s, x) in emit.iter_mut().zip(c) {
+                        *s += x;
+                    }
+                    let mut pick = Some(0);
+                    m.emit_importance(&mut c, &mut pick, 0.5);
+                    read += c[0];
+                    assert_eq!((c[1], c[2]), (0.0, 0.0), "only band 0 re-emits");
+                    continue;
+                }
+                Flight::Absorbed => continue,
+            };
+            for (s, x) in into.iter_mut().zip(c) {
+                *s += x;
+            }
+        }
+        let sigma_t = [7.0, 2.0, 0.0];
+        let sigma_s = [1.0, 2.0, 0.0];
+        let collided = |b: usize| {
+            if sigma_t[b] > 0.0 {
+                (1.0 - f64::exp(-sigma_t[b] * d)) / sigma_t[b]
+            } else {
+                d
+            }
+        };
+        for b in 0..3 {
+            let want = [
+                (-sigma_t[b] * d).exp(),
+                sigma_s[b] * collided(b),
+                kappa[b] * collided(b),
+            ];
+            let got = [pass[b], scatter[b], emit[b]].map(|s| s / n as f64);
+            for (k, (g, w)) in got.iter().zip(want).enumerate() {
+                assert!(
+                    (g - w).abs() < 0.01 * w.max(0.1),
+                    "band {b}, part {k}: {g} against {w}"
+                );
+            }
+        }
+        // Its mean: Σ_b (the weight toward ψ_b) σa_0 m_0b / κ_b.
+        let want_read: f64 = (1..3)
+            .map(|b| kappa[b] * collided(b) * 6.0 * [0.0, 0.5, 0.25][b] / kappa[b])
+            .sum();
+        let got = read / n as f64;
+        assert!(
+            (got - want_read).abs() < 0.01 * want_read,
+            "{got} against {want_read}"
+        );
     }
 }

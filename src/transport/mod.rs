@@ -14,7 +14,7 @@ use crate::accel::Accel;
 use crate::sampling::PhotonRng;
 use crate::scene::bsdf::{reflect, refract, Lobe};
 use crate::scene::material::Polarisation;
-use crate::scene::medium::Flight;
+use crate::scene::medium::{Flight, Way};
 use crate::scene::{Material, PreparedScene};
 use crate::spectral::Transmittance;
 use glam::DVec3;
@@ -210,6 +210,37 @@ impl WeightedBounces {
         self.meshes
             .push((mesh, before - colour.mean() + re / nb as f64));
         true
+    }
+
+    /// A fluorescent medium in `mesh` re-emits the colliding `colour`: `f` turns it into the
+    /// re-emitted colour (given a scratch vector). All the colliding colour is tallied as
+    /// absorbed there (by the mesh, per band and by its medium), the re-emitted as
+    /// fluoresced, as at a fluorescent surface.
+    fn re_emitted(
+        &mut self,
+        mesh: u32,
+        colour: &mut Colour,
+        f: impl FnOnce(&mut [f64], &mut Vec<f64>),
+    ) {
+        let mut scratch = std::mem::take(&mut self.emitted);
+        self.moved(mesh, colour, |c| f(c.values_mut(), &mut scratch));
+        self.emitted = scratch;
+        let nb = colour.values().len();
+        if self.fluoresced.len() != nb {
+            self.fluoresced.clear();
+            self.fluoresced.resize(nb, 0.0);
+        }
+        for ((d, e), c) in self
+            .delta
+            .iter_mut()
+            .zip(&mut self.fluoresced)
+            .zip(colour.values())
+        {
+            *d += c;
+            *e += c;
+        }
+        self.media.add(mesh, colour.values(), 1.0);
+        self.meshes.push((mesh, colour.mean()));
     }
 
     /// The path ends absorbed in `mesh`'s medium with `colour`.
@@ -423,8 +454,9 @@ enum Segment<'m> {
     /// It reaches the surface it was going to.
     Through,
     Absorbed,
-    /// It scatters this many scene units along.
-    Scatter(&'m crate::scene::medium::Scattering, f64),
+    /// It scatters this many scene units along (true: a fluorescent medium re-emits it
+    /// there, isotropically).
+    Scatter(&'m crate::scene::medium::Scattering, f64, bool),
 }
 
 impl<'a> Tracer<'a> {
@@ -460,10 +492,17 @@ impl<'a> Tracer<'a> {
             // (No surface ahead: the photon has slipped out of its closed mesh through a
             // crack; it leaves the scene rather than wander in an unbounded medium.)
             let u = [rng.uniform(), rng.uniform(), rng.uniform()];
-            return match bounces.moved(m.mesh, colour, |c| sc.flight(c.values_mut(), dist_m, u)) {
+            let way = Way::Light;
+            return match bounces.moved(m.mesh, colour, |c| {
+                sc.flight(c.values_mut(), dist_m, u, way)
+            }) {
                 Flight::Surface => Segment::Through,
                 Flight::Absorbed => Segment::Absorbed,
-                Flight::Scatter(t_m) => Segment::Scatter(sc, t0 + t_m / self.unit_m),
+                Flight::Scatter(t_m) => Segment::Scatter(sc, t0 + t_m / self.unit_m, false),
+                Flight::Fluoresce(t_m, k) => {
+                    bounces.re_emitted(m.mesh, colour, |c, scratch| sc.emit_light(c, k, scratch));
+                    Segment::Scatter(sc, t0 + t_m / self.unit_m, true)
+                }
             };
         }
         if let Some(alpha) = d.and_then(|d| d.absorption_per_m.as_ref()) {
@@ -740,7 +779,7 @@ impl Tracer<'_> {
                 match self.through_medium(m, (org, dir, hit.map(|h| h.t)), colour, rng, bounces) {
                     Segment::Through => {}
                     Segment::Absorbed => absorbed_in = Some(m.mesh),
-                    Segment::Scatter(sc, t) => scattered_at = Some((sc, t, m.mesh)),
+                    Segment::Scatter(sc, t, iso) => scattered_at = Some((sc, t, m.mesh, iso)),
                 }
             }
 
@@ -758,7 +797,7 @@ impl Tracer<'_> {
                 // sensor laid on a floor sees the light arriving there), or, in air, up to
                 // where it scatters in a medium.
                 let t_end = match scattered_at.filter(|_| attenuating.is_none()) {
-                    Some((_, t, _)) => t,
+                    Some((_, t, _, _)) => t,
                     None => hit.map_or(f64::INFINITY, |h| {
                         let m = &self.scene.meshes[h.mesh as usize];
                         h.t + 2.0 * self.scene.offset_at(m.point(h.prim as usize, h.u, h.v))
@@ -797,8 +836,9 @@ impl Tracer<'_> {
                 bounces.absorbed_in(mesh, colour);
                 return PathEnd::Absorbed(mesh);
             }
-            if let Some((sc, t, mesh)) = scattered_at {
-                // A scattering event in the medium: a new direction by the phase function.
+            if let Some((sc, t, mesh, iso)) = scattered_at {
+                // A scattering event in the medium: a new direction by the phase function
+                // (a re-emission: any direction).
                 if event == 0 {
                     sink.direct_done();
                 }
@@ -813,7 +853,11 @@ impl Tracer<'_> {
                 }
                 org += dir * t;
                 let u = [rng.uniform(), rng.uniform(), rng.uniform()];
-                dir = bounces.moved(mesh, colour, |c| sc.scatter(dir, c.values_mut(), u));
+                dir = if iso {
+                    crate::sampling::warp::uniform_sphere(u[0], u[1])
+                } else {
+                    bounces.moved(mesh, colour, |c| sc.scatter(dir, c.values_mut(), u))
+                };
                 continue;
             }
             let Some(hit) = hit else {
