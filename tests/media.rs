@@ -853,54 +853,375 @@ fn a_tabulated_phase_function_scatters_as_the_function_it_tabulates() {
     );
 }
 
+/// A medium of index 1 absorbing `alpha` per band (1/m) that scatters `sigma_s` (1e-9:
+/// as good as not; but a scattering medium, which holds the lights inside it).
+fn held_medium(ctx: &mut imap::Context, alpha: &[f64], sigma_s: f64, g: f64) -> u32 {
+    ctx.add_material(&MaterialDesc {
+        ior: Some(IorModel::Constant(1.0)),
+        absorption_per_m: alpha.to_vec(),
+        scattering_per_m: vec![sigma_s],
+        phase_g: vec![g],
+        ..Default::default()
+    })
+    .unwrap()
+}
+
 #[test]
-fn a_light_inside_a_medium_is_refused_not_silently_wrong() {
-    // Photons start in air: a point light inside a closed mesh of medium would send them
-    // across its surface as if leaving it, and the medium would take nothing (all 6 W
-    // escaped where a deep medium absorbs all). The run is refused naming the light and
-    // the mesh; a clear or merely absorbing sphere around a light stays allowed (a lamp's
-    // globe drawn as one closed surface), and so does a light outside the medium.
-    let build = |scattering: bool, at: [f64; 3]| {
-        let mut ctx = context(seeded(8));
-        let m = ctx
-            .add_material(&MaterialDesc {
-                ior: Some(IorModel::Constant(1.0)),
-                scattering_per_m: if scattering { vec![50.0] } else { vec![] },
-                absorption_per_m: vec![5.0],
-                ..Default::default()
-            })
-            .unwrap();
-        let ball = sphere_inward(2.0, 2).flipped();
-        let mut d = ball.desc(m);
-        d.record = false;
-        ctx.add_mesh(&d).unwrap();
-        ctx.add_point_light(at, &[1.0, 2.0, 3.0]).unwrap();
-        ctx
-    };
-    let mut ctx = build(true, [0.1, 0.2, 0.3]);
-    let e = ctx
-        .run(&mut imap::RunParams {
-            photons: 1000,
+fn a_light_inside_a_medium_starts_its_photons_in_it() {
+    // A point light at the centre of a cube of half-side 0.5 m that absorbs 4, 1 and 0.25
+    // per metre: per band, what escapes is (6 / 4π) ∫ over a face of e^(−α r) a / r³ dA
+    // (midpoint rule), what the medium keeps the rest. (Photons used to start in air and
+    // leave the cube untouched; such runs were refused.)
+    let alpha = [4.0, 1.0, 0.25];
+    let mut ctx = context(seeded(8));
+    let m = held_medium(&mut ctx, &alpha, 1e-9, 0.0);
+    let cube = cuboid([-0.5, -0.5, -0.5], [0.5, 0.5, 0.5], 2, false);
+    let mut d = cube.desc(m);
+    d.record = false;
+    let id = ctx.add_mesh(&d).unwrap();
+    ctx.add_point_light([0.0, 0.0, 0.0], &[1.0, 2.0, 3.0])
+        .unwrap();
+    let n = photons(200_000);
+    let report = run_photons_only(&mut ctx, n);
+    let kept = ctx.medium_absorbed(id).unwrap();
+    let [emitted, absorbed, escaped, dropped, _] = &report.band_w;
+    for (b, &a) in alpha.iter().enumerate() {
+        let k = 400;
+        let h = 1.0 / k as f64;
+        let mut face = 0.0;
+        for i in 0..k {
+            for j in 0..k {
+                let (x, y) = (-0.5 + (i as f64 + 0.5) * h, -0.5 + (j as f64 + 0.5) * h);
+                let r = (x * x + y * y + 0.25f64).sqrt();
+                face += (-a * r).exp() * 0.5 / (r * r * r) * h * h;
+            }
+        }
+        let want = 6.0 * face / (4.0 * std::f64::consts::PI);
+        let got = escaped[b] / emitted[b];
+        let sigma = 2.0 * (want * (1.0 - want) / n as f64).sqrt();
+        let balance = (absorbed[b] + escaped[b] + dropped[b]) / emitted[b] - 1.0;
+        eprintln!(
+            "α {a}: escapes {got:.5}, exact {want:.5} ({:+.2} σ); the medium keeps {:.5}",
+            (got - want) / sigma,
+            kept.band_w[b].value / emitted[b]
+        );
+        assert!(
+            (got - want).abs() < 4.0 * sigma,
+            "α {a}: {got} against {want}"
+        );
+        assert!(balance.abs() < 1e-9, "band {b}: balance off by {balance}");
+        assert!((kept.band_w[b].value - absorbed[b]).abs() <= 1e-9 * emitted[b]);
+    }
+    // A deep medium (σt 50/m, 2 m each way, albedos 0.5, 0.9 and 0.99) around the light
+    // absorbs all of it in every band, and the run's balance says so to rounding.
+    let mut ctx = context(seeded(9));
+    let albedo = [0.5, 0.9, 0.99];
+    let m = ctx
+        .add_material(&MaterialDesc {
+            ior: Some(IorModel::Constant(1.0)),
+            scattering_per_m: albedo.iter().map(|w| 50.0 * w).collect(),
+            absorption_per_m: albedo.iter().map(|w| 50.0 * (1.0 - w)).collect(),
             ..Default::default()
         })
-        .unwrap_err();
-    assert_eq!(e.status, imap::ImapStatus::ImapErrUnsupported, "{e}");
-    assert!(
-        e.message.contains("light 0")
-            && e.message.contains("inside mesh 0, whose material scatters"),
-        "{e}"
-    );
-    assert_eq!(e.subject, Some(imap::Subject::Light(0)));
-    // Still usable: nothing was traced, and the report says so.
-    assert_eq!(ctx.report().photons, 0);
-    // (The last: inside the sphere's bounding box, outside the sphere.)
-    for (scattering, at) in [
-        (false, [0.1, 0.2, 0.3]),
-        (true, [0.0, 0.0, 2.5]),
-        (true, [1.8, 1.8, 0.0]),
+        .unwrap();
+    let cube = cuboid([-2.0, -2.0, -2.0], [2.0, 2.0, 2.0], 2, false);
+    let mut d = cube.desc(m);
+    d.record = false;
+    let id = ctx.add_mesh(&d).unwrap();
+    ctx.add_point_light([0.1, -0.2, 0.3], &[1.0]).unwrap();
+    let report = run_photons_only(&mut ctx, photons(20_000));
+    let kept = ctx.medium_absorbed(id).unwrap();
+    for b in 0..3 {
+        let e = report.band_w[0][b];
+        assert!(
+            report.band_w[2][b] < 1e-9 * e,
+            "band {b}: {} escaped",
+            report.band_w[2][b]
+        );
+        assert!(
+            (kept.band_w[b].value / e - 1.0).abs() < 1e-9,
+            "band {b}: kept {}",
+            kept.band_w[b].value / e
+        );
+    }
+}
+
+/// A 2 × 2 × 1 m box of index 1 that absorbs 0.5, 1 and 2 per metre (and scatters as good
+/// as nothing), with a point light of 1 W a band at (0, 0, 0.6) and a grey floor (ρ 0.5,
+/// recorded) at z = 0.01 inside it. Returns (context, floor, its geometry).
+fn lamp_in_absorbing_box(seed: u64) -> (imap::Context, u32, Geometry) {
+    let mut ctx = context(seeded(seed));
+    let m = held_medium(&mut ctx, &[0.5, 1.0, 2.0], 1e-9, 0.0);
+    let grey = lambert(&mut ctx, 0.5);
+    let cube = cuboid([-1.0, -1.0, 0.0], [1.0, 1.0, 1.0], 2, false);
+    let mut d = cube.desc(m);
+    d.record = false;
+    ctx.add_mesh(&d).unwrap();
+    let floor = grid(10, -0.8, 0.8, -0.8, 0.8, 0.01);
+    let id = ctx.add_mesh(&floor.desc(grey)).unwrap();
+    ctx.add_point_light([0.0, 0.0, 0.6], &[1.0]).unwrap();
+    (ctx, id, floor)
+}
+
+/// What a map of the planar mesh `g` holds at each vertex for the irradiance field `e`:
+/// the field weighted by the vertex's barycentric hat over its triangles, over a third of
+/// their area (as photons deposit), by a rule of 40² points on each triangle.
+fn map_of(g: &Geometry, e: impl Fn(f64, f64) -> f64) -> Vec<f64> {
+    let nv = g.vertex_count();
+    let (mut acc, mut area) = (vec![0.0; nv], vec![0.0; nv]);
+    let k = 40;
+    for t in g.indices.chunks(3) {
+        let [a, b, c] = [t[0], t[1], t[2]].map(|i| g.vertex(i as usize));
+        let cross = (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0]);
+        let tri = 0.5 * cross.abs();
+        // The centroids of the k² sub-triangles (k(k+1)/2 upright, k(k−1)/2 inverted).
+        let mut s = [0.0; 3];
+        let mut n = 0;
+        for i in 0..k {
+            for j in 0..k - i {
+                let mut at = vec![(i as f64 + 1.0 / 3.0, j as f64 + 1.0 / 3.0)];
+                if i + j + 1 < k {
+                    at.push((i as f64 + 2.0 / 3.0, j as f64 + 2.0 / 3.0));
+                }
+                for (u, v) in at {
+                    let w = [1.0 - (u + v) / k as f64, u / k as f64, v / k as f64];
+                    let x = w[0] * a[0] + w[1] * b[0] + w[2] * c[0];
+                    let y = w[0] * a[1] + w[1] * b[1] + w[2] * c[1];
+                    let f = e(x, y);
+                    for q in 0..3 {
+                        s[q] += w[q] * f;
+                    }
+                    n += 1;
+                }
+            }
+        }
+        for q in 0..3 {
+            acc[t[q] as usize] += s[q] / n as f64 * tri;
+            area[t[q] as usize] += tri / 3.0;
+        }
+    }
+    acc.iter().zip(&area).map(|(a, w)| a / w).collect()
+}
+
+/// The floor's irradiance in band `b` at (x, y): I cos θ e^(−α r) / r² (nothing else lights
+/// it: what it reflects leaves the box).
+fn lamp_floor_irradiance(x: f64, y: f64, b: usize) -> f64 {
+    let alpha = [0.5, 1.0, 2.0][b];
+    let h = 0.59;
+    let r2 = x * x + y * y + h * h;
+    let r = r2.sqrt();
+    1.0 / (4.0 * std::f64::consts::PI) * (h / r) * (-alpha * r).exp() / r2
+}
+
+#[test]
+fn the_map_of_a_floor_in_a_medium_with_its_lamp_is_the_closed_form_in_every_estimator() {
+    // Per vertex, in every band, against I cos θ e^(−α r) / r², with the map's own errors:
+    // photons start in the medium; light sampling and gathering leave a held light to them.
+    for (estimator, seed) in [
+        (Estimator::Photons, 1),
+        (Estimator::DEFAULT, 2),
+        (Estimator::GATHER, 3),
     ] {
-        let mut ctx = build(scattering, at);
-        run_photons_only(&mut ctx, 1000);
+        let (mut ctx, floor, g) = lamp_in_absorbing_box(seed);
+        run_with(&mut ctx, photons(200_000), estimator);
+        let nv = ctx.vertex_count(floor).unwrap();
+        let mut rel = vec![0.0; nv];
+        ctx.rel_error(floor, 0, &mut rel).unwrap();
+        let mut bands = Vec::new();
+        for b in 0..3 {
+            let mut e = vec![0.0; nv];
+            ctx.irradiance(floor, 0, b as u32, &mut e).unwrap();
+            bands.push(e);
+        }
+        // What the map holds of the closed form: its hat-weighted average at each vertex.
+        let exact: Vec<Vec<f64>> = (0..3)
+            .map(|b| map_of(&g, |x, y| lamp_floor_irradiance(x, y, b)))
+            .collect();
+        let (mut z2, mut worst) = (0.0, 0.0f64);
+        for v in 0..nv {
+            // The band mean, whose relative error the map gives.
+            let want = (0..3).map(|b| exact[b][v]).sum::<f64>() / 3.0;
+            let got = (0..3).map(|b| bands[b][v]).sum::<f64>() / 3.0;
+            let z = (got - want) / (rel[v] * got);
+            z2 += z * z / nv as f64;
+            worst = worst.max(z.abs());
+        }
+        // And the bands' totals over the floor against each other: e^(−α r) per band.
+        let ratio: Vec<f64> = (0..3)
+            .map(|b| {
+                let got: f64 = bands[b].iter().sum();
+                got / exact[b].iter().sum::<f64>()
+            })
+            .collect();
+        eprintln!(
+            "{}: mean z² {z2:.2}, worst |z| {worst:.2}; per band, map / exact {ratio:.4?}",
+            estimator.name()
+        );
+        assert!(
+            (0.5..2.0).contains(&z2),
+            "{}: mean z² {z2}",
+            estimator.name()
+        );
+        assert!(worst < 5.0, "{}: |z| {worst}", estimator.name());
+        for r in ratio {
+            assert!((r - 1.0).abs() < 0.02, "{}: {r}", estimator.name());
+        }
+    }
+}
+
+#[test]
+fn every_renderer_shows_a_floor_lit_inside_a_medium_as_the_closed_form() {
+    // The same box seen from above through its top: a pixel sees the floor's radiance
+    // ρ E / π through e^(−α d) of the medium (no scattering: nothing else).
+    let (mut ctx, _, _) = lamp_in_absorbing_box(4);
+    let cam = imap::CameraDesc {
+        position: [0.0, 0.0, 2.6],
+        direction: [0.0, 0.0, -1.0],
+        up: [0.0, 1.0, 0.0],
+        fov_y_deg: 20.0,
+        width: 6,
+        height: 6,
+    };
+    let (w, h) = (cam.width as usize, cam.height as usize);
+    let half = (cam.fov_y_deg.to_radians() / 2.0).tan();
+    // Each pixel's mean over its area (16 × 16 points of it), per band.
+    let mut want = vec![0.0; w * h * 3];
+    let k = 16;
+    for py in 0..h {
+        for px in 0..w {
+            for b in 0..3 {
+                let mut s = 0.0;
+                for i in 0..k {
+                    for j in 0..k {
+                        let sx = half
+                            * (2.0 * (px as f64 + (i as f64 + 0.5) / k as f64) / w as f64 - 1.0);
+                        let sy = half
+                            * (1.0 - 2.0 * (py as f64 + (j as f64 + 0.5) / k as f64) / h as f64);
+                        // The ray (sx, sy, −1) from z = 2.6 meets the floor at z = 0.01.
+                        let t = 2.59;
+                        let (x, y) = (sx * t, sy * t);
+                        let len = (1.0 + sx * sx + sy * sy).sqrt();
+                        let d = 0.99 * len; // from the box's top (z = 1) down to the floor
+                        let alpha = [0.5, 1.0, 2.0][b];
+                        s += 0.5 / std::f64::consts::PI
+                            * lamp_floor_irradiance(x, y, b)
+                            * (-alpha * d).exp();
+                    }
+                }
+                want[(py * w + px) * 3 + b] = s / (k * k) as f64;
+            }
+        }
+    }
+    let check = |name: &str, img: &imap::Image| {
+        for b in 0..3 {
+            let got: f64 = (0..w * h).map(|p| img.radiance[p * 3 + b]).sum();
+            let exact: f64 = (0..w * h).map(|p| want[p * 3 + b]).sum();
+            eprintln!("{name}: band {b}: {:.5} of the closed form", got / exact);
+            assert!(
+                (got / exact - 1.0).abs() < 0.015,
+                "{name}: band {b}: {got} against {exact}"
+            );
+        }
+    };
+    let img = ctx.path_trace(&cam, 2048, 1000).unwrap();
+    check("path tracer", &img);
+    run_photons_only(&mut ctx, photons(100_000));
+    for method in [
+        imap::RenderMethod::FinalGather,
+        imap::RenderMethod::Synchronous,
+    ] {
+        let (img, _) = ctx
+            .render(
+                &cam,
+                &mut imap::RenderParams {
+                    method,
+                    passes: 2048,
+                    progress_interval_s: 0.05,
+                    ..Default::default()
+                },
+            )
+            .unwrap();
+        check(&format!("{method:?}"), &img);
+    }
+}
+
+#[test]
+fn every_renderer_sees_a_lamp_in_a_fog_ball_send_out_what_its_photons_say() {
+    // A point light at the centre of a ball of fog (radius 0.5 m, σs 2/m, g 0.3, σa 0.5,
+    // 1 and 2 per metre) in a black world: the ball is as bright from every side, so the
+    // irradiance its glow gives a camera 3 m away, Σ L cos θ dΩ over the pixels, is the
+    // power the photons say escapes scattered over 4π (3 m)²: all that escapes but the
+    // lamp's unscattered light, e^(−σt R) of it, which a picture cannot show (a point).
+    // Only eye paths that scatter in the fog and take a light sample of the lamp there can
+    // see the glow.
+    let mut ctx = context(seeded(6));
+    let m = ctx
+        .add_material(&MaterialDesc {
+            ior: Some(IorModel::Constant(1.0)),
+            absorption_per_m: vec![0.5, 1.0, 2.0],
+            scattering_per_m: vec![2.0],
+            phase_g: vec![0.3],
+            ..Default::default()
+        })
+        .unwrap();
+    let ball = sphere_inward(0.5, 4).flipped();
+    let mut d = ball.desc(m);
+    d.record = false;
+    ctx.add_mesh(&d).unwrap();
+    ctx.add_point_light([0.0, 0.0, 0.0], &[1.0]).unwrap();
+    let report = run_photons_only(&mut ctx, photons(400_000));
+    let d2 = 9.0;
+    let want: Vec<f64> = (0..3)
+        .map(|b| {
+            let unscattered = report.band_w[0][b] * (-(2.0 + [0.5, 1.0, 2.0][b]) * 0.5f64).exp();
+            (report.band_w[2][b] - unscattered) / (4.0 * std::f64::consts::PI * d2)
+        })
+        .collect();
+    let cam = imap::CameraDesc {
+        position: [0.0, 0.0, 3.0],
+        direction: [0.0, 0.0, -1.0],
+        up: [0.0, 1.0, 0.0],
+        fov_y_deg: 24.0,
+        width: 24,
+        height: 24,
+    };
+    let n = cam.width as usize;
+    let half = (cam.fov_y_deg.to_radians() / 2.0).tan();
+    let step = 2.0 * half / n as f64;
+    let irradiance = |img: &imap::Image, b: usize| {
+        let mut e = 0.0;
+        for py in 0..n {
+            for px in 0..n {
+                let x = -half + (px as f64 + 0.5) * step;
+                let y = half - (py as f64 + 0.5) * step;
+                let q = 1.0 + x * x + y * y;
+                e += img.radiance[(py * n + px) * 3 + b] * step * step / (q * q);
+            }
+        }
+        e
+    };
+    let img = ctx.path_trace(&cam, 256, 1000).unwrap();
+    let (fg, _) = ctx
+        .render(
+            &cam,
+            &mut imap::RenderParams {
+                method: imap::RenderMethod::FinalGather,
+                passes: 256,
+                progress_interval_s: 0.05,
+                ..Default::default()
+            },
+        )
+        .unwrap();
+    for (b, w) in want.iter().enumerate() {
+        let (p, f) = (irradiance(&img, b) / w, irradiance(&fg, b) / w);
+        eprintln!(
+            "band {b}: {:.4} of the lamp escapes scattered; the camera sees {p:.4} (path tracer), {f:.4} (final gathering) of it",
+            w * 4.0 * std::f64::consts::PI * d2 / report.band_w[0][b]
+        );
+        assert!(
+            (p - 1.0).abs() < 0.03 && (f - 1.0).abs() < 0.03,
+            "band {b}: {p}, {f}"
+        );
     }
 }
 

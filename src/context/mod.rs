@@ -1020,7 +1020,6 @@ impl Context {
                     "the scene has no light: add a light, a luminaire or an emitting mesh"
                 );
             }
-            self.check_lights_outside_media()?;
             let scene = PreparedScene::new(
                 &self.scene,
                 &self.photometry.efficacy,
@@ -1036,40 +1035,6 @@ impl Context {
                 sensors,
                 direct: None,
             });
-        }
-        Ok(())
-    }
-
-    /// Refuses a run whose point-like light lies inside a closed mesh with a scattering
-    /// medium: its photons would start in air and cross the mesh's surface as if leaving
-    /// it, so the medium would neither scatter nor absorb them. Lights inside media are not
-    /// followed yet (issue 32); a wrong answer without a word is worse than a refusal.
-    /// (A clear or merely absorbing dielectric around a light is left as it was: models
-    /// draw a lamp's glass globe as one closed surface, and its light leaves through it.)
-    fn check_lights_outside_media(&self) -> Result<()> {
-        for (m, mesh) in self.scene.meshes.iter().enumerate() {
-            if self.mesh_material(mesh, Material::scatters).is_none() {
-                continue;
-            }
-            let inside = mesh.inside();
-            let lights =
-                self.scene.lights.iter().enumerate().filter(|(_, l)| {
-                    !matches!(l.shape, crate::scene::light::LightShape::Distant(_))
-                });
-            for (l, light) in lights {
-                let p = light.position.to_array();
-                if !inside(p) {
-                    continue;
-                }
-                return Err(Error::new(
-                    ImapStatus::ImapErrUnsupported,
-                    format!(
-                        "light {l} at ({}, {}, {}) lies inside mesh {m}, whose material scatters (scattering_per_m) or fluoresces: lights inside a scattering medium are not followed yet (their photons would start outside it, and the medium would neither scatter nor absorb them); move the light out of the mesh",
-                        p[0], p[1], p[2]
-                    ),
-                )
-                .about(crate::error::Subject::Light(l as u32)));
-            }
         }
         Ok(())
     }

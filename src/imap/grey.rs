@@ -196,6 +196,7 @@ mod tests {
             colour,
             layer: 0,
             aim: None,
+            media: Vec::new(),
         }
     }
 

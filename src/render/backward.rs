@@ -71,7 +71,15 @@ pub struct EyeTracer<'a> {
     white: Vec<f64>,
     /// Whether some material fluoresces (backward photons then record their pixel band).
     fluorescent: bool,
+    /// Whether some light is inside a mesh with a scattering medium (`Emitter::media`):
+    /// eye paths then take light samples where they scatter in mesh media, and shadow
+    /// rays inside such a mesh are attenuated by its medium (`light_tr`).
+    lights_in_media: bool,
 }
+
+/// The mesh an eye path is inside (innermost) and its medium's material; None: outside every
+/// mesh (`MediumStack::current`).
+type Inside = Option<(u32, u32)>;
 
 /// Where an eye path's light goes (`EyeTracer::path_sample`): the pixel's bands, each into
 /// its own; or, once a fluorescent surface has picked the pixel band `band` for the path,
@@ -217,6 +225,7 @@ impl<'a> EyeTracer<'a> {
             sun_by_caustics: false,
             white: vec![1.0; source.bands.count()],
             fluorescent: source.materials.iter().any(Material::fluoresces),
+            lights_in_media: scene.emitters.iter().any(|e| !e.media.is_empty()),
         }
     }
 
@@ -294,7 +303,7 @@ impl<'a> EyeTracer<'a> {
             let hit = self.accel.intersect(org, dir);
             let t = hit.map_or(f64::INFINITY, |h| h.t);
             let path = ((&mut dir, &mut org), beta.as_mut_slice());
-            match self.through_medium(medium, t, path, rng, (out.to(), stats)) {
+            match self.through_medium((medium, media.current()), t, path, rng, (out.to(), stats)) {
                 Flight::Surface => {}
                 Flight::Absorbed => return,
                 Flight::Scatter(t) => {
@@ -304,7 +313,8 @@ impl<'a> EyeTracer<'a> {
                     continue;
                 }
                 Flight::Fluoresce(t, _) => {
-                    self.re_emit(medium, beta, (&mut band, &mut out), rng);
+                    let at = (medium, media.current(), org);
+                    self.re_emit(at, beta, (&mut band, &mut out), rng, stats);
                     path_len += t;
                     glossy_pdf = None;
                     after_haze = false;
@@ -343,7 +353,8 @@ impl<'a> EyeTracer<'a> {
                 Step::Glossy => {
                     let step = (&mut dir, &mut org, beta.as_mut_slice());
                     let to = out.to();
-                    match self.glossy_step((&at, bsdf), step, &mut glossy_scratch, rng, to, stats) {
+                    let surface = (&at, bsdf, media.current());
+                    match self.glossy_step(surface, step, &mut glossy_scratch, rng, to, stats) {
                         Some(pdf) => {
                             glossy_pdf = Some(pdf);
                             continue;
@@ -371,11 +382,14 @@ impl<'a> EyeTracer<'a> {
             let wt = self.transmit.then(|| &buf.w_transmit[p0..p0 + nb]);
             let wr = &buf.w_reflect[p0..p0 + nb];
             match out_band {
-                None => self.direct_light(p_hit, n_in, eps, wr, wt, rng, out.out, stats),
+                None => {
+                    let at = (p_hit, media.current());
+                    self.direct_light(at, n_in, eps, wr, wt, rng, out.out, stats)
+                }
                 // After a fluorescent surface or medium: each band of the arriving light
                 // counts into the pixel band the path picked.
                 Some(j) => {
-                    let at = (p_hit, n_in, eps);
+                    let at = (p_hit, n_in, eps, media.current());
                     out.out[j] += self.direct_arriving(at, (wr, wt), rng, stats);
                 }
             }
@@ -462,13 +476,14 @@ impl<'a> EyeTracer<'a> {
             let hit = self.accel.intersect(org, dir);
             let t = hit.map_or(f64::INFINITY, |h| h.t);
             let path = ((&mut dir, &mut org), beta.as_mut_slice());
-            match self.through_medium(medium, t, path, rng, (out.to(), stats)) {
+            match self.through_medium((medium, media.current()), t, path, rng, (out.to(), stats)) {
                 Flight::Surface => {}
                 Flight::Absorbed => return,
                 Flight::Fluoresce(..) => {
                     // Re-emitted light: as after a scattering (there is no haze to
                     // fluoresce, so no light sample took the lights no path meets).
-                    self.re_emit(medium, beta, (&mut band, &mut out), rng);
+                    let at = (medium, media.current(), org);
+                    self.re_emit(at, beta, (&mut band, &mut out), rng, stats);
                     counts = true;
                     glossy_pdf = None;
                     after_haze = false;
@@ -528,7 +543,7 @@ impl<'a> EyeTracer<'a> {
                 Step::Glossy => {
                     let step = (&mut dir, &mut org, beta.as_mut_slice());
                     match self.glossy_step(
-                        (&at, bsdf),
+                        (&at, bsdf, media.current()),
                         step,
                         &mut glossy_scratch,
                         rng,
@@ -565,7 +580,8 @@ impl<'a> EyeTracer<'a> {
             let side = if front { 0 } else { 1 };
             let read = diffuse_vertices >= 1 && self.map_has(hit.mesh, side, wt.is_some());
             if !read || !self.map.is_some_and(|m| m.combined) {
-                self.direct_light(p_hit, n_in, eps, wr, wt, rng, out.to(), stats);
+                let at = (p_hit, media.current());
+                self.direct_light(at, n_in, eps, wr, wt, rng, out.to(), stats);
             }
             if read {
                 let (prim, uv) = (hit.prim as usize, (hit.u, hit.v));
@@ -919,7 +935,7 @@ impl<'a> EyeTracer<'a> {
     /// next; None when the path ends.
     fn glossy_step(
         &self,
-        (at, bsdf): (&Surface, Bsdf),
+        (at, bsdf, inside): (&Surface, Bsdf, Inside),
         (dir, org, beta): (&mut DVec3, &mut DVec3, &mut [f64]),
         f: &mut Vec<f64>,
         rng: &mut PhotonRng,
@@ -993,7 +1009,7 @@ impl<'a> EyeTracer<'a> {
                         1.0 / (area * self.unit_m * self.unit_m * pe),
                         power(e),
                         None,
-                        self.haze_tr(from, wi, dist),
+                        self.light_tr(e, inside, from, wi, dist),
                     );
                 }
             }
@@ -1008,7 +1024,7 @@ impl<'a> EyeTracer<'a> {
                 let facing = transmits || wi.dot(n_in) > 0.0;
                 if per_watt > 0.0 && facing && !self.accel.occluded(from, wi, d) {
                     let k = per_watt / (d2 * self.unit_m * self.unit_m * pe);
-                    add(wi, k, power(e), None, self.haze_tr(from, wi, d));
+                    add(wi, k, power(e), None, self.light_tr(e, inside, from, wi, d));
                 }
             }
             Some(LightSample::Area { point: q, normal }) => {
@@ -1028,7 +1044,7 @@ impl<'a> EyeTracer<'a> {
                             1.0 / pl,
                             radiance,
                             Some(pl),
-                            self.haze_tr(from, wi, t_max),
+                            self.light_tr(e, inside, from, wi, t_max),
                         );
                     }
                 }
@@ -1044,7 +1060,7 @@ impl<'a> EyeTracer<'a> {
                 let from = lift(toward);
                 if fv > 0.0 && q > 0.0 && !self.accel.occluded(from, toward, reach) {
                     let cross = norm * self.unit_m * self.unit_m;
-                    let tr = self.haze_tr(from, toward, f64::INFINITY);
+                    let tr = self.light_tr(e, inside, from, toward, f64::INFINITY);
                     add(toward, fv / (q * cross * pe), power(e), Some(q * pe), tr);
                 }
             }
@@ -1131,7 +1147,7 @@ impl<'a> EyeTracer<'a> {
     #[inline]
     fn through_medium(
         &self,
-        medium: Option<u32>,
+        (medium, inside): (Option<u32>, Inside),
         t: f64,
         ((dir, org), beta): ((&mut DVec3, &mut DVec3), &mut [f64]),
         rng: &mut PhotonRng,
@@ -1164,7 +1180,11 @@ impl<'a> EyeTracer<'a> {
                 let t = t0 + t_m / self.unit_m;
                 *org += *dir * t;
                 if medium.is_none() {
-                    self.haze_light(*org, *dir, sc, beta, rng, out, stats);
+                    self.haze_light((*org, None), (*dir, false), sc, beta, rng, out, stats);
+                } else if self.lights_in_media {
+                    // In a mesh's medium: the lights inside the mesh (others are behind
+                    // its surface, and their shadow rays end there).
+                    self.haze_light((*org, inside), (*dir, false), sc, beta, rng, out, stats);
                 }
                 let u = [rng.uniform(), rng.uniform(), rng.uniform()];
                 *dir = sc.scatter(*dir, beta, u);
@@ -1179,6 +1199,31 @@ impl<'a> EyeTracer<'a> {
             }
         }
         Flight::Surface
+    }
+
+    /// The transmittance of emitter `e`'s light on a shadow ray from `org` along unit `dir`
+    /// over `t` scene units, from a path inside the mesh `inside` (mesh, medium material;
+    /// None: outside every mesh): the mesh's scattering medium's, e^(−σt d), when the
+    /// light is inside that mesh too (an unoccluded ray then never left it); else the
+    /// scene medium's (`haze_tr`).
+    #[inline]
+    fn light_tr(&self, e: usize, inside: Inside, org: DVec3, dir: DVec3, t: f64) -> Tr<'_> {
+        if self.lights_in_media {
+            if let Some((mesh, material)) = inside {
+                let held = self.scene.emitters[e].media.last().map(|h| h.0);
+                let sc = self.materials[material as usize]
+                    .dielectric
+                    .as_ref()
+                    .and_then(|d| d.scattering.as_ref());
+                if let (Some(sc), true) = (sc, held == Some(mesh)) {
+                    return Tr {
+                        sigma: &sc.sigma_t,
+                        d_m: t * self.unit_m,
+                    };
+                }
+            }
+        }
+        self.haze_tr(org, dir, t)
     }
 
     /// The scene medium's transmittance on the segment from `org` along unit `dir` over `t`
@@ -1202,8 +1247,8 @@ impl<'a> EyeTracer<'a> {
     #[allow(clippy::too_many_arguments)]
     fn haze_light(
         &self,
-        p: DVec3,
-        dir: DVec3,
+        (p, inside): (DVec3, Inside),
+        (dir, re_emitted): (DVec3, bool),
         sc: &crate::scene::medium::Scattering,
         beta: &[f64],
         rng: &mut PhotonRng,
@@ -1239,7 +1284,11 @@ impl<'a> EyeTracer<'a> {
                 if dist <= 0.0 || self.accel.occluded(p, wi, dist) {
                     return;
                 }
-                (wi, 1.0 / (area * unit2 * pe), self.haze_tr(p, wi, dist))
+                (
+                    wi,
+                    1.0 / (area * unit2 * pe),
+                    self.light_tr(e, inside, p, wi, dist),
+                )
             }
             Some(LightSample::Point(y)) if !sun => {
                 let to = y - p;
@@ -1253,7 +1302,11 @@ impl<'a> EyeTracer<'a> {
                 if per_watt <= 0.0 || self.accel.occluded(p, wi, d) {
                     return;
                 }
-                (wi, per_watt / (d * d * unit2 * pe), self.haze_tr(p, wi, d))
+                (
+                    wi,
+                    per_watt / (d * d * unit2 * pe),
+                    self.light_tr(e, inside, p, wi, d),
+                )
             }
             Some(LightSample::Direction {
                 toward,
@@ -1267,14 +1320,24 @@ impl<'a> EyeTracer<'a> {
                     return;
                 }
                 let k = f / (q * norm * unit2 * pe);
-                (toward, k, self.haze_tr(p, toward, f64::INFINITY))
+                (
+                    toward,
+                    k,
+                    self.light_tr(e, inside, p, toward, f64::INFINITY),
+                )
             }
             _ => return,
         };
         // Light travels along −wi, then on toward the eye along −dir.
         let cos = wi.dot(dir);
         for (b, ((o, bt), pw)) in out.iter_mut().zip(beta).zip(power).enumerate() {
-            *o += bt * sc.phase(b, cos) * pw * k * tr.at(b);
+            // (A fluorescent medium re-emits isotropically.)
+            let phase = if re_emitted {
+                0.25 / std::f64::consts::PI
+            } else {
+                sc.phase(b, cos)
+            };
+            *o += bt * phase * pw * k * tr.at(b);
         }
     }
 
@@ -1284,13 +1347,13 @@ impl<'a> EyeTracer<'a> {
     #[inline(never)]
     fn direct_arriving(
         &self,
-        (p, n_in, eps): (DVec3, DVec3, f64),
+        (p, n_in, eps, inside): (DVec3, DVec3, f64, Inside),
         (wr, wt): (&[f64], Option<&[f64]>),
         rng: &mut PhotonRng,
         stats: &mut EyeStats,
     ) -> f64 {
         let mut arriving = vec![0.0; self.bands];
-        self.direct_light(p, n_in, eps, wr, wt, rng, &mut arriving, stats);
+        self.direct_light((p, inside), n_in, eps, wr, wt, rng, &mut arriving, stats);
         arriving.iter().sum()
     }
 
@@ -1323,10 +1386,11 @@ impl<'a> EyeTracer<'a> {
     #[inline(never)]
     fn re_emit(
         &self,
-        medium: Option<u32>,
+        (medium, inside, p): (Option<u32>, Inside, DVec3),
         beta: &mut [f64],
         (band, out): (&mut Option<usize>, &mut PathOut<'_>),
         rng: &mut PhotonRng,
+        stats: &mut EyeStats,
     ) {
         let sc = medium
             .and_then(|m| self.materials[m as usize].dielectric.as_ref())
@@ -1336,6 +1400,18 @@ impl<'a> EyeTracer<'a> {
         sc.emit_importance(beta, &mut out.band, rng.uniform());
         if out.band.is_some() && out.arriving.is_empty() {
             out.arriving.resize(beta.len(), 0.0);
+        }
+        if self.lights_in_media {
+            // The lights inside the mesh, seen by the re-emission (isotropic).
+            self.haze_light(
+                (p, inside),
+                (DVec3::Z, true),
+                sc,
+                beta,
+                rng,
+                out.to(),
+                stats,
+            );
         }
     }
 
@@ -1472,7 +1548,7 @@ impl<'a> EyeTracer<'a> {
     #[allow(clippy::too_many_arguments)]
     fn direct_light(
         &self,
-        p: DVec3,
+        (p, inside): (DVec3, Inside),
         n_in: DVec3,
         eps: f64,
         w_r: &[f64],
@@ -1528,7 +1604,7 @@ impl<'a> EyeTracer<'a> {
                     stats.rays += 1;
                     if dist > 0.0 && !self.accel.occluded(org, wi, dist) {
                         let k = cos.abs() / (area * self.unit_m * self.unit_m * pe);
-                        let tr = self.haze_tr(org, wi, dist);
+                        let tr = self.light_tr(e, inside, org, wi, dist);
                         for (b, ((o, w), pw)) in out.iter_mut().zip(w).zip(power()).enumerate() {
                             *o += w * pw * k * tr.at(b);
                         }
@@ -1542,7 +1618,16 @@ impl<'a> EyeTracer<'a> {
                 let wi = to / d2.sqrt();
                 let per_watt = em.intensity_per_watt(-wi);
                 if per_watt <= 0.0 {
-                    return self.bsdf_sample(p, n_in, eps, p_reflect, &side, rng, out, stats);
+                    return self.bsdf_sample(
+                        (p, inside),
+                        n_in,
+                        eps,
+                        p_reflect,
+                        &side,
+                        rng,
+                        out,
+                        stats,
+                    );
                 }
                 let cos = wi.dot(n_in);
                 if let Some((w, _)) = side(cos) {
@@ -1552,7 +1637,7 @@ impl<'a> EyeTracer<'a> {
                     let dist = to_light.length();
                     if !self.accel.occluded(org, to_light / dist, dist) {
                         let k = per_watt * cos.abs() / (d2 * self.unit_m * self.unit_m * pe);
-                        let tr = self.haze_tr(org, to_light / dist, dist);
+                        let tr = self.light_tr(e, inside, org, to_light / dist, dist);
                         for (b, ((o, w), pw)) in out.iter_mut().zip(w).zip(power()).enumerate() {
                             *o += w * pw * k * tr.at(b);
                         }
@@ -1584,7 +1669,7 @@ impl<'a> EyeTracer<'a> {
                         let pl = pe * d2 / (area * cos_l);
                         let pb = ps * cos.abs() / PI;
                         let k = cos.abs() / pl * pl * pl / (pl * pl + pb * pb);
-                        let tr = self.haze_tr(org, (q - org) / dist, t_max);
+                        let tr = self.light_tr(e, inside, org, (q - org) / dist, t_max);
                         for (b, ((o, w), l)) in out.iter_mut().zip(w).zip(radiance).enumerate() {
                             *o += w * l * k * tr.at(b);
                         }
@@ -1610,7 +1695,7 @@ impl<'a> EyeTracer<'a> {
                         // or the portals').
                         let cross = norm * self.unit_m * self.unit_m;
                         let k = f * cos.abs() / (q * cross * pe);
-                        let tr = self.haze_tr(org, wi, f64::INFINITY);
+                        let tr = self.light_tr(e, inside, org, wi, f64::INFINITY);
                         for (b, ((o, w), pw)) in out.iter_mut().zip(w).zip(power()).enumerate() {
                             *o += w * pw * k * tr.at(b);
                         }
@@ -1618,7 +1703,7 @@ impl<'a> EyeTracer<'a> {
                 }
             }
         }
-        self.bsdf_sample(p, n_in, eps, p_reflect, &side, rng, out, stats);
+        self.bsdf_sample((p, inside), n_in, eps, p_reflect, &side, rng, out, stats);
     }
 
     /// The BSDF-sampling half of the direct light: a cosine-distributed direction on the
@@ -1626,7 +1711,7 @@ impl<'a> EyeTracer<'a> {
     #[allow(clippy::too_many_arguments)]
     fn bsdf_sample<'w>(
         &self,
-        p: DVec3,
+        (p, inside): (DVec3, Inside),
         n_in: DVec3,
         eps: f64,
         p_reflect: f64,
@@ -1663,7 +1748,7 @@ impl<'a> EyeTracer<'a> {
         let pl = self.scene.emitter_table.pdf(e) * hit.t * hit.t / (area * cos_l);
         let pb = ps * cos.abs() / PI;
         let k = cos.abs() / pb * pb * pb / (pb * pb + pl * pl);
-        let tr = self.haze_tr(from, wi, hit.t);
+        let tr = self.light_tr(e, inside, from, wi, hit.t);
         for (b, ((o, w), l)) in out.iter_mut().zip(w).zip(radiance).enumerate() {
             *o += w * l * k * tr.at(b);
         }

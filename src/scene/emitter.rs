@@ -30,6 +30,10 @@ pub struct Emitter {
     pub layer: u8,
     /// Where a point-like light's photons are aimed (`Aim`), if they are.
     pub aim: Option<Aim>,
+    /// The closed meshes with a scattering (or fluorescent) medium that hold the light,
+    /// outermost first, each with its medium's material: its photons start in them (a lamp
+    /// in a fog box, an LED in a diffuser's bulk). Empty for most lights.
+    pub media: Vec<(u32, u32)>,
 }
 
 #[derive(Debug)]

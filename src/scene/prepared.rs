@@ -218,6 +218,7 @@ impl PreparedScene {
                         power,
                         layer: layer_of(l.group),
                         aim: None,
+                        media: Vec::new(),
                     });
                     powers.push(total);
                 }
@@ -238,6 +239,7 @@ impl PreparedScene {
                 power: l.power.clone(),
                 layer: layer_of(l.group),
                 aim: None,
+                media: Vec::new(),
             });
             powers.push(total);
         }
@@ -279,9 +281,11 @@ impl PreparedScene {
                 power,
                 layer: layer_of(m.light_group),
                 aim: None,
+                media: Vec::new(),
             });
             powers.push(total);
         }
+        hold_in_media(scene, origin, &mut emitters);
         let total_power: f64 = powers.iter().sum();
         if !(total_power > 0.0 && total_power.is_finite()) {
             bail!(
@@ -420,6 +424,68 @@ impl PreparedScene {
 /// `PreparedScene::sphere_radius` of a scene of `enter_radius` and `radius` (its
 /// `offset_at` the origin included).
 #[inline]
+/// Fills each point-like light's and emitting mesh's `Emitter::media`: the closed meshes
+/// with a scattering (or fluorescent) medium around its position (an emitting mesh's: its
+/// first triangle's centroid), outermost first (by their bounding boxes' volumes).
+fn hold_in_media(scene: &Scene, origin: DVec3, emitters: &mut [Emitter]) {
+    let scatters = |id: u32| {
+        scene
+            .materials
+            .get(id as usize)
+            .is_some_and(Material::scatters)
+    };
+    let holders: Vec<(u32, u32, f64)> = scene
+        .meshes
+        .iter()
+        .enumerate()
+        .filter(|(_, m)| !m.sensor)
+        .filter_map(|(i, m)| {
+            let material = match &m.triangle_materials {
+                None => scatters(m.material).then_some(m.material),
+                Some(ids) => ids.iter().copied().find(|&id| scatters(id)),
+            }?;
+            let (mut lo, mut hi) = (DVec3::INFINITY, DVec3::NEG_INFINITY);
+            for p in &m.positions {
+                lo = lo.min(DVec3::from(*p));
+                hi = hi.max(DVec3::from(*p));
+            }
+            Some((i as u32, material, (hi - lo).element_product()))
+        })
+        .collect();
+    if holders.is_empty() {
+        return;
+    }
+    let insides: Vec<_> = holders
+        .iter()
+        .map(|&(i, _, _)| scene.meshes[i as usize].inside())
+        .collect();
+    for em in emitters.iter_mut() {
+        let (p, own) = match &em.kind {
+            EmitterKind::Light(_) => (em.position + origin, None),
+            EmitterKind::Mesh { mesh, .. } => {
+                let m = &scene.meshes[*mesh];
+                let Some(t) = m.triangles.first() else {
+                    continue;
+                };
+                let c = t
+                    .iter()
+                    .map(|&v| DVec3::from(m.positions[v as usize]))
+                    .sum::<DVec3>();
+                (c / 3.0, Some(*mesh as u32))
+            }
+            EmitterKind::Distant { .. } => continue,
+        };
+        let mut held: Vec<(u32, u32, f64)> = holders
+            .iter()
+            .zip(&insides)
+            .filter(|(h, inside)| Some(h.0) != own && inside(p.to_array()))
+            .map(|(h, _)| *h)
+            .collect();
+        held.sort_by(|a, b| b.2.total_cmp(&a.2));
+        em.media = held.into_iter().map(|(i, m, _)| (i, m)).collect();
+    }
+}
+
 fn sphere_radius(enter_radius: f64, radius: f64) -> f64 {
     enter_radius * 1.01 + 4e-6 * 1e-4 * radius
 }

@@ -946,6 +946,10 @@ impl DirectSampler<'_> {
         let (x, n) = (at.x, at.n);
         let e = scene.emitter_table.sample(u);
         let em = &scene.emitters[e];
+        if !em.media.is_empty() {
+            // A light inside a scattering medium: its light is the photons' alone.
+            return None;
+        }
         let receiver = Receiver { n, p_front: 1.0 };
         match em.sample_toward(&scene.meshes, x, receiver, w, || true)? {
             LightSample::Beam {

@@ -721,6 +721,15 @@ impl Tracer<'_> {
         });
         let mut medium = outside;
         bounces.media_in.clear();
+        // A light inside meshes with a scattering medium starts its photons in them; light
+        // sampling and gathering leave its light to the photons (`DirectSampler::
+        // sample_light` takes none of it), so its deposits are not weighed.
+        let held = &self.scene.emitters[from.emitter].media;
+        for &(mesh, material) in held {
+            bounces.media_in.cross(mesh, material, true);
+            medium = Some(Medium { mesh, material });
+        }
+        let sampled = held.is_empty();
         // The medium after crossing the surface of `mesh` (material `material`) into it
         // (`front`) or out of it: the innermost mesh the photon is in, or `outside`.
         let cross = |media_in: &mut crate::scene::medium::MediumStack, mesh, material, front| {
@@ -737,7 +746,7 @@ impl Tracer<'_> {
         // event was a diffuse one and it has met no dielectric since (the paths a gathering
         // path from a vertex follows back to its light sample, `direct::DirectSampler::gather`).
         let mut gathered = None;
-        let gathering = self.direct.filter(|d| d.gather);
+        let gathering = self.direct.filter(|d| d.gather && sampled);
         bounces.meshes.clear();
         bounces.media.clear();
         // (A glossy bounce or a medium sizes `delta` on first use: `WeightedBounces::shift`.)
@@ -786,7 +795,7 @@ impl Tracer<'_> {
             // With light sampling at the vertices, deposits before the first surface
             // event is over are direct light: weighted against the light samples.
             let weigh = match (self.direct, gathering, gathered) {
-                (Some(d), _, _) if event == 0 => Weigh::Direct(d, from),
+                (Some(d), _, _) if event == 0 && sampled => Weigh::Direct(d, from),
                 // A deposit after `event` surface events (the first diffuse): a gathering
                 // path from x takes its light sample at its `event`-th surface.
                 (_, Some(d), Some(p)) if event <= direct::GATHER_DEPTH => Weigh::Gathered(d, p),
