@@ -1493,11 +1493,16 @@ impl<'a> EyeTracer<'a> {
             return Step::Specular;
         }
         if let Some(d) = bsdf.interface() {
-            if d.dispersive && band.is_none() {
+            // Against the dielectric around it (nested media), else air.
+            let out = media
+                .around(at.mesh)
+                .and_then(|(_, m)| self.materials[m as usize].dielectric.as_ref());
+            if (d.dispersive || out.is_some_and(|o| o.dispersive)) && band.is_none() {
                 *band = Some(collapse_weights(beta, rng.uniform()));
             }
-            let n = d.ior[band.unwrap_or(0)];
-            let (n1, n2) = if at.front { (1.0, n) } else { (n, 1.0) };
+            let b = band.unwrap_or(0);
+            let (n, n_out) = (d.ior[b], out.map_or(1.0, |o| o.ior[b]));
+            let (n1, n2) = if at.front { (n_out, n) } else { (n, n_out) };
             let cos_i = (-dir.dot(n_in)).clamp(0.0, 1.0);
             if rng.uniform() < fresnel_dielectric(cos_i, n1, n2) {
                 *dir = reflect(*dir, n_in);

@@ -92,6 +92,22 @@ impl MediumStack {
     pub fn current(&self) -> Option<(u32, u32)> {
         self.inside.last().copied()
     }
+
+    /// The mesh (and its material) around the surface of `mesh` that a path meets: the
+    /// innermost one it is in but `mesh` itself; None: air (or the scene's medium).
+    #[inline]
+    pub fn around(&self, mesh: u32) -> Option<(u32, u32)> {
+        match self.inside.iter().rposition(|&(m, _)| m == mesh) {
+            None => self.current(),
+            Some(i) => self
+                .inside
+                .iter()
+                .enumerate()
+                .rev()
+                .find(|&(k, _)| k != i)
+                .map(|(_, &e)| e),
+        }
+    }
 }
 
 /// What a free flight of a path inside a medium ended with.

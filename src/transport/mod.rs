@@ -974,12 +974,18 @@ impl Tracer<'_> {
             }
             if let Some(d) = bsdf.interface() {
                 gathered = None;
-                // Smooth dielectric interface: Fresnel reflection or Snell refraction.
-                if d.dispersive {
+                // Smooth dielectric interface: Fresnel reflection or Snell refraction,
+                // against the dielectric around it (nested media), else air.
+                let out = bounces
+                    .media_in
+                    .around(hit.mesh)
+                    .and_then(|(_, m)| self.materials[m as usize].dielectric.as_ref());
+                if d.dispersive || out.is_some_and(|o| o.dispersive) {
                     colour.collapse(rng.uniform());
                 }
-                let n = d.ior[colour.band().unwrap_or(0)];
-                let (n1, n2) = if front { (1.0, n) } else { (n, 1.0) };
+                let b = colour.band().unwrap_or(0);
+                let (n, n_out) = (d.ior[b], out.map_or(1.0, |o| o.ior[b]));
+                let (n1, n2) = if front { (n_out, n) } else { (n, n_out) };
                 let cos_i = (-dir.dot(n_in)).clamp(0.0, 1.0);
                 // Polarisation: the s and p parts reflect by their own Fresnel
                 // coefficients, so the photon's state decides the reflectance and the
