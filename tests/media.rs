@@ -1651,3 +1651,103 @@ fn nested_dielectrics_refract_against_each_other_not_against_air() {
     eprintln!("path tracer: the panel through the stack reads {seen:.5}, exact {want:.5}");
     assert!((seen - want).abs() < 0.005, "{seen} against {want}");
 }
+
+#[test]
+fn a_fog_ball_lit_from_outside_glows_in_every_renderer_as_its_photons_say() {
+    // The fog ball (σs 2/m, g 0.3, σa 0.5, 1 and 2 per metre) behind an index-1 surface,
+    // lit by a spot from outside it, above and behind a camera 3 m away. Eye paths that
+    // scatter in the fog take light samples through the ball's surface (index matched:
+    // nothing bends or reflects there). The camera's Σ L cos θ dΩ over its pixels is the
+    // irradiance at its pinhole from the ball; photons measure the same on a sensor there
+    // (0.6 × 0.6 m, facing the ball: the spot's own light crosses it from behind), its
+    // mean over the sensor being the centre's times the mean of (3/r)³ (the ball as a
+    // source 3 m away, its intensity the same over the sensor's 6°).
+    let mut ctx = context(seeded(41));
+    let black = lambert(&mut ctx, 0.0);
+    let m = ctx
+        .add_material(&MaterialDesc {
+            ior: Some(IorModel::Constant(1.0)),
+            absorption_per_m: vec![0.5, 1.0, 2.0],
+            scattering_per_m: vec![2.0],
+            phase_g: vec![0.3],
+            ..Default::default()
+        })
+        .unwrap();
+    let ball = sphere_inward(0.5, 4).flipped();
+    let mut d = ball.desc(m);
+    d.record = false;
+    ctx.add_mesh(&d).unwrap();
+    let w = 0.3;
+    let plane = grid(6, -w, w, -w, w, 3.0).flipped();
+    let mut d = plane.desc(black);
+    d.sensor = true;
+    d.tally = true;
+    let sensor = ctx.add_mesh(&d).unwrap();
+    let lamp = [0.0, 0.6, 3.5];
+    ctx.add_spot_light(lamp, [0.0, -0.6, -3.5], 9.5f64.to_radians(), &[1.0])
+        .unwrap();
+    run_photons_only(&mut ctx, photons(8_000_000));
+    let stats = ctx.region_stats(sensor, 0, None).unwrap();
+    let k = 200;
+    let mut mean = 0.0;
+    for i in 0..k {
+        for j in 0..k {
+            let x = -w + 2.0 * w * (i as f64 + 0.5) / k as f64;
+            let y = -w + 2.0 * w * (j as f64 + 0.5) / k as f64;
+            let r = (9.0 + x * x + y * y).sqrt();
+            mean += (3.0 / r).powi(3) / (k * k) as f64;
+        }
+    }
+    let cam = imap::CameraDesc {
+        position: [0.0, 0.0, 3.0],
+        direction: [0.0, 0.0, -1.0],
+        up: [0.0, 1.0, 0.0],
+        fov_y_deg: 24.0,
+        width: 24,
+        height: 24,
+    };
+    let n = cam.width as usize;
+    let half = (cam.fov_y_deg.to_radians() / 2.0).tan();
+    let step = 2.0 * half / n as f64;
+    let irradiance = |img: &imap::Image, b: usize| {
+        let mut e = 0.0;
+        for py in 0..n {
+            for px in 0..n {
+                let x = -half + (px as f64 + 0.5) * step;
+                let y = half - (py as f64 + 0.5) * step;
+                let q = 1.0 + x * x + y * y;
+                e += img.radiance[(py * n + px) * 3 + b] * step * step / (q * q);
+            }
+        }
+        e
+    };
+    let path = ctx.path_trace(&cam, 256, 1000).unwrap();
+    let (sync, _) = ctx
+        .render(
+            &cam,
+            &mut imap::RenderParams {
+                method: imap::RenderMethod::Synchronous,
+                passes: 256,
+                progress_interval_s: 0.05,
+                ..Default::default()
+            },
+        )
+        .unwrap();
+    for b in 0..3 {
+        let e = stats.average_w_m2[b];
+        let (want, sigma) = (e.value / mean, e.sigma / mean);
+        let (p, s) = (irradiance(&path, b), irradiance(&sync, b));
+        eprintln!(
+            "band {b}: photons {want:.4e} ± {:.1} %; path tracer {:.4}, synchronous {:.4} of it",
+            100.0 * sigma / want,
+            p / want,
+            s / want
+        );
+        for (name, got) in [("path tracer", p), ("synchronous", s)] {
+            assert!(
+                (got - want).abs() < 4.0 * sigma + 0.01 * want,
+                "band {b}: {name} {got} against the photons' {want} ± {sigma}"
+            );
+        }
+    }
+}

@@ -71,6 +71,9 @@ pub struct EyeTracer<'a> {
     white: Vec<f64>,
     /// Whether some material fluoresces (backward photons then record their pixel band).
     fluorescent: bool,
+    /// Whether some smooth dielectric has index 1 in every band (a fog box's walls): light
+    /// samples in media then go through such surfaces (`shadow_through`).
+    index_matched: bool,
     /// Whether some light is inside a mesh with a scattering medium (`Emitter::media`):
     /// eye paths then take light samples where they scatter in mesh media, and shadow
     /// rays inside such a mesh are attenuated by its medium (`light_tr`).
@@ -226,6 +229,15 @@ impl<'a> EyeTracer<'a> {
             white: vec![1.0; source.bands.count()],
             fluorescent: source.materials.iter().any(Material::fluoresces),
             lights_in_media: scene.emitters.iter().any(|e| !e.media.is_empty()),
+            // (Among the materials the meshes use: the scene medium's is one too.)
+            index_matched: scene.meshes.iter().any(|m| {
+                m.materials.iter().any(|&id| {
+                    source.materials[id as usize]
+                        .bsdf()
+                        .interface()
+                        .is_some_and(|d| d.ior.iter().all(|&n| n == 1.0))
+                })
+            }),
         }
     }
 
@@ -303,7 +315,7 @@ impl<'a> EyeTracer<'a> {
             let hit = self.accel.intersect(org, dir);
             let t = hit.map_or(f64::INFINITY, |h| h.t);
             let path = ((&mut dir, &mut org), beta.as_mut_slice());
-            match self.through_medium((medium, media.current()), t, path, rng, (out.to(), stats)) {
+            match self.through_medium((medium, &media), t, path, rng, (out.to(), stats)) {
                 Flight::Surface => {}
                 Flight::Absorbed => return,
                 Flight::Scatter(t) => {
@@ -313,7 +325,7 @@ impl<'a> EyeTracer<'a> {
                     continue;
                 }
                 Flight::Fluoresce(t, _) => {
-                    let at = (medium, media.current(), org);
+                    let at = (medium, &media, org);
                     self.re_emit(at, beta, (&mut band, &mut out), rng, stats);
                     path_len += t;
                     glossy_pdf = None;
@@ -476,13 +488,13 @@ impl<'a> EyeTracer<'a> {
             let hit = self.accel.intersect(org, dir);
             let t = hit.map_or(f64::INFINITY, |h| h.t);
             let path = ((&mut dir, &mut org), beta.as_mut_slice());
-            match self.through_medium((medium, media.current()), t, path, rng, (out.to(), stats)) {
+            match self.through_medium((medium, &media), t, path, rng, (out.to(), stats)) {
                 Flight::Surface => {}
                 Flight::Absorbed => return,
                 Flight::Fluoresce(..) => {
                     // Re-emitted light: as after a scattering (there is no haze to
                     // fluoresce, so no light sample took the lights no path meets).
-                    let at = (medium, media.current(), org);
+                    let at = (medium, &media, org);
                     self.re_emit(at, beta, (&mut band, &mut out), rng, stats);
                     counts = true;
                     glossy_pdf = None;
@@ -1147,7 +1159,7 @@ impl<'a> EyeTracer<'a> {
     #[inline]
     fn through_medium(
         &self,
-        (medium, inside): (Option<u32>, Inside),
+        (medium, media): (Option<u32>, &MediumStack),
         t: f64,
         ((dir, org), beta): ((&mut DVec3, &mut DVec3), &mut [f64]),
         rng: &mut PhotonRng,
@@ -1180,11 +1192,13 @@ impl<'a> EyeTracer<'a> {
                 let t = t0 + t_m / self.unit_m;
                 *org += *dir * t;
                 if medium.is_none() {
-                    self.haze_light((*org, None), (*dir, false), sc, beta, rng, out, stats);
-                } else if self.lights_in_media {
-                    // In a mesh's medium: the lights inside the mesh (others are behind
-                    // its surface, and their shadow rays end there).
-                    self.haze_light((*org, inside), (*dir, false), sc, beta, rng, out, stats);
+                    let outside = MediumStack::default();
+                    self.haze_light((*org, &outside), (*dir, false), sc, beta, rng, out, stats);
+                } else if self.lights_in_media || self.index_matched {
+                    // In a mesh's medium: the lights inside the mesh, and those behind
+                    // surfaces of matched index (others are behind a surface that bends
+                    // their light, and their shadow rays end there).
+                    self.haze_light((*org, media), (*dir, false), sc, beta, rng, out, stats);
                 }
                 let u = [rng.uniform(), rng.uniform(), rng.uniform()];
                 *dir = sc.scatter(*dir, beta, u);
@@ -1247,7 +1261,7 @@ impl<'a> EyeTracer<'a> {
     #[allow(clippy::too_many_arguments)]
     fn haze_light(
         &self,
-        (p, inside): (DVec3, Inside),
+        (p, media): (DVec3, &MediumStack),
         (dir, re_emitted): (DVec3, bool),
         sc: &crate::scene::medium::Scattering,
         beta: &[f64],
@@ -1276,19 +1290,15 @@ impl<'a> EyeTracer<'a> {
         };
         let sample = em.sample_toward(&self.scene.meshes, p, receiver, u, || u_side < 0.5);
         let unit2 = self.unit_m * self.unit_m;
-        let (wi, k, tr) = match sample {
+        let inside = media.current();
+        // A point-like light: its direction, weight and distance (the sun's: infinite).
+        let (wi, k, dist) = match sample {
             Some(LightSample::Beam { axis, area, .. }) if !sun => {
-                let wi = -axis;
                 let dist = (p - em.position).dot(axis);
-                stats.rays += 1;
-                if dist <= 0.0 || self.accel.occluded(p, wi, dist) {
+                if dist <= 0.0 {
                     return;
                 }
-                (
-                    wi,
-                    1.0 / (area * unit2 * pe),
-                    self.light_tr(e, inside, p, wi, dist),
-                )
+                (-axis, 1.0 / (area * unit2 * pe), dist)
             }
             Some(LightSample::Point(y)) if !sun => {
                 let to = y - p;
@@ -1298,15 +1308,10 @@ impl<'a> EyeTracer<'a> {
                 }
                 let wi = to / d;
                 let per_watt = em.intensity_per_watt(-wi);
-                stats.rays += 1;
-                if per_watt <= 0.0 || self.accel.occluded(p, wi, d) {
+                if per_watt <= 0.0 {
                     return;
                 }
-                (
-                    wi,
-                    per_watt / (d * d * unit2 * pe),
-                    self.light_tr(e, inside, p, wi, d),
-                )
+                (wi, per_watt / (d * d * unit2 * pe), d)
             }
             Some(LightSample::Direction {
                 toward,
@@ -1315,30 +1320,152 @@ impl<'a> EyeTracer<'a> {
                 reach,
                 norm,
             }) if sun => {
+                if f <= 0.0 || q <= 0.0 {
+                    return;
+                }
                 stats.rays += 1;
-                if f <= 0.0 || q <= 0.0 || self.accel.occluded(p, toward, reach) {
+                if self.accel.occluded(p, toward, reach) {
                     return;
                 }
                 let k = f / (q * norm * unit2 * pe);
-                (
-                    toward,
+                let tr = self.light_tr(e, inside, p, toward, f64::INFINITY);
+                let cos = toward.dot(dir);
+                return self.add_scattered(
+                    sc,
+                    (cos, re_emitted),
+                    (beta, power),
                     k,
-                    self.light_tr(e, inside, p, toward, f64::INFINITY),
-                )
+                    |b| tr.at(b),
+                    out,
+                );
             }
             _ => return,
         };
-        // Light travels along −wi, then on toward the eye along −dir.
-        let cos = wi.dot(dir);
+        if self.index_matched {
+            // Through surfaces of matched index (a fog box's index-1 walls), each segment
+            // by its own medium.
+            let Some(tr) = self.shadow_through(p, wi, dist, media, stats) else {
+                return;
+            };
+            self.add_scattered(
+                sc,
+                (wi.dot(dir), re_emitted),
+                (beta, power),
+                k,
+                |b| tr[b],
+                out,
+            );
+        } else {
+            stats.rays += 1;
+            if self.accel.occluded(p, wi, dist) {
+                return;
+            }
+            let tr = self.light_tr(e, inside, p, wi, dist);
+            self.add_scattered(
+                sc,
+                (wi.dot(dir), re_emitted),
+                (beta, power),
+                k,
+                |b| tr.at(b),
+                out,
+            );
+        }
+    }
+
+    /// Adds a medium's light sample to `out`: per band, the path's weight, the phase
+    /// function at `cos` between the light's travel and the eye's (isotropic for a
+    /// re-emission), the light's power, `k` and the transmittance `tr`.
+    #[inline]
+    fn add_scattered(
+        &self,
+        sc: &crate::scene::medium::Scattering,
+        (cos, re_emitted): (f64, bool),
+        (beta, power): (&[f64], &[f64]),
+        k: f64,
+        tr: impl Fn(usize) -> f64,
+        out: &mut [f64],
+    ) {
         for (b, ((o, bt), pw)) in out.iter_mut().zip(beta).zip(power).enumerate() {
-            // (A fluorescent medium re-emits isotropically.)
             let phase = if re_emitted {
                 0.25 / std::f64::consts::PI
             } else {
                 sc.phase(b, cos)
             };
-            *o += bt * phase * pw * k * tr.at(b);
+            *o += bt * phase * pw * k * tr(b);
         }
+    }
+
+    /// The transmittance per band of a shadow ray from `p` along unit `wi` over `dist`
+    /// scene units, from a path inside `media`, through the smooth dielectric surfaces of
+    /// matched index it meets (no refraction, no reflection: a fog box's index-1 walls),
+    /// each segment by the medium it lies in (a mesh's scattering or absorbing medium, or
+    /// the scene's); None when anything else is in the way.
+    #[cold]
+    #[inline(never)]
+    fn shadow_through(
+        &self,
+        p: DVec3,
+        wi: DVec3,
+        dist: f64,
+        media: &MediumStack,
+        stats: &mut EyeStats,
+    ) -> Option<Vec<f64>> {
+        const MAX_CROSSINGS: usize = 32;
+        let mut tr = vec![1.0; self.bands];
+        let mut stack = media.clone();
+        let (mut org, mut left) = (p, dist);
+        for _ in 0..MAX_CROSSINGS {
+            stats.rays += 1;
+            let hit = self.accel.intersect(org, wi).filter(|h| h.t < left);
+            let seg = hit.map_or(left, |h| h.t);
+            // The segment's medium.
+            match stack.current() {
+                Some((_, m)) => {
+                    let d = self.materials[m as usize].dielectric.as_ref();
+                    let sigma = d.and_then(|d| {
+                        d.scattering
+                            .as_ref()
+                            .map(|s| s.sigma_t.as_slice())
+                            .or(d.absorption_per_m.as_deref())
+                    });
+                    if let Some(sigma) = sigma {
+                        let d_m = seg * self.unit_m;
+                        for (t, s) in tr.iter_mut().zip(sigma) {
+                            *t *= (-s * d_m).exp();
+                        }
+                    }
+                }
+                None => {
+                    let h = self.haze_tr(org, wi, seg);
+                    for (b, t) in tr.iter_mut().enumerate() {
+                        *t *= h.at(b);
+                    }
+                }
+            }
+            let Some(h) = hit else {
+                return Some(tr);
+            };
+            let mesh = &self.scene.meshes[h.mesh as usize];
+            let material = mesh.material(h.prim as usize);
+            let d = self.materials[material as usize].bsdf().interface()?;
+            let out = stack
+                .around(h.mesh)
+                .and_then(|(_, m)| self.materials[m as usize].dielectric.as_ref());
+            let matched = (0..self.bands).all(|b| d.ior[b] == out.map_or(1.0, |o| o.ior[b]));
+            if !matched {
+                return None;
+            }
+            let front = wi.dot(mesh.normals[h.prim as usize].as_dvec3()) < 0.0;
+            stack.cross(h.mesh, material, front);
+            let q = org + wi * h.t;
+            let eps = self.scene.offset_at(q);
+            org = q + wi * eps;
+            left -= h.t + eps;
+            if left <= 0.0 {
+                return Some(tr);
+            }
+        }
+        None
     }
 
     /// `direct_light` summed over the bands of the arriving light (a path on a fluorescent
@@ -1386,7 +1513,7 @@ impl<'a> EyeTracer<'a> {
     #[inline(never)]
     fn re_emit(
         &self,
-        (medium, inside, p): (Option<u32>, Inside, DVec3),
+        (medium, media, p): (Option<u32>, &MediumStack, DVec3),
         beta: &mut [f64],
         (band, out): (&mut Option<usize>, &mut PathOut<'_>),
         rng: &mut PhotonRng,
@@ -1401,17 +1528,10 @@ impl<'a> EyeTracer<'a> {
         if out.band.is_some() && out.arriving.is_empty() {
             out.arriving.resize(beta.len(), 0.0);
         }
-        if self.lights_in_media {
-            // The lights inside the mesh, seen by the re-emission (isotropic).
-            self.haze_light(
-                (p, inside),
-                (DVec3::Z, true),
-                sc,
-                beta,
-                rng,
-                out.to(),
-                stats,
-            );
+        if self.lights_in_media || self.index_matched {
+            // The lights inside the mesh, or behind surfaces of matched index, seen by the
+            // re-emission (isotropic).
+            self.haze_light((p, media), (DVec3::Z, true), sc, beta, rng, out.to(), stats);
         }
     }
 
