@@ -170,6 +170,10 @@ impl Drop for Device {
 /// A committed Embree scene of triangle meshes; geometry id = mesh index.
 pub struct Accel {
     scene: rtc::RTCScene,
+    /// The box around its vertices (lo, hi), for `crossings` to pass by a segment that
+    /// misses it without a query (a photon's segments inside a light guide never come near
+    /// the sensor over it).
+    bounds: [DVec3; 2],
 }
 
 // SAFETY: a committed Embree scene is immutable and `rtcIntersect1` may be called on it from
@@ -207,7 +211,10 @@ impl Accel {
             if scene.is_null() {
                 return Err(device.error("rtcNewScene"));
             }
-            let accel = Accel { scene };
+            let mut accel = Accel {
+                scene,
+                bounds: [DVec3::INFINITY, DVec3::NEG_INFINITY],
+            };
             rtc::rtcSetSceneFlags(scene, rtc::RTCSceneFlags::ROBUST);
             rtc::rtcSetSceneBuildQuality(scene, rtc::RTCBuildQuality::MEDIUM);
             for (id, m) in meshes.iter().enumerate().filter(|(_, m)| keep(m)) {
@@ -238,6 +245,8 @@ impl Accel {
                 let vs = std::slice::from_raw_parts_mut(vb, 3 * m.vertices.len());
                 for (d, v) in vs.chunks_exact_mut(3).zip(&m.vertices) {
                     d.copy_from_slice(&v.to_array());
+                    accel.bounds[0] = accel.bounds[0].min(v.as_dvec3());
+                    accel.bounds[1] = accel.bounds[1].max(v.as_dvec3());
                 }
                 let is = std::slice::from_raw_parts_mut(ib, 3 * m.triangles.len());
                 for (d, t) in is.chunks_exact_mut(3).zip(&m.triangles) {
@@ -316,6 +325,9 @@ impl Accel {
     /// past the last).
     #[inline]
     pub fn crossings(&self, org: DVec3, dir: DVec3, t_max: f64, mut f: impl FnMut(Hit)) {
+        if !self.segment_meets_bounds(org, dir, t_max) {
+            return;
+        }
         let tfar = t_max as f32;
         let mut tnear = 0.0f32;
         // At most this many crossings of one segment (a ray grazing a fine sensor mesh).
@@ -339,6 +351,34 @@ impl Accel {
                 return;
             }
         }
+    }
+
+    /// Whether the segment `org + t·dir`, t in [0, `t_max`], may meet the box around the
+    /// vertices (slabs, with the box widened by a margin far above f32 rounding: a false
+    /// yes only costs a query).
+    #[inline]
+    fn segment_meets_bounds(&self, org: DVec3, dir: DVec3, t_max: f64) -> bool {
+        let [lo, hi] = self.bounds;
+        let pad = 1e-4 * (hi - lo).max_element().max(1e-30) + 1e-6 * org.abs().max_element();
+        let (lo, hi) = (lo - DVec3::splat(pad), hi + DVec3::splat(pad));
+        let (mut t0, mut t1) = (0.0f64, t_max);
+        for k in 0..3 {
+            let (o, d) = (org[k], dir[k]);
+            if d == 0.0 {
+                if o < lo[k] || o > hi[k] {
+                    return false;
+                }
+                continue;
+            }
+            let (a, b) = ((lo[k] - o) / d, (hi[k] - o) / d);
+            let (a, b) = if a < b { (a, b) } else { (b, a) };
+            t0 = t0.max(a);
+            t1 = t1.min(b);
+            if t0 > t1 {
+                return false;
+            }
+        }
+        true
     }
 
     /// Whether anything blocks the segment `org + t·dir`, t in (0, `t_max`) (shadow rays).

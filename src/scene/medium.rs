@@ -36,6 +36,9 @@ pub struct Scattering {
     pub g: Vec<f64>,
     /// Whether every band has the same g (a direction then needs no re-weighting).
     pub one_g: bool,
+    /// Whether every band has the same σt and albedo (a free flight then changes no
+    /// weight: `flight` takes the one-band path).
+    pub grey: bool,
     /// A tabulated phase function for all bands, in place of Henyey–Greenstein's.
     pub table: Option<std::sync::Arc<PhaseTable>>,
     /// What the medium re-emits of what it absorbs (spectral runs): of band i's absorbed
@@ -144,17 +147,20 @@ impl Scattering {
             .enumerate()
             .map(|(b, s)| s + sigma_a.map_or(0.0, |a| a[b]))
             .collect();
-        let albedo = sigma_s
+        let albedo: Vec<f64> = sigma_s
             .iter()
             .zip(&sigma_t)
             .map(|(s, t)| if *t > 0.0 { s / t } else { 0.0 })
             .collect();
         let one_g = g.iter().all(|&x| x == g[0]);
+        let grey = sigma_t.iter().all(|&x| x == sigma_t[0])
+            && albedo.iter().all(|&x| x == albedo[0]);
         Scattering {
             sigma_t,
             albedo,
             g,
             one_g,
+            grey,
             table: None,
             fluorescence: None,
         }
@@ -166,6 +172,9 @@ impl Scattering {
     pub fn flight(&self, c: &mut [f64], dist_m: f64, u: [f64; 3], way: Way) -> Flight {
         if let (Some(fl), Way::Importance) = (&self.fluorescence, way) {
             return self.flight_importance(fl, c, dist_m, u);
+        }
+        if self.grey && self.fluorescence.is_none() {
+            return self.grey_flight(c, dist_m, u);
         }
         let total: f64 = c.iter().sum();
         if !(total > 0.0 && total.is_finite()) {
@@ -202,6 +211,29 @@ impl Scattering {
         match reweigh(c, total, |b| self.albedo[b]) {
             Some(w) if u[2] < w => Flight::Scatter(t),
             _ => Flight::Absorbed,
+        }
+    }
+
+    /// `flight` in a grey medium: the same draws, and no weight changes (every band's
+    /// density and albedo over the mixture's is 1).
+    #[inline]
+    fn grey_flight(&self, c: &[f64], dist_m: f64, u: [f64; 3]) -> Flight {
+        let total: f64 = c.iter().sum();
+        if !(total > 0.0 && total.is_finite()) {
+            return Flight::Absorbed;
+        }
+        let st = self.sigma_t[0];
+        let t = if st > 0.0 {
+            -(1.0 - u[1]).ln() / st
+        } else {
+            f64::INFINITY
+        };
+        if t >= dist_m {
+            Flight::Surface
+        } else if st > 0.0 && u[2] < self.albedo[0] {
+            Flight::Scatter(t)
+        } else {
+            Flight::Absorbed
         }
     }
 

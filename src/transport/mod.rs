@@ -493,9 +493,13 @@ impl<'a> Tracer<'a> {
             // crack; it leaves the scene rather than wander in an unbounded medium.)
             let u = [rng.uniform(), rng.uniform(), rng.uniform()];
             let way = Way::Light;
-            return match bounces.moved(m.mesh, colour, |c| {
-                sc.flight(c.values_mut(), dist_m, u, way)
-            }) {
+            let flight = if sc.grey && sc.fluorescence.is_none() {
+                // (A grey flight changes no weight: nothing to tally.)
+                sc.flight(colour.values_mut(), dist_m, u, way)
+            } else {
+                bounces.moved(m.mesh, colour, |c| sc.flight(c.values_mut(), dist_m, u, way))
+            };
+            return match flight {
                 Flight::Surface => Segment::Through,
                 Flight::Absorbed => Segment::Absorbed,
                 Flight::Scatter(t_m) => Segment::Scatter(sc, t0 + t_m / self.unit_m, false),
@@ -864,6 +868,9 @@ impl Tracer<'_> {
                 let u = [rng.uniform(), rng.uniform(), rng.uniform()];
                 dir = if iso {
                     crate::sampling::warp::uniform_sphere(u[0], u[1])
+                } else if sc.one_g || sc.table.is_some() {
+                    // (One phase function for all bands: the direction changes no weight.)
+                    sc.scatter(dir, colour.values_mut(), u)
                 } else {
                     bounces.moved(mesh, colour, |c| sc.scatter(dir, c.values_mut(), u))
                 };
