@@ -257,17 +257,7 @@ fn every_renderer_shows_a_fluorescent_plate_as_the_closed_form() {
         imap::RenderMethod::FinalGather,
         imap::RenderMethod::Synchronous,
     ] {
-        let (img, _) = ctx
-            .render(
-                &cam,
-                &mut imap::RenderParams {
-                    method,
-                    passes: 512,
-                    progress_interval_s: 0.05,
-                    ..Default::default()
-                },
-            )
-            .unwrap();
+        let img = render_passes(&mut ctx, &cam, method, 512);
         check(&format!("{method:?}"), &img, 0.05);
     }
     // The plate's irradiance in the map: π in every band (nothing comes back from the
@@ -625,17 +615,7 @@ fn every_renderer_shows_a_fluorescent_slab_in_a_furnace_as_the_closed_form() {
         imap::RenderMethod::FinalGather,
         imap::RenderMethod::Synchronous,
     ] {
-        let (img, _) = ctx
-            .render(
-                &cam,
-                &mut imap::RenderParams {
-                    method,
-                    passes: 1024,
-                    progress_interval_s: 0.05,
-                    ..Default::default()
-                },
-            )
-            .unwrap();
+        let img = render_passes(&mut ctx, &cam, method, 1024);
         check(&format!("{method:?}"), &img, 0.015);
     }
 }
@@ -723,17 +703,7 @@ fn renderers_see_a_scattering_fluorescent_medium_as_the_photons_map_it() {
         (0..pixels).map(|p| img.radiance[p * NB + j]).sum::<f64>() / pixels as f64
     };
     let path = ctx.path_trace(&cam, 8192, 1000).unwrap();
-    let (fg, _) = ctx
-        .render(
-            &cam,
-            &mut imap::RenderParams {
-                method: imap::RenderMethod::FinalGather,
-                passes: 512,
-                progress_interval_s: 0.05,
-                ..Default::default()
-            },
-        )
-        .unwrap();
+    let fg = render_passes(&mut ctx, &cam, imap::RenderMethod::FinalGather, 512);
     // The map's mean is good to about 1.5 % per band at 6 M photons, the renderers' to
     // about 1 %; light re-emitted into bands 2–5 is 6–20 % of what the plate shows there.
     let (mut sum_p, mut sum_f) = (0.0, 0.0);

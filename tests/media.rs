@@ -1130,19 +1130,38 @@ fn every_renderer_shows_a_floor_lit_inside_a_medium_as_the_closed_form() {
         imap::RenderMethod::FinalGather,
         imap::RenderMethod::Synchronous,
     ] {
-        let (img, _) = ctx
-            .render(
-                &cam,
-                &mut imap::RenderParams {
-                    method,
-                    passes: 2048,
-                    progress_interval_s: 0.05,
-                    ..Default::default()
-                },
-            )
-            .unwrap();
+        let img = render_passes(&mut ctx, &cam, method, 2048);
         check(&format!("{method:?}"), &img);
     }
+}
+
+/// A camera 3 m from the fog balls' centre, looking at it (24° wide, 24² pixels).
+const BALL_CAMERA: imap::CameraDesc = imap::CameraDesc {
+    position: [0.0, 0.0, 3.0],
+    direction: [0.0, 0.0, -1.0],
+    up: [0.0, 1.0, 0.0],
+    fov_y_deg: 24.0,
+    width: 24,
+    height: 24,
+};
+
+/// The irradiance at the pinhole of the square camera `cam` from what its picture shows,
+/// in band `b` of 3: Σ L cos θ dΩ over the pixels (dΩ cos θ = dx dy / (1 + x² + y²)² on
+/// the image plane at distance 1).
+fn pinhole_irradiance(cam: &imap::CameraDesc, img: &imap::Image, b: usize) -> f64 {
+    let n = cam.width as usize;
+    let half = (cam.fov_y_deg.to_radians() / 2.0).tan();
+    let step = 2.0 * half / n as f64;
+    let mut e = 0.0;
+    for py in 0..n {
+        for px in 0..n {
+            let x = -half + (px as f64 + 0.5) * step;
+            let y = half - (py as f64 + 0.5) * step;
+            let q = 1.0 + x * x + y * y;
+            e += img.radiance[(py * n + px) * 3 + b] * step * step / (q * q);
+        }
+    }
+    e
 }
 
 #[test]
@@ -1177,41 +1196,10 @@ fn every_renderer_sees_a_lamp_in_a_fog_ball_send_out_what_its_photons_say() {
             (report.band_w[2][b] - unscattered) / (4.0 * std::f64::consts::PI * d2)
         })
         .collect();
-    let cam = imap::CameraDesc {
-        position: [0.0, 0.0, 3.0],
-        direction: [0.0, 0.0, -1.0],
-        up: [0.0, 1.0, 0.0],
-        fov_y_deg: 24.0,
-        width: 24,
-        height: 24,
-    };
-    let n = cam.width as usize;
-    let half = (cam.fov_y_deg.to_radians() / 2.0).tan();
-    let step = 2.0 * half / n as f64;
-    let irradiance = |img: &imap::Image, b: usize| {
-        let mut e = 0.0;
-        for py in 0..n {
-            for px in 0..n {
-                let x = -half + (px as f64 + 0.5) * step;
-                let y = half - (py as f64 + 0.5) * step;
-                let q = 1.0 + x * x + y * y;
-                e += img.radiance[(py * n + px) * 3 + b] * step * step / (q * q);
-            }
-        }
-        e
-    };
+    let cam = BALL_CAMERA;
+    let irradiance = |img: &imap::Image, b: usize| pinhole_irradiance(&cam, img, b);
     let img = ctx.path_trace(&cam, 256, 1000).unwrap();
-    let (fg, _) = ctx
-        .render(
-            &cam,
-            &mut imap::RenderParams {
-                method: imap::RenderMethod::FinalGather,
-                passes: 256,
-                progress_interval_s: 0.05,
-                ..Default::default()
-            },
-        )
-        .unwrap();
+    let fg = render_passes(&mut ctx, &cam, imap::RenderMethod::FinalGather, 256);
     for (b, w) in want.iter().enumerate() {
         let (p, f) = (irradiance(&img, b) / w, irradiance(&fg, b) / w);
         eprintln!(
@@ -1698,41 +1686,10 @@ fn a_fog_ball_lit_from_outside_glows_in_every_renderer_as_its_photons_say() {
             mean += (3.0 / r).powi(3) / (k * k) as f64;
         }
     }
-    let cam = imap::CameraDesc {
-        position: [0.0, 0.0, 3.0],
-        direction: [0.0, 0.0, -1.0],
-        up: [0.0, 1.0, 0.0],
-        fov_y_deg: 24.0,
-        width: 24,
-        height: 24,
-    };
-    let n = cam.width as usize;
-    let half = (cam.fov_y_deg.to_radians() / 2.0).tan();
-    let step = 2.0 * half / n as f64;
-    let irradiance = |img: &imap::Image, b: usize| {
-        let mut e = 0.0;
-        for py in 0..n {
-            for px in 0..n {
-                let x = -half + (px as f64 + 0.5) * step;
-                let y = half - (py as f64 + 0.5) * step;
-                let q = 1.0 + x * x + y * y;
-                e += img.radiance[(py * n + px) * 3 + b] * step * step / (q * q);
-            }
-        }
-        e
-    };
+    let cam = BALL_CAMERA;
+    let irradiance = |img: &imap::Image, b: usize| pinhole_irradiance(&cam, img, b);
     let path = ctx.path_trace(&cam, 256, 1000).unwrap();
-    let (sync, _) = ctx
-        .render(
-            &cam,
-            &mut imap::RenderParams {
-                method: imap::RenderMethod::Synchronous,
-                passes: 256,
-                progress_interval_s: 0.05,
-                ..Default::default()
-            },
-        )
-        .unwrap();
+    let sync = render_passes(&mut ctx, &cam, imap::RenderMethod::Synchronous, 256);
     for b in 0..3 {
         let e = stats.average_w_m2[b];
         let (want, sigma) = (e.value / mean, e.sigma / mean);

@@ -1448,14 +1448,14 @@ impl<'a> EyeTracer<'a> {
             let mesh = &self.scene.meshes[h.mesh as usize];
             let material = mesh.material(h.prim as usize);
             let d = self.materials[material as usize].bsdf().interface()?;
+            let front = wi.dot(mesh.normals[h.prim as usize].as_dvec3()) < 0.0;
             let out = stack
-                .around(h.mesh)
+                .around(h.mesh, front)
                 .and_then(|(_, m)| self.materials[m as usize].dielectric.as_ref());
             let matched = (0..self.bands).all(|b| d.ior[b] == out.map_or(1.0, |o| o.ior[b]));
             if !matched {
                 return None;
             }
-            let front = wi.dot(mesh.normals[h.prim as usize].as_dvec3()) < 0.0;
             stack.cross(h.mesh, material, front);
             let q = org + wi * h.t;
             let eps = self.scene.offset_at(q);
@@ -1615,7 +1615,7 @@ impl<'a> EyeTracer<'a> {
         if let Some(d) = bsdf.interface() {
             // Against the dielectric around it (nested media), else air.
             let out = media
-                .around(at.mesh)
+                .around(at.mesh, at.front)
                 .and_then(|(_, m)| self.materials[m as usize].dielectric.as_ref());
             if (d.dispersive || out.is_some_and(|o| o.dispersive)) && band.is_none() {
                 *band = Some(collapse_weights(beta, rng.uniform()));

@@ -96,12 +96,18 @@ impl MediumStack {
         self.inside.last().copied()
     }
 
-    /// The mesh (and its material) around the surface of `mesh` that a path meets: the
-    /// innermost one it is in but `mesh` itself; None: air (or the scene's medium).
+    /// The mesh (and its material) around the surface of `mesh` that a path meets from its
+    /// front (entering: the innermost one it is in) or its back (leaving: the innermost
+    /// one it is in but `mesh`); None: air (or the scene's medium). Leaving a mesh it never
+    /// entered (a slab drawn as two open sheets, a lamp's globe) is into air, as before
+    /// media nested.
     #[inline]
-    pub fn around(&self, mesh: u32) -> Option<(u32, u32)> {
+    pub fn around(&self, mesh: u32, front: bool) -> Option<(u32, u32)> {
+        if front {
+            return self.current();
+        }
         match self.inside.iter().rposition(|&(m, _)| m == mesh) {
-            None => self.current(),
+            None => None,
             Some(i) => self
                 .inside
                 .iter()
@@ -153,8 +159,8 @@ impl Scattering {
             .map(|(s, t)| if *t > 0.0 { s / t } else { 0.0 })
             .collect();
         let one_g = g.iter().all(|&x| x == g[0]);
-        let grey = sigma_t.iter().all(|&x| x == sigma_t[0])
-            && albedo.iter().all(|&x| x == albedo[0]);
+        let grey =
+            sigma_t.iter().all(|&x| x == sigma_t[0]) && albedo.iter().all(|&x| x == albedo[0]);
         Scattering {
             sigma_t,
             albedo,

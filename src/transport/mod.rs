@@ -497,7 +497,9 @@ impl<'a> Tracer<'a> {
                 // (A grey flight changes no weight: nothing to tally.)
                 sc.flight(colour.values_mut(), dist_m, u, way)
             } else {
-                bounces.moved(m.mesh, colour, |c| sc.flight(c.values_mut(), dist_m, u, way))
+                bounces.moved(m.mesh, colour, |c| {
+                    sc.flight(c.values_mut(), dist_m, u, way)
+                })
             };
             return match flight {
                 Flight::Surface => Segment::Through,
@@ -985,7 +987,7 @@ impl Tracer<'_> {
                 // against the dielectric around it (nested media), else air.
                 let out = bounces
                     .media_in
-                    .around(hit.mesh)
+                    .around(hit.mesh, front)
                     .and_then(|(_, m)| self.materials[m as usize].dielectric.as_ref());
                 if d.dispersive || out.is_some_and(|o| o.dispersive) {
                     colour.collapse(rng.uniform());

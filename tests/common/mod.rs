@@ -195,6 +195,27 @@ pub fn photons(base: u64) -> u64 {
     ((base as f64) * s).max(1000.0) as u64
 }
 
+/// A picture of `cam` by the photon-map renderer `method` after `passes` passes (progress
+/// every 0.05 s).
+pub fn render_passes(
+    ctx: &mut Context,
+    cam: &imap::CameraDesc,
+    method: imap::RenderMethod,
+    passes: u64,
+) -> imap::Image {
+    ctx.render(
+        cam,
+        &mut imap::RenderParams {
+            method,
+            passes,
+            progress_interval_s: 0.05,
+            ..Default::default()
+        },
+    )
+    .expect("render")
+    .0
+}
+
 /// Runs `n` photons with no callback, with the photons-only estimator (the first paper's:
 /// for tests of what photons do).
 pub fn run_photons_only(ctx: &mut Context, n: u64) -> imap::Report {
