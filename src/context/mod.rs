@@ -753,7 +753,7 @@ impl Context {
     /// eye paths are attenuated and scattered by it and take a light sample where they
     /// scatter (`render::backward`). What it absorbed: `medium_absorbed(SCENE_MEDIUM)`.
     /// Fails with `IMAP_ERR_INVALID_ARGUMENT` naming the material when it is no such
-    /// medium.
+    /// medium, and with `IMAP_ERR_UNSUPPORTED` when it fluoresces.
     pub fn set_scene_medium(&mut self, material: Option<u32>) -> Result<()> {
         self.check_unlocked("set the scene's medium")?;
         if let Some(id) = material {

@@ -480,8 +480,9 @@ pub const IMAP_NO_MEDIUM: u32 = u32::MAX;
 /// Changing it discards the prepared scene, like adding a mesh. (Since 0.2.3.)
 ///
 /// Returns IMAP_ERR_INVALID_ARGUMENT naming the material (no such material, not a
-/// medium, index not 1, rough), IMAP_ERR_OUT_OF_ORDER after photons were traced (call
-/// imap_reset first).
+/// medium, index not 1, rough), IMAP_ERR_UNSUPPORTED for a fluorescent medium (a mesh's
+/// medium may fluoresce; the scene's may not), IMAP_ERR_OUT_OF_ORDER after photons were
+/// traced (call imap_reset first).
 ///
 /// # Safety
 /// `ctx` is a live handle.
