@@ -952,7 +952,8 @@ fn rough_materials_from_the_settings() {
 /// `scattering_per_m` and `phase_g` in `[materials.NAME]` reach the library: on the
 /// scene's open floor made a dielectric they are refused (a medium needs a closed mesh),
 /// on a material that is not a dielectric, or with g out of range, they are errors naming
-/// the material and the field.
+/// the material and the field. A closed box of haze reports what its medium absorbed, and
+/// with `[materials.NAME.fluorescence]` in a spectral run it fluoresces.
 #[test]
 fn a_scattering_medium_from_the_settings() {
     let d = tempfile::tempdir().unwrap();
@@ -1053,6 +1054,21 @@ fn a_scattering_medium_from_the_settings() {
         .find(|m| m["medium_absorbed"].is_null())
         .expect("a mesh without a medium");
     assert_ne!(floor["name"], "haze");
+    // The same box fluorescing in a spectral run: it re-emits at longer wavelengths what
+    // its medium absorbs at shorter ones, and the balance holds.
+    let (o, out) = run_with_settings(
+        d.path(),
+        &path,
+        "glowing",
+        "[spectral]\nbands = 5\n[materials.opal]\ndielectric = true\nior = 1.0\nabsorption_per_m = [4, 2, 0, 0, 0]\nscattering_per_m = 1\n[materials.opal.fluorescence]\nexcitation = [1, 1, 0, 0, 0]\nquantum_yield = 0.8\nemission = [0, 0, 1, 2, 1]\n",
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let r = read_report(&out);
+    let e = &r["energy_w"];
+    let f = |k: &str| e[k].as_f64().unwrap();
+    assert!(f("fluoresced") > 0.02 * f("emitted"), "{e}");
+    let off = f("emitted") + f("fluoresced") - f("absorbed") - f("escaped") - f("dropped");
+    assert!(off.abs() < 1e-9 * f("emitted"), "balance off by {off}");
 }
 
 /// `[materials.NAME.fluorescence]`: a spectral run's floor re-emits at longer wavelengths
