@@ -1156,8 +1156,24 @@ impl<'a> EyeTracer<'a> {
     /// light sample of the lights no path meets (`haze_light`) into `out` before the path
     /// turns. Inside a mesh with no surface ahead (a crack: `t` infinite) the path leaves
     /// untouched.
-    #[inline]
+    #[inline(always)]
     fn through_medium(
+        &self,
+        (medium, media): (Option<u32>, &MediumStack),
+        t: f64,
+        path: ((&mut DVec3, &mut DVec3), &mut [f64]),
+        rng: &mut PhotonRng,
+        out: (&mut [f64], &mut EyeStats),
+    ) -> Flight {
+        if medium.is_none() && self.scene.haze.is_none() {
+            return Flight::Surface;
+        }
+        self.through_some_medium((medium, media), t, path, rng, out)
+    }
+
+    /// `through_medium` in a medium (out of line: the paths of most scenes meet none).
+    #[inline(never)]
+    fn through_some_medium(
         &self,
         (medium, media): (Option<u32>, &MediumStack),
         t: f64,
@@ -1220,24 +1236,36 @@ impl<'a> EyeTracer<'a> {
     /// None: outside every mesh): the mesh's scattering medium's, e^(−σt d), when the
     /// light is inside that mesh too (an unoccluded ray then never left it); else the
     /// scene medium's (`haze_tr`).
-    #[inline]
+    #[inline(always)]
     fn light_tr(&self, e: usize, inside: Inside, org: DVec3, dir: DVec3, t: f64) -> Tr<'_> {
-        if self.lights_in_media {
-            if let Some((mesh, material)) = inside {
-                let held = self.scene.emitters[e].media.last().map(|h| h.0);
-                let sc = self.materials[material as usize]
-                    .dielectric
-                    .as_ref()
-                    .and_then(|d| d.scattering.as_ref());
-                if let (Some(sc), true) = (sc, held == Some(mesh)) {
-                    return Tr {
-                        sigma: &sc.sigma_t,
-                        d_m: t * self.unit_m,
-                    };
-                }
-            }
+        match inside {
+            Some(at) if self.lights_in_media => self.held_light_tr(e, at, (org, dir, t)),
+            _ => self.haze_tr(org, dir, t),
         }
-        self.haze_tr(org, dir, t)
+    }
+
+    /// `light_tr` from inside mesh `mesh` (medium `material`) in a scene with lights in
+    /// media (out of line: most scenes have none).
+    #[cold]
+    #[inline(never)]
+    fn held_light_tr(
+        &self,
+        e: usize,
+        (mesh, material): (u32, u32),
+        (org, dir, t): (DVec3, DVec3, f64),
+    ) -> Tr<'_> {
+        let held = self.scene.emitters[e].media.last().map(|h| h.0);
+        let sc = self.materials[material as usize]
+            .dielectric
+            .as_ref()
+            .and_then(|d| d.scattering.as_ref());
+        match sc {
+            Some(sc) if held == Some(mesh) => Tr {
+                sigma: &sc.sigma_t,
+                d_m: t * self.unit_m,
+            },
+            _ => self.haze_tr(org, dir, t),
+        }
     }
 
     /// The scene medium's transmittance on the segment from `org` along unit `dir` over `t`
