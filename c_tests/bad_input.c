@@ -192,6 +192,34 @@ int main(void) {
     fl.fluorescence = NULL;
     expect("fluorescence NULL", imap_add_material(ctx, &fl, &id), IMAP_ERR_NULL_POINTER, ctx);
 
+    /* Fluorescent media, in a spectral context of 3 bands (380, 580, 780 nm): a medium
+     * re-emits what it absorbs, so it must absorb; the scene's medium may not fluoresce;
+     * a microfacet surface has no fluorescence to give. The context stays usable. */
+    {
+        ImapConfig scfg;
+        imap_config_default(&scfg, sizeof scfg);
+        scfg.band_mode = IMAP_BANDS_SPECTRAL, scfg.band_count = 3;
+        ImapContext *sctx = NULL;
+        expect("spectral context (valid)", imap_create(&scfg, &sctx), IMAP_OK, NULL);
+        ImapMaterial fm;
+        imap_material_default(&fm, sizeof fm);
+        fm.ior_model = IMAP_IOR_CONSTANT, fm.ior[0] = 1.0;
+        fm.fluorescence = shares, fm.fluorescence_count = 9;
+        expect("fluorescent medium that absorbs nothing", imap_add_material(sctx, &fm, &id),
+               IMAP_ERR_BAD_MATERIAL, sctx);
+        double absorbs[3] = {5, 0, 0};
+        fm.absorption_per_m = absorbs, fm.absorption_count = 3;
+        uint32_t glowing;
+        expect("fluorescent medium (valid)", imap_add_material(sctx, &fm, &glowing), IMAP_OK, sctx);
+        expect("fluorescent scene medium", imap_set_scene_medium(sctx, glowing), IMAP_ERR_UNSUPPORTED, sctx);
+        ImapMaterial pl;
+        imap_material_default(&pl, sizeof pl);
+        pl.surface = IMAP_SURFACE_PLASTIC, pl.roughness[0] = 0.2;
+        pl.fluorescence = shares, pl.fluorescence_count = 9;
+        expect("fluorescent plastic", imap_add_material(sctx, &pl, &id), IMAP_ERR_BAD_MATERIAL, sctx);
+        imap_destroy(sctx);
+    }
+
     /* Measured tables: 3 incident and 4 outgoing polar angles, 6 outgoing azimuths. */
     double lambert_table[3 * 4 * 6];
     for (int i = 0; i < 3 * 4 * 6; i++) lambert_table[i] = 0.5 / 3.14159265358979;
