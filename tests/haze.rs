@@ -448,17 +448,7 @@ fn render_all(
         if method == imap::RenderMethod::FinalGather {
             run_with(ctx, photons, Estimator::GATHER);
         }
-        let (img, _) = ctx
-            .render(
-                cam,
-                &mut imap::RenderParams {
-                    method,
-                    passes,
-                    progress_interval_s: 0.05,
-                    ..Default::default()
-                },
-            )
-            .unwrap();
+        let img = render_passes(ctx, cam, method, passes);
         out.push((name, img.radiance.clone(), rms(&img.rel_error)));
     }
     out

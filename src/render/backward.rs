@@ -1255,13 +1255,9 @@ impl<'a> EyeTracer<'a> {
         (org, dir, t): (DVec3, DVec3, f64),
     ) -> Tr<'_> {
         let held = self.scene.emitters[e].media.last().map(|h| h.0);
-        let sc = self.materials[material as usize]
-            .dielectric
-            .as_ref()
-            .and_then(|d| d.scattering.as_ref());
-        match sc {
-            Some(sc) if held == Some(mesh) => Tr {
-                sigma: &sc.sigma_t,
+        match self.materials[material as usize].extinction() {
+            Some(sigma) if held == Some(mesh) => Tr {
+                sigma,
                 d_m: t * self.unit_m,
             },
             _ => self.haze_tr(org, dir, t),
@@ -1446,29 +1442,16 @@ impl<'a> EyeTracer<'a> {
             stats.rays += 1;
             let hit = self.accel.intersect(org, wi).filter(|h| h.t < left);
             let seg = hit.map_or(left, |h| h.t);
-            // The segment's medium.
-            match stack.current() {
-                Some((_, m)) => {
-                    let d = self.materials[m as usize].dielectric.as_ref();
-                    let sigma = d.and_then(|d| {
-                        d.scattering
-                            .as_ref()
-                            .map(|s| s.sigma_t.as_slice())
-                            .or(d.absorption_per_m.as_deref())
-                    });
-                    if let Some(sigma) = sigma {
-                        let d_m = seg * self.unit_m;
-                        for (t, s) in tr.iter_mut().zip(sigma) {
-                            *t *= (-s * d_m).exp();
-                        }
-                    }
-                }
-                None => {
-                    let h = self.haze_tr(org, wi, seg);
-                    for (b, t) in tr.iter_mut().enumerate() {
-                        *t *= h.at(b);
-                    }
-                }
+            // The segment's medium: the mesh's, or the scene's.
+            let seg_tr = match stack.current() {
+                Some((_, m)) => Tr {
+                    sigma: self.materials[m as usize].extinction().unwrap_or(&[]),
+                    d_m: seg * self.unit_m,
+                },
+                None => self.haze_tr(org, wi, seg),
+            };
+            for (b, t) in tr.iter_mut().enumerate() {
+                *t *= seg_tr.at(b);
             }
             let Some(h) = hit else {
                 return Some(tr);

@@ -254,7 +254,6 @@ impl Material {
         }
     }
 
-    /// Whether it is a dielectric whose inside absorbs or scatters: a medium.
     /// Whether the material fluoresces: a fluorescent surface, or a dielectric whose
     /// medium re-emits what it absorbs.
     pub fn fluoresces(&self) -> bool {
@@ -266,6 +265,7 @@ impl Material {
                 .is_some_and(|s| s.fluorescence.is_some())
     }
 
+    /// Whether it is a dielectric whose inside absorbs or scatters: a medium.
     pub fn holds_medium(&self) -> bool {
         self.dielectric
             .as_ref()
@@ -600,7 +600,7 @@ impl Material {
         sc.table = table;
         if fluorescent {
             let fl = Self::medium_fluorescence(desc, bands, absorption)?;
-            sc.fluorescence = Some(std::sync::Arc::new(fl));
+            sc.set_fluorescence(fl);
         }
         Ok(Some(sc))
     }

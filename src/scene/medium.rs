@@ -42,8 +42,18 @@ pub struct Scattering {
     /// A tabulated phase function for all bands, in place of Henyey–Greenstein's.
     pub table: Option<std::sync::Arc<PhaseTable>>,
     /// What the medium re-emits of what it absorbs (spectral runs): of band i's absorbed
-    /// power, the share m_ij in band j, isotropically.
-    pub fluorescence: Option<Arc<Fluorescence>>,
+    /// power, the share m_ij in band j, isotropically (`set_fluorescence`).
+    pub fluorescence: Option<Arc<Reemission>>,
+}
+
+/// A fluorescent medium's matrix with what its collisions read of it, per band: the share
+/// of band i's absorbed power re-emitted in all (Σ_j m_ij, photons), and κ_b = Σ_a σa_a m_ab
+/// (1/m), how densely light absorbed in other bands is re-emitted into band b (eye paths).
+#[derive(Clone, PartialEq)]
+pub struct Reemission {
+    pub matrix: Fluorescence,
+    reemitted: Vec<f64>,
+    kappa: Vec<f64>,
 }
 
 /// As derived, but `table` only when present: the state fingerprint hashes this text, and
@@ -59,7 +69,7 @@ impl std::fmt::Debug for Scattering {
             d.field("table", t);
         }
         if let Some(f) = &self.fluorescence {
-            d.field("fluorescence", f);
+            d.field("fluorescence", &f.matrix);
         }
         d.finish()
     }
@@ -172,6 +182,23 @@ impl Scattering {
         }
     }
 
+    /// Makes the medium re-emit `matrix` of what it absorbs (after its coefficients are set).
+    pub fn set_fluorescence(&mut self, matrix: Fluorescence) {
+        let nb = matrix.bands;
+        let m = &matrix.m;
+        let reemitted = (0..nb)
+            .map(|i| m[i * nb..(i + 1) * nb].iter().sum())
+            .collect();
+        let kappa = (0..nb)
+            .map(|b| (0..nb).map(|a| self.sigma_a(a) * m[a * nb + b]).sum())
+            .collect();
+        self.fluorescence = Some(Arc::new(Reemission {
+            matrix,
+            reemitted,
+            kappa,
+        }));
+    }
+
     /// A free flight toward a surface `dist_m` metres away (infinite: none) for a path of
     /// per-band weights `c`, with uniform numbers `u`: the band whose exponential draws the
     /// distance, the distance, and the scattering-or-absorption choice.
@@ -252,19 +279,17 @@ impl Scattering {
     #[inline(never)]
     fn collide_fluorescent(
         &self,
-        fl: &Fluorescence,
+        fl: &Reemission,
         c: &mut [f64],
         total: f64,
         (t, u): (f64, f64),
     ) -> Flight {
-        let nb = fl.bands;
         let s: f64 = c.iter().zip(&self.albedo).map(|(x, a)| x * a).sum();
         let f: f64 = c
             .iter()
-            .enumerate()
-            .map(|(i, x)| {
-                x * (1.0 - self.albedo[i]) * fl.m[i * nb..(i + 1) * nb].iter().sum::<f64>()
-            })
+            .zip(&self.albedo)
+            .zip(&fl.reemitted)
+            .map(|((x, a), r)| x * (1.0 - a) * r)
             .sum();
         if u * total < s {
             let k = total / s;
@@ -283,13 +308,6 @@ impl Scattering {
     #[inline]
     fn sigma_a(&self, b: usize) -> f64 {
         self.sigma_t[b] * (1.0 - self.albedo[b])
-    }
-
-    /// κ_b = Σ_a σa_a m_ab (1/m): how densely the medium re-emits into band b the light it
-    /// absorbs in other bands, per unit of their fluence over 4π.
-    fn kappa(&self, fl: &Fluorescence, b: usize) -> f64 {
-        let nb = fl.bands;
-        (0..nb).map(|a| self.sigma_a(a) * fl.m[a * nb + b]).sum()
     }
 
     /// An eye path's free flight through a fluorescent medium toward a surface `dist_m`
@@ -311,31 +329,28 @@ impl Scattering {
     #[inline(never)]
     fn flight_importance(
         &self,
-        fl: &Fluorescence,
+        fl: &Reemission,
         c: &mut [f64],
         dist_m: f64,
         u: [f64; 3],
     ) -> Flight {
-        let nb = c.len();
         if !dist_m.is_finite() {
             return Flight::Surface;
         }
         let sigma_s = |b: usize| self.sigma_t[b] * self.albedo[b];
+        // What collides in band b, per metre: scattering and re-emission into it.
+        let on = |b: usize| sigma_s(b) + fl.kappa[b];
         let pass = |b: usize| (-self.sigma_t[b] * dist_m).exp();
-        let collide = |b: usize| {
-            let st = self.sigma_t[b];
-            let on = sigma_s(b) + self.kappa(fl, b);
-            if st > 0.0 {
-                on * -(-st * dist_m).exp_m1() / st
-            } else {
-                on * dist_m
-            }
+        let collide = |b: usize| match self.sigma_t[b] {
+            0.0 => on(b) * dist_m,
+            st => on(b) * -(-st * dist_m).exp_m1() / st,
         };
-        let (mut p, mut cw) = (0.0, Vec::with_capacity(nb));
-        for (b, x) in c.iter().enumerate() {
-            p += x * pass(b);
-            cw.push(if *x != 0.0 { x * collide(b) } else { 0.0 });
-        }
+        let p: f64 = c.iter().enumerate().map(|(b, x)| x * pass(b)).sum();
+        let cw: Vec<f64> = c
+            .iter()
+            .enumerate()
+            .map(|(b, &x)| if x != 0.0 { x * collide(b) } else { 0.0 })
+            .collect();
         let cc: f64 = cw.iter().sum();
         let all = p + cc;
         if !(all > 0.0 && all.is_finite()) {
@@ -357,51 +372,47 @@ impl Scattering {
             u[2] * dist_m
         }
         .clamp(0.0, dist_m);
-        let mut m = 0.0;
-        let mut s_part = 0.0;
+        // Each band's weight at the collision, x (σs_b + κ_b) e^(−σt_b t), over M(t).
+        let (mut m, mut s_part) = (0.0, 0.0);
         for (b, x) in c.iter_mut().enumerate() {
-            let on = sigma_s(b) + self.kappa(fl, b);
-            let w = *x * on * (-self.sigma_t[b] * t).exp();
+            let w = *x * on(b) * (-self.sigma_t[b] * t).exp();
             m += w;
-            s_part += if on > 0.0 { w * sigma_s(b) / on } else { 0.0 };
+            if w > 0.0 {
+                s_part += w * sigma_s(b) / on(b);
+            }
             *x = w;
         }
         if !(m > 0.0 && m.is_finite()) {
             return Flight::Absorbed;
         }
-        // Each band's weight at the collision is x (P + C)/M; it splits by σs_b : κ_b.
-        let scale = all / m;
-        let f_part = m - s_part;
-        let t_m = t;
-        if u[0] * all < p + cc * s_part / m {
-            // Scattered: each band its σs share, over the chance s_part/m of scattering.
-            for (b, x) in c.iter_mut().enumerate() {
-                let on = sigma_s(b) + self.kappa(fl, b);
-                *x = if on > 0.0 {
-                    *x * sigma_s(b) / on * scale * m / s_part
-                } else {
-                    0.0
-                };
-            }
-            Flight::Scatter(t_m)
+        // Scattered (chance s_part/m, the σs shares) or re-emitted (the κ shares); each
+        // band's weight x (P + C)/M of its share, over the chance of the choice.
+        let scattered = u[0] * all < p + cc * s_part / m;
+        let part = if scattered { s_part } else { m - s_part };
+        let scale = all / part;
+        for (b, x) in c.iter_mut().enumerate() {
+            let share = if scattered { sigma_s(b) } else { fl.kappa[b] };
+            *x = if *x > 0.0 {
+                *x * share / on(b) * scale
+            } else {
+                0.0
+            };
+        }
+        if scattered {
+            Flight::Scatter(t)
         } else {
-            // Re-emitted: each band its κ share, over the chance f_part/m.
-            for (b, x) in c.iter_mut().enumerate() {
-                let on = sigma_s(b) + self.kappa(fl, b);
-                *x = if on > 0.0 {
-                    *x * self.kappa(fl, b) / on * scale * m / f_part
-                } else {
-                    0.0
-                };
-            }
-            Flight::Fluoresce(t_m, 1.0)
+            Flight::Fluoresce(t, 1.0)
         }
     }
 
     /// A photon's colour `c` at a re-emission (`Flight::Fluoresce` with `k`): what the
     /// medium re-emits of it, k mᵀ((1 − albedo)∘c), into `scratch` and back into `c`.
     pub fn emit_light(&self, c: &mut [f64], k: f64, scratch: &mut Vec<f64>) {
-        let fl = self.fluorescence.as_ref().expect("a fluorescent medium");
+        let fl = &self
+            .fluorescence
+            .as_ref()
+            .expect("a fluorescent medium")
+            .matrix;
         let nb = fl.bands;
         scratch.clear();
         scratch.resize(nb, 0.0);
@@ -424,7 +435,7 @@ impl Scattering {
     /// it will read into from now on, with chance β_j / Σβ, which takes the whole weight.
     pub fn emit_importance(&self, beta: &mut [f64], pick: &mut Option<usize>, u: f64) {
         let fl = self.fluorescence.as_ref().expect("a fluorescent medium");
-        let nb = fl.bands;
+        let (m, nb) = (&fl.matrix.m, fl.matrix.bands);
         let mut from = beta.to_vec();
         if pick.is_none() {
             let total: f64 = from.iter().sum();
@@ -433,12 +444,11 @@ impl Scattering {
             from[j] = total;
             *pick = Some(j);
         }
-        let kappa: Vec<f64> = (0..nb).map(|b| self.kappa(fl, b)).collect();
         for (a, x) in beta.iter_mut().enumerate() {
             let sa = self.sigma_a(a);
             *x = (0..nb)
-                .filter(|&b| from[b] != 0.0 && kappa[b] > 0.0)
-                .map(|b| from[b] * sa * fl.m[a * nb + b] / kappa[b])
+                .filter(|&b| from[b] != 0.0 && fl.kappa[b] > 0.0)
+                .map(|b| from[b] * sa * m[a * nb + b] / fl.kappa[b])
                 .sum::<f64>();
         }
     }
@@ -826,10 +836,10 @@ mod tests {
         // an eye path's weights through the re-emission read band 0 with Σ_b β_b σa_0 m_0b
         // / κ_b.
         let mut m = Scattering::new(vec![1.0, 2.0, 0.0], Some(&[6.0, 0.0, 0.0]), vec![0.0; 3]);
-        m.fluorescence = Some(Arc::new(Fluorescence {
+        m.set_fluorescence(Fluorescence {
             bands: 3,
             m: vec![0.0, 0.5, 0.25, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0],
-        }));
+        });
         let kappa = [0.0, 3.0, 1.5];
         let d = 0.4;
         let n = 400_000;
