@@ -16,7 +16,7 @@ use crate::scene::light::DistantPart;
 use crate::scene::material::fresnel_dielectric;
 use crate::scene::medium::{Flight, MediumStack, Way};
 use crate::scene::texture::TintScratch;
-use crate::scene::{LightSample, Material, PreparedScene, Receiver, Scene};
+use crate::scene::{Enclosures, LightSample, Material, PreparedScene, Receiver, Scene};
 use crate::spectral::{collapse_weights, pick_band, Transmittance as Tr};
 use crate::transport::SurfaceEvent;
 use glam::DVec3;
@@ -78,6 +78,9 @@ pub struct EyeTracer<'a> {
     /// eye paths then take light samples where they scatter in mesh media, and shadow
     /// rays inside such a mesh are attenuated by its medium (`light_tr`).
     lights_in_media: bool,
+    /// The meshes with a medium (scattering or absorbing) around the camera, outermost
+    /// first: every eye path starts inside them.
+    camera_media: MediumStack,
 }
 
 /// The mesh an eye path is inside (innermost) and its medium's material; None: outside every
@@ -230,6 +233,10 @@ impl<'a> EyeTracer<'a> {
             fluorescent: source.materials.iter().any(Material::fluoresces),
             lights_in_media: scene.emitters.iter().any(|e| !e.media.is_empty()),
             // (Among the materials the meshes use: the scene medium's is one too.)
+            camera_media: MediumStack::starting_in(
+                Enclosures::new(source, |m| m.extinction().is_some())
+                    .at(camera.origin + scene.origin, None),
+            ),
             index_matched: scene.meshes.iter().any(|m| {
                 m.materials.iter().any(|&id| {
                     source.materials[id as usize]
@@ -295,9 +302,9 @@ impl<'a> EyeTracer<'a> {
         };
         let mut band: Option<usize> = None;
         let mut path_len = (org - self.camera.origin).length();
-        let mut medium: Option<u32> = None;
         // The dielectrics the path is inside (`medium` is the innermost's material).
-        let mut media = MediumStack::default();
+        let mut media = self.camera_media.clone();
+        let mut medium = media.current().map(|(_, m)| m);
         // Whether the path's last event was a scattering in the scene's medium.
         let mut after_haze = false;
         // The density of the last glossy reflector's direction, while the path has met
@@ -467,9 +474,9 @@ impl<'a> EyeTracer<'a> {
             band: None,
         };
         let mut band: Option<usize> = None;
-        let mut medium: Option<u32> = None;
         // The dielectrics the path is inside (`medium` is the innermost's material).
-        let mut media = MediumStack::default();
+        let mut media = self.camera_media.clone();
+        let mut medium = media.current().map(|(_, m)| m);
         // Whether emission met now is counted: before the first diffuse vertex, or through
         // specular surfaces since the last one.
         let mut counts = true;

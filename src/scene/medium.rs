@@ -86,6 +86,14 @@ pub struct MediumStack {
 }
 
 impl MediumStack {
+    /// The stack of a path that starts inside the meshes `outermost_first` (each with its
+    /// medium's material): a camera inside a fog box (`Enclosures::at`).
+    pub fn starting_in(outermost_first: Vec<(u32, u32)>) -> MediumStack {
+        MediumStack {
+            inside: outermost_first,
+        }
+    }
+
     pub fn clear(&mut self) {
         self.inside.clear();
     }

@@ -24,7 +24,7 @@ pub use material::{
     LOBE_DIFFUSE_TRANSMIT, LOBE_ROUGHNESS, LOBE_SPECULAR_REFLECT,
 };
 pub use mesh::{Mesh, MeshDesc};
-pub use prepared::PreparedScene;
+pub use prepared::{Enclosures, PreparedScene};
 pub use prepared_mesh::PreparedMesh;
 pub use table::{TableCheck, TableDesc};
 

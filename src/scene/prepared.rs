@@ -421,44 +421,75 @@ impl PreparedScene {
     }
 }
 
-/// `PreparedScene::sphere_radius` of a scene of `enter_radius` and `radius` (its
-/// `offset_at` the origin included).
-#[inline]
+/// The closed meshes whose material holds a medium of a kind (`Enclosures::new`), with what
+/// tells whether a point is inside each: the media around a light or a camera.
+pub struct Enclosures<'s> {
+    /// (mesh, its medium's material, its bounding box's volume).
+    holders: Vec<(u32, u32, f64)>,
+    insides: Vec<Box<dyn Fn([f64; 3]) -> bool + 's>>,
+}
+
+impl<'s> Enclosures<'s> {
+    /// The meshes (sensors left out) one of whose materials `holds` (the first such on a
+    /// mesh of several).
+    pub fn new(scene: &'s Scene, holds: impl Fn(&Material) -> bool) -> Enclosures<'s> {
+        let holds = |id: u32| scene.materials.get(id as usize).is_some_and(&holds);
+        let holders: Vec<(u32, u32, f64)> = scene
+            .meshes
+            .iter()
+            .enumerate()
+            .filter(|(_, m)| !m.sensor)
+            .filter_map(|(i, m)| {
+                let material = match &m.triangle_materials {
+                    None => holds(m.material).then_some(m.material),
+                    Some(ids) => ids.iter().copied().find(|&id| holds(id)),
+                }?;
+                let (mut lo, mut hi) = (DVec3::INFINITY, DVec3::NEG_INFINITY);
+                for p in &m.positions {
+                    lo = lo.min(DVec3::from(*p));
+                    hi = hi.max(DVec3::from(*p));
+                }
+                Some((i as u32, material, (hi - lo).element_product()))
+            })
+            .collect();
+        let insides = holders
+            .iter()
+            .map(|&(i, _, _)| {
+                Box::new(scene.meshes[i as usize].inside()) as Box<dyn Fn([f64; 3]) -> bool + 's>
+            })
+            .collect();
+        Enclosures { holders, insides }
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.holders.is_empty()
+    }
+
+    /// The meshes around `p` (the scene's own coordinates) but `own`, each with its
+    /// medium's material, outermost first (by their bounding boxes' volumes).
+    pub fn at(&self, p: DVec3, own: Option<u32>) -> Vec<(u32, u32)> {
+        let mut held: Vec<(u32, u32, f64)> = self
+            .holders
+            .iter()
+            .zip(&self.insides)
+            .filter(|(h, inside)| Some(h.0) != own && inside(p.to_array()))
+            .map(|(h, _)| *h)
+            .collect();
+        held.sort_by(|a, b| b.2.total_cmp(&a.2));
+        held.into_iter().map(|(i, m, _)| (i, m)).collect()
+    }
+}
+
 /// Fills each point-like light's and emitting mesh's `Emitter::media`: the closed meshes
 /// with a scattering (or fluorescent) medium around its position (an emitting mesh's: its
-/// first triangle's centroid), outermost first (by their bounding boxes' volumes).
+/// first triangle's centroid), outermost first. (Only scattering media hold lights: a lamp
+/// inside a closed clear or tinted dielectric is a lamp in a glass globe drawn as one
+/// surface, and starts outside it.)
 fn hold_in_media(scene: &Scene, origin: DVec3, emitters: &mut [Emitter]) {
-    let scatters = |id: u32| {
-        scene
-            .materials
-            .get(id as usize)
-            .is_some_and(Material::scatters)
-    };
-    let holders: Vec<(u32, u32, f64)> = scene
-        .meshes
-        .iter()
-        .enumerate()
-        .filter(|(_, m)| !m.sensor)
-        .filter_map(|(i, m)| {
-            let material = match &m.triangle_materials {
-                None => scatters(m.material).then_some(m.material),
-                Some(ids) => ids.iter().copied().find(|&id| scatters(id)),
-            }?;
-            let (mut lo, mut hi) = (DVec3::INFINITY, DVec3::NEG_INFINITY);
-            for p in &m.positions {
-                lo = lo.min(DVec3::from(*p));
-                hi = hi.max(DVec3::from(*p));
-            }
-            Some((i as u32, material, (hi - lo).element_product()))
-        })
-        .collect();
-    if holders.is_empty() {
+    let enclosures = Enclosures::new(scene, Material::scatters);
+    if enclosures.is_empty() {
         return;
     }
-    let insides: Vec<_> = holders
-        .iter()
-        .map(|&(i, _, _)| scene.meshes[i as usize].inside())
-        .collect();
     for em in emitters.iter_mut() {
         let (p, own) = match &em.kind {
             EmitterKind::Light(_) => (em.position + origin, None),
@@ -475,17 +506,13 @@ fn hold_in_media(scene: &Scene, origin: DVec3, emitters: &mut [Emitter]) {
             }
             EmitterKind::Distant { .. } => continue,
         };
-        let mut held: Vec<(u32, u32, f64)> = holders
-            .iter()
-            .zip(&insides)
-            .filter(|(h, inside)| Some(h.0) != own && inside(p.to_array()))
-            .map(|(h, _)| *h)
-            .collect();
-        held.sort_by(|a, b| b.2.total_cmp(&a.2));
-        em.media = held.into_iter().map(|(i, m, _)| (i, m)).collect();
+        em.media = enclosures.at(p, own);
     }
 }
 
+/// `PreparedScene::sphere_radius` of a scene of `enter_radius` and `radius` (its
+/// `offset_at` the origin included).
+#[inline]
 fn sphere_radius(enter_radius: f64, radius: f64) -> f64 {
     enter_radius * 1.01 + 4e-6 * 1e-4 * radius
 }
