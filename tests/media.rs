@@ -1675,6 +1675,111 @@ fn nested_dielectrics_refract_against_each_other_not_against_air() {
     assert!((seen - want).abs() < 0.005, "{seen} against {want}");
 }
 
+/// What a stack of clear slabs in air (outermost first: index, roughness α (0: smooth),
+/// z range, half width) sends on of a narrow beam at normal incidence onto a black floor
+/// under it (photons), and what a line of sight through it reads of an emitting panel of
+/// radiance 1 under it (the path tracer).
+fn stack_transmits(slabs: &[(f64, f64, f64, f64, f64)], seed: u64) -> (f64, f64, f64) {
+    let stack = |ctx: &mut imap::Context| {
+        for &(n, alpha, lo, hi, half) in slabs {
+            let m = ctx
+                .add_material(&MaterialDesc {
+                    ior: Some(IorModel::Constant(n)),
+                    surface: if alpha > 0.0 {
+                        imap::SurfaceModel::RoughDielectric
+                    } else {
+                        imap::SurfaceModel::Ideal
+                    },
+                    roughness: [alpha, 0.0],
+                    ..Default::default()
+                })
+                .unwrap();
+            let g = cuboid([-half, -half, lo], [half, half, hi], 1, false);
+            let mut d = g.desc(m);
+            d.record = false;
+            ctx.add_mesh(&d).unwrap();
+        }
+    };
+    let mut ctx = context(seeded(seed));
+    stack(&mut ctx);
+    let black = lambert(&mut ctx, 0.0);
+    let floor = quad([
+        [-50.0, -50.0, -0.301],
+        [50.0, -50.0, -0.301],
+        [50.0, 50.0, -0.301],
+        [-50.0, 50.0, -0.301],
+    ]);
+    let mut fd = floor.desc(black);
+    fd.record = false;
+    let floor_id = ctx.add_mesh(&fd).unwrap();
+    ctx.add_spot_light([0.0, 0.0, 1.0], [0.0, 0.0, -1.0], 1e-3, &[1.0])
+        .unwrap();
+    let n = photons(100_000);
+    let report = run_photons_only(&mut ctx, n);
+    let t = ctx.absorbed_w(floor_id).unwrap() / report.emitted_w;
+    let sigma = (t * (1.0 - t) / n as f64).sqrt();
+    let mut ctx = context(seeded(seed + 1));
+    stack(&mut ctx);
+    let black = lambert(&mut ctx, 0.0);
+    let panel = quad([
+        [-1.0, -1.0, -0.5],
+        [1.0, -1.0, -0.5],
+        [1.0, 1.0, -0.5],
+        [-1.0, 1.0, -0.5],
+    ]);
+    ctx.add_mesh(&imap::MeshDesc {
+        exitance: Some(&[std::f64::consts::PI]),
+        record: false,
+        ..panel.desc(black)
+    })
+    .unwrap();
+    let cam = imap::CameraDesc {
+        position: [0.0, 0.0, 1.0],
+        direction: [0.0, 0.0, -1.0],
+        up: [0.0, 1.0, 0.0],
+        fov_y_deg: 2.0,
+        width: 2,
+        height: 2,
+    };
+    let img = ctx.path_trace(&cam, 20_000, 1000).unwrap();
+    let seen = img.radiance.iter().sum::<f64>() / img.radiance.len() as f64;
+    (t, sigma.max(1e-4), seen)
+}
+
+#[test]
+fn a_rough_interface_refracts_against_the_dielectric_around_it() {
+    // A frosted slab (α 0.5) of index 1.33 inside a clear slab of index 1.33: no interface
+    // between them, so the stack sends on what the outer slab alone does (its two faces:
+    // 1/T − 1 = 2 (1/(1 − R) − 1), R = (0.33/2.33)²), to photons and a line of sight alike.
+    // (Taken against air, the frosted faces scattered the beam: photons read 0.7343 and
+    // the line of sight 0.7291.) And a frosted slab of index 1 in air is no surface at all
+    // (both read 0 before: the sampling found no microfacet normal for index ratio 1).
+    let r = ((1.33f64 - 1.0) / 2.33).powi(2);
+    let want = 1.0 / (1.0 + 2.0 * (1.0 / (1.0 - r) - 1.0));
+    for (what, slabs, want) in [
+        (
+            "frosted 1.33 in clear 1.33",
+            vec![(1.33, 0.0, -0.3, 0.0, 2.0), (1.33, 0.5, -0.2, -0.1, 1.5)],
+            want,
+        ),
+        ("frosted 1 in air", vec![(1.0, 0.5, -0.2, -0.1, 1.5)], 1.0),
+    ] {
+        let (t, sigma, seen) = stack_transmits(&slabs, 61);
+        eprintln!(
+            "{what}: photons {t:.5} ({:+.2} σ), path tracer {seen:.5}, exact {want:.5}",
+            (t - want) / sigma
+        );
+        assert!(
+            (t - want).abs() < 4.0 * sigma,
+            "{what}: photons {t} against {want}"
+        );
+        assert!(
+            (seen - want).abs() < 0.005,
+            "{what}: path tracer {seen} against {want}"
+        );
+    }
+}
+
 #[test]
 fn a_fog_ball_lit_from_outside_glows_in_every_renderer_as_its_photons_say() {
     // The fog ball (σs 2/m, g 0.3, σa 0.5, 1 and 2 per metre) behind an index-1 surface,

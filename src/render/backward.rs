@@ -1608,7 +1608,16 @@ impl<'a> EyeTracer<'a> {
             if !g.refracts() {
                 return Step::Glossy;
             }
-            // A rough dielectric: crossed by sampling alone, as a smooth one.
+            // A rough dielectric: crossed by sampling alone, as a smooth one, against the
+            // dielectric around it (nested media), else air.
+            let mut nested = None;
+            let g = match media
+                .around(at.mesh, at.front)
+                .and_then(|(_, m)| self.materials[m as usize].dielectric.as_ref())
+            {
+                Some(out) => g.against(&out.ior, &mut nested),
+                None => g,
+            };
             if g.dispersive() && band.is_none() {
                 *band = Some(collapse_weights(beta, rng.uniform()));
             }

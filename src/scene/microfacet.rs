@@ -677,6 +677,33 @@ impl Glossy {
         matches!(self, Glossy::Dielectric { .. })
     }
 
+    /// A rough dielectric as an interface against the dielectric of index `outside` (per
+    /// band, or one for all) around it, in `dst`: the index ratio is all its Fresnel
+    /// terms, refraction and radiance scaling read (a frosted part in an encapsulant, a
+    /// bubble in a guide). Anything else is itself.
+    pub fn against<'s>(&'s self, outside: &[f64], dst: &'s mut Option<Glossy>) -> &'s Glossy {
+        let Glossy::Dielectric { rough, ior } = self else {
+            return self;
+        };
+        let n = ior.len().max(outside.len());
+        let at = |v: &[f64], b: usize| v[b.min(v.len() - 1)];
+        let relative = (0..n).map(|b| at(ior, b) / at(outside, b));
+        match dst {
+            Some(Glossy::Dielectric { rough: r, ior: i }) => {
+                *r = *rough;
+                i.clear();
+                i.extend(relative);
+            }
+            _ => {
+                *dst = Some(Glossy::Dielectric {
+                    rough: *rough,
+                    ior: relative.collect(),
+                })
+            }
+        }
+        dst.as_ref().expect("just set")
+    }
+
     /// Whether the dielectric's index differs between bands (a photon then collapses to
     /// one band, as at a smooth one).
     #[inline]
@@ -962,7 +989,8 @@ impl Glossy {
     }
 
     /// `sample`, and each band's weight f cos / pdf of the drawn direction into `w` (what
-    /// light going on along it carries per unit arriving): every estimator's step.
+    /// light going on along it carries per unit arriving): every estimator's step. A rough
+    /// dielectric of index ratio 1 is no interface: straight on, weight 1, density infinite.
     pub fn sample_weighted(
         &self,
         wo: DVec3,
@@ -971,6 +999,19 @@ impl Glossy {
         front: bool,
         w: &mut [f64],
     ) -> Option<GlossySample> {
+        if let Glossy::Dielectric { ior, .. } = self {
+            let (n_o, n_i) = Self::indices(ior, band, front);
+            if n_o == n_i && wo.z > 0.0 {
+                // Index matched (a frosted part in a medium of its own index, or of index
+                // 1 in air): no interface, light goes straight on whole (a delta: its
+                // density is infinite).
+                w.iter_mut().for_each(|x| *x = 1.0);
+                return Some(GlossySample {
+                    wi: -wo,
+                    pdf: f64::INFINITY,
+                });
+            }
+        }
         let s = self.sample(wo, u, band, front)?;
         self.eval(wo, s.wi, band, front, w);
         let k = s.wi.z.abs() / s.pdf;

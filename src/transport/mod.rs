@@ -931,6 +931,19 @@ impl Tracer<'_> {
 
             let bsdf = material.bsdf();
             if let Some(g) = bsdf.glossy() {
+                // A rough dielectric refracts against the dielectric around it (nested
+                // media), else air.
+                let mut nested = None;
+                let g = match g
+                    .refracts()
+                    .then(|| bounces.media_in.around(hit.mesh, front))
+                {
+                    Some(Some((_, m))) => match &self.materials[m as usize].dielectric {
+                        Some(out) => g.against(&out.ior, &mut nested),
+                        None => g,
+                    },
+                    _ => g,
+                };
                 // A microfacet surface: a direction drawn from it, each band weighed by
                 // f cos / pdf. Polarisation is not followed through rough surfaces.
                 pol = None;
