@@ -121,6 +121,11 @@ int main(int argc, char **argv) {
            (unsigned long long)rep.joins, (unsigned long long)rep.close_retries);
     printf("memory: %.2f MB of maps per group, %.2f MB of pixel stores, %.2f MB in all; error %.4f\n",
            rep.map_bytes_per_group / 1e6, rep.pixel_bytes / 1e6, rep.total_bytes / 1e6, rep.rel_error);
+    /* What this method cannot show of the scene, said plainly (the Cornell box: nothing). */
+    if (rep.omitted & IMAP_RENDER_OMITS_REFRACTED_INTO_MEDIUM)
+        printf("warning: light refracted into a scattering medium is missing from the picture\n");
+    if (rep.omitted & IMAP_RENDER_OMITS_CAUSTICS_ON_GLOSSY)
+        printf("warning: caustics on glossy surfaces are missing; final gathering shows them\n");
 
     int rgb[3] = {0, 1, 2};
     if (bands != 3)

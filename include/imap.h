@@ -325,6 +325,25 @@
 #define IMAP_RENDER_FINAL_GATHER 3
 
 /**
+ * `ImapRenderReport::omitted`: the scene has point-like lights (or the sun) outside a
+ * scattering medium whose light can enter it only through a refracting surface (an opal
+ * cover or a light guide lit by LEDs, a sunbeam in haze through a window). What the medium
+ * scatters of that light toward the camera is missing from the picture, in every method:
+ * a shadow ray cannot follow the refraction, and no photon map holds volume photons. The
+ * illumination map has it (photons follow every path). (Since 0.2.3.)
+ */
+#define IMAP_RENDER_OMITS_REFRACTED_INTO_MEDIUM 1
+
+/**
+ * `ImapRenderReport::omitted`: the backward photon map's methods (sync, async,
+ * semi-sync), in a scene with point-like lights (or the sun), specular surfaces and glossy
+ * reflectors: light that reaches a glossy reflector through specular surfaces (a caustic
+ * on a rough metal or a plastic floor) is missing, as its backward photons sit at diffuse
+ * vertices only. `IMAP_RENDER_FINAL_GATHER` shows it. (Since 0.2.3.)
+ */
+#define IMAP_RENDER_OMITS_CAUSTICS_ON_GLOSSY 2
+
+/**
  * `part` argument of the region functions: the whole mesh side, all its materials.
  */
 #define IMAP_ALL_PARTS UINT32_MAX
@@ -1474,6 +1493,13 @@ typedef struct ImapRenderReport {
    * Points in the accuracy history (`imap_get_render_history`).
    */
   uint64_t history_len;
+  /**
+   * What the scene has that this method cannot show: `IMAP_RENDER_OMITS_*` flags,
+   * or-ed; 0 when nothing is known to be missing. Told from the scene's lights and
+   * materials, so a flag means such light may be missing wherever the geometry lets it
+   * through. (Since 0.2.3.)
+   */
+  uint32_t omitted;
 } ImapRenderReport;
 
 /**

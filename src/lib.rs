@@ -81,7 +81,10 @@ pub use scene::{
 pub use solar::{sun_position, sun_position_with, SunTime, STANDARD_ATMOSPHERE};
 pub use spectral::Bands;
 // Camera renders.
-pub use render::{CameraDesc, Image, RenderMethod, RenderParams, RenderReport};
+pub use render::{
+    CameraDesc, Image, RenderMethod, RenderParams, RenderReport, OMITS_CAUSTICS_ON_GLOSSY,
+    OMITS_REFRACTED_INTO_MEDIUM,
+};
 
 /// The loom models' view of two lock-free protocols (`RUSTFLAGS="--cfg loom"` only).
 #[cfg(loom)]

@@ -1848,3 +1848,101 @@ fn a_fog_ball_lit_from_outside_glows_in_every_renderer_as_its_photons_say() {
         }
     }
 }
+
+#[test]
+fn a_render_says_which_light_its_method_cannot_show() {
+    // An opal cover (a scattering slab of index 1.49) under a point light: the light that
+    // enters it through its refracting faces and scatters toward the camera is missing in
+    // every method, and the report says so. Not with the light inside the slab, nor with a
+    // fog slab of index 1 (both shown: tests above), nor without a medium. A plastic floor
+    // under a glass pane: the backward photon map's methods say they miss the caustic on
+    // it; final gathering shows it and says nothing.
+    let omitted = |ior: f64, light_z: f64, scatter: bool, method: imap::RenderMethod| {
+        let mut ctx = context(seeded(71));
+        let grey = lambert(&mut ctx, 0.5);
+        let floor = grid(2, -1.0, 1.0, -1.0, 1.0, 0.0);
+        ctx.add_mesh(&floor.desc(grey)).unwrap();
+        let cover = ctx
+            .add_material(&MaterialDesc {
+                ior: Some(IorModel::Constant(ior)),
+                scattering_per_m: if scatter { vec![50.0] } else { vec![] },
+                ..Default::default()
+            })
+            .unwrap();
+        let slab = cuboid([-0.5, -0.5, 0.5], [0.5, 0.5, 0.55], 1, false);
+        let mut d = slab.desc(cover);
+        d.record = false;
+        ctx.add_mesh(&d).unwrap();
+        ctx.add_point_light([0.0, 0.0, light_z], &[1.0]).unwrap();
+        run_photons_only(&mut ctx, 2000);
+        let cam = imap::CameraDesc {
+            position: [0.0, -2.0, 1.5],
+            direction: [0.0, 1.0, -0.7],
+            up: [0.0, 0.0, 1.0],
+            fov_y_deg: 40.0,
+            width: 4,
+            height: 4,
+        };
+        render_passes(&mut ctx, &cam, method, 2);
+        ctx.render_report().unwrap().omitted
+    };
+    use imap::RenderMethod::*;
+    for method in [Synchronous, SemiSynchronous, FinalGather] {
+        let into = imap::OMITS_REFRACTED_INTO_MEDIUM;
+        assert_eq!(
+            omitted(1.49, 1.0, true, method) & into,
+            into,
+            "{method:?}: opal"
+        );
+        assert_eq!(
+            omitted(1.49, 0.52, true, method),
+            0,
+            "{method:?}: lamp inside"
+        );
+        assert_eq!(omitted(1.0, 1.0, true, method), 0, "{method:?}: fog slab");
+        assert_eq!(
+            omitted(1.49, 1.0, false, method),
+            0,
+            "{method:?}: clear glass"
+        );
+    }
+    let glossy = |method: imap::RenderMethod| {
+        let mut ctx = context(seeded(72));
+        let plastic = ctx
+            .add_material(&MaterialDesc {
+                surface: imap::SurfaceModel::Plastic,
+                ior: Some(IorModel::Constant(1.5)),
+                roughness: [0.3, 0.0],
+                diffuse_reflect: vec![0.5],
+                ..Default::default()
+            })
+            .unwrap();
+        let floor = grid(2, -1.0, 1.0, -1.0, 1.0, 0.0);
+        ctx.add_mesh(&floor.desc(plastic)).unwrap();
+        let glass = ctx
+            .add_material(&MaterialDesc {
+                ior: Some(IorModel::Constant(1.5)),
+                ..Default::default()
+            })
+            .unwrap();
+        let pane = cuboid([-0.5, -0.5, 0.5], [0.5, 0.5, 0.51], 1, false);
+        let mut d = pane.desc(glass);
+        d.record = false;
+        ctx.add_mesh(&d).unwrap();
+        ctx.add_point_light([0.0, 0.0, 1.0], &[1.0]).unwrap();
+        run_photons_only(&mut ctx, 2000);
+        let cam = imap::CameraDesc {
+            position: [0.0, -2.0, 1.5],
+            direction: [0.0, 1.0, -0.7],
+            up: [0.0, 0.0, 1.0],
+            fov_y_deg: 40.0,
+            width: 4,
+            height: 4,
+        };
+        render_passes(&mut ctx, &cam, method, 2);
+        ctx.render_report().unwrap().omitted
+    };
+    assert_eq!(glossy(Synchronous), imap::OMITS_CAUSTICS_ON_GLOSSY);
+    assert_eq!(glossy(Asynchronous), imap::OMITS_CAUSTICS_ON_GLOSSY);
+    assert_eq!(glossy(FinalGather), 0);
+}

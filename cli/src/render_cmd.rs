@@ -198,6 +198,21 @@ pub fn render(
     } else {
         format!("{:?}", report.stop.unwrap_or(imap::StopReason::TimeBudget))
     };
+    // What the method cannot show of this scene, said plainly.
+    let mut omitted = Vec::new();
+    if report.omitted & imap::OMITS_REFRACTED_INTO_MEDIUM != 0 {
+        omitted.push(
+            "light of point-like lights or the sun that enters a scattering medium through a refracting surface (an opal cover lit by LEDs) and is scattered toward the camera is missing from the picture (the illumination map has it)",
+        );
+    }
+    if report.omitted & imap::OMITS_CAUSTICS_ON_GLOSSY != 0 {
+        omitted.push(
+            "light of point-like lights or the sun that reaches a glossy surface through specular ones is missing; method = \"final-gathering\" shows it",
+        );
+    }
+    for o in &omitted {
+        eprintln!("imap: warning: {o}");
+    }
     let outputs = [
         "render.png",
         "radiance.pfm",
@@ -219,6 +234,7 @@ pub fn render(
             "rel_error.pfm": "relative standard error of each pixel's band mean"
         },
         "warnings": scene.warnings,
+        "omitted": omitted,
         "interrupted": was_interrupted,
         "stop": stop,
         "passes": report.passes,

@@ -187,6 +187,58 @@ impl Context {
         prepared.tracer(&self.scene, &self.config, max_events, None, None)
     }
 
+    /// What a render by `method` of the prepared scene cannot show (`RenderReport::omitted`):
+    /// told from the scene's lights and materials, so "may be missing where the geometry
+    /// lets such light through".
+    fn omissions(&self, method: RenderMethod) -> u32 {
+        let prepared = &self.prepared.as_ref().expect("prepared").scene;
+        let point_like = |e: &crate::scene::Emitter| e.extent() == Extent::PointLike;
+        if !prepared.emitters.iter().any(point_like) {
+            return 0;
+        }
+        // A surface that bends light: a smooth or rough dielectric whose index is not 1.
+        let refracts = |m: &crate::scene::Material| {
+            m.dielectric
+                .as_ref()
+                .is_some_and(|d| d.ior.iter().any(|&n| n != 1.0))
+        };
+        let mut omitted = 0;
+        // A scattering medium that a point-like light outside it reaches only through its
+        // refracting boundary; the scene's haze, through any refracting surface.
+        let into_mesh = self.scene.meshes.iter().enumerate().any(|(i, mesh)| {
+            self.mesh_material(mesh, |m| m.scatters() && refracts(m))
+                .is_some()
+                && prepared
+                    .emitters
+                    .iter()
+                    .any(|e| point_like(e) && !e.media.iter().any(|&(held, _)| held as usize == i))
+        });
+        let into_haze = self
+            .scene
+            .medium
+            .is_some_and(|h| self.scene.materials[h as usize].scatters())
+            && self
+                .scene
+                .meshes
+                .iter()
+                .any(|m| self.mesh_material(m, refracts).is_some());
+        if into_mesh || into_haze {
+            omitted |= render::OMITS_REFRACTED_INTO_MEDIUM;
+        }
+        if method != RenderMethod::FinalGather {
+            let any = |is: &dyn Fn(&crate::scene::Material) -> bool| {
+                self.scene
+                    .meshes
+                    .iter()
+                    .any(|m| self.mesh_material(m, is).is_some())
+            };
+            if any(&|m| m.bsdf().is_specular()) && any(&|m| m.bsdf().is_glossy()) {
+                omitted |= render::OMITS_CAUSTICS_ON_GLOSSY;
+            }
+        }
+        omitted
+    }
+
     /// The report of the last render since the last reset.
     pub fn render_report(&self) -> Option<&RenderReport> {
         self.last_render.as_ref()
@@ -229,7 +281,9 @@ impl Context {
         )?;
         let eye = self.eye_tracer(&cam, params.max_path_events, params.initial_radius);
         let fwd = self.render_tracer(params.max_path_events);
-        let (image, report, lost) = render::render(&eye, fwd, params, threads, self.config.seed);
+        let (image, mut report, lost) =
+            render::render(&eye, fwd, params, threads, self.config.seed);
+        report.omitted = self.omissions(params.method);
         self.last_render = Some(report.clone());
         let lost = lost.map(|why| {
             Error::new(
@@ -311,7 +365,8 @@ impl Context {
             ctx: self,
             before: Some(before),
         };
-        let (image, report, lost) = driver::render(&mut host, &job, params)?;
+        let (image, mut report, lost) = driver::render(&mut host, &job, params)?;
+        report.omitted = self.omissions(params.method);
         self.last_render = Some(report.clone());
         Ok((image, report, lost))
     }

@@ -207,7 +207,27 @@ pub struct ImapRenderReport {
     pub total_bytes: u64,
     /// Points in the accuracy history (`imap_get_render_history`).
     pub history_len: u64,
+    /// What the scene has that this method cannot show: `IMAP_RENDER_OMITS_*` flags,
+    /// or-ed; 0 when nothing is known to be missing. Told from the scene's lights and
+    /// materials, so a flag means such light may be missing wherever the geometry lets it
+    /// through. (Since 0.2.3.)
+    pub omitted: u32,
 }
+
+/// `ImapRenderReport::omitted`: the scene has point-like lights (or the sun) outside a
+/// scattering medium whose light can enter it only through a refracting surface (an opal
+/// cover or a light guide lit by LEDs, a sunbeam in haze through a window). What the medium
+/// scatters of that light toward the camera is missing from the picture, in every method:
+/// a shadow ray cannot follow the refraction, and no photon map holds volume photons. The
+/// illumination map has it (photons follow every path). (Since 0.2.3.)
+pub const IMAP_RENDER_OMITS_REFRACTED_INTO_MEDIUM: u32 = 1;
+
+/// `ImapRenderReport::omitted`: the backward photon map's methods (sync, async,
+/// semi-sync), in a scene with point-like lights (or the sun), specular surfaces and glossy
+/// reflectors: light that reaches a glossy reflector through specular surfaces (a caustic
+/// on a rough metal or a plastic floor) is missing, as its backward photons sit at diffuse
+/// vertices only. `IMAP_RENDER_FINAL_GATHER` shows it. (Since 0.2.3.)
+pub const IMAP_RENDER_OMITS_CAUSTICS_ON_GLOSSY: u32 = 2;
 
 // SAFETY: repr(C), u32 struct_size first, plain numbers only.
 unsafe impl Versioned for ImapRenderReport {
@@ -274,6 +294,7 @@ fn render_report_to_c(r: &RenderReport) -> ImapRenderReport {
         pixel_bytes: r.pixel_bytes,
         total_bytes: r.total_bytes,
         history_len: r.history.len() as u64,
+        omitted: r.omitted,
     }
 }
 
@@ -439,3 +460,9 @@ pub unsafe extern "C" fn imap_get_render_history(
         copy_history(h, out, capacity, element_size, out_count)
     })
 }
+
+// The C flags are the render's own.
+const _: () = assert!(
+    IMAP_RENDER_OMITS_REFRACTED_INTO_MEDIUM == crate::render::OMITS_REFRACTED_INTO_MEDIUM
+        && IMAP_RENDER_OMITS_CAUSTICS_ON_GLOSSY == crate::render::OMITS_CAUSTICS_ON_GLOSSY
+);

@@ -37,4 +37,7 @@ pub use backward::EyeTracer;
 pub use camera::{Camera, CameraDesc};
 pub use engine::{bytes_needed, render};
 pub use monitor::RenderMonitor;
-pub use types::{Image, RenderMethod, RenderParams, RenderReport};
+pub use types::{
+    Image, RenderMethod, RenderParams, RenderReport, OMITS_CAUSTICS_ON_GLOSSY,
+    OMITS_REFRACTED_INTO_MEDIUM,
+};

@@ -98,7 +98,21 @@ pub struct RenderReport {
     pub total_bytes: u64,
     pub dropped_paths: u64,
     pub history: Vec<Progress>,
+    /// What the scene has that the method cannot show (`OMITS_*`, or-ed; 0: nothing known).
+    pub omitted: u32,
 }
+
+/// `RenderReport::omitted`: the scene has point-like lights (or the sun) outside a scattering
+/// medium whose light can only enter it through a refracting surface (an opal cover or a
+/// light guide lit by LEDs, a sunbeam in haze through a window): what the medium scatters
+/// of that light toward the camera is missing from the picture, in every method. (A
+/// shadow ray cannot follow refraction, and no photon map holds volume photons.)
+pub const OMITS_REFRACTED_INTO_MEDIUM: u32 = 1;
+/// `RenderReport::omitted`: the backward photon map's methods, in a scene with point-like
+/// lights (or the sun), specular surfaces and glossy reflectors: light that reaches a
+/// glossy reflector through specular surfaces (a caustic on a rough metal or a plastic)
+/// is missing (its backward photons sit at diffuse vertices only). Final gathering has it.
+pub const OMITS_CAUSTICS_ON_GLOSSY: u32 = 2;
 
 /// The rendered image: radiance per pixel and band (row-major from the top left), and the
 /// relative standard error of each pixel's band mean.
