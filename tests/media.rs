@@ -1285,6 +1285,64 @@ fn a_sensor_inside_an_absorbing_slab_reads_the_light_at_its_depth() {
 }
 
 #[test]
+fn the_net_flux_through_a_sensor_inside_a_lossless_scatterer_is_what_leaves_below() {
+    // A normal beam into a 0.1 m slab that scatters 10 per metre and absorbs nothing, a
+    // two-sided sensor halfway down and a black floor under the slab: the net flux down
+    // through the sensor (its front, crossed downward, less its back) is what reaches the
+    // floor (the slab is 40 times as wide as it is thick: what leaves by its sides is
+    // negligible). Photons inside the slab draw their flight before they look for the
+    // surface; the sensor in the slab's box still reads every segment to its end.
+    let mut ctx = context(seeded(13));
+    absorbing_slab(&mut ctx, &[], &[10.0], 0.1);
+    let black = lambert(&mut ctx, 0.0);
+    let plane = grid(4, -1.9, 1.9, -1.9, 1.9, -0.05);
+    let mut d = plane.desc(black);
+    d.sensor = true;
+    d.two_sided = true;
+    let sensor = ctx.add_mesh(&d).unwrap();
+    let floor = quad([
+        [-50.0, -50.0, -0.101],
+        [50.0, -50.0, -0.101],
+        [50.0, 50.0, -0.101],
+        [-50.0, 50.0, -0.101],
+    ]);
+    let mut fd = floor.desc(black);
+    fd.record = false;
+    let floor_id = ctx.add_mesh(&fd).unwrap();
+    ctx.add_spot_light([0.0, 0.0, 1.0], [0.0, 0.0, -1.0], 1e-3, &[1.0])
+        .unwrap();
+    let report = run_photons_only(&mut ctx, photons(100_000));
+    // Over the bands (the same in each: their errors add).
+    let side = |s: u32| {
+        let f = ctx.region_stats(sensor, s, None).unwrap().flux_w;
+        (
+            f.iter().map(|x| x.value).sum::<f64>(),
+            f.iter().map(|x| x.sigma).sum::<f64>(),
+        )
+    };
+    let ((down, s_down), (up, s_up)) = (side(0), side(1));
+    let below = ctx.absorbed_w(floor_id).unwrap();
+    let emitted = report.emitted_w;
+    let p = below / emitted;
+    let sigma_below = (p * (1.0 - p) / report.photons as f64).sqrt() * emitted;
+    let sigma = (s_down.powi(2) + s_up.powi(2) + sigma_below.powi(2)).sqrt();
+    let net = down - up;
+    eprintln!(
+        "down {:.5}, up {:.5}, net {:.5}, floor {:.5} of the beam ({:+.2} σ)",
+        down / emitted,
+        up / emitted,
+        net / emitted,
+        p,
+        (net - below) / sigma
+    );
+    assert!(up > 0.05 * emitted, "light scattered back up: {up}");
+    assert!(
+        (net - below).abs() < 4.0 * sigma,
+        "net {net} against {below} (σ {sigma})"
+    );
+}
+
+#[test]
 fn a_guide_printed_white_underneath_sends_out_what_ray_optics_says() {
     // The simplest extracting light guide: a 0.4 × 0.4 × 0.01 m plate of n 1.5, its bottom
     // face printed all over in white (Lambertian ρ 0.8, scattering back into the plate),

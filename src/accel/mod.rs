@@ -320,12 +320,26 @@ impl Accel {
         })
     }
 
+    /// The nearest hit along `org + t·dir` with t in [0, `t_max`] (the traversal leaves out
+    /// everything farther: a short segment costs less than a whole ray).
+    #[inline]
+    pub fn intersect_within(&self, org: DVec3, dir: DVec3, t_max: f64) -> Option<Hit> {
+        let rh = self.trace_range(org, dir, 0.0, t_max as f32);
+        (rh.hit.geom_id != INVALID_ID).then_some(Hit {
+            mesh: rh.hit.geom_id,
+            prim: rh.hit.prim_id,
+            u: rh.hit.u,
+            v: rh.hit.v,
+            t: rh.ray.tfar as f64,
+        })
+    }
+
     /// Every hit along `org + t·dir` with t in [0, `t_max`], nearest first, handed to `f`
     /// (sensors: a few crossings per segment, each found by one more query starting just
     /// past the last).
     #[inline]
     pub fn crossings(&self, org: DVec3, dir: DVec3, t_max: f64, mut f: impl FnMut(Hit)) {
-        if !self.segment_meets_bounds(org, dir, t_max) {
+        if t_max <= 0.0 || !self.segment_meets_bounds(org, dir, t_max) {
             return;
         }
         let tfar = t_max as f32;
@@ -357,7 +371,7 @@ impl Accel {
     /// vertices (slabs, with the box widened by a margin far above f32 rounding: a false
     /// yes only costs a query).
     #[inline]
-    fn segment_meets_bounds(&self, org: DVec3, dir: DVec3, t_max: f64) -> bool {
+    pub fn segment_meets_bounds(&self, org: DVec3, dir: DVec3, t_max: f64) -> bool {
         let [lo, hi] = self.bounds;
         let pad = 1e-4 * (hi - lo).max_element().max(1e-30) + 1e-6 * org.abs().max_element();
         let (lo, hi) = (lo - DVec3::splat(pad), hi + DVec3::splat(pad));
@@ -379,6 +393,16 @@ impl Accel {
             }
         }
         true
+    }
+
+    /// Whether the box [`lo`, `hi`] may overlap the box around the vertices (widened as in
+    /// `segment_meets_bounds`).
+    #[inline]
+    pub fn box_meets_bounds(&self, lo: DVec3, hi: DVec3) -> bool {
+        let [a, b] = self.bounds;
+        let pad =
+            1e-4 * (b - a).max_element().max(1e-30) + 1e-6 * lo.abs().max(hi.abs()).max_element();
+        lo.cmple(b + DVec3::splat(pad)).all() && hi.cmpge(a - DVec3::splat(pad)).all()
     }
 
     /// Whether anything blocks the segment `org + t·dir`, t in (0, `t_max`) (shadow rays).

@@ -14,7 +14,7 @@ use crate::scene::bsdf::{reflect, refract};
 use crate::scene::bsdf::{Bsdf, Lobe};
 use crate::scene::light::DistantPart;
 use crate::scene::material::fresnel_dielectric;
-use crate::scene::medium::{Flight, MediumStack, Way};
+use crate::scene::medium::{Flight, MediumStack};
 use crate::scene::texture::TintScratch;
 use crate::scene::{Enclosures, LightSample, Material, PreparedScene, Receiver, Scene};
 use crate::spectral::{collapse_weights, pick_band, Transmittance as Tr};
@@ -1203,7 +1203,7 @@ impl<'a> EyeTracer<'a> {
         };
         if let Some(sc) = &d.scattering {
             let u = [rng.uniform(), rng.uniform(), rng.uniform()];
-            let flight = sc.flight(beta, t * self.unit_m, u, Way::Importance);
+            let flight = sc.eye_flight(beta, t * self.unit_m, u);
             if let Flight::Fluoresce(t_m, k) = flight {
                 // (Only a mesh's medium fluoresces: the scene's may not.)
                 let t = t0 + t_m / self.unit_m;

@@ -15,8 +15,9 @@
 //! A fluorescent medium (spectral runs) re-emits, isotropically, the share m_ij of what it
 //! absorbs in band i in band j (`Fluorescence`, the matrix a fluorescent surface has). A
 //! collision there is a scattering, a re-emission or an absorption, chosen by the path's
-//! weights toward each (`Way`: a photon's power, or an eye path's importance, for which
-//! the matrix is read backward), and the weights are divided by the chance of the choice.
+//! weights toward each (a photon's power, `flight`, or an eye path's importance, for which
+//! the matrix is read backward, `eye_flight`), and the weights are divided by the chance
+//! of the choice.
 
 use crate::scene::material::Fluorescence;
 use crate::spectral::pick_band;
@@ -153,16 +154,6 @@ pub enum Flight {
     Absorbed,
 }
 
-/// Which way a path carries its weights, for a fluorescent medium's choice at a collision.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum Way {
-    /// A photon: its weights are power per band (it re-emits mᵀ((1 − albedo)∘c)).
-    Light,
-    /// An eye path: its weights are importance per band of the light it reads (light of
-    /// band i re-emitted here reaches it with Σ_b β_b σa_i m_ib / σt_b).
-    Importance,
-}
-
 impl Scattering {
     /// Per-band σs, σa (σa may be None: clear) and g, already checked.
     pub fn new(sigma_s: Vec<f64>, sigma_a: Option<&[f64]>, g: Vec<f64>) -> Scattering {
@@ -207,29 +198,70 @@ impl Scattering {
         }));
     }
 
-    /// A free flight toward a surface `dist_m` metres away (infinite: none) for a path of
-    /// per-band weights `c`, with uniform numbers `u`: the band whose exponential draws the
-    /// distance, the distance, and the scattering-or-absorption choice.
-    pub fn flight(&self, c: &mut [f64], dist_m: f64, u: [f64; 3], way: Way) -> Flight {
-        if let (Some(fl), Way::Importance) = (&self.fluorescence, way) {
-            return self.flight_importance(fl, c, dist_m, u);
+    /// A photon's free flight toward a surface `dist_m` metres away (infinite: none), its
+    /// per-band weights `c` its power (a fluorescent medium re-emits mᵀ((1 − albedo)∘c)),
+    /// with uniform numbers `u`: the band whose exponential draws the distance, the
+    /// distance, and the scattering-or-absorption choice.
+    pub fn flight(&self, c: &mut [f64], dist_m: f64, u: [f64; 3]) -> Flight {
+        let t = self.distance(c, u);
+        self.flight_to(c, t, dist_m, u)
+    }
+
+    /// An eye path's free flight: `flight`, but its weights `c` are importance per band of
+    /// the light it reads, so a fluorescent medium's matrix is read backward (light of band
+    /// i re-emitted here reaches it with Σ_b β_b σa_i m_ib / σt_b: `flight_importance`).
+    pub fn eye_flight(&self, c: &mut [f64], dist_m: f64, u: [f64; 3]) -> Flight {
+        match &self.fluorescence {
+            Some(fl) => self.flight_importance(fl, c, dist_m, u),
+            None => self.flight(c, dist_m, u),
         }
-        if self.grey && self.fluorescence.is_none() {
-            return self.grey_flight(c, dist_m, u);
+    }
+
+    /// Where a free flight of weights `c` collides, metres (∞: never), from the numbers
+    /// `flight` takes: the band that draws it (by the colour; a grey medium has one), then
+    /// the distance. It does not depend on the surface ahead, so a photon may draw it
+    /// before it looks for the surface (`Tracer::trace`). Not for an eye path in a
+    /// fluorescent medium (`flight_importance` draws its own).
+    #[inline]
+    pub fn distance(&self, c: &[f64], u: [f64; 3]) -> f64 {
+        let st = if self.grey {
+            self.sigma_t[0]
+        } else {
+            let total: f64 = c.iter().sum();
+            if !(total > 0.0 && total.is_finite()) {
+                // (`flight_to` absorbs it.)
+                return f64::INFINITY;
+            }
+            self.sigma_t[pick_band(c, total, u[0])]
+        };
+        if st > 0.0 {
+            -(1.0 - u[1]).ln() / st
+        } else {
+            f64::INFINITY
         }
+    }
+
+    /// The rest of `flight` once `distance` has drawn `t`: through to the surface (each band
+    /// re-weighted by its transmittance over the mixture's), or a collision at t (each band
+    /// by its collision density over the mixture's, then scattered with the colour-weighted
+    /// albedo, each band by its albedo over it, or re-emitted, or absorbed). A grey medium
+    /// changes no weight (every band's density and albedo over the mixture's is 1).
+    #[inline]
+    pub fn flight_to(&self, c: &mut [f64], t: f64, dist_m: f64, u: [f64; 3]) -> Flight {
         let total: f64 = c.iter().sum();
         if !(total > 0.0 && total.is_finite()) {
             return Flight::Absorbed;
         }
-        // The band that draws the distance, by the colour.
-        let st = self.sigma_t[pick_band(c, total, u[0])];
-        let t = if st > 0.0 {
-            -(1.0 - u[1]).ln() / st
-        } else {
-            f64::INFINITY
-        };
+        if self.grey && self.fluorescence.is_none() {
+            return if t >= dist_m {
+                Flight::Surface
+            } else if self.sigma_t[0] > 0.0 && u[2] < self.albedo[0] {
+                Flight::Scatter(t)
+            } else {
+                Flight::Absorbed
+            };
+        }
         if t >= dist_m {
-            // Through to the surface: each band by its transmittance over the mixture's.
             let tr = |b: usize| match self.sigma_t[b] {
                 0.0 => 1.0,
                 s => (-s * dist_m).exp(),
@@ -239,9 +271,6 @@ impl Scattering {
                 None => Flight::Absorbed,
             };
         }
-        // A collision at t: each band by its collision density over the mixture's, then
-        // scattered with the colour-weighted albedo (each band by its albedo over it), or
-        // absorbed (the path ends, whatever its weights).
         let density = |b: usize| self.sigma_t[b] * (-self.sigma_t[b] * t).exp();
         if reweigh(c, total, density).is_none() {
             return Flight::Absorbed;
@@ -252,29 +281,6 @@ impl Scattering {
         match reweigh(c, total, |b| self.albedo[b]) {
             Some(w) if u[2] < w => Flight::Scatter(t),
             _ => Flight::Absorbed,
-        }
-    }
-
-    /// `flight` in a grey medium: the same draws, and no weight changes (every band's
-    /// density and albedo over the mixture's is 1).
-    #[inline]
-    fn grey_flight(&self, c: &[f64], dist_m: f64, u: [f64; 3]) -> Flight {
-        let total: f64 = c.iter().sum();
-        if !(total > 0.0 && total.is_finite()) {
-            return Flight::Absorbed;
-        }
-        let st = self.sigma_t[0];
-        let t = if st > 0.0 {
-            -(1.0 - u[1]).ln() / st
-        } else {
-            f64::INFINITY
-        };
-        if t >= dist_m {
-            Flight::Surface
-        } else if st > 0.0 && u[2] < self.albedo[0] {
-            Flight::Scatter(t)
-        } else {
-            Flight::Absorbed
         }
     }
 
@@ -784,7 +790,7 @@ mod tests {
                 ((i * 7919) % n) as f64 / n as f64,
                 ((i * 104_729) % n) as f64 / n as f64,
             ];
-            match m.flight(&mut c, 0.5, u, Way::Light) {
+            match m.flight(&mut c, 0.5, u) {
                 Flight::Surface => through += 1,
                 Flight::Scatter(t) => assert!(t < 0.5),
                 Flight::Absorbed => {}
@@ -814,7 +820,7 @@ mod tests {
         };
         for _ in 0..n {
             let mut c = [1.0; 3];
-            let f = m.flight(&mut c, d, [next(), next(), next()], Way::Light);
+            let f = m.flight(&mut c, d, [next(), next(), next()]);
             if f != Flight::Absorbed {
                 assert!((c.iter().sum::<f64>() - 3.0).abs() < 1e-9);
             }
@@ -862,7 +868,7 @@ mod tests {
         let mut read = 0.0;
         for _ in 0..n {
             let mut c = [1.0; 3];
-            let f = m.flight(&mut c, d, [next(), next(), next()], Way::Importance);
+            let f = m.eye_flight(&mut c, d, [next(), next(), next()]);
             let into = match f {
                 Flight::Surface => &mut pass,
                 Flight::Scatter(t) => {

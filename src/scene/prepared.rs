@@ -34,6 +34,10 @@ pub struct PreparedScene {
     pub bands: Bands,
     /// The scene's medium (`Scene::medium`) and the ball it fills.
     pub haze: Option<Haze>,
+    /// Per mesh, the box around its vertices (local coordinates) when one of its materials
+    /// scatters: a segment inside a closed mesh ends inside it (`Tracer::trace`'s early
+    /// free flight).
+    pub medium_bounds: Vec<Option<[DVec3; 2]>>,
 }
 
 /// The medium outside the meshes (`Scene::medium`): its material, and the ball around the
@@ -326,7 +330,28 @@ impl PreparedScene {
             total_power,
             slots,
             haze: None,
+            medium_bounds: Vec::new(),
         };
+        prepared.medium_bounds = prepared
+            .meshes
+            .iter()
+            .map(|m| {
+                let scatters = m.materials.iter().any(|&id| {
+                    scene
+                        .materials
+                        .get(id as usize)
+                        .is_some_and(Material::scatters)
+                });
+                scatters.then(|| {
+                    let (mut lo, mut hi) = (DVec3::INFINITY, DVec3::NEG_INFINITY);
+                    for v in &m.vertices {
+                        lo = lo.min(v.as_dvec3());
+                        hi = hi.max(v.as_dvec3());
+                    }
+                    [lo, hi]
+                })
+            })
+            .collect();
         prepared.haze = scene.medium.map(|material| Haze {
             material,
             radius: prepared.sphere_radius(),

@@ -14,7 +14,7 @@ use crate::accel::Accel;
 use crate::sampling::PhotonRng;
 use crate::scene::bsdf::{reflect, refract, Lobe};
 use crate::scene::material::Polarisation;
-use crate::scene::medium::{Flight, Way};
+use crate::scene::medium::Flight;
 use crate::scene::{Material, PreparedScene};
 use crate::spectral::Transmittance;
 use glam::DVec3;
@@ -471,7 +471,7 @@ impl<'a> Tracer<'a> {
         m: Medium,
         (org, dir, t): (DVec3, DVec3, Option<f64>),
         colour: &mut Colour,
-        rng: &mut PhotonRng,
+        (rng, drawn): (&mut PhotonRng, Option<([f64; 3], f64)>),
         bounces: &mut WeightedBounces,
     ) -> Segment<'a> {
         let d = self.materials[m.material as usize].dielectric.as_ref();
@@ -491,14 +491,17 @@ impl<'a> Tracer<'a> {
         {
             // (No surface ahead: the photon has slipped out of its closed mesh through a
             // crack; it leaves the scene rather than wander in an unbounded medium.)
-            let u = [rng.uniform(), rng.uniform(), rng.uniform()];
-            let way = Way::Light;
+            // (Drawn before the ray was traced: `trace`'s early free flight.)
+            let (u, t_m) = drawn.unwrap_or_else(|| {
+                let u = [rng.uniform(), rng.uniform(), rng.uniform()];
+                (u, sc.distance(colour.values(), u))
+            });
             let flight = if sc.grey && sc.fluorescence.is_none() {
                 // (A grey flight changes no weight: nothing to tally.)
-                sc.flight(colour.values_mut(), dist_m, u, way)
+                sc.flight_to(colour.values_mut(), t_m, dist_m, u)
             } else {
                 bounces.moved(m.mesh, colour, |c| {
-                    sc.flight(c.values_mut(), dist_m, u, way)
+                    sc.flight_to(c.values_mut(), t_m, dist_m, u)
                 })
             };
             return match flight {
@@ -766,7 +769,42 @@ impl Tracer<'_> {
             if event % STOP_POLL_EVENTS == STOP_POLL_EVENTS - 1 && stop.load(Ordering::Relaxed) {
                 return PathEnd::Aborted;
             }
-            let hit = self.accel.intersect(org, dir);
+            // In a scattering mesh medium the free flight's distance does not depend on the
+            // surface ahead: it is drawn first, and a surface looked for only that far (the
+            // traversal leaves out the rest of the scene), when the collision point lies
+            // inside the mesh's box (else the photon has slipped out through a crack and
+            // the whole ray decides, as below). The same numbers, the same outcome.
+            let mut early = None;
+            if let Some(m) = medium.filter(|m| m.mesh != SCENE_MEDIUM) {
+                let sc = self.materials[m.material as usize]
+                    .dielectric
+                    .as_ref()
+                    .and_then(|d| d.scattering.as_ref());
+                let bounds = self
+                    .scene
+                    .medium_bounds
+                    .get(m.mesh as usize)
+                    .copied()
+                    .flatten();
+                if let (Some(sc), Some([lo, hi])) = (sc, bounds) {
+                    let u = [rng.uniform(), rng.uniform(), rng.uniform()];
+                    let t_m = sc.distance(colour.values(), u);
+                    let t = t_m / self.unit_m;
+                    let p = org + dir * t;
+                    let inside = t.is_finite() && p.cmpge(lo).all() && p.cmple(hi).all();
+                    early = Some(((u, t_m), t, inside, [lo, hi]));
+                }
+            }
+            let hit = match early {
+                Some((_, t, true, _)) => self.accel.intersect_within(org, dir, t),
+                _ => self.accel.intersect(org, dir),
+            };
+            // The distance to the surface the flight is weighed against: none found within
+            // an early flight's reach is "farther".
+            let surface_t = match early {
+                Some((_, _, true, _)) => Some(hit.map_or(f64::INFINITY, |h| h.t)),
+                _ => hit.map(|h| h.t),
+            };
 
             // Sensors in a medium read the light that crosses them by its expected value:
             // the colour the segment began with times each band's transmittance to the
@@ -791,7 +829,9 @@ impl Tracer<'_> {
             let mut scattered_at = None;
             let mut absorbed_in = None;
             if let Some(m) = medium {
-                match self.through_medium(m, (org, dir, hit.map(|h| h.t)), colour, rng, bounces) {
+                let drawn = early.map(|e| e.0);
+                let segment = (org, dir, surface_t);
+                match self.through_medium(m, segment, colour, (rng, drawn), bounces) {
                     Segment::Through => {}
                     Segment::Absorbed => absorbed_in = Some(m.mesh),
                     Segment::Scatter(sc, t, iso) => scattered_at = Some((sc, t, m.mesh, iso)),
@@ -811,12 +851,25 @@ impl Tracer<'_> {
                 // Sensors on the segment, up to and including the surface it ends on (a
                 // sensor laid on a floor sees the light arriving there), or, in air, up to
                 // where it scatters in a medium.
-                let t_end = match scattered_at.filter(|_| attenuating.is_none()) {
-                    Some((_, t, _, _)) => t,
-                    None => hit.map_or(f64::INFINITY, |h| {
-                        let m = &self.scene.meshes[h.mesh as usize];
-                        h.t + 2.0 * self.scene.offset_at(m.point(h.prim as usize, h.u, h.v))
-                    }),
+                let surface_end = |h: crate::accel::Hit| {
+                    let m = &self.scene.meshes[h.mesh as usize];
+                    h.t + 2.0 * self.scene.offset_at(m.point(h.prim as usize, h.u, h.v))
+                };
+                let t_end = match (scattered_at.filter(|_| attenuating.is_none()), hit, early) {
+                    (Some((_, t, _, _)), _, _) => t,
+                    (None, Some(h), _) => surface_end(h),
+                    // An early flight that ended before the surface: the surface lies
+                    // inside the mesh's box, so no sensor outside the box is crossed; a
+                    // box that sensors reach asks for the surface itself.
+                    (None, None, Some((_, _, true, [lo, hi]))) => {
+                        if sensors.box_meets_bounds(lo, hi) {
+                            let t_box = box_exit(org, dir, lo, hi);
+                            self.accel.intersect(org, dir).map_or(t_box, surface_end)
+                        } else {
+                            0.0
+                        }
+                    }
+                    (None, None, _) => f64::INFINITY,
                 };
                 // (Where the segment lies in the medium: the scene's medium fills a ball.)
                 let span = match (attenuating, medium) {
@@ -1104,4 +1157,19 @@ impl Tracer<'_> {
         }
         PathEnd::Dropped
     }
+}
+
+/// Where the ray `org + t·dir` from inside the box [`lo`, `hi`] leaves it (slabs).
+#[inline]
+fn box_exit(org: DVec3, dir: DVec3, lo: DVec3, hi: DVec3) -> f64 {
+    let mut t = f64::INFINITY;
+    for k in 0..3 {
+        let d = dir[k];
+        if d > 0.0 {
+            t = t.min((hi[k] - org[k]) / d);
+        } else if d < 0.0 {
+            t = t.min((lo[k] - org[k]) / d);
+        }
+    }
+    t.max(0.0)
 }
