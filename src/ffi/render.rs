@@ -232,6 +232,8 @@ pub const IMAP_RENDER_OMITS_CAUSTICS_ON_GLOSSY: u32 = 2;
 // SAFETY: repr(C), u32 struct_size first, plain numbers only.
 unsafe impl Versioned for ImapRenderReport {
     const NAME: &'static str = "ImapRenderReport";
+    // (0.2.2's size: programs built then get the report without `omitted`.)
+    const BASE_SIZE: usize = std::mem::offset_of!(ImapRenderReport, omitted);
     const INIT: &'static str = "sizeof";
     fn defaults() -> Self {
         ImapRenderReport::default()
