@@ -364,7 +364,7 @@ impl<'a> EyeTracer<'a> {
                 &mut dir,
                 &mut org,
                 (&mut medium, &mut media),
-                &mut band,
+                (&mut band, &mut glossy_scratch),
                 beta,
                 rng,
             ) {
@@ -551,7 +551,7 @@ impl<'a> EyeTracer<'a> {
                 &mut dir,
                 &mut org,
                 (&mut medium, &mut media),
-                &mut band,
+                (&mut band, &mut glossy_scratch),
                 beta,
                 rng,
             ) {
@@ -1671,7 +1671,7 @@ impl<'a> EyeTracer<'a> {
         dir: &mut DVec3,
         org: &mut DVec3,
         (medium, media): (&mut Option<u32>, &mut MediumStack),
-        band: &mut Option<usize>,
+        (band, w): (&mut Option<usize>, &mut Vec<f64>),
         beta: &mut [f64],
         rng: &mut PhotonRng,
     ) -> Step {
@@ -1696,11 +1696,12 @@ impl<'a> EyeTracer<'a> {
             let frame = bsdf.frame(n_in);
             let wo = frame.to_local(-*dir);
             let u = [rng.uniform(), rng.uniform(), rng.uniform()];
-            let mut w = vec![0.0; beta.len()];
-            let Some(s) = g.sample_weighted(wo, u, band.unwrap_or(0), at.front, &mut w) else {
+            w.clear();
+            w.resize(beta.len(), 0.0);
+            let Some(s) = g.sample_weighted(wo, u, band.unwrap_or(0), at.front, w) else {
                 return Step::End;
             };
-            beta.iter_mut().zip(&w).for_each(|(b, w)| *b *= w);
+            beta.iter_mut().zip(w.iter()).for_each(|(b, w)| *b *= w);
             *dir = frame.to_world(s.wi);
             if s.wi.z > 0.0 {
                 *org = at.p + n_in * at.eps;
