@@ -319,10 +319,10 @@ impl<'a> EyeTracer<'a> {
                 return;
             }
             stats.rays += 1;
-            let (hit, t, drawn) = self.segment(&media, (org, dir), beta, rng);
+            let hit = self.accel.intersect(org, dir);
+            let t = hit.map_or(f64::INFINITY, |h| h.t);
             let path = ((&mut dir, &mut org), beta.as_mut_slice());
-            let media_at = (medium, &media);
-            match self.through_medium(media_at, (t, drawn), path, rng, (out.to(), stats)) {
+            match self.through_medium((medium, &media), t, path, rng, (out.to(), stats)) {
                 Flight::Surface => {}
                 Flight::Absorbed => return,
                 Flight::Scatter(t) => {
@@ -492,10 +492,10 @@ impl<'a> EyeTracer<'a> {
         let mut after_haze = false;
         for _ in 0..self.max_events {
             stats.rays += 1;
-            let (hit, t, drawn) = self.segment(&media, (org, dir), beta, rng);
+            let hit = self.accel.intersect(org, dir);
+            let t = hit.map_or(f64::INFINITY, |h| h.t);
             let path = ((&mut dir, &mut org), beta.as_mut_slice());
-            let media_at = (medium, &media);
-            match self.through_medium(media_at, (t, drawn), path, rng, (out.to(), stats)) {
+            match self.through_medium((medium, &media), t, path, rng, (out.to(), stats)) {
                 Flight::Surface => {}
                 Flight::Absorbed => return,
                 Flight::Fluoresce(..) => {
@@ -1167,7 +1167,7 @@ impl<'a> EyeTracer<'a> {
     fn through_medium(
         &self,
         (medium, media): (Option<u32>, &MediumStack),
-        t: (f64, Option<([f64; 3], f64)>),
+        t: f64,
         path: ((&mut DVec3, &mut DVec3), &mut [f64]),
         rng: &mut PhotonRng,
         out: (&mut [f64], &mut EyeStats),
@@ -1178,84 +1178,18 @@ impl<'a> EyeTracer<'a> {
         self.through_some_medium((medium, media), t, path, rng, out)
     }
 
-    /// The surface an eye path travelling from `org` along `dir` meets, its distance (∞:
-    /// none), and, inside a scattering mesh medium that does not fluoresce, the free
-    /// flight drawn first (its numbers and metres): the surface is then looked for only
-    /// that far (the traversal leaves out the rest of the scene), and "none" means
-    /// farther, as the photons do it (`Tracer::trace`). A collision point outside the
-    /// mesh's box (a path slipped out through a crack) leaves the whole ray to decide.
-    #[inline(always)]
-    #[allow(clippy::type_complexity)]
-    fn segment(
-        &self,
-        media: &MediumStack,
-        (org, dir): (DVec3, DVec3),
-        beta: &[f64],
-        rng: &mut PhotonRng,
-    ) -> (Option<crate::accel::Hit>, f64, Option<([f64; 3], f64)>) {
-        if let Some(inside) = media.current() {
-            if let Some(early) = self.early_flight(inside, (org, dir), beta, rng) {
-                return early;
-            }
-        }
-        let hit = self.accel.intersect(org, dir);
-        (hit, hit.map_or(f64::INFINITY, |h| h.t), None)
-    }
-
-    /// `segment` inside a medium (out of line: the paths of most scenes meet none). None
-    /// when the flight is not drawn first; numbers it drew are kept for the flight.
-    #[inline(never)]
-    #[allow(clippy::type_complexity)]
-    fn early_flight(
-        &self,
-        (mesh, material): (u32, u32),
-        (org, dir): (DVec3, DVec3),
-        beta: &[f64],
-        rng: &mut PhotonRng,
-    ) -> Option<(Option<crate::accel::Hit>, f64, Option<([f64; 3], f64)>)> {
-        let sc = self.materials[material as usize]
-            .dielectric
-            .as_ref()?
-            .scattering
-            .as_ref()
-            .filter(|sc| sc.fluorescence.is_none())?;
-        let [lo, hi] = self
-            .scene
-            .medium_bounds
-            .get(mesh as usize)
-            .copied()
-            .flatten()?;
-        let u = [rng.uniform(), rng.uniform(), rng.uniform()];
-        let t_m = sc.distance(beta, u);
-        let t = t_m / self.unit_m;
-        let p = org + dir * t;
-        if t.is_finite() && p.cmpge(lo).all() && p.cmple(hi).all() {
-            let hit = self.accel.intersect_within(org, dir, t);
-            return Some((hit, hit.map_or(f64::INFINITY, |h| h.t), Some((u, t_m))));
-        }
-        // (No surface at all: the path slipped out through a crack, and goes on as in
-        // air, as when the flight was not drawn first.)
-        let hit = self.accel.intersect(org, dir);
-        Some(match hit {
-            Some(h) => (hit, h.t, Some((u, t_m))),
-            None => (None, f64::INFINITY, None),
-        })
-    }
-
     /// `through_medium` in a medium (out of line: the paths of most scenes meet none).
     #[inline(never)]
     fn through_some_medium(
         &self,
         (medium, media): (Option<u32>, &MediumStack),
-        (t, drawn): (f64, Option<([f64; 3], f64)>),
+        t: f64,
         ((dir, org), beta): ((&mut DVec3, &mut DVec3), &mut [f64]),
         rng: &mut PhotonRng,
         (out, stats): (&mut [f64], &mut EyeStats),
     ) -> Flight {
         let (d, t0, t) = match (medium, self.scene.haze.as_ref()) {
-            // (No surface ahead, unless the flight was drawn first: the path slipped out
-            // of its closed mesh through a crack.)
-            (Some(_), _) if t == f64::INFINITY && drawn.is_none() => return Flight::Surface,
+            (Some(_), _) if t == f64::INFINITY => return Flight::Surface,
             (Some(m), _) => (self.materials[m as usize].dielectric.as_ref(), 0.0, t),
             (None, Some(h)) => {
                 let (t0, t1) = h.span(*org, *dir, t);
@@ -1268,14 +1202,8 @@ impl<'a> EyeTracer<'a> {
             return Flight::Surface;
         };
         if let Some(sc) = &d.scattering {
-            let flight = match drawn {
-                // (`segment` drew it before tracing the ray.)
-                Some((u, t_m)) => sc.flight_to(beta, t_m, t * self.unit_m, u),
-                None => {
-                    let u = [rng.uniform(), rng.uniform(), rng.uniform()];
-                    sc.eye_flight(beta, t * self.unit_m, u)
-                }
-            };
+            let u = [rng.uniform(), rng.uniform(), rng.uniform()];
+            let flight = sc.eye_flight(beta, t * self.unit_m, u);
             if let Flight::Fluoresce(t_m, k) = flight {
                 // (Only a mesh's medium fluoresces: the scene's may not.)
                 let t = t0 + t_m / self.unit_m;
