@@ -1290,8 +1290,9 @@ fn the_net_flux_through_a_sensor_inside_a_lossless_scatterer_is_what_leaves_belo
     // two-sided sensor halfway down and a black floor under the slab: the net flux down
     // through the sensor (its front, crossed downward, less its back) is what reaches the
     // floor (the slab is 40 times as wide as it is thick: what leaves by its sides is
-    // negligible). Photons inside the slab draw their flight before they look for the
-    // surface; the sensor in the slab's box still reads every segment to its end.
+    // negligible). A sensor inside the slab's box reads each segment to its surface, so
+    // photons there trace whole rays (they draw their flight first only where no sensor
+    // reaches the medium's box).
     let mut ctx = context(seeded(13));
     absorbing_slab(&mut ctx, &[], &[10.0], 0.1);
     let black = lambert(&mut ctx, 0.0);
