@@ -1667,69 +1667,13 @@ fn nested_dielectrics_refract_against_each_other_not_against_air() {
     let r = |a: f64, b: f64| ((a - b) / (a + b)).powi(2);
     let inv = 2.0 * (1.0 / (1.0 - r(1.0, 1.33)) - 1.0) + 2.0 * (1.0 / (1.0 - r(1.33, 1.5)) - 1.0);
     let want = 1.0 / (1.0 + inv);
-    let stack = |ctx: &mut imap::Context| {
-        for (n, lo, hi, half) in [(1.33, -0.3, 0.0, 2.0), (1.5, -0.2, -0.1, 1.5)] {
-            let m = ctx
-                .add_material(&MaterialDesc {
-                    ior: Some(IorModel::Constant(n)),
-                    ..Default::default()
-                })
-                .unwrap();
-            let g = cuboid([-half, -half, lo], [half, half, hi], 1, false);
-            let mut d = g.desc(m);
-            d.record = false;
-            ctx.add_mesh(&d).unwrap();
-        }
-    };
-    let mut ctx = context(seeded(31));
-    stack(&mut ctx);
-    let black = lambert(&mut ctx, 0.0);
-    let floor = quad([
-        [-50.0, -50.0, -0.301],
-        [50.0, -50.0, -0.301],
-        [50.0, 50.0, -0.301],
-        [-50.0, 50.0, -0.301],
-    ]);
-    let mut fd = floor.desc(black);
-    fd.record = false;
-    let floor_id = ctx.add_mesh(&fd).unwrap();
-    ctx.add_spot_light([0.0, 0.0, 1.0], [0.0, 0.0, -1.0], 1e-3, &[1.0])
-        .unwrap();
-    let n = photons(100_000);
-    let report = run_photons_only(&mut ctx, n);
-    let t = ctx.absorbed_w(floor_id).unwrap() / report.emitted_w;
-    let sigma = (want * (1.0 - want) / n as f64).sqrt();
+    let slabs = [(1.33, 0.0, -0.3, 0.0, 2.0), (1.5, 0.0, -0.2, -0.1, 1.5)];
+    let (t, sigma, seen) = stack_transmits(&slabs, 31);
     eprintln!(
         "photons: the stack transmits {t:.5}, exact {want:.5} ({:+.2} σ)",
         (t - want) / sigma
     );
     assert!((t - want).abs() < 4.0 * sigma, "{t} against {want}");
-    // A panel of radiance 1 under the stack, seen from above through it.
-    let mut ctx = context(seeded(32));
-    stack(&mut ctx);
-    let black = lambert(&mut ctx, 0.0);
-    let panel = quad([
-        [-1.0, -1.0, -0.5],
-        [1.0, -1.0, -0.5],
-        [1.0, 1.0, -0.5],
-        [-1.0, 1.0, -0.5],
-    ]);
-    ctx.add_mesh(&imap::MeshDesc {
-        exitance: Some(&[std::f64::consts::PI]),
-        record: false,
-        ..panel.desc(black)
-    })
-    .unwrap();
-    let cam = imap::CameraDesc {
-        position: [0.0, 0.0, 1.0],
-        direction: [0.0, 0.0, -1.0],
-        up: [0.0, 1.0, 0.0],
-        fov_y_deg: 2.0,
-        width: 2,
-        height: 2,
-    };
-    let img = ctx.path_trace(&cam, 20_000, 1000).unwrap();
-    let seen = img.radiance.iter().sum::<f64>() / img.radiance.len() as f64;
     eprintln!("path tracer: the panel through the stack reads {seen:.5}, exact {want:.5}");
     assert!((seen - want).abs() < 0.005, "{seen} against {want}");
 }

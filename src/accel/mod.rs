@@ -264,12 +264,6 @@ impl Accel {
         }
     }
 
-    /// Traces one ray with Embree and returns the raw record.
-    #[inline]
-    fn trace(&self, org: DVec3, dir: DVec3) -> RayHit {
-        self.trace_range(org, dir, 0.0, f32::INFINITY)
-    }
-
     #[inline]
     fn trace_range(&self, org: DVec3, dir: DVec3, tnear: f32, tfar: f32) -> RayHit {
         let mut rh = RayHit {
@@ -309,15 +303,7 @@ impl Accel {
     /// The closest hit along `org + t·dir`, t in (0, ∞), in local scene units.
     #[inline]
     pub fn intersect(&self, org: DVec3, dir: DVec3) -> Option<Hit> {
-        let rh = self.trace(org, dir);
-        debug_assert_eq!(rh.guard, [GUARD; 3], "Embree wrote past the hit record");
-        (rh.hit.geom_id != INVALID_ID).then_some(Hit {
-            mesh: rh.hit.geom_id,
-            prim: rh.hit.prim_id,
-            u: rh.hit.u,
-            v: rh.hit.v,
-            t: rh.ray.tfar as f64,
-        })
+        self.intersect_within(org, dir, f64::INFINITY)
     }
 
     /// The nearest hit along `org + t·dir` with t in [0, `t_max`] (the traversal leaves out
@@ -325,6 +311,7 @@ impl Accel {
     #[inline]
     pub fn intersect_within(&self, org: DVec3, dir: DVec3, t_max: f64) -> Option<Hit> {
         let rh = self.trace_range(org, dir, 0.0, t_max as f32);
+        debug_assert_eq!(rh.guard, [GUARD; 3], "Embree wrote past the hit record");
         (rh.hit.geom_id != INVALID_ID).then_some(Hit {
             mesh: rh.hit.geom_id,
             prim: rh.hit.prim_id,
@@ -436,7 +423,7 @@ impl Accel {
     /// Traces one ray and returns the guard words after the hit record (test support).
     #[cfg(test)]
     pub fn guard_after_intersect(&self, org: DVec3, dir: DVec3) -> ([u32; 3], bool) {
-        let rh = self.trace(org, dir);
+        let rh = self.trace_range(org, dir, 0.0, f32::INFINITY);
         (rh.guard, rh.hit.geom_id != INVALID_ID)
     }
 }
