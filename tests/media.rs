@@ -590,6 +590,25 @@ fn a_scattering_slab_agrees_with_mitsuba() {
 
 /// A slab of index 1 (no Fresnel), `thick` m thick under z = 0 and 4 m wide, absorbing
 /// `alpha` per band (1/m); optionally scattering too.
+/// A black floor 100 m wide at height `z` (not recorded) under a narrow beam of 1 W a band
+/// from 1 m up, straight down the z axis: what reaches the floor is what a slab over it
+/// sends on. Returns the floor's mesh id.
+fn beam_onto_a_black_floor(ctx: &mut imap::Context, z: f64) -> u32 {
+    let black = lambert(ctx, 0.0);
+    let floor = quad([
+        [-50.0, -50.0, z],
+        [50.0, -50.0, z],
+        [50.0, 50.0, z],
+        [-50.0, 50.0, z],
+    ]);
+    let mut fd = floor.desc(black);
+    fd.record = false;
+    let id = ctx.add_mesh(&fd).unwrap();
+    ctx.add_spot_light([0.0, 0.0, 1.0], [0.0, 0.0, -1.0], 1e-3, &[1.0])
+        .unwrap();
+    id
+}
+
 fn absorbing_slab(ctx: &mut imap::Context, alpha: &[f64], scattering: &[f64], thick: f64) -> u32 {
     let m = ctx
         .add_material(&MaterialDesc {
@@ -1301,17 +1320,7 @@ fn the_net_flux_through_a_sensor_inside_a_lossless_scatterer_is_what_leaves_belo
     d.sensor = true;
     d.two_sided = true;
     let sensor = ctx.add_mesh(&d).unwrap();
-    let floor = quad([
-        [-50.0, -50.0, -0.101],
-        [50.0, -50.0, -0.101],
-        [50.0, 50.0, -0.101],
-        [-50.0, 50.0, -0.101],
-    ]);
-    let mut fd = floor.desc(black);
-    fd.record = false;
-    let floor_id = ctx.add_mesh(&fd).unwrap();
-    ctx.add_spot_light([0.0, 0.0, 1.0], [0.0, 0.0, -1.0], 1e-3, &[1.0])
-        .unwrap();
+    let floor_id = beam_onto_a_black_floor(&mut ctx, -0.101);
     let report = run_photons_only(&mut ctx, photons(100_000));
     // Over the bands (the same in each: their errors add).
     let side = |s: u32| {
@@ -1563,19 +1572,7 @@ fn slab_reflects_and_transmits(
     let mut sd = geometry.desc(m);
     sd.record = false;
     let slab = ctx.add_mesh(&sd).unwrap();
-    let black = lambert(&mut ctx, 0.0);
-    let z = -d - 1e-3;
-    let floor = quad([
-        [-50.0, -50.0, z],
-        [50.0, -50.0, z],
-        [50.0, 50.0, z],
-        [-50.0, 50.0, z],
-    ]);
-    let mut fd = floor.desc(black);
-    fd.record = false;
-    ctx.add_mesh(&fd).unwrap();
-    ctx.add_spot_light([0.0, 0.0, 1.0], [0.0, 0.0, -1.0], 1e-3, &[1.0])
-        .unwrap();
+    beam_onto_a_black_floor(&mut ctx, -d - 1e-3);
     let report = run_photons_only(&mut ctx, n);
     let [emitted, absorbed, escaped, dropped, _] = &report.band_w;
     let in_medium = ctx.medium_absorbed(slab).unwrap();
@@ -1705,18 +1702,7 @@ fn stack_transmits(slabs: &[(f64, f64, f64, f64, f64)], seed: u64) -> (f64, f64,
     };
     let mut ctx = context(seeded(seed));
     stack(&mut ctx);
-    let black = lambert(&mut ctx, 0.0);
-    let floor = quad([
-        [-50.0, -50.0, -0.301],
-        [50.0, -50.0, -0.301],
-        [50.0, 50.0, -0.301],
-        [-50.0, 50.0, -0.301],
-    ]);
-    let mut fd = floor.desc(black);
-    fd.record = false;
-    let floor_id = ctx.add_mesh(&fd).unwrap();
-    ctx.add_spot_light([0.0, 0.0, 1.0], [0.0, 0.0, -1.0], 1e-3, &[1.0])
-        .unwrap();
+    let floor_id = beam_onto_a_black_floor(&mut ctx, -0.301);
     let n = photons(100_000);
     let report = run_photons_only(&mut ctx, n);
     let t = ctx.absorbed_w(floor_id).unwrap() / report.emitted_w;

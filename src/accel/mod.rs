@@ -358,7 +358,7 @@ impl Accel {
     /// vertices (slabs, with the box widened by a margin far above f32 rounding: a false
     /// yes only costs a query).
     #[inline]
-    pub fn segment_meets_bounds(&self, org: DVec3, dir: DVec3, t_max: f64) -> bool {
+    fn segment_meets_bounds(&self, org: DVec3, dir: DVec3, t_max: f64) -> bool {
         let [lo, hi] = self.bounds;
         let pad = 1e-4 * (hi - lo).max_element().max(1e-30) + 1e-6 * org.abs().max_element();
         let (lo, hi) = (lo - DVec3::splat(pad), hi + DVec3::splat(pad));
@@ -380,16 +380,6 @@ impl Accel {
             }
         }
         true
-    }
-
-    /// Whether the box [`lo`, `hi`] may overlap the box around the vertices (widened as in
-    /// `segment_meets_bounds`).
-    #[inline]
-    pub fn box_meets_bounds(&self, lo: DVec3, hi: DVec3) -> bool {
-        let [a, b] = self.bounds;
-        let pad =
-            1e-4 * (b - a).max_element().max(1e-30) + 1e-6 * lo.abs().max(hi.abs()).max_element();
-        lo.cmple(b + DVec3::splat(pad)).all() && hi.cmpge(a - DVec3::splat(pad)).all()
     }
 
     /// Whether anything blocks the segment `org + t·dir`, t in (0, `t_max`) (shadow rays).

@@ -202,6 +202,13 @@ impl Context {
                 .as_ref()
                 .is_some_and(|d| d.ior.iter().any(|&n| n != 1.0))
         };
+        // Whether some mesh has a material that `is`.
+        let any = |is: &dyn Fn(&crate::scene::Material) -> bool| {
+            self.scene
+                .meshes
+                .iter()
+                .any(|m| self.mesh_material(m, is).is_some())
+        };
         let mut omitted = 0;
         // A scattering medium that a point-like light outside it reaches only through its
         // refracting boundary; the scene's haze, through any refracting surface.
@@ -217,24 +224,15 @@ impl Context {
             .scene
             .medium
             .is_some_and(|h| self.scene.materials[h as usize].scatters())
-            && self
-                .scene
-                .meshes
-                .iter()
-                .any(|m| self.mesh_material(m, refracts).is_some());
+            && any(&refracts);
         if into_mesh || into_haze {
             omitted |= render::OMITS_REFRACTED_INTO_MEDIUM;
         }
-        if method != RenderMethod::FinalGather {
-            let any = |is: &dyn Fn(&crate::scene::Material) -> bool| {
-                self.scene
-                    .meshes
-                    .iter()
-                    .any(|m| self.mesh_material(m, is).is_some())
-            };
-            if any(&|m| m.bsdf().is_specular()) && any(&|m| m.bsdf().is_glossy()) {
-                omitted |= render::OMITS_CAUSTICS_ON_GLOSSY;
-            }
+        if method != RenderMethod::FinalGather
+            && any(&|m| m.bsdf().is_specular())
+            && any(&|m| m.bsdf().is_glossy())
+        {
+            omitted |= render::OMITS_CAUSTICS_ON_GLOSSY;
         }
         omitted
     }

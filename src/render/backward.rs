@@ -1467,9 +1467,7 @@ impl<'a> EyeTracer<'a> {
             let material = mesh.material(h.prim as usize);
             let d = self.materials[material as usize].bsdf().interface()?;
             let front = wi.dot(mesh.normals[h.prim as usize].as_dvec3()) < 0.0;
-            let out = stack
-                .around(h.mesh, front)
-                .and_then(|(_, m)| self.materials[m as usize].dielectric.as_ref());
+            let out = stack.around(h.mesh, front, self.materials);
             let matched = (0..self.bands).all(|b| d.ior[b] == out.map_or(1.0, |o| o.ior[b]));
             if !matched {
                 return None;
@@ -1611,10 +1609,7 @@ impl<'a> EyeTracer<'a> {
             // A rough dielectric: crossed by sampling alone, as a smooth one, against the
             // dielectric around it (nested media), else air.
             let mut nested = None;
-            let g = match media
-                .around(at.mesh, at.front)
-                .and_then(|(_, m)| self.materials[m as usize].dielectric.as_ref())
-            {
+            let g = match media.around(at.mesh, at.front, self.materials) {
                 Some(out) => g.against(&out.ior, &mut nested),
                 None => g,
             };
@@ -1642,9 +1637,7 @@ impl<'a> EyeTracer<'a> {
         }
         if let Some(d) = bsdf.interface() {
             // Against the dielectric around it (nested media), else air.
-            let out = media
-                .around(at.mesh, at.front)
-                .and_then(|(_, m)| self.materials[m as usize].dielectric.as_ref());
+            let out = media.around(at.mesh, at.front, self.materials);
             if (d.dispersive || out.is_some_and(|o| o.dispersive)) && band.is_none() {
                 *band = Some(collapse_weights(beta, rng.uniform()));
             }

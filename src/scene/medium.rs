@@ -19,7 +19,7 @@
 //! the matrix is read backward, `eye_flight`), and the weights are divided by the chance
 //! of the choice.
 
-use crate::scene::material::Fluorescence;
+use crate::scene::material::{Dielectric, Fluorescence, Material};
 use crate::spectral::pick_band;
 use glam::DVec3;
 use std::f64::consts::PI;
@@ -115,26 +115,30 @@ impl MediumStack {
         self.inside.last().copied()
     }
 
-    /// The mesh (and its material) around the surface of `mesh` that a path meets from its
-    /// front (entering: the innermost one it is in) or its back (leaving: the innermost
-    /// one it is in but `mesh`); None: air (or the scene's medium). Leaving a mesh it never
-    /// entered (a slab drawn as two open sheets, a lamp's globe) is into air, as before
-    /// media nested.
+    /// The dielectric around the surface of `mesh` that a path meets from its front
+    /// (entering: the innermost mesh it is in) or its back (leaving: the innermost one it is
+    /// in but `mesh`), its material read from `materials`; None: air (or the scene's
+    /// medium). Leaving a mesh it never entered (a slab drawn as two open sheets, a lamp's
+    /// globe) is into air, as before media nested.
     #[inline]
-    pub fn around(&self, mesh: u32, front: bool) -> Option<(u32, u32)> {
-        if front {
-            return self.current();
-        }
-        match self.inside.iter().rposition(|&(m, _)| m == mesh) {
-            None => None,
-            Some(i) => self
-                .inside
+    pub fn around<'m>(
+        &self,
+        mesh: u32,
+        front: bool,
+        materials: &'m [Material],
+    ) -> Option<&'m Dielectric> {
+        let outer = if front {
+            self.current()
+        } else {
+            let i = self.inside.iter().rposition(|&(m, _)| m == mesh)?;
+            self.inside
                 .iter()
                 .enumerate()
                 .rev()
                 .find(|&(k, _)| k != i)
-                .map(|(_, &e)| e),
-        }
+                .map(|(_, &e)| e)
+        };
+        outer.and_then(|(_, m)| materials[m as usize].dielectric.as_ref())
     }
 }
 

@@ -35,9 +35,10 @@ pub struct PreparedScene {
     /// The scene's medium (`Scene::medium`) and the ball it fills.
     pub haze: Option<Haze>,
     /// Per mesh, the box around its vertices (local coordinates) when one of its materials
-    /// scatters: a segment inside a closed mesh ends inside it (`Tracer::trace`'s early
-    /// free flight).
-    pub medium_bounds: Vec<Option<[DVec3; 2]>>,
+    /// scatters and no sensor reaches into the box: a segment inside a closed mesh ends
+    /// inside it, so a photon there may draw its free flight before it traces the ray
+    /// (`Tracer::trace`). Empty when no material scatters.
+    pub early_flight_bounds: Vec<Option<[DVec3; 2]>>,
 }
 
 /// The medium outside the meshes (`Scene::medium`): its material, and the ball around the
@@ -330,28 +331,9 @@ impl PreparedScene {
             total_power,
             slots,
             haze: None,
-            medium_bounds: Vec::new(),
+            early_flight_bounds: Vec::new(),
         };
-        prepared.medium_bounds = prepared
-            .meshes
-            .iter()
-            .map(|m| {
-                let scatters = m.materials.iter().any(|&id| {
-                    scene
-                        .materials
-                        .get(id as usize)
-                        .is_some_and(Material::scatters)
-                });
-                scatters.then(|| {
-                    let (mut lo, mut hi) = (DVec3::INFINITY, DVec3::NEG_INFINITY);
-                    for v in &m.vertices {
-                        lo = lo.min(v.as_dvec3());
-                        hi = hi.max(v.as_dvec3());
-                    }
-                    [lo, hi]
-                })
-            })
-            .collect();
+        prepared.early_flight_bounds = early_flight_bounds(scene, &prepared.meshes);
         prepared.haze = scene.medium.map(|material| Haze {
             material,
             radius: prepared.sphere_radius(),
@@ -458,6 +440,12 @@ impl<'s> Enclosures<'s> {
     /// The meshes (sensors left out) one of whose materials `holds` (the first such on a
     /// mesh of several).
     pub fn new(scene: &'s Scene, holds: impl Fn(&Material) -> bool) -> Enclosures<'s> {
+        if !scene.materials.iter().any(&holds) {
+            return Enclosures {
+                holders: Vec::new(),
+                insides: Vec::new(),
+            };
+        }
         let holds = |id: u32| scene.materials.get(id as usize).is_some_and(&holds);
         let holders: Vec<(u32, u32, f64)> = scene
             .meshes
@@ -533,6 +521,49 @@ fn hold_in_media(scene: &Scene, origin: DVec3, emitters: &mut [Emitter]) {
         };
         em.media = enclosures.at(p, own);
     }
+}
+
+/// `PreparedScene::early_flight_bounds` of the prepared `meshes` of `scene`.
+fn early_flight_bounds(scene: &Scene, meshes: &[PreparedMesh]) -> Vec<Option<[DVec3; 2]>> {
+    if !scene.materials.iter().any(Material::scatters) {
+        return Vec::new();
+    }
+    let box_of = |m: &PreparedMesh| {
+        let (mut lo, mut hi) = (DVec3::INFINITY, DVec3::NEG_INFINITY);
+        for v in &m.vertices {
+            lo = lo.min(v.as_dvec3());
+            hi = hi.max(v.as_dvec3());
+        }
+        [lo, hi]
+    };
+    // The sensors' box, widened as the sensors' own traversal widens it
+    // (`Accel::segment_meets_bounds`: a sensor there reads each segment to its surface).
+    let sensors = meshes
+        .iter()
+        .filter(|m| m.sensor)
+        .map(box_of)
+        .reduce(|a, b| [a[0].min(b[0]), a[1].max(b[1])]);
+    let reached = |[lo, hi]: [DVec3; 2]| {
+        sensors.is_some_and(|[a, b]| {
+            let pad = 1e-4 * (b - a).max_element().max(1e-30)
+                + 1e-6 * lo.abs().max(hi.abs()).max_element();
+            lo.cmple(b + DVec3::splat(pad)).all() && hi.cmpge(a - DVec3::splat(pad)).all()
+        })
+    };
+    meshes
+        .iter()
+        .map(|m| {
+            let scatters = m.materials.iter().any(|&id| {
+                scene
+                    .materials
+                    .get(id as usize)
+                    .is_some_and(Material::scatters)
+            });
+            scatters
+                .then(|| box_of(m))
+                .filter(|&b| !m.sensor && !reached(b))
+        })
+        .collect()
 }
 
 /// `PreparedScene::sphere_radius` of a scene of `enter_radius` and `radius` (its

@@ -774,24 +774,17 @@ impl Tracer<'_> {
             // traversal leaves out the rest of the scene), when the collision point lies
             // inside the mesh's box (else the photon has slipped out through a crack and
             // the whole ray decides, as below). The same numbers, the same outcome. Not
-            // where sensors reach into the mesh's box: they read each segment to its
-            // surface, which a second, whole ray would then have to find (it cost a fog box
-            // with a sensor inside 8 %).
+            // where sensors reach into the mesh's box (`PreparedScene::early_flight_bounds`):
+            // they read each segment to its surface, which a second, whole ray would then
+            // have to find (it cost a fog box with a sensor inside 8 %).
             let mut early = None;
             if let Some(m) = medium.filter(|m| m.mesh != SCENE_MEDIUM) {
                 let sc = self.materials[m.material as usize]
                     .dielectric
                     .as_ref()
                     .and_then(|d| d.scattering.as_ref());
-                let bounds = self
-                    .scene
-                    .medium_bounds
-                    .get(m.mesh as usize)
-                    .copied()
-                    .flatten();
-                let sensed =
-                    |[lo, hi]: [DVec3; 2]| self.sensors.is_some_and(|s| s.box_meets_bounds(lo, hi));
-                if let (Some(sc), Some([lo, hi])) = (sc, bounds.filter(|&b| !sensed(b))) {
+                let bounds = self.scene.early_flight_bounds.get(m.mesh as usize);
+                if let (Some(sc), Some(&Some([lo, hi]))) = (sc, bounds) {
                     let u = [rng.uniform(), rng.uniform(), rng.uniform()];
                     let t_m = sc.distance(colour.values(), u);
                     let t = t_m / self.unit_m;
@@ -985,15 +978,12 @@ impl Tracer<'_> {
                 // A rough dielectric refracts against the dielectric around it (nested
                 // media), else air.
                 let mut nested = None;
-                let g = match g
+                let out = g
                     .refracts()
-                    .then(|| bounces.media_in.around(hit.mesh, front))
-                {
-                    Some(Some((_, m))) => match &self.materials[m as usize].dielectric {
-                        Some(out) => g.against(&out.ior, &mut nested),
-                        None => g,
-                    },
-                    _ => g,
+                    .then(|| bounces.media_in.around(hit.mesh, front, self.materials));
+                let g = match out.flatten() {
+                    Some(out) => g.against(&out.ior, &mut nested),
+                    None => g,
                 };
                 // A microfacet surface: a direction drawn from it, each band weighed by
                 // f cos / pdf. Polarisation is not followed through rough surfaces.
@@ -1049,10 +1039,7 @@ impl Tracer<'_> {
                 gathered = None;
                 // Smooth dielectric interface: Fresnel reflection or Snell refraction,
                 // against the dielectric around it (nested media), else air.
-                let out = bounces
-                    .media_in
-                    .around(hit.mesh, front)
-                    .and_then(|(_, m)| self.materials[m as usize].dielectric.as_ref());
+                let out = bounces.media_in.around(hit.mesh, front, self.materials);
                 if d.dispersive || out.is_some_and(|o| o.dispersive) {
                     colour.collapse(rng.uniform());
                 }
