@@ -49,8 +49,8 @@ if strings target/release/libimap.so | grep -c IMAP_TEST_FAULT >/dev/null; then
 fi
 scripts/abi-check.sh target/release/libimap.so
 
-echo "== loom: the vertex-group split protocol and the photon maps' active-thread counter"
-RUSTFLAGS="--cfg loom" CARGO_TARGET_DIR=target/loom cargo test --release --test loom_groups --test loom_gate
+echo "== loom: the vertex-group split protocol, the processing threads' sleep and the photon maps' active-thread counter"
+RUSTFLAGS="--cfg loom" CARGO_TARGET_DIR=target/loom cargo test --release --test loom_groups --test loom_doze --test loom_gate
 
 echo "== CMake build tree: C and C++ examples under ctest"
 cmake -S . -B build -DCMAKE_BUILD_TYPE=Release -DIMAP_EMBREE_DIR="$EMBREE_DIR" >/dev/null

@@ -86,10 +86,11 @@ pub use render::{
     OMITS_REFRACTED_INTO_MEDIUM,
 };
 
-/// The loom models' view of two lock-free protocols (`RUSTFLAGS="--cfg loom"` only).
+/// The loom models' view of three lock-free protocols (`RUSTFLAGS="--cfg loom"` only).
 #[cfg(loom)]
 #[doc(hidden)]
 pub mod loom_models {
     pub use crate::render::gate::Gate;
+    pub use crate::sched::doze::Doze;
     pub use crate::sched::groups::GroupTable;
 }

@@ -282,16 +282,17 @@ impl IMap {
         unsafe { self.add_colour_exclusive(slot, w, colour) }
     }
 
-    /// Adds a deposit of weight `w` of a photon collapsed to `band` (exclusive access).
-    #[inline]
+    /// Adds a deposit of weight `w` of a photon collapsed to `band` (exclusive access; the
+    /// schedulers add whole hits, `add_hit`).
+    #[cfg(test)]
     pub fn add_band(&mut self, slot: usize, w: f64, band: usize, value: f32) {
         // SAFETY: `&mut self` makes the access exclusive.
         unsafe { self.add_band_exclusive(slot, w, band, value) }
     }
 
     /// Adds a deposit of weight `w` of a photon whose colour is `a` times grey spectrum `g`
-    /// (exclusive access).
-    #[inline]
+    /// (exclusive access; the schedulers add whole hits, `add_hit`).
+    #[cfg(test)]
     pub fn add_grey(&mut self, slot: usize, w: f64, g: usize, a: f32) {
         // SAFETY: `&mut self` makes the access exclusive.
         unsafe { self.add_grey_exclusive(slot, w, g, a) }
@@ -309,6 +310,53 @@ impl IMap {
         unsafe {
             Self::add_raw(&self.grey[slot * self.grey_count() + g], x);
             Self::add_raw(&self.data[slot * self.stride + self.bands], e * e);
+        }
+    }
+
+    /// Adds a hit's deposits to its three cells (`BufferedHit::cells`; exclusive access):
+    /// `band` is the hit's band code, `(u, v)` its barycentric coordinates and `colour` its
+    /// colour as the photon buffer's arena holds it (the colour or the one value, then the
+    /// three weights when the code says so).
+    #[inline]
+    pub fn add_hit(&mut self, cells: [usize; 3], band: u16, (u, v): (f32, f32), colour: &[f32]) {
+        // SAFETY: `&mut self` makes the access exclusive.
+        unsafe { self.add_hit_exclusive(cells, band, (u, v), colour) }
+    }
+
+    /// `add_hit` under the rule of `add_colour_exclusive`, for each of the three cells.
+    ///
+    /// # Safety
+    /// As `add_colour_exclusive`, for every cell of `cells`.
+    #[inline]
+    pub unsafe fn add_hit_exclusive(
+        &self,
+        cells: [usize; 3],
+        band: u16,
+        (u, v): (f32, f32),
+        colour: &[f32],
+    ) {
+        let nb = self.bands;
+        let grey = grey_index(band);
+        // A weighted hit's three weights follow its colour (all bands, or one multiple).
+        let extra = if band == WEIGHTED {
+            &colour[nb..nb + 3]
+        } else if let Some((_, true)) = grey {
+            &colour[1..4]
+        } else {
+            &[]
+        };
+        let w = shares(band, u, v, extra);
+        for (cell, w) in cells.into_iter().zip(w) {
+            // SAFETY: the caller's guarantee, cell by cell.
+            unsafe {
+                if let Some((g, _)) = grey {
+                    self.add_grey_exclusive(cell, w, g, colour[0]);
+                } else if band >= WEIGHTED {
+                    self.add_colour_exclusive(cell, w, &colour[..nb]);
+                } else {
+                    self.add_band_exclusive(cell, w, band as usize, colour[0]);
+                }
+            }
         }
     }
 

@@ -11,7 +11,7 @@
 
 use super::{Counters, PhotonSource, RunContext, RunMonitor, RunOutcome, RunParams, StopGuard};
 use crate::imap::MapLayout;
-use crate::imap::{grey_index, shares, BufferedHit, IMap, PhotonBuffer, PhotonOut, WEIGHTED};
+use crate::imap::{grey_index, BufferedHit, IMap, PhotonBuffer, PhotonOut};
 use crate::scene::PreparedScene;
 use crate::spectral::Colour;
 use crate::transport::{HitSink, PathStats};
@@ -219,32 +219,18 @@ fn accumulate(map: &mut IMap, scene: &PreparedScene, layout: &MapLayout, p: &Por
             }
         }
         let mesh = &scene.meshes[(r.key >> 32) as usize];
-        let tri = mesh.triangles[(r.key & 0xFFFF_FFFF) as usize];
-        let at = r.colour_at as usize;
-        let nb = map.bands();
-        let grey = grey_index(r.band);
-        // A weighted hit's three weights follow its colour (all bands, or one multiple).
-        let extra = if r.band == WEIGHTED {
-            &p.colours[at + nb..at + nb + 3]
-        } else if let Some((_, true)) = grey {
-            &p.colours[at + 1..at + 4]
-        } else {
-            &[]
-        };
-        let w = shares(r.band, r.u, r.v, extra);
-        for (&vertex, &w) in tri.iter().zip(&w) {
+        let cells = mesh.triangles[(r.key & 0xFFFF_FFFF) as usize].map(|vertex| {
             let slot = mesh
                 .slot(vertex, r.side as usize)
                 .expect("deposit on a recording mesh");
-            let slot = layers.cell(slot, r.layer);
-            if let Some((g, _)) = grey {
-                map.add_grey(slot, w, g, p.colours[at]);
-            } else if r.band >= WEIGHTED {
-                map.add_colour(slot, w, &p.colours[at..at + nb]);
-            } else {
-                map.add_band(slot, w, r.band as usize, p.colours[at]);
-            }
-        }
+            layers.cell(slot, r.layer)
+        });
+        map.add_hit(
+            cells,
+            r.band,
+            (r.u, r.v),
+            &p.colours[r.colour_at as usize..],
+        );
     }
     for &(slot, s2) in &p.squares {
         map.add_square(slot as usize, s2);

@@ -1,12 +1,15 @@
 //! The dynamic scheduler (the first paper, §2–3, Fig. 3): calculating threads turn hits
-//! into per-vertex contributions themselves and sort them into portions by vertex group; a
+//! into per-vertex contributions themselves and sort them into portions by vertex group (a
+//! hit whose three vertices share a group, nearly every hit, travels as one record); a
 //! fixed pool of free portions is the input stack; each group has an output stack and one
 //! processing thread that alone writes the group's slots. The thread that called
 //! `imap_run` is the monitor: when the input stack runs low (calculating threads are about
 //! to wait) it splits the group with the longest output stack into `subd` subgroups with
 //! new processing threads, while the calculating threads keep running. The protocol that
-//! keeps one writer per slot through a split is in `groups.rs`.
+//! keeps one writer per slot through a split is in `groups.rs`; how a processing thread
+//! waits for portions without costing their senders a system call, in `doze.rs`.
 
+use super::doze::Doze;
 use super::groups::GroupTable;
 use super::{Counters, PhotonSource, RunContext, RunMonitor, RunOutcome, RunParams};
 use crate::error::{bail, Result};
@@ -113,6 +116,20 @@ fn contribution_bytes(bands: usize) -> usize {
 fn portion_capacity(bands: usize) -> usize {
     (PORTION_BYTES / contribution_bytes(bands)).clamp(64, 2048)
 }
+
+/// Colour values a portion of `capacity` holds at most: as many as half its capacity in
+/// whole hits of full colour need.
+fn colour_capacity(capacity: usize, bands: usize) -> usize {
+    capacity * bands / 2 + bands + 3
+}
+
+/// Bytes a portion of `bands` bands takes (what it reserves; it never grows beyond).
+fn portion_bytes(bands: usize) -> usize {
+    let capacity = portion_capacity(bands);
+    capacity * std::mem::size_of::<Contribution>()
+        + capacity.div_ceil(2) * std::mem::size_of::<WholeHit>()
+        + 4 * colour_capacity(capacity, bands)
+}
 /// `Contribution::band` of a photon's squared scalar contribution (in `w`); `FULL` (from
 /// the photon buffer) marks a full-colour contribution.
 const SQUARE: u16 = u16::MAX - 1;
@@ -127,10 +144,27 @@ struct Contribution {
     band: u16,
 }
 
+/// A whole hit whose three cells all belong to the portion's group (the common case: a
+/// triangle's vertices are neighbours in slot order): one record instead of three
+/// contributions, its shares computed where it is applied.
+#[derive(Clone, Copy, Debug)]
+struct WholeHit {
+    cells: [u32; 3],
+    u: f32,
+    v: f32,
+    /// Where its colour starts in the portion's arena (`BufferedHit`'s layout: the colour or
+    /// the one value, then the weights when its band code says so).
+    colour_at: u32,
+    band: u16,
+}
+
 /// A portion of contributions for one group.
 struct Portion {
+    hits: Vec<WholeHit>,
     items: Vec<Contribution>,
     colours: Vec<f32>,
+    /// Colour values it may hold before a hit could make `colours` grow.
+    colour_room: usize,
     /// The hit whose colour was stored last (contributions of one hit share it), and where.
     stamp: u64,
     stamp_at: u32,
@@ -138,15 +172,26 @@ struct Portion {
 
 impl Portion {
     fn new(capacity: usize, bands: usize) -> Self {
+        let colours = colour_capacity(capacity, bands);
         Portion {
+            hits: Vec::with_capacity(capacity.div_ceil(2)),
             items: Vec::with_capacity(capacity),
-            colours: Vec::with_capacity(capacity * bands / 3),
+            colours: Vec::with_capacity(colours),
+            colour_room: colours - bands - 3,
             stamp: u64::MAX,
             stamp_at: 0,
         }
     }
 
+    /// Whether it holds `capacity` contributions' worth (a whole hit counts two: its record
+    /// and colour take about as many bytes), or its colours fill what it reserved.
+    #[inline]
+    fn full(&self, capacity: usize) -> bool {
+        self.items.len() + 2 * self.hits.len() >= capacity || self.colours.len() > self.colour_room
+    }
+
     fn clear(&mut self) {
+        self.hits.clear();
         self.items.clear();
         self.colours.clear();
         self.stamp = u64::MAX;
@@ -162,6 +207,8 @@ struct Shared<'a> {
     free: Receiver<Portion>,
     recycle: Sender<Portion>,
     outputs: &'a [Sender<Portion>],
+    /// Each group's processing thread's sleep flag: a sender wakes it only when it sleeps.
+    dozes: &'a [Doze],
     capacity: usize,
     inline_apply: bool,
     /// A processing thread was lost: waiting for free portions would never end.
@@ -188,12 +235,22 @@ impl Drop for LiveGuard<'_> {
 struct Teardown<'a> {
     source: &'a PhotonSource,
     finished: &'a AtomicBool,
+    dozes: &'a [Doze],
 }
 
 impl Drop for Teardown<'_> {
     fn drop(&mut self) {
         self.source.stop();
-        self.finished.store(true, Ordering::Release);
+        finish(self.finished, self.dozes);
+    }
+}
+
+/// Tells the processing threads that no portion can arrive any more, and wakes those that
+/// sleep.
+fn finish(finished: &AtomicBool, dozes: &[Doze]) {
+    finished.store(true, Ordering::Release);
+    for d in dozes {
+        d.wake();
     }
 }
 
@@ -279,6 +336,8 @@ impl<'a> GroupSink<'a> {
         // The receiver is gone only when the run is being torn down after a panic.
         if self.shared.outputs[g].send(p).is_err() {
             table.close(g);
+        } else {
+            self.shared.dozes[g].wake();
         }
     }
 
@@ -375,15 +434,57 @@ impl<'a> GroupSink<'a> {
             colour_at,
             band,
         });
-        if p.items.len() == capacity {
+        if p.full(capacity) {
             self.send(g);
         }
+    }
+
+    /// Adds a hit as one record when its three cells share a group; false when they do not
+    /// (then each gets a contribution) or when the run is ending.
+    #[inline]
+    fn whole_hit(&mut self, h: &BufferedHit, cells: [usize; 3], colour: &[f32]) -> bool {
+        let slots = cells.map(|c| self.shared.layout.layers.slot_of(c));
+        let within =
+            |(_, start, end): (usize, usize, usize)| slots.iter().all(|s| (start..end).contains(s));
+        // Most hits land in the group of the last one, whose portion is open: a portion
+        // opened before its group split may still be filled (its group's `pending` holds
+        // the subgroups back until it is applied).
+        let g = if self.open_at[self.last.0] != NOT_OPEN && within(self.last) {
+            self.last.0
+        } else {
+            let Some(g) = self.portion_for(slots[0]) else {
+                return true;
+            };
+            // `portion_for` left g's range in `last`.
+            if !within(self.last) {
+                return false;
+            }
+            g
+        };
+        let capacity = self.shared.capacity;
+        let p = self.open_mut(g);
+        let colour_at = p.colours.len() as u32;
+        p.colours.extend_from_slice(colour);
+        p.hits.push(WholeHit {
+            cells: cells.map(|c| c as u32),
+            u: h.u,
+            v: h.v,
+            colour_at,
+            band: h.band,
+        });
+        if p.full(capacity) {
+            self.send(g);
+        }
+        true
     }
 }
 
 impl PhotonOut for GroupSink<'_> {
     fn hit(&mut self, h: &BufferedHit, cells: [usize; 3], colour: &[f32]) {
         self.hit += 1;
+        if self.whole_hit(h, cells, colour) {
+            return;
+        }
         let nb = self.shared.map.bands();
         let (band, colour, w) = if h.band == WEIGHTED {
             let w = shares(h.band, h.u, h.v, &colour[nb..]);
@@ -475,18 +576,37 @@ impl HitSink for GroupSink<'_> {
 /// done (`GroupTable::ancestors_done`).
 unsafe fn apply(map: &IMap, p: &Portion) {
     let bands = map.bands();
+    let prefetch = |cell: u32, band: u16| {
+        if let Some((g, _)) = grey_index(band) {
+            map.prefetch_grey(cell as usize, g);
+        } else {
+            map.prefetch(cell as usize);
+        }
+    };
+    // Spectral cells span many cache lines: fetch a few hits ahead (4, the 12 contributions
+    // below).
+    let ahead = if bands > 8 { 4 } else { 0 };
+    for (i, h) in p.hits.iter().enumerate() {
+        if let Some(n) = p.hits.get(i + ahead).filter(|_| ahead > 0) {
+            n.cells.iter().for_each(|&c| prefetch(c, n.band));
+        }
+        // SAFETY: the hit's cells belong to the portion's group, which the caller alone may
+        // write now; readers take the group's lock too.
+        unsafe {
+            map.add_hit_exclusive(
+                h.cells.map(|c| c as usize),
+                h.band,
+                (h.u, h.v),
+                &p.colours[h.colour_at as usize..],
+            )
+        };
+    }
     // Spectral cells span many cache lines: fetch a few contributions ahead (12: with most
     // contributions one grey number, 6 left most fetches late; BENCHMARKS.md).
-    let ahead = if bands > 8 { 12 } else { 0 };
+    let ahead = 3 * ahead;
     for (i, c) in p.items.iter().enumerate() {
-        if ahead > 0 {
-            if let Some(n) = p.items.get(i + ahead) {
-                if let Some((g, _)) = grey_index(n.band) {
-                    map.prefetch_grey(n.slot as usize, g);
-                } else {
-                    map.prefetch(n.slot as usize);
-                }
-            }
+        if let Some(n) = p.items.get(i + ahead).filter(|_| ahead > 0) {
+            prefetch(n.slot, n.band);
         }
         let at = c.colour_at as usize;
         // SAFETY: the portion's slots belong to its group, which the caller alone may write
@@ -559,9 +679,23 @@ struct Owners<'a> {
     /// The calculating threads have all finished: no portion can arrive any more.
     finished: &'a AtomicBool,
     poisoned: &'a AtomicBool,
-    /// Closed when `finished` is set: wakes waiting processing threads at once.
-    done: &'a Receiver<()>,
+    dozes: &'a [Doze],
+    /// Whether a processing thread naps before it sleeps (when the calculating threads
+    /// leave cores free; `Doze`).
+    nap: bool,
 }
+
+/// A processing thread's first nap when its queue runs empty; each next one is twice as
+/// long, up to `LAST_NAP`, until it has napped `DOZE_AFTER` in all and sleeps until woken.
+const FIRST_NAP: Duration = Duration::from_micros(20);
+const LAST_NAP: Duration = Duration::from_micros(100);
+const DOZE_AFTER: Duration = Duration::from_millis(2);
+/// The monitor's first and longest interval between two looks at the stacks.
+const WATCH_FIRST: Duration = Duration::from_micros(250);
+const WATCH_LAST: Duration = Duration::from_millis(2);
+/// Longest sleep without a wake-up (a safety net: a split group's thread notices it is
+/// drained, a lost thread's poison is seen).
+const DEEP_SLEEP: Duration = Duration::from_millis(5);
 
 fn process(
     g: usize,
@@ -574,7 +708,8 @@ fn process(
         map,
         finished,
         poisoned,
-        done,
+        dozes,
+        nap,
     } = *o;
     let born = Instant::now();
     while !table.ancestors_done(g) {
@@ -585,16 +720,15 @@ fn process(
         std::thread::sleep(Duration::from_micros(50));
     }
     let (mut busy, mut applied) = (0.0, 0);
+    // Napped since the queue last held a portion, and the next nap.
+    let (mut napped, mut next_nap) = (Duration::ZERO, FIRST_NAP);
+    // Done when split and drained, or when the calculating threads have all finished (after
+    // which no portion can arrive) and the queue is empty.
+    let over = || (table.is_split(g) && table.pending(g) == 0) || finished.load(Ordering::Acquire);
     loop {
-        // A portion, or the end of the run (`done` closes when the calculating threads have
-        // all finished: a short run ends without waiting out a timeout).
-        let msg = crossbeam::channel::select! {
-            recv(rx) -> m => m.map_err(|_| RecvTimeoutError::Disconnected),
-            recv(done) -> _ => Err(RecvTimeoutError::Timeout),
-            default(Duration::from_millis(2)) => Err(RecvTimeoutError::Timeout),
-        };
-        match msg {
+        match rx.try_recv() {
             Ok(mut p) => {
+                (napped, next_nap) = (Duration::ZERO, FIRST_NAP);
                 crate::fault::at(crate::fault::Point::Process);
                 // A calculating thread may be applying a portion of this group right now.
                 while !table.try_lock(g) {
@@ -609,19 +743,25 @@ fn process(
                 table.unlock(g);
                 p.clear();
                 let _ = recycle.send(p);
+                continue;
             }
-            Err(RecvTimeoutError::Timeout) => {}
-            Err(RecvTimeoutError::Disconnected) => break,
+            Err(TryRecvError::Empty) => {}
+            Err(TryRecvError::Disconnected) => break,
         }
-        if poisoned.load(Ordering::Relaxed) {
+        if poisoned.load(Ordering::Relaxed) || (rx.is_empty() && over()) {
             break;
         }
-        // Done when split and drained, or when the calculating threads have all finished
-        // (after which no portion can arrive) and the queue is empty.
-        if rx.is_empty()
-            && ((table.is_split(g) && table.pending(g) == 0) || finished.load(Ordering::Acquire))
-        {
-            break;
+        // The queue is empty: nap (while cores are free), then sleep until a sender, the
+        // end of the run or the safety net wakes this thread.
+        if nap && napped < DOZE_AFTER {
+            std::thread::sleep(next_nap);
+            napped += next_nap;
+            next_nap = (next_nap * 2).min(LAST_NAP);
+        } else {
+            dozes[g].sleep(
+                || !rx.is_empty() || over() || poisoned.load(Ordering::Relaxed),
+                DEEP_SLEEP,
+            );
         }
     }
     (busy, born.elapsed().as_secs_f64(), applied)
@@ -642,8 +782,7 @@ fn max_groups(threads: usize, dp: &DynamicParams) -> usize {
 /// calculating thread's group index and photon buffer.
 pub fn run_bytes(threads: usize, bands: usize, dp: &DynamicParams) -> u64 {
     let groups = max_groups(threads, dp) as u64;
-    let capacity = portion_capacity(bands);
-    let portion = (capacity * contribution_bytes(bands)) as u64;
+    let portion = portion_bytes(bands) as u64;
     let t = threads as u64;
     8 * t * portion + groups * (128 + 64) + t * groups * 4 + t * PhotonBuffer::max_bytes(bands)
 }
@@ -674,7 +813,7 @@ pub fn run(
     // The input stack: two portions per calculating thread and group to begin with, more
     // with every split, within a memory cap.
     let capacity = portion_capacity(bands);
-    let portion_bytes = capacity * contribution_bytes(bands);
+    let portion_bytes = portion_bytes(bands);
     let (least, most) = (
         8 * threads,
         (2 * threads * (max_groups + 2)).max(8 * threads),
@@ -689,7 +828,9 @@ pub fn run(
             *pool += 1;
         }
     };
-    grow_pool(2 * threads * (table.count() + 1), &mut pool);
+    // At least 8 a thread: with 4 (one thread, one group), a processing thread's nap let the
+    // free portions run out and the group split for nothing.
+    grow_pool((2 * threads * (table.count() + 1)).max(least), &mut pool);
     let (out_tx, out_rx): (Vec<Sender<Portion>>, Vec<Receiver<Portion>>) =
         (0..max_groups).map(|_| channel::unbounded()).unzip();
     let mut out_rx: Vec<Option<Receiver<Portion>>> = out_rx.into_iter().map(Some).collect();
@@ -702,6 +843,10 @@ pub fn run(
     let finished = AtomicBool::new(false);
     let poisoned = AtomicBool::new(false);
     let shared_map: &IMap = map;
+    let dozes: Vec<Doze> = (0..max_groups).map(|_| Doze::new()).collect();
+    // Whether the calculating threads leave cores free (for processing threads, and for
+    // their naps).
+    let spare_cores = threads < std::thread::available_parallelism().map_or(1, |n| n.get());
     let shared = Shared {
         table: &table,
         map: shared_map,
@@ -710,31 +855,28 @@ pub fn run(
         free: free_rx.clone(),
         recycle: free_tx.clone(),
         outputs: &out_tx,
+        dozes: &dozes,
         capacity,
-        inline_apply: dp.inline_apply.unwrap_or_else(|| {
-            threads >= std::thread::available_parallelism().map_or(1, |n| n.get())
-        }),
+        inline_apply: dp.inline_apply.unwrap_or(!spare_cores),
         poisoned: &poisoned,
     };
     let (mut busy_s, mut alive_s) = (0.0, 0.0);
 
-    // Closed (dropped) when the calculating threads have finished: wakes the processing
-    // threads at once.
-    let (done_tx, done_rx) = channel::bounded::<()>(0);
     let monitor_thread = &std::thread::current();
     let owners = Owners {
         table: &table,
         map: shared_map,
         finished: &finished,
         poisoned: &poisoned,
-        done: &done_rx,
+        dozes: &dozes,
+        nap: spare_cores,
     };
     std::thread::scope(|s| {
-        let done_tx = done_tx;
         // Should this (monitoring) thread unwind, every other thread must still end.
         let _teardown = Teardown {
             source: &source,
             finished: &finished,
+            dozes: &dozes,
         };
         let mut calc = Vec::new();
         for t in 0..threads {
@@ -810,10 +952,11 @@ pub fn run(
 
         // The monitor: watch the stacks, split overloaded groups, report progress.
         let mut last_split = Instant::now() - Duration::from_secs(1);
+        let mut watch = WATCH_FIRST;
         while live.load(Ordering::Acquire) > 0 {
             crate::fault::at(crate::fault::Point::Monitor);
             // Woken early by the last calculating thread to finish.
-            std::thread::park_timeout(Duration::from_micros(250).min(monitor.timeout()));
+            std::thread::park_timeout(watch.min(monitor.timeout()));
             monitor.poll(
                 &source,
                 rc,
@@ -822,6 +965,14 @@ pub fn run(
                 &Locked(table),
             );
             let free = free_rx.len();
+            // Look often while the input stack runs low, seldom while it does not: every
+            // look takes a core from a calculating thread when they fill the cores (four
+            // looks a millisecond cost the hall 5 % on two threads).
+            watch = if free < low {
+                WATCH_FIRST
+            } else {
+                (watch * 2).min(WATCH_LAST)
+            };
             let mut hottest: Option<(usize, usize)> = None;
             for (g, out) in out_tx.iter().enumerate().take(table.count()) {
                 if !table.is_split(g) {
@@ -862,8 +1013,7 @@ pub fn run(
         }
         // Every calculating thread has handed over all its portions: the processing
         // threads drain their queues and finish.
-        finished.store(true, Ordering::Release);
-        drop(done_tx);
+        finish(&finished, &dozes);
         for h in processors {
             match h.join() {
                 Ok(Ok((b, a, n))) => {

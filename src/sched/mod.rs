@@ -4,6 +4,7 @@
 //! or the thread count.
 
 pub mod classic;
+pub mod doze;
 pub mod dynamic;
 pub mod groups;
 pub mod photons;
