@@ -5,7 +5,11 @@
 //! single-threaded in the same run. Everything is measured side by side in one process.
 //!
 //!     cargo run --release --example bench -- [--scale 0.05] [--seconds 2]
-//!         [--scenes dispersion,room,vehicle,hall,atrium] [--bands 3,41,81] [--threads 1,2]
+//!         [--scenes dispersion,room,vehicle,hall,atrium,grey] [--bands 3,41,81] [--threads 1,2]
+//!
+//! `grey` is not one of the paper's scenes: it is the accuracy benchmark's grey room (the
+//! unit cube's six walls at 40 × 40 cells, 10 086 vertices, ρ = 0.5), a map small enough
+//! to stay in the cores' caches, where the schedulers differ most on few cores.
 //!         [--reps 3]   (rounds alternating the schedulers; medians are printed)
 //!         [--only classic|dynamic|trace]   (one scheduler alone, for profiling)
 
@@ -15,12 +19,43 @@ mod scenes;
 use imap::DynamicParams;
 use imap::SchedulerKind;
 use imap::{Bands, Config, Context, Report, RunParams};
-use scenes::{build, SceneKind};
+use scenes::{build, grey_room, SceneKind};
+
+/// A scene of the benchmark: one of the paper's, or the grey room.
+#[derive(Clone, Copy)]
+enum Scene {
+    Paper(SceneKind),
+    Grey,
+}
+
+impl Scene {
+    fn from_name(name: &str) -> Option<Self> {
+        if name == "grey" {
+            return Some(Scene::Grey);
+        }
+        SceneKind::from_name(name).map(Scene::Paper)
+    }
+
+    fn name(self) -> &'static str {
+        match self {
+            Scene::Paper(k) => k.name(),
+            Scene::Grey => "grey",
+        }
+    }
+
+    /// Builds the scene into `ctx`; its vertex count.
+    fn build(self, ctx: &mut Context, scale: f64) -> usize {
+        match self {
+            Scene::Paper(k) => build(ctx, k, scale).expect("scene").vertices,
+            Scene::Grey => grey_room(ctx, 40).expect("grey room").positions.len() / 3,
+        }
+    }
+}
 
 struct Args {
     scale: f64,
     seconds: f64,
-    scenes: Vec<SceneKind>,
+    scenes: Vec<Scene>,
     bands: Vec<u32>,
     threads: Vec<usize>,
     /// Run only this scheduler for `seconds` per cell (for profiling), printing its rate.
@@ -34,7 +69,11 @@ fn parse() -> Args {
     let mut a = Args {
         scale: 0.05,
         seconds: 2.0,
-        scenes: SceneKind::ALL.to_vec(),
+        scenes: SceneKind::ALL
+            .into_iter()
+            .map(Scene::Paper)
+            .chain([Scene::Grey])
+            .collect(),
         bands: vec![3, 41, 81],
         threads: vec![
             1,
@@ -56,7 +95,7 @@ fn parse() -> Args {
             "--scenes" => {
                 a.scenes = list(&v)
                     .iter()
-                    .map(|n| SceneKind::from_name(n).unwrap_or_else(|| panic!("unknown scene {n}")))
+                    .map(|n| Scene::from_name(n).unwrap_or_else(|| panic!("unknown scene {n}")))
                     .collect()
             }
             "--bands" => {
@@ -144,7 +183,7 @@ fn main() {
                 ..Default::default()
             })
             .expect("context");
-            let built = build(&mut ctx, kind, args.scale).expect("scene");
+            let vertices = kind.build(&mut ctx, args.scale);
             if let Some(only) = args.only {
                 for &t in &args.threads {
                     let r = measure(&mut ctx, only, t, args.seconds);
@@ -184,7 +223,7 @@ fn main() {
                     "{:10} {:>5} {:>8} {:>8.3} {:>8.3} {:>3} {:>8.3} {:>8.3} {:>8.3} {:>7.2} {:>6.3} {:>6.2} {:>6.2} {:>7} {:>6} {:>7.2}",
                     kind.name(),
                     nb,
-                    built.vertices,
+                    vertices,
                     trace_cost * 1e6,
                     accum_cost * 1e6,
                     t,
