@@ -290,6 +290,17 @@ pub fn grey_room_with_floor(
     n: usize,
     floor: Option<&MaterialDesc>,
 ) -> Result<GreyRoom> {
+    grey_room_at(ctx, n, floor, GREY_ROOM_EMITTER_Z)
+}
+
+/// `grey_room_with_floor` with the emitter at height `emitter_z` (the peers' comparison of
+/// issue 37 put it 1 mm under the ceiling: 0.999).
+pub fn grey_room_at(
+    ctx: &mut Context,
+    n: usize,
+    floor: Option<&MaterialDesc>,
+    emitter_z: f64,
+) -> Result<GreyRoom> {
     let grey = ctx.add_material(&MaterialDesc {
         diffuse_reflect: vec![0.5],
         ..Default::default()
@@ -336,7 +347,7 @@ pub fn grey_room_with_floor(
         triangle_materials: parts.as_deref(),
         ..MeshDesc::new(&p, &t, grey)
     })?;
-    let (a, b, h) = (0.4, 0.6, GREY_ROOM_EMITTER_Z);
+    let (a, b, h) = (0.4, 0.6, emitter_z);
     let (mut lp, mut lt) = (Vec::new(), Vec::new());
     quad(
         [a, a, h],
