@@ -41,7 +41,9 @@ pub mod stats;
 pub use direct::{DirectAcc, DirectCells};
 pub use grey::{most_grey, GreySpectra};
 pub use layout::{LayerLayout, MapLayout, MAX_LIGHT_GROUPS};
-pub use photon::{grey_index, shares, BufferedHit, PhotonBuffer, PhotonOut, FULL, GREY, WEIGHTED};
+pub use photon::{
+    grey_index, shares, split_colour, BufferedHit, PhotonBuffer, PhotonOut, FULL, GREY, WEIGHTED,
+};
 pub(crate) use readout::NO_DATA_REL_ERROR;
 pub use readout::{Neighbours, Readout};
 
@@ -335,26 +337,18 @@ impl IMap {
         (u, v): (f32, f32),
         colour: &[f32],
     ) {
-        let nb = self.bands;
         let grey = grey_index(band);
-        // A weighted hit's three weights follow its colour (all bands, or one multiple).
-        let extra = if band == WEIGHTED {
-            &colour[nb..nb + 3]
-        } else if let Some((_, true)) = grey {
-            &colour[1..4]
-        } else {
-            &[]
-        };
-        let w = shares(band, u, v, extra);
+        let (values, weights) = split_colour(band, self.bands, colour);
+        let w = shares(band, u, v, weights);
         for (cell, w) in cells.into_iter().zip(w) {
             // SAFETY: the caller's guarantee, cell by cell.
             unsafe {
                 if let Some((g, _)) = grey {
-                    self.add_grey_exclusive(cell, w, g, colour[0]);
+                    self.add_grey_exclusive(cell, w, g, values[0]);
                 } else if band >= WEIGHTED {
-                    self.add_colour_exclusive(cell, w, &colour[..nb]);
+                    self.add_colour_exclusive(cell, w, values);
                 } else {
-                    self.add_band_exclusive(cell, w, band as usize, colour[0]);
+                    self.add_band_exclusive(cell, w, band as usize, values[0]);
                 }
             }
         }

@@ -48,6 +48,16 @@ fn weighted(band: u16) -> bool {
     band == WEIGHTED || grey_index(band).is_some_and(|(_, w)| w)
 }
 
+/// A hit's colour as its arena holds it, split into its values (every band, or the one
+/// value of a collapsed or grey hit) and the three vertices' weights that follow them when
+/// its band code says so (empty otherwise).
+#[inline]
+pub fn split_colour(band: u16, bands: usize, colour: &[f32]) -> (&[f32], &[f32]) {
+    let values = if band >= WEIGHTED { bands } else { 1 };
+    let weights = if weighted(band) { 3 } else { 0 };
+    (&colour[..values], &colour[values..values + weights])
+}
+
 /// The per-vertex shares of a hit at (u, v): barycentric weights, times the hit's weights
 /// when it has them (`WEIGHTED`, `GREY_WEIGHTED`; `extra` holds them after the colour).
 #[inline]
@@ -368,19 +378,14 @@ impl PhotonBuffer {
             let cells = h.cells(scene, layout);
             let c = h.colour_at as usize;
             let grey = grey_index(h.band);
-            let (n, values) = match (h.band, grey) {
-                (FULL, _) => (nb, nb),
-                (WEIGHTED, _) => (nb + 3, nb),
-                (_, Some((_, true))) => (4, 1),
-                _ => (1, 1),
-            };
-            let colour = &self.colours[c..c + n];
-            let w = shares(h.band, h.u, h.v, colour.get(values..).unwrap_or(&[]));
+            let (values, weights) = split_colour(h.band, nb, &self.colours[c..]);
+            let colour = &self.colours[c..c + values.len() + weights.len()];
+            let w = shares(h.band, h.u, h.v, weights);
             let e = if self.varying {
                 // This hit's energy: its colour's band mean.
                 match grey {
-                    Some((g, _)) => colour[0] as f64 * layout.grey.means[g],
-                    None => colour[..values].iter().map(|&x| x as f64).sum::<f64>() / nb as f64,
+                    Some((g, _)) => values[0] as f64 * layout.grey.means[g],
+                    None => values.iter().map(|&x| x as f64).sum::<f64>() / nb as f64,
                 }
             } else {
                 e

@@ -15,7 +15,8 @@ use super::{Counters, PhotonSource, RunContext, RunMonitor, RunOutcome, RunParam
 use crate::error::{bail, Result};
 use crate::imap::MapLayout;
 use crate::imap::{
-    grey_index, shares, BufferedHit, IMap, PhotonBuffer, PhotonOut, Readout, FULL, GREY, WEIGHTED,
+    grey_index, shares, split_colour, BufferedHit, IMap, PhotonBuffer, PhotonOut, Readout, FULL,
+    GREY, WEIGHTED,
 };
 use crate::scene::PreparedScene;
 use crate::spectral::Colour;
@@ -485,18 +486,17 @@ impl PhotonOut for GroupSink<'_> {
         if self.whole_hit(h, cells, colour) {
             return;
         }
-        let nb = self.shared.map.bands();
-        let (band, colour, w) = if h.band == WEIGHTED {
-            let w = shares(h.band, h.u, h.v, &colour[nb..]);
-            (FULL, &colour[..nb], w)
-        } else if let Some((g, true)) = grey_index(h.band) {
-            let w = shares(h.band, h.u, h.v, &colour[1..]);
-            (GREY + g as u16, &colour[..1], w)
-        } else {
-            (h.band, colour, shares(h.band, h.u, h.v, &[]))
+        // Each vertex's contribution carries its share: the weights are dropped from the
+        // band code.
+        let (values, weights) = split_colour(h.band, self.shared.map.bands(), colour);
+        let w = shares(h.band, h.u, h.v, weights);
+        let band = match grey_index(h.band) {
+            _ if h.band == WEIGHTED => FULL,
+            Some((g, true)) => GREY + g as u16,
+            _ => h.band,
         };
         for (cell, w) in cells.into_iter().zip(w) {
-            self.contribute(cell, w, band, colour);
+            self.contribute(cell, w, band, values);
         }
     }
 
