@@ -359,5 +359,6 @@ pub fn run(rc: &RunContext, map: &mut IMap, params: &mut RunParams) -> RunOutcom
 
     let wall_s = monitor.wall_s();
     counters.accum_busy_fraction = if wall_s > 0.0 { busy_s / wall_s } else { 0.0 };
+    counters.accum_busy_s = busy_s;
     monitor.outcome(&source, map, rc, stats, counters, thread_lost)
 }

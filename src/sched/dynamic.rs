@@ -1031,5 +1031,6 @@ pub fn run(
 
     counters.groups = (0..table.count()).filter(|&g| !table.is_split(g)).count() as u64;
     counters.accum_busy_fraction = if alive_s > 0.0 { busy_s / alive_s } else { 0.0 };
+    counters.accum_busy_s = busy_s;
     monitor.outcome(&source, map, rc, stats, counters, thread_lost)
 }

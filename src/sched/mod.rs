@@ -75,6 +75,10 @@ pub struct Counters {
     pub calc_wait_s: f64,
     /// Fraction of the run the accumulating thread(s) spent applying portions.
     pub accum_busy_fraction: f64,
+    /// Seconds the accumulating thread (classic) or the processing threads together
+    /// (dynamic) spent applying portions; portions a calculating thread applied itself are
+    /// not timed. The benchmark's scaling model reads a per-hit cost from it.
+    pub accum_busy_s: f64,
     /// Largest number of filled portions waiting to be applied.
     pub peak_queue: u64,
     /// Portions applied.
