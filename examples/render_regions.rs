@@ -19,7 +19,12 @@
 //!
 //!     cargo run --release --example render_regions -- [--threads 2] [--size 128]
 //!         [--reference-spp 4096] [--max-seconds 64] [--final-gather-only | --semi-only]
-//!         [--verbose]
+//!         [--view across|up] [--emitter-z 0.98] [--verbose]
+//!
+//! `--view up` puts the camera low in the room looking up at the emitter (at (0.5, 0.1,
+//! 0.35), toward (0, 0.4, 0.63)), so that the lamp and its outline are in the picture, as
+//! in the whole-image comparison; `--emitter-z 0.999` is the peers' room (the
+//! emitter 1 mm under the ceiling).
 
 #[path = "common/scenes.rs"]
 mod scenes;
@@ -28,10 +33,8 @@ mod common;
 
 use common::arg;
 use imap::{CameraDesc, Config, Context, Image, LayerRequest, RenderMethod, RenderParams};
-use scenes::{grey_room, GREY_ROOM_EMITTER_Z};
+use scenes::{grey_room_at, GREY_ROOM_EMITTER_Z};
 use std::time::Instant;
-
-const EMITTER_Z: f64 = GREY_ROOM_EMITTER_Z;
 
 /// A render of `method` for `seconds`, defaults otherwise.
 fn params(method: RenderMethod, seconds: f64) -> RenderParams<'static> {
@@ -44,19 +47,19 @@ fn params(method: RenderMethod, seconds: f64) -> RenderParams<'static> {
     }
 }
 
-fn room(threads: usize, seed: u64) -> Context {
+fn room(threads: usize, seed: u64, emitter_z: f64) -> Context {
     let mut ctx = Context::new(Config {
         threads,
         seed,
         ..Default::default()
     })
     .unwrap();
-    grey_room(&mut ctx, 40).unwrap();
+    grey_room_at(&mut ctx, 40, None, emitter_z).unwrap();
     ctx
 }
 
 /// The region of each pixel: 0 interior, 1 edges and corners, 2 near the emitter.
-fn regions(cam: &CameraDesc) -> Vec<usize> {
+fn regions(cam: &CameraDesc, emitter_z: f64) -> Vec<usize> {
     let f = norm(cam.direction);
     let r = norm(cross(f, cam.up));
     let u = cross(r, f);
@@ -70,7 +73,7 @@ fn regions(cam: &CameraDesc) -> Vec<usize> {
             let d = norm([0, 1, 2].map(|k| f[k] + r[k] * sx + u[k] * sy));
             let o = cam.position;
             // The emitter's plane first (it hangs inside the cube), then the cube's walls.
-            let te = (EMITTER_Z - o[2]) / d[2];
+            let te = (emitter_z - o[2]) / d[2];
             let pe = [0, 1, 2].map(|k| o[k] + te * d[k]);
             if te > 0.0 && (0.4..=0.6).contains(&pe[0]) && (0.4..=0.6).contains(&pe[1]) {
                 out.push(2);
@@ -87,7 +90,7 @@ fn regions(cam: &CameraDesc) -> Vec<usize> {
             }
             let q = [0, 1, 2].map(|k| o[k] + tmin * d[k]);
             let near_emitter =
-                ((q[0] - 0.5).powi(2) + (q[1] - 0.5).powi(2) + (q[2] - EMITTER_Z).powi(2)).sqrt()
+                ((q[0] - 0.5).powi(2) + (q[1] - 0.5).powi(2) + (q[2] - emitter_z).powi(2)).sqrt()
                     < 0.15;
             let walls = q
                 .iter()
@@ -157,22 +160,29 @@ fn main() {
     let verbose = std::env::args().any(|a| a == "--verbose");
     let only_fg = std::env::args().any(|a| a == "--final-gather-only");
     let only_semi = std::env::args().any(|a| a == "--semi-only");
+    let emitter_z: f64 = arg("--emitter-z", GREY_ROOM_EMITTER_Z);
+    let view: String = arg("--view", "across".to_string());
+    let (position, direction) = match view.as_str() {
+        "across" => ([0.5, 0.01, 0.1], [0.0, 1.0, 0.25]),
+        "up" => ([0.5, 0.1, 0.35], [0.0, 0.4, 0.63]),
+        v => panic!("--view takes across or up, not {v}"),
+    };
     let cam = CameraDesc {
-        position: [0.5, 0.01, 0.1],
-        direction: [0.0, 1.0, 0.25],
+        position,
+        direction,
         up: [0.0, 0.0, 1.0],
         fov_y_deg: 90.0,
         width: size,
         height: size,
     };
-    let region = regions(&cam);
+    let region = regions(&cam, emitter_z);
     let counts = [0, 1, 2].map(|r| region.iter().filter(|&&x| x == r).count());
     println!(
         "# render regions: the issue's room, {size}², {threads} threads; pixels interior {}, edges/corners {}, near the emitter {}",
         counts[0], counts[1], counts[2]
     );
     let t0 = Instant::now();
-    let reference = room(threads, 1001)
+    let reference = room(threads, 1001, emitter_z)
         .path_trace(&cam, ref_spp, 10_000)
         .unwrap();
     let ref_err = {
@@ -212,7 +222,7 @@ fn main() {
     };
     let mut budget = 1.0;
     while budget <= max_s && !only_fg {
-        let mut ctx = room(threads, 7);
+        let mut ctx = room(threads, 7, emitter_z);
         let mut p = params(RenderMethod::SemiSynchronous, budget);
         let t = Instant::now();
         let (img, _) = ctx.render(&cam, &mut p).unwrap();
@@ -231,7 +241,7 @@ fn main() {
     for variant in ["fg", "fg+direct"].into_iter().filter(|_| !only_semi) {
         let mut budget = 1.0;
         while budget <= max_s {
-            let mut ctx = room(threads, 7);
+            let mut ctx = room(threads, 7, emitter_z);
             let t = Instant::now();
             if variant != "fg" {
                 ctx.set_layers(LayerRequest {
@@ -266,7 +276,7 @@ fn main() {
     }
     let mut spp = 8;
     while !only_fg && !only_semi && spp <= ref_spp {
-        let mut ctx = room(threads, 7);
+        let mut ctx = room(threads, 7, emitter_z);
         let t = Instant::now();
         let img = ctx.path_trace(&cam, spp, 10_000).unwrap();
         let secs = t.elapsed().as_secs_f64();

@@ -1134,3 +1134,241 @@ fn the_sun_through_glass_is_rendered_with_a_usable_error() {
     );
     assert!((ma - mb).abs() < 0.05 * mb, "{ma} against {mb}");
 }
+
+/// Where point `p` falls on the image of `cam`, in pixel coordinates (x right, y down), as
+/// the camera projects it.
+fn image_point(cam: &CameraDesc, p: [f64; 3]) -> (f64, f64) {
+    let (f, r, u) = frame(cam);
+    let d = sub(p, cam.position);
+    let z = dot(d, f);
+    let t = (cam.fov_y_deg.to_radians() / 2.0).tan();
+    let a = cam.width as f64 / cam.height as f64;
+    let (sx, sy) = (dot(d, r) / z / (t * a), dot(d, u) / z / t);
+    (
+        (sx + 1.0) * 0.5 * cam.width as f64,
+        (1.0 - sy) * 0.5 * cam.height as f64,
+    )
+}
+
+/// The area of a polygon on the image, pixels².
+fn image_area(cam: &CameraDesc, corners: &[[f64; 3]]) -> f64 {
+    let q: Vec<(f64, f64)> = corners.iter().map(|&c| image_point(cam, c)).collect();
+    let twice: f64 = (0..q.len())
+        .map(|i| {
+            let (a, b) = (q[i], q[(i + 1) % q.len()]);
+            a.0 * b.1 - b.0 * a.1
+        })
+        .sum();
+    twice.abs() / 2.0
+}
+
+/// Each band's sum over the image, and the band-mean sum's standard error from the pixels'
+/// own errors.
+fn image_sums(img: &Image) -> (Vec<f64>, f64) {
+    let nb = img.bands;
+    let mut sums = vec![0.0; nb];
+    let mut var = 0.0;
+    for p in 0..img.radiance.len() / nb {
+        let px = &img.radiance[p * nb..][..nb];
+        for (s, v) in sums.iter_mut().zip(px) {
+            *s += v;
+        }
+        var += (img.rel_error[p] * px.iter().sum::<f64>() / nb as f64).powi(2);
+    }
+    (sums, var.sqrt())
+}
+
+/// A tilted emitting square in front of a black wall, seen whole: every camera method's
+/// image adds up to the square's radiance times its area on the image, to rounding, at 2
+/// samples per pixel. The pixels on its outline are their exact coverage (issue 37: they
+/// were the share of a few jittered rays that met it, and dominated a whole image's
+/// error), no pixel is brighter than the lamp, and the lit pixels carry no error.
+#[test]
+fn an_emitter_seen_directly_is_its_exact_pixel_coverage() {
+    let radiance = [2.0, 1.0, 0.5];
+    let exitance = radiance.map(|l| PI * l);
+    // A 0.8 m square around the origin, tilted out of every axis plane.
+    let n0 = [0.3, -1.0, 0.25];
+    let e1 = {
+        let c = cross(n0, [0.0, 0.0, 1.0]);
+        c.map(|x| x / norm(c))
+    };
+    let e2 = {
+        let c = cross(n0, e1);
+        c.map(|x| x / norm(c))
+    };
+    let corner = |s: f64, t: f64| [0, 1, 2].map(|k| 0.4 * (s * e1[k] + t * e2[k]));
+    let mut corners = [
+        corner(-1.0, -1.0),
+        corner(1.0, -1.0),
+        corner(1.0, 1.0),
+        corner(-1.0, 1.0),
+    ];
+    let cam = CameraDesc {
+        position: [0.7, -3.0, 0.4],
+        direction: [-0.2, 1.0, -0.1],
+        up: [0.0, 0.0, 1.0],
+        fov_y_deg: 40.0,
+        width: 24,
+        height: 18,
+    };
+    // Its front (the side that emits) toward the camera.
+    let normal = cross(sub(corners[1], corners[0]), sub(corners[2], corners[0]));
+    if dot(normal, sub(cam.position, corners[0])) < 0.0 {
+        corners.reverse();
+    }
+    let expected = image_area(&cam, &corners);
+    let (w, h) = (cam.width as f64, cam.height as f64);
+    assert!(
+        corners.iter().all(|&c| {
+            let (x, y) = image_point(&cam, c);
+            x > 1.0 && x < w - 1.0 && y > 1.0 && y < h - 1.0
+        }),
+        "the square is inside the picture"
+    );
+    for method in ["path", "semi", "gather"] {
+        let mut ctx = context(Config {
+            threads: 2,
+            seed: 5,
+            ..Default::default()
+        });
+        let black = lambert(&mut ctx, 0.0);
+        ctx.add_mesh(
+            &quad([
+                [-3.0, 2.0, -3.0],
+                [3.0, 2.0, -3.0],
+                [3.0, 2.0, 3.0],
+                [-3.0, 2.0, 3.0],
+            ])
+            .flipped()
+            .desc(black),
+        )
+        .unwrap();
+        let lamp = quad(corners);
+        let mut d = lamp.desc(black);
+        d.exitance = Some(&exitance);
+        ctx.add_mesh(&d).unwrap();
+        let img = match method {
+            "path" => ctx.path_trace(&cam, 2, 100).unwrap(),
+            "semi" => render_passes(&mut ctx, &cam, RenderMethod::SemiSynchronous, 2),
+            _ => render_passes(&mut ctx, &cam, RenderMethod::FinalGather, 2),
+        };
+        let (sums, _) = image_sums(&img);
+        for (band, (&s, &l)) in sums.iter().zip(&radiance).enumerate() {
+            eprintln!(
+                "{method}, band {band}: image sum {s:.9} against L·area {:.9}",
+                l * expected
+            );
+            assert!(
+                (s / (l * expected) - 1.0).abs() < 1e-6,
+                "{method}, band {band}: {s} against {}",
+                l * expected
+            );
+        }
+        for p in 0..img.radiance.len() / 3 {
+            let v = img.radiance[p * 3];
+            assert!(
+                (0.0..=2.0 * (1.0 + 1e-9)).contains(&v),
+                "{method}: pixel {p} reads {v}"
+            );
+            if v > 0.0 {
+                assert!(
+                    img.rel_error[p] < 1e-6,
+                    "{method}: pixel {p} error {}",
+                    img.rel_error[p]
+                );
+            }
+        }
+    }
+}
+
+/// The same lamp, square to the camera, with a black panel in front of its corner: the
+/// exact coverage is used only where nothing hides the lamp, and every method's image
+/// still adds up to the radiance times the lamp's visible area on the image (within 4
+/// standard errors from the pixels' own).
+#[test]
+fn an_emitter_partly_hidden_stays_unbiased() {
+    let radiance = 3.0;
+    let exitance = [PI * radiance; 3];
+    let cam = CameraDesc {
+        position: [0.0, -3.0, 0.0],
+        direction: [0.0, 1.0, 0.0],
+        up: [0.0, 0.0, 1.0],
+        fov_y_deg: 40.0,
+        width: 32,
+        height: 24,
+    };
+    // The lamp in the plane y = 0 facing the camera (normal −y), the panel in y = −1 over
+    // its corner.
+    let lamp = [
+        [-0.53, 0.0, -0.41],
+        [0.47, 0.0, -0.41],
+        [0.47, 0.0, 0.52],
+        [-0.53, 0.0, 0.52],
+    ];
+    assert!(cross(sub(lamp[1], lamp[0]), sub(lamp[2], lamp[0]))[1] < 0.0);
+    let (px, pz) = ([0.1, 0.9], [-0.2, 0.9]);
+    let panel = [
+        [px[0], -1.0, pz[0]],
+        [px[0], -1.0, pz[1]],
+        [px[1], -1.0, pz[1]],
+        [px[1], -1.0, pz[0]],
+    ];
+    // The panel's shadow on the lamp's plane (the eye is the centre of projection): both
+    // are rectangles on the image.
+    let on_lamp = |p: [f64; 3]| [p[0] * 3.0 / 2.0, 0.0, p[2] * 3.0 / 2.0];
+    let hidden = [
+        [
+            on_lamp(panel[0])[0].max(-0.53),
+            0.0,
+            on_lamp(panel[0])[2].max(-0.41),
+        ],
+        [
+            on_lamp(panel[0])[0].max(-0.53),
+            0.0,
+            on_lamp(panel[2])[2].min(0.52),
+        ],
+        [
+            on_lamp(panel[2])[0].min(0.47),
+            0.0,
+            on_lamp(panel[2])[2].min(0.52),
+        ],
+        [
+            on_lamp(panel[2])[0].min(0.47),
+            0.0,
+            on_lamp(panel[0])[2].max(-0.41),
+        ],
+    ];
+    let expected = radiance * (image_area(&cam, &lamp) - image_area(&cam, &hidden));
+    for method in ["path", "gather"] {
+        let mut ctx = context(Config {
+            threads: 2,
+            seed: 11,
+            ..Default::default()
+        });
+        let black = lambert(&mut ctx, 0.0);
+        let lamp = quad(lamp);
+        let mut d = lamp.desc(black);
+        d.exitance = Some(&exitance);
+        ctx.add_mesh(&d).unwrap();
+        ctx.add_mesh(&quad(panel).desc(black)).unwrap();
+        let img = match method {
+            "path" => ctx.path_trace(&cam, 16, 100).unwrap(),
+            _ => render_passes(&mut ctx, &cam, RenderMethod::FinalGather, 16),
+        };
+        let (sums, se) = image_sums(&img);
+        eprintln!(
+            "{method}: image sum {:.5} against L·visible area {expected:.5} (standard error {se:.5})",
+            sums[0]
+        );
+        assert!(
+            se > 0.0,
+            "{method}: the hidden edge's pixels keep their noise"
+        );
+        assert!(
+            (sums[0] - expected).abs() < 4.0 * se,
+            "{method}: {} against {expected} ± {se}",
+            sums[0]
+        );
+    }
+}

@@ -161,6 +161,14 @@ struct Prepared {
     sensors: Option<Accel>,
     /// What the light-sampling estimator needs of the scene (built on its first run).
     direct: Option<DirectPlan>,
+    /// The emitting meshes' pixel shares for the last camera rendered
+    /// (`render::coverage`), kept across the eye tracers of a render.
+    coverage: std::sync::Mutex<
+        Option<(
+            crate::render::camera::CameraDesc,
+            std::sync::Arc<crate::render::coverage::Coverage>,
+        )>,
+    >,
 }
 
 impl Prepared {
@@ -1034,6 +1042,7 @@ impl Context {
                 accel,
                 sensors,
                 direct: None,
+                coverage: Default::default(),
             });
         }
         Ok(())

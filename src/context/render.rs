@@ -170,14 +170,25 @@ impl Context {
         initial_radius: f64,
     ) -> EyeTracer<'a> {
         let prepared = self.prepared.as_ref().expect("prepared before a render");
-        EyeTracer::new(
+        let mut eye = EyeTracer::new(
             &self.scene,
             &prepared.scene,
             &prepared.accel,
             cam,
             max_events,
             initial_radius,
-        )
+        );
+        let mut kept = prepared.coverage.lock().unwrap_or_else(|e| e.into_inner());
+        let coverage = match &*kept {
+            Some((desc, c)) if *desc == cam.desc => c.clone(),
+            _ => {
+                let c = std::sync::Arc::new(eye.build_coverage());
+                *kept = Some((cam.desc, c.clone()));
+                c
+            }
+        };
+        eye.set_coverage(coverage);
+        eye
     }
 
     /// A render's forward photon tracer: it records nothing (sensors are left out, and

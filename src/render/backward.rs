@@ -8,6 +8,7 @@
 
 use super::bmap::{BackwardPhoton, SampleBuf};
 use super::camera::Camera;
+use super::coverage::Coverage;
 use crate::accel::Accel;
 use crate::sampling::{warp, PhotonRng};
 use crate::scene::bsdf::{reflect, refract};
@@ -56,6 +57,9 @@ pub struct EyeTracer<'a> {
     distant: Vec<(usize, Arc<DistantPart>)>,
     /// Emitter index of each mesh that emits.
     emitter_of_mesh: Vec<Option<u32>>,
+    /// The emitting meshes' exact shares of the pixels on their outlines, the camera
+    /// samples' control variate (`coverage.rs`; empty until `set_coverage`).
+    coverage: Arc<Coverage>,
     has_mesh_emitters: bool,
     /// The illumination map's indirect irradiance, for paths ended at their second
     /// diffuse vertex (`path_sample`); None: plain path tracing.
@@ -227,6 +231,7 @@ impl<'a> EyeTracer<'a> {
                 .collect(),
             lights,
             emitter_of_mesh,
+            coverage: Arc::default(),
             map: None,
             sun_by_caustics: false,
             white: vec![1.0; source.bands.count()],
@@ -246,6 +251,46 @@ impl<'a> EyeTracer<'a> {
                 })
             }),
         }
+    }
+
+    /// The emitting meshes' shares of the pixels they partly cover, for this tracer's
+    /// camera: empty when no mesh emits, or when a camera ray's first segment may be
+    /// attenuated (a medium around the camera, the scene's medium), where the exact share
+    /// would not be the pixel's direct part.
+    pub fn build_coverage(&self) -> Coverage {
+        if !self.has_mesh_emitters
+            || self.camera_media.current().is_some()
+            || self.scene.haze.is_some()
+        {
+            return Coverage::default();
+        }
+        let emitters: Vec<(usize, u32, bool)> = self
+            .emitter_of_mesh
+            .iter()
+            .enumerate()
+            .filter_map(|(mesh, e)| {
+                let e = (*e)?;
+                let lit = match &self.lights[e as usize] {
+                    LightValue::Radiance { radiance, .. } => radiance.iter().any(|&l| l != 0.0),
+                    LightValue::Power(_) => false,
+                };
+                lit.then(|| (mesh, e, self.scene.emitters[e as usize].two_sided()))
+            })
+            .collect();
+        let sees = |x: u32, y: u32, jx: f64, jy: f64, mesh: usize, prim: usize| {
+            let dir = self.camera.ray(x, y, jx, jy);
+            self.scene
+                .enter(self.camera.origin, dir)
+                .and_then(|o| self.accel.intersect(o, dir))
+                .is_some_and(|h| h.mesh as usize == mesh && h.prim as usize == prim)
+        };
+        Coverage::new(self.scene, self.camera, &emitters, sees)
+    }
+
+    /// Uses `coverage` (built by `build_coverage` for this camera and scene) for the camera
+    /// samples' control variate.
+    pub fn set_coverage(&mut self, coverage: Arc<Coverage>) {
+        self.coverage = coverage;
     }
 
     /// Radiance of mesh `mesh`'s emitting side seen along `dir` on triangle normal `ng`,
@@ -289,11 +334,12 @@ impl<'a> EyeTracer<'a> {
         buf.pixels.push(pixel);
         let d0 = buf.direct.len();
         buf.direct.resize(d0 + nb, 0.0);
-        let (mut dir, mut org) = match self.start_path(pixel, rng, beta, stats) {
-            Ok(ray) => ray,
-            // A ray that passes the whole scene by sees the sky.
-            Err(dir) => return self.add_sky(dir, beta, &mut buf.direct[d0..]),
-        };
+        let (mut dir, mut org) =
+            match self.start_path(pixel, rng, beta, stats, &mut buf.direct[d0..d0 + nb]) {
+                Ok(ray) => ray,
+                // A ray that passes the whole scene by sees the sky.
+                Err(dir) => return self.add_sky(dir, beta, &mut buf.direct[d0..]),
+            };
         // The pixel's bands, until a fluorescent medium or surface picks one for the path.
         let mut out = PathOut {
             out: &mut buf.direct[d0..d0 + nb],
@@ -462,7 +508,7 @@ impl<'a> EyeTracer<'a> {
         stats: &mut EyeStats,
     ) {
         let nb = self.bands;
-        let (mut dir, mut org) = match self.start_path(pixel, rng, beta, stats) {
+        let (mut dir, mut org) = match self.start_path(pixel, rng, beta, stats, out) {
             Ok(ray) => ray,
             Err(dir) => return self.add_sky(dir, beta, out),
         };
@@ -1102,7 +1148,8 @@ impl<'a> EyeTracer<'a> {
     }
 
     /// A new eye path through `pixel`: unit weight in every band, counted, and its first
-    /// ray (its direction alone when it passes the scene's bounding sphere by).
+    /// ray (its direction alone when it passes the scene's bounding sphere by). The
+    /// emitters' coverage control for this ray goes into `out` (`coverage.rs`).
     #[inline]
     fn start_path(
         &self,
@@ -1110,11 +1157,23 @@ impl<'a> EyeTracer<'a> {
         rng: &mut PhotonRng,
         beta: &mut Vec<f64>,
         stats: &mut EyeStats,
+        out: &mut [f64],
     ) -> Result<(DVec3, DVec3), DVec3> {
         beta.clear();
         beta.resize(self.bands, 1.0);
         stats.paths += 1;
-        self.camera_ray(pixel, rng)
+        let ray = self.camera_ray(pixel, rng);
+        if !self.coverage.is_empty() {
+            let (Ok((dir, _)) | Err(dir)) = ray;
+            self.coverage.terms(pixel, self.camera.origin, dir, |e, w| {
+                if let LightValue::Radiance { radiance, .. } = &self.lights[e as usize] {
+                    for (o, l) in out.iter_mut().zip(radiance) {
+                        *o += w * l;
+                    }
+                }
+            });
+        }
+        ray
     }
 
     /// A camera ray through `pixel` (jittered) and where it starts: at the camera, or where

@@ -118,6 +118,28 @@ impl Camera {
         Some((pixel, z / d.length()))
     }
 
+    /// How far in front of the eye point `p` (local scene units) lies, along the viewing
+    /// direction.
+    #[inline]
+    pub fn depth(&self, p: DVec3) -> f64 {
+        (p - self.origin).dot(self.forward)
+    }
+
+    /// Where point `p` (in front of the eye: `depth(p) > 0`) falls on the image, in pixel
+    /// coordinates: x to the right, y down, pixel (i, j) the unit square from (i, j); the
+    /// inverse of `ray` (`ray(i, j, jx, jy)` passes through (i + jx, j + jy)).
+    #[inline]
+    pub fn image_point(&self, p: DVec3) -> (f64, f64) {
+        let d = p - self.origin;
+        let z = d.dot(self.forward);
+        let sx = d.dot(self.right) / z / (self.tan_half * self.aspect);
+        let sy = d.dot(self.up) / z / self.tan_half;
+        (
+            (sx + 1.0) * 0.5 * self.desc.width as f64,
+            (1.0 - sy) * 0.5 * self.desc.height as f64,
+        )
+    }
+
     /// A pixel's area on the image plane at unit distance from the eye.
     pub fn pixel_area(&self) -> f64 {
         let a = 2.0 * self.tan_half / self.desc.height as f64;

@@ -27,6 +27,7 @@ pub mod backward;
 mod barrier;
 pub mod bmap;
 pub mod camera;
+pub mod coverage;
 mod engine;
 pub mod gate;
 pub mod gather;
