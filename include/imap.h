@@ -308,8 +308,11 @@
  * Final gathering from the illumination map (Since 0.2.2): path-traced eye paths that end
  * at their second diffuse vertex on a recorded mesh and read the context's map there (its
  * whole irradiance; with the direct layer kept, its indirect part, and the direct light is
- * sampled there). No photon-map radius, so no blur and no bias at edges and corners; each
- * pixel's error includes the map's. **The render extends the context's map** (it runs it
+ * sampled there), or at the third where the second lies within 0.75 of its triangle's
+ * size of the first (a corner, where the map's interpolation would read high). No
+ * photon-map radius, so no blur and no gathering bias at edges and corners; each pixel's
+ * error includes the map's. Emitting meshes seen directly (every render method) are taken
+ * at their exact share of each pixel on their outline where nothing stands in front. **The render extends the context's map** (it runs it
  * in slices between passes, starting it when empty), so the map is there to read
  * afterwards; a map holding a shard's or a range's photons (not 0..N) is read as it is.
  * `forward_per_pass` > 0: before pass k the map holds at least (k + 1) ×
