@@ -15,7 +15,8 @@
 //! Σₜ Lₜ·cₜ exactly; where something does, the estimate stays unbiased (the crossing term's
 //! mean is cₜ) and only its variance is what it was. Any subset of pairs is a valid
 //! control, chosen before the render. So pairs a triangle covers whole (nothing to gain)
-//! are left out; so are pairs where the camera does not see the triangle itself first
+//! are left out, and so are pixels one lamp's triangles cover whole between them (a
+//! tessellated lamp's inner edges); so are pairs where the camera does not see the triangle itself first
 //! through each corner and the centre of its part of the pixel (something in front, glass
 //! included: there a sample that crosses the hidden emitter would go below zero); and a
 //! cap on the pairs' memory only leaves some out. An occluder thin enough to pass between
@@ -69,8 +70,10 @@ impl Coverage {
         sees: impl Fn(u32, u32, f64, f64, usize, usize) -> bool,
     ) -> Self {
         let (w, h) = (camera.desc.width, camera.desc.height);
-        let most = (MAX_PAIRS_BYTES / std::mem::size_of::<Pair>()).min(4 * camera.pixels() + 4096);
-        let mut found: Vec<(u32, Pair)> = Vec::new();
+        let most = (MAX_PAIRS_BYTES / std::mem::size_of::<Found>()).min(4 * camera.pixels() + 4096);
+        // Every pair first; then the pixels covered whole go (`compact`, also whenever the
+        // memory is full), and only then are the rest's rays cast.
+        let mut found: Vec<Found> = Vec::new();
         'meshes: for &(mesh, emitter, two_sided) in emitters {
             let m = &scene.meshes[mesh];
             for (t, tri) in m.triangles.iter().enumerate() {
@@ -85,7 +88,7 @@ impl Coverage {
                 let Some(poly) = project(camera, [a, b, c]) else {
                     continue;
                 };
-                let e = Pair {
+                let pair = Pair {
                     v0: a,
                     e1: b - a,
                     e2: c - a,
@@ -100,46 +103,61 @@ impl Coverage {
                         if !straddles(&poly, x as f64, y as f64) {
                             continue;
                         }
-                        let part = clip_to_pixel(&poly, x as f64, y as f64);
-                        let share = area(&part).min(1.0);
+                        let share = area(&clip_to_pixel(&poly, x as f64, y as f64)).min(1.0);
                         if !(share > 0.0 && share < 1.0 - 1e-12) {
                             continue;
                         }
-                        // The part's corners (a little inside) and centre, in the pixel.
-                        let n = part.len() as f64;
-                        let c = part
-                            .iter()
-                            .fold((0.0, 0.0), |a, p| (a.0 + p.0 / n, a.1 + p.1 / n));
-                        let seen = part
-                            .iter()
-                            .map(|p| (c.0 + 0.98 * (p.0 - c.0), c.1 + 0.98 * (p.1 - c.1)))
-                            .chain([c])
-                            .all(|(px, py)| {
-                                let (jx, jy) = (
-                                    (px - x as f64).clamp(0.0, 1.0 - 1e-9),
-                                    (py - y as f64).clamp(0.0, 1.0 - 1e-9),
-                                );
-                                sees(x, y, jx, jy, mesh, t)
-                            });
-                        if !seen {
-                            continue;
-                        }
                         if found.len() >= most {
-                            break 'meshes;
+                            compact(&mut found);
+                            if found.len() >= most {
+                                break 'meshes;
+                            }
                         }
-                        found.push((y * w + x, Pair { share, ..e }));
+                        found.push(Found {
+                            pixel: y * w + x,
+                            mesh: mesh as u32,
+                            tri: t as u32,
+                            pair: Pair { share, ..pair },
+                        });
                     }
                 }
             }
         }
-        found.sort_by_key(|&(p, _)| p);
+        compact(&mut found);
+        // What the camera does not see first through the corners (a little inside) and the
+        // centre of the triangle's part of the pixel goes too.
+        found.retain(|f| {
+            let (x, y) = (f.pixel % w, f.pixel / w);
+            let p = &f.pair;
+            let Some(poly) = project(camera, [p.v0, p.v0 + p.e1, p.v0 + p.e2]) else {
+                return false;
+            };
+            let part = clip_to_pixel(&poly, x as f64, y as f64);
+            if part.is_empty() {
+                return false;
+            }
+            let n = part.len() as f64;
+            let c = part
+                .iter()
+                .fold((0.0, 0.0), |a, q| (a.0 + q.0 / n, a.1 + q.1 / n));
+            part.iter()
+                .map(|q| (c.0 + 0.98 * (q.0 - c.0), c.1 + 0.98 * (q.1 - c.1)))
+                .chain([c])
+                .all(|(px, py)| {
+                    let (jx, jy) = (
+                        (px - x as f64).clamp(0.0, 1.0 - 1e-9),
+                        (py - y as f64).clamp(0.0, 1.0 - 1e-9),
+                    );
+                    sees(x, y, jx, jy, f.mesh as usize, f.tri as usize)
+                })
+        });
         let mut cov = Coverage::default();
-        for (p, pair) in found {
-            if cov.pixels.last() != Some(&p) {
-                cov.pixels.push(p);
+        for f in found {
+            if cov.pixels.last() != Some(&f.pixel) {
+                cov.pixels.push(f.pixel);
                 cov.starts.push(cov.pairs.len() as u32);
             }
-            cov.pairs.push(pair);
+            cov.pairs.push(f.pair);
         }
         cov.starts.push(cov.pairs.len() as u32);
         cov
@@ -164,6 +182,35 @@ impl Coverage {
             f(p.emitter, p.share - if crossed { 1.0 } else { 0.0 });
         }
     }
+}
+
+/// A pair while the pairs are collected: its pixel and its triangle.
+#[derive(Clone, Copy, Debug)]
+struct Found {
+    pixel: u32,
+    mesh: u32,
+    tri: u32,
+    pair: Pair,
+}
+
+/// Sorts the pairs by pixel (triangle order kept within a pixel) and drops the pixels that
+/// one emitter's triangles cover whole between them (a tessellated lamp's inner edges):
+/// every ray through such a pixel that meets one of them meets the lamp, so its direct
+/// part has next to no variance to take away, and its pairs would only hold memory and
+/// rays the outline needs. (Any pairs may go: what stays is still an exact control.)
+fn compact(found: &mut Vec<Found>) {
+    found.sort_by_key(|f| f.pixel);
+    let mut kept = Vec::with_capacity(found.len());
+    for group in found.chunk_by(|a, b| a.pixel == b.pixel) {
+        let one_emitter = group
+            .iter()
+            .all(|f| f.pair.emitter == group[0].pair.emitter);
+        let whole = (group.iter().map(|f| f.pair.share).sum::<f64>() - 1.0).abs() < 1e-9;
+        if !(one_emitter && whole) {
+            kept.extend_from_slice(group);
+        }
+    }
+    *found = kept;
 }
 
 /// Whether the ray from `o` along `d` crosses the pair's triangle ahead (Möller–Trumbore;
