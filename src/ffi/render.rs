@@ -25,8 +25,9 @@ pub const IMAP_RENDER_SEMI_SYNC: u32 = 2;
 /// Final gathering from the illumination map (Since 0.2.2): path-traced eye paths that end
 /// at their second diffuse vertex on a recorded mesh and read the context's map there (its
 /// whole irradiance; with the direct layer kept, its indirect part, and the direct light is
-/// sampled there), or at the third where the second lies within 0.75 of its triangle's
-/// size of the first (a corner, where the map's interpolation would read high). No
+/// sampled there); where that vertex lies within 0.75 of its triangle's size of the one
+/// before (a corner, where the map's interpolation would read high), at the next that
+/// does not, the fourth at the latest. No
 /// photon-map radius, so no blur and no gathering bias at edges and corners; each pixel's
 /// error includes the map's. Emitting meshes seen directly (every render method) are taken
 /// at their exact share of each pixel on their outline where nothing stands in front. **The render extends the context's map** (it runs it

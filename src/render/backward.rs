@@ -45,7 +45,8 @@ pub(crate) const INITIAL_RADIUS_FOOTPRINTS: f64 = 4.0;
 /// the corners' bias went from +0.60 to +0.26 % and their error estimate became
 /// calibrated, for 8 % more time to 1 % in a view where corners are few.
 const NEAR_READ_CELLS: f64 = 0.75;
-/// The diffuse vertex by which a final-gathering path reads the map wherever it is.
+/// A final-gathering path reads the map wherever it is once it has left this many diffuse
+/// vertices behind (at its fourth).
 const MAP_READ_BY: u32 = 3;
 
 /// Read-only state of the backward pass.
@@ -506,8 +507,8 @@ impl<'a> EyeTracer<'a> {
     /// specular surfaces (caustics of delta lights) cannot be path traced and is missing.
     /// With `map`, a path ends at its second diffuse vertex on a recorded mesh with the
     /// map's light there (`reads` gets the vertices it read, with their errors), unless it
-    /// reached that vertex from close by (`NEAR_READ_CELLS`): then at the next one, and at
-    /// the third in any case.
+    /// reached that vertex from close by (`NEAR_READ_CELLS`): then at the next diffuse
+    /// vertex not reached from close by, and at the fourth in any case.
     #[allow(clippy::too_many_arguments)]
     pub fn path_sample(
         &self,
