@@ -105,6 +105,14 @@ fn parse() -> Args {
     };
     let argv: Vec<String> = std::env::args().skip(1).collect();
     let list = |s: &str| s.split(',').map(str::to_owned).collect::<Vec<_>>();
+    fn numbers<T: std::str::FromStr>(s: &str, name: &str) -> Vec<T> {
+        s.split(',')
+            .map(|x| {
+                x.parse()
+                    .unwrap_or_else(|_| panic!("{name} takes numbers, not {x}"))
+            })
+            .collect()
+    }
     for pair in argv.chunks(2) {
         let v = pair
             .get(1)
@@ -119,25 +127,10 @@ fn parse() -> Args {
                     .map(|n| Scene::from_name(n).unwrap_or_else(|| panic!("unknown scene {n}")))
                     .collect()
             }
-            "--bands" => {
-                a.bands = list(&v)
-                    .iter()
-                    .map(|b| b.parse().expect("--bands"))
-                    .collect()
-            }
-            "--threads" => {
-                a.threads = list(&v)
-                    .iter()
-                    .map(|t| t.parse().expect("--threads"))
-                    .collect()
-            }
+            "--bands" => a.bands = numbers(&v, "--bands"),
+            "--threads" => a.threads = numbers(&v, "--threads"),
             "--reps" => a.reps = v.parse::<usize>().expect("--reps").max(1),
-            "--model-threads" => {
-                a.model_threads = list(&v)
-                    .iter()
-                    .map(|t| t.parse().expect("--model-threads"))
-                    .collect()
-            }
+            "--model-threads" => a.model_threads = numbers(&v, "--model-threads"),
             "--validate" => {
                 a.validate = Some(
                     list(&v)

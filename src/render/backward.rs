@@ -659,11 +659,12 @@ impl<'a> EyeTracer<'a> {
             // Not where the path came from close by (a corner): there the map's
             // hat-averaged values, interpolated, miss a kink in the irradiance within a
             // cell, and the path goes on to read the map further away (at most twice).
-            let far = diffuse_vertices >= MAP_READ_BY || {
-                let area = self.scene.meshes[hit.mesh as usize].area(hit.prim as usize);
-                hit.t >= NEAR_READ_CELLS * (2.0 * area).sqrt()
-            };
-            let read = diffuse_vertices >= 1 && far && self.map_has(hit.mesh, side, wt.is_some());
+            let read = diffuse_vertices >= 1
+                && self.map_has(hit.mesh, side, wt.is_some())
+                && (diffuse_vertices >= MAP_READ_BY || {
+                    let area = self.scene.meshes[hit.mesh as usize].area(hit.prim as usize);
+                    hit.t >= NEAR_READ_CELLS * (2.0 * area).sqrt()
+                });
             if !read || !self.map.is_some_and(|m| m.combined) {
                 let at = (p_hit, media.current());
                 self.direct_light(at, n_in, eps, wr, wt, rng, out.to(), stats);

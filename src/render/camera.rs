@@ -102,20 +102,16 @@ impl Camera {
     /// the viewing direction, or None when `p` is behind the camera or outside the image.
     #[inline]
     pub fn project(&self, p: DVec3) -> Option<(u32, f64)> {
-        let d = p - self.origin;
-        let z = d.dot(self.forward);
+        let z = self.depth(p);
         if z <= 0.0 {
             return None;
         }
-        let sx = d.dot(self.right) / z / (self.tan_half * self.aspect);
-        let sy = d.dot(self.up) / z / self.tan_half;
-        let x = (sx + 1.0) * 0.5 * self.desc.width as f64;
-        let y = (1.0 - sy) * 0.5 * self.desc.height as f64;
+        let (x, y) = self.image_point(p);
         if !(x >= 0.0 && y >= 0.0 && x < self.desc.width as f64 && y < self.desc.height as f64) {
             return None;
         }
         let pixel = y as u32 * self.desc.width + x as u32;
-        Some((pixel, z / d.length()))
+        Some((pixel, z / (p - self.origin).length()))
     }
 
     /// How far in front of the eye point `p` (local scene units) lies, along the viewing

@@ -262,7 +262,18 @@ fn project(camera: &Camera, tri: [DVec3; 3]) -> Option<Vec<(f64, f64)>> {
     if poly.len() < 3 {
         return None;
     }
-    Some(poly.into_iter().map(|p| camera.image_point(p)).collect())
+    Some(counter_clockwise(
+        poly.into_iter().map(|p| camera.image_point(p)).collect(),
+    ))
+}
+
+/// The polygon with its corners in the order that makes its signed area positive (what
+/// `straddles` expects).
+fn counter_clockwise(mut poly: Vec<(f64, f64)>) -> Vec<(f64, f64)> {
+    if area_signed(&poly) < 0.0 {
+        poly.reverse();
+    }
+    poly
 }
 
 /// The pixels the polygon's bounding box overlaps, clamped to the image: x0..x1, y0..y1.
@@ -284,17 +295,17 @@ fn bounds(poly: &[(f64, f64)], w: u32, h: u32) -> (u32, u32, u32, u32) {
     )
 }
 
-/// Whether a convex polygon's outline may cross pixel (x, y): false when the pixel's four
-/// corners are all inside the polygon, or all outside one of its edges.
+/// Whether a convex polygon's outline (corners in `counter_clockwise` order, as `project`
+/// gives them) may cross pixel (x, y): false when the pixel's four corners are all inside
+/// the polygon, or all outside one of its edges.
 fn straddles(poly: &[(f64, f64)], x: f64, y: f64) -> bool {
     let corners = [(x, y), (x + 1.0, y), (x + 1.0, y + 1.0), (x, y + 1.0)];
-    let orient = area_signed(poly).signum();
     let mut all_inside = true;
     for i in 0..poly.len() {
         let (p, q) = (poly[i], poly[(i + 1) % poly.len()]);
         let mut outside = 0;
         for c in corners {
-            let side = orient * ((q.0 - p.0) * (c.1 - p.1) - (q.1 - p.1) * (c.0 - p.0));
+            let side = (q.0 - p.0) * (c.1 - p.1) - (q.1 - p.1) * (c.0 - p.0);
             if side < 0.0 {
                 outside += 1;
                 all_inside = false;
@@ -388,8 +399,10 @@ mod tests {
         assert!(straddles(&square, 0.0, 0.0));
         assert!(!straddles(&square, 1.0, 1.0));
         assert!(!straddles(&square, 3.0, 0.0));
-        let reversed: Vec<_> = square.iter().rev().copied().collect();
+        let reversed = counter_clockwise(square.iter().rev().copied().collect());
+        assert!(area_signed(&reversed) > 0.0);
         assert!(straddles(&reversed, 0.0, 0.0) && !straddles(&reversed, 1.0, 1.0));
+        assert!(!straddles(&reversed, 3.0, 0.0));
     }
 
     /// A triangle's shares over the pixels it touches add up to its area (in pixels²),
