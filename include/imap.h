@@ -726,6 +726,15 @@
 #define IMAP_SKY_IMAGE 3
 
 /**
+ * The Perez all-weather sky (Perez, Seals & Michalsky 1993) of clearness
+ * `perez_clearness` and brightness `perez_brightness` (`imap_perez_sky` computes both, and
+ * the diffuse horizontal illuminance to give as its amount, from a weather file's hour),
+ * with the sun at `sun_azimuth_deg`, `sun_zenith_deg` (0–180°: a sun below the horizon
+ * shapes a twilight sky as one at the horizon). (Since 0.2.3.)
+ */
+#define IMAP_SKY_PEREZ 4
+
+/**
  * A sky's amount: its radiance over all bands, W/(m² sr) (a CIE sky's at the zenith).
  * (Since 0.2.2.)
  */
@@ -2130,6 +2139,12 @@ typedef struct ImapSky {
   const float *image_rgb;
   size_t image_width;
   size_t image_height;
+  /**
+   * PEREZ: the sky's clearness ε (1–1000; 1 is fully overcast) and brightness Δ
+   * (10⁻⁶–10). Default 0: not set. (Since 0.2.3.)
+   */
+  double perez_clearness;
+  double perez_brightness;
 } ImapSky;
 
 /**
@@ -2200,6 +2215,36 @@ typedef struct ImapSunTime {
    */
   double delta_t_s;
 } ImapSunTime;
+
+/**
+ * An hour's Perez sky (`imap_perez_sky`). (Since 0.2.3.)
+ */
+typedef struct ImapPerezSky {
+  uint32_t struct_size;
+  /**
+   * The clearness bin, 0 (overcast, ε < 1.065) to 7 (clear, ε ≥ 6.2).
+   */
+  uint32_t bin;
+  /**
+   * The sky's clearness ε and brightness Δ: `ImapSky::perez_clearness` and
+   * `perez_brightness`.
+   */
+  double clearness;
+  double brightness;
+  /**
+   * The precipitable water the efficacies were computed with, cm.
+   */
+  double precipitable_water_cm;
+  /**
+   * The diffuse horizontal illuminance, lx: the Perez sky's amount
+   * (`IMAP_SKY_UNIT_HORIZONTAL_LX`).
+   */
+  double diffuse_horizontal_lx;
+  /**
+   * The direct normal illuminance, lx: the sun's amount (`IMAP_UNIT_LX`).
+   */
+  double direct_normal_lx;
+} ImapPerezSky;
 
 #ifdef __cplusplus
 extern "C" {
@@ -3084,6 +3129,24 @@ enum ImapStatus imap_set_portals(struct ImapContext *ctx, const double *position
  * `ctx` is a live handle.
  */
 enum ImapStatus imap_set_scene_medium(struct ImapContext *ctx, uint32_t material);
+
+/**
+ * The Perez sky of an hour of weather (Perez, Ineichen, Seals, Michalsky & Stewart 1990):
+ * from its direct normal and diffuse horizontal irradiance (W/m², the whole solar
+ * spectrum, as weather files give them: an EPW file's fields 15 and 16), the sun's
+ * zenith angle (degrees, 0–180; a sun below the horizon is taken at it), the day of the
+ * year (1–366) and the precipitable water (cm, 0–20; from a dew point Td in °C it is
+ * exp(0.07 Td − 0.075); Radiance's gendaylit takes 2). Writes the sky's clearness and
+ * brightness, and the diffuse horizontal and direct normal illuminance by the Perez
+ * luminous efficacy models, into `out` (`out_size` = sizeof(ImapPerezSky)). Returns
+ * IMAP_ERR_NO_LIGHT when the diffuse irradiance is 0 (no sky: add none, nor a sun),
+ * IMAP_ERR_NON_FINITE or IMAP_ERR_INVALID_ARGUMENT naming the argument. Thread-safe.
+ * (Since 0.2.3.)
+ *
+ * # Safety
+ * `out` points to `out_size` writable bytes.
+ */
+enum ImapStatus imap_perez_sky(double direct_normal_irradiance, double diffuse_horizontal_irradiance, double sun_zenith_deg, uint32_t day_of_year, double precipitable_water_cm, struct ImapPerezSky *out, size_t out_size);
 
 /**
  * The sun's apparent position at a local date and time and a place: azimuth (degrees from

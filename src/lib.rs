@@ -69,8 +69,10 @@ pub use transport::SCENE_MEDIUM;
 // The scene: bands, materials, meshes, lights, skies and the sun.
 pub use scene::host::{HostBsdf, HostBsdfRef};
 pub use scene::light::{
-    cie_luminance, Amount, Distribution, LightDesc, LightKind, Placement, SkyAmount, SkyDesc,
-    SkyKind, SunDesc, CIE_SKY_PARAMETERS, SUN_DIAMETER_DEG,
+    air_mass, cie_luminance, eccentricity, perez_bin, perez_parameters, perez_relative, perez_sky,
+    precipitable_water, Amount, Distribution, LightDesc, LightKind, PerezSky, Placement, SkyAmount,
+    SkyDesc, SkyKind, SunDesc, CIE_SKY_PARAMETERS, PEREZ_CLEARNESS_BINS, PEREZ_DIFFUSE_EFFICACY,
+    PEREZ_DIRECT_EFFICACY, PEREZ_SKY_COEFFICIENTS, SOLAR_CONSTANT_W_PER_M2, SUN_DIAMETER_DEG,
 };
 pub use scene::texture::TextureDesc;
 pub use scene::{

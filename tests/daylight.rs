@@ -302,6 +302,78 @@ fn cie_skies_through_a_roof_opening_give_the_sky_integral() {
     }
 }
 
+/// The Perez all-weather sky's relative luminance (Perez, Seals & Michalsky 1993, eq. 1),
+/// written out from the paper: [1 + a exp(b / cos ζ)] [1 + c exp(dγ) + e cos² γ].
+fn perez_luminance(abcde: [f64; 5], dir: [f64; 3], sun: [f64; 3]) -> f64 {
+    let [a, b, c, d, e] = abcde;
+    let cz = dir[2];
+    if cz <= 0.0 {
+        return 0.0;
+    }
+    let gamma = dot(dir, sun).clamp(-1.0, 1.0).acos();
+    ((1.0 + a * (b / cz).exp()) * (1.0 + c * (d * gamma).exp() + e * gamma.cos().powi(2))).max(0.0)
+}
+
+#[test]
+fn perez_skies_through_a_roof_opening_give_the_sky_integral() {
+    // Hours of weather (direct normal, diffuse horizontal W/m², sun azimuth and zenith
+    // angle, day of the year): overcast, intermediate, clear with the sun low in the east.
+    let cases = [
+        (0.0, 120.0, 200.0, 50.0, 350u32, Estimator::DEFAULT),
+        (300.0, 220.0, 225.0, 35.0, 130, Estimator::Photons),
+        (850.0, 90.0, 80.0, 60.0, 172, Estimator::GATHER),
+    ];
+    for (k, &(dni, dhi, az, zen, day, estimator)) in cases.iter().enumerate() {
+        let (mut ctx, id, floor) = roof_room(40 + k as u64);
+        let s = imap::perez_sky(dni, dhi, zen, day, 2.0).unwrap().unwrap();
+        ctx.add_sky(&SkyDesc {
+            kind: SkyKind::Perez {
+                sun_azimuth_deg: az,
+                sun_zenith_deg: zen,
+                clearness: s.clearness,
+                brightness: s.brightness,
+            },
+            amount: SkyAmount::HorizontalIlluminance(s.diffuse_horizontal_lx),
+            spectrum: Spectrum::Equal,
+            ..SkyDesc::default()
+        })
+        .unwrap();
+        run_with(&mut ctx, photons(300_000), estimator);
+        let (a, z) = (f64::to_radians(az), f64::to_radians(zen));
+        let sun = [z.sin() * a.sin(), z.sin() * a.cos(), z.cos()];
+        let abcde = imap::perez_parameters(s.clearness, s.brightness, z);
+        // The sky's scale: its horizontal integral ∫ l cos dω by a midpoint rule, and the
+        // band radiance of an equal-energy spectrum of E_dh.
+        let n = 400;
+        let mut h = 0.0;
+        for i in 0..n {
+            let t = (i as f64 + 0.5) * PI / 2.0 / n as f64;
+            for j in 0..2 * n {
+                let p = (j as f64 + 0.5) * PI / n as f64;
+                let d = [t.sin() * p.sin(), t.sin() * p.cos(), t.cos()];
+                h += perez_luminance(abcde, d, sun) * t.cos() * t.sin();
+            }
+        }
+        h *= (PI / 2.0 / n as f64) * (PI / n as f64);
+        let eff: f64 = ctx.photometry().luminous(&[1.0, 1.0, 1.0]);
+        let band_radiance = s.diffuse_horizontal_lx / eff / h;
+        let want: Vec<Option<f64>> = (0..floor.vertex_count())
+            .map(|v| {
+                Some(
+                    hat_average_with(&floor, v, 4, |x, _| {
+                        through_opening(x, 24, &|d| perez_luminance(abcde, d, sun))
+                    }) * band_radiance,
+                )
+            })
+            .collect();
+        assert_z(
+            &values(&ctx, id, 0),
+            &want,
+            &format!("Perez sky {dni}/{dhi} W/m², sun {az}°/{zen}°, {estimator:?}"),
+        );
+    }
+}
+
 /// What each floor vertex of the roof room reads under the sun's patch (the opening moved
 /// by `shift`): `e_band` where its support (0.125 m) lies wholly inside, nothing where
 /// wholly outside; the penumbra's vertices are not compared (None).

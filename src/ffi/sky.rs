@@ -26,6 +26,12 @@ pub const IMAP_SKY_CIE: u32 = 2;
 /// An equirectangular image (`image_rgb`, or a file given to `imap_add_sky_file`).
 /// (Since 0.2.2.)
 pub const IMAP_SKY_IMAGE: u32 = 3;
+/// The Perez all-weather sky (Perez, Seals & Michalsky 1993) of clearness
+/// `perez_clearness` and brightness `perez_brightness` (`imap_perez_sky` computes both, and
+/// the diffuse horizontal illuminance to give as its amount, from a weather file's hour),
+/// with the sun at `sun_azimuth_deg`, `sun_zenith_deg` (0–180°: a sun below the horizon
+/// shapes a twilight sky as one at the horizon). (Since 0.2.3.)
+pub const IMAP_SKY_PEREZ: u32 = 4;
 
 /// A sky's amount: its radiance over all bands, W/(m² sr) (a CIE sky's at the zenith).
 /// (Since 0.2.2.)
@@ -81,12 +87,18 @@ pub struct ImapSky {
     pub image_rgb: *const f32,
     pub image_width: usize,
     pub image_height: usize,
+    /// PEREZ: the sky's clearness ε (1–1000; 1 is fully overcast) and brightness Δ
+    /// (10⁻⁶–10). Default 0: not set. (Since 0.2.3.)
+    pub perez_clearness: f64,
+    pub perez_brightness: f64,
 }
 
 // SAFETY: repr(C), u32 struct_size first, numbers and raw pointers only.
 unsafe impl Versioned for ImapSky {
     const NAME: &'static str = "ImapSky";
     const INIT: &'static str = "imap_sky_default";
+    /// The layout of 0.2.2, before the Perez sky's fields.
+    const BASE_SIZE: usize = std::mem::offset_of!(ImapSky, perez_clearness);
     fn defaults() -> Self {
         let d = SkyDesc::default();
         ImapSky {
@@ -103,6 +115,8 @@ unsafe impl Versioned for ImapSky {
             image_rgb: std::ptr::null(),
             image_width: 0,
             image_height: 0,
+            perez_clearness: 0.0,
+            perez_brightness: 0.0,
         }
     }
 }
@@ -268,6 +282,20 @@ fn sky_from_c(c: &Context, s: &ImapSky, image: bool) -> Result<SkyDesc> {
             sun_azimuth_deg: s.sun_azimuth_deg,
             sun_zenith_deg: s.sun_zenith_deg,
         },
+        IMAP_SKY_PEREZ => {
+            if s.sun_azimuth_deg.is_nan() || s.sun_zenith_deg.is_nan() {
+                bail!(
+                    ImapErrInvalidArgument,
+                    "sky.sun_azimuth_deg and sky.sun_zenith_deg are not set: a Perez sky needs its sun's position"
+                );
+            }
+            SkyKind::Perez {
+                sun_azimuth_deg: s.sun_azimuth_deg,
+                sun_zenith_deg: s.sun_zenith_deg,
+                clearness: s.perez_clearness,
+                brightness: s.perez_brightness,
+            }
+        }
         IMAP_SKY_IMAGE => {
             let n = s
                 .image_width
@@ -293,7 +321,7 @@ fn sky_from_c(c: &Context, s: &ImapSky, image: bool) -> Result<SkyDesc> {
         }
         k => bail!(
             ImapErrInvalidArgument,
-            "sky.kind = {k} is not an IMAP_SKY_* value (0–3)"
+            "sky.kind = {k} is not an IMAP_SKY_* value (0–4)"
         ),
     };
     Ok(SkyDesc {
@@ -490,6 +518,99 @@ pub const IMAP_NO_MEDIUM: u32 = u32::MAX;
 pub unsafe extern "C" fn imap_set_scene_medium(ctx: *mut ImapContext, material: u32) -> ImapStatus {
     with_context(ctx, |c| {
         c.set_scene_medium((material != IMAP_NO_MEDIUM).then_some(material))
+    })
+}
+
+/// An hour's Perez sky (`imap_perez_sky`). (Since 0.2.3.)
+#[repr(C)]
+#[derive(Clone, Copy, Debug)]
+pub struct ImapPerezSky {
+    pub struct_size: u32,
+    /// The clearness bin, 0 (overcast, ε < 1.065) to 7 (clear, ε ≥ 6.2).
+    pub bin: u32,
+    /// The sky's clearness ε and brightness Δ: `ImapSky::perez_clearness` and
+    /// `perez_brightness`.
+    pub clearness: f64,
+    pub brightness: f64,
+    /// The precipitable water the efficacies were computed with, cm.
+    pub precipitable_water_cm: f64,
+    /// The diffuse horizontal illuminance, lx: the Perez sky's amount
+    /// (`IMAP_SKY_UNIT_HORIZONTAL_LX`).
+    pub diffuse_horizontal_lx: f64,
+    /// The direct normal illuminance, lx: the sun's amount (`IMAP_UNIT_LX`).
+    pub direct_normal_lx: f64,
+}
+
+// SAFETY: repr(C), u32 struct_size first, numbers only.
+unsafe impl Versioned for ImapPerezSky {
+    const NAME: &'static str = "ImapPerezSky";
+    const INIT: &'static str = "sizeof(ImapPerezSky)";
+    fn defaults() -> Self {
+        ImapPerezSky {
+            struct_size: std::mem::size_of::<Self>() as u32,
+            bin: 0,
+            clearness: 0.0,
+            brightness: 0.0,
+            precipitable_water_cm: 0.0,
+            diffuse_horizontal_lx: 0.0,
+            direct_normal_lx: 0.0,
+        }
+    }
+}
+
+/// The Perez sky of an hour of weather (Perez, Ineichen, Seals, Michalsky & Stewart 1990):
+/// from its direct normal and diffuse horizontal irradiance (W/m², the whole solar
+/// spectrum, as weather files give them: an EPW file's fields 15 and 16), the sun's
+/// zenith angle (degrees, 0–180; a sun below the horizon is taken at it), the day of the
+/// year (1–366) and the precipitable water (cm, 0–20; from a dew point Td in °C it is
+/// exp(0.07 Td − 0.075); Radiance's gendaylit takes 2). Writes the sky's clearness and
+/// brightness, and the diffuse horizontal and direct normal illuminance by the Perez
+/// luminous efficacy models, into `out` (`out_size` = sizeof(ImapPerezSky)). Returns
+/// IMAP_ERR_NO_LIGHT when the diffuse irradiance is 0 (no sky: add none, nor a sun),
+/// IMAP_ERR_NON_FINITE or IMAP_ERR_INVALID_ARGUMENT naming the argument. Thread-safe.
+/// (Since 0.2.3.)
+///
+/// # Safety
+/// `out` points to `out_size` writable bytes.
+#[no_mangle]
+pub unsafe extern "C" fn imap_perez_sky(
+    direct_normal_irradiance: f64,
+    diffuse_horizontal_irradiance: f64,
+    sun_zenith_deg: f64,
+    day_of_year: u32,
+    precipitable_water_cm: f64,
+    out: *mut ImapPerezSky,
+    out_size: usize,
+) -> ImapStatus {
+    boundary(None, || {
+        super::check_out("out", out)?;
+        let Some(s) = crate::scene::light::perez_sky(
+            direct_normal_irradiance,
+            diffuse_horizontal_irradiance,
+            sun_zenith_deg,
+            day_of_year,
+            precipitable_water_cm,
+        )?
+        else {
+            bail!(
+                ImapErrNoLight,
+                "diffuse_horizontal_irradiance = 0: an hour without diffuse light has no sky"
+            );
+        };
+        super::write_versioned(
+            "out",
+            out,
+            out_size,
+            ImapPerezSky {
+                struct_size: 0,
+                bin: s.bin as u32,
+                clearness: s.clearness,
+                brightness: s.brightness,
+                precipitable_water_cm: s.precipitable_water_cm,
+                diffuse_horizontal_lx: s.diffuse_horizontal_lx,
+                direct_normal_lx: s.direct_normal_lx,
+            },
+        )
     })
 }
 

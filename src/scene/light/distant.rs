@@ -89,6 +89,13 @@ pub enum Radiance {
     /// L/L_z of a CIE standard general sky: `p` its (a, b, c, d, e), `sun` the direction
     /// toward the sun; 0 below the horizon.
     Cie { kind: u8, p: [f64; 5], sun: DVec3 },
+    /// l/l_z of a Perez all-weather sky: `p` its (a, b, c, d, e), `sun` the direction
+    /// toward the sun, `zenith` l at the zenith; 0 below the horizon.
+    Perez {
+        p: [f64; 5],
+        sun: DVec3,
+        zenith: f64,
+    },
     /// One channel of an equirectangular image, rows from the zenith down, its centre
     /// column toward north (before `rotation`, radians toward east); the pixel's value
     /// over the pixel's solid angle.
@@ -149,6 +156,7 @@ impl fmt::Debug for DistantPart {
         match &self.radiance {
             Radiance::Uniform { sphere } => d.field("uniform_sphere", sphere),
             Radiance::Cie { kind, sun, .. } => d.field("cie", &(kind, sun)),
+            Radiance::Perez { p, sun, .. } => d.field("perez", &(p, sun)),
             Radiance::Image {
                 width,
                 height,
@@ -197,6 +205,14 @@ impl DistantPart {
                 let chi = d.dot(*sun).clamp(-1.0, 1.0).acos();
                 let zs = sun.dot(self.frame.zenith).clamp(-1.0, 1.0).acos();
                 cie_relative(p, cz, chi, zs)
+            }
+            Radiance::Perez { p, sun, zenith } => {
+                let cz = d.dot(self.frame.zenith);
+                if cz <= 0.0 {
+                    return 0.0;
+                }
+                let gamma = d.dot(*sun).clamp(-1.0, 1.0).acos();
+                super::perez::perez_relative(p, cz, gamma) / zenith
             }
             Radiance::Image { width, values, .. } => {
                 let t = self.table.as_ref().expect("an image has a table");
@@ -250,7 +266,7 @@ impl DistantPart {
                     0.0
                 }
             }
-            Radiance::Cie { .. } | Radiance::Image { .. } => {
+            Radiance::Cie { .. } | Radiance::Perez { .. } | Radiance::Image { .. } => {
                 let t = self.table.as_ref().expect("a tabulated sky");
                 let sub = match &self.radiance {
                     Radiance::Image { .. } => 2,

@@ -10,12 +10,14 @@
 //! Each kind of light has its file: `shape` (point, spot, cosine, beam and how a shape
 //! spreads its flux), `luminaire` (goniometric distributions placed in the world),
 //! `distant` (what every distant source shares), `sky` (uniform, CIE and image skies and
-//! the ground's glow), `sun` and `cie` (the CIE standard general skies' formula).
+//! the ground's glow), `sun`, `cie` (the CIE standard general skies' formula) and `perez` (the Perez
+//! all-weather sky and the Perez sky conditions of a weather file's hour).
 
 mod cie;
 mod direction;
 mod distant;
 mod luminaire;
+mod perez;
 mod shape;
 mod sky;
 mod sun;
@@ -25,6 +27,11 @@ pub use direction::unit_vector;
 use direction::{direction, perpendicular};
 pub use distant::{Distant, DistantPart, Radiance, SkyAmount};
 pub use luminaire::Luminaire;
+pub use perez::{
+    air_mass, eccentricity, perez_bin, perez_parameters, perez_relative, perez_sky,
+    precipitable_water, PerezSky, PEREZ_CLEARNESS_BINS, PEREZ_DIFFUSE_EFFICACY,
+    PEREZ_DIRECT_EFFICACY, PEREZ_SKY_COEFFICIENTS, SOLAR_CONSTANT_W_PER_M2,
+};
 pub use shape::{Aperture, LightShape};
 pub use sky::{SkyDesc, SkyKind};
 pub use sun::{SunDesc, SUN_DIAMETER_DEG};
