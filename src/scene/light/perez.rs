@@ -262,8 +262,8 @@ mod tests {
 
     #[test]
     fn b_never_lets_the_gradation_grow_toward_the_horizon() {
-        for bin in 0..8 {
-            let eps = PEREZ_CLEARNESS_BINS[bin] + 0.01;
+        for (bin, lo) in PEREZ_CLEARNESS_BINS.iter().enumerate() {
+            let eps = lo + 0.01;
             for delta in [0.01, 0.05, 0.3, 0.6, 1.0] {
                 for zd in [0.0, 30.0, 60.0, 89.0] {
                     let p = perez_parameters(eps, delta, f64::to_radians(zd));

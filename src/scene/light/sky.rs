@@ -148,7 +148,7 @@ impl Distant {
                 let sun = frame.direction(sun_azimuth_deg.to_radians() + rotation, zs);
                 let p = perez_parameters(*clearness, *brightness, zs);
                 let zenith = perez_relative(&p, 1.0, zs);
-                if !(zenith > 1e-9) {
+                if zenith.is_nan() || zenith <= 1e-9 {
                     bail!(
                         ImapErrInvalidArgument,
                         "clearness = {clearness}, brightness = {brightness}: this Perez sky is dark at its zenith"
