@@ -8,6 +8,7 @@ use crate::lights::PlacedLight;
 use crate::settings::{EnvironmentSettings, SkySettings, SpectrumSettings, SunSettings};
 use imap::photometry::Spectrum;
 use imap::Context;
+use imap::{perez_sky, precipitable_water, PerezSky};
 use imap::{sun_position_with, SunTime, STANDARD_ATMOSPHERE};
 use imap::{SkyAmount, SkyDesc, SkyKind, SunDesc};
 use std::path::Path;
@@ -65,6 +66,13 @@ fn parse_date(s: &str, what: &str) -> Result<(i32, u32, u32, u32, u32, f64)> {
     Ok((year, month, day, hour, minute, second))
 }
 
+/// The day of the year of a date of the Gregorian calendar.
+fn day_of_year(year: i32, month: u32, day: u32) -> u32 {
+    const START: [u32; 12] = [0, 31, 59, 90, 120, 151, 181, 212, 243, 273, 304, 334];
+    let leap = (year % 4 == 0 && year % 100 != 0) || year % 400 == 0;
+    START[(month.clamp(1, 12) - 1) as usize] + day + u32::from(leap && month > 2)
+}
+
 /// The `[sun]`'s (azimuth, zenith angle), degrees.
 fn sun_angles(s: &SunSettings) -> Result<(f64, f64)> {
     let what = "settings: sun";
@@ -116,6 +124,8 @@ pub fn add_daylight(
     out: &mut Vec<PlacedLight>,
 ) -> Result<()> {
     let sun_at = sun.map(sun_angles).transpose()?;
+    // A Perez sky of an hour's irradiances: its conditions and illuminances.
+    let mut hour: Option<PerezSky> = None;
     let mut push = |ctx: &Context, id: u32, name: String| -> Result<()> {
         let (w, lm) = ctx.light_flux(id)?;
         out.push(PlacedLight {
@@ -148,28 +158,80 @@ pub fn add_daylight(
                     sun_zenith_deg: z,
                 }
             }
+            "perez" => {
+                let (a, z) = match (s.sun_azimuth_deg, s.sun_zenith_deg, sun_at) {
+                    (Some(a), Some(z), _) => (a, z),
+                    (None, None, Some((a, z))) => (a, z),
+                    _ => fail!("{what}: a perez sky needs its sun: sun_azimuth_deg and sun_zenith_deg, or a [sun]"),
+                };
+                let (clearness, brightness) = match (
+                    s.clearness,
+                    s.brightness,
+                    s.direct_normal_irradiance,
+                    s.diffuse_horizontal_irradiance,
+                ) {
+                    (Some(c), Some(b), None, None) => (c, b),
+                    (None, None, Some(dni), Some(dhi)) => {
+                        let from_sun = sun
+                            .and_then(|s| s.date.as_deref())
+                            .map(|d| parse_date(d, "settings: sun"))
+                            .transpose()?
+                            .map(|(y, m, d, ..)| day_of_year(y, m, d));
+                        let Some(day) = s.day_of_year.or(from_sun) else {
+                            fail!("{what}: a perez sky of irradiances needs day_of_year (or a [sun] with a date)");
+                        };
+                        let water = s.dew_point_c.map(precipitable_water).unwrap_or(2.0);
+                        let p = perez_sky(dni, dhi, z, day, water)
+                            .map_err(|e| CliError(format!("{what}: {}", printable(&e.message))))?;
+                        let Some(p) = p else {
+                            fail!("{what}: diffuse_horizontal_irradiance = 0: an hour without diffuse light has no sky (leave [sky] out)");
+                        };
+                        hour = Some(p);
+                        (p.clearness, p.brightness)
+                    }
+                    _ => fail!("{what}: a perez sky needs clearness and brightness, or direct_normal_irradiance and diffuse_horizontal_irradiance (W/m², as a weather file gives them)"),
+                };
+                SkyKind::Perez {
+                    sun_azimuth_deg: a,
+                    sun_zenith_deg: z,
+                    clearness,
+                    brightness,
+                }
+            }
             k => fail!(
-                "{what}: kind = \"{}\": use \"uniform\", \"uniform_sphere\" or \"cie\" (an image goes in [environment])",
+                "{what}: kind = \"{}\": use \"uniform\", \"uniform_sphere\", \"cie\" or \"perez\" (an image goes in [environment])",
                 printable(k)
             ),
         };
-        let amount = one_amount(
-            what,
-            &[
-                ("luminance", s.luminance, SkyAmount::Luminance),
-                ("radiance", s.radiance, SkyAmount::Radiance),
-                (
-                    "horizontal_illuminance",
-                    s.horizontal_illuminance,
-                    SkyAmount::HorizontalIlluminance,
-                ),
-                (
-                    "horizontal_irradiance",
-                    s.horizontal_irradiance,
-                    SkyAmount::HorizontalIrradiance,
-                ),
-            ],
-        )?;
+        let given = [
+            s.luminance,
+            s.radiance,
+            s.horizontal_illuminance,
+            s.horizontal_irradiance,
+        ];
+        let amount = match hour {
+            // An hour's Perez sky: its diffuse horizontal illuminance by the efficacy model.
+            Some(p) if given.iter().all(Option::is_none) => {
+                SkyAmount::HorizontalIlluminance(p.diffuse_horizontal_lx)
+            }
+            _ => one_amount(
+                what,
+                &[
+                    ("luminance", s.luminance, SkyAmount::Luminance),
+                    ("radiance", s.radiance, SkyAmount::Radiance),
+                    (
+                        "horizontal_illuminance",
+                        s.horizontal_illuminance,
+                        SkyAmount::HorizontalIlluminance,
+                    ),
+                    (
+                        "horizontal_irradiance",
+                        s.horizontal_irradiance,
+                        SkyAmount::HorizontalIrradiance,
+                    ),
+                ],
+            )?,
+        };
         let (zenith, north) = frame(s.zenith, s.north, up);
         let id = ctx
             .add_sky(&SkyDesc {
@@ -222,21 +284,31 @@ pub fn add_daylight(
         if z > 90.0 {
             fail!("{what}: the sun is {:.2}° below the horizon then: it lights nothing (leave [sun] out)", z - 90.0);
         }
-        let amount = one_amount(
-            what,
-            &[
-                (
-                    "normal_illuminance",
-                    s.normal_illuminance,
-                    SkyAmount::NormalIlluminance,
-                ),
-                (
-                    "normal_irradiance",
-                    s.normal_irradiance,
-                    SkyAmount::NormalIrradiance,
-                ),
-            ],
-        )?;
+        let amount = match hour {
+            // The hour's sun: its direct normal illuminance by the efficacy model; an
+            // hour without direct light has none.
+            Some(p) if s.normal_illuminance.is_none() && s.normal_irradiance.is_none() => {
+                if p.direct_normal_lx <= 0.0 {
+                    return add_ground(ctx, sky, up, &mut push);
+                }
+                SkyAmount::NormalIlluminance(p.direct_normal_lx)
+            }
+            _ => one_amount(
+                what,
+                &[
+                    (
+                        "normal_illuminance",
+                        s.normal_illuminance,
+                        SkyAmount::NormalIlluminance,
+                    ),
+                    (
+                        "normal_irradiance",
+                        s.normal_irradiance,
+                        SkyAmount::NormalIrradiance,
+                    ),
+                ],
+            )?,
+        };
         let (zenith, north) = frame(s.zenith, s.north, up);
         let id = ctx
             .add_sun(&SunDesc {
@@ -250,6 +322,16 @@ pub fn add_daylight(
             .map_err(|e| CliError(format!("{what}: {}", printable(&e.message))))?;
         push(ctx, id, format!("sun (azimuth {a:.2}°, zenith {z:.2}°)"))?;
     }
+    add_ground(ctx, sky, up, &mut push)
+}
+
+/// The `[sky]`'s ground glow, after the sky and the sun.
+fn add_ground(
+    ctx: &mut Context,
+    sky: Option<&SkySettings>,
+    up: [f64; 3],
+    push: &mut impl FnMut(&Context, u32, String) -> Result<()>,
+) -> Result<()> {
     if let Some((s, rho)) = sky.and_then(|s| s.ground_reflectance.map(|r| (s, r))) {
         let what = "settings: sky";
         if !(0.0..=1.0).contains(&rho) {

@@ -824,6 +824,59 @@ fn a_sky_and_the_sun_light_an_open_plane_by_their_horizontal_amounts() {
     assert!((lights[1]["lumens"].as_f64().unwrap() - 40_000.0).abs() < 1e-6);
     assert_eq!(lights[1]["distant"], true);
 
+    // An hour of weather: a Perez sky of its irradiances and the sun at its date take the
+    // Perez efficacies' illuminances; the open plane reads E_dh + E_dn cos Z.
+    let toml = write(
+        d,
+        "perez.toml",
+        "up_axis = \"z\"\n[sky]\nkind = \"perez\"\ndirect_normal_irradiance = 600\n\
+         diffuse_horizontal_irradiance = 150\ndew_point_c = 14\n\
+         [sun]\ndate = \"2026-06-21 13:00\"\nutc_offset_hours = 2\nlatitude_deg = 52.52\n\
+         longitude_deg = 13.40\n",
+    );
+    let o = common::run_photons(&obj, &toml, &d.join("perez"), 40_000);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let report = read_report(&d.join("perez"));
+    let z = imap::sun_position(&imap::SunTime {
+        year: 2026,
+        month: 6,
+        day: 21,
+        hour: 13,
+        minute: 0,
+        second: 0.0,
+        utc_offset_hours: 2.0,
+        latitude_deg: 52.52,
+        longitude_deg: 13.40,
+        elevation_m: 0.0,
+    })
+    .unwrap()
+    .1;
+    let p = imap::perez_sky(600.0, 150.0, z, 172, imap::precipitable_water(14.0))
+        .unwrap()
+        .unwrap();
+    let want = p.diffuse_horizontal_lx + p.direct_normal_lx * z.to_radians().cos();
+    let mean = report["meshes"][0]["illuminance_lx"]["mean"]
+        .as_f64()
+        .unwrap();
+    assert!((mean / want - 1.0).abs() < 0.01, "{mean} vs {want}");
+    let lights = report["lights"].as_array().unwrap();
+    // A distant light's lumens are its horizontal illuminance.
+    let sun_lx = p.direct_normal_lx * z.to_radians().cos();
+    assert!((lights[1]["lumens"].as_f64().unwrap() / sun_lx - 1.0).abs() < 1e-9);
+    assert!((lights[0]["lumens"].as_f64().unwrap() / p.diffuse_horizontal_lx - 1.0).abs() < 1e-9);
+    // An overcast hour (no direct light) adds no sun.
+    let toml = write(
+        d,
+        "overcast.toml",
+        "up_axis = \"z\"\n[sky]\nkind = \"perez\"\ndirect_normal_irradiance = 0\n\
+         diffuse_horizontal_irradiance = 90\n[sun]\ndate = \"2026-12-21 12:00\"\n\
+         latitude_deg = 52.52\nlongitude_deg = 13.40\nutc_offset_hours = 1\n",
+    );
+    let o = common::run_photons(&obj, &toml, &d.join("overcast"), 10_000);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let report = read_report(&d.join("overcast"));
+    assert_eq!(report["lights"].as_array().unwrap().len(), 1);
+
     let toml = write(
         d,
         "date.toml",
@@ -861,6 +914,11 @@ fn a_sky_and_the_sun_light_an_open_plane_by_their_horizontal_amounts() {
         ("[sun]\nazimuth_deg = 1\nzenith_deg = 1\n", "normal_illuminance"),
         ("[sky]\nkind = \"cie\"\ncie_type = 12\nluminance = 1000\n", "needs its sun"),
         ("[sky]\nkind = \"perez\"\nluminance = 1000\n", "perez"),
+        ("[sky]\nkind = \"perez\"\nsun_azimuth_deg = 1\nsun_zenith_deg = 30\nluminance = 1000\n", "clearness and brightness"),
+        ("[sky]\nkind = \"perez\"\nsun_azimuth_deg = 1\nsun_zenith_deg = 30\ndirect_normal_irradiance = 1\ndiffuse_horizontal_irradiance = 100\n", "day_of_year"),
+        ("[sky]\nkind = \"perez\"\nsun_azimuth_deg = 1\nsun_zenith_deg = 30\nday_of_year = 5\ndirect_normal_irradiance = 1\ndiffuse_horizontal_irradiance = 0\n", "no sky"),
+        ("[sky]\nkind = \"perez\"\nsun_azimuth_deg = 1\nsun_zenith_deg = 30\nday_of_year = 5\ndirect_normal_irradiance = -1\ndiffuse_horizontal_irradiance = 10\n", "direct_normal_irradiance"),
+        ("[sky]\nkind = \"perez\"\nsun_azimuth_deg = 1\nsun_zenith_deg = 30\nclearness = 0.5\nbrightness = 0.1\nluminance = 1\n", "clearness"),
         ("[environment]\nfile = \"nowhere.hdr\"\nscale = 1\n", "nowhere.hdr"),
     ] {
         let toml = write(d, "bad.toml", bad);

@@ -4,8 +4,9 @@ use super::lights::SpectrumSettings;
 use serde::{Deserialize, Serialize};
 use std::path::PathBuf;
 
-/// `[sky]`: `kind = "uniform" | "uniform_sphere" | "cie"` (with `cie_type` 1–15), one
-/// amount, the sky's orientation and colour (default D65).
+/// `[sky]`: `kind = "uniform" | "uniform_sphere" | "cie"` (with `cie_type` 1–15) `|
+/// "perez"` (with `clearness` and `brightness`, or an hour's irradiances), one amount (a
+/// Perez sky of irradiances has its own), the sky's orientation and colour (default D65).
 #[derive(Clone, Debug, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct SkySettings {
@@ -17,6 +18,23 @@ pub struct SkySettings {
     pub sun_azimuth_deg: Option<f64>,
     #[serde(default)]
     pub sun_zenith_deg: Option<f64>,
+    /// A Perez sky's clearness ε and brightness Δ.
+    #[serde(default)]
+    pub clearness: Option<f64>,
+    #[serde(default)]
+    pub brightness: Option<f64>,
+    /// A Perez sky of an hour's weather: its direct normal and diffuse horizontal
+    /// irradiance, W/m² (the whole solar spectrum, as weather files give them).
+    #[serde(default)]
+    pub direct_normal_irradiance: Option<f64>,
+    #[serde(default)]
+    pub diffuse_horizontal_irradiance: Option<f64>,
+    /// The hour's dew point, °C (default: 2 cm of precipitable water, as gendaylit).
+    #[serde(default)]
+    pub dew_point_c: Option<f64>,
+    /// The hour's day of the year, 1–366 (default: the `[sun]`'s date).
+    #[serde(default)]
+    pub day_of_year: Option<u32>,
     /// cd/m² (a CIE sky's at the zenith).
     #[serde(default)]
     pub luminance: Option<f64>,
