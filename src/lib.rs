@@ -10,7 +10,8 @@
 //! `ffi` (the C ABI only) → `context` (the safe API) → `render` (the camera renderers) →
 //! `sched` (the schedulers) → `imap` (the map, its layout and readout) → `transport` (the
 //! photon path and light sampling) → `accel` (every Embree call) → `scene` (plain data: the
-//! scene, its lights, emitters and BSDFs, and its prepared form) → `photometry`, `images`
+//! scene, its lights, emitters and BSDFs, and its prepared form) → `weather`, `photometry`,
+//! `images`
 //! → `spectral`, `sampling`, `solar`, `progress` → `error`, `files`, `fault`.
 
 #![warn(clippy::undocumented_unsafe_blocks)]
@@ -50,6 +51,7 @@ mod solar;
 mod spectral;
 /// cbindgen:ignore
 mod transport;
+pub mod weather;
 
 // The context and its settings and reports.
 pub use context::state::{read_state_file, state_info, Fingerprint, StateInfo, FLAG_NO_MAP};

@@ -73,6 +73,58 @@ fn day_of_year(year: i32, month: u32, day: u32) -> u32 {
     START[(month.clamp(1, 12) - 1) as usize] + day + u32::from(leap && month > 2)
 }
 
+/// The `[sky]`'s hour of its weather file, and the sun's (azimuth, zenith angle) then.
+fn weather_hour(
+    s: &SkySettings,
+    base_dir: &Path,
+) -> Result<(imap::weather::WeatherHour, (f64, f64))> {
+    let what = "settings: sky";
+    let file = s.weather.as_ref().expect("a weather file");
+    let Some(when) = s.weather_hour.as_deref() else {
+        fail!("{what}: weather needs weather_hour = \"MM-DD HH\" (the file's hour)");
+    };
+    let bad = || {
+        CliError(format!(
+            "{what}: weather_hour = \"{}\": write it as \"MM-DD HH\" (EPW hours 1–24 end then)",
+            printable(when)
+        ))
+    };
+    let (d, h) = when.trim().split_once(' ').ok_or_else(bad)?;
+    let (m, d) = d.split_once('-').ok_or_else(bad)?;
+    let (m, d, h): (u32, u32, f64) = (
+        m.parse().map_err(|_| bad())?,
+        d.parse().map_err(|_| bad())?,
+        h.trim().parse().map_err(|_| bad())?,
+    );
+    let path = base_dir.join(file);
+    let wea = path
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("wea"));
+    let w = if wea {
+        imap::weather::read_wea(&path)
+    } else {
+        imap::weather::read_epw(&path)
+    }
+    .map_err(|e| CliError(format!("{what}: weather: {}", printable(&e.message))))?;
+    // An EPW hour h is stored at h − 0.5; a .wea row at its own decimal hour.
+    let at = if wea { h } else { h - 0.5 };
+    let Some(hour) = w
+        .hours
+        .iter()
+        .find(|x| x.month == m && x.day == d && (x.hour - at).abs() < 0.26)
+    else {
+        fail!(
+            "{what}: weather_hour = \"{}\": {} has no such hour",
+            printable(when),
+            path.display()
+        );
+    };
+    let sun = hour
+        .sun_position(&w.site)
+        .map_err(|e| CliError(format!("{what}: weather: {}", printable(&e.message))))?;
+    Ok((*hour, sun))
+}
+
 /// The `[sun]`'s (azimuth, zenith angle), degrees.
 fn sun_angles(s: &SunSettings) -> Result<(f64, f64)> {
     let what = "settings: sun";
@@ -123,7 +175,27 @@ pub fn add_daylight(
     up: [f64; 3],
     out: &mut Vec<PlacedLight>,
 ) -> Result<()> {
-    let sun_at = sun.map(sun_angles).transpose()?;
+    if let Some(s) = sky.filter(|s| s.weather_hour.is_some() || s.weather.is_some()) {
+        if s.kind.trim() != "perez" {
+            fail!("settings: sky: weather and weather_hour make a perez sky: set kind = \"perez\"");
+        }
+        if s.weather.is_none() {
+            fail!("settings: sky: weather_hour needs weather = \"FILE.epw\"");
+        }
+    }
+    let weather = sky
+        .filter(|s| s.weather.is_some())
+        .map(|s| weather_hour(s, base_dir))
+        .transpose()?;
+    // A [sun] without a position under a weather file's sky is that hour's sun.
+    let sun_at = match (sun, weather) {
+        (Some(s), Some((_, at)))
+            if s.azimuth_deg.is_none() && s.zenith_deg.is_none() && s.date.is_none() =>
+        {
+            Some(at)
+        }
+        _ => sun.map(sun_angles).transpose()?,
+    };
     // A Perez sky of an hour's irradiances: its conditions and illuminances.
     let mut hour: Option<PerezSky> = None;
     let mut push = |ctx: &Context, id: u32, name: String| -> Result<()> {
@@ -159,9 +231,11 @@ pub fn add_daylight(
                 }
             }
             "perez" => {
-                let (a, z) = match (s.sun_azimuth_deg, s.sun_zenith_deg, sun_at) {
-                    (Some(a), Some(z), _) => (a, z),
-                    (None, None, Some((a, z))) => (a, z),
+                let (a, z) = match (s.sun_azimuth_deg, s.sun_zenith_deg, weather, sun_at) {
+                    (Some(a), Some(z), None, _) => (a, z),
+                    (None, None, Some((_, at)), _) => at,
+                    (None, None, None, Some((a, z))) => (a, z),
+                    (_, _, Some(_), _) => fail!("{what}: a weather file's sky has its own sun: leave sun_azimuth_deg and sun_zenith_deg out"),
                     _ => fail!("{what}: a perez sky needs its sun: sun_azimuth_deg and sun_zenith_deg, or a [sun]"),
                 };
                 let (clearness, brightness) = match (
@@ -170,8 +244,27 @@ pub fn add_daylight(
                     s.direct_normal_irradiance,
                     s.diffuse_horizontal_irradiance,
                 ) {
-                    (Some(c), Some(b), None, None) => (c, b),
-                    (None, None, Some(dni), Some(dhi)) => {
+                    (None, None, None, None) if weather.is_some() => {
+                        let (h, _) = weather.expect("a weather hour");
+                        let p = h
+                            .perez_sky(z)
+                            .map_err(|e| CliError(format!("{what}: weather: {}", printable(&e.message))))?;
+                        let Some(p) = p else {
+                            fail!(
+                                "{what}: weather_hour: line {} of the weather file has {}: no sky then",
+                                h.line,
+                                if h.direct_normal_w.is_none() || h.diffuse_horizontal_w.is_none() {
+                                    "its irradiance missing (9999)"
+                                } else {
+                                    "no diffuse light"
+                                }
+                            );
+                        };
+                        hour = Some(p);
+                        (p.clearness, p.brightness)
+                    }
+                    (Some(c), Some(b), None, None) if weather.is_none() => (c, b),
+                    (None, None, Some(dni), Some(dhi)) if weather.is_none() => {
                         let from_sun = sun
                             .and_then(|s| s.date.as_deref())
                             .map(|d| parse_date(d, "settings: sun"))
@@ -189,7 +282,7 @@ pub fn add_daylight(
                         hour = Some(p);
                         (p.clearness, p.brightness)
                     }
-                    _ => fail!("{what}: a perez sky needs clearness and brightness, or direct_normal_irradiance and diffuse_horizontal_irradiance (W/m², as a weather file gives them)"),
+                    _ => fail!("{what}: a perez sky needs clearness and brightness, or direct_normal_irradiance and diffuse_horizontal_irradiance (W/m², as a weather file gives them), or a weather file and weather_hour (alone)"),
                 };
                 SkyKind::Perez {
                     sun_azimuth_deg: a,
@@ -281,6 +374,10 @@ pub fn add_daylight(
     }
     if let (Some(s), Some((a, z))) = (sun, sun_at) {
         let what = "settings: sun";
+        if z > 90.0 && weather.is_some() {
+            // A weather file's night or twilight hour: no sun.
+            return add_ground(ctx, sky, up, &mut push);
+        }
         if z > 90.0 {
             fail!("{what}: the sun is {:.2}° below the horizon then: it lights nothing (leave [sun] out)", z - 90.0);
         }

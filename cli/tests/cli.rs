@@ -877,6 +877,44 @@ fn a_sky_and_the_sun_light_an_open_plane_by_their_horizontal_amounts() {
     let report = read_report(&d.join("overcast"));
     assert_eq!(report["lights"].as_array().unwrap().len(), 1);
 
+    // An hour of an EPW file: the same sky and sun, placed by the file's site.
+    let epw = "LOCATION,Berlin,BE,DEU,TMY,103840,52.52,13.40,1.0,34.0\n\
+        DESIGN CONDITIONS,0\nTYPICAL/EXTREME PERIODS,0\nGROUND TEMPERATURES,0\n\
+        HOLIDAYS/DAYLIGHT SAVINGS,No,0,0,0\nCOMMENTS 1,x\nCOMMENTS 2,y\n\
+        DATA PERIODS,1,1,Data,Sunday, 1/ 1,12/31\n\
+        2005,6,21,12,60,x,20,14.0,60,100000,0,0,300,700,600,150,0,0,0,0,180,3\n\
+        2005,6,21,13,60,x,20,14.0,60,100000,0,0,300,700,9999,150,0,0,0,0,180,3\n";
+    write(d, "w.epw", epw);
+    let toml = write(
+        d,
+        "epw.toml",
+        "up_axis = \"z\"\n[sky]\nkind = \"perez\"\nweather = \"w.epw\"\nweather_hour = \"06-21 12\"\n[sun]\n",
+    );
+    let o = common::run_photons(&obj, &toml, &d.join("epw"), 40_000);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let w = imap::weather::read_epw(&d.join("w.epw")).unwrap();
+    let (_, z) = w.hours[0].sun_position(&w.site).unwrap();
+    let p = w.hours[0].perez_sky(z).unwrap().unwrap();
+    let want = p.diffuse_horizontal_lx + p.direct_normal_lx * z.to_radians().cos();
+    let report = read_report(&d.join("epw"));
+    let mean = report["meshes"][0]["illuminance_lx"]["mean"]
+        .as_f64()
+        .unwrap();
+    assert!((mean / want - 1.0).abs() < 0.01, "{mean} vs {want}");
+    assert_eq!(report["lights"].as_array().unwrap().len(), 2);
+    for (bad, says) in [
+        ("[sky]\nkind = \"perez\"\nweather = \"w.epw\"\nweather_hour = \"06-21 13\"\n", "missing"),
+        ("[sky]\nkind = \"perez\"\nweather = \"w.epw\"\nweather_hour = \"06-22 12\"\n", "no such hour"),
+        ("[sky]\nkind = \"perez\"\nweather = \"w.epw\"\nweather_hour = \"21.6. 12\"\n", "MM-DD HH"),
+        ("[sky]\nkind = \"perez\"\nweather = \"w.epw\"\n", "weather_hour"),
+        ("[sky]\nkind = \"cie\"\ncie_type = 1\nluminance = 1\nweather = \"w.epw\"\nweather_hour = \"06-21 12\"\n", "kind = \"perez\""),
+        ("[sky]\nkind = \"perez\"\nweather = \"nowhere.epw\"\nweather_hour = \"06-21 12\"\n", "nowhere.epw"),
+    ] {
+        let toml = write(d, "badw.toml", bad);
+        let e = fails(&["run", &obj, "--config", &toml, "--photons", "100"]);
+        assert!(e.contains(says), "{bad}: {e}");
+    }
+
     let toml = write(
         d,
         "date.toml",

@@ -35,6 +35,13 @@ pub struct SkySettings {
     /// The hour's day of the year, 1–366 (default: the `[sun]`'s date).
     #[serde(default)]
     pub day_of_year: Option<u32>,
+    /// A Perez sky of an hour of a weather file (EPW, or Radiance .wea by its extension;
+    /// relative to the settings file): `weather_hour = "MM-DD HH"`, HH the hour as the
+    /// file counts it (EPW: 1–24, the hour that ends then). Its site places the sun.
+    #[serde(default)]
+    pub weather: Option<PathBuf>,
+    #[serde(default)]
+    pub weather_hour: Option<String>,
     /// cd/m² (a CIE sky's at the zenith).
     #[serde(default)]
     pub luminance: Option<f64>,
