@@ -72,9 +72,10 @@ pub use transport::SCENE_MEDIUM;
 pub use scene::host::{HostBsdf, HostBsdfRef};
 pub use scene::light::{
     air_mass, cie_luminance, eccentricity, perez_bin, perez_parameters, perez_relative, perez_sky,
-    precipitable_water, Amount, Distribution, LightDesc, LightKind, PerezSky, Placement, SkyAmount,
-    SkyDesc, SkyKind, SunDesc, CIE_SKY_PARAMETERS, PEREZ_CLEARNESS_BINS, PEREZ_DIFFUSE_EFFICACY,
-    PEREZ_DIRECT_EFFICACY, PEREZ_SKY_COEFFICIENTS, SOLAR_CONSTANT_W_PER_M2, SUN_DIAMETER_DEG,
+    precipitable_water, sky_patch_radiance, Amount, Distribution, LightDesc, LightKind, PerezSky,
+    Placement, SkyAmount, SkyDesc, SkyKind, SkyPatches, SunDesc, CIE_SKY_PARAMETERS,
+    MAX_REINHART_MF, PEREZ_CLEARNESS_BINS, PEREZ_DIFFUSE_EFFICACY, PEREZ_DIRECT_EFFICACY,
+    PEREZ_SKY_COEFFICIENTS, SOLAR_CONSTANT_W_PER_M2, SUN_DIAMETER_DEG,
 };
 pub use scene::texture::TextureDesc;
 pub use scene::{

@@ -17,6 +17,7 @@ mod cie;
 mod direction;
 mod distant;
 mod luminaire;
+mod patches;
 mod perez;
 mod shape;
 mod sky;
@@ -27,13 +28,14 @@ pub use direction::unit_vector;
 use direction::{direction, perpendicular};
 pub use distant::{Distant, DistantPart, Radiance, SkyAmount};
 pub use luminaire::Luminaire;
+pub use patches::{SkyPatches, MAX_REINHART_MF};
 pub use perez::{
     air_mass, eccentricity, perez_bin, perez_parameters, perez_relative, perez_sky,
     precipitable_water, PerezSky, PEREZ_CLEARNESS_BINS, PEREZ_DIFFUSE_EFFICACY,
     PEREZ_DIRECT_EFFICACY, PEREZ_SKY_COEFFICIENTS, SOLAR_CONSTANT_W_PER_M2,
 };
 pub use shape::{Aperture, LightShape};
-pub use sky::{SkyDesc, SkyKind};
+pub use sky::{sky_patch_radiance, SkyDesc, SkyKind};
 pub use sun::{SunDesc, SUN_DIAMETER_DEG};
 
 use crate::error::{bail, check_coordinates, check_finite, check_finite_scalar, Result};
