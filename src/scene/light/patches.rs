@@ -185,7 +185,7 @@ mod tests {
             // Every patch's centre lies in it; its corners' neighbours in others.
             for p in 0..s.count() {
                 let (alt, az) = s.centre(p);
-                let alt = alt.clamp(-1.4, 1.5707);
+                let alt = alt.clamp(-1.4, FRAC_PI_2 - 1e-4);
                 assert_eq!(s.patch(alt, az), p, "MF:{mf} patch {p}");
                 let (lo, hi, a0, w) = s.bounds(p);
                 if p > 0 && p < s.cap() {
