@@ -374,6 +374,76 @@ fn perez_skies_through_a_roof_opening_give_the_sky_integral() {
     }
 }
 
+#[test]
+fn a_sky_of_patches_lights_as_its_patches_and_approaches_its_sky() {
+    // CIE sky 12 (clear), the sun at 225°/35°, as a Tregenza and Reinhart MF:2 and MF:4
+    // sky vector: each run reads its patches' light through the roof opening; the patch
+    // sky's difference from the CIE sky's (its discretisation) shrinks with MF.
+    let (az, zen) = (225.0, 35.0);
+    let cie = SkyDesc {
+        kind: SkyKind::Cie {
+            kind: 12,
+            sun_azimuth_deg: az,
+            sun_zenith_deg: zen,
+        },
+        amount: SkyAmount::Luminance(5000.0),
+        spectrum: Spectrum::Equal,
+        ..SkyDesc::default()
+    };
+    let (a, z) = (f64::to_radians(az), f64::to_radians(zen));
+    let sun = [z.sin() * a.sin(), z.sin() * a.cos(), z.cos()];
+    let abcde = imap::CIE_SKY_PARAMETERS[11];
+    let mut worst_before = f64::INFINITY;
+    for (k, mf) in [1u32, 2, 4].into_iter().enumerate() {
+        let (mut ctx, id, floor) = roof_room(60 + k as u64);
+        let bands = imap::Bands::rgb();
+        let vector = imap::sky_patch_radiance(&cie, &bands, mf).unwrap();
+        let eff: f64 = ctx.photometry().luminous(&[1.0, 1.0, 1.0]);
+        // Equal-energy bands: every band holds the same radiance; as luminance, cd/m².
+        let lum: Vec<f64> = vector.iter().map(|v| v[0] * eff).collect();
+        ctx.add_sky(&SkyDesc {
+            kind: SkyKind::Patches {
+                mf,
+                values: std::sync::Arc::new(lum.clone()),
+            },
+            amount: SkyAmount::Luminance(1.0),
+            spectrum: Spectrum::Equal,
+            ..SkyDesc::default()
+        })
+        .unwrap();
+        run_with(&mut ctx, photons(300_000), Estimator::DEFAULT);
+        let patches = imap::SkyPatches::reinhart(mf).unwrap();
+        let patch_l = |d: [f64; 3]| {
+            let alt = d[2].clamp(-1.0, 1.0).asin();
+            lum[patches.patch(alt, d[0].atan2(d[1]))] / 5000.0
+        };
+        let band = 5000.0 / eff;
+        let want: Vec<Option<f64>> = (0..floor.vertex_count())
+            .map(|v| {
+                Some(hat_average_with(&floor, v, 4, |x, _| through_opening(x, 24, &patch_l)) * band)
+            })
+            .collect();
+        assert_z(
+            &values(&ctx, id, 0),
+            &want,
+            &format!("CIE 12 as MF:{mf} patches"),
+        );
+        // The discretisation: the patch sky against the CIE sky at every floor vertex.
+        let mut worst: f64 = 0.0;
+        for (v, w) in want.iter().enumerate() {
+            let exact = hat_average_with(&floor, v, 4, |x, _| {
+                through_opening(x, 24, &|d| cie_luminance(abcde, d, sun))
+            }) * band;
+            if exact > 0.05 * band {
+                worst = worst.max((w.unwrap() / exact - 1.0).abs());
+            }
+        }
+        eprintln!("MF:{mf}: worst lit vertex {:.2} %", 100.0 * worst);
+        assert!(worst < worst_before, "MF:{mf}: {worst}");
+        worst_before = worst;
+    }
+}
+
 /// What each floor vertex of the roof room reads under the sun's patch (the opening moved
 /// by `shift`): `e_band` where its support (0.125 m) lies wholly inside, nothing where
 /// wholly outside; the penumbra's vertices are not compared (None).

@@ -96,6 +96,13 @@ pub enum Radiance {
         sun: DVec3,
         zenith: f64,
     },
+    /// A sky of one value per patch of `patches` (its sky patches; the ground's is a
+    /// `Ground` part), turned by `rotation` (radians toward east); 0 below the horizon.
+    Patches {
+        patches: Arc<super::SkyPatches>,
+        values: Arc<Vec<f64>>,
+        rotation: f64,
+    },
     /// One channel of an equirectangular image, rows from the zenith down, its centre
     /// column toward north (before `rotation`, radians toward east); the pixel's value
     /// over the pixel's solid angle.
@@ -157,6 +164,11 @@ impl fmt::Debug for DistantPart {
             Radiance::Uniform { sphere } => d.field("uniform_sphere", sphere),
             Radiance::Cie { kind, sun, .. } => d.field("cie", &(kind, sun)),
             Radiance::Perez { p, sun, .. } => d.field("perez", &(p, sun)),
+            Radiance::Patches {
+                patches,
+                values,
+                rotation,
+            } => d.field("patches", &(patches.mf(), values, rotation)),
             Radiance::Image {
                 width,
                 height,
@@ -205,6 +217,17 @@ impl DistantPart {
                 let chi = d.dot(*sun).clamp(-1.0, 1.0).acos();
                 let zs = sun.dot(self.frame.zenith).clamp(-1.0, 1.0).acos();
                 cie_relative(p, cz, chi, zs)
+            }
+            Radiance::Patches {
+                patches,
+                values,
+                rotation,
+            } => {
+                let (a, cz) = self.frame.angles(d);
+                if cz <= 0.0 {
+                    return 0.0;
+                }
+                values[patches.patch(cz.asin(), a - rotation)]
             }
             Radiance::Perez { p, sun, zenith } => {
                 let cz = d.dot(self.frame.zenith);
@@ -266,7 +289,10 @@ impl DistantPart {
                     0.0
                 }
             }
-            Radiance::Cie { .. } | Radiance::Perez { .. } | Radiance::Image { .. } => {
+            Radiance::Cie { .. }
+            | Radiance::Perez { .. }
+            | Radiance::Patches { .. }
+            | Radiance::Image { .. } => {
                 let t = self.table.as_ref().expect("a tabulated sky");
                 let sub = match &self.radiance {
                     Radiance::Image { .. } => 2,

@@ -35,6 +35,12 @@ pub enum SkyKind {
         clearness: f64,
         brightness: f64,
     },
+    /// A sky of one relative radiance per patch of Reinhart's MF:`mf` subdivision (a sky
+    /// vector, as `sky_patch_radiance` makes one and `SkyPatches` numbers it: patch 0 the
+    /// ground, lit below the horizon; `values` holds `SkyPatches::count()` values ≥ 0).
+    /// Its amount scales the values as a uniform sky's (`Luminance(1.0)`: the values are
+    /// cd/m²). `rotation_deg` turns the patches with the sky.
+    Patches { mf: u32, values: Arc<Vec<f64>> },
     /// An equirectangular image, `rgb` holding `width × height` linear RGB triples, rows
     /// from the zenith down, the centre column toward north (before the rotation).
     Image {
@@ -156,6 +162,47 @@ impl Distant {
                 }
                 let radiance = Radiance::Perez { p, sun, zenith };
                 parts.push(DistantPart::tabulated(frame, radiance, rotation)?);
+            }
+            SkyKind::Patches { mf, values } => {
+                let patches = Arc::new(super::SkyPatches::reinhart(*mf)?);
+                if values.len() != patches.count() {
+                    bail!(
+                        ImapErrInvalidArgument,
+                        "values holds {} numbers: MF:{mf} has {} patches (the ground's first)",
+                        values.len(),
+                        patches.count()
+                    );
+                }
+                if let Some(i) = values.iter().position(|v| !(v.is_finite() && *v >= 0.0)) {
+                    bail!(
+                        ImapErrNonFinite,
+                        "values[{i}] = {}: a patch's radiance must be finite and ≥ 0",
+                        values[i]
+                    );
+                }
+                let integral: f64 = (1..patches.count())
+                    .map(|p| values[p] * patches.solid_angle(p))
+                    .sum();
+                if integral.is_nan() || integral <= 0.0 {
+                    bail!(
+                        ImapErrNoLight,
+                        "values are 0 over every sky patch: the sky gives no light"
+                    );
+                }
+                {
+                    let radiance = Radiance::Patches {
+                        patches: patches.clone(),
+                        values: values.clone(),
+                        rotation,
+                    };
+                    let mut part = DistantPart::tabulated(frame, radiance, rotation)?;
+                    // Exact: the table is only the sampling's.
+                    part.integral = integral;
+                    part.horizontal = (1..patches.count())
+                        .map(|p| values[p] * patches.horizontal(p))
+                        .sum();
+                    parts.push(part);
+                }
             }
             SkyKind::Image { width, height, rgb } => {
                 let (w, h) = (*width, *height);
@@ -301,6 +348,7 @@ impl Distant {
                     SkyKind::Uniform { .. } => "a uniform sky",
                     SkyKind::Cie { .. } => "a CIE sky",
                     SkyKind::Perez { .. } => "a Perez sky",
+                    SkyKind::Patches { .. } => "a sky of patches",
                     SkyKind::Image { .. } => "an image sky",
                 },
                 a.name(),
@@ -310,6 +358,18 @@ impl Distant {
                     "give it a radiance, a luminance, or a horizontal irradiance or illuminance"
                 }
             ),
+        }
+        // A sky of patches lights the lower hemisphere by its ground patch.
+        if let SkyKind::Patches { values, .. } = &desc.kind {
+            if values[0] > 0.0 {
+                let mut ground = Distant::ground(desc.zenith, Vec::new())?
+                    .parts
+                    .pop()
+                    .expect("the ground's part");
+                let g = Arc::get_mut(&mut ground).expect("a new part");
+                g.per_band = parts[0].per_band.iter().map(|v| v * values[0]).collect();
+                parts.push(Arc::unwrap_or_clone(ground));
+            }
         }
         if parts
             .iter()
@@ -729,6 +789,68 @@ mod tests {
             assert!((1.0..1.02).contains(&median), "{line}: median {median}");
             assert_eq!(ours[0], 0.0);
         }
+    }
+
+    #[test]
+    fn a_sky_of_patches_is_its_values_and_is_sampled_unbiased() {
+        let b = rgb();
+        let patches = super::super::SkyPatches::reinhart(1).unwrap();
+        // One lit patch (row 2, the fourth from north) and the ground.
+        let mut values = vec![0.0; patches.count()];
+        values[64] = 2.0;
+        values[0] = 0.5;
+        let d = Distant::sky(
+            &SkyDesc {
+                kind: SkyKind::Patches {
+                    mf: 1,
+                    values: Arc::new(values.clone()),
+                },
+                amount: SkyAmount::Radiance(3.0),
+                rotation_deg: 30.0,
+                ..SkyDesc::default()
+            },
+            &b,
+        )
+        .unwrap();
+        assert_eq!(d.parts.len(), 2);
+        let p = &d.parts[0];
+        assert!((p.integral - 2.0 * patches.solid_angle(64)).abs() < 1e-12);
+        let (alt, az) = patches.centre(64);
+        let inside = p.frame.direction(az + 30f64.to_radians(), FRAC_PI_2 - alt);
+        assert_eq!(p.value(inside), 2.0);
+        assert_eq!(p.value(p.frame.direction(az, FRAC_PI_2 - alt)), 0.0);
+        // The table's cells straddle the patch's edges: weights vary, their mean is 1.
+        let (i, w) = integrate(p, 200_000, |_| 1.0);
+        assert!((w - 1.0).abs() < 0.005, "{i} {w}");
+        // The ground glows with the ground patch's value, in the sky's units.
+        let g = &d.parts[1];
+        assert!(matches!(g.radiance, Radiance::Ground));
+        let sum: f64 = p.per_band.iter().sum();
+        assert!((sum - 3.0).abs() < 1e-9);
+        assert!((g.per_band.iter().sum::<f64>() - 1.5).abs() < 1e-9);
+        // Bad vectors.
+        let e = |values: Vec<f64>| {
+            Distant::sky(
+                &SkyDesc {
+                    kind: SkyKind::Patches {
+                        mf: 1,
+                        values: Arc::new(values),
+                    },
+                    amount: SkyAmount::Radiance(1.0),
+                    ..SkyDesc::default()
+                },
+                &b,
+            )
+            .unwrap_err()
+            .to_string()
+        };
+        assert!(e(vec![1.0; 145]).contains("146 patches"));
+        let mut v = vec![1.0; 146];
+        v[7] = f64::NAN;
+        assert!(e(v).contains("values[7]"));
+        let mut v = vec![0.0; 146];
+        v[0] = 1.0;
+        assert!(e(v).contains("every sky patch"));
     }
 
     #[test]
