@@ -444,6 +444,116 @@ fn a_sky_of_patches_lights_as_its_patches_and_approaches_its_sky() {
     }
 }
 
+/// A sky lit over one Tregenza patch (unit relative radiance, 1 cd/m² of equal energy).
+fn one_patch(p: usize) -> SkyDesc {
+    let mut values = vec![0.0; 146];
+    values[p] = 1.0;
+    SkyDesc {
+        kind: SkyKind::Patches {
+            mf: 1,
+            values: std::sync::Arc::new(values),
+        },
+        amount: SkyAmount::Luminance(1.0),
+        spectrum: Spectrum::Equal,
+        ..SkyDesc::default()
+    }
+}
+
+/// Band 0 of a layer of the floor: (values, standard errors).
+fn layer_band0(ctx: &Context, id: u32, layer: imap::Layer) -> (Vec<f64>, Vec<f64>) {
+    let nv = ctx.vertex_count(id).unwrap();
+    let (mut e, mut rel) = (vec![0.0; nv], vec![0.0; nv]);
+    ctx.irradiance_layer(id, 0, 0, layer, &mut e).unwrap();
+    ctx.rel_error_layer(id, 0, layer, &mut rel).unwrap();
+    let sigma = e.iter().zip(&rel).map(|(e, r)| e * r).collect();
+    (e, sigma)
+}
+
+#[test]
+fn tregenza_patch_layers_are_their_skies_coefficients_with_errors() {
+    // Each of the 145 Tregenza patches a sky of its own in its own light group: one run
+    // keeps every patch's layer (the daylight coefficients, lx per cd/m², with errors).
+    let (mut ctx, id, floor) = roof_room(70);
+    ctx.set_layers(imap::LayerRequest {
+        groups: true,
+        direct: false,
+    })
+    .unwrap();
+    for p in 1..146 {
+        let light = ctx.add_sky(&one_patch(p)).unwrap();
+        ctx.set_light_group(light, p as u32).unwrap();
+    }
+    run_with(&mut ctx, photons(1_500_000), Estimator::DEFAULT);
+    // A patch's layer is the run of its sky alone (the cap, and a patch 66° high to the
+    // south-east), vertex by vertex within the two runs' errors.
+    for (k, p) in [145usize, 130].into_iter().enumerate() {
+        let (mut alone, aid, _) = roof_room(71 + k as u64);
+        alone.add_sky(&one_patch(p)).unwrap();
+        run_with(&mut alone, photons(150_000), Estimator::DEFAULT);
+        let (a, sa) = layer_band0(&ctx, id, imap::Layer::Group(p as u32));
+        let (b, sb) = layer_band0(&alone, aid, imap::Layer::Combined);
+        let (mut worst, mut sum, mut n) = (0.0f64, 0.0, 0);
+        for v in 0..a.len() {
+            // Where either run saw a handful of photons its σ means little (the penumbra
+            // of the opening's edge, a few per cent of the light): compared where both
+            // stated errors are within 30 %.
+            if !(sa[v] <= 0.3 * a[v] && sb[v] <= 0.3 * b[v] && a[v] > 0.0) {
+                continue;
+            }
+            let z = (a[v] - b[v]) / (sa[v] * sa[v] + sb[v] * sb[v]).sqrt().max(1e-300);
+            worst = worst.max(z.abs());
+            sum += z.abs();
+            n += 1;
+        }
+        eprintln!(
+            "patch {p}: {n} vertices, largest |z| {worst:.2}, mean |z| {:.2}",
+            sum / n as f64
+        );
+        assert!(
+            n > 50 && worst < 5.0 && (0.4..1.3).contains(&(sum / n as f64)),
+            "patch {p}"
+        );
+    }
+    // A sky vector times the layers is the sky of those patches, per vertex within the
+    // errors combined as independent (σ² = Σ v_p² σ_p²): CIE sky 12 as Tregenza patches.
+    let cie = SkyDesc {
+        kind: SkyKind::Cie {
+            kind: 12,
+            sun_azimuth_deg: 225.0,
+            sun_zenith_deg: 35.0,
+        },
+        amount: SkyAmount::Luminance(5000.0),
+        spectrum: Spectrum::Equal,
+        ..SkyDesc::default()
+    };
+    let vector = imap::sky_patch_radiance(&cie, &imap::Bands::rgb(), 1).unwrap();
+    let eff: f64 = ctx.photometry().luminous(&[1.0, 1.0, 1.0]);
+    let lum: Vec<f64> = vector.iter().map(|v| v[0] * eff).collect();
+    let nv = floor.vertex_count();
+    let (mut e, mut var) = (vec![0.0; nv], vec![0.0; nv]);
+    for (p, l) in lum.iter().enumerate().skip(1) {
+        let (x, s) = layer_band0(&ctx, id, imap::Layer::Group(p as u32));
+        for v in 0..nv {
+            e[v] += l * x[v];
+            var[v] += (l * s[v]).powi(2);
+        }
+    }
+    let got: Vec<(f64, f64)> = e
+        .iter()
+        .zip(&var)
+        .map(|(e, v)| (*e, if *e > 0.0 { v.sqrt() / e } else { 0.0 }))
+        .collect();
+    let patches = imap::SkyPatches::reinhart(1).unwrap();
+    let patch_l = |d: [f64; 3]| lum[patches.patch(d[2].clamp(-1.0, 1.0).asin(), d[0].atan2(d[1]))];
+    let band = 1.0 / eff;
+    let want: Vec<Option<f64>> = (0..nv)
+        .map(|v| {
+            Some(hat_average_with(&floor, v, 4, |x, _| through_opening(x, 24, &patch_l)) * band)
+        })
+        .collect();
+    assert_z(&got, &want, "CIE 12 from the Tregenza layers");
+}
+
 /// What each floor vertex of the roof room reads under the sun's patch (the opening moved
 /// by `shift`): `e_band` where its support (0.125 m) lies wholly inside, nothing where
 /// wholly outside; the penumbra's vertices are not compared (None).
