@@ -674,6 +674,33 @@ int main(void) {
         printf("FAIL: the sun at noon UTC on 21 June at 0 N 0 E stands %.3f deg from the zenith (the tropic: ~23.4)\n", zen);
         failures++;
     }
+    /* An hour's Perez sky (Since 0.2.3): bad weather is named; no diffuse light, no sky. */
+    ImapPerezSky perez;
+    expect("Perez sky of negative diffuse light", imap_perez_sky(600, -1, 30, 172, 2, &perez, sizeof perez),
+           IMAP_ERR_INVALID_ARGUMENT, NULL);
+    expect("Perez sky of NaN direct light", imap_perez_sky(NAN, 150, 30, 172, 2, &perez, sizeof perez),
+           IMAP_ERR_NON_FINITE, NULL);
+    expect("Perez sky on day 0", imap_perez_sky(600, 150, 30, 0, 2, &perez, sizeof perez), IMAP_ERR_INVALID_ARGUMENT,
+           NULL);
+    expect("Perez sky without diffuse light", imap_perez_sky(600, 0, 30, 172, 2, &perez, sizeof perez),
+           IMAP_ERR_NO_LIGHT, NULL);
+    expect("Perez sky into 4 bytes", imap_perez_sky(600, 150, 30, 172, 2, &perez, 4), IMAP_ERR_INVALID_ARGUMENT, NULL);
+    expect("Perez sky into NULL", imap_perez_sky(600, 150, 30, 172, 2, NULL, sizeof perez), IMAP_ERR_NULL_POINTER,
+           NULL);
+    expect("Perez sky", imap_perez_sky(600, 150, 30, 172, 2, &perez, sizeof perez), IMAP_OK, NULL);
+    /* ε = (750/150 + 1.041 Z³) / (1 + 1.041 Z³) = 4.48 at Z = 30°: bin 5 (2.8–4.5). */
+    if (!(perez.bin == 5 && fabs(perez.clearness - 4.481) < 0.01 && perez.diffuse_horizontal_lx > 15000 &&
+          perez.direct_normal_lx > 50000)) {
+        printf("FAIL: Perez sky bin %u, clearness %.4f, %.0f lx diffuse, %.0f lx direct\n", perez.bin, perez.clearness,
+               perez.diffuse_horizontal_lx, perez.direct_normal_lx);
+        failures++;
+    }
+    sky.kind = IMAP_SKY_PEREZ, sky.unit = IMAP_SKY_UNIT_HORIZONTAL_LX, sky.amount = perez.diffuse_horizontal_lx;
+    sky.sun_azimuth_deg = NAN, sky.perez_clearness = perez.clearness, sky.perez_brightness = perez.brightness;
+    expect("Perez sky without its sun", imap_add_sky(ctx, &sky, NULL, &id), IMAP_ERR_INVALID_ARGUMENT, ctx);
+    sky.sun_azimuth_deg = 180, sky.sun_zenith_deg = 30, sky.perez_clearness = 0.5;
+    expect("Perez sky of clearness 0.5", imap_add_sky(ctx, &sky, NULL, &id), IMAP_ERR_INVALID_ARGUMENT, ctx);
+    if (!strstr(imap_last_error(ctx), "clearness")) printf("FAIL: %s\n", imap_last_error(ctx)), failures++;
     /* The context still works: a luminaire of 1000 cd cos-like, lux under it. */
     uint32_t lum;
     spec.kind = IMAP_SPECTRUM_BLACKBODY, spec.cct_k = 3000;
