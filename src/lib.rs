@@ -22,6 +22,8 @@
 /// cbindgen:ignore
 mod accel;
 /// cbindgen:ignore
+pub mod annual;
+/// cbindgen:ignore
 mod context;
 mod error;
 /// cbindgen:ignore
@@ -51,6 +53,7 @@ mod solar;
 mod spectral;
 /// cbindgen:ignore
 mod transport;
+/// cbindgen:ignore
 pub mod weather;
 
 // The context and its settings and reports.

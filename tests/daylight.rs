@@ -552,6 +552,57 @@ fn tregenza_patch_layers_are_their_skies_coefficients_with_errors() {
         })
         .collect();
     assert_z(&got, &want, "CIE 12 from the Tregenza layers");
+
+    // The same layers as annual coefficients (lx per cd/m²: the equal-energy bands' band-0
+    // irradiance times the luminous efficacy), under two hours of weather: the hourly
+    // illuminance is the hour's sky vector read through the opening, with its error.
+    let mut value = vec![0.0; nv * 146];
+    let mut sigma = vec![0.0; nv * 146];
+    for p in 1..146 {
+        let (x, s) = layer_band0(&ctx, id, imap::Layer::Group(p as u32));
+        for v in 0..nv {
+            value[v * 146 + p] = x[v] * eff;
+            sigma[v * 146 + p] = s[v] * eff;
+        }
+    }
+    let coefficients = imap::annual::Coefficients {
+        sensors: nv,
+        patches: 146,
+        value,
+        sigma,
+    };
+    let weather = imap::weather::parse_wea(
+        "place t\nlatitude 48\nlongitude -11\ntime_zone -15\nsite_elevation 0\n\
+         weather_data_file_units 1\n6 21 12.5 700 120\n10 3 15.5 150 180\n",
+        "t.wea",
+    )
+    .unwrap();
+    let sky =
+        imap::annual::AnnualSky::from_weather(&weather, 1, imap::annual::SunInVectors::Left, 0.0)
+            .unwrap();
+    let (e, s) = imap::annual::hourly(&coefficients, &sky).unwrap();
+    for h in 0..2 {
+        let v = sky.vector(h);
+        let got: Vec<(f64, f64)> = (0..nv)
+            .map(|k| {
+                let (x, sx) = (e[h * nv + k], s[h * nv + k]);
+                (x, if x > 0.0 { sx / x } else { 0.0 })
+            })
+            .collect();
+        let l = |d: [f64; 3]| v[patches.patch(d[2].clamp(-1.0, 1.0).asin(), d[0].atan2(d[1]))];
+        let want: Vec<Option<f64>> = (0..nv)
+            .map(|k| {
+                Some(hat_average_with(&floor, k, 4, |x, _| {
+                    through_opening(x, 24, &l)
+                }))
+            })
+            .collect();
+        assert_z(
+            &got,
+            &want,
+            &format!("hour {h} of the weather from the Tregenza layers"),
+        );
+    }
 }
 
 /// What each floor vertex of the roof room reads under the sun's patch (the opening moved
