@@ -467,6 +467,17 @@ pub struct GridResult {
     pub stats: imap::RegionStats,
 }
 
+/// The sensor mesh's vertex of each of the grid's points.
+pub fn point_vertices(g: &Grid) -> Vec<usize> {
+    if g.normals.is_some() {
+        return (0..g.nu).map(|k| 5 * k).collect();
+    }
+    let mu = g.nu + 2;
+    (0..g.nv)
+        .flat_map(|j| (0..g.nu).map(move |i| (j + 1) * mu + i + 1))
+        .collect()
+}
+
 pub fn read(ctx: &Context, g: &Grid) -> Result<GridResult> {
     if g.normals.is_some() {
         let n = 5 * g.nu;

@@ -1,6 +1,7 @@
 //! `imap`: runs libimap on OBJ/MTL scenes and writes the illumination map, pictures and the
 //! error-against-time history.
 
+mod annual;
 mod cornell;
 mod daylight;
 mod diag;
@@ -134,6 +135,19 @@ enum Command {
         #[arg(long, short)]
         out: Option<PathBuf>,
     },
+    /// Annual daylight: daylight coefficients at the grids' points from one run, a year of
+    /// Perez skies from a weather file, and DA, cDA, UDI and sDA with their confidence
+    /// (annual.json, annual_GRID.csv). The settings hold the model's materials and grids,
+    /// no lights.
+    Annual {
+        /// The model (.obj with its MTL libraries, .gltf, .glb, .ply, .stl).
+        scene: PathBuf,
+        /// TOML settings: materials, grids, estimator.
+        #[arg(long, short)]
+        config: Option<PathBuf>,
+        #[command(flatten)]
+        opts: annual::AnnualOptions,
+    },
     /// Read a model and print what was read, as JSON: format, objects, triangles,
     /// materials, bounds, warnings and errors (exit status 2 when it has errors).
     Info {
@@ -181,6 +195,12 @@ fn main() {
             quiet,
         } => resume(&state, out, threads, quiet).map(|_| ()),
         Command::Merge { states, out } => merge(&states, out),
+        Command::Annual {
+            scene,
+            config,
+            opts,
+        } => settings_from(config.as_deref())
+            .and_then(|settings| annual::annual(&scene, settings, &opts)),
         Command::Info { scene } => info(&scene),
         Command::Demo { opts } => demo(&opts),
         Command::Validate { photons } => validate_cmd(photons),

@@ -1361,3 +1361,156 @@ fn a_hazy_scene_from_the_settings() {
         );
     }
 }
+
+#[test]
+fn annual_metrics_of_an_open_grid_follow_the_hours_light() {
+    // An open horizontal grid under four overcast hours of 10–200 W/m² diffuse light:
+    // each point's coefficient for patch p is ∫_p cos dω, so each hour reads the sky
+    // vector's horizontal illuminance, and DA at a threshold counts the hours above it.
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let o = write(
+        d,
+        "far.obj",
+        "mtllib far.mtl\no far\nusemtl black\nv 50 50 -50\nv 51 50 -50\nv 50 51 -50\nf 1 2 3\n",
+    );
+    write(d, "far.mtl", "newmtl black\nKd 0 0 0\n");
+    let s = write(
+        d,
+        "settings.toml",
+        "up_axis = \"z\"\n[run]\nseed = 3\n[[grid]]\nname = \"open\"\norigin = [-1, -1, 0]\n\
+         u = [1, 0, 0]\nv = [0, 1, 0]\nsize = [2, 2]\nspacing = 1\n",
+    );
+    let wea = write(
+        d,
+        "w.wea",
+        "place Test\nlatitude 48\nlongitude -11\ntime_zone -15\nsite_elevation 0\n\
+         weather_data_file_units 1\n6 21 3.5 0 0\n6 21 9.5 0 10\n6 21 10.5 0 50\n\
+         6 21 11.5 0 100\n6 21 12.5 0 200\n",
+    );
+    let weather = imap::weather::read_wea(Path::new(&wea)).unwrap();
+    let sky = imap::annual::AnnualSky::from_weather(
+        &weather,
+        1,
+        imap::annual::SunInVectors::InItsPatch,
+        0.2,
+    )
+    .unwrap();
+    let ps = &sky.patches;
+    let e: Vec<f64> = (0..5)
+        .map(|h| {
+            let v = sky.vector(h);
+            (1..ps.count()).map(|p| v[p] * ps.horizontal(p)).sum()
+        })
+        .collect();
+    assert!(e[0] == 0.0 && e[1] > 500.0 && e[4] > 3.0 * e[2], "{e:?}");
+    for (threshold, da) in [
+        (0.5 * (e[2] + e[3]), 0.5),
+        (0.5 * (e[1] + e[2]), 0.75),
+        (2.0 * e[4], 0.0),
+    ] {
+        let out = d.join(format!("out{threshold:.0}"));
+        let r = imap(&[
+            "annual",
+            &o,
+            "--config",
+            &s,
+            "--weather",
+            &wea,
+            "--photons",
+            "2000000",
+            "--threshold",
+            &threshold.to_string(),
+            "--out",
+            out.to_str().unwrap(),
+            "--quiet",
+        ]);
+        assert!(r.status.success(), "{}", stderr(&r));
+        let json: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(out.join("annual.json")).unwrap())
+                .unwrap();
+        let g = &json["grids"][0];
+        assert_eq!(g["occupied_hours"], 4, "{json}");
+        let sda = g["sda"]["value"].as_f64().unwrap();
+        assert_eq!(sda, if da >= 0.5 { 1.0 } else { 0.0 }, "{json}");
+        let interval = &g["sda"]["interval_95"];
+        assert!(interval[0].as_f64().unwrap() <= sda && sda <= interval[1].as_f64().unwrap());
+        let csv = std::fs::read_to_string(out.join("annual_open.csv")).unwrap();
+        let rows: Vec<Vec<f64>> = csv
+            .lines()
+            .skip(1)
+            .map(|l| l.split(',').map(|x| x.parse().unwrap()).collect())
+            .collect();
+        assert_eq!(rows.len(), 4);
+        for row in &rows {
+            assert_eq!(row[3], da, "threshold {threshold}: {csv}");
+        }
+    }
+    // Bad inputs, one line each.
+    let with_light = write(d, "light.toml", "[[light]]\nkind = \"point\"\nposition = [0, 0, 1]\npower = 1\n[[grid]]\norigin = [0, 0, 0]\nu = [1, 0, 0]\nv = [0, 1, 0]\nsize = [1, 1]\n");
+    let no_grid = write(d, "nogrid.toml", "up_axis = \"z\"\n");
+    let bad_wea = write(d, "bad.wea", "place x\nlatitude 48\nlongitude 0\ntime_zone 0\nsite_elevation 0\nweather_data_file_units 1\n6 31 12 0 10\n");
+    for (args, says) in [
+        (
+            vec![
+                "annual",
+                &o,
+                "--config",
+                &with_light,
+                "--weather",
+                &wea,
+                "--photons",
+                "10",
+            ],
+            "leave them out",
+        ),
+        (
+            vec![
+                "annual",
+                &o,
+                "--config",
+                &no_grid,
+                "--weather",
+                &wea,
+                "--photons",
+                "10",
+            ],
+            "[[grid]]",
+        ),
+        (
+            vec![
+                "annual",
+                &o,
+                "--config",
+                &s,
+                "--weather",
+                &bad_wea,
+                "--photons",
+                "10",
+            ],
+            "bad.wea:7",
+        ),
+        (
+            vec![
+                "annual",
+                &o,
+                "--config",
+                &s,
+                "--weather",
+                &wea,
+                "--photons",
+                "10",
+                "--occupied",
+                "18-8",
+            ],
+            "--occupied",
+        ),
+        (
+            vec!["annual", &o, "--config", &s, "--weather", &wea],
+            "--photons or --time",
+        ),
+    ] {
+        let e = fails(&args);
+        assert!(e.contains(says), "{args:?}: {e}");
+    }
+}

@@ -184,9 +184,24 @@ impl Distant {
                     .map(|p| values[p] * patches.solid_angle(p))
                     .sum();
                 if integral.is_nan() || integral <= 0.0 {
-                    bail!(
-                        ImapErrNoLight,
-                        "values are 0 over every sky patch: the sky gives no light"
+                    if values[0] <= 0.0 {
+                        bail!(ImapErrNoLight, "values are all 0: the sky gives no light");
+                    }
+                    // The ground patch alone (a daylight coefficient's ground): its glow
+                    // in the amount's units.
+                    let unit = match desc.amount {
+                        SkyAmount::Radiance(_) | SkyAmount::Luminance(_) => {
+                            per_band(&desc.spectrum, bands, x, desc.amount.photometric(), 1.0)?
+                        }
+                        a => bail!(
+                            ImapErrInvalidArgument,
+                            "a sky of its ground patch alone gives no horizontal light: give it a radiance or a luminance, not its {}",
+                            a.name()
+                        ),
+                    };
+                    return Distant::ground(
+                        desc.zenith,
+                        unit.iter().map(|v| v * values[0]).collect(),
                     );
                 }
                 {
@@ -848,9 +863,25 @@ mod tests {
         let mut v = vec![1.0; 146];
         v[7] = f64::NAN;
         assert!(e(v).contains("values[7]"));
+        assert!(e(vec![0.0; 146]).contains("all 0"));
+        // The ground patch alone is the ground's glow.
         let mut v = vec![0.0; 146];
-        v[0] = 1.0;
-        assert!(e(v).contains("every sky patch"));
+        v[0] = 2.0;
+        let g = Distant::sky(
+            &SkyDesc {
+                kind: SkyKind::Patches {
+                    mf: 1,
+                    values: Arc::new(v),
+                },
+                amount: SkyAmount::Radiance(1.5),
+                ..SkyDesc::default()
+            },
+            &b,
+        )
+        .unwrap();
+        assert_eq!(g.parts.len(), 1);
+        assert!(matches!(g.parts[0].radiance, Radiance::Ground));
+        assert!((g.parts[0].per_band.iter().sum::<f64>() - 3.0).abs() < 1e-9);
     }
 
     #[test]

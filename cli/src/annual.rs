@@ -1,0 +1,316 @@
+//! `imap annual MODEL --config S.toml --weather SITE.epw`: daylight coefficients at the
+//! grids' points from one run (each Tregenza patch, and the ground, a sky of its own in
+//! its own light group), a year of Perez sky vectors from the weather file, and the
+//! climate-based metrics with their confidence (library `imap::annual`).
+
+use crate::diag::printable;
+use crate::error::{fail, CliError, Result};
+use crate::grids::{self, Grid};
+use crate::settings::Settings;
+use imap::annual::{AnnualSky, Coefficients, MetricOptions, SunInVectors};
+use imap::{Layer, LayerRequest, SkyAmount, SkyDesc, SkyKind};
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+/// The command's options.
+#[derive(clap::Args, Clone, Debug)]
+pub struct AnnualOptions {
+    /// The weather file: EnergyPlus .epw, or Radiance .wea by its extension.
+    #[arg(long)]
+    pub weather: PathBuf,
+    /// Output folder.
+    #[arg(long, short, default_value = "imap-annual")]
+    pub out: PathBuf,
+    /// Photons to trace for the coefficients.
+    #[arg(long)]
+    pub photons: Option<u64>,
+    /// Seconds to trace for the coefficients.
+    #[arg(long)]
+    pub time: Option<f64>,
+    /// Calculating threads (0 = one per core).
+    #[arg(long)]
+    pub threads: Option<usize>,
+    /// The run's seed.
+    #[arg(long)]
+    pub seed: Option<u64>,
+    /// The ground's reflectance under the sky (its glow is ρ E_h / π).
+    #[arg(long, default_value_t = 0.2)]
+    pub ground_reflectance: f64,
+    /// DA's and sDA's threshold, lx.
+    #[arg(long, default_value_t = 300.0)]
+    pub threshold: f64,
+    /// Occupied hours of local standard time, "FROM-TO" (8-18: 8:00 to 18:00, LM-83's).
+    #[arg(long, default_value = "8-18")]
+    pub occupied: String,
+    /// Draws of the coefficients for the metrics' confidence.
+    #[arg(long, default_value_t = 100)]
+    pub draws: usize,
+    /// No progress output.
+    #[arg(long)]
+    pub quiet: bool,
+}
+
+/// The patches' light group: patch p's is p; the ground's (patch 0) the one after the
+/// sky's last, so that group 0 keeps whatever else emits (the model's own emitters, left
+/// out of the coefficients).
+fn group(p: usize, count: usize) -> u32 {
+    if p == 0 {
+        count as u32
+    } else {
+        p as u32
+    }
+}
+
+/// "FROM-TO" hours.
+fn occupied_hours(s: &str) -> Result<(f64, f64)> {
+    let bad = || {
+        CliError(format!(
+            "--occupied \"{}\": write it as FROM-TO in hours of local standard time, e.g. 8-18",
+            printable(s)
+        ))
+    };
+    let (a, b) = s.split_once('-').ok_or_else(bad)?;
+    let (a, b): (f64, f64) = (
+        a.trim().parse().map_err(|_| bad())?,
+        b.trim().parse().map_err(|_| bad())?,
+    );
+    if !(0.0..24.0).contains(&a) || !(a < b && b <= 24.0) {
+        return Err(bad());
+    }
+    Ok((a, b))
+}
+
+pub fn annual(model: &Path, settings: Settings, o: &AnnualOptions) -> Result<()> {
+    if settings.sky.is_some()
+        || settings.sun.is_some()
+        || settings.environment.is_some()
+        || !settings.lights.is_empty()
+        || !settings.luminaires.is_empty()
+    {
+        fail!("annual: the settings hold lights, a [sky], [sun] or [environment]: an annual run makes its own skies from the weather file (electric light is not part of it yet); leave them out");
+    }
+    if settings.grids.is_empty() {
+        fail!("annual: the metrics are computed at the points of [[grid]]s: give at least one");
+    }
+    let (from, to) = occupied_hours(&o.occupied)?;
+    if !(0.0..=1.0).contains(&o.ground_reflectance) {
+        fail!(
+            "--ground-reflectance {} must be in [0, 1]",
+            o.ground_reflectance
+        );
+    }
+    if !(o.threshold.is_finite() && o.threshold > 0.0) {
+        fail!(
+            "--threshold {} must be a positive illuminance (lx)",
+            o.threshold
+        );
+    }
+    let (photons, time) = (o.photons.unwrap_or(0), o.time.unwrap_or(0.0));
+    if photons == 0 && !(time > 0.0) {
+        fail!("annual: give --photons or --time for the coefficients' run");
+    }
+    // The weather first: a bad file costs no run.
+    let wea = o
+        .weather
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("wea"));
+    let weather = if wea {
+        imap::weather::read_wea(&o.weather)
+    } else {
+        imap::weather::read_epw(&o.weather)
+    }
+    .map_err(|e| CliError(printable(&e.message)))?;
+    let sky = AnnualSky::from_weather(&weather, 1, SunInVectors::InItsPatch, o.ground_reflectance)
+        .map_err(|e| {
+            CliError(format!(
+                "{}: {}",
+                o.weather.display(),
+                printable(&e.message)
+            ))
+        })?;
+    let missing = weather
+        .hours
+        .iter()
+        .filter(|h| h.direct_normal_w.is_none() || h.diffuse_horizontal_w.is_none())
+        .count();
+
+    let mut settings = settings;
+    if let Some(t) = o.threads {
+        settings.run.threads = t;
+    }
+    if let Some(s) = o.seed {
+        settings.run.seed = s;
+    }
+    let (mut ctx, scene, _) = crate::output::load_with_camera(model, &settings)?;
+    let up = settings.up()?;
+    let north = if up[1] != 0.0 {
+        [0.0, 0.0, -1.0]
+    } else {
+        [0.0, 1.0, 0.0]
+    };
+    let n = sky.patches.count();
+    ctx.set_layers(LayerRequest {
+        groups: true,
+        direct: false,
+    })
+    .map_err(|e| CliError(format!("annual: {}", e.message)))?;
+    for p in 0..n {
+        let mut values = vec![0.0; n];
+        values[p] = 1.0;
+        let id = ctx
+            .add_sky(&SkyDesc {
+                kind: SkyKind::Patches {
+                    mf: 1,
+                    values: Arc::new(values),
+                },
+                amount: SkyAmount::Luminance(1.0),
+                zenith: up,
+                north,
+                ..SkyDesc::default()
+            })
+            .map_err(|e| CliError(format!("annual: patch {p}: {}", e.message)))?;
+        ctx.set_light_group(id, group(p, n))
+            .map_err(|e| CliError(format!("annual: {}", e.message)))?;
+    }
+    if !o.quiet {
+        eprintln!(
+            "imap: annual: {} hours of {} ({missing} missing), {} patches and the ground, {} grid points",
+            weather.hours.len(),
+            printable(&weather.site.name),
+            n - 1,
+            scene.grids.iter().map(|g| g.positions.len() / 3).sum::<usize>()
+        );
+    }
+    let mut params = imap::RunParams {
+        photons,
+        time_budget_s: time,
+        estimator: Some(crate::estimator(&settings.run.estimator)?),
+        ..imap::RunParams::default()
+    };
+    let report = ctx
+        .run(&mut params)
+        .map_err(|e| CliError(format!("annual: {}", e.message)))?;
+
+    std::fs::create_dir_all(&o.out).map_err(|e| CliError(format!("{}: {e}", o.out.display())))?;
+    let occupied: Vec<bool> = sky
+        .hours
+        .iter()
+        .map(|h| h.hour >= from && h.hour < to && h.sun_zenith_deg < 90.0)
+        .collect();
+    let options = MetricOptions {
+        occupied,
+        threshold_lx: o.threshold,
+        draws: o.draws,
+        seed: settings.run.seed,
+        ..MetricOptions::default()
+    };
+    let mut grids_json = Vec::new();
+    for g in &scene.grids {
+        let c = coefficients(&ctx, g, n)?;
+        let m = imap::annual::metrics(&c, &sky, &options)
+            .map_err(|e| CliError(format!("annual: grid {}: {}", g.name, e.message)))?;
+        write_csv(&o.out.join(format!("annual_{}.csv", g.name)), g, &m)?;
+        if !o.quiet {
+            println!(
+                "grid {}: sDA{:.0}/{:.0}% = {:.1} % (95 % interval {:.1}–{:.1} %), {} occupied hours",
+                g.name,
+                o.threshold,
+                100.0 * options.sda_share,
+                100.0 * m.sda,
+                100.0 * m.sda_interval.0,
+                100.0 * m.sda_interval.1,
+                m.occupied_hours
+            );
+        }
+        let mean = |f: fn(&imap::annual::SensorMetrics) -> f64| {
+            m.sensors.iter().map(f).sum::<f64>() / m.sensors.len().max(1) as f64
+        };
+        grids_json.push(serde_json::json!({
+            "name": g.name,
+            "points": m.sensors.len(),
+            "sda": {"value": m.sda, "sigma": m.sda_sigma, "interval_95": [m.sda_interval.0, m.sda_interval.1]},
+            "mean_da": mean(|s| s.da),
+            "mean_cda": mean(|s| s.cda),
+            "mean_udi": [mean(|s| s.udi_below), mean(|s| s.udi_useful), mean(|s| s.udi_above)],
+            "occupied_hours": m.occupied_hours,
+        }));
+    }
+    let json = serde_json::json!({
+        "weather": {
+            "file": o.weather.display().to_string(),
+            "site": weather.site.name,
+            "latitude_deg": weather.site.latitude_deg,
+            "longitude_deg": weather.site.longitude_deg,
+            "utc_offset_hours": weather.site.utc_offset_hours,
+            "hours": weather.hours.len(),
+            "missing_hours": missing,
+        },
+        "patches": "Tregenza (Reinhart MF:1, 145 + ground)",
+        "sun": "in its patch (the direct sun smeared over its 12° patch, as Radiance's 2-phase method)",
+        "threshold_lx": o.threshold,
+        "occupied": o.occupied,
+        "ground_reflectance": o.ground_reflectance,
+        "draws": o.draws,
+        "photons": report.photons,
+        "grids": grids_json,
+    });
+    let path = o.out.join("annual.json");
+    std::fs::write(&path, serde_json::to_string_pretty(&json).expect("json"))
+        .map_err(|e| CliError(format!("{}: {e}", path.display())))?;
+    Ok(())
+}
+
+/// The grid's points' coefficients: each patch's layer in lx per cd/m², with its error.
+fn coefficients(ctx: &imap::Context, g: &Grid, n: usize) -> Result<Coefficients> {
+    let err = |e: imap::Error| CliError(format!("annual: grid {}: {}", g.name, e.message));
+    let points = grids::point_vertices(g);
+    let all = ctx.vertex_count(g.id).map_err(err)?;
+    let (mut lux, mut rel) = (vec![0.0; all], vec![0.0; all]);
+    let mut value = vec![0.0; points.len() * n];
+    let mut sigma = vec![0.0; points.len() * n];
+    for p in 0..n {
+        let layer = Layer::Group(group(p, n));
+        ctx.illuminance_layer(g.id, 0, layer, &mut lux)
+            .map_err(err)?;
+        ctx.rel_error_layer(g.id, 0, layer, &mut rel).map_err(err)?;
+        for (k, &v) in points.iter().enumerate() {
+            value[k * n + p] = lux[v];
+            sigma[k * n + p] = lux[v] * rel[v];
+        }
+    }
+    Ok(Coefficients {
+        sensors: points.len(),
+        patches: n,
+        value,
+        sigma,
+    })
+}
+
+fn write_csv(path: &Path, g: &Grid, m: &imap::annual::GridMetrics) -> Result<()> {
+    let io = |e: std::io::Error| CliError(format!("{}: {e}", path.display()));
+    let mut f = std::io::BufWriter::new(std::fs::File::create(path).map_err(io)?);
+    writeln!(
+        f,
+        "x,y,z,da,cda,udi_below,udi_useful,udi_above,sda_pass_probability"
+    )
+    .map_err(io)?;
+    for (k, s) in m.sensors.iter().enumerate() {
+        let q = &g.positions[3 * k..3 * k + 3];
+        writeln!(
+            f,
+            "{},{},{},{:.4},{:.4},{:.4},{:.4},{:.4},{:.3}",
+            q[0],
+            q[1],
+            q[2],
+            s.da,
+            s.cda,
+            s.udi_below,
+            s.udi_useful,
+            s.udi_above,
+            s.sda_pass_probability
+        )
+        .map_err(io)?;
+    }
+    f.flush().map_err(io)
+}
