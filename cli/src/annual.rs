@@ -75,7 +75,7 @@ fn occupied_hours(s: &str) -> Result<(f64, f64)> {
         a.trim().parse().map_err(|_| bad())?,
         b.trim().parse().map_err(|_| bad())?,
     );
-    if !(0.0..24.0).contains(&a) || !(a < b && b <= 24.0) {
+    if !((0.0..24.0).contains(&a) && a < b && b <= 24.0) {
         return Err(bad());
     }
     Ok((a, b))
@@ -107,7 +107,7 @@ pub fn annual(model: &Path, settings: Settings, o: &AnnualOptions) -> Result<()>
         );
     }
     let (photons, time) = (o.photons.unwrap_or(0), o.time.unwrap_or(0.0));
-    if photons == 0 && !(time > 0.0) {
+    if photons == 0 && (time.is_nan() || time <= 0.0) {
         fail!("annual: give --photons or --time for the coefficients' run");
     }
     // The weather first: a bad file costs no run.
