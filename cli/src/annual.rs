@@ -43,6 +43,11 @@ pub struct AnnualOptions {
     /// Occupied hours of local standard time, "FROM-TO" (8-18: 8:00 to 18:00, LM-83's).
     #[arg(long, default_value = "8-18")]
     pub occupied: String,
+    /// The estimator: gathering (default) reaches the small grid points' coefficient of
+    /// every patch; with photons or light sampling alone a patch no photon brought to a
+    /// point states no error.
+    #[arg(long, default_value = "gather")]
+    pub estimator: String,
     /// Draws of the coefficients for the metrics' confidence.
     #[arg(long, default_value_t = 100)]
     pub draws: usize,
@@ -185,7 +190,7 @@ pub fn annual(model: &Path, settings: Settings, o: &AnnualOptions) -> Result<()>
     let mut params = imap::RunParams {
         photons,
         time_budget_s: time,
-        estimator: Some(crate::estimator(&settings.run.estimator)?),
+        estimator: Some(crate::estimator(&o.estimator)?),
         ..imap::RunParams::default()
     };
     let report = ctx
