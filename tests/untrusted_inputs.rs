@@ -459,3 +459,59 @@ fn states_with_any_field_doctored_are_refused_or_harmless() {
     eprintln!("2000 doctored states: {refused} refused, {taken} taken (harmless)");
     assert!(refused > 500, "{refused} refused");
 }
+
+#[test]
+fn weather_files_with_any_byte_changed_are_read_or_refused_by_line() {
+    // A small EPW and a .wea, each byte in turn replaced by characters a broken or hostile
+    // file holds: every result is a weather or an IMAP_ERR_PARSE naming the file (and a
+    // line, for the data); nothing panics, and what is read stays in range.
+    let epw = "LOCATION,Town,ST,XYZ,TMY3,123456,47.50,8.25,1.0,410.0\n\
+        DESIGN CONDITIONS,0\nTYPICAL/EXTREME PERIODS,0\nGROUND TEMPERATURES,0\n\
+        HOLIDAYS/DAYLIGHT SAVINGS,No,0,0,0\nCOMMENTS 1,x\nCOMMENTS 2,y\n\
+        DATA PERIODS,1,1,Data,Sunday, 1/ 1,12/31\n\
+        1999,6,21,13,60,x,12.0,14.2,70,96000,0,0,300,700,612,148,0,0,0,0,180,3.0\n\
+        1999,6,21,14,60,x,12.0,99.9,70,96000,0,0,300,700,9999,120,0,0,0,0,180,3.0\n";
+    let wea = "place t\nlatitude 47.5\nlongitude -8.25\ntime_zone -15\nsite_elevation 410\n\
+        weather_data_file_units 1\n6 21 12.5 612 148\n12 31 23.5 0 80\n";
+    let mut read = 0;
+    for (text, parse) in [
+        (
+            epw,
+            imap::weather::parse_epw as fn(&str, &str) -> imap::Result<imap::weather::Weather>,
+        ),
+        (wea, imap::weather::parse_wea),
+    ] {
+        let bytes = text.as_bytes();
+        for i in 0..bytes.len() {
+            for x in [b'9', b'-', b',', b'\n', b'e', b' ', b'.'] {
+                let mut b = bytes.to_vec();
+                b[i] = x;
+                let t = String::from_utf8_lossy(&b);
+                match parse(&t, "w") {
+                    Ok(w) => {
+                        read += 1;
+                        assert!(w.site.latitude_deg.abs() <= 90.0);
+                        for h in &w.hours {
+                            assert!((1..=12).contains(&h.month) && (0.0..=24.0).contains(&h.hour));
+                            for v in [h.direct_normal_w, h.diffuse_horizontal_w]
+                                .into_iter()
+                                .flatten()
+                            {
+                                assert!((0.0..=2000.0).contains(&v), "{v}");
+                            }
+                            // Each hour's sun and sky are computed or refused, never a panic.
+                            if let Ok((_, z)) = h.sun_position(&w.site) {
+                                let _ = h.perez_sky(z);
+                            }
+                        }
+                    }
+                    Err(e) => {
+                        assert_eq!(e.status, imap::ImapStatus::ImapErrParse, "{e}");
+                        assert!(e.message.starts_with("w"), "{e}");
+                    }
+                }
+            }
+        }
+    }
+    assert!(read > 100, "{read}");
+}

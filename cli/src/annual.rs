@@ -187,15 +187,44 @@ pub fn annual(model: &Path, settings: Settings, o: &AnnualOptions) -> Result<()>
             scene.grids.iter().map(|g| g.positions.len() / 3).sum::<usize>()
         );
     }
+    let bar = if o.quiet {
+        indicatif::ProgressBar::hidden()
+    } else {
+        indicatif::ProgressBar::new(1000)
+    };
+    bar.set_style(
+        indicatif::ProgressStyle::with_template("{spinner} {elapsed:>4} [{bar:30}] {msg}")
+            .expect("template")
+            .progress_chars("=> "),
+    );
+    let interrupted = crate::Interrupts::get();
+    let mut progress = |p: &imap::Progress| -> bool {
+        let mut frac: f64 = 0.0;
+        if time > 0.0 {
+            frac = frac.max(p.elapsed_s / time);
+        }
+        if photons > 0 {
+            frac = frac.max(p.photons as f64 / photons as f64);
+        }
+        bar.set_position((frac.min(1.0) * 1000.0) as u64);
+        bar.set_message(format!(
+            "coefficients: {} photons, error {:.2} %",
+            p.photons,
+            100.0 * p.rel_error
+        ));
+        !interrupted.raised()
+    };
     let mut params = imap::RunParams {
         photons,
         time_budget_s: time,
         estimator: Some(crate::estimator(&o.estimator)?),
+        progress: Some(&mut progress),
         ..imap::RunParams::default()
     };
     let report = ctx
         .run(&mut params)
         .map_err(|e| CliError(format!("annual: {}", e.message)))?;
+    bar.finish_and_clear();
 
     std::fs::create_dir_all(&o.out).map_err(|e| CliError(format!("{}: {e}", o.out.display())))?;
     let occupied: Vec<bool> = sky
@@ -258,11 +287,18 @@ pub fn annual(model: &Path, settings: Settings, o: &AnnualOptions) -> Result<()>
         "ground_reflectance": o.ground_reflectance,
         "draws": o.draws,
         "photons": report.photons,
+        // Interrupted: the coefficients of the photons traced until then, unbiased, and
+        // the intervals say how much less is known.
+        "interrupted": interrupted.raised(),
         "grids": grids_json,
     });
     let path = o.out.join("annual.json");
     std::fs::write(&path, serde_json::to_string_pretty(&json).expect("json"))
         .map_err(|e| CliError(format!("{}: {e}", path.display())))?;
+    if let Some(code) = interrupted.status() {
+        eprintln!("imap: interrupted: the metrics are those of the coefficients traced until then");
+        std::process::exit(code);
+    }
     Ok(())
 }
 
