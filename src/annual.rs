@@ -148,6 +148,21 @@ pub struct Coefficients {
 }
 
 impl Coefficients {
+    /// Checks them and that they are of `sky`'s patches; returns the patch count.
+    fn check_against(&self, sky: &AnnualSky) -> Result<usize> {
+        self.check()?;
+        let n = sky.patches.count();
+        if self.patches != n {
+            bail!(
+                ImapErrInvalidArgument,
+                "coefficients of {} patches for sky vectors of {n} (MF:{})",
+                self.patches,
+                sky.patches.mf()
+            );
+        }
+        Ok(n)
+    }
+
     /// Checks the shapes and values.
     pub fn check(&self) -> Result<()> {
         let n = self.sensors.checked_mul(self.patches);
@@ -242,16 +257,7 @@ pub struct GridMetrics {
 /// The hourly illuminance at every sensor (lx, hour by hour: `hours × sensors`) and its
 /// standard error.
 pub fn hourly(c: &Coefficients, sky: &AnnualSky) -> Result<(Vec<f64>, Vec<f64>)> {
-    c.check()?;
-    let n = sky.patches.count();
-    if c.patches != n {
-        bail!(
-            ImapErrInvalidArgument,
-            "coefficients of {} patches for sky vectors of {n} (MF:{})",
-            c.patches,
-            sky.patches.mf()
-        );
-    }
+    let n = c.check_against(sky)?;
     let hours = sky.hours.len();
     let mut e = vec![0.0; hours * c.sensors];
     let mut s = vec![0.0; hours * c.sensors];
@@ -306,16 +312,7 @@ fn normal(rng: &mut PhotonRng) -> f64 {
 /// The annual metrics of a grid of sensors with coefficients `c` under `sky`, with their
 /// confidence from `o.draws` draws of the coefficients.
 pub fn metrics(c: &Coefficients, sky: &AnnualSky, o: &MetricOptions) -> Result<GridMetrics> {
-    c.check()?;
-    let n = sky.patches.count();
-    if c.patches != n {
-        bail!(
-            ImapErrInvalidArgument,
-            "coefficients of {} patches for sky vectors of {n} (MF:{})",
-            c.patches,
-            sky.patches.mf()
-        );
-    }
+    let n = c.check_against(sky)?;
     if !(o.threshold_lx > 0.0 && o.threshold_lx.is_finite()) {
         bail!(
             ImapErrInvalidArgument,
