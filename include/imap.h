@@ -797,12 +797,6 @@
 #define IMAP_STATE_FORMAT_VERSION 2
 
 /**
- * The largest weather file read: a year of 1-minute steps of EPW is ~250 MB; we take up
- * to 64 MB (a year of 10-minute steps).
- */
-#define WEATHER_FILE_LIMIT (64 << 20)
-
-/**
  * Status returned by every `imap_*` call. `IMAP_OK` (0) is success; every other value names
  * one kind of failure, and the last-error message says which argument and why.
  */
