@@ -40,7 +40,8 @@ pub struct AnnualOptions {
     /// DA's and sDA's threshold, lx.
     #[arg(long, default_value_t = 300.0)]
     pub threshold: f64,
-    /// Occupied hours of local standard time, "FROM-TO" (8-18: 8:00 to 18:00, LM-83's).
+    /// Occupied hours of local standard time, "FROM-TO" (8-18: 8:00 to 18:00 every day,
+    /// LM-83's; an hour is in when the middle of its time step is).
     #[arg(long, default_value = "8-18")]
     pub occupied: String,
     /// The estimator: gathering (default) reaches the small grid points' coefficient of
@@ -227,10 +228,18 @@ pub fn annual(model: &Path, settings: Settings, o: &AnnualOptions) -> Result<()>
     bar.finish_and_clear();
 
     std::fs::create_dir_all(&o.out).map_err(|e| CliError(format!("{}: {e}", o.out.display())))?;
+    // LM-83's occupied hours are every day's 8:00–18:00, dark or not; an hour whose
+    // radiation the file marks missing is left out (and counted in annual.json).
     let occupied: Vec<bool> = sky
         .hours
         .iter()
-        .map(|h| h.hour >= from && h.hour < to && h.sun_zenith_deg < 90.0)
+        .zip(&weather.hours)
+        .map(|(h, w)| {
+            h.hour >= from
+                && h.hour < to
+                && w.direct_normal_w.is_some()
+                && w.diffuse_horizontal_w.is_some()
+        })
         .collect();
     let options = MetricOptions {
         occupied,
