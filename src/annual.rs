@@ -105,9 +105,12 @@ impl AnnualSky {
                 };
                 let mut horizontal = 0.0;
                 for (q, o) in out.iter_mut().enumerate().skip(1) {
-                    *o = patches.mean(q, SUB, l);
-                    horizontal += patches.mean(q, SUB, |alt, a| l(alt, a) * alt.sin())
-                        * patches.solid_angle(q);
+                    let (mean, mean_cos) = patches.means(q, SUB, |alt, a| {
+                        let x = l(alt, a);
+                        (x, x * alt.sin())
+                    });
+                    *o = mean;
+                    horizontal += mean_cos * patches.solid_angle(q);
                 }
                 if horizontal > 0.0 {
                     let k = dh / horizontal;

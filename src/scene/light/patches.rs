@@ -142,6 +142,11 @@ impl SkyPatches {
     /// azimuth and in sin(altitude) (equal solid angle), 4 × `sub` in azimuth over the cap
     /// and the ground.
     pub fn mean(&self, p: usize, sub: usize, f: impl Fn(f64, f64) -> f64) -> f64 {
+        self.means(p, sub, |alt, az| (f(alt, az), 0.0)).0
+    }
+
+    /// The means of two functions over patch `p` by the points of `mean`, in one pass.
+    pub fn means(&self, p: usize, sub: usize, f: impl Fn(f64, f64) -> (f64, f64)) -> (f64, f64) {
         let (lo, hi, a0, w) = self.bounds(p);
         let (na, ns) = if p == 0 || p >= self.cap() {
             (4 * sub, sub)
@@ -149,14 +154,17 @@ impl SkyPatches {
             (sub, sub)
         };
         let (s0, s1) = (lo.sin(), hi.sin());
-        let mut sum = 0.0;
+        let (mut a, mut b) = (0.0, 0.0);
         for i in 0..ns {
             let alt = (s0 + (s1 - s0) * (i as f64 + 0.5) / ns as f64).asin();
             for j in 0..na {
-                sum += f(alt, a0 + w * (j as f64 + 0.5) / na as f64);
+                let (x, y) = f(alt, a0 + w * (j as f64 + 0.5) / na as f64);
+                a += x;
+                b += y;
             }
         }
-        sum / (na * ns) as f64
+        let k = 1.0 / (na * ns) as f64;
+        (a * k, b * k)
     }
 }
 
