@@ -500,20 +500,22 @@ mod tests {
             // Against the sky's own vector (the Distant path): the same to 1 %.
             let (az, zen) = (a.sun_azimuth_deg, a.sun_zenith_deg);
             let p = w.hours[h].perez_sky(zen).unwrap().unwrap();
-            let desc = crate::SkyDesc {
-                kind: crate::SkyKind::Perez {
+            let desc = crate::scene::light::SkyDesc {
+                kind: crate::scene::light::SkyKind::Perez {
                     sun_azimuth_deg: az,
                     sun_zenith_deg: zen,
                     clearness: p.clearness,
                     brightness: p.brightness,
                 },
-                amount: crate::SkyAmount::HorizontalIlluminance(p.diffuse_horizontal_lx),
+                amount: crate::scene::light::SkyAmount::HorizontalIlluminance(
+                    p.diffuse_horizontal_lx,
+                ),
                 spectrum: crate::photometry::Spectrum::Equal,
-                ..crate::SkyDesc::default()
+                ..crate::scene::light::SkyDesc::default()
             };
-            let b = crate::Bands::rgb();
+            let b = crate::spectral::Bands::rgb();
             let k = crate::photometry::BandPhotometry::new(&b);
-            let other = crate::sky_patch_radiance(&desc, &b, 1).unwrap();
+            let other = crate::scene::light::sky_patch_radiance(&desc, &b, 1).unwrap();
             for q in 1..ps.count() {
                 let o = k.luminous(&other[q]);
                 assert!(

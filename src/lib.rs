@@ -8,10 +8,11 @@
 //!
 //! The engine's floors, top to bottom (`tests/floors.rs` holds every import to them):
 //! `ffi` (the C ABI only) → `context` (the safe API) → `render` (the camera renderers) →
-//! `sched` (the schedulers) → `imap` (the map, its layout and readout) → `transport` (the
-//! photon path and light sampling) → `accel` (every Embree call) → `scene` (plain data: the
-//! scene, its lights, emitters and BSDFs, and its prepared form) → `weather`, `photometry`,
-//! `images`
+//! `sched` (the schedulers) → `imap` (the map, its layout and readout), `annual` (annual
+//! daylight from sky-patch coefficients) → `transport` (the photon path and light
+//! sampling) → `accel` (every Embree call), `weather` (weather files) → `scene` (plain
+//! data: the scene, its lights, emitters and BSDFs, and its prepared form) →
+//! `photometry`, `images`
 //! → `spectral`, `sampling`, `solar`, `progress` → `error`, `files`, `fault`.
 
 #![warn(clippy::undocumented_unsafe_blocks)]

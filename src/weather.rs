@@ -84,12 +84,14 @@ impl WeatherHour {
     /// The hour's Perez sky (`perez_sky`) with the sun at `sun_zenith_deg`: its dew point
     /// gives the precipitable water (2 cm where the file has none). `None` for an hour
     /// without diffuse light or with its irradiance missing.
-    pub fn perez_sky(&self, sun_zenith_deg: f64) -> Result<Option<crate::PerezSky>> {
+    pub fn perez_sky(&self, sun_zenith_deg: f64) -> Result<Option<crate::scene::light::PerezSky>> {
         let (Some(dni), Some(dhi)) = (self.direct_normal_w, self.diffuse_horizontal_w) else {
             return Ok(None);
         };
-        let water = self.dew_point_c.map_or(2.0, crate::precipitable_water);
-        crate::perez_sky(dni, dhi, sun_zenith_deg, self.day_of_year(), water)
+        let water = self
+            .dew_point_c
+            .map_or(2.0, crate::scene::light::precipitable_water);
+        crate::scene::light::perez_sky(dni, dhi, sun_zenith_deg, self.day_of_year(), water)
     }
 }
 
@@ -505,7 +507,14 @@ mod tests {
         let (a, z) = w.hours[1].sun_position(&w.site).unwrap();
         assert!((z - 24.1).abs() < 0.2 && (a - 180.0).abs() < 3.0, "{a} {z}");
         let p = w.hours[1].perez_sky(z).unwrap().unwrap();
-        let q = crate::perez_sky(612.0, 148.0, z, 172, crate::precipitable_water(14.2)).unwrap();
+        let q = crate::scene::light::perez_sky(
+            612.0,
+            148.0,
+            z,
+            172,
+            crate::scene::light::precipitable_water(14.2),
+        )
+        .unwrap();
         assert_eq!(Some(p), q);
         assert_eq!(w.hours[2].perez_sky(z).unwrap(), None);
     }
