@@ -166,6 +166,27 @@ int main() {
                     ds.average_lx_sigma, sun_h + sky_h);
         CHECK(std::fabs(ds.average_lx - sun_h - sky_h) < 4 * ds.average_lx_sigma, "Eavg %g", ds.average_lx);
 
+        // The same noon as an hour of weather: a Perez sky of 600 W/m² direct normal and
+        // 150 W/m² diffuse horizontal irradiance, given its diffuse illuminance (ε 4.69 at
+        // the sun's 25.9°: bin 6, 4.5–6.2).
+        ImapPerezSky hour = imap::perez_sky(600, 150, at[1], 172);
+        std::printf("Perez sky: clearness %.3f (bin %u), brightness %.4f, %.0f lx diffuse, %.0f lx direct\n",
+                    hour.clearness, hour.bin, hour.brightness, hour.diffuse_horizontal_lx, hour.direct_normal_lx);
+        CHECK(hour.bin == 6 && hour.diffuse_horizontal_lx > 15000 && hour.direct_normal_lx > 50000, "Perez hour");
+        imap::Context weather(cfg);
+        ImapSky perez = imap::sky();
+        perez.kind = IMAP_SKY_PEREZ, perez.unit = IMAP_SKY_UNIT_HORIZONTAL_LX, perez.amount = hour.diffuse_horizontal_lx;
+        perez.sun_azimuth_deg = at[0], perez.sun_zenith_deg = at[1];
+        perez.perez_clearness = hour.clearness, perez.perez_brightness = hour.brightness;
+        uint32_t pid = weather.add_sky(perez);
+        CHECK(std::fabs(weather.horizontal_illuminance(pid) / hour.diffuse_horizontal_lx - 1) < 1e-9, "Perez amount");
+        try {
+            imap::perez_sky(600, 0, at[1], 172);
+            CHECK(false, "an hour without diffuse light made a sky");
+        } catch (const imap::Error& e) {
+            CHECK(e.status() == IMAP_ERR_NO_LIGHT, "wrong error for an hour without diffuse light");
+        }
+
         // 4. The ground's glow: a plate facing down under a 10 000 lx sky and a ground of
         // reflectance 0.2 reads 0.2 × 10 000 lx.
         imap::Context under(cfg);

@@ -124,6 +124,20 @@ inline std::array<double, 2> sun_position(const ImapSunTime& t) {
     return out;
 }
 
+/// An hour's Perez sky (Perez et al. 1990): its clearness and brightness for
+/// `ImapSky::perez_clearness`/`perez_brightness`, and the diffuse horizontal and direct
+/// normal illuminance for the sky's and the sun's amounts, from the hour's direct normal
+/// and diffuse horizontal irradiance (W/m²), the sun's zenith angle (°), the day of the
+/// year and the precipitable water (cm; 2 as gendaylit takes it). Throws for an hour
+/// without diffuse light (IMAP_ERR_NO_LIGHT).
+inline ImapPerezSky perez_sky(double direct_normal, double diffuse_horizontal, double sun_zenith_deg,
+                              uint32_t day_of_year, double precipitable_water_cm = 2.0) {
+    ImapPerezSky out{};
+    check(imap_perez_sky(direct_normal, diffuse_horizontal, sun_zenith_deg, day_of_year, precipitable_water_cm,
+                         &out, sizeof out));
+    return out;
+}
+
 /// CIE 1931 chromaticity {x, y} of tristimulus values.
 inline std::array<double, 2> chromaticity(const std::array<double, 3>& xyz) {
     std::array<double, 2> out{};
