@@ -268,16 +268,23 @@ pub fn hourly(c: &Coefficients, sky: &AnnualSky) -> Result<(Vec<f64>, Vec<f64>)>
         let v = sky.vector(h);
         for k in 0..c.sensors {
             let row = k * n..(k + 1) * n;
-            let (mut x, mut var) = (0.0, 0.0);
-            for ((l, cv), cs) in v.iter().zip(&c.value[row.clone()]).zip(&c.sigma[row]) {
-                x += l * cv;
-                var += (l * cs).powi(2);
-            }
+            let (x, sx) = hour_value(v, &c.value[row.clone()], &c.sigma[row]);
             e[h * c.sensors + k] = x;
-            s[h * c.sensors + k] = var.sqrt();
+            s[h * c.sensors + k] = sx;
         }
     }
     Ok((e, s))
+}
+
+/// An hour's illuminance Σ L_p C_p under sky vector `v` from one sensor's coefficients `c`
+/// and their errors `sigma`, and its standard error √Σ (L_p σ_p)².
+fn hour_value(v: &[f64], c: &[f64], sigma: &[f64]) -> (f64, f64) {
+    let (mut x, mut var) = (0.0, 0.0);
+    for ((l, c), s) in v.iter().zip(c).zip(sigma) {
+        x += l * c;
+        var += (l * s).powi(2);
+    }
+    (x, var.sqrt())
 }
 
 /// One sensor's metrics from its hourly illuminance over the occupied hours.
@@ -365,43 +372,39 @@ pub fn metrics(c: &Coefficients, sky: &AnnualSky, o: &MetricOptions) -> Result<G
     let passes = |m: &SensorMetrics| m.da >= o.sda_share;
     let mut sensors = Vec::with_capacity(c.sensors);
     let mut draws_sda = vec![0.0; o.draws];
-    let mut delta = vec![0.0; n];
     for k in 0..c.sensors {
         let cv = &c.value[k * n..(k + 1) * n];
         let cs = &c.sigma[k * n..(k + 1) * n];
         // Each occupied hour's illuminance and standard error.
-        let (mut e, mut s) = (Vec::with_capacity(count), Vec::with_capacity(count));
-        for &h in &hours {
-            let (mut x, mut var) = (0.0, 0.0);
-            for ((l, c), d) in sky.vector(h).iter().zip(cv).zip(cs) {
-                x += l * c;
-                var += (l * d).powi(2);
-            }
-            e.push(x);
-            s.push(var.sqrt());
-        }
-        let mut m = sensor_metrics(e.iter().copied(), o, count);
+        let e: Vec<(f64, f64)> = hours
+            .iter()
+            .map(|&h| hour_value(sky.vector(h), cv, cs))
+            .collect();
+        let mut m = sensor_metrics(e.iter().map(|x| x.0), o, count);
         // A draw can move an hour across the threshold only where it lies within a few
         // of its errors of it (beyond 6 σ: less than 10⁻⁹ per hour): the rest are fixed.
-        let open: Vec<usize> = (0..count)
-            .filter(|&i| (e[i] - o.threshold_lx).abs() <= 6.0 * s[i])
-            .collect();
-        let fixed = (0..count)
-            .filter(|&i| e[i] >= o.threshold_lx && (e[i] - o.threshold_lx).abs() > 6.0 * s[i])
-            .count();
+        let (mut open, mut fixed) = (Vec::new(), 0usize);
+        for (i, &(x, s)) in e.iter().enumerate() {
+            if (x - o.threshold_lx).abs() <= 6.0 * s {
+                open.push(i);
+            } else if x >= o.threshold_lx {
+                fixed += 1;
+            }
+        }
         let lit: Vec<usize> = (0..n).filter(|&p| cs[p] > 0.0).collect();
+        let mut delta = vec![0.0; lit.len()];
         let mut pass = 0usize;
         for (j, sum) in draws_sda.iter_mut().enumerate() {
             // The draw's stream: one per (sensor, draw), so any sensor subset or order
             // gives the same draws.
             let mut rng = PhotonRng::new(o.seed, ((k as u64) << 20) | j as u64);
-            for &p in &lit {
-                delta[p] = cs[p] * normal(&mut rng);
+            for (d, &p) in delta.iter_mut().zip(&lit) {
+                *d = cs[p] * normal(&mut rng);
             }
             let mut above = fixed;
             for &i in &open {
                 let v = sky.vector(hours[i]);
-                let x = e[i] + lit.iter().map(|&p| v[p] * delta[p]).sum::<f64>();
+                let x = e[i].0 + lit.iter().zip(&delta).map(|(&p, d)| v[p] * d).sum::<f64>();
                 if x >= o.threshold_lx {
                     above += 1;
                 }

@@ -55,10 +55,7 @@ impl WeatherHour {
     /// The day of the year, 1–365 (366 for 31 December of a leap year; typical-year
     /// files have no 29 February, and .wea rows count as a common year).
     pub fn day_of_year(&self) -> u32 {
-        const START: [u32; 12] = [0, 31, 59, 90, 120, 151, 181, 212, 243, 273, 304, 334];
-        let y = self.year;
-        let leap = y != 0 && ((y % 4 == 0 && y % 100 != 0) || y % 400 == 0);
-        START[(self.month.clamp(1, 12) - 1) as usize] + self.day + u32::from(leap && self.month > 2)
+        day_of_year(self.year, self.month, self.day)
     }
 
     /// The sun's position (azimuth from north toward east, zenith angle; degrees) at the
@@ -93,6 +90,14 @@ impl WeatherHour {
             .map_or(2.0, crate::scene::light::precipitable_water);
         crate::scene::light::perez_sky(dni, dhi, sun_zenith_deg, self.day_of_year(), water)
     }
+}
+
+/// The day of the year of `month`/`day` in `year` of the Gregorian calendar (1–366; year 0,
+/// a .wea row's, counts as a common year).
+pub fn day_of_year(year: i32, month: u32, day: u32) -> u32 {
+    const START: [u32; 12] = [0, 31, 59, 90, 120, 151, 181, 212, 243, 273, 304, 334];
+    let leap = year != 0 && ((year % 4 == 0 && year % 100 != 0) || year % 400 == 0);
+    START[(month.clamp(1, 12) - 1) as usize] + day + u32::from(leap && month > 2)
 }
 
 /// A weather file's site and hours.
@@ -134,6 +139,18 @@ pub fn read_wea(path: &Path) -> Result<Weather> {
     parse_wea(&read_text(path)?, &path.display().to_string())
 }
 
+/// Reads a weather file: Radiance .wea by its extension, EnergyPlus EPW otherwise.
+pub fn read(path: &Path) -> Result<Weather> {
+    if path
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("wea"))
+    {
+        read_wea(path)
+    } else {
+        read_epw(path)
+    }
+}
+
 /// A parse error at `file`:`line`.
 fn at(file: &str, line: usize, what: String) -> Error {
     Error::new(ImapStatus::ImapErrParse, format!("{file}:{line}: {what}"))
@@ -149,6 +166,11 @@ fn number(file: &str, line: usize, field: &str, text: &str) -> Result<f64> {
             format!("{field} = \"{}\" is not a number", printable(t)),
         )),
     }
+}
+
+/// A number of `field` in [lo, hi].
+fn ranged(file: &str, line: usize, field: &str, text: &str, lo: f64, hi: f64) -> Result<f64> {
+    in_range(file, line, field, number(file, line, field, text)?, lo, hi)
 }
 
 fn in_range(file: &str, line: usize, field: &str, x: f64, lo: f64, hi: f64) -> Result<f64> {
@@ -196,38 +218,10 @@ pub fn parse_epw(text: &str, file: &str) -> Result<Weather> {
     }
     let site = WeatherSite {
         name: f[1].trim().to_string(),
-        latitude_deg: in_range(
-            file,
-            n,
-            "latitude",
-            number(file, n, "latitude", f[6])?,
-            -90.0,
-            90.0,
-        )?,
-        longitude_deg: in_range(
-            file,
-            n,
-            "longitude",
-            number(file, n, "longitude", f[7])?,
-            -180.0,
-            180.0,
-        )?,
-        utc_offset_hours: in_range(
-            file,
-            n,
-            "time zone",
-            number(file, n, "time zone", f[8])?,
-            -12.0,
-            14.0,
-        )?,
-        elevation_m: in_range(
-            file,
-            n,
-            "elevation",
-            number(file, n, "elevation", f[9])?,
-            -1000.0,
-            10_000.0,
-        )?,
+        latitude_deg: ranged(file, n, "latitude", f[6], -90.0, 90.0)?,
+        longitude_deg: ranged(file, n, "longitude", f[7], -180.0, 180.0)?,
+        utc_offset_hours: ranged(file, n, "time zone", f[8], -12.0, 14.0)?,
+        elevation_m: ranged(file, n, "elevation", f[9], -1000.0, 10_000.0)?,
     };
     // The other seven header lines, the last DATA PERIODS (its second field: records per
     // hour).
@@ -237,14 +231,7 @@ pub fn parse_epw(text: &str, file: &str) -> Result<Weather> {
         header += 1;
         if l.starts_with("DATA PERIODS") {
             if let Some(x) = l.split(',').nth(2) {
-                per_hour = in_range(
-                    file,
-                    n,
-                    "records per hour",
-                    number(file, n, "records per hour", x)?,
-                    1.0,
-                    60.0,
-                )?;
+                per_hour = ranged(file, n, "records per hour", x, 1.0, 60.0)?;
             }
             break;
         }
@@ -340,41 +327,13 @@ pub fn parse_wea(text: &str, file: &str) -> Result<Weather> {
     };
     let (_, name) = key("place")?;
     let (n, lat) = key("latitude")?;
-    let latitude_deg = in_range(
-        file,
-        n,
-        "latitude",
-        number(file, n, "latitude", &lat)?,
-        -90.0,
-        90.0,
-    )?;
+    let latitude_deg = ranged(file, n, "latitude", &lat, -90.0, 90.0)?;
     let (n, lon) = key("longitude")?;
-    let longitude_deg = -in_range(
-        file,
-        n,
-        "longitude",
-        number(file, n, "longitude", &lon)?,
-        -180.0,
-        180.0,
-    )?;
+    let longitude_deg = -ranged(file, n, "longitude", &lon, -180.0, 180.0)?;
     let (n, tz) = key("time_zone")?;
-    let meridian = in_range(
-        file,
-        n,
-        "time_zone",
-        number(file, n, "time_zone", &tz)?,
-        -210.0,
-        180.0,
-    )?;
+    let meridian = ranged(file, n, "time_zone", &tz, -210.0, 180.0)?;
     let (n, el) = key("site_elevation")?;
-    let elevation_m = in_range(
-        file,
-        n,
-        "site_elevation",
-        number(file, n, "site_elevation", &el)?,
-        -1000.0,
-        10_000.0,
-    )?;
+    let elevation_m = ranged(file, n, "site_elevation", &el, -1000.0, 10_000.0)?;
     let (n, units) = key("weather_data_file_units")?;
     if units.trim() != "1" {
         return Err(at(
@@ -408,23 +367,9 @@ pub fn parse_wea(text: &str, file: &str) -> Result<Weather> {
             number(file, n, "month", f[0])?,
             number(file, n, "day", f[1])?,
         )?;
-        let hour = in_range(file, n, "hour", number(file, n, "hour", f[2])?, 0.0, 24.0)?;
-        let dni = in_range(
-            file,
-            n,
-            "direct",
-            number(file, n, "direct", f[3])?,
-            0.0,
-            2000.0,
-        )?;
-        let dhi = in_range(
-            file,
-            n,
-            "diffuse",
-            number(file, n, "diffuse", f[4])?,
-            0.0,
-            2000.0,
-        )?;
+        let hour = ranged(file, n, "hour", f[2], 0.0, 24.0)?;
+        let dni = ranged(file, n, "direct", f[3], 0.0, 2000.0)?;
+        let dhi = ranged(file, n, "diffuse", f[4], 0.0, 2000.0)?;
         hours.push(WeatherHour {
             year: 0,
             month,

@@ -446,13 +446,8 @@ fn a_sky_of_patches_lights_as_its_patches_and_approaches_its_sky() {
 
 /// A sky lit over one Tregenza patch (unit relative radiance, 1 cd/m² of equal energy).
 fn one_patch(p: usize) -> SkyDesc {
-    let mut values = vec![0.0; 146];
-    values[p] = 1.0;
     SkyDesc {
-        kind: SkyKind::Patches {
-            mf: 1,
-            values: std::sync::Arc::new(values),
-        },
+        kind: SkyKind::single_patch(1, p).unwrap(),
         amount: SkyAmount::Luminance(1.0),
         spectrum: Spectrum::Equal,
         ..SkyDesc::default()
@@ -1452,19 +1447,7 @@ fn office(seed: u64) -> (Context, u32) {
     })
     .unwrap();
     for p in 0..146 {
-        let mut values = vec![0.0; 146];
-        values[p] = 1.0;
-        let light = ctx
-            .add_sky(&SkyDesc {
-                kind: SkyKind::Patches {
-                    mf: 1,
-                    values: std::sync::Arc::new(values),
-                },
-                amount: SkyAmount::Luminance(1.0),
-                spectrum: Spectrum::Equal,
-                ..SkyDesc::default()
-            })
-            .unwrap();
+        let light = ctx.add_sky(&one_patch(p)).unwrap();
         ctx.set_light_group(light, if p == 0 { 146 } else { p as u32 })
             .unwrap();
     }

@@ -11,7 +11,6 @@ use imap::annual::{AnnualSky, Coefficients, MetricOptions, SunInVectors};
 use imap::{Layer, LayerRequest, SkyAmount, SkyDesc, SkyKind};
 use std::io::Write;
 use std::path::{Path, PathBuf};
-use std::sync::Arc;
 
 /// The command's options.
 #[derive(clap::Args, Clone, Debug)]
@@ -117,16 +116,7 @@ pub fn annual(model: &Path, settings: Settings, o: &AnnualOptions) -> Result<()>
         fail!("annual: give --photons or --time for the coefficients' run");
     }
     // The weather first: a bad file costs no run.
-    let wea = o
-        .weather
-        .extension()
-        .is_some_and(|e| e.eq_ignore_ascii_case("wea"));
-    let weather = if wea {
-        imap::weather::read_wea(&o.weather)
-    } else {
-        imap::weather::read_epw(&o.weather)
-    }
-    .map_err(|e| CliError(printable(&e.message)))?;
+    let weather = imap::weather::read(&o.weather).map_err(|e| CliError(printable(&e.message)))?;
     let sky = AnnualSky::from_weather(&weather, 1, SunInVectors::InItsPatch, o.ground_reflectance)
         .map_err(|e| {
             CliError(format!(
@@ -162,14 +152,10 @@ pub fn annual(model: &Path, settings: Settings, o: &AnnualOptions) -> Result<()>
     })
     .map_err(|e| CliError(format!("annual: {}", e.message)))?;
     for p in 0..n {
-        let mut values = vec![0.0; n];
-        values[p] = 1.0;
+        let kind = SkyKind::single_patch(1, p).map_err(|e| CliError(e.message))?;
         let id = ctx
             .add_sky(&SkyDesc {
-                kind: SkyKind::Patches {
-                    mf: 1,
-                    values: Arc::new(values),
-                },
+                kind,
                 amount: SkyAmount::Luminance(1.0),
                 zenith: up,
                 north,

@@ -66,13 +66,6 @@ fn parse_date(s: &str, what: &str) -> Result<(i32, u32, u32, u32, u32, f64)> {
     Ok((year, month, day, hour, minute, second))
 }
 
-/// The day of the year of a date of the Gregorian calendar.
-fn day_of_year(year: i32, month: u32, day: u32) -> u32 {
-    const START: [u32; 12] = [0, 31, 59, 90, 120, 151, 181, 212, 243, 273, 304, 334];
-    let leap = (year % 4 == 0 && year % 100 != 0) || year % 400 == 0;
-    START[(month.clamp(1, 12) - 1) as usize] + day + u32::from(leap && month > 2)
-}
-
 /// The `[sky]`'s hour of its weather file, and the sun's (azimuth, zenith angle) then.
 fn weather_hour(
     s: &SkySettings,
@@ -100,12 +93,8 @@ fn weather_hour(
     let wea = path
         .extension()
         .is_some_and(|e| e.eq_ignore_ascii_case("wea"));
-    let w = if wea {
-        imap::weather::read_wea(&path)
-    } else {
-        imap::weather::read_epw(&path)
-    }
-    .map_err(|e| CliError(format!("{what}: weather: {}", printable(&e.message))))?;
+    let w = imap::weather::read(&path)
+        .map_err(|e| CliError(format!("{what}: weather: {}", printable(&e.message))))?;
     // An EPW hour h is stored at h − 0.5; a .wea row at its own decimal hour.
     let at = if wea { h } else { h - 0.5 };
     let Some(hour) = w
@@ -269,7 +258,7 @@ pub fn add_daylight(
                             .and_then(|s| s.date.as_deref())
                             .map(|d| parse_date(d, "settings: sun"))
                             .transpose()?
-                            .map(|(y, m, d, ..)| day_of_year(y, m, d));
+                            .map(|(y, m, d, ..)| imap::weather::day_of_year(y, m, d));
                         let Some(day) = s.day_of_year.or(from_sun) else {
                             fail!("{what}: a perez sky of irradiances needs day_of_year (or a [sun] with a date)");
                         };

@@ -479,13 +479,14 @@ pub fn point_vertices(g: &Grid) -> Vec<usize> {
 }
 
 pub fn read(ctx: &Context, g: &Grid) -> Result<GridResult> {
+    let points = point_vertices(g);
+    let pick = |all: &[f64]| -> Vec<f64> { points.iter().map(|&k| all[k]).collect() };
     if g.normals.is_some() {
         let n = 5 * g.nu;
         let (mut all_lux, mut all_rel) = (vec![0.0; n], vec![0.0; n]);
         ctx.illuminance(g.id, 0, &mut all_lux)?;
         ctx.rel_error(g.id, 0, &mut all_rel)?;
-        let centres = |all: &[f64]| -> Vec<f64> { all.iter().step_by(5).copied().collect() };
-        let (lux, rel_error) = (centres(&all_lux), centres(&all_rel));
+        let (lux, rel_error) = (pick(&all_lux), pick(&all_rel));
         // The figures of the points themselves (the region's would count the squares'
         // corners): the arithmetic mean, as for a rectangle's points, and the extremes
         // with the same correction for noise. The mean's error treats the points as
@@ -511,13 +512,7 @@ pub fn read(ctx: &Context, g: &Grid) -> Result<GridResult> {
     ctx.illuminance(g.id, 0, &mut all_lux)?;
     ctx.rel_error(g.id, 0, &mut all_rel)?;
     // The points: the sensor's vertices inside its guard ring.
-    let inner = |all: &[f64]| -> Vec<f64> {
-        (0..g.nv)
-            .flat_map(|j| (0..g.nu).map(move |i| (j + 1) * mu + i + 1))
-            .map(|k| all[k])
-            .collect()
-    };
-    let (lux, rel_error) = (inner(&all_lux), inner(&all_rel));
+    let (lux, rel_error) = (pick(&all_lux), pick(&all_rel));
     let stats = ctx.region_stats(g.id, 0, Some(POINTS_PART))?;
     Ok(GridResult {
         lux,

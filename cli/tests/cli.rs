@@ -7,6 +7,17 @@ use common::{imap, run_photons, stderr, write};
 
 use std::path::Path;
 
+/// A black triangle far below the origin, in `dir`: a model that lights nothing, so that
+/// grids at the origin read their lights unobstructed. Returns the OBJ's path.
+fn far_triangle(dir: &Path) -> String {
+    write(dir, "far.mtl", "newmtl black\nKd 0 0 0\n");
+    write(
+        dir,
+        "far.obj",
+        "mtllib far.mtl\no far\nusemtl black\nv 50 50 -50\nv 51 50 -50\nv 50 51 -50\nf 1 2 3\n",
+    )
+}
+
 /// Runs imap expecting failure; returns its one-line message.
 fn fails(args: &[&str]) -> String {
     let o = imap(args);
@@ -672,12 +683,7 @@ fn grids_measure_a_point_light_and_stop_on_their_error() {
     // over its area, and the run stops on the largest point error.
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    let o = write(
-        d,
-        "far.obj",
-        "mtllib far.mtl\no far\nusemtl black\nv 50 50 -50\nv 51 50 -50\nv 50 51 -50\nf 1 2 3\n",
-    );
-    write(d, "far.mtl", "newmtl black\nKd 0 0 0\n");
+    let o = far_triangle(d);
     let s = write(
         d,
         "settings.toml",
@@ -1369,12 +1375,7 @@ fn annual_metrics_of_an_open_grid_follow_the_hours_light() {
     // vector's horizontal illuminance, and DA at a threshold counts the hours above it.
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    let o = write(
-        d,
-        "far.obj",
-        "mtllib far.mtl\no far\nusemtl black\nv 50 50 -50\nv 51 50 -50\nv 50 51 -50\nf 1 2 3\n",
-    );
-    write(d, "far.mtl", "newmtl black\nKd 0 0 0\n");
+    let o = far_triangle(d);
     let s = write(
         d,
         "settings.toml",

@@ -555,29 +555,11 @@ impl Distant {
 
     /// The mean radiance per band over each patch of `patches` (W/(m² sr); patch 0 the
     /// ground, which a sky leaves dark and the ground's glow fills), by `sub` × `sub`
-    /// points of equal solid angle per patch. The sun's disk is left out unless
-    /// `with_sun`: then its radiance is spread over the patch that holds its centre
-    /// (its flux kept).
-    pub fn patch_radiance(
-        &self,
-        patches: &super::SkyPatches,
-        sub: usize,
-        with_sun: bool,
-    ) -> Vec<Vec<f64>> {
+    /// points of equal solid angle per patch. The sun's disk is left out.
+    pub fn patch_radiance(&self, patches: &super::SkyPatches, sub: usize) -> Vec<Vec<f64>> {
         let nb = self.parts[0].per_band.len();
         let mut out = vec![vec![0.0; nb]; patches.count()];
-        for part in &self.parts {
-            if let Radiance::Sun { axis, .. } = part.radiance {
-                if with_sun {
-                    let (az, cz) = part.frame.angles(axis);
-                    let p = patches.patch(cz.asin(), az);
-                    let omega = patches.solid_angle(p);
-                    for (o, x) in out[p].iter_mut().zip(&part.per_band) {
-                        *o += x * part.integral / omega;
-                    }
-                }
-                continue;
-            }
+        for part in self.parts.iter().filter(|p| !p.is_sun()) {
             for (p, o) in out.iter_mut().enumerate() {
                 let f = patches.mean(p, sub, |alt, az| {
                     part.value(part.frame.direction(az, FRAC_PI_2 - alt))

@@ -50,6 +50,27 @@ pub enum SkyKind {
     },
 }
 
+impl SkyKind {
+    /// A sky lit over patch `patch` of Reinhart's MF:`mf` alone, at relative radiance 1
+    /// (patch 0: the ground glow alone): a daylight coefficient's sky.
+    pub fn single_patch(mf: u32, patch: usize) -> Result<Self> {
+        let n = super::SkyPatches::reinhart(mf)?.count();
+        if patch >= n {
+            bail!(
+                ImapErrInvalidArgument,
+                "patch = {patch}: MF:{mf} has patches 0–{}",
+                n - 1
+            );
+        }
+        let mut values = vec![0.0; n];
+        values[patch] = 1.0;
+        Ok(SkyKind::Patches {
+            mf,
+            values: Arc::new(values),
+        })
+    }
+}
+
 /// A sky as the caller describes it.
 #[derive(Clone, Debug, PartialEq)]
 pub struct SkyDesc {
@@ -377,13 +398,9 @@ impl Distant {
         // A sky of patches lights the lower hemisphere by its ground patch.
         if let SkyKind::Patches { values, .. } = &desc.kind {
             if values[0] > 0.0 {
-                let mut ground = Distant::ground(desc.zenith, Vec::new())?
-                    .parts
-                    .pop()
-                    .expect("the ground's part");
-                let g = Arc::get_mut(&mut ground).expect("a new part");
-                g.per_band = parts[0].per_band.iter().map(|v| v * values[0]).collect();
-                parts.push(Arc::unwrap_or_clone(ground));
+                let glow = parts[0].per_band.iter().map(|v| v * values[0]).collect();
+                let ground = Distant::ground(desc.zenith, glow)?.parts;
+                parts.extend(ground.into_iter().map(Arc::unwrap_or_clone));
             }
         }
         if parts
@@ -406,7 +423,7 @@ impl Distant {
 /// left 0), W/(m² sr), by 8 × 8 points of equal solid angle per patch.
 pub fn sky_patch_radiance(sky: &SkyDesc, bands: &Bands, mf: u32) -> Result<Vec<Vec<f64>>> {
     let patches = super::SkyPatches::reinhart(mf)?;
-    Ok(Distant::sky(sky, bands)?.patch_radiance(&patches, 8, false))
+    Ok(Distant::sky(sky, bands)?.patch_radiance(&patches, 8))
 }
 
 impl Distant {
@@ -864,6 +881,13 @@ mod tests {
         v[7] = f64::NAN;
         assert!(e(v).contains("values[7]"));
         assert!(e(vec![0.0; 146]).contains("all 0"));
+        assert!(SkyKind::single_patch(1, 146)
+            .unwrap_err()
+            .to_string()
+            .contains("patches 0–145"));
+        assert!(
+            matches!(SkyKind::single_patch(2, 577).unwrap(), SkyKind::Patches { values, .. } if values[577] == 1.0 && values.iter().sum::<f64>() == 1.0)
+        );
         // The ground patch alone is the ground's glow.
         let mut v = vec![0.0; 146];
         v[0] = 2.0;
