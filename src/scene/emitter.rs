@@ -203,14 +203,14 @@ impl Portals {
         })
     }
 
-    /// The density over directions toward the source of the portal strategy's portal k.
+    /// The density over directions toward the source of the portal strategy's portal k:
+    /// half the source's own density (over every direction it lights, behind the portal
+    /// too: such a line crosses the portal from its back) and half cosine-distributed
+    /// about the portal's normal.
     #[inline]
     fn q(&self, part: &DistantPart, k: usize, toward: DVec3) -> f64 {
-        let cos = toward.dot(self.normals[k]);
-        if cos <= 0.0 {
-            return 0.0;
-        }
         if part.is_sky() {
+            let cos = toward.dot(self.normals[k]).max(0.0);
             0.5 * part.pdf(toward) + 0.5 * cos / std::f64::consts::PI
         } else {
             part.pdf(toward)
@@ -222,14 +222,19 @@ impl Portals {
     fn line_density(&self, part: &DistantPart, x: DVec3, toward: DVec3, own: Option<usize>) -> f64 {
         let mut portal = 0.0;
         for k in 0..self.tris.len() {
-            let cos = toward.dot(self.normals[k]);
-            if cos <= 0.0 {
+            // A line crosses the portal from either side: the source's own half of q
+            // draws directions behind it too (a density of 0 there weighed such photons,
+            // which the strategy does draw, as if only the whole sky had: 1.75 times the
+            // source's power came out, and a portal facing into the model gave its room
+            // 30 times its light).
+            let cos = toward.dot(self.normals[k]).abs();
+            if cos <= 1e-12 {
                 continue;
             }
             if own != Some(k) && !crosses(&self.tris[k], x, toward) {
                 continue;
             }
-            // P_k q_k / (A_k cos_k): the triangle's pick, its point, the direction.
+            // P_k q_k / (A_k |cos_k|): the triangle's pick, its point, the direction.
             portal += self.j[k] * self.areas[k] / self.total * self.q(part, k, toward)
                 / (self.areas[k] * cos);
         }
@@ -620,4 +625,53 @@ fn distant_density(part: &DistantPart, toward: DVec3, receiver: Receiver) -> f64
         1.0 - receiver.p_front
     };
     0.5 * part.pdf(toward) + 0.5 * p_side * cos.abs() / PI
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::light::{Distant, SkyAmount, SkyDesc, SkyKind};
+
+    fn uniform_part() -> Arc<DistantPart> {
+        let d = Distant::sky(
+            &SkyDesc {
+                kind: SkyKind::Uniform { sphere: false },
+                amount: SkyAmount::Radiance(1.0),
+                ..SkyDesc::default()
+            },
+            &crate::spectral::Bands::rgb(),
+        )
+        .unwrap();
+        d.parts[0].clone()
+    }
+
+    #[test]
+    fn portal_photons_weigh_one_on_average_whichever_way_the_portal_faces() {
+        let part = uniform_part();
+        let r = 5.0;
+        // A window in the plane y = 0, facing −y (out) and +y (in).
+        let a = [
+            DVec3::new(-1.0, 0.0, 0.0),
+            DVec3::new(1.0, 0.0, 0.0),
+            DVec3::new(1.0, 0.0, 1.5),
+        ];
+        for (name, t) in [("out", [a[0], a[2], a[1]]), ("in", a)] {
+            let p = Portals::new(&part, &[t], r).unwrap();
+            let mut rng = PhotonRng::new(7, 3);
+            let n = 2_000_000;
+            let (mut sum, mut sq) = (0.0, 0.0);
+            for _ in 0..n {
+                let w = p.emit(&part, &mut rng).2;
+                sum += w;
+                sq += w * w;
+            }
+            let mean = sum / n as f64;
+            let se = ((sq / n as f64 - mean * mean) / n as f64).sqrt();
+            eprintln!("portal facing {name}: mean weight {mean:.5} ± {se:.5}");
+            assert!(
+                (mean - 1.0).abs() < 4.0 * se + 1e-9,
+                "{name}: {mean} ± {se}"
+            );
+        }
+    }
 }
