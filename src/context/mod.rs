@@ -8,6 +8,7 @@ pub use layers::Layer;
 pub use readout::{MeshInfo, RegionStats};
 mod render;
 pub mod state;
+mod straight;
 
 use crate::accel::{Accel, Device};
 use crate::error::{bail, check_finite_scalar, Error, ImapStatus, Result};

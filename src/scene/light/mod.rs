@@ -26,7 +26,7 @@ mod sun;
 pub use cie::{cie_luminance, CIE_SKY_PARAMETERS};
 pub use direction::unit_vector;
 use direction::{direction, perpendicular};
-pub use distant::{Distant, DistantPart, Radiance, SkyAmount};
+pub use distant::{Distant, DistantPart, Radiance, SkyAmount, SkyFrame};
 pub use luminaire::Luminaire;
 pub use patches::{SkyPatches, MAX_REINHART_MF};
 pub use perez::{
