@@ -33,12 +33,16 @@ pub struct AnnualHour {
     /// a night, a missing hour, or an hour without diffuse light).
     pub diffuse_horizontal_lx: f64,
     pub direct_normal_lx: f64,
+    /// The sky patch that holds the sun (0: the sun is down).
+    pub sun_patch: usize,
 }
 
 /// A year of sky vectors: per hour, the mean luminance of each patch, cd/m².
 #[derive(Clone, Debug)]
 pub struct AnnualSky {
     pub patches: SkyPatches,
+    /// How its vectors hold the sun.
+    pub sun: SunInVectors,
     pub hours: Vec<AnnualHour>,
     /// `hours.len()` × `patches.count()` luminances, hour by hour (patch 0 the ground).
     pub luminance: Vec<f64>,
@@ -81,6 +85,11 @@ impl AnnualSky {
                 (s.diffuse_horizontal_lx, s.direct_normal_lx)
             });
             let dn = if zen < 90.0 { dn } else { 0.0 };
+            let sun_patch = if zen < 90.0 {
+                patches.patch(FRAC_PI_2 - zen.to_radians(), az.to_radians())
+            } else {
+                0
+            };
             hours.push(AnnualHour {
                 row,
                 month: h.month,
@@ -90,6 +99,7 @@ impl AnnualSky {
                 sun_zenith_deg: zen,
                 diffuse_horizontal_lx: dh,
                 direct_normal_lx: dn,
+                sun_patch,
             });
             let out = &mut luminance[row * n..(row + 1) * n];
             if let Some(s) = sky {
@@ -117,8 +127,7 @@ impl AnnualSky {
                     out.iter_mut().skip(1).for_each(|v| *v *= k);
                 }
                 if sun == SunInVectors::InItsPatch && dn > 0.0 {
-                    let q = patches.patch(FRAC_PI_2 - zs, az.to_radians());
-                    out[q] += dn / patches.solid_angle(q);
+                    out[sun_patch] += dn / patches.solid_angle(sun_patch);
                 }
                 let global = dh + dn * zs.cos().max(0.0);
                 out[0] = ground_reflectance * global / std::f64::consts::PI;
@@ -126,6 +135,7 @@ impl AnnualSky {
         }
         Ok(AnnualSky {
             patches,
+            sun,
             hours,
             luminance,
         })
@@ -194,6 +204,177 @@ impl Coefficients {
     }
 }
 
+/// The sun's direct light at the sensors, computed along its true line for every hour
+/// (docs/daylight.md, "The direct sun"): the part of an hour's light the patches would
+/// smear over 12° or more, and the light IES LM-83's ASE counts.
+///
+/// With it, an hour's illuminance at sensor k is
+/// Σ_p L_p C_kp + l (C_kq − D_kq) + E_k: the sky's patches (vectors without the sun,
+/// `SunInVectors::Left`), the sun's inter-reflected light through the coefficient of the
+/// patch q that holds it at the luminance l = E_n / Ω_q its direct normal illuminance
+/// E_n spreads over it, less that patch's direct-only coefficient D_kq (what C_kq holds of
+/// light that came in a straight line), and the sun's direct illuminance E_k = E_n T cos θ
+/// on its true line (T the straight line's transmittance, `Context::straight_transmittance`).
+#[derive(Clone, Debug, PartialEq)]
+pub struct DirectSun {
+    pub sensors: usize,
+    pub patches: usize,
+    /// Per sensor, the hours the sun reaches it: `hours[offsets[k]..offsets[k + 1]]` index
+    /// the sky's hours, `lux` the sun's direct illuminance in them.
+    pub offsets: Vec<usize>,
+    pub hours: Vec<u32>,
+    pub lux: Vec<f32>,
+    /// `sensors` × `patches`: each patch's direct-only coefficient, lx per cd/m² (only the
+    /// patches the sun crosses in the year; 0 elsewhere), and its standard error.
+    pub patch_direct: Vec<f64>,
+    pub patch_direct_sigma: Vec<f64>,
+}
+
+/// Directions per patch, per side, for the direct-only coefficients (jittered, one per
+/// cell of equal solid angle).
+const DIRECT_SUB: usize = 8;
+
+impl DirectSun {
+    /// Traces the sun's lines for `sky`'s hours and the direct-only coefficients of the
+    /// patches it crosses, at `points` (scene units) whose measuring sides face `normals`,
+    /// in the scene of `ctx`, its sky oriented by `zenith` and `north` (as the patch skies
+    /// of the coefficients). `spectrum`: the sun's and the patch skies' (the transmittance
+    /// is luminous: weighted by the spectrum's luminous power per band). `seed` jitters
+    /// the patches' directions.
+    pub fn new(
+        ctx: &mut crate::Context,
+        sky: &AnnualSky,
+        (zenith, north): ([f64; 3], [f64; 3]),
+        (points, normals): (&[[f64; 3]], &[[f64; 3]]),
+        spectrum: &crate::photometry::Spectrum,
+        seed: u64,
+    ) -> Result<Self> {
+        let bands = ctx.config().bands.clone();
+        spectrum.validate(&bands)?;
+        let weights: Vec<f64> = crate::photometry::spectrum::band_powers(spectrum, &bands)
+            .iter()
+            .zip(&ctx.photometry().efficacy)
+            .map(|(p, e)| p * e)
+            .collect();
+        if points.len() != normals.len() {
+            bail!(
+                ImapErrInvalidArgument,
+                "{} points and {} normals",
+                points.len(),
+                normals.len()
+            );
+        }
+        let mut units = Vec::with_capacity(normals.len());
+        for (i, n) in normals.iter().enumerate() {
+            crate::error::check_finite(&format!("normals[{i}]"), n)?;
+            let Some(u) = glam::DVec3::from(*n).try_normalize() else {
+                bail!(ImapErrInvalidArgument, "normals[{i}] is the zero vector");
+            };
+            units.push(u);
+        }
+        let frame = crate::scene::light::SkyFrame::new(zenith, north)?;
+        let np = sky.patches.count();
+        // The hours of sun, and the patches it crosses.
+        let sun_hours: Vec<usize> = (0..sky.hours.len())
+            .filter(|&h| sky.hours[h].direct_normal_lx > 0.0 && sky.hours[h].sun_patch > 0)
+            .collect();
+        let mut dirs: Vec<[f64; 3]> = sun_hours
+            .iter()
+            .map(|&h| {
+                let a = &sky.hours[h];
+                frame
+                    .direction(
+                        a.sun_azimuth_deg.to_radians(),
+                        a.sun_zenith_deg.to_radians(),
+                    )
+                    .to_array()
+            })
+            .collect();
+        let mut crossed = vec![false; np];
+        for &h in &sun_hours {
+            crossed[sky.hours[h].sun_patch] = true;
+        }
+        let patch_list: Vec<usize> = (1..np).filter(|&p| crossed[p]).collect();
+        let m = DIRECT_SUB * DIRECT_SUB;
+        let mut rng = PhotonRng::new(seed, 0x5d1_7ec7);
+        for &p in &patch_list {
+            let (lo, hi, a0, w) = sky.patches.bounds(p);
+            let (s0, s1) = (lo.sin(), hi.sin());
+            for i in 0..DIRECT_SUB {
+                for j in 0..DIRECT_SUB {
+                    let alt =
+                        (s0 + (s1 - s0) * (i as f64 + rng.uniform()) / DIRECT_SUB as f64).asin();
+                    let az = a0 + w * (j as f64 + rng.uniform()) / DIRECT_SUB as f64;
+                    dirs.push(frame.direction(az, FRAC_PI_2 - alt).to_array());
+                }
+            }
+        }
+        let unit_dirs: Vec<glam::DVec3> = dirs.iter().map(|d| glam::DVec3::from(*d)).collect();
+        let ns = sun_hours.len();
+        let mut out = DirectSun {
+            sensors: points.len(),
+            patches: np,
+            offsets: vec![0],
+            hours: Vec::new(),
+            lux: Vec::new(),
+            patch_direct: vec![0.0; points.len() * np],
+            patch_direct_sigma: vec![0.0; points.len() * np],
+        };
+        if dirs.is_empty() {
+            // No hour of sun.
+            out.offsets = vec![0; points.len() + 1];
+            return Ok(out);
+        }
+        // A few hundred points at a time: the lines of one batch stay small.
+        const BATCH: usize = 256;
+        for (b, batch) in points.chunks(BATCH).enumerate() {
+            let t = ctx.straight_transmittance(batch, &dirs, &weights)?;
+            for (i, row) in t.chunks(dirs.len()).enumerate() {
+                let k = b * BATCH + i;
+                let n = units[k];
+                for (j, &h) in sun_hours.iter().enumerate() {
+                    let c = n.dot(unit_dirs[j]);
+                    if row[j] > 0.0 && c > 0.0 {
+                        out.hours.push(h as u32);
+                        out.lux
+                            .push((sky.hours[h].direct_normal_lx * row[j] as f64 * c) as f32);
+                    }
+                }
+                out.offsets.push(out.hours.len());
+                for (pi, &p) in patch_list.iter().enumerate() {
+                    let base = ns + pi * m;
+                    let f: Vec<f64> = (0..m)
+                        .map(|s| row[base + s] as f64 * n.dot(unit_dirs[base + s]).max(0.0))
+                        .collect();
+                    // One jittered direction per cell of equal solid angle: the mean, and
+                    // the variance by pairs of neighbouring cells (collapsed strata, an
+                    // upper bound).
+                    let wgt = sky.patches.solid_angle(p) / m as f64;
+                    let sum: f64 = f.iter().sum();
+                    let var: f64 = f
+                        .chunks(2)
+                        .map(|c| (c[0] - c.get(1).copied().unwrap_or(c[0])).powi(2))
+                        .sum::<f64>()
+                        * wgt
+                        * wgt;
+                    out.patch_direct[k * np + p] = wgt * sum;
+                    out.patch_direct_sigma[k * np + p] = var.sqrt();
+                }
+            }
+        }
+        Ok(out)
+    }
+
+    /// Sensor `k`'s hours of direct sun and their illuminance, lx.
+    pub fn at(&self, k: usize) -> impl Iterator<Item = (usize, f64)> + '_ {
+        let r = self.offsets[k]..self.offsets[k + 1];
+        self.hours[r.clone()]
+            .iter()
+            .zip(&self.lux[r])
+            .map(|(&h, &x)| (h as usize, x as f64))
+    }
+}
+
 /// What the metrics count and against what.
 #[derive(Clone, Debug, PartialEq)]
 pub struct MetricOptions {
@@ -211,6 +392,10 @@ pub struct MetricOptions {
     /// Draws of the coefficients for the confidence (0: none), and their seed.
     pub draws: usize,
     pub seed: u64,
+    /// ASE's direct-sun illuminance, lx, and the occupied hours a sensor must exceed it
+    /// in (IES LM-83: 1000 lx, more than 250 hours).
+    pub ase_lx: f64,
+    pub ase_hours: usize,
 }
 
 impl Default for MetricOptions {
@@ -223,6 +408,8 @@ impl Default for MetricOptions {
             udi_high: 3000.0,
             draws: 100,
             seed: 1,
+            ase_lx: 1000.0,
+            ase_hours: 250,
         }
     }
 }
@@ -241,6 +428,9 @@ pub struct SensorMetrics {
     /// The probability that the sensor's DA reaches `sda_share` (the share of draws in
     /// which it does; 0 or 1 without draws).
     pub sda_pass_probability: f64,
+    /// The occupied hours in which its direct sun exceeds `ase_lx` (0 without the direct
+    /// sun).
+    pub ase_hours: usize,
 }
 
 /// A grid's annual metrics.
@@ -252,6 +442,10 @@ pub struct GridMetrics {
     /// draws' sDA (the 95 % interval); NaN without draws.
     pub sda_sigma: f64,
     pub sda_interval: (f64, f64),
+    /// Annual sunlight exposure: the share of sensors whose direct sun exceeds `ase_lx`
+    /// in more than `ase_hours` occupied hours (None without the direct sun). The direct
+    /// sun is traced along its line, not sampled: it carries no Monte Carlo error.
+    pub ase: Option<f64>,
     /// Occupied hours counted.
     pub occupied_hours: usize,
     pub sensors: Vec<SensorMetrics>,
@@ -259,16 +453,24 @@ pub struct GridMetrics {
 
 /// The hourly illuminance at every sensor (lx, hour by hour: `hours × sensors`) and its
 /// standard error.
-pub fn hourly(c: &Coefficients, sky: &AnnualSky) -> Result<(Vec<f64>, Vec<f64>)> {
+///
+/// With `sun`, the sky's vectors must leave the sun out (`SunInVectors::Left`) and the
+/// sun comes in as `DirectSun` says.
+pub fn hourly(
+    c: &Coefficients,
+    sky: &AnnualSky,
+    sun: Option<&DirectSun>,
+) -> Result<(Vec<f64>, Vec<f64>)> {
     let n = c.check_against(sky)?;
+    check_sun(c, sky, sun)?;
     let hours = sky.hours.len();
     let mut e = vec![0.0; hours * c.sensors];
     let mut s = vec![0.0; hours * c.sensors];
-    for h in 0..hours {
-        let v = sky.vector(h);
-        for k in 0..c.sensors {
-            let row = k * n..(k + 1) * n;
-            let (x, sx) = hour_value(v, &c.value[row.clone()], &c.sigma[row]);
+    let mut direct = vec![0.0; if sun.is_some() { hours } else { 0 }];
+    for k in 0..c.sensors {
+        let sensor = Sensor::new(c, sun, k, n, &mut direct);
+        for h in 0..hours {
+            let (x, sx) = sensor.hour(sky, h);
             e[h * c.sensors + k] = x;
             s[h * c.sensors + k] = sx;
         }
@@ -276,15 +478,103 @@ pub fn hourly(c: &Coefficients, sky: &AnnualSky) -> Result<(Vec<f64>, Vec<f64>)>
     Ok((e, s))
 }
 
-/// An hour's illuminance Σ L_p C_p under sky vector `v` from one sensor's coefficients `c`
-/// and their errors `sigma`, and its standard error √Σ (L_p σ_p)².
-fn hour_value(v: &[f64], c: &[f64], sigma: &[f64]) -> (f64, f64) {
-    let (mut x, mut var) = (0.0, 0.0);
-    for ((l, c), s) in v.iter().zip(c).zip(sigma) {
-        x += l * c;
-        var += (l * s).powi(2);
+/// Checks that `sun` (if any) belongs to `c` and `sky`.
+fn check_sun(c: &Coefficients, sky: &AnnualSky, sun: Option<&DirectSun>) -> Result<()> {
+    let Some(s) = sun else {
+        return Ok(());
+    };
+    if sky.sun != SunInVectors::Left {
+        bail!(
+            ImapErrInvalidArgument,
+            "the sky's vectors hold the sun in its patch already: with the direct sun, make them with SunInVectors::Left"
+        );
     }
-    (x, var.sqrt())
+    if s.sensors != c.sensors || s.patches != c.patches || s.offsets.len() != s.sensors + 1 {
+        bail!(
+            ImapErrInvalidArgument,
+            "the direct sun is of {} sensors × {} patches; the coefficients of {} × {}",
+            s.sensors,
+            s.patches,
+            c.sensors,
+            c.patches
+        );
+    }
+    if s.hours.iter().any(|&h| h as usize >= sky.hours.len()) {
+        bail!(
+            ImapErrInvalidArgument,
+            "the direct sun holds hours beyond the sky's {}",
+            sky.hours.len()
+        );
+    }
+    Ok(())
+}
+
+/// One sensor's coefficients, their errors, and (with the direct sun) its direct-only
+/// patch coefficients and its hours of direct sun (`direct`, one per sky hour).
+struct Sensor<'a> {
+    c: &'a [f64],
+    sigma: &'a [f64],
+    sun: Option<(&'a [f64], &'a [f64], &'a [f64])>,
+}
+
+impl<'a> Sensor<'a> {
+    fn new(
+        c: &'a Coefficients,
+        sun: Option<&'a DirectSun>,
+        k: usize,
+        n: usize,
+        direct: &'a mut [f64],
+    ) -> Self {
+        let row = k * n..(k + 1) * n;
+        let sun = sun.map(|s| {
+            direct.iter_mut().for_each(|x| *x = 0.0);
+            for (h, x) in s.at(k) {
+                direct[h] = x;
+            }
+            (
+                &s.patch_direct[row.clone()],
+                &s.patch_direct_sigma[row.clone()],
+                &*direct,
+            )
+        });
+        Sensor {
+            c: &c.value[row.clone()],
+            sigma: &c.sigma[row],
+            sun,
+        }
+    }
+
+    /// The sun of hour `h`: the patch q that holds it, its luminance l = E_n / Ω_q spread
+    /// over it, and its direct illuminance at the sensor (None without the direct sun or
+    /// a sun).
+    fn sun_of(&self, sky: &AnnualSky, h: usize) -> Option<(usize, f64, f64)> {
+        let (_, _, direct) = self.sun?;
+        let a = &sky.hours[h];
+        (a.direct_normal_lx > 0.0 && a.sun_patch > 0).then(|| {
+            let q = a.sun_patch;
+            (
+                q,
+                a.direct_normal_lx / sky.patches.solid_angle(q),
+                direct[h],
+            )
+        })
+    }
+
+    /// Hour `h`'s illuminance and its standard error: Σ L_p C_p and √Σ (L_p σ_p)² under
+    /// the hour's vector, with the sun's parts (`DirectSun`).
+    fn hour(&self, sky: &AnnualSky, h: usize) -> (f64, f64) {
+        let v = sky.vector(h);
+        let (mut x, mut var) = (0.0, 0.0);
+        for ((l, c), s) in v.iter().zip(self.c).zip(self.sigma) {
+            x += l * c;
+            var += (l * s).powi(2);
+        }
+        if let (Some((q, l, e)), Some((d, ds, _))) = (self.sun_of(sky, h), self.sun) {
+            x += l * (self.c[q] - d[q]) + e;
+            var += ((v[q] + l).powi(2) - v[q] * v[q]) * self.sigma[q].powi(2) + (l * ds[q]).powi(2);
+        }
+        (x, var.sqrt())
+    }
 }
 
 /// One sensor's metrics from its hourly illuminance over the occupied hours.
@@ -319,10 +609,20 @@ fn normal(rng: &mut PhotonRng) -> f64 {
     (-2.0 * u1.ln()).sqrt() * (2.0 * std::f64::consts::PI * u2).cos()
 }
 
-/// The annual metrics of a grid of sensors with coefficients `c` under `sky`, with their
-/// confidence from `o.draws` draws of the coefficients.
-pub fn metrics(c: &Coefficients, sky: &AnnualSky, o: &MetricOptions) -> Result<GridMetrics> {
+/// The annual metrics of a grid of sensors with coefficients `c` under `sky` (and the
+/// direct sun `sun`, as `hourly` takes it; ASE needs it), with their confidence from
+/// `o.draws` draws of the coefficients.
+pub fn metrics(
+    c: &Coefficients,
+    sky: &AnnualSky,
+    sun: Option<&DirectSun>,
+    o: &MetricOptions,
+) -> Result<GridMetrics> {
     let n = c.check_against(sky)?;
+    check_sun(c, sky, sun)?;
+    if !(o.ase_lx > 0.0 && o.ase_lx.is_finite()) {
+        bail!(ImapErrInvalidArgument, "ase_lx = {}: must be > 0", o.ase_lx);
+    }
     if !(o.threshold_lx > 0.0 && o.threshold_lx.is_finite()) {
         bail!(
             ImapErrInvalidArgument,
@@ -372,15 +672,21 @@ pub fn metrics(c: &Coefficients, sky: &AnnualSky, o: &MetricOptions) -> Result<G
     let passes = |m: &SensorMetrics| m.da >= o.sda_share;
     let mut sensors = Vec::with_capacity(c.sensors);
     let mut draws_sda = vec![0.0; o.draws];
+    let mut direct = vec![0.0; if sun.is_some() { sky.hours.len() } else { 0 }];
+    let mut ase_sensors = 0usize;
     for k in 0..c.sensors {
-        let cv = &c.value[k * n..(k + 1) * n];
-        let cs = &c.sigma[k * n..(k + 1) * n];
+        let sensor = Sensor::new(c, sun, k, n, &mut direct);
+        let cs = sensor.sigma;
         // Each occupied hour's illuminance and standard error.
-        let e: Vec<(f64, f64)> = hours
-            .iter()
-            .map(|&h| hour_value(sky.vector(h), cv, cs))
-            .collect();
+        let e: Vec<(f64, f64)> = hours.iter().map(|&h| sensor.hour(sky, h)).collect();
         let mut m = sensor_metrics(e.iter().map(|x| x.0), o, count);
+        if let Some((_, _, d)) = sensor.sun {
+            m.ase_hours = hours.iter().filter(|&&h| d[h] > o.ase_lx).count();
+            if m.ase_hours > o.ase_hours {
+                ase_sensors += 1;
+            }
+        }
+        let ds = sensor.sun.map(|s| s.1);
         // A draw can move an hour across the threshold only where it lies within a few
         // of its errors of it (beyond 6 σ: less than 10⁻⁹ per hour): the rest are fixed.
         let (mut open, mut fixed) = (Vec::new(), 0usize);
@@ -392,19 +698,31 @@ pub fn metrics(c: &Coefficients, sky: &AnnualSky, o: &MetricOptions) -> Result<G
             }
         }
         let lit: Vec<usize> = (0..n).filter(|&p| cs[p] > 0.0).collect();
-        let mut delta = vec![0.0; lit.len()];
+        // The patches whose direct-only coefficient has an error (the sun's).
+        let lit_direct: Vec<usize> =
+            ds.map_or(Vec::new(), |ds| (0..n).filter(|&p| ds[p] > 0.0).collect());
+        let mut delta = vec![0.0; n];
+        let mut delta_direct = vec![0.0; n];
         let mut pass = 0usize;
         for (j, sum) in draws_sda.iter_mut().enumerate() {
             // The draw's stream: one per (sensor, draw), so any sensor subset or order
             // gives the same draws.
             let mut rng = PhotonRng::new(o.seed, ((k as u64) << 20) | j as u64);
-            for (d, &p) in delta.iter_mut().zip(&lit) {
-                *d = cs[p] * normal(&mut rng);
+            for &p in &lit {
+                delta[p] = cs[p] * normal(&mut rng);
+            }
+            if let Some(ds) = ds {
+                for &p in &lit_direct {
+                    delta_direct[p] = ds[p] * normal(&mut rng);
+                }
             }
             let mut above = fixed;
             for &i in &open {
                 let v = sky.vector(hours[i]);
-                let x = e[i].0 + lit.iter().zip(&delta).map(|(&p, d)| v[p] * d).sum::<f64>();
+                let mut x = e[i].0 + lit.iter().map(|&p| v[p] * delta[p]).sum::<f64>();
+                if let Some((q, l, _)) = sensor.sun_of(sky, hours[i]) {
+                    x += l * (delta[q] - delta_direct[q]);
+                }
                 if x >= o.threshold_lx {
                     above += 1;
                 }
@@ -439,6 +757,7 @@ pub fn metrics(c: &Coefficients, sky: &AnnualSky, o: &MetricOptions) -> Result<G
         sda,
         sda_sigma,
         sda_interval,
+        ase: sun.map(|_| ase_sensors as f64 / total),
         occupied_hours: count,
         sensors,
     })
@@ -554,6 +873,7 @@ mod tests {
         }
         AnnualSky {
             patches,
+            sun: SunInVectors::Left,
             hours: (0..hours)
                 .map(|h| AnnualHour {
                     row: h,
@@ -564,6 +884,7 @@ mod tests {
                     sun_zenith_deg: 45.0,
                     diffuse_horizontal_lx: 1.0,
                     direct_normal_lx: 0.0,
+                    sun_patch: 0,
                 })
                 .collect(),
             luminance,
@@ -589,9 +910,9 @@ mod tests {
             value,
             sigma: vec![0.0; sensors * n],
         };
-        let (e, s) = hourly(&c, &sky).unwrap();
+        let (e, s) = hourly(&c, &sky, None).unwrap();
         assert!((e[3] - 350.0).abs() < 1e-9 && s[3] == 0.0);
-        let m = metrics(&c, &sky, &MetricOptions::default()).unwrap();
+        let m = metrics(&c, &sky, None, &MetricOptions::default()).unwrap();
         assert_eq!(m.occupied_hours, 100);
         for (k, s) in m.sensors.iter().enumerate() {
             let x = 50.0 + 100.0 * k as f64;
@@ -610,9 +931,121 @@ mod tests {
             threshold_lx: 500.0,
             ..MetricOptions::default()
         };
-        let m = metrics(&c, &sky, &o).unwrap();
+        let m = metrics(&c, &sky, None, &o).unwrap();
         assert_eq!(m.occupied_hours, 40);
         assert!((m.sda - 0.5).abs() < 1e-12);
+    }
+
+    #[test]
+    fn the_direct_sun_adds_its_line_and_its_inter_reflection_and_counts_for_ase() {
+        let hours = 100;
+        let mut sky = toy_sky(hours, |_, _| 100.0);
+        for a in &mut sky.hours {
+            a.direct_normal_lx = 50_000.0;
+            a.sun_patch = 2;
+        }
+        let n = sky.patches.count();
+        let sensors = 3;
+        let mut value = vec![0.0; sensors * n];
+        let mut sigma = vec![0.0; sensors * n];
+        for k in 0..sensors {
+            for p in 1..4 {
+                value[k * n + p] = 0.01;
+                sigma[k * n + p] = 0.001;
+            }
+        }
+        let c = Coefficients {
+            sensors,
+            patches: n,
+            value,
+            sigma,
+        };
+        // Sensor 0 in the sun 2000 lx for 60 hours, sensor 1 1500 lx for 30, sensor 2 never.
+        let (mut offsets, mut hs, mut lux) = (vec![0], Vec::new(), Vec::new());
+        for (count, x) in [(60, 2000.0f32), (30, 1500.0), (0, 0.0)] {
+            for h in 0..count {
+                hs.push(h as u32);
+                lux.push(x);
+            }
+            offsets.push(hs.len());
+        }
+        let mut patch_direct = vec![0.0; sensors * n];
+        let mut patch_direct_sigma = vec![0.0; sensors * n];
+        for k in 0..sensors {
+            patch_direct[k * n + 2] = 0.004;
+            patch_direct_sigma[k * n + 2] = 0.0002;
+        }
+        let sun = DirectSun {
+            sensors,
+            patches: n,
+            offsets,
+            hours: hs,
+            lux,
+            patch_direct,
+            patch_direct_sigma,
+        };
+        let (e, s) = hourly(&c, &sky, Some(&sun)).unwrap();
+        let l = 50_000.0 / sky.patches.solid_angle(2);
+        for h in [0, 45, 99] {
+            for k in 0..sensors {
+                let direct = match k {
+                    0 if h < 60 => 2000.0,
+                    1 if h < 30 => 1500.0,
+                    _ => 0.0,
+                };
+                let want = 3.0 * 100.0 * 0.01 + l * (0.01 - 0.004) + direct;
+                let got = e[h * sensors + k];
+                assert!(
+                    (got - want).abs() < 1e-6 * want,
+                    "hour {h} sensor {k}: {got} vs {want}"
+                );
+                // Patch 2's error counts at its sky and sun luminance together, the
+                // direct-only coefficient's at the sun's.
+                let var = 2.0 * (100.0 * 0.001f64).powi(2)
+                    + ((100.0 + l) * 0.001f64).powi(2)
+                    + (l * 0.0002f64).powi(2);
+                assert!((s[h * sensors + k] - var.sqrt()).abs() < 1e-6 * var.sqrt());
+            }
+        }
+        // ASE: more than 50 hours above 1000 lx: sensor 0 alone.
+        let o = MetricOptions {
+            ase_hours: 50,
+            draws: 20,
+            ..MetricOptions::default()
+        };
+        let m = metrics(&c, &sky, Some(&sun), &o).unwrap();
+        let counts: Vec<usize> = m.sensors.iter().map(|s| s.ase_hours).collect();
+        assert_eq!(counts, vec![60, 30, 0]);
+        assert_eq!(m.ase, Some(1.0 / 3.0));
+        // Above 1800 lx only sensor 0 counts; over the first 40 hours it has 40.
+        let o2 = MetricOptions {
+            ase_lx: 1800.0,
+            occupied: (0..hours).map(|h| h < 40).collect(),
+            ..o.clone()
+        };
+        let m = metrics(&c, &sky, Some(&sun), &o2).unwrap();
+        assert_eq!(m.sensors[0].ase_hours, 40);
+        assert_eq!(m.sensors[1].ase_hours, 0);
+        assert_eq!(m.ase, Some(0.0));
+        assert_eq!(metrics(&c, &sky, None, &o).unwrap().ase, None);
+        // The sun twice is refused: vectors that hold it already, or a direct sun of
+        // other sensors.
+        let mut twice = sky.clone();
+        twice.sun = SunInVectors::InItsPatch;
+        let err = hourly(&c, &twice, Some(&sun)).unwrap_err();
+        assert!(
+            err.message.contains("SunInVectors::Left"),
+            "{}",
+            err.message
+        );
+        let mut other = sun.clone();
+        other.sensors = 2;
+        assert!(metrics(&c, &sky, Some(&other), &o).is_err());
+        let bad = MetricOptions {
+            ase_lx: f64::NAN,
+            ..o
+        };
+        assert!(metrics(&c, &sky, Some(&sun), &bad).is_err());
     }
 
     #[test]
@@ -647,6 +1080,7 @@ mod tests {
         let long_run = metrics(
             &true_c,
             &sky,
+            None,
             &MetricOptions {
                 draws: 0,
                 ..o.clone()
@@ -673,6 +1107,7 @@ mod tests {
             let m = metrics(
                 &est,
                 &sky,
+                None,
                 &MetricOptions {
                     seed: r + 1,
                     ..o.clone()

@@ -575,7 +575,7 @@ fn tregenza_patch_layers_are_their_skies_coefficients_with_errors() {
     let sky =
         imap::annual::AnnualSky::from_weather(&weather, 1, imap::annual::SunInVectors::Left, 0.0)
             .unwrap();
-    let (e, s) = imap::annual::hourly(&coefficients, &sky).unwrap();
+    let (e, s) = imap::annual::hourly(&coefficients, &sky, None).unwrap();
     for h in 0..2 {
         let v = sky.vector(h);
         let got: Vec<(f64, f64)> = (0..nv)
@@ -1233,7 +1233,7 @@ fn portals_bring_the_sky_and_the_sun_through_the_opening_unbiased() {
     // the sun's light still comes, from the whole sky's photons, and the patch is whole.
     let (mut ctx, id, floor) = roof_room(92);
     ctx.add_sun(&equal_sun(200.0, 20.0, en)).unwrap();
-    ctx.set_portals(&portal, &[0, 2, 1, 0, 3, 2]).unwrap();
+    ctx.set_portals(&portal, &[0, 1, 2, 0, 2, 3]).unwrap();
     run_with(&mut ctx, photons(100_000), Estimator::DEFAULT);
     let flux: f64 = values(&ctx, id, 0)
         .iter()
@@ -1324,12 +1324,50 @@ fn portals_keep_the_light_outside_surfaces_reflect_into_the_opening() {
 /// script's 24 points. Every Tregenza patch and the ground a sky in its own group (patch
 /// p in group p, the ground in group 146). Returns the context and the sensor mesh.
 fn office(seed: u64) -> (Context, u32) {
+    let (mut ctx, sensors) = office_with(seed, [0.2, 0.5, 0.7], None, 0.05);
+    patch_skies(&mut ctx);
+    (ctx, sensors)
+}
+
+/// The Tregenza patches and the ground as skies of unit luminance, each in its light group
+/// (patch p in group p, the ground in 146).
+fn patch_skies(ctx: &mut Context) {
+    ctx.set_layers(imap::LayerRequest {
+        groups: true,
+        direct: false,
+    })
+    .unwrap();
+    for p in 0..146 {
+        let light = ctx.add_sky(&one_patch(p)).unwrap();
+        ctx.set_light_group(light, if p == 0 { 146 } else { p as u32 })
+            .unwrap();
+    }
+}
+
+/// The office with reflectances `rho` (floor, walls, ceiling), its window glazed with a
+/// pane of index `glass` (6 mm, y from −0.006 to 0) when given, its sensors squares of
+/// half-size `h`.
+fn office_with(seed: u64, rho: [f64; 3], glass: Option<f64>, h: f64) -> (Context, u32) {
     let mut ctx = context(seeded(seed));
     let (floor, wall, ceiling) = (
-        lambert(&mut ctx, 0.2),
-        lambert(&mut ctx, 0.5),
-        lambert(&mut ctx, 0.7),
+        lambert(&mut ctx, rho[0]),
+        lambert(&mut ctx, rho[1]),
+        lambert(&mut ctx, rho[2]),
     );
+    if let Some(n) = glass {
+        let m = ctx
+            .add_material(&imap::MaterialDesc {
+                ior: Some(imap::IorModel::Constant(n)),
+                ..Default::default()
+            })
+            .unwrap();
+        let pane = cuboid([0.5, -0.006, 0.9], [3.5, 0.0, 2.4], 1, false);
+        ctx.add_mesh(&MeshDesc {
+            record: false,
+            ..pane.desc(m)
+        })
+        .unwrap();
+    }
     let parts: Vec<(Geometry, u32)> = vec![
         (
             quad([
@@ -1425,7 +1463,6 @@ fn office(seed: u64) -> (Context, u32) {
     for y in [0.5, 1.5, 2.5, 3.5, 4.5, 5.5] {
         for x in [0.5, 1.5, 2.5, 3.5] {
             let k = (positions.len() / 3) as u32;
-            let h = 0.05;
             for (dx, dy) in [(0.0, 0.0), (-h, -h), (h, -h), (h, h), (-h, h)] {
                 positions.extend([x + dx, y + dy, 0.8]);
             }
@@ -1441,16 +1478,6 @@ fn office(seed: u64) -> (Context, u32) {
             ..MeshDesc::new(&positions, &indices, black)
         })
         .unwrap();
-    ctx.set_layers(imap::LayerRequest {
-        groups: true,
-        direct: false,
-    })
-    .unwrap();
-    for p in 0..146 {
-        let light = ctx.add_sky(&one_patch(p)).unwrap();
-        ctx.set_light_group(light, if p == 0 { 146 } else { p as u32 })
-            .unwrap();
-    }
     (ctx, sensors)
 }
 
@@ -1504,7 +1531,7 @@ fn office_daylight_coefficients_agree_with_radiance_rfluxmtx() {
     let sky =
         imap::annual::AnnualSky::from_weather(&weather, 1, imap::annual::SunInVectors::Left, 0.2)
             .unwrap();
-    let (eo, so) = imap::annual::hourly(&ours, &sky).unwrap();
+    let (eo, so) = imap::annual::hourly(&ours, &sky, None).unwrap();
     let lit: Vec<usize> = (0..sky.hours.len())
         .filter(|&h| sky.hours[h].diffuse_horizontal_lx > 0.0)
         .collect();
@@ -1570,8 +1597,8 @@ fn office_daylight_coefficients_agree_with_radiance_rfluxmtx() {
         threshold_lx: 1000.0,
         ..imap::annual::MetricOptions::default()
     };
-    let mo = imap::annual::metrics(&ours, &sky, &o).unwrap();
-    let mr = imap::annual::metrics(&theirs, &sky, &o).unwrap();
+    let mo = imap::annual::metrics(&ours, &sky, None, &o).unwrap();
+    let mr = imap::annual::metrics(&theirs, &sky, None, &o).unwrap();
     eprintln!(
         "sDA ours {:.3} ({:.3}–{:.3}), Radiance's coefficients {:.3}",
         mo.sda, mo.sda_interval.0, mo.sda_interval.1, mr.sda
@@ -1581,4 +1608,490 @@ fn office_daylight_coefficients_agree_with_radiance_rfluxmtx() {
     for (a, b) in mo.sensors.iter().zip(&mr.sensors) {
         assert!((a.da - b.da).abs() <= 0.05, "DA {} vs {}", a.da, b.da);
     }
+}
+
+/// The office's 24 sensor points and their (upward) normals.
+fn office_points() -> (Vec<[f64; 3]>, Vec<[f64; 3]>) {
+    let mut points = Vec::new();
+    for y in [0.5, 1.5, 2.5, 3.5, 4.5, 5.5] {
+        for x in [0.5, 1.5, 2.5, 3.5] {
+            points.push([x, y, 0.8]);
+        }
+    }
+    let n = points.len();
+    (points, vec![[0.0, 0.0, 1.0]; n])
+}
+
+#[test]
+fn the_straight_line_through_a_pane_passes_its_fresnel_share_and_nothing_else_does() {
+    // The glazed roof opening: from a floor point through the 2 mm pane (n = 1.52, parallel
+    // faces) the line keeps ½ [(1 − R_s)/(1 + R_s) + (1 − R_p)/(1 + R_p)] (the pane's
+    // multiple reflections stay on the line); through the black roof, nothing.
+    let n_glass = 1.52;
+    let (mut ctx, _, _) = roof_room(70);
+    let glass = ctx
+        .add_material(&imap::MaterialDesc {
+            ior: Some(imap::IorModel::Constant(n_glass)),
+            ..Default::default()
+        })
+        .unwrap();
+    let pane = cuboid([-0.5, -0.5, HEIGHT - 0.002], [0.5, 0.5, HEIGHT], 1, false);
+    ctx.add_mesh(&MeshDesc {
+        record: false,
+        ..pane.desc(glass)
+    })
+    .unwrap();
+    // A prism: a wedge of glass over x > 2 (outside the room), faces 20° apart.
+    let wedge_positions = [
+        2.0, -1.0, 0.0, 3.0, -1.0, 0.0, 2.0, -1.0, 1.0, 2.0, 1.0, 0.0, 3.0, 1.0, 0.0, 2.0, 1.0, 1.0,
+    ];
+    let wedge_indices = [
+        0u32, 2, 1, 3, 4, 5, 0, 1, 4, 0, 4, 3, 0, 3, 5, 0, 5, 2, 1, 2, 5, 1, 5, 4,
+    ];
+    ctx.add_mesh(&MeshDesc {
+        record: false,
+        ..MeshDesc::new(&wedge_positions, &wedge_indices, glass)
+    })
+    .unwrap();
+    ctx.add_sky(&uniform_sky(1.0, false)).unwrap();
+    let points = [[0.1, 0.05, 0.01], [2.3, 0.0, 0.05]];
+    let dirs: Vec<[f64; 3]> = [0.0f64, 0.1, 0.2, 0.4]
+        .iter()
+        .map(|t| [0.0, *t, 1.0])
+        .chain([[0.8, 0.0, 0.6], [0.0, 0.0, -1.0]])
+        .collect();
+    let t = ctx.straight_transmittance(&points, &dirs, &[]).unwrap();
+    for (j, d) in dirs.iter().enumerate() {
+        let l = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+        let c = d[2] / l;
+        let want = if j < 4 {
+            let (rs, rp) = fresnel_sp(c, n_glass);
+            0.5 * ((1.0 - rs) / (1.0 + rs) + (1.0 - rp) / (1.0 + rp))
+        } else {
+            // Toward the black wall or the floor.
+            0.0
+        };
+        let got = t[j] as f64;
+        eprintln!("direction {j}: {got:.6} vs {want:.6}");
+        assert!((got - want).abs() < 1e-5, "direction {j}: {got} vs {want}");
+    }
+    // Inside the wedge's reach: the line from under it comes out turned, so no light
+    // arrives along it; the open sky beside it passes all.
+    assert_eq!(t[dirs.len()], 0.0, "through the prism");
+    let beside = ctx
+        .straight_transmittance(&[[2.3, 1.5, 0.05]], &[[0.0, 0.0, 1.0]], &[])
+        .unwrap();
+    assert_eq!(beside[0], 1.0);
+    // Bad arguments are named.
+    let e = ctx
+        .straight_transmittance(&[[0.0, 0.0, f64::NAN]], &dirs, &[])
+        .unwrap_err();
+    assert!(e.message.contains("points[0]"), "{}", e.message);
+    let e = ctx
+        .straight_transmittance(&points, &[[0.0, 0.0, 0.0]], &[])
+        .unwrap_err();
+    assert!(e.message.contains("dirs[0]"), "{}", e.message);
+    let e = ctx
+        .straight_transmittance(&points, &dirs, &[1.0, 2.0])
+        .unwrap_err();
+    assert!(e.message.contains("weights"), "{}", e.message);
+}
+
+#[test]
+fn direct_only_patch_coefficients_are_what_photons_bring_where_nothing_reflects() {
+    // A black office glazed with one 6 mm pane: every photon that reaches a sensor came
+    // straight through the glass, so each patch's coefficient (photons) equals its
+    // direct-only coefficient (lines through the pane), sensor by sensor within the errors.
+    // Sensors of 0.8 m (the photons' error), compared with the lines' hat-weighted mean
+    // over them (8 × 8 points each).
+    let h = 0.4;
+    let (mut ctx, sensors) = office_with(3, [0.0; 3], Some(1.52), h);
+    patch_skies(&mut ctx);
+    let portal = [0.5, 0.0, 0.9, 3.5, 0.0, 0.9, 3.5, 0.0, 2.4, 0.5, 0.0, 2.4];
+    ctx.set_portals(&portal, &[0, 1, 2, 0, 2, 3]).unwrap();
+    run_with(&mut ctx, photons(2_000_000), Estimator::Photons);
+    let eff: f64 = ctx.photometry().luminous(&[1.0, 1.0, 1.0]);
+    let nv = ctx.vertex_count(sensors).unwrap();
+    let weather =
+        imap::weather::parse_wea(include_str!("data/pvgis_45n_8e_21st.wea"), "pvgis.wea").unwrap();
+    let sky =
+        imap::annual::AnnualSky::from_weather(&weather, 1, imap::annual::SunInVectors::Left, 0.0)
+            .unwrap();
+    let (points, hat) = office_sensor_points(h);
+    let normals = vec![[0.0, 0.0, 1.0]; points.len()];
+    let d = SkyDesc::default();
+    let fine = imap::annual::DirectSun::new(
+        &mut ctx,
+        &sky,
+        (d.zenith, d.north),
+        (&points, &normals),
+        &Spectrum::Equal,
+        1,
+    )
+    .unwrap();
+    let sun = sensor_sun(&fine, &hat, sky.hours.len());
+    let (mut worst, mut sum, mut n) = (0.0f64, 0.0, 0usize);
+    let (mut total_c, mut total_d) = (0.0, 0.0);
+    let (mut e, mut rel) = (vec![0.0; nv], vec![0.0; nv]);
+    let mut crossed = 0;
+    for p in 1..146 {
+        if sun
+            .patch_direct_sigma
+            .iter()
+            .skip(p)
+            .step_by(146)
+            .all(|&x| x == 0.0)
+            && sun
+                .patch_direct
+                .iter()
+                .skip(p)
+                .step_by(146)
+                .all(|&x| x == 0.0)
+        {
+            continue;
+        }
+        crossed += 1;
+        let layer = imap::Layer::Group(p as u32);
+        ctx.irradiance_layer(sensors, 0, 0, layer, &mut e).unwrap();
+        ctx.rel_error_layer(sensors, 0, layer, &mut rel).unwrap();
+        for k in 0..24 {
+            let (c, sc) = (e[5 * k] * eff, e[5 * k] * eff * rel[5 * k]);
+            let (x, sx) = (
+                sun.patch_direct[k * 146 + p],
+                sun.patch_direct_sigma[k * 146 + p],
+            );
+            total_c += c;
+            total_d += x;
+            if !(c > 0.0 && sc <= 0.3 * c) {
+                continue;
+            }
+            let z = (c - x) / (sc * sc + sx * sx).sqrt();
+            worst = worst.max(z.abs());
+            sum += z.abs();
+            n += 1;
+        }
+    }
+    eprintln!(
+        "{crossed} patches the sun crosses, {n} sensor-patches: largest |z| {worst:.2}, mean |z| {:.2}, Σ photons / Σ lines {:.4}",
+        sum / n as f64,
+        total_c / total_d
+    );
+    assert!(crossed > 20);
+    assert!(n > 100 && worst < 5.0 && (0.4..1.3).contains(&(sum / n as f64)));
+    assert!((total_c / total_d - 1.0).abs() < 0.02);
+}
+
+/// The direct sun of `points` grouped 64 by 64 (each sensor's 8 × 8 points) into one per
+/// sensor, by the hat weights `hat`: what a sensor of that support reads.
+fn sensor_sun(s: &imap::annual::DirectSun, hat: &[f64], hours: usize) -> imap::annual::DirectSun {
+    let sensors = s.sensors / 64;
+    let np = s.patches;
+    let hat_sum: f64 = hat[..64].iter().sum();
+    let mut out = imap::annual::DirectSun {
+        sensors,
+        patches: np,
+        offsets: vec![0],
+        hours: Vec::new(),
+        lux: Vec::new(),
+        patch_direct: vec![0.0; sensors * np],
+        patch_direct_sigma: vec![0.0; sensors * np],
+    };
+    for k in 0..sensors {
+        let mut lux = vec![0.0; hours];
+        let mut var = vec![0.0; np];
+        for (i, w) in hat[..64].iter().map(|x| x / hat_sum).enumerate() {
+            let at = 64 * k + i;
+            for (h, x) in s.at(at) {
+                lux[h] += w * x;
+            }
+            let row = at * np..(at + 1) * np;
+            let mine = &mut out.patch_direct[k * np..(k + 1) * np];
+            for ((o, v), (d, sd)) in mine.iter_mut().zip(var.iter_mut()).zip(
+                s.patch_direct[row.clone()]
+                    .iter()
+                    .zip(&s.patch_direct_sigma[row]),
+            ) {
+                *o += w * d;
+                *v += (w * sd).powi(2);
+            }
+        }
+        for (o, v) in out.patch_direct_sigma[k * np..(k + 1) * np]
+            .iter_mut()
+            .zip(&var)
+        {
+            *o = v.sqrt();
+        }
+        for (h, x) in lux.iter().enumerate() {
+            if *x > 0.0 {
+                out.hours.push(h as u32);
+                out.lux.push(*x as f32);
+            }
+        }
+        out.offsets.push(out.hours.len());
+    }
+    out
+}
+
+/// Each office sensor's 8 × 8 points over its half-size `h` and their hat weights.
+fn office_sensor_points(h: f64) -> (Vec<[f64; 3]>, Vec<f64>) {
+    let (centres, _) = office_points();
+    let (mut points, mut hat) = (Vec::new(), Vec::new());
+    for c in &centres {
+        for i in 0..8 {
+            for j in 0..8 {
+                let (u, v) = ((i as f64 + 0.5) / 4.0 - 1.0, (j as f64 + 0.5) / 4.0 - 1.0);
+                points.push([c[0] + u * h, c[1] + v * h, c[2]]);
+                hat.push(1.0 - u.abs().max(v.abs()));
+            }
+        }
+    }
+    (points, hat)
+}
+
+#[test]
+fn an_hour_from_coefficients_and_the_direct_sun_is_that_hours_sky_and_sun() {
+    // The glazed office with reflecting walls. One run of the patch skies makes the
+    // coefficients; the direct sun is traced along its lines. An afternoon hour of the
+    // PVGIS year (sun to the south-west, its patch of light toward the room's east side)
+    // from them equals a run of that hour's sky (its patches as a sky) and its sun, sensor
+    // by sensor within the errors. A sky frame turned the wrong way would put the sun on
+    // the west sensors.
+    let h = 0.4;
+    let (mut ctx, sensors) = office_with(5, [0.2, 0.5, 0.7], Some(1.52), h);
+    patch_skies(&mut ctx);
+    let portal = [0.5, 0.0, 0.9, 3.5, 0.0, 0.9, 3.5, 0.0, 2.4, 0.5, 0.0, 2.4];
+    ctx.set_portals(&portal, &[0, 1, 2, 0, 2, 3]).unwrap();
+    const RUN: u64 = 100_000;
+    let t = std::time::Instant::now();
+    run_with(&mut ctx, photons(RUN), Estimator::GATHER);
+    eprintln!("coefficients' run {:.1} s", t.elapsed().as_secs_f64());
+    let eff: f64 = ctx.photometry().luminous(&[1.0, 1.0, 1.0]);
+    let nv = ctx.vertex_count(sensors).unwrap();
+    let (mut value, mut sigma) = (vec![0.0; 24 * 146], vec![0.0; 24 * 146]);
+    let (mut e, mut rel) = (vec![0.0; nv], vec![0.0; nv]);
+    for p in 0..146 {
+        let layer = imap::Layer::Group(if p == 0 { 146 } else { p as u32 });
+        ctx.irradiance_layer(sensors, 0, 0, layer, &mut e).unwrap();
+        ctx.rel_error_layer(sensors, 0, layer, &mut rel).unwrap();
+        for k in 0..24 {
+            value[k * 146 + p] = e[5 * k] * eff;
+            sigma[k * 146 + p] = e[5 * k] * eff * rel[5 * k];
+        }
+    }
+    let c = imap::annual::Coefficients {
+        sensors: 24,
+        patches: 146,
+        value,
+        sigma,
+    };
+    let weather =
+        imap::weather::parse_wea(include_str!("data/pvgis_45n_8e_21st.wea"), "pvgis.wea").unwrap();
+    let sky =
+        imap::annual::AnnualSky::from_weather(&weather, 1, imap::annual::SunInVectors::Left, 0.0)
+            .unwrap();
+    let hour = (0..sky.hours.len())
+        .filter(|&h| {
+            let a = &sky.hours[h];
+            (200.0..240.0).contains(&a.sun_azimuth_deg) && a.sun_zenith_deg < 65.0
+        })
+        .max_by(|&a, &b| {
+            sky.hours[a]
+                .direct_normal_lx
+                .total_cmp(&sky.hours[b].direct_normal_lx)
+        })
+        .expect("a sunny afternoon hour");
+    let a = sky.hours[hour];
+    eprintln!(
+        "hour {hour}: sun azimuth {:.1}°, zenith {:.1}°, E_n {:.0} lx, E_dh {:.0} lx",
+        a.sun_azimuth_deg, a.sun_zenith_deg, a.direct_normal_lx, a.diffuse_horizontal_lx
+    );
+    let (points, hat) = office_sensor_points(h);
+    let normals = vec![[0.0, 0.0, 1.0]; points.len()];
+    let d = SkyDesc::default();
+    let fine = imap::annual::DirectSun::new(
+        &mut ctx,
+        &sky,
+        (d.zenith, d.north),
+        (&points, &normals),
+        &Spectrum::Equal,
+        2,
+    )
+    .unwrap();
+    let sun = sensor_sun(&fine, &hat, sky.hours.len());
+    // The two sensors wholly in the sun's patch read E_n T(θ) cos Z: the pane's
+    // transmittance at the sun's incidence on the window (normal −y, north +y, east +x).
+    let (z, az) = (
+        a.sun_zenith_deg.to_radians(),
+        a.sun_azimuth_deg.to_radians(),
+    );
+    let (rs, rp) = fresnel_sp(-(z.sin() * az.cos()), 1.52);
+    let pane = 0.5 * ((1.0 - rs) / (1.0 + rs) + (1.0 - rp) / (1.0 + rp));
+    let want = a.direct_normal_lx * pane * z.cos();
+    for k in [1, 2] {
+        let got: f64 = sun.at(k).filter(|e| e.0 == hour).map(|e| e.1).sum();
+        assert!(
+            (got / want - 1.0).abs() < 1e-4,
+            "sensor {k}: {got} vs {want}"
+        );
+    }
+    let (x, sx) = imap::annual::hourly(&c, &sky, Some(&sun)).unwrap();
+    // The smeared sun (2-phase), for the record.
+    let smeared = imap::annual::AnnualSky::from_weather(
+        &weather,
+        1,
+        imap::annual::SunInVectors::InItsPatch,
+        0.0,
+    )
+    .unwrap();
+    let (xs, _) = imap::annual::hourly(&c, &smeared, None).unwrap();
+
+    // The hour itself: its patches as a sky, and its sun.
+    let (mut run, rs) = office_with(6, [0.2, 0.5, 0.7], Some(1.52), h);
+    run.set_portals(&portal, &[0, 1, 2, 0, 2, 3]).unwrap();
+    run.add_sky(&SkyDesc {
+        kind: SkyKind::Patches {
+            mf: 1,
+            values: std::sync::Arc::new(sky.vector(hour).to_vec()),
+        },
+        amount: SkyAmount::Luminance(1.0),
+        spectrum: Spectrum::Equal,
+        ..SkyDesc::default()
+    })
+    .unwrap();
+    run.add_sun(&SunDesc {
+        azimuth_deg: a.sun_azimuth_deg,
+        zenith_deg: a.sun_zenith_deg,
+        amount: SkyAmount::NormalIlluminance(a.direct_normal_lx),
+        spectrum: Spectrum::Equal,
+        ..SunDesc::default()
+    })
+    .unwrap();
+    run_with(&mut run, photons(RUN), Estimator::GATHER);
+    let got = values(&run, rs, 0);
+    let (mut worst, mut sum) = (0.0f64, 0.0);
+    let (mut worst_smeared, mut sunlit) = (0.0f64, 0);
+    for k in 0..24 {
+        let (y, sy) = (got[5 * k].0 * eff, got[5 * k].0 * eff * got[5 * k].1);
+        let (v, sv) = (x[hour * 24 + k], sx[hour * 24 + k]);
+        let z = (v - y) / (sv * sv + sy * sy).sqrt();
+        let zs = (xs[hour * 24 + k] - y) / (sv * sv + sy * sy).sqrt();
+        let direct: f64 = sun.at(k).filter(|e| e.0 == hour).map(|e| e.1).sum();
+        if direct > 0.0 {
+            sunlit += 1;
+        }
+        eprintln!(
+            "sensor {k}: hour {v:.0} ± {sv:.0} lx (direct sun {direct:.0}), run {y:.0} ± {sy:.0}: z {z:.2}; smeared sun {:.0}: z {zs:.2}",
+            xs[hour * 24 + k]
+        );
+        worst = worst.max(z.abs());
+        worst_smeared = worst_smeared.max(zs.abs());
+        sum += z.abs();
+    }
+    eprintln!(
+        "24 sensors ({sunlit} in the sun): largest |z| {worst:.2}, mean |z| {:.2}; the smeared sun's largest |z| {worst_smeared:.1}",
+        sum / 24.0
+    );
+    assert!((2..=12).contains(&sunlit), "{sunlit}");
+    assert!(worst < 5.0 && (0.3..1.4).contains(&(sum / 24.0)));
+}
+
+#[test]
+fn under_the_open_sky_the_direct_sun_is_e_n_cos_z_and_a_patch_its_cosine_integral() {
+    // A point above a small black plate, nothing else: each hour's sun gives E_n cos Z on
+    // a horizontal sensor and nothing on one facing down; each patch's direct-only
+    // coefficient is ∫ cos dω over it (within its stated error); a sensor facing north
+    // sees no southern sun.
+    let mut ctx = context(seeded(4));
+    let black = lambert(&mut ctx, 0.0);
+    ctx.add_mesh(&grid(1, -0.5, 0.5, -0.5, 0.5, 0.0).desc(black))
+        .unwrap();
+    ctx.add_sky(&uniform_sky(1.0, false)).unwrap();
+    let weather =
+        imap::weather::parse_wea(include_str!("data/pvgis_45n_8e_21st.wea"), "pvgis.wea").unwrap();
+    let sky =
+        imap::annual::AnnualSky::from_weather(&weather, 1, imap::annual::SunInVectors::Left, 0.0)
+            .unwrap();
+    let d = SkyDesc::default();
+    let points = [[0.0, 0.0, 1.0], [0.0, 0.0, 1.0], [0.0, 0.0, 1.0]];
+    let normals = [[0.0, 0.0, 1.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]];
+    let sun = imap::annual::DirectSun::new(
+        &mut ctx,
+        &sky,
+        (d.zenith, d.north),
+        (&points, &normals),
+        &Spectrum::Equal,
+        9,
+    )
+    .unwrap();
+    let sunny = sky
+        .hours
+        .iter()
+        .filter(|a| a.direct_normal_lx > 0.0 && a.sun_zenith_deg < 90.0)
+        .count();
+    assert!(sunny > 50);
+    assert_eq!(sun.at(0).count(), sunny);
+    for (h, x) in sun.at(0) {
+        let a = &sky.hours[h];
+        let want = a.direct_normal_lx * a.sun_zenith_deg.to_radians().cos();
+        assert!((x / want - 1.0).abs() < 1e-5, "hour {h}: {x} vs {want}");
+    }
+    assert_eq!(sun.at(1).count(), 0);
+    // At 45° N the sun stands south of the east–west line from March to September's
+    // noon hours; a north-facing sensor sees it only early and late in summer.
+    assert!(sun.at(2).count() < sunny / 3, "{}", sun.at(2).count());
+    let (mut worst, mut n) = (0.0f64, 0);
+    let patches = &sky.patches;
+    for p in 1..146 {
+        let (x, s) = (sun.patch_direct[p], sun.patch_direct_sigma[p]);
+        if x == 0.0 {
+            continue;
+        }
+        n += 1;
+        let want = patches.horizontal(p);
+        worst = worst.max((x - want).abs() / s.max(1e-12));
+        assert!(s < 0.02 * want, "patch {p}: σ {s} of {want}");
+    }
+    eprintln!("{n} patches the sun crosses: largest |z| against ∫ cos dω {worst:.2}");
+    assert!(n > 30 && worst < 4.0);
+    // Bad arguments are named; an overcast year has no sun to trace.
+    let frame = (d.zenith, d.north);
+    let e = imap::annual::DirectSun::new(
+        &mut ctx,
+        &sky,
+        frame,
+        (&points, &normals[..2]),
+        &Spectrum::Equal,
+        1,
+    )
+    .unwrap_err();
+    assert!(
+        e.message.contains("3 points and 2 normals"),
+        "{}",
+        e.message
+    );
+    let zero = [[0.0, 0.0, 0.0]; 3];
+    let e =
+        imap::annual::DirectSun::new(&mut ctx, &sky, frame, (&points, &zero), &Spectrum::Equal, 1)
+            .unwrap_err();
+    assert!(e.message.contains("normals[0]"), "{}", e.message);
+    let overcast = imap::weather::parse_wea(
+        "place t\nlatitude 48\nlongitude -11\ntime_zone -15\nsite_elevation 0\n\
+         weather_data_file_units 1\n6 21 12.5 0 120\n",
+        "t.wea",
+    )
+    .unwrap();
+    let dull =
+        imap::annual::AnnualSky::from_weather(&overcast, 1, imap::annual::SunInVectors::Left, 0.0)
+            .unwrap();
+    let none = imap::annual::DirectSun::new(
+        &mut ctx,
+        &dull,
+        frame,
+        (&points, &normals),
+        &Spectrum::Equal,
+        1,
+    )
+    .unwrap();
+    assert!(none.hours.is_empty() && none.offsets == vec![0; 4]);
+    assert!(none.patch_direct.iter().all(|&x| x == 0.0));
 }

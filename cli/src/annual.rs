@@ -7,7 +7,7 @@ use crate::diag::printable;
 use crate::error::{fail, CliError, Result};
 use crate::grids::{self, Grid};
 use crate::settings::Settings;
-use imap::annual::{AnnualSky, Coefficients, MetricOptions, SunInVectors};
+use imap::annual::{AnnualSky, Coefficients, DirectSun, MetricOptions, SunInVectors};
 use imap::{Layer, LayerRequest, SkyAmount, SkyDesc, SkyKind};
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -48,6 +48,13 @@ pub struct AnnualOptions {
     /// point states no error.
     #[arg(long, default_value = "gather")]
     pub estimator: String,
+    /// ASE's direct-sun illuminance, lx (IES LM-83: 1000).
+    #[arg(long, default_value_t = 1000.0)]
+    pub ase_lx: f64,
+    /// ASE's hours: a point counts when its direct sun exceeds --ase-lx in more occupied
+    /// hours than these (IES LM-83: 250).
+    #[arg(long, default_value_t = 250)]
+    pub ase_hours: usize,
     /// Draws of the coefficients for the metrics' confidence.
     #[arg(long, default_value_t = 100)]
     pub draws: usize,
@@ -111,13 +118,16 @@ pub fn annual(model: &Path, settings: Settings, o: &AnnualOptions) -> Result<()>
             o.threshold
         );
     }
+    if !(o.ase_lx.is_finite() && o.ase_lx > 0.0) {
+        fail!("--ase-lx {} must be a positive illuminance (lx)", o.ase_lx);
+    }
     let (photons, time) = (o.photons.unwrap_or(0), o.time.unwrap_or(0.0));
     if photons == 0 && (time.is_nan() || time <= 0.0) {
         fail!("annual: give --photons or --time for the coefficients' run");
     }
     // The weather first: a bad file costs no run.
     let weather = imap::weather::read(&o.weather).map_err(|e| CliError(printable(&e.message)))?;
-    let sky = AnnualSky::from_weather(&weather, 1, SunInVectors::InItsPatch, o.ground_reflectance)
+    let sky = AnnualSky::from_weather(&weather, 1, SunInVectors::Left, o.ground_reflectance)
         .map_err(|e| {
             CliError(format!(
                 "{}: {}",
@@ -230,6 +240,8 @@ pub fn annual(model: &Path, settings: Settings, o: &AnnualOptions) -> Result<()>
     let options = MetricOptions {
         occupied,
         threshold_lx: o.threshold,
+        ase_lx: o.ase_lx,
+        ase_hours: o.ase_hours,
         draws: o.draws,
         seed: settings.run.seed,
         ..MetricOptions::default()
@@ -237,18 +249,32 @@ pub fn annual(model: &Path, settings: Settings, o: &AnnualOptions) -> Result<()>
     let mut grids_json = Vec::new();
     for g in &scene.grids {
         let c = coefficients(&ctx, g, n)?;
-        let m = imap::annual::metrics(&c, &sky, &options)
+        let (points, normals) = grids::point_frames(g);
+        let sun = DirectSun::new(
+            &mut ctx,
+            &sky,
+            (up, north),
+            (&points, &normals),
+            &SkyDesc::default().spectrum,
+            settings.run.seed,
+        )
+        .map_err(|e| CliError(format!("annual: grid {}: {}", g.name, e.message)))?;
+        let m = imap::annual::metrics(&c, &sky, Some(&sun), &options)
             .map_err(|e| CliError(format!("annual: grid {}: {}", g.name, e.message)))?;
         write_csv(&o.out.join(format!("annual_{}.csv", g.name)), g, &m)?;
+        let ase = m.ase.unwrap_or(f64::NAN);
         if !o.quiet {
             println!(
-                "grid {}: sDA{:.0}/{:.0}% = {:.1} % (95 % interval {:.1}–{:.1} %), {} occupied hours",
+                "grid {}: sDA{:.0}/{:.0}% = {:.1} % (95 % interval {:.1}–{:.1} %), ASE{:.0}/{} = {:.1} %, {} occupied hours",
                 g.name,
                 o.threshold,
                 100.0 * options.sda_share,
                 100.0 * m.sda,
                 100.0 * m.sda_interval.0,
                 100.0 * m.sda_interval.1,
+                options.ase_lx,
+                options.ase_hours,
+                100.0 * ase,
                 m.occupied_hours
             );
         }
@@ -259,6 +285,7 @@ pub fn annual(model: &Path, settings: Settings, o: &AnnualOptions) -> Result<()>
             "name": g.name,
             "points": m.sensors.len(),
             "sda": {"value": m.sda, "sigma": m.sda_sigma, "interval_95": [m.sda_interval.0, m.sda_interval.1]},
+            "ase": {"value": ase, "lx": options.ase_lx, "hours": options.ase_hours},
             "mean_da": mean(|s| s.da),
             "mean_cda": mean(|s| s.cda),
             "mean_udi": [mean(|s| s.udi_below), mean(|s| s.udi_useful), mean(|s| s.udi_above)],
@@ -276,7 +303,7 @@ pub fn annual(model: &Path, settings: Settings, o: &AnnualOptions) -> Result<()>
             "missing_hours": missing,
         },
         "patches": "Tregenza (Reinhart MF:1, 145 + ground)",
-        "sun": "in its patch (the direct sun smeared over its 12° patch, as Radiance's 2-phase method)",
+        "sun": "direct along its true line each hour (through smooth panes); inter-reflected through its patch's coefficient less that patch's direct part",
         "threshold_lx": o.threshold,
         "occupied": o.occupied,
         "ground_reflectance": o.ground_reflectance,
@@ -328,14 +355,14 @@ fn write_csv(path: &Path, g: &Grid, m: &imap::annual::GridMetrics) -> Result<()>
     let mut f = std::io::BufWriter::new(std::fs::File::create(path).map_err(io)?);
     writeln!(
         f,
-        "x,y,z,da,cda,udi_below,udi_useful,udi_above,sda_pass_probability"
+        "x,y,z,da,cda,udi_below,udi_useful,udi_above,sda_pass_probability,ase_hours"
     )
     .map_err(io)?;
     for (k, s) in m.sensors.iter().enumerate() {
         let q = &g.positions[3 * k..3 * k + 3];
         writeln!(
             f,
-            "{},{},{},{:.4},{:.4},{:.4},{:.4},{:.4},{:.3}",
+            "{},{},{},{:.4},{:.4},{:.4},{:.4},{:.4},{:.3},{}",
             q[0],
             q[1],
             q[2],
@@ -344,7 +371,8 @@ fn write_csv(path: &Path, g: &Grid, m: &imap::annual::GridMetrics) -> Result<()>
             s.udi_below,
             s.udi_useful,
             s.udi_above,
-            s.sda_pass_probability
+            s.sda_pass_probability,
+            s.ase_hours
         )
         .map_err(io)?;
     }

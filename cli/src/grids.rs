@@ -467,6 +467,38 @@ pub struct GridResult {
     pub stats: imap::RegionStats,
 }
 
+/// Each of the grid's points' positions and the direction its measuring side faces: a
+/// point file's own, or the rectangle's u × v (its reverse for side = "back").
+pub fn point_frames(g: &Grid) -> (Vec<[f64; 3]>, Vec<[f64; 3]>) {
+    let count = g.positions.len() / 3;
+    let positions = (0..count)
+        .map(|k| {
+            [
+                g.positions[3 * k],
+                g.positions[3 * k + 1],
+                g.positions[3 * k + 2],
+            ]
+        })
+        .collect();
+    let normals = match &g.normals {
+        Some(n) => (0..count)
+            .map(|k| [n[3 * k], n[3 * k + 1], n[3 * k + 2]])
+            .collect(),
+        None => {
+            let (u, v) = (
+                DVec3::from(g.settings.u.unwrap_or([1.0, 0.0, 0.0])),
+                DVec3::from(g.settings.v.unwrap_or([0.0, 1.0, 0.0])),
+            );
+            let mut n = u.cross(v).normalize_or_zero();
+            if g.settings.side.as_deref() == Some("back") {
+                n = -n;
+            }
+            vec![n.to_array(); count]
+        }
+    };
+    (positions, normals)
+}
+
 /// The sensor mesh's vertex of each of the grid's points.
 pub fn point_vertices(g: &Grid) -> Vec<usize> {
     if g.normals.is_some() {

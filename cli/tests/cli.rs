@@ -1447,6 +1447,44 @@ fn annual_metrics_of_an_open_grid_follow_the_hours_light() {
             assert_eq!(row[3], da, "threshold {threshold}: {csv}");
         }
     }
+    // One sunny hour: every point has the sun's E_n cos Z, over 1000 lx, in its one
+    // occupied hour; ASE counts the points with more such hours than --ase-hours.
+    let sunny = write(
+        d,
+        "sun.wea",
+        "place Test\nlatitude 48\nlongitude -11\ntime_zone -15\nsite_elevation 0\n\
+         weather_data_file_units 1\n6 21 12.5 600 100\n",
+    );
+    for (ase_hours, ase_lx, want) in [("0", "1000", 1.0), ("1", "1000", 0.0), ("0", "1e6", 0.0)] {
+        let out = d.join(format!("ase{ase_hours}-{ase_lx}"));
+        let r = imap(&[
+            "annual",
+            &o,
+            "--config",
+            &s,
+            "--weather",
+            &sunny,
+            "--photons",
+            "200000",
+            "--ase-hours",
+            ase_hours,
+            "--ase-lx",
+            ase_lx,
+            "--out",
+            out.to_str().unwrap(),
+            "--quiet",
+        ]);
+        assert!(r.status.success(), "{}", stderr(&r));
+        let json: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(out.join("annual.json")).unwrap())
+                .unwrap();
+        assert_eq!(json["grids"][0]["ase"]["value"], want, "{json}");
+        let csv = std::fs::read_to_string(out.join("annual_open.csv")).unwrap();
+        for line in csv.lines().skip(1) {
+            let hours: usize = line.rsplit(',').next().unwrap().parse().unwrap();
+            assert_eq!(hours, usize::from(ase_lx == "1000"), "{csv}");
+        }
+    }
     // Bad inputs, one line each.
     let with_light = write(d, "light.toml", "[[light]]\nkind = \"point\"\nposition = [0, 0, 1]\npower = 1\n[[grid]]\norigin = [0, 0, 0]\nu = [1, 0, 0]\nv = [0, 1, 0]\nsize = [1, 1]\n");
     let no_grid = write(d, "nogrid.toml", "up_axis = \"z\"\n");
@@ -1509,6 +1547,20 @@ fn annual_metrics_of_an_open_grid_follow_the_hours_light() {
         (
             vec!["annual", &o, "--config", &s, "--weather", &wea],
             "--photons or --time",
+        ),
+        (
+            vec![
+                "annual",
+                &o,
+                "--config",
+                &s,
+                "--weather",
+                &wea,
+                "--photons",
+                "10",
+                "--ase-lx=-5",
+            ],
+            "--ase-lx",
         ),
     ] {
         let e = fails(&args);
