@@ -396,6 +396,8 @@ pub struct MetricOptions {
     /// in (IES LM-83: 1000 lx, more than 250 hours).
     pub ase_lx: f64,
     pub ase_hours: usize,
+    /// EN 17037's daylight hours, per hour of the sky (empty: `brightest_half`).
+    pub daylight_hours: Vec<bool>,
 }
 
 impl Default for MetricOptions {
@@ -410,6 +412,7 @@ impl Default for MetricOptions {
             seed: 1,
             ase_lx: 1000.0,
             ase_hours: 250,
+            daylight_hours: Vec::new(),
         }
     }
 }
@@ -446,6 +449,8 @@ pub struct GridMetrics {
     /// in more than `ase_hours` occupied hours (None without the direct sun). The direct
     /// sun is traced along its line, not sampled: it carries no Monte Carlo error.
     pub ase: Option<f64>,
+    /// EN 17037's criteria over the daylight hours (None when there are none).
+    pub en17037: Option<En17037>,
     /// Occupied hours counted.
     pub occupied_hours: usize,
     pub sensors: Vec<SensorMetrics>,
@@ -653,8 +658,16 @@ pub fn metrics(
             sky.hours.len()
         );
     }
-    let hours: Vec<usize> = (0..sky.hours.len())
-        .filter(|&h| {
+    if !o.daylight_hours.is_empty() && o.daylight_hours.len() != sky.hours.len() {
+        bail!(
+            ImapErrInvalidArgument,
+            "daylight_hours holds {} hours; the sky has {}",
+            o.daylight_hours.len(),
+            sky.hours.len()
+        );
+    }
+    let occupied: Vec<bool> = (0..sky.hours.len())
+        .map(|h| {
             if o.occupied.is_empty() {
                 sky.hours[h].sun_zenith_deg < 90.0
             } else {
@@ -662,13 +675,40 @@ pub fn metrics(
             }
         })
         .collect();
-    let count = hours.len();
+    let count = occupied.iter().filter(|&&x| x).count();
     if count == 0 {
         bail!(
             ImapErrInvalidArgument,
             "no occupied hour: the metrics count none"
         );
     }
+    let daylight = if o.daylight_hours.is_empty() {
+        brightest_half(sky)
+    } else {
+        o.daylight_hours.clone()
+    };
+    // The hours either set counts, with their places among the daylight hours.
+    let day_index: Vec<Option<usize>> = {
+        let mut next = 0;
+        daylight
+            .iter()
+            .map(|&d| {
+                d.then(|| {
+                    next += 1;
+                    next - 1
+                })
+            })
+            .collect()
+    };
+    let day_count = daylight.iter().filter(|&&x| x).count();
+    let hours: Vec<usize> = (0..sky.hours.len())
+        .filter(|&h| occupied[h] || daylight[h])
+        .collect();
+    // EN 17037's illuminances: per hour, how many sensors reach each (the estimate's, and
+    // each draw's).
+    let en = EN17037_LX;
+    let mut en_base = vec![0u32; en.len() * day_count];
+    let mut en_draws = vec![0u32; o.draws * en.len() * day_count];
     let passes = |m: &SensorMetrics| m.da >= o.sda_share;
     let mut sensors = Vec::with_capacity(c.sensors);
     let mut draws_sda = vec![0.0; o.draws];
@@ -677,26 +717,53 @@ pub fn metrics(
     for k in 0..c.sensors {
         let sensor = Sensor::new(c, sun, k, n, &mut direct);
         let cs = sensor.sigma;
-        // Each occupied hour's illuminance and standard error.
+        // Each counted hour's illuminance and standard error.
         let e: Vec<(f64, f64)> = hours.iter().map(|&h| sensor.hour(sky, h)).collect();
-        let mut m = sensor_metrics(e.iter().map(|x| x.0), o, count);
+        let mut m = sensor_metrics(
+            e.iter()
+                .zip(&hours)
+                .filter(|(_, &h)| occupied[h])
+                .map(|(x, _)| x.0),
+            o,
+            count,
+        );
         if let Some((_, _, d)) = sensor.sun {
-            m.ase_hours = hours.iter().filter(|&&h| d[h] > o.ase_lx).count();
+            m.ase_hours = hours
+                .iter()
+                .filter(|&&h| occupied[h] && d[h] > o.ase_lx)
+                .count();
             if m.ase_hours > o.ase_hours {
                 ase_sensors += 1;
             }
         }
         let ds = sensor.sun.map(|s| s.1);
-        // A draw can move an hour across the threshold only where it lies within a few
-        // of its errors of it (beyond 6 σ: less than 10⁻⁹ per hour): the rest are fixed.
+        // A draw can move an hour across a threshold only where it lies within a few of
+        // its errors of it (beyond 6 σ: less than 10⁻⁹ per hour): the rest are fixed.
+        let near = |x: f64, s: f64, t: f64| (x - t).abs() <= 6.0 * s;
         let (mut open, mut fixed) = (Vec::new(), 0usize);
         for (i, &(x, s)) in e.iter().enumerate() {
-            if (x - o.threshold_lx).abs() <= 6.0 * s {
+            let h = hours[i];
+            if let Some(d) = day_index[h] {
+                for (t, lx) in en.iter().enumerate() {
+                    if x >= *lx {
+                        en_base[t * day_count + d] += 1;
+                    }
+                }
+            }
+            let sda_open = occupied[h] && near(x, s, o.threshold_lx);
+            let en_open = day_index[h].is_some() && en.iter().any(|&t| near(x, s, t));
+            if sda_open || en_open {
                 open.push(i);
-            } else if x >= o.threshold_lx {
+            }
+            if occupied[h] && !sda_open && x >= o.threshold_lx {
                 fixed += 1;
             }
         }
+        // In a draw, the EN counts of the open hours are redrawn: take the estimate's out.
+        let en_fixed: Vec<(usize, usize)> = open
+            .iter()
+            .filter_map(|&i| day_index[hours[i]].map(|d| (i, d)))
+            .collect();
         let lit: Vec<usize> = (0..n).filter(|&p| cs[p] > 0.0).collect();
         // The patches whose direct-only coefficient has an error (the sun's).
         let lit_direct: Vec<usize> =
@@ -716,15 +783,33 @@ pub fn metrics(
                     delta_direct[p] = ds[p] * normal(&mut rng);
                 }
             }
+            let counts = &mut en_draws[j * en.len() * day_count..(j + 1) * en.len() * day_count];
             let mut above = fixed;
             for &i in &open {
-                let v = sky.vector(hours[i]);
+                let h = hours[i];
+                let v = sky.vector(h);
                 let mut x = e[i].0 + lit.iter().map(|&p| v[p] * delta[p]).sum::<f64>();
-                if let Some((q, l, _)) = sensor.sun_of(sky, hours[i]) {
+                if let Some((q, l, _)) = sensor.sun_of(sky, h) {
                     x += l * (delta[q] - delta_direct[q]);
                 }
-                if x >= o.threshold_lx {
+                if occupied[h] && near(e[i].0, e[i].1, o.threshold_lx) && x >= o.threshold_lx {
                     above += 1;
+                }
+                if let Some(d) = day_index[h] {
+                    for (t, lx) in en.iter().enumerate() {
+                        if x >= *lx {
+                            counts[t * day_count + d] += 1;
+                        }
+                    }
+                }
+            }
+            // The hours not redrawn count as the estimate's: added to every draw below,
+            // less the open ones' estimate (`en_fixed`), which the draw replaced.
+            for &(i, d) in &en_fixed {
+                for (t, lx) in en.iter().enumerate() {
+                    if e[i].0 >= *lx {
+                        counts[t * day_count + d] = counts[t * day_count + d].wrapping_sub(1);
+                    }
                 }
             }
             if above as f64 >= o.sda_share * count as f64 {
@@ -741,26 +826,204 @@ pub fn metrics(
         };
         sensors.push(m);
     }
+    // Each draw's counts: the estimate's, with the open hours' replaced.
+    for j in 0..o.draws {
+        let counts = &mut en_draws[j * en.len() * day_count..(j + 1) * en.len() * day_count];
+        for (c, b) in counts.iter_mut().zip(&en_base) {
+            *c = c.wrapping_add(*b);
+        }
+    }
     let total = c.sensors.max(1) as f64;
     let sda = sensors.iter().filter(|m| passes(m)).count() as f64 / total;
-    let (sda_sigma, sda_interval) = if o.draws > 0 {
-        let mut d: Vec<f64> = draws_sda.iter().map(|x| x / total).collect();
-        let mean = d.iter().sum::<f64>() / d.len() as f64;
-        let var = d.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (d.len().max(2) - 1) as f64;
-        d.sort_by(f64::total_cmp);
-        let q = |f: f64| d[((f * (d.len() - 1) as f64).round() as usize).min(d.len() - 1)];
-        (var.sqrt(), (q(0.025), q(0.975)))
-    } else {
-        (f64::NAN, (f64::NAN, f64::NAN))
-    };
+    let (sda_sigma, sda_interval) =
+        spread(&draws_sda.iter().map(|x| x / total).collect::<Vec<_>>());
+    let en17037 = (day_count > 0).then(|| {
+        let share = |counts: &[u32], t: usize, plane: f64| -> f64 {
+            let need = plane * c.sensors as f64;
+            counts[t * day_count..(t + 1) * day_count]
+                .iter()
+                .filter(|&&x| x as f64 >= need)
+                .count() as f64
+                / day_count as f64
+        };
+        let levels = EN17037_LEVELS.map(|(name, target, minimum)| {
+            let (ti, mi) = (lx_index(target), lx_index(minimum));
+            let time = |counts: &[u32]| {
+                (
+                    share(counts, ti, EN17037_TARGET_PLANE),
+                    share(counts, mi, EN17037_MINIMUM_PLANE),
+                )
+            };
+            let (target_share, minimum_share) = time(&en_base);
+            let ok = |(a, b): (f64, f64)| a >= EN17037_TIME && b >= EN17037_TIME;
+            let draws: Vec<(f64, f64)> = (0..o.draws)
+                .map(|j| time(&en_draws[j * en.len() * day_count..(j + 1) * en.len() * day_count]))
+                .collect();
+            let pass_probability = if o.draws > 0 {
+                draws.iter().filter(|&&x| ok(x)).count() as f64 / o.draws as f64
+            } else if ok((target_share, minimum_share)) {
+                1.0
+            } else {
+                0.0
+            };
+            En17037Level {
+                name,
+                target_lx: target,
+                minimum_lx: minimum,
+                target_share,
+                target_interval: spread(&draws.iter().map(|x| x.0).collect::<Vec<_>>()).1,
+                minimum_share,
+                minimum_interval: spread(&draws.iter().map(|x| x.1).collect::<Vec<_>>()).1,
+                passes: ok((target_share, minimum_share)),
+                pass_probability,
+            }
+        });
+        En17037 {
+            daylight_hours: day_count,
+            levels,
+        }
+    });
     Ok(GridMetrics {
         sda,
         sda_sigma,
         sda_interval,
         ase: sun.map(|_| ase_sensors as f64 / total),
+        en17037,
         occupied_hours: count,
         sensors,
     })
+}
+
+/// The daylight factor at each sensor and its standard error: the illuminance under the
+/// CIE standard overcast sky (Moon and Spencer's L(Z) ∝ 1 + 2 cos Z, as Radiance's
+/// `gensky -c`) with the ground glowing ρ E_h / π below the horizon, over that sky's
+/// unobstructed horizontal illuminance E_h: Σ_p v_p C_p with the patches' mean luminance
+/// v_p (8 × 8 points of equal solid angle) scaled so that the patch sky itself gives
+/// E_h = 1 (Σ v_p ∫_p cos dω: an open horizontal point reads exactly 100 %; the patches'
+/// uniform luminance gives 0.4 % less than the sky they stand for).
+pub fn daylight_factor(
+    c: &Coefficients,
+    patches: &SkyPatches,
+    ground_reflectance: f64,
+) -> Result<Vec<(f64, f64)>> {
+    c.check()?;
+    crate::error::check_range("ground_reflectance", ground_reflectance, 0.0, 1.0)?;
+    let n = patches.count();
+    if c.patches != n {
+        bail!(
+            ImapErrInvalidArgument,
+            "coefficients of {} patches for MF:{}'s {n}",
+            c.patches,
+            patches.mf()
+        );
+    }
+    let mut v = vec![0.0; n];
+    let mut horizontal = 0.0;
+    for (q, o) in v.iter_mut().enumerate().skip(1) {
+        *o = patches.means(q, 8, |alt, _| (1.0 + 2.0 * alt.sin(), 0.0)).0;
+        horizontal += *o * patches.horizontal(q);
+    }
+    v.iter_mut().skip(1).for_each(|x| *x /= horizontal);
+    v[0] = ground_reflectance / std::f64::consts::PI;
+    Ok((0..c.sensors)
+        .map(|k| {
+            let row = k * n..(k + 1) * n;
+            let (mut x, mut var) = (0.0, 0.0);
+            for ((l, c), s) in v.iter().zip(&c.value[row.clone()]).zip(&c.sigma[row]) {
+                x += l * c;
+                var += (l * s).powi(2);
+            }
+            (x, var.sqrt())
+        })
+        .collect())
+}
+
+/// The standard deviation and the 2.5 % and 97.5 % quantiles of draws `d` (NaN without).
+fn spread(d: &[f64]) -> (f64, (f64, f64)) {
+    if d.is_empty() {
+        return (f64::NAN, (f64::NAN, f64::NAN));
+    }
+    let mut d = d.to_vec();
+    let mean = d.iter().sum::<f64>() / d.len() as f64;
+    let var = d.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (d.len().max(2) - 1) as f64;
+    d.sort_by(f64::total_cmp);
+    let q = |f: f64| d[((f * (d.len() - 1) as f64).round() as usize).min(d.len() - 1)];
+    (var.sqrt(), (q(0.025), q(0.975)))
+}
+
+/// EN 17037's daylight hours by default: the half of the sky's hours with the most global
+/// horizontal illuminance (E_dh + E_n cos Z; ties by order), as the standard defines them
+/// ("the half of the year with the largest quantity of daylight": 4380 of 8760).
+pub fn brightest_half(sky: &AnnualSky) -> Vec<bool> {
+    let global = |a: &AnnualHour| {
+        a.diffuse_horizontal_lx + a.direct_normal_lx * a.sun_zenith_deg.to_radians().cos().max(0.0)
+    };
+    let mut order: Vec<usize> = (0..sky.hours.len()).collect();
+    order.sort_by(|&a, &b| {
+        global(&sky.hours[b])
+            .total_cmp(&global(&sky.hours[a]))
+            .then(a.cmp(&b))
+    });
+    let mut out = vec![false; sky.hours.len()];
+    for &h in order.iter().take(sky.hours.len() / 2) {
+        out[h] = true;
+    }
+    out
+}
+
+/// The illuminances EN 17037's criteria use, lx.
+const EN17037_LX: [f64; 4] = [100.0, 300.0, 500.0, 750.0];
+
+fn lx_index(lx: f64) -> usize {
+    EN17037_LX
+        .iter()
+        .position(|&x| x == lx)
+        .expect("an EN 17037 illuminance")
+}
+
+/// EN 17037's recommendation levels for daylight through vertical and inclined openings:
+/// (name, target E_T, minimum target E_TM), lx.
+const EN17037_LEVELS: [(&str, f64, f64); 3] = [
+    ("minimum", 300.0, 100.0),
+    ("medium", 500.0, 300.0),
+    ("high", 750.0, 500.0),
+];
+/// The reference plane's shares for E_T and E_TM, and the daylight hours' share.
+const EN17037_TARGET_PLANE: f64 = 0.5;
+const EN17037_MINIMUM_PLANE: f64 = 0.95;
+const EN17037_TIME: f64 = 0.5;
+
+/// EN 17037 (daylight provision, vertical and inclined openings, by hourly illuminance):
+/// a level is met when E_T is reached over half the reference plane and E_TM over 95 % of
+/// it, each in at least half the daylight hours.
+#[derive(Clone, Debug, PartialEq)]
+pub struct En17037 {
+    pub daylight_hours: usize,
+    /// Minimum, medium and high.
+    pub levels: [En17037Level; 3],
+}
+
+impl En17037 {
+    /// The highest level met (None: not even the minimum).
+    pub fn level(&self) -> Option<&'static str> {
+        self.levels.iter().rev().find(|l| l.passes).map(|l| l.name)
+    }
+}
+
+/// One EN 17037 level's figures: the shares of daylight hours in which E_T reaches half
+/// the points and E_TM 95 % of them, with their 95 % intervals over the draws, whether the
+/// level is met and the probability that it is.
+#[derive(Clone, Debug, PartialEq)]
+pub struct En17037Level {
+    pub name: &'static str,
+    pub target_lx: f64,
+    pub minimum_lx: f64,
+    pub target_share: f64,
+    pub target_interval: (f64, f64),
+    pub minimum_share: f64,
+    pub minimum_interval: (f64, f64),
+    pub passes: bool,
+    pub pass_probability: f64,
 }
 
 #[cfg(test)]
@@ -1049,6 +1312,123 @@ mod tests {
     }
 
     #[test]
+    fn the_daylight_factor_is_the_overcast_skys_share_of_its_horizontal_light() {
+        let patches = SkyPatches::reinhart(1).unwrap();
+        let n = patches.count();
+        // Sensor 0 open to the whole sky (C_p = ∫_p cos dω): DF 1. Sensor 1 sees the
+        // zenith cap alone: ∫_cap (1 + 2 cos Z) cos dω / (7π/3). Sensor 2 faces down onto
+        // the ground (C_0 = π): DF ρ.
+        let mut value = vec![0.0; 3 * n];
+        let mut sigma = vec![0.0; 3 * n];
+        for p in 1..n {
+            value[p] = patches.horizontal(p);
+            sigma[p] = 0.01 * patches.horizontal(p);
+        }
+        let cap = patches.cap();
+        value[n + cap] = patches.horizontal(cap);
+        value[2 * n] = std::f64::consts::PI;
+        let c = Coefficients {
+            sensors: 3,
+            patches: n,
+            value,
+            sigma,
+        };
+        let df = daylight_factor(&c, &patches, 0.2).unwrap();
+        assert!((df[0].0 - 1.0).abs() < 1e-4, "{:?}", df[0]);
+        // Independent errors of 1 %: √Σ (v_p σ_p)² over the patches.
+        assert!(df[0].1 > 0.0005 && df[0].1 < 0.01, "{:?}", df[0]);
+        let (lo, _, _, _) = patches.bounds(cap);
+        let cz = lo.sin();
+        let want =
+            2.0 * std::f64::consts::PI * ((1.0 - cz * cz) / 2.0 + 2.0 * (1.0 - cz.powi(3)) / 3.0)
+                / (7.0 * std::f64::consts::PI / 3.0);
+        // To the patches' discretisation: their uniform luminance gives the whole sky
+        // 0.4 % less horizontal light than the sky's own, which the scaling gives back.
+        assert!(
+            (df[1].0 / want - 1.0).abs() < 0.006,
+            "{} vs {want}",
+            df[1].0
+        );
+        assert!((df[2].0 - 0.2).abs() < 1e-12);
+        assert!(daylight_factor(&c, &patches, 1.5).is_err());
+        assert!(daylight_factor(&c, &SkyPatches::reinhart(2).unwrap(), 0.2).is_err());
+    }
+
+    #[test]
+    fn en_17037_levels_follow_the_shares_of_plane_and_daylight_hours() {
+        // 20 sensors at constant illuminance whenever the sky is lit: 10 at 800 lx, 9 at
+        // 400 lx, one at 150 lx. Per lit hour E ≥ 300 lx on 95 % of the plane and
+        // ≥ 500 lx on 50 %: the medium level (500 / 300) is met, the high one (750 / 500)
+        // is not (500 lx on 50 % only).
+        let sensors = 20;
+        let want = |k: usize| match k {
+            0..=9 => 800.0,
+            10..=18 => 400.0,
+            _ => 150.0,
+        };
+        for (lit_hours, level, share) in [
+            (60, Some("medium"), 1.0),
+            (40, Some("medium"), 0.8),
+            (20, None, 0.4),
+        ] {
+            let mut sky = toy_sky(100, |h, _| if h < lit_hours { 1000.0 } else { 0.0 });
+            for (h, a) in sky.hours.iter_mut().enumerate() {
+                a.diffuse_horizontal_lx = if h < lit_hours { 3000.0 } else { 0.0 };
+            }
+            let n = sky.patches.count();
+            let mut value = vec![0.0; sensors * n];
+            for k in 0..sensors {
+                for p in 1..4 {
+                    value[k * n + p] = want(k) / 3000.0;
+                }
+            }
+            let c = Coefficients {
+                sensors,
+                patches: n,
+                value,
+                sigma: vec![0.0; sensors * n],
+            };
+            let m = metrics(&c, &sky, None, &MetricOptions::default()).unwrap();
+            let en = m.en17037.unwrap();
+            assert_eq!(en.daylight_hours, 50);
+            assert_eq!(en.level(), level, "{lit_hours} lit hours: {en:?}");
+            let medium = &en.levels[1];
+            assert!((medium.target_share - share).abs() < 1e-12, "{medium:?}");
+            assert!((medium.minimum_share - share).abs() < 1e-12);
+            assert_eq!(en.levels[2].target_share, share);
+            assert_eq!(en.levels[2].minimum_share, 0.0);
+            assert_eq!(
+                medium.pass_probability,
+                if level.is_some() { 1.0 } else { 0.0 }
+            );
+            assert_eq!(medium.target_interval, (share, share));
+        }
+        // Daylight hours given: the first 10 only, of which the sky lights all.
+        let sky = toy_sky(100, |_, _| 1000.0);
+        let n = sky.patches.count();
+        let c = Coefficients {
+            sensors: 1,
+            patches: n,
+            value: (0..n)
+                .map(|p| if (1..4).contains(&p) { 0.1 } else { 0.0 })
+                .collect(),
+            sigma: vec![0.0; n],
+        };
+        let o = MetricOptions {
+            daylight_hours: (0..100).map(|h| h < 10).collect(),
+            ..MetricOptions::default()
+        };
+        let en = metrics(&c, &sky, None, &o).unwrap().en17037.unwrap();
+        assert_eq!(en.daylight_hours, 10);
+        assert_eq!(en.level(), Some("minimum"));
+        let bad = MetricOptions {
+            daylight_hours: vec![true; 3],
+            ..MetricOptions::default()
+        };
+        assert!(metrics(&c, &sky, None, &bad).is_err());
+    }
+
+    #[test]
     fn the_sda_interval_covers_the_long_run_value() {
         // Sensors whose illuminance swings over the year around the threshold: the true
         // coefficients give the long-run sDA; runs' estimates scatter by their σ (5–15 %).
@@ -1077,7 +1457,7 @@ mod tests {
             draws: 200,
             ..MetricOptions::default()
         };
-        let long_run = metrics(
+        let truth_m = metrics(
             &true_c,
             &sky,
             None,
@@ -1086,11 +1466,14 @@ mod tests {
                 ..o.clone()
             },
         )
-        .unwrap()
-        .sda;
+        .unwrap();
+        let long_run = truth_m.sda;
         assert!(long_run > 0.2 && long_run < 0.8, "{long_run}");
+        // And EN 17037's share of daylight hours in which 300 lx reach half the plane.
+        let long_run_en = truth_m.en17037.unwrap().levels[0].target_share;
+        assert!(long_run_en > 0.1 && long_run_en < 0.9, "{long_run_en}");
         let runs = 100;
-        let mut covered = 0;
+        let (mut covered, mut covered_en) = (0, 0);
         for r in 0..runs {
             let mut rng = PhotonRng::new(99, r);
             let value: Vec<f64> = truth
@@ -1117,8 +1500,13 @@ mod tests {
             if m.sda_interval.0 <= long_run && long_run <= m.sda_interval.1 {
                 covered += 1;
             }
+            let (lo, hi) = m.en17037.unwrap().levels[0].target_interval;
+            if lo <= long_run_en && long_run_en <= hi {
+                covered_en += 1;
+            }
         }
-        eprintln!("covered {covered} of {runs}");
+        eprintln!("covered {covered} of {runs}; EN 17037's time share {covered_en}");
+        assert!(covered_en >= 90, "EN 17037: {covered_en} of {runs}");
         assert!(
             covered >= 90,
             "the 95 % interval covered the long-run sDA in {covered} of {runs} runs"

@@ -261,7 +261,9 @@ pub fn annual(model: &Path, settings: Settings, o: &AnnualOptions) -> Result<()>
         .map_err(|e| CliError(format!("annual: grid {}: {}", g.name, e.message)))?;
         let m = imap::annual::metrics(&c, &sky, Some(&sun), &options)
             .map_err(|e| CliError(format!("annual: grid {}: {}", g.name, e.message)))?;
-        write_csv(&o.out.join(format!("annual_{}.csv", g.name)), g, &m)?;
+        let df = imap::annual::daylight_factor(&c, &sky.patches, o.ground_reflectance)
+            .map_err(|e| CliError(format!("annual: grid {}: {}", g.name, e.message)))?;
+        write_csv(&o.out.join(format!("annual_{}.csv", g.name)), g, &m, &df)?;
         let ase = m.ase.unwrap_or(f64::NAN);
         if !o.quiet {
             println!(
@@ -277,6 +279,27 @@ pub fn annual(model: &Path, settings: Settings, o: &AnnualOptions) -> Result<()>
                 100.0 * ase,
                 m.occupied_hours
             );
+            if let Some(en) = &m.en17037 {
+                let p: Vec<String> = en
+                    .levels
+                    .iter()
+                    .map(|l| format!("{} {:.0} %", l.name, 100.0 * l.pass_probability))
+                    .collect();
+                println!(
+                    "grid {}: EN 17037 level {} over {} daylight hours (probability met: {})",
+                    g.name,
+                    en.level().unwrap_or("none"),
+                    en.daylight_hours,
+                    p.join(", ")
+                );
+            }
+            let k = df.len().max(1) as f64;
+            println!(
+                "grid {}: daylight factor mean {:.2} ± {:.2} %",
+                g.name,
+                100.0 * df.iter().map(|x| x.0).sum::<f64>() / k,
+                100.0 * df.iter().map(|x| x.1 * x.1).sum::<f64>().sqrt() / k
+            );
         }
         let mean = |f: fn(&imap::annual::SensorMetrics) -> f64| {
             m.sensors.iter().map(f).sum::<f64>() / m.sensors.len().max(1) as f64
@@ -286,6 +309,26 @@ pub fn annual(model: &Path, settings: Settings, o: &AnnualOptions) -> Result<()>
             "points": m.sensors.len(),
             "sda": {"value": m.sda, "sigma": m.sda_sigma, "interval_95": [m.sda_interval.0, m.sda_interval.1]},
             "ase": {"value": ase, "lx": options.ase_lx, "hours": options.ase_hours},
+            "en17037": m.en17037.as_ref().map(|en| serde_json::json!({
+                "daylight_hours": en.daylight_hours,
+                "level": en.level(),
+                "levels": en.levels.iter().map(|l| serde_json::json!({
+                    "name": l.name,
+                    "target_lx": l.target_lx,
+                    "minimum_lx": l.minimum_lx,
+                    "target_share": l.target_share,
+                    "target_interval_95": [l.target_interval.0, l.target_interval.1],
+                    "minimum_share": l.minimum_share,
+                    "minimum_interval_95": [l.minimum_interval.0, l.minimum_interval.1],
+                    "passes": l.passes,
+                    "pass_probability": l.pass_probability,
+                })).collect::<Vec<_>>(),
+            })),
+            "daylight_factor": {
+                "mean": df.iter().map(|x| x.0).sum::<f64>() / df.len().max(1) as f64,
+                "min": df.iter().map(|x| x.0).fold(f64::INFINITY, f64::min),
+                "max": df.iter().map(|x| x.0).fold(f64::NEG_INFINITY, f64::max),
+            },
             "mean_da": mean(|s| s.da),
             "mean_cda": mean(|s| s.cda),
             "mean_udi": [mean(|s| s.udi_below), mean(|s| s.udi_useful), mean(|s| s.udi_above)],
@@ -350,19 +393,24 @@ fn coefficients(ctx: &imap::Context, g: &Grid, n: usize) -> Result<Coefficients>
     })
 }
 
-fn write_csv(path: &Path, g: &Grid, m: &imap::annual::GridMetrics) -> Result<()> {
+fn write_csv(
+    path: &Path,
+    g: &Grid,
+    m: &imap::annual::GridMetrics,
+    df: &[(f64, f64)],
+) -> Result<()> {
     let io = |e: std::io::Error| CliError(format!("{}: {e}", path.display()));
     let mut f = std::io::BufWriter::new(std::fs::File::create(path).map_err(io)?);
     writeln!(
         f,
-        "x,y,z,da,cda,udi_below,udi_useful,udi_above,sda_pass_probability,ase_hours"
+        "x,y,z,da,cda,udi_below,udi_useful,udi_above,sda_pass_probability,ase_hours,df,df_sigma"
     )
     .map_err(io)?;
     for (k, s) in m.sensors.iter().enumerate() {
         let q = &g.positions[3 * k..3 * k + 3];
         writeln!(
             f,
-            "{},{},{},{:.4},{:.4},{:.4},{:.4},{:.4},{:.3},{}",
+            "{},{},{},{:.4},{:.4},{:.4},{:.4},{:.4},{:.3},{},{:.5},{:.5}",
             q[0],
             q[1],
             q[2],
@@ -372,7 +420,9 @@ fn write_csv(path: &Path, g: &Grid, m: &imap::annual::GridMetrics) -> Result<()>
             s.udi_useful,
             s.udi_above,
             s.sda_pass_probability,
-            s.ase_hours
+            s.ase_hours,
+            df[k].0,
+            df[k].1
         )
         .map_err(io)?;
     }

@@ -1432,6 +1432,10 @@ fn annual_metrics_of_an_open_grid_follow_the_hours_light() {
                 .unwrap();
         let g = &json["grids"][0];
         assert_eq!(g["occupied_hours"], 4, "{json}");
+        // The two brightest of the five hours are EN 17037's daylight hours, 6–12 klx on
+        // the open grid: the high level.
+        assert_eq!(g["en17037"]["daylight_hours"], 2, "{json}");
+        assert_eq!(g["en17037"]["level"], "high", "{json}");
         let sda = g["sda"]["value"].as_f64().unwrap();
         assert_eq!(sda, if da >= 0.5 { 1.0 } else { 0.0 }, "{json}");
         let interval = &g["sda"]["interval_95"];
@@ -1445,6 +1449,9 @@ fn annual_metrics_of_an_open_grid_follow_the_hours_light() {
         assert_eq!(rows.len(), 4);
         for row in &rows {
             assert_eq!(row[3], da, "threshold {threshold}: {csv}");
+            // An open point's daylight factor is 100 %, within its stated error.
+            let (df, sigma) = (row[10], row[11]);
+            assert!(sigma > 0.0 && (df - 1.0).abs() < 4.0 * sigma, "{csv}");
         }
     }
     // One sunny hour: every point has the sun's E_n cos Z, over 1000 lx, in its one
@@ -1481,7 +1488,7 @@ fn annual_metrics_of_an_open_grid_follow_the_hours_light() {
         assert_eq!(json["grids"][0]["ase"]["value"], want, "{json}");
         let csv = std::fs::read_to_string(out.join("annual_open.csv")).unwrap();
         for line in csv.lines().skip(1) {
-            let hours: usize = line.rsplit(',').next().unwrap().parse().unwrap();
+            let hours: usize = line.split(',').nth(9).unwrap().parse().unwrap();
             assert_eq!(hours, usize::from(ase_lx == "1000"), "{csv}");
         }
     }
