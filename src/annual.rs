@@ -398,6 +398,9 @@ pub struct MetricOptions {
     pub ase_hours: usize,
     /// EN 17037's daylight hours, per hour of the sky (empty: `brightest_half`).
     pub daylight_hours: Vec<bool>,
+    /// LM-83's blinds rule (`metrics_with_blinds`): the blinds close in an hour in which
+    /// more than this share of the points get direct sun above `ase_lx` (0.02).
+    pub blinds_share: f64,
 }
 
 impl Default for MetricOptions {
@@ -413,6 +416,7 @@ impl Default for MetricOptions {
             ase_lx: 1000.0,
             ase_hours: 250,
             daylight_hours: Vec::new(),
+            blinds_share: 0.02,
         }
     }
 }
@@ -449,6 +453,8 @@ pub struct GridMetrics {
     /// in more than `ase_hours` occupied hours (None without the direct sun). The direct
     /// sun is traced along its line, not sampled: it carries no Monte Carlo error.
     pub ase: Option<f64>,
+    /// Occupied hours in which LM-83's rule closed the blinds (0 without a shaded model).
+    pub blinds_closed_hours: usize,
     /// EN 17037's criteria over the daylight hours (None when there are none).
     pub en17037: Option<En17037>,
     /// Occupied hours counted.
@@ -582,6 +588,56 @@ impl<'a> Sensor<'a> {
     }
 }
 
+/// A sensor's coefficients as a draw moves them: the patches with an error, and the
+/// draw's offsets.
+struct Drawn<'a> {
+    sensor: Sensor<'a>,
+    lit: Vec<usize>,
+    lit_direct: Vec<usize>,
+    delta: Vec<f64>,
+    delta_direct: Vec<f64>,
+}
+
+impl<'a> Drawn<'a> {
+    fn new(sensor: Sensor<'a>) -> Self {
+        let n = sensor.c.len();
+        let lit = (0..n).filter(|&p| sensor.sigma[p] > 0.0).collect();
+        // The patches whose direct-only coefficient has an error (the sun's).
+        let lit_direct = sensor
+            .sun
+            .map_or(Vec::new(), |s| (0..n).filter(|&p| s.1[p] > 0.0).collect());
+        Drawn {
+            sensor,
+            lit,
+            lit_direct,
+            delta: vec![0.0; n],
+            delta_direct: vec![0.0; n],
+        }
+    }
+
+    /// Draws the offsets: C_p + σ_p N(0, 1), D_p + σ_Dp N(0, 1).
+    fn draw(&mut self, rng: &mut PhotonRng) {
+        for &p in &self.lit {
+            self.delta[p] = self.sensor.sigma[p] * normal(rng);
+        }
+        if let Some(s) = self.sensor.sun {
+            for &p in &self.lit_direct {
+                self.delta_direct[p] = s.1[p] * normal(rng);
+            }
+        }
+    }
+
+    /// Hour `h`'s illuminance in the draw, from the estimate's `e`.
+    fn hour(&self, sky: &AnnualSky, h: usize, e: f64) -> f64 {
+        let v = sky.vector(h);
+        let mut x = e + self.lit.iter().map(|&p| v[p] * self.delta[p]).sum::<f64>();
+        if let Some((q, l, _)) = self.sensor.sun_of(sky, h) {
+            x += l * (self.delta[q] - self.delta_direct[q]);
+        }
+        x
+    }
+}
+
 /// One sensor's metrics from its hourly illuminance over the occupied hours.
 fn sensor_metrics(e: impl Iterator<Item = f64>, o: &MetricOptions, count: usize) -> SensorMetrics {
     let mut m = SensorMetrics::default();
@@ -623,8 +679,56 @@ pub fn metrics(
     sun: Option<&DirectSun>,
     o: &MetricOptions,
 ) -> Result<GridMetrics> {
+    metrics_with_blinds(c, sky, sun, None, o)
+}
+
+/// The model with its blinds closed (IES LM-83's operable shading): its coefficients at
+/// the same sensors and its direct sun (None: the blinds let no sun through in a line).
+#[derive(Clone, Copy, Debug)]
+pub struct Shaded<'a> {
+    pub coefficients: &'a Coefficients,
+    pub sun: Option<&'a DirectSun>,
+}
+
+/// `metrics` with LM-83's rule for operable blinds: in every hour in which more than
+/// `o.blinds_share` (2 %) of the points get direct sun above `o.ase_lx` with the blinds
+/// open, the blinds close and every point's illuminance is the `shaded` model's. ASE
+/// counts the blinds open, as LM-83 defines it. The rule reads the direct sun: `sun` is
+/// needed with `shaded`.
+pub fn metrics_with_blinds(
+    c: &Coefficients,
+    sky: &AnnualSky,
+    sun: Option<&DirectSun>,
+    shaded: Option<Shaded>,
+    o: &MetricOptions,
+) -> Result<GridMetrics> {
     let n = c.check_against(sky)?;
     check_sun(c, sky, sun)?;
+    if let Some(s) = shaded {
+        s.coefficients.check_against(sky)?;
+        check_sun(s.coefficients, sky, s.sun)?;
+        if s.coefficients.sensors != c.sensors {
+            bail!(
+                ImapErrInvalidArgument,
+                "the shaded model's coefficients are of {} sensors; the open one's of {}",
+                s.coefficients.sensors,
+                c.sensors
+            );
+        }
+        if sun.is_none() {
+            bail!(
+                ImapErrInvalidArgument,
+                "the blinds rule reads the direct sun: give the open model's"
+            );
+        }
+    }
+    if !(0.0..1.0).contains(&o.blinds_share) {
+        bail!(
+            ImapErrInvalidArgument,
+            "blinds_share = {}: must be in [0, 1)",
+            o.blinds_share
+        );
+    }
     if !(o.ase_lx > 0.0 && o.ase_lx.is_finite()) {
         bail!(ImapErrInvalidArgument, "ase_lx = {}: must be > 0", o.ase_lx);
     }
@@ -713,12 +817,40 @@ pub fn metrics(
     let mut sensors = Vec::with_capacity(c.sensors);
     let mut draws_sda = vec![0.0; o.draws];
     let mut direct = vec![0.0; if sun.is_some() { sky.hours.len() } else { 0 }];
+    let mut direct_shaded = vec![0.0; sky.hours.len()];
+    // LM-83's blinds: closed in the hours in which too many points get direct sun.
+    let closed: Vec<bool> = match (shaded, sun) {
+        (Some(_), Some(s)) => {
+            let mut lit = vec![0usize; sky.hours.len()];
+            for k in 0..s.sensors {
+                for (h, x) in s.at(k) {
+                    if x > o.ase_lx {
+                        lit[h] += 1;
+                    }
+                }
+            }
+            lit.iter()
+                .map(|&m| m as f64 > o.blinds_share * s.sensors as f64)
+                .collect()
+        }
+        _ => vec![false; sky.hours.len()],
+    };
     let mut ase_sensors = 0usize;
     for k in 0..c.sensors {
         let sensor = Sensor::new(c, sun, k, n, &mut direct);
-        let cs = sensor.sigma;
+        let ase_direct = sensor.sun.map(|s| s.2);
+        let mut open_state = Drawn::new(sensor);
+        let mut shut_state = shaded
+            .map(|s| Drawn::new(Sensor::new(s.coefficients, s.sun, k, n, &mut direct_shaded)));
+        let state = |h: usize| match &shut_state {
+            Some(s) if closed[h] => s,
+            _ => &open_state,
+        };
         // Each counted hour's illuminance and standard error.
-        let e: Vec<(f64, f64)> = hours.iter().map(|&h| sensor.hour(sky, h)).collect();
+        let e: Vec<(f64, f64)> = hours
+            .iter()
+            .map(|&h| state(h).sensor.hour(sky, h))
+            .collect();
         let mut m = sensor_metrics(
             e.iter()
                 .zip(&hours)
@@ -727,7 +859,7 @@ pub fn metrics(
             o,
             count,
         );
-        if let Some((_, _, d)) = sensor.sun {
+        if let Some(d) = ase_direct {
             m.ase_hours = hours
                 .iter()
                 .filter(|&&h| occupied[h] && d[h] > o.ase_lx)
@@ -736,7 +868,6 @@ pub fn metrics(
                 ase_sensors += 1;
             }
         }
-        let ds = sensor.sun.map(|s| s.1);
         // A draw can move an hour across a threshold only where it lies within a few of
         // its errors of it (beyond 6 σ: less than 10⁻⁹ per hour): the rest are fixed.
         let near = |x: f64, s: f64, t: f64| (x - t).abs() <= 6.0 * s;
@@ -764,34 +895,24 @@ pub fn metrics(
             .iter()
             .filter_map(|&i| day_index[hours[i]].map(|d| (i, d)))
             .collect();
-        let lit: Vec<usize> = (0..n).filter(|&p| cs[p] > 0.0).collect();
-        // The patches whose direct-only coefficient has an error (the sun's).
-        let lit_direct: Vec<usize> =
-            ds.map_or(Vec::new(), |ds| (0..n).filter(|&p| ds[p] > 0.0).collect());
-        let mut delta = vec![0.0; n];
-        let mut delta_direct = vec![0.0; n];
         let mut pass = 0usize;
         for (j, sum) in draws_sda.iter_mut().enumerate() {
             // The draw's stream: one per (sensor, draw), so any sensor subset or order
-            // gives the same draws.
+            // gives the same draws (the shaded model's after the open one's).
             let mut rng = PhotonRng::new(o.seed, ((k as u64) << 20) | j as u64);
-            for &p in &lit {
-                delta[p] = cs[p] * normal(&mut rng);
+            open_state.draw(&mut rng);
+            if let Some(s) = &mut shut_state {
+                s.draw(&mut rng);
             }
-            if let Some(ds) = ds {
-                for &p in &lit_direct {
-                    delta_direct[p] = ds[p] * normal(&mut rng);
-                }
-            }
+            let state = |h: usize| match &shut_state {
+                Some(s) if closed[h] => s,
+                _ => &open_state,
+            };
             let counts = &mut en_draws[j * en.len() * day_count..(j + 1) * en.len() * day_count];
             let mut above = fixed;
             for &i in &open {
                 let h = hours[i];
-                let v = sky.vector(h);
-                let mut x = e[i].0 + lit.iter().map(|&p| v[p] * delta[p]).sum::<f64>();
-                if let Some((q, l, _)) = sensor.sun_of(sky, h) {
-                    x += l * (delta[q] - delta_direct[q]);
-                }
+                let x = state(h).hour(sky, h, e[i].0);
                 if occupied[h] && near(e[i].0, e[i].1, o.threshold_lx) && x >= o.threshold_lx {
                     above += 1;
                 }
@@ -887,6 +1008,7 @@ pub fn metrics(
         sda,
         sda_sigma,
         sda_interval,
+        blinds_closed_hours: hours.iter().filter(|&&h| occupied[h] && closed[h]).count(),
         ase: sun.map(|_| ase_sensors as f64 / total),
         en17037,
         occupied_hours: count,
@@ -1352,6 +1474,109 @@ mod tests {
         assert!((df[2].0 - 0.2).abs() < 1e-12);
         assert!(daylight_factor(&c, &patches, 1.5).is_err());
         assert!(daylight_factor(&c, &SkyPatches::reinhart(2).unwrap(), 0.2).is_err());
+    }
+
+    #[test]
+    fn lm_83s_blinds_close_when_more_than_2_percent_of_points_get_direct_sun() {
+        // 50 points; the sky gives each 400 lx blinds open, 100 lx closed. Points 0 and 1
+        // (4 %) get 2000 lx of direct sun in hours 0–29, point 2 alone (2 %, not more)
+        // in hours 30–59: the blinds close in hours 0–29 only.
+        let hours = 100;
+        let mut sky = toy_sky(hours, |_, _| 100.0);
+        for a in &mut sky.hours {
+            a.direct_normal_lx = 50_000.0;
+            a.sun_patch = 2;
+        }
+        let n = sky.patches.count();
+        let sensors = 50;
+        let coefficients = |c: f64| {
+            let mut value = vec![0.0; sensors * n];
+            for k in 0..sensors {
+                for p in 1..4 {
+                    value[k * n + p] = c / 300.0;
+                }
+            }
+            Coefficients {
+                sensors,
+                patches: n,
+                value,
+                sigma: vec![0.0; sensors * n],
+            }
+        };
+        let (open, shut) = (coefficients(400.0), coefficients(100.0));
+        let (mut offsets, mut hs, mut lux) = (vec![0], Vec::new(), Vec::new());
+        for k in 0..sensors {
+            let lit = match k {
+                0 | 1 => 0..30,
+                2 => 30..60,
+                _ => 0..0,
+            };
+            for h in lit {
+                hs.push(h as u32);
+                lux.push(2000.0f32);
+            }
+            offsets.push(hs.len());
+        }
+        // The sun's patch holds no inter-reflected sun (C_2 = D_2).
+        let mut patch_direct = vec![0.0; sensors * n];
+        for k in 0..sensors {
+            patch_direct[k * n + 2] = 400.0 / 300.0;
+        }
+        let sun = DirectSun {
+            sensors,
+            patches: n,
+            offsets,
+            hours: hs,
+            lux,
+            patch_direct,
+            patch_direct_sigma: vec![0.0; sensors * n],
+        };
+        let o = MetricOptions {
+            ase_hours: 20,
+            draws: 10,
+            ..MetricOptions::default()
+        };
+        let shaded = Shaded {
+            coefficients: &shut,
+            sun: None,
+        };
+        let m = metrics_with_blinds(&open, &sky, Some(&sun), Some(shaded), &o).unwrap();
+        assert_eq!(m.blinds_closed_hours, 30);
+        // Point 10: 100 lx in the 30 closed hours, 400 lx in the other 70.
+        assert!(
+            (m.sensors[10].da - 0.7).abs() < 1e-12,
+            "{:?}",
+            m.sensors[10]
+        );
+        // Point 2's sun comes in hours 30–59 with the blinds open: 2400 lx then.
+        assert!((m.sensors[2].da - 0.7).abs() < 1e-12);
+        assert_eq!(m.sensors[2].udi_above, 0.0);
+        // ASE counts the blinds open: points 0–2, 30 hours each, more than 20.
+        assert_eq!(m.ase, Some(3.0 / 50.0));
+        // Without the blinds: every hour 400 lx or more.
+        let plain = metrics(&open, &sky, Some(&sun), &o).unwrap();
+        assert_eq!(plain.blinds_closed_hours, 0);
+        assert_eq!(plain.sensors[10].da, 1.0);
+        // A share of 4 % or more keeps them open.
+        let lax = MetricOptions {
+            blinds_share: 0.04,
+            ..o.clone()
+        };
+        let m = metrics_with_blinds(&open, &sky, Some(&sun), Some(shaded), &lax).unwrap();
+        assert_eq!(m.blinds_closed_hours, 0);
+        // The rule needs the open model's direct sun; shapes must agree.
+        assert!(metrics_with_blinds(&open, &sky, None, Some(shaded), &o).is_err());
+        let few = Coefficients {
+            sensors: 1,
+            patches: n,
+            value: vec![0.0; n],
+            sigma: vec![0.0; n],
+        };
+        let bad = Shaded {
+            coefficients: &few,
+            sun: None,
+        };
+        assert!(metrics_with_blinds(&open, &sky, Some(&sun), Some(bad), &o).is_err());
     }
 
     #[test]

@@ -55,6 +55,13 @@ pub struct AnnualOptions {
     /// hours than these (IES LM-83: 250).
     #[arg(long, default_value_t = 250)]
     pub ase_hours: usize,
+    /// The model with its blinds closed: TOML settings for the same model (a blind's
+    /// material, or grids and materials as the open settings with the glazing a diffuse
+    /// transmitter). Its coefficients are traced as the open model's, and IES LM-83's rule
+    /// picks it in the hours in which more than 2 % of a grid's points get direct sun
+    /// above --ase-lx.
+    #[arg(long)]
+    pub shaded: Option<PathBuf>,
     /// Draws of the coefficients for the metrics' confidence.
     #[arg(long, default_value_t = 100)]
     pub draws: usize,
@@ -72,6 +79,22 @@ fn group(p: usize, count: usize) -> u32 {
     } else {
         p as u32
     }
+}
+
+/// Settings an annual run takes: grids, no lights.
+fn check_settings(settings: &Settings, what: &str) -> Result<()> {
+    if settings.sky.is_some()
+        || settings.sun.is_some()
+        || settings.environment.is_some()
+        || !settings.lights.is_empty()
+        || !settings.luminaires.is_empty()
+    {
+        fail!("{what}: the settings hold lights, a [sky], [sun] or [environment]: an annual run makes its own skies from the weather file (electric light is not part of it yet); leave them out");
+    }
+    if settings.grids.is_empty() {
+        fail!("{what}: the metrics are computed at the points of [[grid]]s: give at least one");
+    }
+    Ok(())
 }
 
 /// "FROM-TO" hours.
@@ -94,17 +117,7 @@ fn occupied_hours(s: &str) -> Result<(f64, f64)> {
 }
 
 pub fn annual(model: &Path, settings: Settings, o: &AnnualOptions) -> Result<()> {
-    if settings.sky.is_some()
-        || settings.sun.is_some()
-        || settings.environment.is_some()
-        || !settings.lights.is_empty()
-        || !settings.luminaires.is_empty()
-    {
-        fail!("annual: the settings hold lights, a [sky], [sun] or [environment]: an annual run makes its own skies from the weather file (electric light is not part of it yet); leave them out");
-    }
-    if settings.grids.is_empty() {
-        fail!("annual: the metrics are computed at the points of [[grid]]s: give at least one");
-    }
+    check_settings(&settings, "annual")?;
     let (from, to) = occupied_hours(&o.occupied)?;
     if !(0.0..=1.0).contains(&o.ground_reflectance) {
         fail!(
@@ -148,80 +161,53 @@ pub fn annual(model: &Path, settings: Settings, o: &AnnualOptions) -> Result<()>
     if let Some(s) = o.seed {
         settings.run.seed = s;
     }
-    let (mut ctx, scene, _) = crate::output::load_with_camera(model, &settings)?;
+    let n = sky.patches.count();
     let up = settings.up()?;
+    // The blinds-closed settings are checked before anything is traced.
+    let shaded_settings = match &o.shaded {
+        Some(path) => {
+            let mut s = crate::settings_from(Some(path))?;
+            check_settings(&s, &format!("--shaded {}", path.display()))?;
+            s.run.threads = settings.run.threads;
+            s.run.seed = settings.run.seed;
+            if s.up()? != up {
+                fail!(
+                    "--shaded {}: its up_axis differs from the open model's",
+                    path.display()
+                );
+            }
+            Some(s)
+        }
+        None => None,
+    };
     let north = if up[1] != 0.0 {
         [0.0, 0.0, -1.0]
     } else {
         [0.0, 1.0, 0.0]
     };
-    let n = sky.patches.count();
-    ctx.set_layers(LayerRequest {
-        groups: true,
-        direct: false,
-    })
-    .map_err(|e| CliError(format!("annual: {}", e.message)))?;
-    for p in 0..n {
-        let kind = SkyKind::single_patch(1, p).map_err(|e| CliError(e.message))?;
-        let id = ctx
-            .add_sky(&SkyDesc {
-                kind,
-                amount: SkyAmount::Luminance(1.0),
-                zenith: up,
-                north,
-                ..SkyDesc::default()
-            })
-            .map_err(|e| CliError(format!("annual: patch {p}: {}", e.message)))?;
-        ctx.set_light_group(id, group(p, n))
-            .map_err(|e| CliError(format!("annual: {}", e.message)))?;
-    }
     if !o.quiet {
         eprintln!(
-            "imap: annual: {} hours of {} ({missing} missing), {} patches and the ground, {} grid points",
+            "imap: annual: {} hours of {} ({missing} missing), {} patches and the ground",
             weather.hours.len(),
             printable(&weather.site.name),
             n - 1,
-            scene.grids.iter().map(|g| g.positions.len() / 3).sum::<usize>()
         );
     }
-    let bar = if o.quiet {
-        indicatif::ProgressBar::hidden()
-    } else {
-        indicatif::ProgressBar::new(1000)
-    };
-    bar.set_style(
-        indicatif::ProgressStyle::with_template("{spinner} {elapsed:>4} [{bar:30}] {msg}")
-            .expect("template")
-            .progress_chars("=> "),
-    );
     let interrupted = crate::Interrupts::get();
-    let mut progress = |p: &imap::Progress| -> bool {
-        let mut frac: f64 = 0.0;
-        if time > 0.0 {
-            frac = frac.max(p.elapsed_s / time);
-        }
-        if photons > 0 {
-            frac = frac.max(p.photons as f64 / photons as f64);
-        }
-        bar.set_position((frac.min(1.0) * 1000.0) as u64);
-        bar.set_message(format!(
-            "coefficients: {} photons, error {:.2} %",
-            p.photons,
-            100.0 * p.rel_error
-        ));
-        !interrupted.raised()
+    let open = coefficients_run(model, &settings, (up, north), n, o, "blinds open")?;
+    let shaded = match shaded_settings {
+        Some(s) if !interrupted.raised() => Some(coefficients_run(
+            model,
+            &s,
+            (up, north),
+            n,
+            o,
+            "blinds closed",
+        )?),
+        _ => None,
     };
-    let mut params = imap::RunParams {
-        photons,
-        time_budget_s: time,
-        estimator: Some(crate::estimator(&o.estimator)?),
-        progress: Some(&mut progress),
-        ..imap::RunParams::default()
-    };
-    let report = ctx
-        .run(&mut params)
-        .map_err(|e| CliError(format!("annual: {}", e.message)))?;
-    bar.finish_and_clear();
+    let (mut ctx, scene, report) = open;
+    let mut shaded = shaded;
 
     std::fs::create_dir_all(&o.out).map_err(|e| CliError(format!("{}: {e}", o.out.display())))?;
     // LM-83's occupied hours are every day's 8:00–18:00, dark or not; an hour whose
@@ -259,8 +245,43 @@ pub fn annual(model: &Path, settings: Settings, o: &AnnualOptions) -> Result<()>
             settings.run.seed,
         )
         .map_err(|e| CliError(format!("annual: grid {}: {}", g.name, e.message)))?;
-        let m = imap::annual::metrics(&c, &sky, Some(&sun), &options)
-            .map_err(|e| CliError(format!("annual: grid {}: {}", g.name, e.message)))?;
+        // The blinds-closed model's coefficients and direct sun at the same points.
+        let closed = match &mut shaded {
+            Some((sctx, sscene, _)) => {
+                let Some(sg) = sscene.grids.iter().find(|x| x.name == g.name) else {
+                    fail!("--shaded: its settings have no grid '{}'", g.name);
+                };
+                if sg.positions != g.positions {
+                    fail!(
+                        "--shaded: grid '{}' has other points than the open model's",
+                        g.name
+                    );
+                }
+                let sc = coefficients(sctx, sg, n)?;
+                let ss = DirectSun::new(
+                    sctx,
+                    &sky,
+                    (up, north),
+                    (&points, &normals),
+                    &SkyDesc::default().spectrum,
+                    settings.run.seed,
+                )
+                .map_err(|e| CliError(format!("annual: grid {}: {}", g.name, e.message)))?;
+                Some((sc, ss))
+            }
+            None => None,
+        };
+        let m = imap::annual::metrics_with_blinds(
+            &c,
+            &sky,
+            Some(&sun),
+            closed.as_ref().map(|(c, s)| imap::annual::Shaded {
+                coefficients: c,
+                sun: Some(s),
+            }),
+            &options,
+        )
+        .map_err(|e| CliError(format!("annual: grid {}: {}", g.name, e.message)))?;
         let df = imap::annual::daylight_factor(&c, &sky.patches, o.ground_reflectance)
             .map_err(|e| CliError(format!("annual: grid {}: {}", g.name, e.message)))?;
         write_csv(&o.out.join(format!("annual_{}.csv", g.name)), g, &m, &df)?;
@@ -279,6 +300,12 @@ pub fn annual(model: &Path, settings: Settings, o: &AnnualOptions) -> Result<()>
                 100.0 * ase,
                 m.occupied_hours
             );
+            if closed.is_some() {
+                println!(
+                    "grid {}: the blinds closed in {} occupied hours (IES LM-83's rule)",
+                    g.name, m.blinds_closed_hours
+                );
+            }
             if let Some(en) = &m.en17037 {
                 let p: Vec<String> = en
                     .levels
@@ -309,6 +336,7 @@ pub fn annual(model: &Path, settings: Settings, o: &AnnualOptions) -> Result<()>
             "points": m.sensors.len(),
             "sda": {"value": m.sda, "sigma": m.sda_sigma, "interval_95": [m.sda_interval.0, m.sda_interval.1]},
             "ase": {"value": ase, "lx": options.ase_lx, "hours": options.ase_hours},
+            "blinds_closed_hours": closed.as_ref().map(|_| m.blinds_closed_hours),
             "en17037": m.en17037.as_ref().map(|en| serde_json::json!({
                 "daylight_hours": en.daylight_hours,
                 "level": en.level(),
@@ -347,6 +375,7 @@ pub fn annual(model: &Path, settings: Settings, o: &AnnualOptions) -> Result<()>
         },
         "patches": "Tregenza (Reinhart MF:1, 145 + ground)",
         "sun": "direct along its true line each hour (through smooth panes); inter-reflected through its patch's coefficient less that patch's direct part",
+        "shaded": o.shaded.as_ref().map(|p| p.display().to_string()),
         "threshold_lx": o.threshold,
         "occupied": o.occupied,
         "ground_reflectance": o.ground_reflectance,
@@ -365,6 +394,90 @@ pub fn annual(model: &Path, settings: Settings, o: &AnnualOptions) -> Result<()>
         std::process::exit(code);
     }
     Ok(())
+}
+
+/// The coefficients' run of one model state: the model with `settings`, the patch skies
+/// (oriented by `frame`) in their light groups, traced as `o` says (`what` names the state
+/// in the progress bar).
+fn coefficients_run(
+    model: &Path,
+    settings: &Settings,
+    (up, north): ([f64; 3], [f64; 3]),
+    n: usize,
+    o: &AnnualOptions,
+    what: &str,
+) -> Result<(imap::Context, crate::scene::LoadedScene, imap::Report)> {
+    let (photons, time) = (o.photons.unwrap_or(0), o.time.unwrap_or(0.0));
+    let (mut ctx, scene, _) = crate::output::load_with_camera(model, settings)?;
+    ctx.set_layers(LayerRequest {
+        groups: true,
+        direct: false,
+    })
+    .map_err(|e| CliError(format!("annual: {}", e.message)))?;
+    for p in 0..n {
+        let kind = SkyKind::single_patch(1, p).map_err(|e| CliError(e.message))?;
+        let id = ctx
+            .add_sky(&SkyDesc {
+                kind,
+                amount: SkyAmount::Luminance(1.0),
+                zenith: up,
+                north,
+                ..SkyDesc::default()
+            })
+            .map_err(|e| CliError(format!("annual: patch {p}: {}", e.message)))?;
+        ctx.set_light_group(id, group(p, n))
+            .map_err(|e| CliError(format!("annual: {}", e.message)))?;
+    }
+    if !o.quiet {
+        eprintln!(
+            "imap: annual: {what}: {} grid points",
+            scene
+                .grids
+                .iter()
+                .map(|g| g.positions.len() / 3)
+                .sum::<usize>()
+        );
+    }
+    let bar = if o.quiet {
+        indicatif::ProgressBar::hidden()
+    } else {
+        indicatif::ProgressBar::new(1000)
+    };
+    bar.set_style(
+        indicatif::ProgressStyle::with_template("{spinner} {elapsed:>4} [{bar:30}] {msg}")
+            .expect("template")
+            .progress_chars("=> "),
+    );
+    let interrupted = crate::Interrupts::get();
+    let mut progress = |p: &imap::Progress| -> bool {
+        let mut frac: f64 = 0.0;
+        if time > 0.0 {
+            frac = frac.max(p.elapsed_s / time);
+        }
+        if photons > 0 {
+            frac = frac.max(p.photons as f64 / photons as f64);
+        }
+        bar.set_position((frac.min(1.0) * 1000.0) as u64);
+        bar.set_message(format!(
+            "coefficients, {what}: {} photons, error {:.2} %",
+            p.photons,
+            100.0 * p.rel_error
+        ));
+        !interrupted.raised()
+    };
+    let mut params = imap::RunParams {
+        photons,
+        time_budget_s: time,
+        estimator: Some(crate::estimator(&o.estimator)?),
+        progress: Some(&mut progress),
+        ..imap::RunParams::default()
+    };
+    let report = ctx
+        .run(&mut params)
+        .map_err(|e| CliError(format!("annual: {}", e.message)))?;
+    bar.finish_and_clear();
+
+    Ok((ctx, scene, report))
 }
 
 /// The grid's points' coefficients: each patch's layer in lx per cd/m², with its error.

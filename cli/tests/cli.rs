@@ -1492,6 +1492,49 @@ fn annual_metrics_of_an_open_grid_follow_the_hours_light() {
             assert_eq!(hours, usize::from(ase_lx == "1000"), "{csv}");
         }
     }
+    // LM-83's blinds: with a blinds-closed model (here the same settings, so the same
+    // coefficients), the sunny hour has every point in the sun: the blinds close in it,
+    // and the metrics are those without blinds.
+    let read = |out: &Path| -> serde_json::Value {
+        serde_json::from_str(&std::fs::read_to_string(out.join("annual.json")).unwrap()).unwrap()
+    };
+    let mut runs = Vec::new();
+    for shaded in [false, true] {
+        let out = d.join(format!("blinds{shaded}"));
+        let mut args = vec![
+            "annual",
+            &o,
+            "--config",
+            &s,
+            "--weather",
+            &sunny,
+            "--photons",
+            "100000",
+            "--out",
+            out.to_str().unwrap(),
+            "--quiet",
+        ];
+        if shaded {
+            args.extend(["--shaded", &s]);
+        }
+        let r = imap(&args);
+        assert!(r.status.success(), "{}", stderr(&r));
+        runs.push(read(&out));
+    }
+    assert_eq!(
+        runs[0]["grids"][0]["blinds_closed_hours"],
+        serde_json::Value::Null
+    );
+    assert_eq!(runs[1]["grids"][0]["blinds_closed_hours"], 1, "{}", runs[1]);
+    // (Their draws differ: the closed hour's coefficients are drawn on their own.)
+    assert_eq!(
+        runs[0]["grids"][0]["sda"]["value"],
+        runs[1]["grids"][0]["sda"]["value"]
+    );
+    assert_eq!(
+        runs[0]["grids"][0]["mean_da"],
+        runs[1]["grids"][0]["mean_da"]
+    );
     // Bad inputs, one line each.
     let with_light = write(d, "light.toml", "[[light]]\nkind = \"point\"\nposition = [0, 0, 1]\npower = 1\n[[grid]]\norigin = [0, 0, 0]\nu = [1, 0, 0]\nv = [0, 1, 0]\nsize = [1, 1]\n");
     let no_grid = write(d, "nogrid.toml", "up_axis = \"z\"\n");
@@ -1554,6 +1597,21 @@ fn annual_metrics_of_an_open_grid_follow_the_hours_light() {
         (
             vec!["annual", &o, "--config", &s, "--weather", &wea],
             "--photons or --time",
+        ),
+        (
+            vec![
+                "annual",
+                &o,
+                "--config",
+                &s,
+                "--weather",
+                &wea,
+                "--photons",
+                "1000",
+                "--shaded",
+                &no_grid,
+            ],
+            "[[grid]]",
         ),
         (
             vec![
