@@ -2095,3 +2095,84 @@ fn under_the_open_sky_the_direct_sun_is_e_n_cos_z_and_a_patch_its_cosine_integra
     assert!(none.hours.is_empty() && none.offsets == vec![0; 4]);
     assert!(none.patch_direct.iter().all(|&x| x == 0.0));
 }
+
+#[test]
+fn the_direct_sun_in_the_glazed_office_agrees_with_radiance() {
+    // scripts/radiance_office_sun.py: Radiance 6.0a's direct light (rtrace -ab 0) through
+    // its `glass` (n 1.52, no absorption) at the office's 24 sensors for the 96 sunlit
+    // hours of the PVGIS days, the sun placed by pvlib's NREL SPA. Ours: the same hours'
+    // sun by our SPA (against pvlib's: within 0.01°) and its lines through a 6 mm pane of
+    // index 1.52. Per sensor-hour T cos θ agrees where the line is clear of the window's
+    // edges, and ASE's hours above 1000 lx are the same at every sensor.
+    let text = include_str!("data/radiance_office_sun.txt");
+    let rows: Vec<Vec<f64>> = text
+        .lines()
+        .filter(|l| !l.starts_with('#'))
+        .map(|l| l.split_whitespace().map(|x| x.parse().unwrap()).collect())
+        .collect();
+    assert_eq!(rows.len(), 96);
+    let (mut ctx, _) = office_with(1, [0.2, 0.5, 0.7], Some(1.52), 0.05);
+    ctx.add_sky(&uniform_sky(1.0, false)).unwrap();
+    let weather =
+        imap::weather::parse_wea(include_str!("data/pvgis_45n_8e_21st.wea"), "pvgis.wea").unwrap();
+    let sky =
+        imap::annual::AnnualSky::from_weather(&weather, 1, imap::annual::SunInVectors::Left, 0.0)
+            .unwrap();
+    let (points, normals) = office_points();
+    let d = SkyDesc::default();
+    let sun = imap::annual::DirectSun::new(
+        &mut ctx,
+        &sky,
+        (d.zenith, d.north),
+        (&points, &normals),
+        &Spectrum::Equal,
+        1,
+    )
+    .unwrap();
+    let mut ours = vec![0.0; 24 * sky.hours.len()];
+    for k in 0..24 {
+        for (h, x) in sun.at(k) {
+            ours[24 * h + k] = x / sky.hours[h].direct_normal_lx;
+        }
+    }
+    let (mut worst_angle, mut compared, mut differ) = (0.0f64, 0, 0);
+    let mut ase = [[0usize; 24]; 2];
+    for r in &rows {
+        let h = sky
+            .hours
+            .iter()
+            .position(|a| a.month == r[0] as u32 && a.day == r[1] as u32 && a.hour == r[2])
+            .expect("the hour");
+        let a = &sky.hours[h];
+        worst_angle = worst_angle
+            .max((a.sun_zenith_deg - r[3]).abs())
+            .max((a.sun_azimuth_deg - r[4]).abs() * a.sun_zenith_deg.to_radians().sin());
+        for k in 0..24 {
+            let (x, y) = (ours[24 * h + k], r[5 + k]);
+            compared += 1;
+            if (x - y).abs() > 2e-4 {
+                differ += 1;
+                eprintln!(
+                    "{}/{} {}h sensor {k}: ours {x:.6}, Radiance {y:.6}",
+                    r[1], r[0], r[2]
+                );
+            }
+            let e_n = a.direct_normal_lx;
+            ase[0][k] += usize::from(x * e_n > 1000.0);
+            ase[1][k] += usize::from(y * e_n > 1000.0);
+        }
+    }
+    eprintln!(
+        "{compared} sensor-hours, {differ} differ by more than 2e-4; sun directions within {worst_angle:.4}°; hours above 1000 lx ours {:?}, Radiance {:?}",
+        ase[0], ase[1]
+    );
+    // The one line that differs (21 August 15:30, sensor 1) crosses the window 1.9 mm
+    // inside its west edge and leaves our 6 mm pane by its edge face (Radiance's glass
+    // is a thin sheet): a thick pane's edge, not an error.
+    assert!(worst_angle < 0.01, "{worst_angle}");
+    assert!(differ * 200 <= compared, "{differ} of {compared}");
+    for (k, (a, b)) in ase[0].iter().zip(&ase[1]).enumerate() {
+        assert!(a.abs_diff(*b) <= 1, "sensor {k}");
+    }
+    assert!(ase[0].iter().sum::<usize>() > 200);
+}
