@@ -935,9 +935,153 @@ typedef enum ImapStatus {
 } ImapStatus;
 
 /**
+ * A year of sky vectors (`imap_annual_sky_read`). Opaque. (Since 0.2.3.)
+ */
+typedef struct ImapAnnualSky ImapAnnualSky;
+
+/**
  * An illumination-map context: the scene, the map and the run history. Opaque to C.
  */
 typedef struct ImapContext ImapContext;
+
+/**
+ * The direct sun at a set of points (`imap_direct_sun_new`). Opaque. (Since 0.2.3.)
+ */
+typedef struct ImapDirectSun ImapDirectSun;
+
+/**
+ * One hour of an annual sky (`imap_annual_sky_hour`). (Since 0.2.3.)
+ */
+typedef struct ImapAnnualHour {
+  uint32_t struct_size;
+  uint32_t month;
+  uint32_t day;
+  /**
+   * The sky patch that holds the sun (0: the sun is down).
+   */
+  uint32_t sun_patch;
+  /**
+   * Decimal hours of local standard time (the middle of the row's step).
+   */
+  double hour;
+  /**
+   * The sun's azimuth (from north toward east) and zenith angle, degrees.
+   */
+  double sun_azimuth_deg;
+  double sun_zenith_deg;
+  /**
+   * The hour's diffuse horizontal and direct normal illuminance by the Perez
+   * efficacies, lx (0 at night, for missing data, or without diffuse light).
+   */
+  double diffuse_horizontal_lx;
+  double direct_normal_lx;
+} ImapAnnualHour;
+
+/**
+ * What the annual metrics count (`imap_annual_metrics`). Initialise with
+ * `imap_annual_options_default(&o, sizeof o)`: LM-83's 300 lx and 50 %, UDI 100–3000 lx,
+ * 100 draws, ASE 1000 lx over 250 hours, the blinds rule's 2 %, every hour with the sun up
+ * occupied, EN 17037's daylight hours the brightest half. (Since 0.2.3.)
+ */
+typedef struct ImapAnnualOptions {
+  uint32_t struct_size;
+  /**
+   * Draws of the coefficients for the confidence (0: none).
+   */
+  uint32_t draws;
+  uint64_t seed;
+  /**
+   * DA's and sDA's threshold, lx, and the share of occupied hours sDA asks.
+   */
+  double threshold_lx;
+  double sda_share;
+  /**
+   * UDI's bands, lx.
+   */
+  double udi_low;
+  double udi_high;
+  /**
+   * ASE's direct-sun illuminance, lx, and the hours a point must exceed it in.
+   */
+  double ase_lx;
+  uint64_t ase_hours;
+  /**
+   * LM-83's blinds rule: the share of points with direct sun above `ase_lx` above
+   * which the blinds close (with `shaded_value`).
+   */
+  double blinds_share;
+  /**
+   * Per hour of the sky, nonzero when occupied (NULL: the hours with the sun up), and
+   * its length (the sky's hours).
+   */
+  const uint8_t *occupied;
+  size_t occupied_count;
+  /**
+   * Per hour, nonzero for EN 17037's daylight hours (NULL: the brightest half).
+   */
+  const uint8_t *daylight_hours;
+  size_t daylight_count;
+  /**
+   * The blinds-closed model's coefficients (`sensors × patches` each) and direct sun
+   * (NULL: none); NULL values: no blinds.
+   */
+  const double *shaded_value;
+  const double *shaded_sigma;
+  const struct ImapDirectSun *shaded_sun;
+} ImapAnnualOptions;
+
+/**
+ * A grid's annual metrics (`imap_annual_metrics`). (Since 0.2.3.)
+ */
+typedef struct ImapAnnualMetrics {
+  uint32_t struct_size;
+  /**
+   * EN 17037's highest level met: 0 minimum, 1 medium, 2 high; −1 none met.
+   */
+  int32_t en17037_level;
+  uint64_t occupied_hours;
+  uint64_t daylight_hours;
+  uint64_t blinds_closed_hours;
+  /**
+   * sDA, its standard deviation over the draws and its 95 % interval (NaN without
+   * draws).
+   */
+  double sda;
+  double sda_sigma;
+  double sda_low;
+  double sda_high;
+  /**
+   * ASE (NaN without the direct sun).
+   */
+  double ase;
+  /**
+   * Per EN 17037 level (minimum, medium, high): the shares of daylight hours in which
+   * E_T reaches half the points and E_TM 95 % of them, and the probability the level
+   * is met.
+   */
+  double en17037_target_share[3];
+  double en17037_minimum_share[3];
+  double en17037_pass_probability[3];
+} ImapAnnualMetrics;
+
+/**
+ * One sensor's annual metrics (`imap_annual_metrics`), shares of the occupied hours.
+ * (Since 0.2.3.)
+ */
+typedef struct ImapSensorMetrics {
+  uint32_t struct_size;
+  uint32_t reserved;
+  uint64_t ase_hours;
+  double da;
+  double cda;
+  double udi_below;
+  double udi_useful;
+  double udi_above;
+  /**
+   * The probability that its DA reaches the sDA share.
+   */
+  double sda_pass_probability;
+} ImapSensorMetrics;
 
 /**
  * Context settings, fixed at creation (threads and scheduler settings can be changed
@@ -2249,6 +2393,166 @@ typedef struct ImapPerezSky {
 #ifdef __cplusplus
 extern "C" {
 #endif /* __cplusplus */
+
+/**
+ * Reads a weather file (EnergyPlus .epw, or Radiance .wea by its extension) and makes
+ * every hour's sky vector over Reinhart's MF:`mf` patches (1: Tregenza's 145 and the
+ * ground): the hour's Perez sky averaged over each patch, the ground ρ E_h / π with ρ =
+ * `ground_reflectance`; the sun is left out (the direct sun and its patch's share come in
+ * through `ImapDirectSun`). Returns IMAP_ERR_IO for a file that cannot be read,
+ * IMAP_ERR_PARSE naming the file, line and field of a bad one, IMAP_ERR_INVALID_ARGUMENT
+ * for an unsupported `mf`
+ * or a reflectance outside [0, 1]. Thread-safe. (Since 0.2.3.)
+ *
+ * # Safety
+ * `path` is NUL-terminated; `out` is writable.
+ */
+enum ImapStatus imap_annual_sky_read(const char *path, uint32_t mf, double ground_reflectance, struct ImapAnnualSky **out);
+
+/**
+ * Frees a sky from `imap_annual_sky_read` (NULL: nothing). IMAP_ERR_INVALID_ARGUMENT
+ * for a handle that is not a live sky. (Since 0.2.3.)
+ *
+ * # Safety
+ * `sky` is NULL or came from `imap_annual_sky_read`.
+ */
+enum ImapStatus imap_annual_sky_free(struct ImapAnnualSky *sky);
+
+/**
+ * The sky's hour count and patch count (the ground's included: 146 for MF:1).
+ * (Since 0.2.3.)
+ *
+ * # Safety
+ * `sky` is a live sky; the outputs are writable.
+ */
+enum ImapStatus imap_annual_sky_size(const struct ImapAnnualSky *sky, size_t *out_hours, size_t *out_patches);
+
+/**
+ * Hour `hour` (0-based, as the file's rows) of the sky into `out` (`out_size` =
+ * sizeof(ImapAnnualHour)). IMAP_ERR_INDEX_OUT_OF_RANGE past the last. (Since 0.2.3.)
+ *
+ * # Safety
+ * `sky` is a live sky; `out` points to `out_size` writable bytes.
+ */
+enum ImapStatus imap_annual_sky_hour(const struct ImapAnnualSky *sky, size_t hour, struct ImapAnnualHour *out, size_t out_size);
+
+/**
+ * Hour `hour`'s sky vector: each patch's mean luminance, cd/m², into `out[0 .. count)`
+ * (`count` = the patch count). (Since 0.2.3.)
+ *
+ * # Safety
+ * `sky` is a live sky; `out` holds `count` writable doubles.
+ */
+enum ImapStatus imap_annual_sky_vector(const struct ImapAnnualSky *sky, size_t hour, double *out, size_t count);
+
+/**
+ * Adds Reinhart MF:`mf`'s patches as skies of 1 cd/m² each (CIE D65; the ground's below
+ * the horizon), oriented by `zenith` and `north` (NULL: +z and +y), patch p ≥ 1 in light
+ * group p and the ground in group `count` (the patch count: 146 for MF:1), so that group
+ * 0 keeps the model's own emitters. A run then makes each patch's daylight coefficients
+ * as its group's layer (`imap_annual_coefficients` reads them). Turns on the per-group
+ * layers. The first patch's light id goes to `out_first_light` (NULL: not wanted).
+ * Returns IMAP_ERR_INVALID_ARGUMENT for MF:2 and finer (more patches than the 254 light
+ * groups: not supported yet), or as `imap_add_sky`. (Since 0.2.3.)
+ *
+ * # Safety
+ * `ctx` is a live handle; `zenith` and `north` are NULL or point to 3 doubles;
+ * `out_first_light` is NULL or writable.
+ */
+enum ImapStatus imap_add_sky_patches(struct ImapContext *ctx, uint32_t mf, const double *zenith, const double *north, uint32_t *out_first_light);
+
+/**
+ * The daylight coefficients at vertices `vertices[0 .. count)` of mesh `mesh` (`side`
+ * 0 front, 1 back) after a run with `imap_add_sky_patches(…, mf, …)`: per vertex and
+ * patch the illuminance per cd/m² of the patch, lx, into `out_value` and its standard
+ * error into `out_sigma` (each `count × patches` doubles, vertex by vertex, the ground's
+ * first). Returns IMAP_ERR_INDEX_OUT_OF_RANGE for a vertex or mesh out of range,
+ * IMAP_ERR_INVALID_ARGUMENT when the context has no such layers. (Since 0.2.3.)
+ *
+ * # Safety
+ * `ctx` is a live handle; `vertices` holds `count` indices; the outputs hold `count ×
+ * patches` writable doubles each.
+ */
+enum ImapStatus imap_annual_coefficients(struct ImapContext *ctx, uint32_t mesh, uint32_t side, const uint32_t *vertices, size_t count, uint32_t mf, double *out_value, double *out_sigma);
+
+/**
+ * Traces the sun's lines of every hour of `sky` from `points` (`count` × 3 doubles, scene
+ * units) whose measuring sides face `normals`, in the context's scene (its sky oriented by
+ * `zenith` and `north`, NULL: +z and +y, as `imap_add_sky_patches` was), and each patch's
+ * direct-only coefficient (the sun's patches; lines jittered by `seed`); the sun's
+ * spectrum CIE D65. The result goes to `*out`, to free with `imap_direct_sun_free`.
+ * (Since 0.2.3.)
+ *
+ * # Safety
+ * `ctx` is a live handle; `sky` a live sky; `points` and `normals` hold `3 × count`
+ * doubles; `zenith`, `north` NULL or 3 doubles; `out` writable.
+ */
+enum ImapStatus imap_direct_sun_new(struct ImapContext *ctx, const struct ImapAnnualSky *sky, const double *points, const double *normals, size_t count, const double *zenith, const double *north, uint64_t seed, struct ImapDirectSun **out);
+
+/**
+ * Frees a direct sun (NULL: nothing). (Since 0.2.3.)
+ *
+ * # Safety
+ * `sun` is NULL or came from `imap_direct_sun_new`.
+ */
+enum ImapStatus imap_direct_sun_free(struct ImapDirectSun *sun);
+
+/**
+ * The sun's direct illuminance, lx, at every point in hour `hour` of its sky into
+ * `out[0 .. count)` (`count` = the points). (Since 0.2.3.)
+ *
+ * # Safety
+ * `sun` is a live direct sun; `out` holds `count` writable doubles.
+ */
+enum ImapStatus imap_direct_sun_hour(const struct ImapDirectSun *sun, size_t hour, double *out, size_t count);
+
+/**
+ * The illuminance at `sensors` sensors in hours `first_hour .. first_hour + hours` of
+ * `sky`, lx, with its standard error: coefficients `value` and `sigma` (`sensors ×
+ * patches`, from `imap_annual_coefficients`), the sun by `sun` (NULL: none) into
+ * `out_value` and `out_sigma` (`hours × sensors` each, hour by hour): a year streamed a
+ * part at a time. (Since 0.2.3.)
+ *
+ * # Safety
+ * `sky` is a live sky, `sun` NULL or a live direct sun of `sensors` points; `value` and
+ * `sigma` hold `sensors × patches` doubles; the outputs `hours × sensors`.
+ */
+enum ImapStatus imap_annual_hourly(const struct ImapAnnualSky *sky, const double *value, const double *sigma, size_t sensors, const struct ImapDirectSun *sun, size_t first_hour, size_t hours, double *out_value, double *out_sigma);
+
+/**
+ * Writes the default `ImapAnnualOptions` into `out` (`size` = sizeof *out). (Since 0.2.3.)
+ *
+ * # Safety
+ * `out` points to `size` writable bytes.
+ */
+enum ImapStatus imap_annual_options_default(struct ImapAnnualOptions *out, size_t size);
+
+/**
+ * The annual metrics of `sensors` sensors (DA, cDA, UDI, sDA with its confidence, ASE
+ * with the direct sun `sun`, EN 17037's levels, LM-83's blinds with
+ * `options->shaded_value`) into `out` (`out_size` = sizeof(ImapAnnualMetrics)), and per
+ * sensor into `per_sensor` (NULL: not wanted; else `sensors` elements of
+ * `per_sensor_size` = sizeof(ImapSensorMetrics) bytes each). Returns
+ * IMAP_ERR_INVALID_ARGUMENT or IMAP_ERR_NON_FINITE naming what is wrong (coefficients'
+ * shapes or values, options out of range, no occupied hour). (Since 0.2.3.)
+ *
+ * # Safety
+ * As `imap_annual_hourly`; `options` is NULL (defaults) or initialised, its arrays as
+ * documented; `out` holds `out_size` bytes; `per_sensor` NULL or `sensors ×
+ * per_sensor_size` writable bytes.
+ */
+enum ImapStatus imap_annual_metrics(const struct ImapAnnualSky *sky, const double *value, const double *sigma, size_t sensors, const struct ImapDirectSun *sun, const struct ImapAnnualOptions *options, struct ImapAnnualMetrics *out, size_t out_size, struct ImapSensorMetrics *per_sensor, size_t per_sensor_size);
+
+/**
+ * The daylight factor (0–1) at `sensors` sensors and its standard error, from their
+ * coefficients over MF:`mf`'s patches (`sensors × patches` each): the CIE standard
+ * overcast sky with the ground glowing ρ E_h / π, ρ = `ground_reflectance`, into
+ * `out_df[0 .. sensors)` and `out_sigma`. (Since 0.2.3.)
+ *
+ * # Safety
+ * `value` and `sigma` hold `sensors × patches` doubles; the outputs `sensors` each.
+ */
+enum ImapStatus imap_daylight_factor(const double *value, const double *sigma, size_t sensors, uint32_t mf, double ground_reflectance, double *out_df, double *out_sigma);
 
 /**
  * The luminous efficacy of each band, lm/W (lux per W/m²), into `out[0 .. band count)`.

@@ -161,6 +161,39 @@ pub struct Coefficients {
 }
 
 impl Coefficients {
+    /// Checks the shapes and values.
+    pub fn check(&self) -> Result<()> {
+        self.view().check()
+    }
+
+    /// The coefficients borrowed.
+    pub fn view(&self) -> CoefficientsView<'_> {
+        CoefficientsView {
+            sensors: self.sensors,
+            patches: self.patches,
+            value: &self.value,
+            sigma: &self.sigma,
+        }
+    }
+}
+
+/// Coefficients borrowed from elsewhere (a host's arrays), laid out as `Coefficients`;
+/// every function that takes coefficients takes either.
+#[derive(Clone, Copy, Debug)]
+pub struct CoefficientsView<'a> {
+    pub sensors: usize,
+    pub patches: usize,
+    pub value: &'a [f64],
+    pub sigma: &'a [f64],
+}
+
+impl<'a> From<&'a Coefficients> for CoefficientsView<'a> {
+    fn from(c: &'a Coefficients) -> Self {
+        c.view()
+    }
+}
+
+impl CoefficientsView<'_> {
     /// Checks them and that they are of `sky`'s patches; returns the patch count.
     fn check_against(&self, sky: &AnnualSky) -> Result<usize> {
         self.check()?;
@@ -189,7 +222,7 @@ impl Coefficients {
                 self.patches
             );
         }
-        for (what, v) in [("value", &self.value), ("sigma", &self.sigma)] {
+        for (what, v) in [("value", self.value), ("sigma", self.sigma)] {
             if let Some(i) = v.iter().position(|x| !(x.is_finite() && *x >= 0.0)) {
                 bail!(
                     ImapErrNonFinite,
@@ -242,7 +275,7 @@ impl DirectSun {
     /// is luminous: weighted by the spectrum's luminous power per band). `seed` jitters
     /// the patches' directions.
     pub fn new(
-        ctx: &mut crate::Context,
+        ctx: &mut crate::context::Context,
         sky: &AnnualSky,
         (zenith, north): ([f64; 3], [f64; 3]),
         (points, normals): (&[[f64; 3]], &[[f64; 3]]),
@@ -467,30 +500,51 @@ pub struct GridMetrics {
 ///
 /// With `sun`, the sky's vectors must leave the sun out (`SunInVectors::Left`) and the
 /// sun comes in as `DirectSun` says.
-pub fn hourly(
-    c: &Coefficients,
+pub fn hourly<'a>(
+    c: impl Into<CoefficientsView<'a>>,
     sky: &AnnualSky,
     sun: Option<&DirectSun>,
 ) -> Result<(Vec<f64>, Vec<f64>)> {
+    hourly_range(c, sky, sun, 0..sky.hours.len())
+}
+
+/// `hourly` for the sky's hours `range` only (`range.len() × sensors` values): a year
+/// streamed a part at a time.
+pub fn hourly_range<'a>(
+    c: impl Into<CoefficientsView<'a>>,
+    sky: &AnnualSky,
+    sun: Option<&DirectSun>,
+    range: std::ops::Range<usize>,
+) -> Result<(Vec<f64>, Vec<f64>)> {
+    let c = c.into();
     let n = c.check_against(sky)?;
     check_sun(c, sky, sun)?;
-    let hours = sky.hours.len();
+    if range.start > range.end || range.end > sky.hours.len() {
+        bail!(
+            ImapErrIndexOutOfRange,
+            "hours {}..{} are not within the sky's {}",
+            range.start,
+            range.end,
+            sky.hours.len()
+        );
+    }
+    let hours = range.len();
     let mut e = vec![0.0; hours * c.sensors];
     let mut s = vec![0.0; hours * c.sensors];
-    let mut direct = vec![0.0; if sun.is_some() { hours } else { 0 }];
+    let mut direct = vec![0.0; if sun.is_some() { sky.hours.len() } else { 0 }];
     for k in 0..c.sensors {
         let sensor = Sensor::new(c, sun, k, n, &mut direct);
-        for h in 0..hours {
+        for (i, h) in range.clone().enumerate() {
             let (x, sx) = sensor.hour(sky, h);
-            e[h * c.sensors + k] = x;
-            s[h * c.sensors + k] = sx;
+            e[i * c.sensors + k] = x;
+            s[i * c.sensors + k] = sx;
         }
     }
     Ok((e, s))
 }
 
 /// Checks that `sun` (if any) belongs to `c` and `sky`.
-fn check_sun(c: &Coefficients, sky: &AnnualSky, sun: Option<&DirectSun>) -> Result<()> {
+fn check_sun(c: CoefficientsView, sky: &AnnualSky, sun: Option<&DirectSun>) -> Result<()> {
     let Some(s) = sun else {
         return Ok(());
     };
@@ -530,7 +584,7 @@ struct Sensor<'a> {
 
 impl<'a> Sensor<'a> {
     fn new(
-        c: &'a Coefficients,
+        c: CoefficientsView<'a>,
         sun: Option<&'a DirectSun>,
         k: usize,
         n: usize,
@@ -673,8 +727,8 @@ fn normal(rng: &mut PhotonRng) -> f64 {
 /// The annual metrics of a grid of sensors with coefficients `c` under `sky` (and the
 /// direct sun `sun`, as `hourly` takes it; ASE needs it), with their confidence from
 /// `o.draws` draws of the coefficients.
-pub fn metrics(
-    c: &Coefficients,
+pub fn metrics<'a>(
+    c: impl Into<CoefficientsView<'a>>,
     sky: &AnnualSky,
     sun: Option<&DirectSun>,
     o: &MetricOptions,
@@ -686,7 +740,7 @@ pub fn metrics(
 /// the same sensors and its direct sun (None: the blinds let no sun through in a line).
 #[derive(Clone, Copy, Debug)]
 pub struct Shaded<'a> {
-    pub coefficients: &'a Coefficients,
+    pub coefficients: CoefficientsView<'a>,
     pub sun: Option<&'a DirectSun>,
 }
 
@@ -695,13 +749,14 @@ pub struct Shaded<'a> {
 /// open, the blinds close and every point's illuminance is the `shaded` model's. ASE
 /// counts the blinds open, as LM-83 defines it. The rule reads the direct sun: `sun` is
 /// needed with `shaded`.
-pub fn metrics_with_blinds(
-    c: &Coefficients,
+pub fn metrics_with_blinds<'a>(
+    c: impl Into<CoefficientsView<'a>>,
     sky: &AnnualSky,
     sun: Option<&DirectSun>,
     shaded: Option<Shaded>,
     o: &MetricOptions,
 ) -> Result<GridMetrics> {
+    let c = c.into();
     let n = c.check_against(sky)?;
     check_sun(c, sky, sun)?;
     if let Some(s) = shaded {
@@ -1023,11 +1078,12 @@ pub fn metrics_with_blinds(
 /// v_p (8 × 8 points of equal solid angle) scaled so that the patch sky itself gives
 /// E_h = 1 (Σ v_p ∫_p cos dω: an open horizontal point reads exactly 100 %; the patches'
 /// uniform luminance gives 0.4 % less than the sky they stand for).
-pub fn daylight_factor(
-    c: &Coefficients,
+pub fn daylight_factor<'a>(
+    c: impl Into<CoefficientsView<'a>>,
     patches: &SkyPatches,
     ground_reflectance: f64,
 ) -> Result<Vec<(f64, f64)>> {
+    let c = c.into();
     c.check()?;
     crate::error::check_range("ground_reflectance", ground_reflectance, 0.0, 1.0)?;
     let n = patches.count();
@@ -1537,7 +1593,7 @@ mod tests {
             ..MetricOptions::default()
         };
         let shaded = Shaded {
-            coefficients: &shut,
+            coefficients: shut.view(),
             sun: None,
         };
         let m = metrics_with_blinds(&open, &sky, Some(&sun), Some(shaded), &o).unwrap();
@@ -1573,7 +1629,7 @@ mod tests {
             sigma: vec![0.0; n],
         };
         let bad = Shaded {
-            coefficients: &few,
+            coefficients: few.view(),
             sun: None,
         };
         assert!(metrics_with_blinds(&open, &sky, Some(&sun), Some(bad), &o).is_err());

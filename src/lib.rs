@@ -7,9 +7,10 @@
 //! the crate.
 //!
 //! The engine's floors, top to bottom (`tests/floors.rs` holds every import to them):
-//! `ffi` (the C ABI only) → `context` (the safe API) → `render` (the camera renderers) →
-//! `sched` (the schedulers) → `imap` (the map, its layout and readout), `annual` (annual
-//! daylight from sky-patch coefficients) → `transport` (the photon path and light
+//! `ffi` (the C ABI only) → `annual` (annual daylight from sky-patch coefficients, the
+//! direct sun traced through a context's scene) → `context` (the safe API) → `render` (the
+//! camera renderers) → `sched` (the schedulers) → `imap` (the map, its layout and
+//! readout) → `transport` (the photon path and light
 //! sampling) → `accel` (every Embree call), `weather` (weather files) → `scene` (plain
 //! data: the scene, its lights, emitters and BSDFs, and its prepared form) →
 //! `photometry`, `images`

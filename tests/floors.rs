@@ -12,10 +12,12 @@ use std::path::Path;
 /// Floors from the top: a module may name only modules further down this list.
 const FLOORS: &[&[&str]] = &[
     &["ffi"],
+    // Annual daylight traces the direct sun through a context's scene.
+    &["annual"],
     &["context"],
     &["render"],
     &["sched"],
-    &["imap", "annual"],
+    &["imap"],
     &["transport"],
     &["accel", "weather"],
     &["scene"],

@@ -276,7 +276,7 @@ pub fn annual(model: &Path, settings: Settings, o: &AnnualOptions) -> Result<()>
             &sky,
             Some(&sun),
             closed.as_ref().map(|(c, s)| imap::annual::Shaded {
-                coefficients: c,
+                coefficients: c.view(),
                 sun: Some(s),
             }),
             &options,

@@ -11,6 +11,7 @@
 //! program built against an older `imap.h` keeps working with a newer library, and a newer
 //! program that sets a field an older library does not know is refused, never ignored.
 
+mod annual;
 mod colour;
 mod context;
 mod errors;
@@ -24,6 +25,7 @@ mod scene;
 mod sky;
 mod state;
 
+pub use annual::*;
 pub use colour::*;
 pub use context::*;
 pub use layers::*;

@@ -1,0 +1,189 @@
+/*
+ * Annual daylight through the C API: a weather file's sky vectors, the Tregenza patches as
+ * light groups, their coefficients at an open horizontal sensor, the direct sun on its
+ * lines, the hourly illuminance and the metrics, and the daylight factor; checked against
+ * what an open point must read. Bad input gets its own status and a message, and freed
+ * handles are refused.
+ */
+#define _DEFAULT_SOURCE
+#include <imap.h>
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+static int failures = 0;
+static const double PI = 3.14159265358979323846;
+
+static void check(const char *what, int ok, double got, double want) {
+    if (!ok) {
+        printf("FAIL %-52s got %.6g, want %.6g\n", what, got, want);
+        failures++;
+    } else {
+        printf("ok   %-52s %.6g (%.6g)\n", what, got, want);
+    }
+}
+
+static void expect(const char *what, ImapStatus status, ImapStatus want) {
+    const char *msg = imap_last_error(NULL);
+    if (status != want || (want != IMAP_OK && (msg == NULL || msg[0] == '\0'))) {
+        printf("FAIL %-52s got %s, want %s (%s)\n", what, imap_status_name(status), imap_status_name(want),
+               msg ? msg : "(null)");
+        failures++;
+    } else {
+        printf("ok   %-52s %s%s%s\n", what, imap_status_name(status), want != IMAP_OK ? ": " : "",
+               want != IMAP_OK ? msg : "");
+    }
+}
+
+/* Four hours at 48 N: night, two overcast, one sunny. */
+static const char *WEA = "place CTest\nlatitude 48\nlongitude -11\ntime_zone -15\nsite_elevation 0\n"
+                         "weather_data_file_units 1\n"
+                         "6 21 2.5 0 0\n6 21 9.5 0 80\n6 21 11.5 0 150\n6 21 12.5 600 100\n";
+
+/* A black plate far below, and a small sensor square at z = 1 facing up (its centre vertex 0). */
+static double plate[12] = {-50, -50, -20, 50, -50, -20, 50, 50, -20, -50, 50, -20};
+static uint32_t plate_idx[6] = {0, 1, 2, 0, 2, 3};
+static double sensor[15] = {0, 0, 1, -0.1, -0.1, 1, 0.1, -0.1, 1, 0.1, 0.1, 1, -0.1, 0.1, 1};
+static uint32_t sensor_idx[12] = {0, 1, 2, 0, 2, 3, 0, 3, 4, 0, 4, 1};
+
+int main(void) {
+    char path[] = "/tmp/imap_annual_XXXXXX.wea";
+    int fd = mkstemps(path, 4);
+    if (fd < 0) {
+        perror("mkstemps");
+        return 1;
+    }
+    FILE *f = fdopen(fd, "w");
+    fputs(WEA, f);
+    fclose(f);
+
+    ImapAnnualSky *sky = NULL;
+    expect("sky from a .wea", imap_annual_sky_read(path, 1, 0.2, &sky), IMAP_OK);
+    ImapAnnualSky *other = NULL;
+    expect("mf 0", imap_annual_sky_read(path, 0, 0.2, &other), IMAP_ERR_INVALID_ARGUMENT);
+    expect("ground reflectance 2", imap_annual_sky_read(path, 1, 2.0, &other), IMAP_ERR_INVALID_ARGUMENT);
+    size_t hours = 0, patches = 0;
+    expect("sky size", imap_annual_sky_size(sky, &hours, &patches), IMAP_OK);
+    check("hours", hours == 4, (double)hours, 4);
+    check("patches (Tregenza and the ground)", patches == 146, (double)patches, 146);
+    ImapAnnualHour h3;
+    expect("hour 3", imap_annual_sky_hour(sky, 3, &h3, sizeof h3), IMAP_OK);
+    check("hour 3 has its sun in a patch", h3.sun_patch > 0 && h3.direct_normal_lx > 10000, h3.direct_normal_lx, 0);
+    double vec[146];
+    expect("hour 1's vector", imap_annual_sky_vector(sky, 1, vec, 146), IMAP_OK);
+
+    ImapConfig cfg;
+    imap_config_default(&cfg, sizeof cfg);
+    cfg.threads = 2, cfg.seed = 3;
+    ImapContext *ctx = NULL;
+    expect("imap_create", imap_create(&cfg, &ctx), IMAP_OK);
+    double black = 0;
+    ImapMaterial mat;
+    imap_material_default(&mat, sizeof mat);
+    mat.diffuse_reflectance = &black, mat.diffuse_reflectance_count = 1;
+    uint32_t m_black = 0, id = 0, sensor_id = 0;
+    expect("material", imap_add_material(ctx, &mat, &m_black), IMAP_OK);
+    ImapMesh mesh;
+    imap_mesh_default(&mesh, sizeof mesh);
+    mesh.positions = plate, mesh.vertex_count = 4, mesh.indices = plate_idx, mesh.triangle_count = 2;
+    mesh.material = m_black;
+    expect("plate", imap_add_mesh(ctx, &mesh, &id), IMAP_OK);
+    imap_mesh_default(&mesh, sizeof mesh);
+    mesh.positions = sensor, mesh.vertex_count = 5, mesh.indices = sensor_idx, mesh.triangle_count = 4;
+    mesh.material = m_black, mesh.flags = IMAP_MESH_SENSOR | IMAP_MESH_RECORD;
+    expect("sensor", imap_add_mesh(ctx, &mesh, &sensor_id), IMAP_OK);
+    expect("MF:2 is refused (more than 254 groups)", imap_add_sky_patches(ctx, 2, NULL, NULL, NULL),
+           IMAP_ERR_INVALID_ARGUMENT);
+    uint32_t first = 0;
+    expect("Tregenza patches", imap_add_sky_patches(ctx, 1, NULL, NULL, &first), IMAP_OK);
+    ImapRunParams run;
+    imap_run_params_default(&run, sizeof run);
+    run.photons = 300000, run.estimator = IMAP_ESTIMATOR_GATHER;
+    expect("coefficients' run", imap_run(ctx, &run, NULL, 0), IMAP_OK);
+
+    uint32_t centre = 0;
+    double value[146], sigma[146];
+    expect("coefficients", imap_annual_coefficients(ctx, sensor_id, 0, &centre, 1, 1, value, sigma), IMAP_OK);
+    uint32_t bad_vertex = 5;
+    expect("coefficients of vertex 5 of 5", imap_annual_coefficients(ctx, sensor_id, 0, &bad_vertex, 1, 1, value, sigma),
+           IMAP_ERR_INDEX_OUT_OF_RANGE);
+
+    /* An open horizontal point: the daylight factor is 100 % within its error. */
+    double df = 0, df_sigma = 0;
+    expect("daylight factor", imap_daylight_factor(value, sigma, 1, 1, 0.2, &df, &df_sigma), IMAP_OK);
+    check("open point's daylight factor is 1 (4 sigma)", fabs(df - 1) < 4 * df_sigma && df_sigma < 0.1, df, 1);
+
+    double pt[3] = {0, 0, 1}, up[3] = {0, 0, 1};
+    ImapDirectSun *sun = NULL;
+    expect("direct sun", imap_direct_sun_new(ctx, sky, pt, up, 1, NULL, NULL, 1, &sun), IMAP_OK);
+    double direct = 0;
+    expect("direct sun in hour 3", imap_direct_sun_hour(sun, 3, &direct, 1), IMAP_OK);
+    double want = h3.direct_normal_lx * cos(h3.sun_zenith_deg * PI / 180);
+    check("hour 3's direct sun is E_n cos Z", fabs(direct / want - 1) < 1e-5, direct, want);
+
+    /* Each hour: the vector's horizontal illuminance plus the sun's, within the error. */
+    double e[4], s[4];
+    expect("hourly", imap_annual_hourly(sky, value, sigma, 1, sun, 0, 4, e, s), IMAP_OK);
+    check("night reads 0", e[0] == 0, e[0], 0);
+    for (int h = 1; h < 4; h++) {
+        ImapAnnualHour a;
+        imap_annual_sky_hour(sky, (size_t)h, &a, sizeof a);
+        double w = a.diffuse_horizontal_lx + a.direct_normal_lx * cos(a.sun_zenith_deg * PI / 180);
+        char what[64];
+        snprintf(what, sizeof what, "hour %d reads E_h (4 sigma, 1 %% patches)", h);
+        check(what, fabs(e[h] - w) < 4 * s[h] + 0.01 * w, e[h], w);
+    }
+    expect("hourly past the end", imap_annual_hourly(sky, value, sigma, 1, sun, 2, 3, e, s),
+           IMAP_ERR_INDEX_OUT_OF_RANGE);
+
+    ImapAnnualOptions o;
+    imap_annual_options_default(&o, sizeof o);
+    o.ase_hours = 0;
+    ImapAnnualMetrics m;
+    ImapSensorMetrics per;
+    expect("metrics", imap_annual_metrics(sky, value, sigma, 1, sun, &o, &m, sizeof m, &per, sizeof per), IMAP_OK);
+    check("occupied hours (sun up)", m.occupied_hours == 3, (double)m.occupied_hours, 3);
+    check("ASE (1 hour > 0)", m.ase == 1, m.ase, 1);
+    check("the point's ASE hours", per.ase_hours == 1, (double)per.ase_hours, 1);
+    check("DA at 300 lx", per.da == 1, per.da, 1);
+    check("sDA", m.sda == 1, m.sda, 1);
+    check("EN 17037: high (2 daylight hours of 4)", m.en17037_level == 2 && m.daylight_hours == 2,
+          (double)m.en17037_level, 2);
+    o.threshold_lx = -1;
+    expect("metrics with threshold -1", imap_annual_metrics(sky, value, sigma, 1, sun, &o, &m, sizeof m, NULL, 0),
+           IMAP_ERR_INVALID_ARGUMENT);
+    imap_annual_options_default(&o, sizeof o);
+    unsigned char occ[3] = {1, 1, 1};
+    o.occupied = occ, o.occupied_count = 3;
+    expect("occupied of 3 hours for 4", imap_annual_metrics(sky, value, sigma, 1, sun, &o, &m, sizeof m, NULL, 0),
+           IMAP_ERR_INVALID_ARGUMENT);
+    double nan_value[146];
+    memcpy(nan_value, value, sizeof value);
+    nan_value[7] = NAN;
+    expect("a NaN coefficient", imap_annual_metrics(sky, nan_value, sigma, 1, NULL, NULL, &m, sizeof m, NULL, 0),
+           IMAP_ERR_NON_FINITE);
+
+    expect("free the direct sun", imap_direct_sun_free(sun), IMAP_OK);
+    expect("a freed direct sun", imap_direct_sun_hour(sun, 3, &direct, 1), IMAP_ERR_INVALID_ARGUMENT);
+    expect("free it twice", imap_direct_sun_free(sun), IMAP_ERR_INVALID_ARGUMENT);
+    expect("a sky given as a direct sun", imap_direct_sun_hour((ImapDirectSun *)sky, 3, &direct, 1),
+           IMAP_ERR_INVALID_ARGUMENT);
+    expect("free the sky", imap_annual_sky_free(sky), IMAP_OK);
+    expect("a freed sky", imap_annual_sky_size(sky, &hours, &patches), IMAP_ERR_INVALID_ARGUMENT);
+    expect("free NULL", imap_annual_sky_free(NULL), IMAP_OK);
+
+    /* Bad files: named line. */
+    f = fopen(path, "w");
+    fputs("place x\nlatitude 48\nlongitude 0\ntime_zone 0\nsite_elevation 0\nweather_data_file_units 1\n6 31 12 0 10\n", f);
+    fclose(f);
+    expect("a .wea with 31 June", imap_annual_sky_read(path, 1, 0.2, &sky), IMAP_ERR_PARSE);
+    check("the message names line 7", strstr(imap_last_error(NULL), ":7") != NULL, 0, 0);
+    expect("no such file", imap_annual_sky_read("/nonexistent/x.epw", 1, 0.2, &sky), IMAP_ERR_IO);
+    remove(path);
+
+    imap_destroy(ctx);
+    printf("%s\n", failures ? "FAILED" : "all passed");
+    return failures ? 1 : 0;
+}

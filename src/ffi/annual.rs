@@ -1,0 +1,842 @@
+//! Annual daylight for C (`imap::annual`, docs/daylight.md "Annual daylight"): a year of
+//! sky vectors from a weather file, the Tregenza patches as light groups of a context and
+//! their coefficients at chosen vertices, the direct sun along its lines, the hourly
+//! illuminance and the metrics with their confidence, and the daylight factor.
+//!
+//! The sky vectors and the direct sun are opaque objects the library owns
+//! (`ImapAnnualSky`, `ImapDirectSun`), each freed by its own `*_free`. Like contexts they
+//! are looked up in a table of live objects before use: a freed or made-up handle is an
+//! error, never a read of freed memory. The coefficients are the caller's arrays (sensors
+//! × patches, sensor by sensor, lx per cd/m²) so that a host can keep, merge or store
+//! them.
+
+use super::{
+    boundary, read_versioned, slice, slice_mut, with_context, write_defaults, write_out,
+    write_versioned, Versioned,
+};
+use crate::annual::{AnnualSky, CoefficientsView, DirectSun, MetricOptions, SunInVectors};
+use crate::error::{bail, Error, ImapStatus, Result};
+use std::any::Any;
+use std::collections::HashMap;
+use std::os::raw::c_char;
+use std::sync::{Arc, LazyLock, RwLock};
+
+/// A year of sky vectors (`imap_annual_sky_read`). Opaque. (Since 0.2.3.)
+pub struct ImapAnnualSky {
+    sky: AnnualSky,
+}
+
+/// The direct sun at a set of points (`imap_direct_sun_new`). Opaque. (Since 0.2.3.)
+pub struct ImapDirectSun {
+    sun: DirectSun,
+}
+
+type Live = HashMap<usize, Arc<dyn Any + Send + Sync>>;
+
+/// The live objects by the address handed to C.
+static OBJECTS: LazyLock<RwLock<Live>> = LazyLock::new(Default::default);
+
+fn register<T: Any + Send + Sync>(value: T) -> *mut T {
+    let a: Arc<dyn Any + Send + Sync> = Arc::new(value);
+    let ptr = Arc::as_ptr(&a) as *const () as *mut T;
+    OBJECTS
+        .write()
+        .unwrap_or_else(|p| p.into_inner())
+        .insert(ptr as usize, a);
+    ptr
+}
+
+fn lookup<T: Any + Send + Sync>(name: &str, ptr: *const T) -> Result<Arc<T>> {
+    if ptr.is_null() {
+        bail!(ImapErrNullPointer, "{name} is NULL");
+    }
+    let found = OBJECTS
+        .read()
+        .unwrap_or_else(|p| p.into_inner())
+        .get(&(ptr as usize))
+        .cloned();
+    found.and_then(|a| a.downcast::<T>().ok()).ok_or_else(|| {
+        Error::new(
+            ImapStatus::ImapErrInvalidArgument,
+            format!("{name} is not a live object of its kind: it was freed, or did not come from this library"),
+        )
+    })
+}
+
+fn free<T: Any + Send + Sync>(name: &str, ptr: *mut T) -> Result<()> {
+    if ptr.is_null() {
+        return Ok(());
+    }
+    lookup(name, ptr as *const T)?;
+    OBJECTS
+        .write()
+        .unwrap_or_else(|p| p.into_inner())
+        .remove(&(ptr as usize));
+    Ok(())
+}
+
+/// One hour of an annual sky (`imap_annual_sky_hour`). (Since 0.2.3.)
+#[repr(C)]
+#[derive(Clone, Copy, Debug)]
+pub struct ImapAnnualHour {
+    pub struct_size: u32,
+    pub month: u32,
+    pub day: u32,
+    /// The sky patch that holds the sun (0: the sun is down).
+    pub sun_patch: u32,
+    /// Decimal hours of local standard time (the middle of the row's step).
+    pub hour: f64,
+    /// The sun's azimuth (from north toward east) and zenith angle, degrees.
+    pub sun_azimuth_deg: f64,
+    pub sun_zenith_deg: f64,
+    /// The hour's diffuse horizontal and direct normal illuminance by the Perez
+    /// efficacies, lx (0 at night, for missing data, or without diffuse light).
+    pub diffuse_horizontal_lx: f64,
+    pub direct_normal_lx: f64,
+}
+
+// SAFETY: repr(C), u32 struct_size first, numbers only.
+unsafe impl Versioned for ImapAnnualHour {
+    const NAME: &'static str = "ImapAnnualHour";
+    const INIT: &'static str = "sizeof(ImapAnnualHour)";
+    fn defaults() -> Self {
+        ImapAnnualHour {
+            struct_size: std::mem::size_of::<Self>() as u32,
+            month: 0,
+            day: 0,
+            sun_patch: 0,
+            hour: 0.0,
+            sun_azimuth_deg: 0.0,
+            sun_zenith_deg: 0.0,
+            diffuse_horizontal_lx: 0.0,
+            direct_normal_lx: 0.0,
+        }
+    }
+}
+
+/// Reads a weather file (EnergyPlus .epw, or Radiance .wea by its extension) and makes
+/// every hour's sky vector over Reinhart's MF:`mf` patches (1: Tregenza's 145 and the
+/// ground): the hour's Perez sky averaged over each patch, the ground ρ E_h / π with ρ =
+/// `ground_reflectance`; the sun is left out (the direct sun and its patch's share come in
+/// through `ImapDirectSun`). Returns IMAP_ERR_IO for a file that cannot be read,
+/// IMAP_ERR_PARSE naming the file, line and field of a bad one, IMAP_ERR_INVALID_ARGUMENT
+/// for an unsupported `mf`
+/// or a reflectance outside [0, 1]. Thread-safe. (Since 0.2.3.)
+///
+/// # Safety
+/// `path` is NUL-terminated; `out` is writable.
+#[no_mangle]
+pub unsafe extern "C" fn imap_annual_sky_read(
+    path: *const c_char,
+    mf: u32,
+    ground_reflectance: f64,
+    out: *mut *mut ImapAnnualSky,
+) -> ImapStatus {
+    boundary(None, || {
+        super::check_out("out", out)?;
+        let path = super::state::path_arg("path", path)?;
+        let weather = crate::weather::read(path)?;
+        let sky = AnnualSky::from_weather(&weather, mf, SunInVectors::Left, ground_reflectance)?;
+        write_out("out", out, register(ImapAnnualSky { sky }))
+    })
+}
+
+/// Frees a sky from `imap_annual_sky_read` (NULL: nothing). IMAP_ERR_INVALID_ARGUMENT
+/// for a handle that is not a live sky. (Since 0.2.3.)
+///
+/// # Safety
+/// `sky` is NULL or came from `imap_annual_sky_read`.
+#[no_mangle]
+pub unsafe extern "C" fn imap_annual_sky_free(sky: *mut ImapAnnualSky) -> ImapStatus {
+    boundary(None, || free("sky", sky))
+}
+
+/// The sky's hour count and patch count (the ground's included: 146 for MF:1).
+/// (Since 0.2.3.)
+///
+/// # Safety
+/// `sky` is a live sky; the outputs are writable.
+#[no_mangle]
+pub unsafe extern "C" fn imap_annual_sky_size(
+    sky: *const ImapAnnualSky,
+    out_hours: *mut usize,
+    out_patches: *mut usize,
+) -> ImapStatus {
+    boundary(None, || {
+        let s = lookup("sky", sky)?;
+        super::check_out("out_hours", out_hours)?;
+        super::check_out("out_patches", out_patches)?;
+        write_out("out_hours", out_hours, s.sky.hours.len())?;
+        write_out("out_patches", out_patches, s.sky.patches.count())
+    })
+}
+
+/// Hour `hour` (0-based, as the file's rows) of the sky into `out` (`out_size` =
+/// sizeof(ImapAnnualHour)). IMAP_ERR_INDEX_OUT_OF_RANGE past the last. (Since 0.2.3.)
+///
+/// # Safety
+/// `sky` is a live sky; `out` points to `out_size` writable bytes.
+#[no_mangle]
+pub unsafe extern "C" fn imap_annual_sky_hour(
+    sky: *const ImapAnnualSky,
+    hour: usize,
+    out: *mut ImapAnnualHour,
+    out_size: usize,
+) -> ImapStatus {
+    boundary(None, || {
+        let s = lookup("sky", sky)?;
+        let a = hour_of(&s.sky, hour)?;
+        write_versioned(
+            "out",
+            out,
+            out_size,
+            ImapAnnualHour {
+                struct_size: 0,
+                month: a.month,
+                day: a.day,
+                sun_patch: a.sun_patch as u32,
+                hour: a.hour,
+                sun_azimuth_deg: a.sun_azimuth_deg,
+                sun_zenith_deg: a.sun_zenith_deg,
+                diffuse_horizontal_lx: a.diffuse_horizontal_lx,
+                direct_normal_lx: a.direct_normal_lx,
+            },
+        )
+    })
+}
+
+fn hour_of(sky: &AnnualSky, hour: usize) -> Result<&crate::annual::AnnualHour> {
+    sky.hours.get(hour).ok_or_else(|| {
+        Error::new(
+            ImapStatus::ImapErrIndexOutOfRange,
+            format!("hour = {hour}: the sky has {} hours", sky.hours.len()),
+        )
+    })
+}
+
+/// Hour `hour`'s sky vector: each patch's mean luminance, cd/m², into `out[0 .. count)`
+/// (`count` = the patch count). (Since 0.2.3.)
+///
+/// # Safety
+/// `sky` is a live sky; `out` holds `count` writable doubles.
+#[no_mangle]
+pub unsafe extern "C" fn imap_annual_sky_vector(
+    sky: *const ImapAnnualSky,
+    hour: usize,
+    out: *mut f64,
+    count: usize,
+) -> ImapStatus {
+    boundary(None, || {
+        let s = lookup("sky", sky)?;
+        hour_of(&s.sky, hour)?;
+        let n = s.sky.patches.count();
+        if count != n {
+            bail!(
+                ImapErrInvalidArgument,
+                "count = {count}: the sky has {n} patches"
+            );
+        }
+        slice_mut("out", out, count)?.copy_from_slice(s.sky.vector(hour));
+        Ok(())
+    })
+}
+
+/// The light group of patch `p` of `count` (`imap_add_sky_patches`).
+fn group(p: usize, count: usize) -> u32 {
+    if p == 0 {
+        count as u32
+    } else {
+        p as u32
+    }
+}
+
+/// Adds Reinhart MF:`mf`'s patches as skies of 1 cd/m² each (CIE D65; the ground's below
+/// the horizon), oriented by `zenith` and `north` (NULL: +z and +y), patch p ≥ 1 in light
+/// group p and the ground in group `count` (the patch count: 146 for MF:1), so that group
+/// 0 keeps the model's own emitters. A run then makes each patch's daylight coefficients
+/// as its group's layer (`imap_annual_coefficients` reads them). Turns on the per-group
+/// layers. The first patch's light id goes to `out_first_light` (NULL: not wanted).
+/// Returns IMAP_ERR_INVALID_ARGUMENT for MF:2 and finer (more patches than the 254 light
+/// groups: not supported yet), or as `imap_add_sky`. (Since 0.2.3.)
+///
+/// # Safety
+/// `ctx` is a live handle; `zenith` and `north` are NULL or point to 3 doubles;
+/// `out_first_light` is NULL or writable.
+#[no_mangle]
+pub unsafe extern "C" fn imap_add_sky_patches(
+    ctx: *mut super::ImapContext,
+    mf: u32,
+    zenith: *const f64,
+    north: *const f64,
+    out_first_light: *mut u32,
+) -> ImapStatus {
+    with_context(ctx, |c| {
+        let patches = crate::scene::light::SkyPatches::reinhart(mf)?;
+        let n = patches.count();
+        if n > 255 {
+            bail!(
+                ImapErrInvalidArgument,
+                "mf = {mf}: MF:{mf}'s {n} patches need more light groups than the 254 a context has; only MF:1 (Tregenza) is supported yet"
+            );
+        }
+        let zenith = vec3("zenith", zenith, [0.0, 0.0, 1.0])?;
+        let north = vec3("north", north, [0.0, 1.0, 0.0])?;
+        c.set_layers(crate::scene::LayerRequest {
+            groups: true,
+            direct: c.layers().1,
+        })?;
+        let mut first = None;
+        for p in 0..n {
+            let id = c.add_sky(&crate::scene::light::SkyDesc {
+                kind: crate::scene::light::SkyKind::single_patch(mf, p)?,
+                amount: crate::scene::light::SkyAmount::Luminance(1.0),
+                zenith,
+                north,
+                ..Default::default()
+            })?;
+            c.set_light_group(id, group(p, n))?;
+            first.get_or_insert(id);
+        }
+        super::write_optional(out_first_light, first.unwrap_or(0))
+    })
+}
+
+/// The daylight coefficients at vertices `vertices[0 .. count)` of mesh `mesh` (`side`
+/// 0 front, 1 back) after a run with `imap_add_sky_patches(…, mf, …)`: per vertex and
+/// patch the illuminance per cd/m² of the patch, lx, into `out_value` and its standard
+/// error into `out_sigma` (each `count × patches` doubles, vertex by vertex, the ground's
+/// first). Returns IMAP_ERR_INDEX_OUT_OF_RANGE for a vertex or mesh out of range,
+/// IMAP_ERR_INVALID_ARGUMENT when the context has no such layers. (Since 0.2.3.)
+///
+/// # Safety
+/// `ctx` is a live handle; `vertices` holds `count` indices; the outputs hold `count ×
+/// patches` writable doubles each.
+#[no_mangle]
+pub unsafe extern "C" fn imap_annual_coefficients(
+    ctx: *mut super::ImapContext,
+    mesh: u32,
+    side: u32,
+    vertices: *const u32,
+    count: usize,
+    mf: u32,
+    out_value: *mut f64,
+    out_sigma: *mut f64,
+) -> ImapStatus {
+    with_context(ctx, |c| {
+        let n = crate::scene::light::SkyPatches::reinhart(mf)?.count();
+        let vertices = slice("vertices", vertices, count)?;
+        let all = c.vertex_count(mesh)?;
+        if let Some(i) = vertices.iter().position(|&v| v as usize >= all) {
+            bail!(
+                ImapErrIndexOutOfRange,
+                "vertices[{i}] = {}: mesh {mesh} has {all} vertices",
+                vertices[i]
+            );
+        }
+        let total = count.checked_mul(n).ok_or_else(|| {
+            Error::new(
+                ImapStatus::ImapErrInvalidArgument,
+                "count × patches overflows",
+            )
+        })?;
+        let value = slice_mut("out_value", out_value, total)?;
+        let sigma = slice_mut("out_sigma", out_sigma, total)?;
+        let (mut lux, mut rel) = (vec![0.0; all], vec![0.0; all]);
+        let (mut v_out, mut s_out) = (vec![0.0; total], vec![0.0; total]);
+        for p in 0..n {
+            let layer = crate::context::Layer::Group(group(p, n));
+            c.illuminance_layer(mesh, side, layer, &mut lux)?;
+            c.rel_error_layer(mesh, side, layer, &mut rel)?;
+            for (k, &v) in vertices.iter().enumerate() {
+                v_out[k * n + p] = lux[v as usize];
+                s_out[k * n + p] = lux[v as usize] * rel[v as usize];
+            }
+        }
+        value.copy_from_slice(&v_out);
+        sigma.copy_from_slice(&s_out);
+        Ok(())
+    })
+}
+
+/// Reads a 3-vector argument (NULL: `default`).
+fn vec3(name: &str, p: *const f64, default: [f64; 3]) -> Result<[f64; 3]> {
+    if p.is_null() {
+        return Ok(default);
+    }
+    let s = slice(name, p, 3)?;
+    Ok([s[0], s[1], s[2]])
+}
+
+/// Traces the sun's lines of every hour of `sky` from `points` (`count` × 3 doubles, scene
+/// units) whose measuring sides face `normals`, in the context's scene (its sky oriented by
+/// `zenith` and `north`, NULL: +z and +y, as `imap_add_sky_patches` was), and each patch's
+/// direct-only coefficient (the sun's patches; lines jittered by `seed`); the sun's
+/// spectrum CIE D65. The result goes to `*out`, to free with `imap_direct_sun_free`.
+/// (Since 0.2.3.)
+///
+/// # Safety
+/// `ctx` is a live handle; `sky` a live sky; `points` and `normals` hold `3 × count`
+/// doubles; `zenith`, `north` NULL or 3 doubles; `out` writable.
+#[no_mangle]
+pub unsafe extern "C" fn imap_direct_sun_new(
+    ctx: *mut super::ImapContext,
+    sky: *const ImapAnnualSky,
+    points: *const f64,
+    normals: *const f64,
+    count: usize,
+    zenith: *const f64,
+    north: *const f64,
+    seed: u64,
+    out: *mut *mut ImapDirectSun,
+) -> ImapStatus {
+    with_context(ctx, |c| {
+        super::check_out("out", out)?;
+        let s = lookup("sky", sky)?;
+        let p = slice("points", points, count.saturating_mul(3))?;
+        let nm = slice("normals", normals, count.saturating_mul(3))?;
+        let p: Vec<[f64; 3]> = p.chunks(3).map(|x| [x[0], x[1], x[2]]).collect();
+        let nm: Vec<[f64; 3]> = nm.chunks(3).map(|x| [x[0], x[1], x[2]]).collect();
+        let frame = (
+            vec3("zenith", zenith, [0.0, 0.0, 1.0])?,
+            vec3("north", north, [0.0, 1.0, 0.0])?,
+        );
+        let sun = DirectSun::new(
+            c,
+            &s.sky,
+            frame,
+            (&p, &nm),
+            &crate::photometry::Spectrum::CieD65,
+            seed,
+        )?;
+        write_out("out", out, register(ImapDirectSun { sun }))
+    })
+}
+
+/// Frees a direct sun (NULL: nothing). (Since 0.2.3.)
+///
+/// # Safety
+/// `sun` is NULL or came from `imap_direct_sun_new`.
+#[no_mangle]
+pub unsafe extern "C" fn imap_direct_sun_free(sun: *mut ImapDirectSun) -> ImapStatus {
+    boundary(None, || free("sun", sun))
+}
+
+/// The sun's direct illuminance, lx, at every point in hour `hour` of its sky into
+/// `out[0 .. count)` (`count` = the points). (Since 0.2.3.)
+///
+/// # Safety
+/// `sun` is a live direct sun; `out` holds `count` writable doubles.
+#[no_mangle]
+pub unsafe extern "C" fn imap_direct_sun_hour(
+    sun: *const ImapDirectSun,
+    hour: usize,
+    out: *mut f64,
+    count: usize,
+) -> ImapStatus {
+    boundary(None, || {
+        let s = lookup("sun", sun)?;
+        if count != s.sun.sensors {
+            bail!(
+                ImapErrInvalidArgument,
+                "count = {count}: the direct sun is of {} points",
+                s.sun.sensors
+            );
+        }
+        let out = slice_mut("out", out, count)?;
+        for (k, o) in out.iter_mut().enumerate() {
+            *o = s.sun.at(k).find(|e| e.0 == hour).map_or(0.0, |e| e.1);
+        }
+        Ok(())
+    })
+}
+
+/// The caller's coefficients as a view (checked by the functions that take them).
+fn view<'a>(
+    value: *const f64,
+    sigma: *const f64,
+    sensors: usize,
+    patches: usize,
+) -> Result<CoefficientsView<'a>> {
+    let total = sensors.checked_mul(patches).ok_or_else(|| {
+        Error::new(
+            ImapStatus::ImapErrInvalidArgument,
+            "sensors × patches overflows",
+        )
+    })?;
+    Ok(CoefficientsView {
+        sensors,
+        patches,
+        value: slice("value", value, total)?,
+        sigma: slice("sigma", sigma, total)?,
+    })
+}
+
+/// The illuminance at `sensors` sensors in hours `first_hour .. first_hour + hours` of
+/// `sky`, lx, with its standard error: coefficients `value` and `sigma` (`sensors ×
+/// patches`, from `imap_annual_coefficients`), the sun by `sun` (NULL: none) into
+/// `out_value` and `out_sigma` (`hours × sensors` each, hour by hour): a year streamed a
+/// part at a time. (Since 0.2.3.)
+///
+/// # Safety
+/// `sky` is a live sky, `sun` NULL or a live direct sun of `sensors` points; `value` and
+/// `sigma` hold `sensors × patches` doubles; the outputs `hours × sensors`.
+#[no_mangle]
+pub unsafe extern "C" fn imap_annual_hourly(
+    sky: *const ImapAnnualSky,
+    value: *const f64,
+    sigma: *const f64,
+    sensors: usize,
+    sun: *const ImapDirectSun,
+    first_hour: usize,
+    hours: usize,
+    out_value: *mut f64,
+    out_sigma: *mut f64,
+) -> ImapStatus {
+    boundary(None, || {
+        let s = lookup("sky", sky)?;
+        let c = view(value, sigma, sensors, s.sky.patches.count())?;
+        let d = (!sun.is_null()).then(|| lookup("sun", sun)).transpose()?;
+        let end = first_hour.checked_add(hours).ok_or_else(|| {
+            Error::new(
+                ImapStatus::ImapErrInvalidArgument,
+                "first_hour + hours overflows",
+            )
+        })?;
+        let total = hours.saturating_mul(sensors);
+        let ov = slice_mut("out_value", out_value, total)?;
+        let os = slice_mut("out_sigma", out_sigma, total)?;
+        let (e, sd) =
+            crate::annual::hourly_range(c, &s.sky, d.as_ref().map(|d| &d.sun), first_hour..end)?;
+        ov.copy_from_slice(&e);
+        os.copy_from_slice(&sd);
+        Ok(())
+    })
+}
+
+/// What the annual metrics count (`imap_annual_metrics`). Initialise with
+/// `imap_annual_options_default(&o, sizeof o)`: LM-83's 300 lx and 50 %, UDI 100–3000 lx,
+/// 100 draws, ASE 1000 lx over 250 hours, the blinds rule's 2 %, every hour with the sun up
+/// occupied, EN 17037's daylight hours the brightest half. (Since 0.2.3.)
+#[repr(C)]
+#[derive(Clone, Copy, Debug)]
+pub struct ImapAnnualOptions {
+    pub struct_size: u32,
+    /// Draws of the coefficients for the confidence (0: none).
+    pub draws: u32,
+    pub seed: u64,
+    /// DA's and sDA's threshold, lx, and the share of occupied hours sDA asks.
+    pub threshold_lx: f64,
+    pub sda_share: f64,
+    /// UDI's bands, lx.
+    pub udi_low: f64,
+    pub udi_high: f64,
+    /// ASE's direct-sun illuminance, lx, and the hours a point must exceed it in.
+    pub ase_lx: f64,
+    pub ase_hours: u64,
+    /// LM-83's blinds rule: the share of points with direct sun above `ase_lx` above
+    /// which the blinds close (with `shaded_value`).
+    pub blinds_share: f64,
+    /// Per hour of the sky, nonzero when occupied (NULL: the hours with the sun up), and
+    /// its length (the sky's hours).
+    pub occupied: *const u8,
+    pub occupied_count: usize,
+    /// Per hour, nonzero for EN 17037's daylight hours (NULL: the brightest half).
+    pub daylight_hours: *const u8,
+    pub daylight_count: usize,
+    /// The blinds-closed model's coefficients (`sensors × patches` each) and direct sun
+    /// (NULL: none); NULL values: no blinds.
+    pub shaded_value: *const f64,
+    pub shaded_sigma: *const f64,
+    pub shaded_sun: *const ImapDirectSun,
+}
+
+// SAFETY: repr(C), u32 struct_size first, numbers and pointers (NULL when zeroed).
+unsafe impl Versioned for ImapAnnualOptions {
+    const NAME: &'static str = "ImapAnnualOptions";
+    const INIT: &'static str = "imap_annual_options_default";
+    fn defaults() -> Self {
+        let d = MetricOptions::default();
+        ImapAnnualOptions {
+            struct_size: std::mem::size_of::<Self>() as u32,
+            draws: d.draws as u32,
+            seed: d.seed,
+            threshold_lx: d.threshold_lx,
+            sda_share: d.sda_share,
+            udi_low: d.udi_low,
+            udi_high: d.udi_high,
+            ase_lx: d.ase_lx,
+            ase_hours: d.ase_hours as u64,
+            blinds_share: d.blinds_share,
+            occupied: std::ptr::null(),
+            occupied_count: 0,
+            daylight_hours: std::ptr::null(),
+            daylight_count: 0,
+            shaded_value: std::ptr::null(),
+            shaded_sigma: std::ptr::null(),
+            shaded_sun: std::ptr::null(),
+        }
+    }
+}
+
+/// Writes the default `ImapAnnualOptions` into `out` (`size` = sizeof *out). (Since 0.2.3.)
+///
+/// # Safety
+/// `out` points to `size` writable bytes.
+#[no_mangle]
+pub unsafe extern "C" fn imap_annual_options_default(
+    out: *mut ImapAnnualOptions,
+    size: usize,
+) -> ImapStatus {
+    boundary(None, || write_defaults(out, size))
+}
+
+/// A grid's annual metrics (`imap_annual_metrics`). (Since 0.2.3.)
+#[repr(C)]
+#[derive(Clone, Copy, Debug)]
+pub struct ImapAnnualMetrics {
+    pub struct_size: u32,
+    /// EN 17037's highest level met: 0 minimum, 1 medium, 2 high; −1 none met.
+    pub en17037_level: i32,
+    pub occupied_hours: u64,
+    pub daylight_hours: u64,
+    pub blinds_closed_hours: u64,
+    /// sDA, its standard deviation over the draws and its 95 % interval (NaN without
+    /// draws).
+    pub sda: f64,
+    pub sda_sigma: f64,
+    pub sda_low: f64,
+    pub sda_high: f64,
+    /// ASE (NaN without the direct sun).
+    pub ase: f64,
+    /// Per EN 17037 level (minimum, medium, high): the shares of daylight hours in which
+    /// E_T reaches half the points and E_TM 95 % of them, and the probability the level
+    /// is met.
+    pub en17037_target_share: [f64; 3],
+    pub en17037_minimum_share: [f64; 3],
+    pub en17037_pass_probability: [f64; 3],
+}
+
+// SAFETY: repr(C), u32 struct_size first, numbers only.
+unsafe impl Versioned for ImapAnnualMetrics {
+    const NAME: &'static str = "ImapAnnualMetrics";
+    const INIT: &'static str = "sizeof(ImapAnnualMetrics)";
+    fn defaults() -> Self {
+        ImapAnnualMetrics {
+            struct_size: std::mem::size_of::<Self>() as u32,
+            en17037_level: -1,
+            occupied_hours: 0,
+            daylight_hours: 0,
+            blinds_closed_hours: 0,
+            sda: 0.0,
+            sda_sigma: f64::NAN,
+            sda_low: f64::NAN,
+            sda_high: f64::NAN,
+            ase: f64::NAN,
+            en17037_target_share: [0.0; 3],
+            en17037_minimum_share: [0.0; 3],
+            en17037_pass_probability: [0.0; 3],
+        }
+    }
+}
+
+/// One sensor's annual metrics (`imap_annual_metrics`), shares of the occupied hours.
+/// (Since 0.2.3.)
+#[repr(C)]
+#[derive(Clone, Copy, Debug)]
+pub struct ImapSensorMetrics {
+    pub struct_size: u32,
+    pub reserved: u32,
+    pub ase_hours: u64,
+    pub da: f64,
+    pub cda: f64,
+    pub udi_below: f64,
+    pub udi_useful: f64,
+    pub udi_above: f64,
+    /// The probability that its DA reaches the sDA share.
+    pub sda_pass_probability: f64,
+}
+
+// SAFETY: repr(C), u32 struct_size first, numbers only.
+unsafe impl Versioned for ImapSensorMetrics {
+    const NAME: &'static str = "ImapSensorMetrics";
+    const INIT: &'static str = "sizeof(ImapSensorMetrics)";
+    fn defaults() -> Self {
+        ImapSensorMetrics {
+            struct_size: std::mem::size_of::<Self>() as u32,
+            reserved: 0,
+            ase_hours: 0,
+            da: 0.0,
+            cda: 0.0,
+            udi_below: 0.0,
+            udi_useful: 0.0,
+            udi_above: 0.0,
+            sda_pass_probability: 0.0,
+        }
+    }
+}
+
+/// A per-hour flag array of the options (NULL: none).
+fn flags(name: &str, p: *const u8, count: usize, hours: usize) -> Result<Vec<bool>> {
+    if p.is_null() {
+        return Ok(Vec::new());
+    }
+    if count != hours {
+        bail!(
+            ImapErrInvalidArgument,
+            "{name}_count = {count}: the sky has {hours} hours"
+        );
+    }
+    Ok(slice(name, p, count)?.iter().map(|&x| x != 0).collect())
+}
+
+/// The annual metrics of `sensors` sensors (DA, cDA, UDI, sDA with its confidence, ASE
+/// with the direct sun `sun`, EN 17037's levels, LM-83's blinds with
+/// `options->shaded_value`) into `out` (`out_size` = sizeof(ImapAnnualMetrics)), and per
+/// sensor into `per_sensor` (NULL: not wanted; else `sensors` elements of
+/// `per_sensor_size` = sizeof(ImapSensorMetrics) bytes each). Returns
+/// IMAP_ERR_INVALID_ARGUMENT or IMAP_ERR_NON_FINITE naming what is wrong (coefficients'
+/// shapes or values, options out of range, no occupied hour). (Since 0.2.3.)
+///
+/// # Safety
+/// As `imap_annual_hourly`; `options` is NULL (defaults) or initialised, its arrays as
+/// documented; `out` holds `out_size` bytes; `per_sensor` NULL or `sensors ×
+/// per_sensor_size` writable bytes.
+#[no_mangle]
+pub unsafe extern "C" fn imap_annual_metrics(
+    sky: *const ImapAnnualSky,
+    value: *const f64,
+    sigma: *const f64,
+    sensors: usize,
+    sun: *const ImapDirectSun,
+    options: *const ImapAnnualOptions,
+    out: *mut ImapAnnualMetrics,
+    out_size: usize,
+    per_sensor: *mut ImapSensorMetrics,
+    per_sensor_size: usize,
+) -> ImapStatus {
+    boundary(None, || {
+        super::check_out("out", out)?;
+        let s = lookup("sky", sky)?;
+        let patches = s.sky.patches.count();
+        let c = view(value, sigma, sensors, patches)?;
+        let d = (!sun.is_null()).then(|| lookup("sun", sun)).transpose()?;
+        let o = if options.is_null() {
+            ImapAnnualOptions::defaults()
+        } else {
+            read_versioned("options", options)?
+        };
+        let hours = s.sky.hours.len();
+        let mo = MetricOptions {
+            occupied: flags("occupied", o.occupied, o.occupied_count, hours)?,
+            threshold_lx: o.threshold_lx,
+            sda_share: o.sda_share,
+            udi_low: o.udi_low,
+            udi_high: o.udi_high,
+            draws: o.draws as usize,
+            seed: o.seed,
+            ase_lx: o.ase_lx,
+            ase_hours: usize::try_from(o.ase_hours).unwrap_or(usize::MAX),
+            daylight_hours: flags("daylight_hours", o.daylight_hours, o.daylight_count, hours)?,
+            blinds_share: o.blinds_share,
+        };
+        let shaded_sun = (!o.shaded_sun.is_null())
+            .then(|| lookup("options->shaded_sun", o.shaded_sun))
+            .transpose()?;
+        let shaded = if o.shaded_value.is_null() {
+            None
+        } else {
+            Some(view(o.shaded_value, o.shaded_sigma, sensors, patches)?)
+        };
+        let m = crate::annual::metrics_with_blinds(
+            c,
+            &s.sky,
+            d.as_ref().map(|d| &d.sun),
+            shaded.map(|sc| crate::annual::Shaded {
+                coefficients: sc,
+                sun: shaded_sun.as_ref().map(|x| &x.sun),
+            }),
+            &mo,
+        )?;
+        if !per_sensor.is_null() {
+            if per_sensor_size < std::mem::size_of::<u32>() {
+                bail!(
+                    ImapErrInvalidArgument,
+                    "per_sensor_size = {per_sensor_size}: pass sizeof(ImapSensorMetrics)"
+                );
+            }
+            for (k, x) in m.sensors.iter().enumerate() {
+                // SAFETY: the caller provides `sensors × per_sensor_size` bytes.
+                let at = unsafe { (per_sensor as *mut u8).add(k * per_sensor_size) }
+                    as *mut ImapSensorMetrics;
+                write_versioned(
+                    "per_sensor",
+                    at,
+                    per_sensor_size,
+                    ImapSensorMetrics {
+                        struct_size: 0,
+                        reserved: 0,
+                        ase_hours: x.ase_hours as u64,
+                        da: x.da,
+                        cda: x.cda,
+                        udi_below: x.udi_below,
+                        udi_useful: x.udi_useful,
+                        udi_above: x.udi_above,
+                        sda_pass_probability: x.sda_pass_probability,
+                    },
+                )?;
+            }
+        }
+        let mut r = ImapAnnualMetrics::defaults();
+        r.occupied_hours = m.occupied_hours as u64;
+        r.blinds_closed_hours = m.blinds_closed_hours as u64;
+        r.sda = m.sda;
+        r.sda_sigma = m.sda_sigma;
+        (r.sda_low, r.sda_high) = m.sda_interval;
+        r.ase = m.ase.unwrap_or(f64::NAN);
+        if let Some(en) = &m.en17037 {
+            r.daylight_hours = en.daylight_hours as u64;
+            r.en17037_level = en
+                .levels
+                .iter()
+                .rposition(|l| l.passes)
+                .map_or(-1, |i| i as i32);
+            for (i, l) in en.levels.iter().enumerate() {
+                r.en17037_target_share[i] = l.target_share;
+                r.en17037_minimum_share[i] = l.minimum_share;
+                r.en17037_pass_probability[i] = l.pass_probability;
+            }
+        }
+        write_versioned("out", out, out_size, r)
+    })
+}
+
+/// The daylight factor (0–1) at `sensors` sensors and its standard error, from their
+/// coefficients over MF:`mf`'s patches (`sensors × patches` each): the CIE standard
+/// overcast sky with the ground glowing ρ E_h / π, ρ = `ground_reflectance`, into
+/// `out_df[0 .. sensors)` and `out_sigma`. (Since 0.2.3.)
+///
+/// # Safety
+/// `value` and `sigma` hold `sensors × patches` doubles; the outputs `sensors` each.
+#[no_mangle]
+pub unsafe extern "C" fn imap_daylight_factor(
+    value: *const f64,
+    sigma: *const f64,
+    sensors: usize,
+    mf: u32,
+    ground_reflectance: f64,
+    out_df: *mut f64,
+    out_sigma: *mut f64,
+) -> ImapStatus {
+    boundary(None, || {
+        let patches = crate::scene::light::SkyPatches::reinhart(mf)?;
+        let c = view(value, sigma, sensors, patches.count())?;
+        let od = slice_mut("out_df", out_df, sensors)?;
+        let os = slice_mut("out_sigma", out_sigma, sensors)?;
+        let df = crate::annual::daylight_factor(c, &patches, ground_reflectance)?;
+        for ((d, s), x) in od.iter_mut().zip(os.iter_mut()).zip(df) {
+            *d = x.0;
+            *s = x.1;
+        }
+        Ok(())
+    })
+}
