@@ -55,6 +55,11 @@ pub struct AnnualOptions {
     /// hours than these (IES LM-83: 250).
     #[arg(long, default_value_t = 250)]
     pub ase_hours: usize,
+    /// Stop when every grid's sDA is known to ± this (the half-width of its 95 % interval:
+    /// 0.01 is one percentage point): after the first --photons (100 000 if not given),
+    /// as many again each round until it is, or --time (needed) runs out.
+    #[arg(long)]
+    pub target_sda: Option<f64>,
     /// The model with its blinds closed: TOML settings for the same model (a blind's
     /// material, or grids and materials as the open settings with the glazing a diffuse
     /// transmitter). Its coefficients are traced as the open model's, and IES LM-83's rule
@@ -138,6 +143,20 @@ pub fn annual(model: &Path, settings: Settings, o: &AnnualOptions) -> Result<()>
     if photons == 0 && (time.is_nan() || time <= 0.0) {
         fail!("annual: give --photons or --time for the coefficients' run");
     }
+    if let Some(t) = o.target_sda {
+        if !(t > 0.0 && t < 1.0) {
+            fail!("--target-sda {t}: give the half-width of sDA's 95 % interval, between 0 and 1 (0.01: one percentage point)");
+        }
+        if time.is_nan() || time <= 0.0 {
+            fail!("--target-sda needs --time: the longest the rounds may take");
+        }
+        if o.shaded.is_some() {
+            fail!("--target-sda with --shaded is not supported yet: run with --photons or --time");
+        }
+        if o.draws < 20 {
+            fail!("--target-sda reads sDA's interval from the draws: give --draws 20 or more");
+        }
+    }
     // The weather first: a bad file costs no run.
     let weather = imap::weather::read(&o.weather).map_err(|e| CliError(printable(&e.message)))?;
     let sky = AnnualSky::from_weather(&weather, 1, SunInVectors::Left, o.ground_reflectance)
@@ -194,7 +213,15 @@ pub fn annual(model: &Path, settings: Settings, o: &AnnualOptions) -> Result<()>
         );
     }
     let interrupted = crate::Interrupts::get();
-    let open = coefficients_run(model, &settings, (up, north), n, o, "blinds open")?;
+    let clock = std::time::Instant::now();
+    let first = match o.target_sda {
+        Some(_) => AnnualOptions {
+            photons: Some(o.photons.unwrap_or(100_000)),
+            ..o.clone()
+        },
+        None => o.clone(),
+    };
+    let open = coefficients_run(model, &settings, (up, north), n, &first, "blinds open")?;
     let shaded = match shaded_settings {
         Some(s) if !interrupted.raised() => Some(coefficients_run(
             model,
@@ -206,7 +233,7 @@ pub fn annual(model: &Path, settings: Settings, o: &AnnualOptions) -> Result<()>
         )?),
         _ => None,
     };
-    let (mut ctx, scene, report) = open;
+    let (mut ctx, scene, mut report) = open;
     let mut shaded = shaded;
 
     std::fs::create_dir_all(&o.out).map_err(|e| CliError(format!("{}: {e}", o.out.display())))?;
@@ -232,19 +259,55 @@ pub fn annual(model: &Path, settings: Settings, o: &AnnualOptions) -> Result<()>
         seed: settings.run.seed,
         ..MetricOptions::default()
     };
-    let mut grids_json = Vec::new();
+    // Each grid's direct sun: the lines do not change with the photons.
+    let mut suns = Vec::with_capacity(scene.grids.len());
     for g in &scene.grids {
+        let (points, normals) = grids::point_frames(g);
+        suns.push(
+            DirectSun::new(
+                &mut ctx,
+                &sky,
+                (up, north),
+                (&points, &normals),
+                &SkyDesc::default().spectrum,
+                settings.run.seed,
+            )
+            .map_err(|e| CliError(format!("annual: grid {}: {}", g.name, e.message)))?,
+        );
+    }
+    // --target-sda: as many photons again each round until every grid's sDA is known.
+    let mut rounds = 1;
+    let mut reached = None;
+    if let Some(target) = o.target_sda {
+        loop {
+            let mut worst: f64 = 0.0;
+            for (g, sun) in scene.grids.iter().zip(&suns) {
+                let c = coefficients(&ctx, g, n)?;
+                let m = imap::annual::metrics(&c, &sky, Some(sun), &options)
+                    .map_err(|e| CliError(format!("annual: grid {}: {}", g.name, e.message)))?;
+                worst = worst.max(0.5 * (m.sda_interval.1 - m.sda_interval.0));
+            }
+            if !o.quiet {
+                eprintln!(
+                    "imap: annual: round {rounds}: {} photons, sDA known to ± {:.2} % (target ± {:.2} %)",
+                    report.photons,
+                    100.0 * worst,
+                    100.0 * target
+                );
+            }
+            reached = Some(worst <= target);
+            let left = time - clock.elapsed().as_secs_f64();
+            if worst <= target || interrupted.raised() || left <= 0.0 {
+                break;
+            }
+            report = trace(&mut ctx, report.photons, left, o, "blinds open")?;
+            rounds += 1;
+        }
+    }
+    let mut grids_json = Vec::new();
+    for (g, sun) in scene.grids.iter().zip(suns) {
         let c = coefficients(&ctx, g, n)?;
         let (points, normals) = grids::point_frames(g);
-        let sun = DirectSun::new(
-            &mut ctx,
-            &sky,
-            (up, north),
-            (&points, &normals),
-            &SkyDesc::default().spectrum,
-            settings.run.seed,
-        )
-        .map_err(|e| CliError(format!("annual: grid {}: {}", g.name, e.message)))?;
         // The blinds-closed model's coefficients and direct sun at the same points.
         let closed = match &mut shaded {
             Some((sctx, sscene, _)) => {
@@ -381,6 +444,11 @@ pub fn annual(model: &Path, settings: Settings, o: &AnnualOptions) -> Result<()>
         "ground_reflectance": o.ground_reflectance,
         "draws": o.draws,
         "photons": report.photons,
+        "target_sda": o.target_sda.map(|t| serde_json::json!({
+            "half_width_95": t,
+            "reached": reached,
+            "rounds": rounds,
+        })),
         // Interrupted: the coefficients of the photons traced until then, unbiased, and
         // the intervals say how much less is known.
         "interrupted": interrupted.raised(),
@@ -438,6 +506,20 @@ fn coefficients_run(
                 .sum::<usize>()
         );
     }
+    let report = trace(&mut ctx, photons, time, o, what)?;
+    Ok((ctx, scene, report))
+}
+
+/// Traces `photons` more (and at most `time` seconds; either 0: no such limit) into the
+/// coefficients of `ctx`, with a progress bar.
+fn trace(
+    ctx: &mut imap::Context,
+    photons: u64,
+    time: f64,
+    o: &AnnualOptions,
+    what: &str,
+) -> Result<imap::Report> {
+    let first = ctx.report().photons;
     let bar = if o.quiet {
         indicatif::ProgressBar::hidden()
     } else {
@@ -455,7 +537,7 @@ fn coefficients_run(
             frac = frac.max(p.elapsed_s / time);
         }
         if photons > 0 {
-            frac = frac.max(p.photons as f64 / photons as f64);
+            frac = frac.max(p.photons.saturating_sub(first) as f64 / photons as f64);
         }
         bar.set_position((frac.min(1.0) * 1000.0) as u64);
         bar.set_message(format!(
@@ -476,8 +558,7 @@ fn coefficients_run(
         .run(&mut params)
         .map_err(|e| CliError(format!("annual: {}", e.message)))?;
     bar.finish_and_clear();
-
-    Ok((ctx, scene, report))
+    Ok(report)
 }
 
 /// The grid's points' coefficients: each patch's layer in lx per cd/m², with its error.

@@ -1454,6 +1454,9 @@ fn annual_metrics_of_an_open_grid_follow_the_hours_light() {
             assert!(sigma > 0.0 && (df - 1.0).abs() < 4.0 * sigma, "{csv}");
         }
     }
+    let read = |out: &Path| -> serde_json::Value {
+        serde_json::from_str(&std::fs::read_to_string(out.join("annual.json")).unwrap()).unwrap()
+    };
     // One sunny hour: every point has the sun's E_n cos Z, over 1000 lx, in its one
     // occupied hour; ASE counts the points with more such hours than --ase-hours.
     let sunny = write(
@@ -1492,12 +1495,57 @@ fn annual_metrics_of_an_open_grid_follow_the_hours_light() {
             assert_eq!(hours, usize::from(ase_lx == "1000"), "{csv}");
         }
     }
+    // --target-sda: at 300 lx every point passes once its coefficients are known to a few
+    // tens of per cent (a few rounds of doubling photons); at a threshold between two
+    // hours' illuminance the points sit on sDA's 50 % and two seconds cannot pin it to
+    // ± 1 %: rounds until the time is out.
+    for (threshold, target, time, reached) in [
+        ("300".to_string(), "0.05", "20", true),
+        ((0.5 * (e[2] + e[3])).to_string(), "0.01", "2", false),
+    ] {
+        let out = d.join(format!("target{reached}"));
+        let r = imap(&[
+            "annual",
+            &o,
+            "--config",
+            &s,
+            "--weather",
+            &wea,
+            "--photons",
+            "50000",
+            "--time",
+            time,
+            "--target-sda",
+            target,
+            "--threshold",
+            &threshold,
+            "--out",
+            out.to_str().unwrap(),
+            "--quiet",
+        ]);
+        assert!(r.status.success(), "{}", stderr(&r));
+        let json = read(&out);
+        let t = &json["target_sda"];
+        assert_eq!(t["reached"], reached, "{json}");
+        let rounds = t["rounds"].as_u64().unwrap();
+        let photons = json["photons"].as_u64().unwrap();
+        // Each round doubles the photons; the time's end may cut the last short.
+        assert!(
+            rounds == 1 || photons > 50_000 << rounds.saturating_sub(2),
+            "{json}"
+        );
+        assert!(photons <= 50_000 << (rounds - 1), "{json}");
+        let i = &json["grids"][0]["sda"]["interval_95"];
+        let half = 0.5 * (i[1].as_f64().unwrap() - i[0].as_f64().unwrap());
+        if reached {
+            assert!(half <= 0.05, "{json}");
+        } else {
+            assert!(rounds >= 2 && half > 0.01, "{json}");
+        }
+    }
     // LM-83's blinds: with a blinds-closed model (here the same settings, so the same
     // coefficients), the sunny hour has every point in the sun: the blinds close in it,
     // and the metrics are those without blinds.
-    let read = |out: &Path| -> serde_json::Value {
-        serde_json::from_str(&std::fs::read_to_string(out.join("annual.json")).unwrap()).unwrap()
-    };
     let mut runs = Vec::new();
     for shaded in [false, true] {
         let out = d.join(format!("blinds{shaded}"));
@@ -1597,6 +1645,36 @@ fn annual_metrics_of_an_open_grid_follow_the_hours_light() {
         (
             vec!["annual", &o, "--config", &s, "--weather", &wea],
             "--photons or --time",
+        ),
+        (
+            vec![
+                "annual",
+                &o,
+                "--config",
+                &s,
+                "--weather",
+                &wea,
+                "--photons",
+                "10",
+                "--target-sda",
+                "0.01",
+            ],
+            "--target-sda needs --time",
+        ),
+        (
+            vec![
+                "annual",
+                &o,
+                "--config",
+                &s,
+                "--weather",
+                &wea,
+                "--time",
+                "1",
+                "--target-sda",
+                "2",
+            ],
+            "--target-sda 2",
         ),
         (
             vec![
