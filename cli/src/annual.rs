@@ -348,6 +348,13 @@ pub fn annual(model: &Path, settings: Settings, o: &AnnualOptions) -> Result<()>
         let df = imap::annual::daylight_factor(&c, &sky.patches, o.ground_reflectance)
             .map_err(|e| CliError(format!("annual: grid {}: {}", g.name, e.message)))?;
         write_csv(&o.out.join(format!("annual_{}.csv", g.name)), g, &m, &df)?;
+        write_pictures(&o.out, g, &m, &df)?;
+        write_temporal_map(
+            &o.out.join(format!("annual_{}_temporal.png", g.name)),
+            &c,
+            &sky,
+            &sun,
+        )?;
         let ase = m.ase.unwrap_or(f64::NAN);
         if !o.quiet {
             println!(
@@ -585,6 +592,92 @@ fn coefficients(ctx: &imap::Context, g: &Grid, n: usize) -> Result<Coefficients>
         value,
         sigma,
     })
+}
+
+/// A false-colour picture of each metric on the grid: DA, the probability of passing
+/// sDA's share, UDI's useful share (in %, 0–100), the daylight factor (%) and ASE's hours.
+fn write_pictures(
+    out: &Path,
+    g: &Grid,
+    m: &imap::annual::GridMetrics,
+    df: &[(f64, f64)],
+) -> Result<()> {
+    let pct = |f: fn(&imap::annual::SensorMetrics) -> f64| -> Vec<f64> {
+        m.sensors.iter().map(|s| 100.0 * f(s)).collect()
+    };
+    let pictures: [(&str, Vec<f64>, &str, Option<f64>); 5] = [
+        ("da", pct(|s| s.da), "%", Some(100.0)),
+        (
+            "sda_probability",
+            pct(|s| s.sda_pass_probability),
+            "%",
+            Some(100.0),
+        ),
+        ("udi_useful", pct(|s| s.udi_useful), "%", Some(100.0)),
+        ("df", df.iter().map(|x| 100.0 * x.0).collect(), "%", None),
+        (
+            "ase_hours",
+            m.sensors.iter().map(|s| s.ase_hours as f64).collect(),
+            "h",
+            None,
+        ),
+    ];
+    for (name, values, unit, top) in pictures {
+        let path = out.join(format!("annual_{}_{name}.png", g.name));
+        grids::write_values_picture(&path, g, &values, unit, top)?;
+    }
+    Ok(())
+}
+
+/// The temporal map: the grid's mean illuminance over the year, one column per day (2
+/// pixels) and one row per hour of the day (10 pixels), local standard time; hours the
+/// weather file does not have stay dark.
+fn write_temporal_map(
+    path: &Path,
+    c: &Coefficients,
+    sky: &AnnualSky,
+    sun: &DirectSun,
+) -> Result<()> {
+    const DAY_PX: usize = 2;
+    const HOUR_PX: usize = 10;
+    let (w, plot_h) = (366 * DAY_PX, 24 * HOUR_PX);
+    let h = plot_h + crate::raster::LEGEND_MAX_PX as usize;
+    let err = |e: imap::Error| CliError(format!("annual: temporal map: {}", e.message));
+    // The grid's mean per hour, a month of hours at a time.
+    let mut mean = vec![f64::NAN; sky.hours.len()];
+    let chunk = 24 * 31;
+    let mut start = 0;
+    while start < sky.hours.len() {
+        let end = (start + chunk).min(sky.hours.len());
+        let (e, _) = imap::annual::hourly_range(c, sky, Some(sun), start..end).map_err(err)?;
+        for (i, m) in mean[start..end].iter_mut().enumerate() {
+            let row = &e[i * c.sensors..(i + 1) * c.sensors];
+            *m = row.iter().sum::<f64>() / c.sensors.max(1) as f64;
+        }
+        start = end;
+    }
+    let top = crate::raster::nice_ceiling(
+        mean.iter()
+            .cloned()
+            .filter(|x| x.is_finite())
+            .fold(0.0, f64::max),
+    );
+    let mut img: Vec<u8> = [24u8, 24, 28].repeat(w * h);
+    for (k, a) in sky.hours.iter().enumerate() {
+        // A typical year's months come from different years: placed on a common year's
+        // days, so that a leap year's month leaves no gap.
+        let day = imap::weather::day_of_year(2001, a.month, a.day) as usize - 1;
+        let hour = (a.hour.floor() as usize).min(23);
+        let colour = crate::raster::colour_map(if top > 0.0 { mean[k] / top } else { 0.0 });
+        // Midnight at the top, so the day's light runs down the middle.
+        for y in hour * HOUR_PX..(hour + 1) * HOUR_PX {
+            for x in (day * DAY_PX..(day + 1) * DAY_PX).filter(|&x| x < w) {
+                img[3 * (y * w + x)..3 * (y * w + x) + 3].copy_from_slice(&colour);
+            }
+        }
+    }
+    crate::raster::draw_legend_in(&mut img, w as u32, h as u32, top, "lx");
+    crate::raster::write_png(path, w as u32, h as u32, &img)
 }
 
 fn write_csv(

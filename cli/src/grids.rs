@@ -4,7 +4,7 @@
 //! their errors) in report.json and on the terminal.
 
 use crate::error::{fail, CliError, Result};
-use crate::raster::{colour_map, draw_legend, fmt_lux, nice_ceiling, write_png, LEGEND_MAX_PX};
+use crate::raster::{colour_map, draw_legend_in, fmt_lux, nice_ceiling, write_png, LEGEND_MAX_PX};
 use crate::settings::GridSettings;
 use glam::DVec3;
 use imap::{Context, MeshDesc};
@@ -700,8 +700,20 @@ pub fn write_csv(path: &Path, g: &Grid, r: &GridResult) -> Result<()> {
 /// (bilinear between the points), isolux lines at the legend's ticks and halfway between
 /// them, and the colour bar in lux along the bottom.
 pub fn write_picture(path: &Path, g: &Grid, r: &GridResult) -> Result<()> {
+    write_values_picture(path, g, &r.lux, "lx", None)
+}
+
+/// `write_picture` of any per-point `values` in `unit`, the colour scale up to `top` (None:
+/// a round number above the largest value).
+pub fn write_values_picture(
+    path: &Path,
+    g: &Grid,
+    values_at: &[f64],
+    unit: &str,
+    top: Option<f64>,
+) -> Result<()> {
     if g.normals.is_some() {
-        return write_point_picture(path, g, r);
+        return write_point_picture(path, g, values_at, unit, top);
     }
     let [du, dv] = g.settings.extent();
     let long = 640.0;
@@ -710,9 +722,15 @@ pub fn write_picture(path: &Path, g: &Grid, r: &GridResult) -> Result<()> {
     let plot_h = ((dv * scale).round() as u32).max(100);
     // Room for the colour bar below the plot (its strip is at most LEGEND_MAX_PX high).
     let h = plot_h + LEGEND_MAX_PX;
-    let mut sorted: Vec<f64> = r.lux.iter().cloned().filter(|x| x.is_finite()).collect();
-    sorted.sort_by(f64::total_cmp);
-    let top = nice_ceiling(sorted.last().copied().unwrap_or(0.0));
+    let top = top.unwrap_or_else(|| {
+        nice_ceiling(
+            values_at
+                .iter()
+                .cloned()
+                .filter(|x| x.is_finite())
+                .fold(0.0, f64::max),
+        )
+    });
     // The field at a point of the rectangle (s, t ∈ [0, 1]): bilinear between the cell
     // centres, held constant in the outer half cells.
     let field = |s: f64, t: f64| {
@@ -720,7 +738,7 @@ pub fn write_picture(path: &Path, g: &Grid, r: &GridResult) -> Result<()> {
         let y = (t * g.nv as f64 - 0.5).clamp(0.0, (g.nv - 1) as f64);
         let (i, j) = ((x as usize).min(g.nu - 2), (y as usize).min(g.nv - 2));
         let (fx, fy) = (x - i as f64, y - j as f64);
-        let at = |i: usize, j: usize| r.lux[j * g.nu + i];
+        let at = |i: usize, j: usize| values_at[j * g.nu + i];
         (at(i, j) * (1.0 - fx) + at(i + 1, j) * fx) * (1.0 - fy)
             + (at(i, j + 1) * (1.0 - fx) + at(i + 1, j + 1) * fx) * fy
     };
@@ -760,13 +778,19 @@ pub fn write_picture(path: &Path, g: &Grid, r: &GridResult) -> Result<()> {
             }
         }
     }
-    draw_legend(&mut img, w, h, top);
+    draw_legend_in(&mut img, w, h, top, unit);
     write_png(path, w, h, &img)
 }
 
 /// A point file's points seen along their mean direction (or from above their plane of
 /// least spread), each a square coloured by its lux, with the colour bar.
-fn write_point_picture(path: &Path, g: &Grid, r: &GridResult) -> Result<()> {
+fn write_point_picture(
+    path: &Path,
+    g: &Grid,
+    values: &[f64],
+    unit: &str,
+    top: Option<f64>,
+) -> Result<()> {
     let pts: Vec<DVec3> = (0..g.nu)
         .map(|k| DVec3::from_slice(&g.positions[3 * k..]))
         .collect();
@@ -791,19 +815,21 @@ fn write_point_picture(path: &Path, g: &Grid, r: &GridResult) -> Result<()> {
     let w = ((du * scale).round() as u32).max(160);
     let plot_h = ((dv * scale).round() as u32).max(100);
     let h = plot_h + LEGEND_MAX_PX;
-    let top = nice_ceiling(
-        r.lux
-            .iter()
-            .cloned()
-            .filter(|x| x.is_finite())
-            .fold(0.0, f64::max),
-    );
+    let top = top.unwrap_or_else(|| {
+        nice_ceiling(
+            values
+                .iter()
+                .cloned()
+                .filter(|x| x.is_finite())
+                .fold(0.0, f64::max),
+        )
+    });
     let mut img: Vec<u8> = [24u8, 24, 28].repeat((w * h) as usize);
     let half = ((pad * scale * 0.7) as i64).clamp(1, 40);
     for (k, &(u, v)) in uv.iter().enumerate() {
         let cx = ((u - lo.0 + pad) * scale) as i64;
         let cy = plot_h as i64 - ((v - lo.1 + pad) * scale) as i64;
-        let c = colour_map(r.lux[k] / top);
+        let c = colour_map(values[k] / top);
         for y in (cy - half).max(0)..(cy + half).min(plot_h as i64) {
             for x in (cx - half).max(0)..(cx + half).min(w as i64) {
                 let i = 3 * (y as usize * w as usize + x as usize);
@@ -811,7 +837,7 @@ fn write_point_picture(path: &Path, g: &Grid, r: &GridResult) -> Result<()> {
             }
         }
     }
-    draw_legend(&mut img, w, h, top);
+    draw_legend_in(&mut img, w, h, top, unit);
     write_png(path, w, h, &img)
 }
 

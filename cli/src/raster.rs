@@ -50,6 +50,11 @@ pub const LEGEND_MAX_PX: u32 = 24 + 3 * 12 + 22;
 /// The colour scale 0 … `top` lx along the bottom of the image (labels when a font is
 /// found).
 pub fn draw_legend(img: &mut [u8], w: u32, h: u32, top: f64) {
+    draw_legend_in(img, w, h, top, "lx")
+}
+
+/// `draw_legend` with the values in `unit`.
+pub fn draw_legend_in(img: &mut [u8], w: u32, h: u32, top: f64, unit: &str) {
     use plotters::prelude::*;
     let bar_h = (h / 40).clamp(6, 24);
     let pad = (h / 60).clamp(3, 12);
@@ -85,7 +90,7 @@ pub fn draw_legend(img: &mut [u8], w: u32, h: u32, top: f64) {
                 let v = top * k as f64 / 4.0;
                 let (text, h) = match k {
                     0 => (fmt_lux(v), HPos::Left),
-                    4 => (format!("{} lx", fmt_lux(v)), HPos::Right),
+                    4 => (format!("{} {unit}", fmt_lux(v)), HPos::Right),
                     _ => (fmt_lux(v), HPos::Center),
                 };
                 root.draw(&Text::new(

@@ -1447,6 +1447,24 @@ fn annual_metrics_of_an_open_grid_follow_the_hours_light() {
             .map(|l| l.split(',').map(|x| x.parse().unwrap()).collect())
             .collect();
         assert_eq!(rows.len(), 4);
+        // The pictures: each metric on the grid, and the temporal map (366 days × 2 px
+        // by 24 hours × 10 px and the colour bar).
+        for name in ["da", "sda_probability", "udi_useful", "df", "ase_hours"] {
+            let p = out.join(format!("annual_open_{name}.png"));
+            assert!(
+                std::fs::metadata(&p)
+                    .map(|m| m.len() > 100)
+                    .unwrap_or(false),
+                "{p:?}"
+            );
+        }
+        let png = std::fs::read(out.join("annual_open_temporal.png")).unwrap();
+        assert_eq!(&png[1..4], b"PNG");
+        let (w, h) = (
+            u32::from_be_bytes(png[16..20].try_into().unwrap()),
+            u32::from_be_bytes(png[20..24].try_into().unwrap()),
+        );
+        assert_eq!((w, h), (732, 240 + 82), "temporal map {w} × {h}");
         for row in &rows {
             assert_eq!(row[3], da, "threshold {threshold}: {csv}");
             // An open point's daylight factor is 100 %, within its stated error.
