@@ -28,31 +28,15 @@ import tempfile
 
 import pandas as pd
 import pvlib
-import pyradiance
+import radiance_office_dc
 
-BIN = os.path.join(os.path.dirname(pyradiance.__file__), "bin")
-LIB = os.path.join(os.path.dirname(pyradiance.__file__), "lib")
-ENV = dict(os.environ, PATH=BIN + os.pathsep + os.environ.get("PATH", ""), RAYPATH=LIB)
-HERE = os.path.dirname(os.path.abspath(__file__))
-DATA = os.path.join(HERE, "..", "tests", "data")
+ENV, DATA = radiance_office_dc.ENV, radiance_office_dc.DATA
 
-ROOM = """void plastic floor_m 0 0 5 .2 .2 .2 0 0
-void plastic wall_m 0 0 5 .5 .5 .5 0 0
-void plastic ceil_m 0 0 5 .7 .7 .7 0 0
-void glass pane_m 0 0 4 1 1 1 1.52
-floor_m polygon floor 0 0 12  0 0 0  0 6 0  4 6 0  4 0 0
-ceil_m polygon ceiling 0 0 12  0 0 3  4 0 3  4 6 3  0 6 3
-wall_m polygon west 0 0 12  0 0 0  0 0 3  0 6 3  0 6 0
-wall_m polygon east 0 0 12  4 0 0  4 6 0  4 6 3  4 0 3
-wall_m polygon north 0 0 12  0 6 0  0 6 3  4 6 3  4 6 0
-wall_m polygon south_low 0 0 12  0 0 0  4 0 0  4 0 0.9  0 0 0.9
-wall_m polygon south_high 0 0 12  0 0 2.4  4 0 2.4  4 0 3  0 0 3
-wall_m polygon south_w 0 0 12  0 0 0.9  0.5 0 0.9  0.5 0 2.4  0 0 2.4
-wall_m polygon south_e 0 0 12  3.5 0 0.9  4 0 0.9  4 0 2.4  3.5 0 2.4
+# The office and its sensors, as the coefficients' script has them; the window glazed.
+ROOM = radiance_office_dc.ROOM + """void glass pane_m 0 0 4 1 1 1 1.52
 pane_m polygon window 0 0 12  0.5 0 0.9  3.5 0 0.9  3.5 0 2.4  0.5 0 2.4
 """
-
-SENSORS = [(x, y, 0.8) for y in (0.5, 1.5, 2.5, 3.5, 4.5, 5.5) for x in (0.5, 1.5, 2.5, 3.5)]
+SENSORS = radiance_office_dc.SENSORS
 DISC_DEG = 0.533
 
 

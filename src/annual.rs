@@ -1332,6 +1332,16 @@ mod tests {
         }
     }
 
+    /// `toy_sky` at 100 cd/m², with a sun of 50 klx in patch 2 every hour.
+    fn sunny_toy_sky(hours: usize) -> AnnualSky {
+        let mut sky = toy_sky(hours, |_, _| 100.0);
+        for a in &mut sky.hours {
+            a.direct_normal_lx = 50_000.0;
+            a.sun_patch = 2;
+        }
+        sky
+    }
+
     #[test]
     fn a_constant_overcast_year_gives_the_known_metrics() {
         // Every hour the same sky: each sensor's illuminance is constant, 50–950 lx.
@@ -1380,11 +1390,7 @@ mod tests {
     #[test]
     fn the_direct_sun_adds_its_line_and_its_inter_reflection_and_counts_for_ase() {
         let hours = 100;
-        let mut sky = toy_sky(hours, |_, _| 100.0);
-        for a in &mut sky.hours {
-            a.direct_normal_lx = 50_000.0;
-            a.sun_patch = 2;
-        }
+        let sky = sunny_toy_sky(hours);
         let n = sky.patches.count();
         let sensors = 3;
         let mut value = vec![0.0; sensors * n];
@@ -1538,11 +1544,7 @@ mod tests {
         // (4 %) get 2000 lx of direct sun in hours 0–29, point 2 alone (2 %, not more)
         // in hours 30–59: the blinds close in hours 0–29 only.
         let hours = 100;
-        let mut sky = toy_sky(hours, |_, _| 100.0);
-        for a in &mut sky.hours {
-            a.direct_normal_lx = 50_000.0;
-            a.sun_patch = 2;
-        }
+        let sky = sunny_toy_sky(hours);
         let n = sky.patches.count();
         let sensors = 50;
         let coefficients = |c: f64| {

@@ -1506,26 +1506,7 @@ fn office_daylight_coefficients_agree_with_radiance_rfluxmtx() {
     let t = std::time::Instant::now();
     run_with(&mut ctx, photons(150_000), Estimator::GATHER);
     eprintln!("run {:.1} s", t.elapsed().as_secs_f64());
-    let nv = ctx.vertex_count(sensors).unwrap();
-    let eff: f64 = ctx.photometry().luminous(&[1.0, 1.0, 1.0]);
-    let mut value = vec![0.0; 24 * 146];
-    let mut sigma = vec![0.0; 24 * 146];
-    let (mut e, mut rel) = (vec![0.0; nv], vec![0.0; nv]);
-    for p in 0..146 {
-        let layer = imap::Layer::Group(if p == 0 { 146 } else { p as u32 });
-        ctx.irradiance_layer(sensors, 0, 0, layer, &mut e).unwrap();
-        ctx.rel_error_layer(sensors, 0, layer, &mut rel).unwrap();
-        for k in 0..24 {
-            value[k * 146 + p] = e[5 * k] * eff;
-            sigma[k * 146 + p] = e[5 * k] * eff * rel[5 * k];
-        }
-    }
-    let ours = imap::annual::Coefficients {
-        sensors: 24,
-        patches: 146,
-        value,
-        sigma,
-    };
+    let ours = office_coefficients(&ctx, sensors);
     let weather =
         imap::weather::parse_wea(include_str!("data/pvgis_45n_8e_21st.wea"), "pvgis.wea").unwrap();
     let sky =
@@ -1607,6 +1588,30 @@ fn office_daylight_coefficients_agree_with_radiance_rfluxmtx() {
     assert!(mr.sda > 0.1 && mr.sda < 0.9, "{}", mr.sda);
     for (a, b) in mo.sensors.iter().zip(&mr.sensors) {
         assert!((a.da - b.da).abs() <= 0.05, "DA {} vs {}", a.da, b.da);
+    }
+}
+
+/// The office's 24 sensors' coefficients after a run of `patch_skies` (lx per cd/m²: the
+/// equal-energy bands' band-0 irradiance times the luminous efficacy), with their errors.
+fn office_coefficients(ctx: &Context, sensors: u32) -> imap::annual::Coefficients {
+    let nv = ctx.vertex_count(sensors).unwrap();
+    let eff: f64 = ctx.photometry().luminous(&[1.0, 1.0, 1.0]);
+    let (mut value, mut sigma) = (vec![0.0; 24 * 146], vec![0.0; 24 * 146]);
+    let (mut e, mut rel) = (vec![0.0; nv], vec![0.0; nv]);
+    for p in 0..146 {
+        let layer = imap::Layer::Group(if p == 0 { 146 } else { p as u32 });
+        ctx.irradiance_layer(sensors, 0, 0, layer, &mut e).unwrap();
+        ctx.rel_error_layer(sensors, 0, layer, &mut rel).unwrap();
+        for k in 0..24 {
+            value[k * 146 + p] = e[5 * k] * eff;
+            sigma[k * 146 + p] = e[5 * k] * eff * rel[5 * k];
+        }
+    }
+    imap::annual::Coefficients {
+        sensors: 24,
+        patches: 146,
+        value,
+        sigma,
     }
 }
 
@@ -1866,24 +1871,7 @@ fn an_hour_from_coefficients_and_the_direct_sun_is_that_hours_sky_and_sun() {
     run_with(&mut ctx, photons(RUN), Estimator::GATHER);
     eprintln!("coefficients' run {:.1} s", t.elapsed().as_secs_f64());
     let eff: f64 = ctx.photometry().luminous(&[1.0, 1.0, 1.0]);
-    let nv = ctx.vertex_count(sensors).unwrap();
-    let (mut value, mut sigma) = (vec![0.0; 24 * 146], vec![0.0; 24 * 146]);
-    let (mut e, mut rel) = (vec![0.0; nv], vec![0.0; nv]);
-    for p in 0..146 {
-        let layer = imap::Layer::Group(if p == 0 { 146 } else { p as u32 });
-        ctx.irradiance_layer(sensors, 0, 0, layer, &mut e).unwrap();
-        ctx.rel_error_layer(sensors, 0, layer, &mut rel).unwrap();
-        for k in 0..24 {
-            value[k * 146 + p] = e[5 * k] * eff;
-            sigma[k * 146 + p] = e[5 * k] * eff * rel[5 * k];
-        }
-    }
-    let c = imap::annual::Coefficients {
-        sensors: 24,
-        patches: 146,
-        value,
-        sigma,
-    };
+    let c = office_coefficients(&ctx, sensors);
     let weather =
         imap::weather::parse_wea(include_str!("data/pvgis_45n_8e_21st.wea"), "pvgis.wea").unwrap();
     let sky =
