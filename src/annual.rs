@@ -736,6 +736,32 @@ pub fn metrics<'a>(
     metrics_with_blinds(c, sky, sun, None, o)
 }
 
+/// One thread's share of `metrics_with_blinds`: its points' metrics, its sums over the
+/// draws and the hours, and its scratch.
+struct Chunk {
+    sensors: Vec<SensorMetrics>,
+    draws_sda: Vec<f64>,
+    en_base: Vec<u32>,
+    en_draws: Vec<u32>,
+    ase_sensors: usize,
+    direct: Vec<f64>,
+    direct_shaded: Vec<f64>,
+}
+
+impl Chunk {
+    fn new(draws: usize, en: usize, sun: bool, hours: usize) -> Self {
+        Chunk {
+            sensors: Vec::new(),
+            draws_sda: vec![0.0; draws],
+            en_base: vec![0; en],
+            en_draws: vec![0; draws * en],
+            ase_sensors: 0,
+            direct: vec![0.0; if sun { hours } else { 0 }],
+            direct_shaded: vec![0.0; hours],
+        }
+    }
+}
+
 /// The model with its blinds closed (IES LM-83's operable shading): its coefficients at
 /// the same sensors and its direct sun (None: the blinds let no sun through in a line).
 #[derive(Clone, Copy, Debug)]
@@ -756,7 +782,19 @@ pub fn metrics_with_blinds<'a>(
     shaded: Option<Shaded>,
     o: &MetricOptions,
 ) -> Result<GridMetrics> {
-    let c = c.into();
+    let threads = std::thread::available_parallelism().map_or(1, |x| x.get());
+    metrics_on(c.into(), sky, sun, shaded, o, threads)
+}
+
+/// `metrics_with_blinds` on `threads` threads (the same metrics for any count).
+fn metrics_on(
+    c: CoefficientsView,
+    sky: &AnnualSky,
+    sun: Option<&DirectSun>,
+    shaded: Option<Shaded>,
+    o: &MetricOptions,
+    threads: usize,
+) -> Result<GridMetrics> {
     let n = c.check_against(sky)?;
     check_sun(c, sky, sun)?;
     if let Some(s) = shaded {
@@ -866,13 +904,7 @@ pub fn metrics_with_blinds<'a>(
     // EN 17037's illuminances: per hour, how many sensors reach each (the estimate's, and
     // each draw's).
     let en = EN17037_LX;
-    let mut en_base = vec![0u32; en.len() * day_count];
-    let mut en_draws = vec![0u32; o.draws * en.len() * day_count];
     let passes = |m: &SensorMetrics| m.da >= o.sda_share;
-    let mut sensors = Vec::with_capacity(c.sensors);
-    let mut draws_sda = vec![0.0; o.draws];
-    let mut direct = vec![0.0; if sun.is_some() { sky.hours.len() } else { 0 }];
-    let mut direct_shaded = vec![0.0; sky.hours.len()];
     // LM-83's blinds: closed in the hours in which too many points get direct sun.
     let closed: Vec<bool> = match (shaded, sun) {
         (Some(_), Some(s)) => {
@@ -890,117 +922,172 @@ pub fn metrics_with_blinds<'a>(
         }
         _ => vec![false; sky.hours.len()],
     };
-    let mut ase_sensors = 0usize;
-    for k in 0..c.sensors {
-        let sensor = Sensor::new(c, sun, k, n, &mut direct);
-        let ase_direct = sensor.sun.map(|s| s.2);
-        let mut open_state = Drawn::new(sensor);
-        let mut shut_state = shaded
-            .map(|s| Drawn::new(Sensor::new(s.coefficients, s.sun, k, n, &mut direct_shaded)));
-        let state = |h: usize| match &shut_state {
-            Some(s) if closed[h] => s,
-            _ => &open_state,
-        };
-        // Each counted hour's illuminance and standard error.
-        let e: Vec<(f64, f64)> = hours
-            .iter()
-            .map(|&h| state(h).sensor.hour(sky, h))
-            .collect();
-        let mut m = sensor_metrics(
-            e.iter()
-                .zip(&hours)
-                .filter(|(_, &h)| occupied[h])
-                .map(|(x, _)| x.0),
-            o,
-            count,
+    // The points are independent of each other (a point's draws are its own): taken in
+    // chunks on every core, each with its own sums, added in chunk order (whole counts:
+    // the same for any split).
+    let one_chunk = |range: std::ops::Range<usize>| -> Chunk {
+        let mut acc = Chunk::new(
+            o.draws,
+            en.len() * day_count,
+            sun.is_some(),
+            sky.hours.len(),
         );
-        if let Some(d) = ase_direct {
-            m.ase_hours = hours
-                .iter()
-                .filter(|&&h| occupied[h] && d[h] > o.ase_lx)
-                .count();
-            if m.ase_hours > o.ase_hours {
-                ase_sensors += 1;
-            }
-        }
-        // A draw can move an hour across a threshold only where it lies within a few of
-        // its errors of it (beyond 6 σ: less than 10⁻⁹ per hour): the rest are fixed.
-        let near = |x: f64, s: f64, t: f64| (x - t).abs() <= 6.0 * s;
-        let (mut open, mut fixed) = (Vec::new(), 0usize);
-        for (i, &(x, s)) in e.iter().enumerate() {
-            let h = hours[i];
-            if let Some(d) = day_index[h] {
-                for (t, lx) in en.iter().enumerate() {
-                    if x >= *lx {
-                        en_base[t * day_count + d] += 1;
-                    }
-                }
-            }
-            let sda_open = occupied[h] && near(x, s, o.threshold_lx);
-            let en_open = day_index[h].is_some() && en.iter().any(|&t| near(x, s, t));
-            if sda_open || en_open {
-                open.push(i);
-            }
-            if occupied[h] && !sda_open && x >= o.threshold_lx {
-                fixed += 1;
-            }
-        }
-        // In a draw, the EN counts of the open hours are redrawn: take the estimate's out.
-        let en_fixed: Vec<(usize, usize)> = open
-            .iter()
-            .filter_map(|&i| day_index[hours[i]].map(|d| (i, d)))
-            .collect();
-        let mut pass = 0usize;
-        for (j, sum) in draws_sda.iter_mut().enumerate() {
-            // The draw's stream: one per (sensor, draw), so any sensor subset or order
-            // gives the same draws (the shaded model's after the open one's).
-            let mut rng = PhotonRng::new(o.seed, ((k as u64) << 20) | j as u64);
-            open_state.draw(&mut rng);
-            if let Some(s) = &mut shut_state {
-                s.draw(&mut rng);
-            }
+        for k in range {
+            let sensor = Sensor::new(c, sun, k, n, &mut acc.direct);
+            let ase_direct = sensor.sun.map(|s| s.2);
+            let mut open_state = Drawn::new(sensor);
+            let mut shut_state = shaded.map(|s| {
+                Drawn::new(Sensor::new(
+                    s.coefficients,
+                    s.sun,
+                    k,
+                    n,
+                    &mut acc.direct_shaded,
+                ))
+            });
             let state = |h: usize| match &shut_state {
                 Some(s) if closed[h] => s,
                 _ => &open_state,
             };
-            let counts = &mut en_draws[j * en.len() * day_count..(j + 1) * en.len() * day_count];
-            let mut above = fixed;
-            for &i in &open {
-                let h = hours[i];
-                let x = state(h).hour(sky, h, e[i].0);
-                if occupied[h] && near(e[i].0, e[i].1, o.threshold_lx) && x >= o.threshold_lx {
-                    above += 1;
+            // Each counted hour's illuminance and standard error.
+            let e: Vec<(f64, f64)> = hours
+                .iter()
+                .map(|&h| state(h).sensor.hour(sky, h))
+                .collect();
+            let mut m = sensor_metrics(
+                e.iter()
+                    .zip(&hours)
+                    .filter(|(_, &h)| occupied[h])
+                    .map(|(x, _)| x.0),
+                o,
+                count,
+            );
+            if let Some(d) = ase_direct {
+                m.ase_hours = hours
+                    .iter()
+                    .filter(|&&h| occupied[h] && d[h] > o.ase_lx)
+                    .count();
+                if m.ase_hours > o.ase_hours {
+                    acc.ase_sensors += 1;
                 }
+            }
+            // A draw can move an hour across a threshold only where it lies within a few of
+            // its errors of it (beyond 6 σ: less than 10⁻⁹ per hour): the rest are fixed.
+            let near = |x: f64, s: f64, t: f64| (x - t).abs() <= 6.0 * s;
+            let (mut open, mut fixed) = (Vec::new(), 0usize);
+            for (i, &(x, s)) in e.iter().enumerate() {
+                let h = hours[i];
                 if let Some(d) = day_index[h] {
                     for (t, lx) in en.iter().enumerate() {
                         if x >= *lx {
-                            counts[t * day_count + d] += 1;
+                            acc.en_base[t * day_count + d] += 1;
                         }
                     }
                 }
-            }
-            // The hours not redrawn count as the estimate's: added to every draw below,
-            // less the open ones' estimate (`en_fixed`), which the draw replaced.
-            for &(i, d) in &en_fixed {
-                for (t, lx) in en.iter().enumerate() {
-                    if e[i].0 >= *lx {
-                        counts[t * day_count + d] = counts[t * day_count + d].wrapping_sub(1);
-                    }
+                let sda_open = occupied[h] && near(x, s, o.threshold_lx);
+                let en_open = day_index[h].is_some() && en.iter().any(|&t| near(x, s, t));
+                if sda_open || en_open {
+                    open.push(i);
+                }
+                if occupied[h] && !sda_open && x >= o.threshold_lx {
+                    fixed += 1;
                 }
             }
-            if above as f64 >= o.sda_share * count as f64 {
-                pass += 1;
-                *sum += 1.0;
+            // In a draw, the EN counts of the open hours are redrawn: take the estimate's out.
+            let en_fixed: Vec<(usize, usize)> = open
+                .iter()
+                .filter_map(|&i| day_index[hours[i]].map(|d| (i, d)))
+                .collect();
+            let mut pass = 0usize;
+            for (j, sum) in acc.draws_sda.iter_mut().enumerate() {
+                // The draw's stream: one per (sensor, draw), so any sensor subset or order
+                // gives the same draws (the shaded model's after the open one's).
+                let mut rng = PhotonRng::new(o.seed, ((k as u64) << 20) | j as u64);
+                open_state.draw(&mut rng);
+                if let Some(s) = &mut shut_state {
+                    s.draw(&mut rng);
+                }
+                let state = |h: usize| match &shut_state {
+                    Some(s) if closed[h] => s,
+                    _ => &open_state,
+                };
+                let counts =
+                    &mut acc.en_draws[j * en.len() * day_count..(j + 1) * en.len() * day_count];
+                let mut above = fixed;
+                for &i in &open {
+                    let h = hours[i];
+                    let x = state(h).hour(sky, h, e[i].0);
+                    if occupied[h] && near(e[i].0, e[i].1, o.threshold_lx) && x >= o.threshold_lx {
+                        above += 1;
+                    }
+                    if let Some(d) = day_index[h] {
+                        for (t, lx) in en.iter().enumerate() {
+                            if x >= *lx {
+                                counts[t * day_count + d] += 1;
+                            }
+                        }
+                    }
+                }
+                // The hours not redrawn count as the estimate's: added to every draw below,
+                // less the open ones' estimate (`en_fixed`), which the draw replaced.
+                for &(i, d) in &en_fixed {
+                    for (t, lx) in en.iter().enumerate() {
+                        if e[i].0 >= *lx {
+                            counts[t * day_count + d] = counts[t * day_count + d].wrapping_sub(1);
+                        }
+                    }
+                }
+                if above as f64 >= o.sda_share * count as f64 {
+                    pass += 1;
+                    *sum += 1.0;
+                }
             }
+            m.sda_pass_probability = if o.draws > 0 {
+                pass as f64 / o.draws as f64
+            } else if passes(&m) {
+                1.0
+            } else {
+                0.0
+            };
+            acc.sensors.push(m);
         }
-        m.sda_pass_probability = if o.draws > 0 {
-            pass as f64 / o.draws as f64
-        } else if passes(&m) {
-            1.0
-        } else {
-            0.0
-        };
-        sensors.push(m);
+        acc
+    };
+    let threads = threads.clamp(1, c.sensors.max(1));
+    let per = c.sensors.div_ceil(threads).max(1);
+    let chunks: Vec<Chunk> = std::thread::scope(|s| {
+        let handles: Vec<_> = (0..threads)
+            .map(|t| {
+                let r = (t * per).min(c.sensors)..((t + 1) * per).min(c.sensors);
+                let one_chunk = &one_chunk;
+                s.spawn(move || one_chunk(r))
+            })
+            .collect();
+        handles
+            .into_iter()
+            .map(|h| h.join().unwrap_or_else(|p| std::panic::resume_unwind(p)))
+            .collect()
+    });
+    let mut sensors = Vec::with_capacity(c.sensors);
+    let mut draws_sda = vec![0.0; o.draws];
+    let mut en_base = vec![0u32; en.len() * day_count];
+    let mut en_draws = vec![0u32; o.draws * en.len() * day_count];
+    let mut ase_sensors = 0usize;
+    for ch in chunks {
+        sensors.extend(ch.sensors);
+        draws_sda
+            .iter_mut()
+            .zip(&ch.draws_sda)
+            .for_each(|(a, b)| *a += b);
+        en_base
+            .iter_mut()
+            .zip(&ch.en_base)
+            .for_each(|(a, b)| *a += b);
+        en_draws
+            .iter_mut()
+            .zip(&ch.en_draws)
+            .for_each(|(a, b)| *a = a.wrapping_add(*b));
+        ase_sensors += ch.ase_sensors;
     }
     // Each draw's counts: the estimate's, with the open hours' replaced.
     for j in 0..o.draws {
@@ -1789,6 +1876,22 @@ mod tests {
             }
         }
         eprintln!("covered {covered} of {runs}; EN 17037's time share {covered_en}");
+        // The metrics are the same on any number of threads (each point's draws are its
+        // own, the sums whole counts).
+        let est = Coefficients {
+            sensors,
+            patches: n,
+            value: truth.clone(),
+            sigma: sigma.clone(),
+        };
+        let one = metrics_on(est.view(), &sky, None, None, &o, 1).unwrap();
+        for t in [2, 3, 7, 64] {
+            assert_eq!(
+                metrics_on(est.view(), &sky, None, None, &o, t).unwrap(),
+                one,
+                "{t} threads"
+            );
+        }
         assert!(covered_en >= 90, "EN 17037: {covered_en} of {runs}");
         assert!(
             covered >= 90,
