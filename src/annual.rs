@@ -1053,7 +1053,12 @@ fn metrics_on(
         }
         acc
     };
-    let threads = threads.clamp(1, c.sensors.max(1));
+    // Each chunk keeps its own per-draw, per-hour counts: no more chunks than keep them
+    // within 256 MiB together.
+    let chunk_bytes = 4 * o.draws * en.len() * day_count + 16 * sky.hours.len();
+    let threads = threads
+        .min((256 << 20) / chunk_bytes.max(1))
+        .clamp(1, c.sensors.max(1));
     let per = c.sensors.div_ceil(threads).max(1);
     let chunks: Vec<Chunk> = std::thread::scope(|s| {
         let handles: Vec<_> = (0..threads)
