@@ -177,6 +177,92 @@ impl Coefficients {
     }
 }
 
+/// The light group of patch `p` of `count` (`add_sky_patches`): patch p ≥ 1 in group p,
+/// the ground (patch 0) in group `count`, so that group 0 keeps the model's own emitters.
+pub fn patch_group(p: usize, count: usize) -> u32 {
+    if p == 0 {
+        count as u32
+    } else {
+        p as u32
+    }
+}
+
+/// Adds Reinhart MF:`mf`'s patches to `ctx` as skies of 1 cd/m² each (CIE D65; the
+/// ground's below the horizon), oriented by `zenith` and `north`, each in its light group
+/// (`patch_group`), and turns the per-group layers on: a run then makes each patch's
+/// coefficients as its group's layer (`coefficients` reads them). Returns the first
+/// patch's light id. MF:2 and finer need more than the 254 light groups: refused.
+pub fn add_sky_patches(
+    ctx: &mut crate::context::Context,
+    mf: u32,
+    zenith: [f64; 3],
+    north: [f64; 3],
+) -> Result<u32> {
+    let n = SkyPatches::reinhart(mf)?.count();
+    if n > 255 {
+        bail!(
+            ImapErrInvalidArgument,
+            "mf = {mf}: MF:{mf}'s {n} patches need more light groups than the 254 a context has; only MF:1 (Tregenza) is supported yet"
+        );
+    }
+    ctx.set_layers(crate::scene::LayerRequest {
+        groups: true,
+        direct: ctx.layers().1,
+    })?;
+    let mut first = None;
+    for p in 0..n {
+        let id = ctx.add_sky(&crate::scene::light::SkyDesc {
+            kind: crate::scene::light::SkyKind::single_patch(mf, p)?,
+            amount: crate::scene::light::SkyAmount::Luminance(1.0),
+            zenith,
+            north,
+            ..Default::default()
+        })?;
+        ctx.set_light_group(id, patch_group(p, n))?;
+        first.get_or_insert(id);
+    }
+    Ok(first.unwrap_or(0))
+}
+
+/// The coefficients at vertices `vertices` of mesh `mesh` (`side` 0 front, 1 back) after a
+/// run with `add_sky_patches(…, mf, …)`: each patch's layer as illuminance, lx per cd/m²,
+/// with its standard error.
+pub fn coefficients(
+    ctx: &crate::context::Context,
+    mesh: u32,
+    side: u32,
+    vertices: &[usize],
+    mf: u32,
+) -> Result<Coefficients> {
+    let n = SkyPatches::reinhart(mf)?.count();
+    let all = ctx.vertex_count(mesh)?;
+    if let Some(i) = vertices.iter().position(|&v| v >= all) {
+        bail!(
+            ImapErrIndexOutOfRange,
+            "vertices[{i}] = {}: mesh {mesh} has {all} vertices",
+            vertices[i]
+        );
+    }
+    let (mut lux, mut rel) = (vec![0.0; all], vec![0.0; all]);
+    let mut value = vec![0.0; vertices.len() * n];
+    let mut sigma = vec![0.0; vertices.len() * n];
+    for p in 0..n {
+        let layer = crate::context::Layer::Group(patch_group(p, n));
+        ctx.illuminance_layer(mesh, side, layer, &mut lux)?;
+        ctx.rel_error_layer(mesh, side, layer, &mut rel)?;
+        for (k, &v) in vertices.iter().enumerate() {
+            value[k * n + p] = lux[v];
+            sigma[k * n + p] = lux[v] * rel[v];
+        }
+    }
+    Ok(Coefficients {
+        sensors: vertices.len(),
+        patches: n,
+        value,
+        sigma,
+    })
+}
+
 /// Coefficients borrowed from elsewhere (a host's arrays), laid out as `Coefficients`;
 /// every function that takes coefficients takes either.
 #[derive(Clone, Copy, Debug)]
@@ -396,6 +482,14 @@ impl DirectSun {
             }
         }
         Ok(out)
+    }
+
+    /// Sensor `k`'s direct sun in hour `h`, lx (0 when the sun does not reach it).
+    pub fn lux_at(&self, k: usize, h: usize) -> f64 {
+        let r = self.offsets[k]..self.offsets[k + 1];
+        self.hours[r.clone()]
+            .binary_search(&(h as u32))
+            .map_or(0.0, |i| self.lux[r.start + i] as f64)
     }
 
     /// Sensor `k`'s hours of direct sun and their illuminance, lx.

@@ -182,6 +182,25 @@ fn roof_room(seed: u64) -> (Context, u32, Geometry) {
 
 const HEIGHT: f64 = 1.0;
 
+/// The roof room with its opening glazed by a clear 2 mm pane of index `n_glass` (no
+/// absorption): the context, the floor's id and geometry, and the glass material.
+fn glazed_roof_room(seed: u64, n_glass: f64) -> (Context, u32, Geometry, u32) {
+    let (mut ctx, id, floor) = roof_room(seed);
+    let glass = ctx
+        .add_material(&imap::MaterialDesc {
+            ior: Some(imap::IorModel::Constant(n_glass)),
+            ..Default::default()
+        })
+        .unwrap();
+    let pane = cuboid([-0.5, -0.5, HEIGHT - 0.002], [0.5, 0.5, HEIGHT], 1, false);
+    ctx.add_mesh(&MeshDesc {
+        record: false,
+        ..pane.desc(glass)
+    })
+    .unwrap();
+    (ctx, id, floor, glass)
+}
+
 const OPENING: [[f64; 3]; 4] = [
     [-0.5, -0.5, HEIGHT],
     [0.5, -0.5, HEIGHT],
@@ -883,19 +902,7 @@ fn a_glazed_roof_opening_passes_the_sky_by_the_glass_transmittance() {
     // (the pane's faces are parallel, so light leaves it along the direction it came).
     // Light through glass is the photons' with every estimator.
     let n_glass = 1.52;
-    let (mut ctx, id, floor) = roof_room(70);
-    let glass = ctx
-        .add_material(&imap::MaterialDesc {
-            ior: Some(imap::IorModel::Constant(n_glass)),
-            ..Default::default()
-        })
-        .unwrap();
-    let pane = cuboid([-0.5, -0.5, HEIGHT - 0.002], [0.5, 0.5, HEIGHT], 1, false);
-    ctx.add_mesh(&MeshDesc {
-        record: false,
-        ..pane.desc(glass)
-    })
-    .unwrap();
+    let (mut ctx, id, floor, _) = glazed_roof_room(70, n_glass);
     let lz = 5000.0;
     ctx.add_sky(&SkyDesc {
         kind: SkyKind::Cie {
@@ -1633,19 +1640,7 @@ fn the_straight_line_through_a_pane_passes_its_fresnel_share_and_nothing_else_do
     // faces) the line keeps ½ [(1 − R_s)/(1 + R_s) + (1 − R_p)/(1 + R_p)] (the pane's
     // multiple reflections stay on the line); through the black roof, nothing.
     let n_glass = 1.52;
-    let (mut ctx, _, _) = roof_room(70);
-    let glass = ctx
-        .add_material(&imap::MaterialDesc {
-            ior: Some(imap::IorModel::Constant(n_glass)),
-            ..Default::default()
-        })
-        .unwrap();
-    let pane = cuboid([-0.5, -0.5, HEIGHT - 0.002], [0.5, 0.5, HEIGHT], 1, false);
-    ctx.add_mesh(&MeshDesc {
-        record: false,
-        ..pane.desc(glass)
-    })
-    .unwrap();
+    let (mut ctx, _, _, glass) = glazed_roof_room(70, n_glass);
     // A prism: a wedge of glass over x > 2 (outside the room), faces 20° apart.
     let wedge_positions = [
         2.0, -1.0, 0.0, 3.0, -1.0, 0.0, 2.0, -1.0, 1.0, 2.0, 1.0, 0.0, 3.0, 1.0, 0.0, 2.0, 1.0, 1.0,

@@ -8,7 +8,7 @@ use crate::error::{fail, CliError, Result};
 use crate::grids::{self, Grid};
 use crate::settings::Settings;
 use imap::annual::{AnnualSky, Coefficients, DirectSun, MetricOptions, SunInVectors};
-use imap::{Layer, LayerRequest, SkyAmount, SkyDesc, SkyKind};
+use imap::SkyDesc;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
@@ -73,17 +73,6 @@ pub struct AnnualOptions {
     /// No progress output.
     #[arg(long)]
     pub quiet: bool,
-}
-
-/// The patches' light group: patch p's is p; the ground's (patch 0) the one after the
-/// sky's last, so that group 0 keeps whatever else emits (the model's own emitters, left
-/// out of the coefficients).
-fn group(p: usize, count: usize) -> u32 {
-    if p == 0 {
-        count as u32
-    } else {
-        p as u32
-    }
 }
 
 /// Settings an annual run takes: grids, no lights.
@@ -221,13 +210,12 @@ pub fn annual(model: &Path, settings: Settings, o: &AnnualOptions) -> Result<()>
         },
         None => o.clone(),
     };
-    let open = coefficients_run(model, &settings, (up, north), n, &first, "blinds open")?;
+    let open = coefficients_run(model, &settings, (up, north), &first, "blinds open")?;
     let shaded = match shaded_settings {
         Some(s) if !interrupted.raised() => Some(coefficients_run(
             model,
             &s,
             (up, north),
-            n,
             o,
             "blinds closed",
         )?),
@@ -282,7 +270,7 @@ pub fn annual(model: &Path, settings: Settings, o: &AnnualOptions) -> Result<()>
         loop {
             let mut worst: f64 = 0.0;
             for (g, sun) in scene.grids.iter().zip(&suns) {
-                let c = coefficients(&ctx, g, n)?;
+                let c = coefficients(&ctx, g)?;
                 let m = imap::annual::metrics(&c, &sky, Some(sun), &options)
                     .map_err(|e| CliError(format!("annual: grid {}: {}", g.name, e.message)))?;
                 worst = worst.max(0.5 * (m.sda_interval.1 - m.sda_interval.0));
@@ -306,7 +294,7 @@ pub fn annual(model: &Path, settings: Settings, o: &AnnualOptions) -> Result<()>
     }
     let mut grids_json = Vec::new();
     for (g, sun) in scene.grids.iter().zip(suns) {
-        let c = coefficients(&ctx, g, n)?;
+        let c = coefficients(&ctx, g)?;
         let (points, normals) = grids::point_frames(g);
         // The blinds-closed model's coefficients and direct sun at the same points.
         let closed = match &mut shaded {
@@ -320,7 +308,7 @@ pub fn annual(model: &Path, settings: Settings, o: &AnnualOptions) -> Result<()>
                         g.name
                     );
                 }
-                let sc = coefficients(sctx, sg, n)?;
+                let sc = coefficients(sctx, sg)?;
                 let ss = DirectSun::new(
                     sctx,
                     &sky,
@@ -478,31 +466,13 @@ fn coefficients_run(
     model: &Path,
     settings: &Settings,
     (up, north): ([f64; 3], [f64; 3]),
-    n: usize,
     o: &AnnualOptions,
     what: &str,
 ) -> Result<(imap::Context, crate::scene::LoadedScene, imap::Report)> {
     let (photons, time) = (o.photons.unwrap_or(0), o.time.unwrap_or(0.0));
     let (mut ctx, scene, _) = crate::output::load_with_camera(model, settings)?;
-    ctx.set_layers(LayerRequest {
-        groups: true,
-        direct: false,
-    })
-    .map_err(|e| CliError(format!("annual: {}", e.message)))?;
-    for p in 0..n {
-        let kind = SkyKind::single_patch(1, p).map_err(|e| CliError(e.message))?;
-        let id = ctx
-            .add_sky(&SkyDesc {
-                kind,
-                amount: SkyAmount::Luminance(1.0),
-                zenith: up,
-                north,
-                ..SkyDesc::default()
-            })
-            .map_err(|e| CliError(format!("annual: patch {p}: {}", e.message)))?;
-        ctx.set_light_group(id, group(p, n))
-            .map_err(|e| CliError(format!("annual: {}", e.message)))?;
-    }
+    imap::annual::add_sky_patches(&mut ctx, 1, up, north)
+        .map_err(|e| CliError(format!("annual: {}", e.message)))?;
     if !o.quiet {
         eprintln!(
             "imap: annual: {what}: {} grid points",
@@ -568,30 +538,10 @@ fn trace(
     Ok(report)
 }
 
-/// The grid's points' coefficients: each patch's layer in lx per cd/m², with its error.
-fn coefficients(ctx: &imap::Context, g: &Grid, n: usize) -> Result<Coefficients> {
-    let err = |e: imap::Error| CliError(format!("annual: grid {}: {}", g.name, e.message));
-    let points = grids::point_vertices(g);
-    let all = ctx.vertex_count(g.id).map_err(err)?;
-    let (mut lux, mut rel) = (vec![0.0; all], vec![0.0; all]);
-    let mut value = vec![0.0; points.len() * n];
-    let mut sigma = vec![0.0; points.len() * n];
-    for p in 0..n {
-        let layer = Layer::Group(group(p, n));
-        ctx.illuminance_layer(g.id, 0, layer, &mut lux)
-            .map_err(err)?;
-        ctx.rel_error_layer(g.id, 0, layer, &mut rel).map_err(err)?;
-        for (k, &v) in points.iter().enumerate() {
-            value[k * n + p] = lux[v];
-            sigma[k * n + p] = lux[v] * rel[v];
-        }
-    }
-    Ok(Coefficients {
-        sensors: points.len(),
-        patches: n,
-        value,
-        sigma,
-    })
+/// The grid's points' coefficients (`imap::annual::coefficients`).
+fn coefficients(ctx: &imap::Context, g: &Grid) -> Result<Coefficients> {
+    imap::annual::coefficients(ctx, g.id, 0, &grids::point_vertices(g), 1)
+        .map_err(|e| CliError(format!("annual: grid {}: {}", g.name, e.message)))
 }
 
 /// A false-colour picture of each metric on the grid: DA, the probability of passing

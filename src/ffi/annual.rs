@@ -241,15 +241,6 @@ pub unsafe extern "C" fn imap_annual_sky_vector(
     })
 }
 
-/// The light group of patch `p` of `count` (`imap_add_sky_patches`).
-fn group(p: usize, count: usize) -> u32 {
-    if p == 0 {
-        count as u32
-    } else {
-        p as u32
-    }
-}
-
 /// Adds Reinhart MF:`mf`'s patches as skies of 1 cd/m² each (CIE D65; the ground's below
 /// the horizon), oriented by `zenith` and `north` (NULL: +z and +y), patch p ≥ 1 in light
 /// group p and the ground in group `count` (the patch count: 146 for MF:1), so that group
@@ -271,33 +262,10 @@ pub unsafe extern "C" fn imap_add_sky_patches(
     out_first_light: *mut u32,
 ) -> ImapStatus {
     with_context(ctx, |c| {
-        let patches = crate::scene::light::SkyPatches::reinhart(mf)?;
-        let n = patches.count();
-        if n > 255 {
-            bail!(
-                ImapErrInvalidArgument,
-                "mf = {mf}: MF:{mf}'s {n} patches need more light groups than the 254 a context has; only MF:1 (Tregenza) is supported yet"
-            );
-        }
         let zenith = vec3("zenith", zenith, [0.0, 0.0, 1.0])?;
         let north = vec3("north", north, [0.0, 1.0, 0.0])?;
-        c.set_layers(crate::scene::LayerRequest {
-            groups: true,
-            direct: c.layers().1,
-        })?;
-        let mut first = None;
-        for p in 0..n {
-            let id = c.add_sky(&crate::scene::light::SkyDesc {
-                kind: crate::scene::light::SkyKind::single_patch(mf, p)?,
-                amount: crate::scene::light::SkyAmount::Luminance(1.0),
-                zenith,
-                north,
-                ..Default::default()
-            })?;
-            c.set_light_group(id, group(p, n))?;
-            first.get_or_insert(id);
-        }
-        super::write_optional(out_first_light, first.unwrap_or(0))
+        let first = crate::annual::add_sky_patches(c, mf, zenith, north)?;
+        super::write_optional(out_first_light, first)
     })
 }
 
@@ -324,15 +292,10 @@ pub unsafe extern "C" fn imap_annual_coefficients(
 ) -> ImapStatus {
     with_context(ctx, |c| {
         let n = crate::scene::light::SkyPatches::reinhart(mf)?.count();
-        let vertices = slice("vertices", vertices, count)?;
-        let all = c.vertex_count(mesh)?;
-        if let Some(i) = vertices.iter().position(|&v| v as usize >= all) {
-            bail!(
-                ImapErrIndexOutOfRange,
-                "vertices[{i}] = {}: mesh {mesh} has {all} vertices",
-                vertices[i]
-            );
-        }
+        let vertices: Vec<usize> = slice("vertices", vertices, count)?
+            .iter()
+            .map(|&v| v as usize)
+            .collect();
         let total = count.checked_mul(n).ok_or_else(|| {
             Error::new(
                 ImapStatus::ImapErrInvalidArgument,
@@ -341,30 +304,19 @@ pub unsafe extern "C" fn imap_annual_coefficients(
         })?;
         let value = slice_mut("out_value", out_value, total)?;
         let sigma = slice_mut("out_sigma", out_sigma, total)?;
-        let (mut lux, mut rel) = (vec![0.0; all], vec![0.0; all]);
-        let (mut v_out, mut s_out) = (vec![0.0; total], vec![0.0; total]);
-        for p in 0..n {
-            let layer = crate::context::Layer::Group(group(p, n));
-            c.illuminance_layer(mesh, side, layer, &mut lux)?;
-            c.rel_error_layer(mesh, side, layer, &mut rel)?;
-            for (k, &v) in vertices.iter().enumerate() {
-                v_out[k * n + p] = lux[v as usize];
-                s_out[k * n + p] = lux[v as usize] * rel[v as usize];
-            }
-        }
-        value.copy_from_slice(&v_out);
-        sigma.copy_from_slice(&s_out);
+        let got = crate::annual::coefficients(c, mesh, side, &vertices, mf)?;
+        value.copy_from_slice(&got.value);
+        sigma.copy_from_slice(&got.sigma);
         Ok(())
     })
 }
 
-/// Reads a 3-vector argument (NULL: `default`).
+/// A 3-vector argument (NULL: `default`).
 fn vec3(name: &str, p: *const f64, default: [f64; 3]) -> Result<[f64; 3]> {
     if p.is_null() {
         return Ok(default);
     }
-    let s = slice(name, p, 3)?;
-    Ok([s[0], s[1], s[2]])
+    super::scene::vec3(name, p)
 }
 
 /// Traces the sun's lines of every hour of `sky` from `points` (`count` × 3 doubles, scene
@@ -444,7 +396,7 @@ pub unsafe extern "C" fn imap_direct_sun_hour(
         }
         let out = slice_mut("out", out, count)?;
         for (k, o) in out.iter_mut().enumerate() {
-            *o = s.sun.at(k).find(|e| e.0 == hour).map_or(0.0, |e| e.1);
+            *o = s.sun.lux_at(k, hour);
         }
         Ok(())
     })

@@ -758,7 +758,7 @@ pub(super) fn add_with(
 }
 
 /// Three doubles from C.
-fn vec3(name: &str, ptr: *const f64) -> Result<[f64; 3]> {
+pub(super) fn vec3(name: &str, ptr: *const f64) -> Result<[f64; 3]> {
     let v = slice(name, ptr, 3)?;
     Ok([v[0], v[1], v[2]])
 }
