@@ -181,9 +181,72 @@ int main(void) {
     expect("a .wea with 31 June", imap_annual_sky_read(path, 1, 0.2, &sky), IMAP_ERR_PARSE);
     check("the message names line 7", strstr(imap_last_error(NULL), ":7") != NULL, 0, 0);
     expect("no such file", imap_annual_sky_read("/nonexistent/x.epw", 1, 0.2, &sky), IMAP_ERR_IO);
-    remove(path);
 
     imap_destroy(ctx);
+
+    /* Reinhart MF:2 (577 patches and the ground) in batches of light groups, in a context
+     * that holds only the model: bad calls first (each leaves the context as it was), then
+     * the coefficients, whose daylight factor at the open point is 1, and the direct sun
+     * traced in the same context, which has no light of its own. */
+    ImapContext *c2 = NULL;
+    expect("imap_create (MF:2)", imap_create(&cfg, &c2), IMAP_OK);
+    expect("material", imap_add_material(c2, &mat, &m_black), IMAP_OK);
+    imap_mesh_default(&mesh, sizeof mesh);
+    mesh.positions = plate, mesh.vertex_count = 4, mesh.indices = plate_idx, mesh.triangle_count = 2;
+    mesh.material = m_black;
+    expect("plate", imap_add_mesh(c2, &mesh, &id), IMAP_OK);
+    imap_mesh_default(&mesh, sizeof mesh);
+    mesh.positions = sensor, mesh.vertex_count = 5, mesh.indices = sensor_idx, mesh.triangle_count = 4;
+    mesh.material = m_black, mesh.flags = IMAP_MESH_SENSOR | IMAP_MESH_RECORD;
+    expect("sensor", imap_add_mesh(c2, &mesh, &sensor_id), IMAP_OK);
+    double *v2 = malloc(578 * sizeof *v2), *s2 = malloc(578 * sizeof *s2);
+    uint64_t traced = 0;
+    expect("MF:2 with estimator 9",
+           imap_annual_trace_coefficients(c2, 2, NULL, NULL, 1000, 0, 9, sensor_id, 0, &centre, 1, v2, s2, NULL),
+           IMAP_ERR_INVALID_ARGUMENT);
+    expect("MF:2 with no photons and no time",
+           imap_annual_trace_coefficients(c2, 2, NULL, NULL, 0, 0, 0, sensor_id, 0, &centre, 1, v2, s2, NULL),
+           IMAP_ERR_INVALID_ARGUMENT);
+    expect("MF:2 at vertex 5 of 5",
+           imap_annual_trace_coefficients(c2, 2, NULL, NULL, 1000, 0, 0, sensor_id, 0, &bad_vertex, 1, v2, s2, NULL),
+           IMAP_ERR_INDEX_OUT_OF_RANGE);
+    expect("MF:2 on side 1 of a one-sided sensor",
+           imap_annual_trace_coefficients(c2, 2, NULL, NULL, 1000, 0, 0, sensor_id, 1, &centre, 1, v2, s2, NULL),
+           IMAP_ERR_INDEX_OUT_OF_RANGE);
+    expect("MF:17", imap_annual_trace_coefficients(c2, 17, NULL, NULL, 1000, 0, 0, sensor_id, 0, &centre, 1, v2, s2, NULL),
+           IMAP_ERR_INVALID_ARGUMENT);
+    expect("MF:2 coefficients",
+           imap_annual_trace_coefficients(c2, 2, NULL, NULL, 400000, 0, IMAP_ESTIMATOR_DEFAULT, sensor_id, 0, &centre, 1,
+                                          v2, s2, &traced),
+           IMAP_OK);
+    check("photons traced over the three runs", traced >= 400000 && traced < 400010, (double)traced, 400000);
+    expect("MF:2 daylight factor", imap_daylight_factor(v2, s2, 1, 2, 0.2, &df, &df_sigma), IMAP_OK);
+    check("open point's MF:2 daylight factor is 1 (4 sigma)", fabs(df - 1) < 4 * df_sigma && df_sigma < 0.1, df, 1);
+    check("no light reaches it from the ground below", v2[0] == 0, v2[0], 0);
+    ImapAnnualSky *sky2 = NULL;
+    f = fopen(path, "w");
+    fputs(WEA, f);
+    fclose(f);
+    expect("MF:2 sky", imap_annual_sky_read(path, 2, 0.2, &sky2), IMAP_OK);
+    expect("direct sun in a context without lights", imap_direct_sun_new(c2, sky2, pt, up, 1, NULL, NULL, 1, &sun),
+           IMAP_OK);
+    expect("MF:2 hourly", imap_annual_hourly(sky2, v2, s2, 1, sun, 0, 4, e, s), IMAP_OK);
+    for (int h = 1; h < 4; h++) {
+        ImapAnnualHour a;
+        imap_annual_sky_hour(sky2, (size_t)h, &a, sizeof a);
+        double w = a.diffuse_horizontal_lx + a.direct_normal_lx * cos(a.sun_zenith_deg * PI / 180);
+        char what[64];
+        snprintf(what, sizeof what, "MF:2 hour %d reads E_h (4 sigma, 1 %% patches)", h);
+        check(what, fabs(e[h] - w) < 4 * s[h] + 0.01 * w, e[h], w);
+    }
+    expect("a second MF:2 trace in the same context",
+           imap_annual_trace_coefficients(c2, 2, NULL, NULL, 2000, 0, 0, sensor_id, 0, &centre, 1, v2, s2, NULL), IMAP_OK);
+    imap_direct_sun_free(sun);
+    imap_annual_sky_free(sky2);
+    remove(path);
+    free(v2);
+    free(s2);
+    imap_destroy(c2);
     printf("%s\n", failures ? "FAILED" : "all passed");
     return failures ? 1 : 0;
 }

@@ -2453,7 +2453,8 @@ enum ImapStatus imap_annual_sky_vector(const struct ImapAnnualSky *sky, size_t h
  * as its group's layer (`imap_annual_coefficients` reads them). Turns on the per-group
  * layers. The first patch's light id goes to `out_first_light` (NULL: not wanted).
  * Returns IMAP_ERR_INVALID_ARGUMENT for MF:2 and finer (more patches than the 254 light
- * groups: not supported yet), or as `imap_add_sky`. (Since 0.2.3.)
+ * groups: `imap_annual_trace_coefficients` traces them in batches), or as `imap_add_sky`.
+ * (Since 0.2.3.)
  *
  * # Safety
  * `ctx` is a live handle; `zenith` and `north` are NULL or point to 3 doubles;
@@ -2474,6 +2475,31 @@ enum ImapStatus imap_add_sky_patches(struct ImapContext *ctx, uint32_t mf, const
  * patches` writable doubles each.
  */
 enum ImapStatus imap_annual_coefficients(struct ImapContext *ctx, uint32_t mesh, uint32_t side, const uint32_t *vertices, size_t count, uint32_t mf, double *out_value, double *out_sigma);
+
+/**
+ * Traces the daylight coefficients of Reinhart MF:`mf` (1: Tregenza's 145 patches, 2:
+ * 577, 4: 2305, … 16; each with the ground as patch 0) at vertices `vertices[0 ..
+ * count)` of mesh `mesh` (`side` 0 front, 1 back): each patch a sky of 1 cd/m² (CIE
+ * D65) oriented by `zenith` and `north` (NULL: +z and +y), traced in runs of at most
+ * 253 patches (one light group each; docs/daylight.md, "Reinhart's finer patches"),
+ * `photons` over all runs (0: no limit) and at most `time_s` seconds (0: no limit; one of
+ * the two is needed), with `estimator` (an `IMAP_ESTIMATOR_*`; `IMAP_ESTIMATOR_DEFAULT`:
+ * gathering, which reaches a small sensor's coefficient of every patch). Per vertex and patch the illuminance
+ * per cd/m² of the patch, lx, goes to `out_value` and its standard error to `out_sigma`
+ * (each `count × patches` doubles, vertex by vertex, the ground's first), and the photons
+ * traced to `out_photons` (NULL: not wanted). The context's own lights are traced too
+ * and kept out of the coefficients. The context must have no photons (IMAP_ERR_OUT_OF_ORDER);
+ * it is left as it was, with the per-group layers on. Returns IMAP_ERR_MEMORY_BUDGET
+ * when the coefficients do not fit the budget, IMAP_ERR_INDEX_OUT_OF_RANGE for a vertex
+ * or mesh out of range, IMAP_ERR_INVALID_ARGUMENT for an `mf` out of range or no limit.
+ * (Since 0.2.3.)
+ *
+ * # Safety
+ * `ctx` is a live handle; `zenith` and `north` NULL or 3 doubles; `vertices` holds
+ * `count` indices; the outputs hold `count × patches` writable doubles each;
+ * `out_photons` NULL or writable.
+ */
+enum ImapStatus imap_annual_trace_coefficients(struct ImapContext *ctx, uint32_t mf, const double *zenith, const double *north, uint64_t photons, double time_s, uint32_t estimator, uint32_t mesh, uint32_t side, const uint32_t *vertices, size_t count, double *out_value, double *out_sigma, uint64_t *out_photons);
 
 /**
  * Traces the sun's lines of every hour of `sky` from `points` (`count` × 3 doubles, scene

@@ -2159,3 +2159,253 @@ fn the_direct_sun_in_the_glazed_office_agrees_with_radiance() {
     }
     assert!(ase[0].iter().sum::<usize>() > 200);
 }
+
+/// The floor's coefficients by `imap::annual::trace::PatchRun` (MF:`mf`, at most `batch`
+/// patches per run) after `rounds` rounds of `n` photons each.
+fn patch_run(
+    seed: u64,
+    threads: usize,
+    mf: u32,
+    batch: usize,
+    rounds: &[u64],
+) -> (
+    imap::annual::trace::PatchRun,
+    Vec<imap::annual::Coefficients>,
+    Geometry,
+) {
+    use imap::annual::trace::{PatchRound, PatchRun, PatchTarget};
+    let (mut ctx, id, floor) = roof_room(seed);
+    ctx.set_threads(threads).unwrap();
+    let target = PatchTarget {
+        mesh: id,
+        side: 0,
+        vertices: (0..floor.vertex_count()).collect(),
+    };
+    let frame = ([0.0, 0.0, 1.0], [0.0, 1.0, 0.0]);
+    let mut run = PatchRun::new(&mut ctx, mf, frame, vec![target], batch).unwrap();
+    let mut after = Vec::new();
+    for &n in rounds {
+        let round = PatchRound {
+            photons: n,
+            // Gathering: light sampling and photons alone leave a floor vertex's few
+            // photons of a patch with a skewed error (largest |z| 7–11 at 300 000 photons).
+            estimator: Some(Estimator::GATHER),
+            ..Default::default()
+        };
+        run.trace(&mut ctx, round, &mut |_| true).unwrap();
+        after.push(run.coefficients(0).unwrap().clone());
+    }
+    (run, after, floor)
+}
+
+/// A smooth sky that varies with altitude and azimuth as MF:`mf` patch luminances, cd/m²:
+/// (1 + 2 sin a)(1.5 + cos a sin φ) at each patch's centre (a altitude, φ azimuth from
+/// north toward east), 1000 cd/m² at the zenith. No patch dominates, as the sun's do in a
+/// clear sky (a patch's coefficient has few photons; a sum that one patch dominates has
+/// the skewed error of a few photons), and every patch's value is its own, so a patch's
+/// coefficient read into another patch's place shows.
+fn smooth_patches(mf: u32) -> Vec<f64> {
+    let patches = imap::SkyPatches::reinhart(mf).unwrap();
+    (0..patches.count())
+        .map(|p| {
+            if p == 0 {
+                return 0.0;
+            }
+            let (lo, hi, az, w) = patches.bounds(p);
+            let (a, phi) = (0.5 * (lo + hi), az + 0.5 * w);
+            1000.0 / 4.5 * (1.0 + 2.0 * a.sin()) * (1.5 + a.cos() * phi.sin())
+        })
+        .collect()
+}
+
+/// Asserts that `lum` × `c` at every floor vertex is the patch sky `lum` read through the
+/// opening (lx, exact by quadrature), within the coefficients' combined errors.
+fn assert_patch_sky(
+    c: &imap::annual::Coefficients,
+    lum: &[f64],
+    floor: &Geometry,
+    mf: u32,
+    what: &str,
+) {
+    let patches = imap::SkyPatches::reinhart(mf).unwrap();
+    let got: Vec<(f64, f64)> = (0..c.sensors)
+        .map(|k| {
+            let row = k * c.patches..(k + 1) * c.patches;
+            let e: f64 = lum
+                .iter()
+                .zip(&c.value[row.clone()])
+                .map(|(l, x)| l * x)
+                .sum();
+            let v: f64 = lum
+                .iter()
+                .zip(&c.sigma[row])
+                .map(|(l, s)| (l * s).powi(2))
+                .sum();
+            (e, if e > 0.0 { v.sqrt() / e } else { 0.0 })
+        })
+        .collect();
+    let l = |d: [f64; 3]| lum[patches.patch(d[2].clamp(-1.0, 1.0).asin(), d[0].atan2(d[1]))];
+    let want: Vec<Option<f64>> = (0..c.sensors)
+        .map(|v| {
+            Some(hat_average_with(floor, v, 4, |x, _| {
+                through_opening(x, 24, &l)
+            }))
+        })
+        .collect();
+    assert_z(&got, &want, what);
+}
+
+#[test]
+fn reinhart_patches_traced_in_batches_are_their_skies_at_every_subdivision() {
+    // MF:1 in four batches of 40 patches, MF:2 in three and MF:4 in ten (253 patches per
+    // run): a sky vector times each run's coefficients is the patch sky through the
+    // roof opening, vertex by vertex within the combined errors (every batch's patches
+    // present once, at their luminance, with errors independent between batches).
+    for (mf, batch, batches) in [(1u32, 40usize, 4usize), (2, 0, 3), (4, 0, 10)] {
+        let (run, c, floor) = patch_run(80 + mf as u64, 2, mf, batch, &[100_000]);
+        assert_eq!(run.batches().len(), batches, "MF:{mf}");
+        assert!(
+            run.report().photons >= 100_000,
+            "MF:{mf}: {:?}",
+            run.report()
+        );
+        let c = &c[0];
+        assert_eq!(c.patches, imap::SkyPatches::reinhart(mf).unwrap().count());
+        // No light reaches the floor from below the horizon (the ground patch, 0).
+        assert!((0..c.sensors).all(|k| c.value[k * c.patches] == 0.0));
+        assert_patch_sky(
+            c,
+            &smooth_patches(mf),
+            &floor,
+            mf,
+            &format!("a smooth sky, MF:{mf} in {batches} batches"),
+        );
+    }
+}
+
+#[test]
+fn patch_rounds_merge_and_the_same_seed_gives_the_same_coefficients_on_any_thread_count() {
+    // Two rounds of MF:2's three batches: the second round's photons are new ones (its
+    // errors shrink by about √2) and the merged coefficients still read the sky.
+    let (_, c, floor) = patch_run(90, 2, 2, 0, &[60_000, 60_000]);
+    assert_patch_sky(
+        &c[1],
+        &smooth_patches(2),
+        &floor,
+        2,
+        "a smooth sky, MF:2, two rounds",
+    );
+    let mut ratios: Vec<f64> = c[0]
+        .sigma
+        .iter()
+        .zip(&c[1].sigma)
+        .filter(|(a, _)| **a > 0.0)
+        .map(|(a, b)| b / a)
+        .collect();
+    ratios.sort_by(f64::total_cmp);
+    let median = ratios[ratios.len() / 2];
+    eprintln!(
+        "σ after two rounds / after one: median {median:.3} over {}",
+        ratios.len()
+    );
+    assert!((0.62..0.80).contains(&median), "median σ ratio {median}");
+    // Thread counts change a coefficient only by the order of its sums.
+    let (_, one, _) = patch_run(91, 1, 2, 0, &[20_000]);
+    let (_, three, _) = patch_run(91, 3, 2, 0, &[20_000]);
+    let (a, b) = (&one[0], &three[0]);
+    let apart = |x: &[f64], y: &[f64]| {
+        x.iter()
+            .zip(y)
+            .map(|(x, y)| (x - y).abs() / x.abs().max(1e-300))
+            .fold(0.0f64, f64::max)
+    };
+    let (dv, ds) = (apart(&a.value, &b.value), apart(&a.sigma, &b.sigma));
+    let lit = a.value.iter().filter(|&&x| x > 0.0).count();
+    eprintln!("1 and 3 threads: {lit} coefficients lit, values {dv:.1e} apart, errors {ds:.1e}");
+    assert!(lit > 1000 && dv < 1e-9 && ds < 1e-9, "{dv} {ds}");
+}
+
+#[test]
+fn a_patch_run_refuses_what_it_cannot_do_and_keeps_the_context_usable() {
+    use imap::annual::trace::{PatchRound, PatchRun, PatchTarget};
+    use imap::ImapStatus::*;
+    let (mut ctx, id, floor) = roof_room(95);
+    let frame = ([0.0, 0.0, 1.0], [0.0, 1.0, 0.0]);
+    let target = |vertices: Vec<usize>| PatchTarget {
+        mesh: id,
+        side: 0,
+        vertices,
+    };
+    let all: Vec<usize> = (0..floor.vertex_count()).collect();
+    let bad = [
+        (
+            PatchRun::new(&mut ctx, 2, frame, vec![target(all.clone())], 254).unwrap_err(),
+            ImapErrInvalidArgument,
+            "batch = 254",
+        ),
+        (
+            PatchRun::new(&mut ctx, 0, frame, vec![target(all.clone())], 0).unwrap_err(),
+            ImapErrInvalidArgument,
+            "mf = 0",
+        ),
+        (
+            PatchRun::new(&mut ctx, 2, frame, vec![target(vec![0, 99_999])], 0).unwrap_err(),
+            ImapErrIndexOutOfRange,
+            "targets[0].vertices[1] = 99999",
+        ),
+        (
+            PatchRun::new(&mut ctx, 2, frame, vec![], 0).unwrap_err(),
+            ImapErrInvalidArgument,
+            "targets",
+        ),
+    ];
+    for (e, status, text) in bad {
+        assert_eq!(e.status, status, "{}", e.message);
+        assert!(e.message.contains(text), "{}", e.message);
+    }
+    let mut run = PatchRun::new(&mut ctx, 2, frame, vec![target(all.clone())], 0).unwrap();
+    let e = run
+        .trace(&mut ctx, PatchRound::default(), &mut |_| true)
+        .unwrap_err();
+    assert_eq!(e.status, ImapErrInvalidArgument, "{}", e.message);
+    // Before a round, and after one cancelled in its first batch, the patches of the
+    // batches not reached are not known: refused, not zeros.
+    let e = run.coefficients(0).unwrap_err();
+    assert!(
+        e.status == ImapErrOutOfOrder && e.message.contains("patches 0 … 252"),
+        "{}",
+        e.message
+    );
+    let round = PatchRound {
+        photons: 30_000,
+        ..Default::default()
+    };
+    let r = run.trace(&mut ctx, round, &mut |_| false).unwrap();
+    assert!(r.cancelled && r.photons > 0, "{r:?}");
+    let e = run.coefficients(0).unwrap_err();
+    assert!(
+        e.status == ImapErrOutOfOrder && e.message.contains("patches 253 … 505"),
+        "{}",
+        e.message
+    );
+    assert_eq!(
+        run.coefficients(1).unwrap_err().status,
+        ImapErrIndexOutOfRange
+    );
+    // The next round completes it; a context with photons is refused a new run.
+    run.trace(&mut ctx, round, &mut |_| true).unwrap();
+    assert!(run.coefficients(0).is_ok());
+    let e = PatchRun::new(&mut ctx, 2, frame, vec![target(all.clone())], 0).unwrap_err();
+    assert_eq!(e.status, ImapErrOutOfOrder, "{}", e.message);
+    // Released, the context is the model again: no light, no photon; a new run may start.
+    let got = run.release(&mut ctx).unwrap();
+    assert_eq!(got.len(), 1);
+    assert_eq!((ctx.light_count(), ctx.report().photons), (0, 0));
+    let one_sided = PatchTarget {
+        side: 1,
+        ..target(all.clone())
+    };
+    let e = PatchRun::new(&mut ctx, 2, frame, vec![one_sided], 0).unwrap_err();
+    assert_eq!(e.status, ImapErrIndexOutOfRange, "{}", e.message);
+    PatchRun::new(&mut ctx, 2, frame, vec![target(all)], 0).unwrap();
+}

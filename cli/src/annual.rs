@@ -7,6 +7,7 @@ use crate::diag::printable;
 use crate::error::{fail, CliError, Result};
 use crate::grids::{self, Grid};
 use crate::settings::Settings;
+use imap::annual::trace::{PatchReport, PatchRound, PatchRun, PatchTarget};
 use imap::annual::{AnnualSky, Coefficients, DirectSun, MetricOptions, SunInVectors};
 use imap::SkyDesc;
 use std::io::Write;
@@ -67,6 +68,11 @@ pub struct AnnualOptions {
     /// above --ase-lx.
     #[arg(long)]
     pub shaded: Option<PathBuf>,
+    /// The sky's patches: Reinhart MF:N (1: Tregenza's 145, 2: 577, 4: 2305, each with the
+    /// ground). Finer patches smear the sky's bright parts less (docs/daylight.md) and
+    /// cost more photons for the same error per patch.
+    #[arg(long, default_value_t = 1)]
+    pub mf: u32,
     /// Draws of the coefficients for the metrics' confidence.
     #[arg(long, default_value_t = 100)]
     pub draws: usize,
@@ -148,7 +154,7 @@ pub fn annual(model: &Path, settings: Settings, o: &AnnualOptions) -> Result<()>
     }
     // The weather first: a bad file costs no run.
     let weather = imap::weather::read(&o.weather).map_err(|e| CliError(printable(&e.message)))?;
-    let sky = AnnualSky::from_weather(&weather, 1, SunInVectors::Left, o.ground_reflectance)
+    let sky = AnnualSky::from_weather(&weather, o.mf, SunInVectors::Left, o.ground_reflectance)
         .map_err(|e| {
             CliError(format!(
                 "{}: {}",
@@ -221,7 +227,17 @@ pub fn annual(model: &Path, settings: Settings, o: &AnnualOptions) -> Result<()>
         )?),
         _ => None,
     };
-    let (mut ctx, scene, mut report) = open;
+    let (mut ctx, scene, mut run) = open;
+    let mut report = run.report();
+    // An interrupt before every batch of patches had photons leaves patches unknown.
+    let incomplete = run.coefficients(0).is_err()
+        || shaded
+            .as_ref()
+            .is_some_and(|(_, _, r)| r.coefficients(0).is_err());
+    if let (Some(code), true) = (interrupted.status(), incomplete) {
+        eprintln!("imap: interrupted before every batch of patches had photons: no metrics");
+        std::process::exit(code);
+    }
     let mut shaded = shaded;
 
     std::fs::create_dir_all(&o.out).map_err(|e| CliError(format!("{}: {e}", o.out.display())))?;
@@ -269,8 +285,8 @@ pub fn annual(model: &Path, settings: Settings, o: &AnnualOptions) -> Result<()>
     if let Some(target) = o.target_sda {
         loop {
             let mut worst: f64 = 0.0;
-            for (g, sun) in scene.grids.iter().zip(&suns) {
-                let c = coefficients(&ctx, g)?;
+            for (gi, (g, sun)) in scene.grids.iter().zip(&suns).enumerate() {
+                let c = coefficients(&run, gi, g)?;
                 let m = imap::annual::metrics(&c, &sky, Some(sun), &options)
                     .map_err(|e| CliError(format!("annual: grid {}: {}", g.name, e.message)))?;
                 worst = worst.max(0.5 * (m.sda_interval.1 - m.sda_interval.0));
@@ -288,27 +304,28 @@ pub fn annual(model: &Path, settings: Settings, o: &AnnualOptions) -> Result<()>
             if worst <= target || interrupted.raised() || left <= 0.0 {
                 break;
             }
-            report = trace(&mut ctx, report.photons, left, o, "blinds open")?;
+            report = trace(&mut ctx, &mut run, report.photons, left, o, "blinds open")?;
             rounds += 1;
         }
     }
     let mut grids_json = Vec::new();
-    for (g, sun) in scene.grids.iter().zip(suns) {
-        let c = coefficients(&ctx, g)?;
+    for (gi, (g, sun)) in scene.grids.iter().zip(suns).enumerate() {
+        let c = coefficients(&run, gi, g)?;
         let (points, normals) = grids::point_frames(g);
         // The blinds-closed model's coefficients and direct sun at the same points.
         let closed = match &mut shaded {
-            Some((sctx, sscene, _)) => {
-                let Some(sg) = sscene.grids.iter().find(|x| x.name == g.name) else {
+            Some((sctx, sscene, srun)) => {
+                let Some(si) = sscene.grids.iter().position(|x| x.name == g.name) else {
                     fail!("--shaded: its settings have no grid '{}'", g.name);
                 };
+                let sg = &sscene.grids[si];
                 if sg.positions != g.positions {
                     fail!(
                         "--shaded: grid '{}' has other points than the open model's",
                         g.name
                     );
                 }
-                let sc = coefficients(sctx, sg)?;
+                let sc = coefficients(srun, si, sg)?;
                 let ss = DirectSun::new(
                     sctx,
                     &sky,
@@ -431,7 +448,11 @@ pub fn annual(model: &Path, settings: Settings, o: &AnnualOptions) -> Result<()>
             "hours": weather.hours.len(),
             "missing_hours": missing,
         },
-        "patches": "Tregenza (Reinhart MF:1, 145 + ground)",
+        "patches": if o.mf == 1 {
+            "Tregenza (Reinhart MF:1, 145 + ground)".to_string()
+        } else {
+            format!("Reinhart MF:{} ({} + ground)", o.mf, n - 1)
+        },
         "sun": "direct along its true line each hour (through smooth panes); inter-reflected through its patch's coefficient less that patch's direct part",
         "shaded": o.shaded.as_ref().map(|p| p.display().to_string()),
         "threshold_lx": o.threshold,
@@ -460,43 +481,56 @@ pub fn annual(model: &Path, settings: Settings, o: &AnnualOptions) -> Result<()>
 }
 
 /// The coefficients' run of one model state: the model with `settings`, the patch skies
-/// (oriented by `frame`) in their light groups, traced as `o` says (`what` names the state
-/// in the progress bar).
+/// (oriented by `frame`, in batches of light groups: `imap::annual::trace::PatchRun`) kept
+/// at every grid's points, traced as `o` says (`what` names the state in the progress bar).
 fn coefficients_run(
     model: &Path,
     settings: &Settings,
     (up, north): ([f64; 3], [f64; 3]),
     o: &AnnualOptions,
     what: &str,
-) -> Result<(imap::Context, crate::scene::LoadedScene, imap::Report)> {
+) -> Result<(imap::Context, crate::scene::LoadedScene, PatchRun)> {
     let (photons, time) = (o.photons.unwrap_or(0), o.time.unwrap_or(0.0));
     let (mut ctx, scene, _) = crate::output::load_with_camera(model, settings)?;
-    imap::annual::add_sky_patches(&mut ctx, 1, up, north)
+    let targets = scene
+        .grids
+        .iter()
+        .map(|g| PatchTarget {
+            mesh: g.id,
+            side: 0,
+            vertices: grids::point_vertices(g),
+        })
+        .collect();
+    let mut run = PatchRun::new(&mut ctx, o.mf, (up, north), targets, 0)
         .map_err(|e| CliError(format!("annual: {}", e.message)))?;
     if !o.quiet {
         eprintln!(
-            "imap: annual: {what}: {} grid points",
+            "imap: annual: {what}: {} grid points, {} run{} of at most {} patches",
             scene
                 .grids
                 .iter()
                 .map(|g| g.positions.len() / 3)
-                .sum::<usize>()
+                .sum::<usize>(),
+            run.batches().len(),
+            if run.batches().len() == 1 { "" } else { "s" },
+            imap::annual::trace::MAX_BATCH,
         );
     }
-    let report = trace(&mut ctx, photons, time, o, what)?;
-    Ok((ctx, scene, report))
+    trace(&mut ctx, &mut run, photons, time, o, what)?;
+    Ok((ctx, scene, run))
 }
 
 /// Traces `photons` more (and at most `time` seconds; either 0: no such limit) into the
-/// coefficients of `ctx`, with a progress bar.
+/// coefficients of `run`, with a progress bar.
 fn trace(
     ctx: &mut imap::Context,
+    run: &mut PatchRun,
     photons: u64,
     time: f64,
     o: &AnnualOptions,
     what: &str,
-) -> Result<imap::Report> {
-    let first = ctx.report().photons;
+) -> Result<PatchReport> {
+    let first = run.report().photons;
     let bar = if o.quiet {
         indicatif::ProgressBar::hidden()
     } else {
@@ -508,39 +542,35 @@ fn trace(
             .progress_chars("=> "),
     );
     let interrupted = crate::Interrupts::get();
+    let elapsed_before = run.report().elapsed_s;
     let mut progress = |p: &imap::Progress| -> bool {
         let mut frac: f64 = 0.0;
         if time > 0.0 {
-            frac = frac.max(p.elapsed_s / time);
+            frac = frac.max((p.elapsed_s - elapsed_before) / time);
         }
         if photons > 0 {
             frac = frac.max(p.photons.saturating_sub(first) as f64 / photons as f64);
         }
         bar.set_position((frac.min(1.0) * 1000.0) as u64);
-        bar.set_message(format!(
-            "coefficients, {what}: {} photons, error {:.2} %",
-            p.photons,
-            100.0 * p.rel_error
-        ));
+        bar.set_message(format!("coefficients, {what}: {} photons", p.photons));
         !interrupted.raised()
     };
-    let mut params = imap::RunParams {
+    let round = PatchRound {
         photons,
-        time_budget_s: time,
+        time_s: time,
         estimator: Some(crate::estimator(&o.estimator)?),
-        progress: Some(&mut progress),
-        ..imap::RunParams::default()
     };
-    let report = ctx
-        .run(&mut params)
+    let report = run
+        .trace(ctx, round, &mut progress)
         .map_err(|e| CliError(format!("annual: {}", e.message)))?;
     bar.finish_and_clear();
     Ok(report)
 }
 
-/// The grid's points' coefficients (`imap::annual::coefficients`).
-fn coefficients(ctx: &imap::Context, g: &Grid) -> Result<Coefficients> {
-    imap::annual::coefficients(ctx, g.id, 0, &grids::point_vertices(g), 1)
+/// Grid `gi`'s points' coefficients.
+fn coefficients(run: &PatchRun, gi: usize, g: &Grid) -> Result<Coefficients> {
+    run.coefficients(gi)
+        .cloned()
         .map_err(|e| CliError(format!("annual: grid {}: {}", g.name, e.message)))
 }
 

@@ -1472,6 +1472,60 @@ fn annual_metrics_of_an_open_grid_follow_the_hours_light() {
             assert!(sigma > 0.0 && (df - 1.0).abs() < 4.0 * sigma, "{csv}");
         }
     }
+    // Reinhart MF:2's 577 patches and the ground, traced in three runs of light groups:
+    // the same hours' light, so the same DA, and an open point's daylight factor 100 %.
+    let out = d.join("mf2");
+    let threshold = 0.5 * (e[1] + e[2]);
+    let r = imap(&[
+        "annual",
+        &o,
+        "--config",
+        &s,
+        "--weather",
+        &wea,
+        "--photons",
+        "1000000",
+        "--mf",
+        "2",
+        "--threshold",
+        &threshold.to_string(),
+        "--out",
+        out.to_str().unwrap(),
+        "--quiet",
+    ]);
+    assert!(r.status.success(), "{}", stderr(&r));
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("annual.json")).unwrap()).unwrap();
+    assert_eq!(json["patches"], "Reinhart MF:2 (577 + ground)", "{json}");
+    let csv = std::fs::read_to_string(out.join("annual_open.csv")).unwrap();
+    for row in csv.lines().skip(1) {
+        let row: Vec<f64> = row.split(',').map(|x| x.parse().unwrap()).collect();
+        assert_eq!(row[3], 0.75, "{csv}");
+        let (df, sigma) = (row[10], row[11]);
+        assert!(sigma > 0.0 && (df - 1.0).abs() < 4.0 * sigma, "{csv}");
+    }
+    for (mf, text) in [("0", "mf = 0"), ("17", "mf = 17")] {
+        let r = imap(&[
+            "annual",
+            &o,
+            "--config",
+            &s,
+            "--weather",
+            &wea,
+            "--photons",
+            "1000",
+            "--mf",
+            mf,
+            "--out",
+            out.to_str().unwrap(),
+            "--quiet",
+        ]);
+        assert!(
+            !r.status.success() && stderr(&r).contains(text),
+            "{}",
+            stderr(&r)
+        );
+    }
     let read = |out: &Path| -> serde_json::Value {
         serde_json::from_str(&std::fs::read_to_string(out.join("annual.json")).unwrap()).unwrap()
     };

@@ -115,6 +115,15 @@ impl Footprint {
         self.raise_group(l.group);
     }
 
+    /// Uncounts a light just removed (its group: `regroup`). A luminaire's table stays
+    /// counted: other placements may share it.
+    pub fn remove_light(&mut self, l: &Light) {
+        if let LightShape::Distant(d) = &l.shape {
+            let bytes = SKY_HELD_PER_CHANNEL_PIXEL.saturating_mul(d.image_pixels());
+            self.held = self.held.saturating_sub(bytes);
+        }
+    }
+
     /// A light's group changed: the largest group again.
     pub fn regroup(&mut self, scene: &Scene) {
         self.largest_group = scene.largest_light_group();

@@ -622,6 +622,21 @@ impl Context {
         Ok(self.scene.meshes.len() as u32 - 1)
     }
 
+    /// Removes every light after the first `count` (their ids are free again); emitting
+    /// meshes stay. Like adding one, only before photons are traced (after `reset`).
+    /// `annual::PatchRun` traces a sky's patches in batches of light groups this way.
+    pub fn truncate_lights(&mut self, count: usize) -> Result<()> {
+        self.check_unlocked("remove lights")?;
+        if count < self.scene.lights.len() {
+            for l in self.scene.lights.drain(count..) {
+                self.footprint.remove_light(&l);
+            }
+            self.footprint.regroup(&self.scene);
+            self.invalidate();
+        }
+        Ok(())
+    }
+
     pub(crate) fn add_light(&mut self, light: Light) -> Result<u32> {
         self.check_unlocked("add a light")?;
         self.footprint.add_light(&light);
@@ -1012,8 +1027,25 @@ impl Context {
         self.last_render = None;
     }
 
-    /// The prepared scene and its BVH (built on first use after a change).
+    /// The prepared scene and its BVH (built on first use after a change), for a run or
+    /// a render: refused without a light.
     fn prepare_scene(&mut self) -> Result<()> {
+        if self.prepared.is_none()
+            && self.scene.lights.is_empty()
+            && self.scene.meshes.iter().all(|m| m.exitance.is_none())
+            && !self.scene.meshes.is_empty()
+        {
+            bail!(
+                ImapErrNoLight,
+                "the scene has no light: add a light, a luminaire or an emitting mesh"
+            );
+        }
+        self.prepare_geometry()
+    }
+
+    /// The prepared scene and its BVH, with or without lights (straight lines need only
+    /// the geometry).
+    fn prepare_geometry(&mut self) -> Result<()> {
         if self.scene.meshes.is_empty() {
             bail!(
                 ImapErrNoGeometry,
@@ -1021,14 +1053,6 @@ impl Context {
             );
         }
         if self.prepared.is_none() {
-            if self.scene.lights.is_empty()
-                && self.scene.meshes.iter().all(|m| m.exitance.is_none())
-            {
-                bail!(
-                    ImapErrNoLight,
-                    "the scene has no light: add a light, a luminaire or an emitting mesh"
-                );
-            }
             let scene = PreparedScene::new(
                 &self.scene,
                 &self.photometry.efficacy,

@@ -59,6 +59,12 @@ impl Context {
         self.scene.lights.len()
     }
 
+    /// Checks that mesh `mesh` records side `side` (IMAP_ERR_NOT_RECORDED,
+    /// IMAP_ERR_INDEX_OUT_OF_RANGE otherwise), before anything is traced for it.
+    pub fn check_recorded_side(&self, mesh: u32, side: u32) -> Result<()> {
+        self.recorded_side(mesh, side).map(|_| ())
+    }
+
     /// The index of recording mesh `mesh`, whose side `side` exists.
     fn recorded_side(&self, mesh: u32, side: u32) -> Result<usize> {
         let i = self.mesh_index(mesh)?;

@@ -73,7 +73,7 @@ impl Context {
             };
             units.push(u);
         }
-        self.prepare_scene()?;
+        self.prepare_geometry()?;
         let threads = self.worker_threads().max(1);
         let p = self.prepared.as_ref().expect("prepared above");
         let tracer = Straight {

@@ -248,7 +248,8 @@ pub unsafe extern "C" fn imap_annual_sky_vector(
 /// as its group's layer (`imap_annual_coefficients` reads them). Turns on the per-group
 /// layers. The first patch's light id goes to `out_first_light` (NULL: not wanted).
 /// Returns IMAP_ERR_INVALID_ARGUMENT for MF:2 and finer (more patches than the 254 light
-/// groups: not supported yet), or as `imap_add_sky`. (Since 0.2.3.)
+/// groups: `imap_annual_trace_coefficients` traces them in batches), or as `imap_add_sky`.
+/// (Since 0.2.3.)
 ///
 /// # Safety
 /// `ctx` is a live handle; `zenith` and `north` are NULL or point to 3 doubles;
@@ -308,6 +309,117 @@ pub unsafe extern "C" fn imap_annual_coefficients(
         value.copy_from_slice(&got.value);
         sigma.copy_from_slice(&got.sigma);
         Ok(())
+    })
+}
+
+/// Traces the daylight coefficients of Reinhart MF:`mf` (1: Tregenza's 145 patches, 2:
+/// 577, 4: 2305, … 16; each with the ground as patch 0) at vertices `vertices[0 ..
+/// count)` of mesh `mesh` (`side` 0 front, 1 back): each patch a sky of 1 cd/m² (CIE
+/// D65) oriented by `zenith` and `north` (NULL: +z and +y), traced in runs of at most
+/// 253 patches (one light group each; docs/daylight.md, "Reinhart's finer patches"),
+/// `photons` over all runs (0: no limit) and at most `time_s` seconds (0: no limit; one of
+/// the two is needed), with `estimator` (an `IMAP_ESTIMATOR_*`; `IMAP_ESTIMATOR_DEFAULT`:
+/// gathering, which reaches a small sensor's coefficient of every patch). Per vertex and patch the illuminance
+/// per cd/m² of the patch, lx, goes to `out_value` and its standard error to `out_sigma`
+/// (each `count × patches` doubles, vertex by vertex, the ground's first), and the photons
+/// traced to `out_photons` (NULL: not wanted). The context's own lights are traced too
+/// and kept out of the coefficients. The context must have no photons (IMAP_ERR_OUT_OF_ORDER);
+/// it is left as it was, with the per-group layers on. Returns IMAP_ERR_MEMORY_BUDGET
+/// when the coefficients do not fit the budget, IMAP_ERR_INDEX_OUT_OF_RANGE for a vertex
+/// or mesh out of range, IMAP_ERR_INVALID_ARGUMENT for an `mf` out of range or no limit.
+/// (Since 0.2.3.)
+///
+/// # Safety
+/// `ctx` is a live handle; `zenith` and `north` NULL or 3 doubles; `vertices` holds
+/// `count` indices; the outputs hold `count × patches` writable doubles each;
+/// `out_photons` NULL or writable.
+#[no_mangle]
+pub unsafe extern "C" fn imap_annual_trace_coefficients(
+    ctx: *mut super::ImapContext,
+    mf: u32,
+    zenith: *const f64,
+    north: *const f64,
+    photons: u64,
+    time_s: f64,
+    estimator: u32,
+    mesh: u32,
+    side: u32,
+    vertices: *const u32,
+    count: usize,
+    out_value: *mut f64,
+    out_sigma: *mut f64,
+    out_photons: *mut u64,
+) -> ImapStatus {
+    with_context(ctx, |c| {
+        use crate::annual::trace::{PatchRound, PatchRun, PatchTarget};
+        let n = crate::scene::light::SkyPatches::reinhart(mf)?.count();
+        use crate::transport::direct::Estimator;
+        let estimator = match estimator {
+            super::run::IMAP_ESTIMATOR_DEFAULT | super::run::IMAP_ESTIMATOR_GATHER => {
+                Estimator::GATHER
+            }
+            super::run::IMAP_ESTIMATOR_PHOTONS => Estimator::Photons,
+            super::run::IMAP_ESTIMATOR_LIGHT_SAMPLING => Estimator::DEFAULT,
+            e => bail!(
+                ImapErrInvalidArgument,
+                "estimator = {e} is not an IMAP_ESTIMATOR_* value"
+            ),
+        };
+        if !(time_s.is_finite() && time_s >= 0.0) {
+            bail!(
+                ImapErrInvalidArgument,
+                "time_s = {time_s}: give seconds ≥ 0 (0: no time limit)"
+            );
+        }
+        let frame = (
+            vec3("zenith", zenith, [0.0, 0.0, 1.0])?,
+            vec3("north", north, [0.0, 1.0, 0.0])?,
+        );
+        let vertices: Vec<usize> = slice("vertices", vertices, count)?
+            .iter()
+            .map(|&v| v as usize)
+            .collect();
+        let total = count.checked_mul(n).ok_or_else(|| {
+            Error::new(
+                ImapStatus::ImapErrInvalidArgument,
+                "count × patches overflows",
+            )
+        })?;
+        let value = slice_mut("out_value", out_value, total)?;
+        let sigma = slice_mut("out_sigma", out_sigma, total)?;
+        let all = c.vertex_count(mesh)?;
+        if let Some(i) = vertices.iter().position(|&v| v >= all) {
+            bail!(
+                ImapErrIndexOutOfRange,
+                "vertices[{i}] = {}: mesh {mesh} has {all} vertices",
+                vertices[i]
+            );
+        }
+        let target = PatchTarget {
+            mesh,
+            side,
+            vertices,
+        };
+        let round = PatchRound {
+            photons,
+            time_s,
+            estimator: Some(estimator),
+        };
+        if photons == 0 && time_s == 0.0 {
+            bail!(
+                ImapErrInvalidArgument,
+                "photons = 0 and time_s = 0: give a photon count or seconds"
+            );
+        }
+        let mut run = PatchRun::new(c, mf, frame, vec![target], 0)?;
+        // The context is given back whether the round went through or not.
+        let traced = run.trace(c, round, &mut |_| true);
+        let got = run.release(c);
+        let report = traced?;
+        let got = got?;
+        value.copy_from_slice(&got[0].value);
+        sigma.copy_from_slice(&got[0].sigma);
+        super::write_optional(out_photons, report.photons)
     })
 }
 

@@ -291,8 +291,13 @@ impl PreparedScene {
             powers.push(total);
         }
         hold_in_media(scene, origin, &mut emitters);
-        let total_power: f64 = powers.iter().sum();
-        if !(total_power > 0.0 && total_power.is_finite()) {
+        let mut total_power: f64 = powers.iter().sum();
+        if emitters.is_empty() {
+            // A scene without light is prepared for its geometry (straight lines); a run or
+            // a render refuses it before any emitter is sampled (IMAP_ERR_NO_LIGHT).
+            powers.push(1.0);
+            total_power = 1.0;
+        } else if !(total_power > 0.0 && total_power.is_finite()) {
             bail!(
                 ImapErrInvalidArgument,
                 "the lights' total power is {total_power} W: too large to represent"

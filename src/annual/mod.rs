@@ -11,6 +11,8 @@
 //! comes from drawing the coefficients within their errors (a parametric bootstrap: C_p
 //! + σ_p N(0, 1) per sensor and patch) and computing the metric for each draw.
 
+pub mod trace;
+
 use crate::error::{bail, Result};
 use crate::sampling::PhotonRng;
 use crate::scene::light::{perez_parameters, perez_relative, SkyPatches};
@@ -191,7 +193,8 @@ pub fn patch_group(p: usize, count: usize) -> u32 {
 /// ground's below the horizon), oriented by `zenith` and `north`, each in its light group
 /// (`patch_group`), and turns the per-group layers on: a run then makes each patch's
 /// coefficients as its group's layer (`coefficients` reads them). Returns the first
-/// patch's light id. MF:2 and finer need more than the 254 light groups: refused.
+/// patch's light id. MF:2 and finer need more than the 254 light groups: refused
+/// (`trace::PatchRun` traces them in batches).
 pub fn add_sky_patches(
     ctx: &mut crate::context::Context,
     mf: u32,
@@ -202,7 +205,7 @@ pub fn add_sky_patches(
     if n > 255 {
         bail!(
             ImapErrInvalidArgument,
-            "mf = {mf}: MF:{mf}'s {n} patches need more light groups than the 254 a context has; only MF:1 (Tregenza) is supported yet"
+            "mf = {mf}: MF:{mf}'s {n} patches need more light groups than the 254 a context has: trace them in batches with imap_annual_trace_coefficients (annual::trace::PatchRun)"
         );
     }
     ctx.set_layers(crate::scene::LayerRequest {
