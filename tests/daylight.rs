@@ -497,13 +497,13 @@ fn tregenza_patch_layers_are_their_skies_coefficients_with_errors() {
         let light = ctx.add_sky(&one_patch(p)).unwrap();
         ctx.set_light_group(light, p as u32).unwrap();
     }
-    run_with(&mut ctx, photons(1_500_000), Estimator::DEFAULT);
+    run_with(&mut ctx, photons(3_000_000), Estimator::DEFAULT);
     // A patch's layer is the run of its sky alone (the cap, and a patch 66° high to the
     // south-east), vertex by vertex within the two runs' errors.
     for (k, p) in [145usize, 130].into_iter().enumerate() {
         let (mut alone, aid, _) = roof_room(71 + k as u64);
         alone.add_sky(&one_patch(p)).unwrap();
-        run_with(&mut alone, photons(150_000), Estimator::DEFAULT);
+        run_with(&mut alone, photons(400_000), Estimator::DEFAULT);
         let (a, sa) = layer_band0(&ctx, id, imap::Layer::Group(p as u32));
         let (b, sb) = layer_band0(&alone, aid, imap::Layer::Combined);
         let (mut worst, mut sum, mut n) = (0.0f64, 0.0, 0);
@@ -2245,6 +2245,12 @@ fn assert_patch_sky(
         })
         .collect();
     let l = |d: [f64; 3]| lum[patches.patch(d[2].clamp(-1.0, 1.0).asin(), d[0].atan2(d[1]))];
+    let (mut se, mut sr) = (0.0, 0.0);
+    for (e, r) in &got {
+        se += e;
+        sr += e * r;
+    }
+    eprintln!("{what}: weighted mean stated relative error {:.4}", sr / se);
     let want: Vec<Option<f64>> = (0..c.sensors)
         .map(|v| {
             Some(hat_average_with(floor, v, 4, |x, _| {

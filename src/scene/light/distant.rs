@@ -133,12 +133,38 @@ pub(super) struct Table {
     pub(super) cells: AliasTable,
 }
 
+/// Uniform directions over one sky patch: sin(altitude) in [`sin_lo`, `sin_hi`], azimuth
+/// (from north toward east) in [`az0`, `az0` + `width`].
+#[derive(Clone, Copy, Debug)]
+pub(super) struct PatchSampler {
+    sin_lo: f64,
+    sin_hi: f64,
+    az0: f64,
+    width: f64,
+}
+
+impl PatchSampler {
+    fn solid_angle(&self) -> f64 {
+        self.width * (self.sin_hi - self.sin_lo)
+    }
+
+    fn sample(&self, frame: &SkyFrame, u: [f64; 3]) -> DVec3 {
+        let cz = self.sin_lo + (self.sin_hi - self.sin_lo) * u[1];
+        let a = self.az0 + self.width * u[2];
+        let s = (1.0 - cz * cz).max(0.0).sqrt();
+        (frame.north * (s * a.cos()) + frame.east * (s * a.sin()) + frame.zenith * cz).normalize()
+    }
+}
+
 /// A distant source with its table, f's integrals and radiance per band per unit of f.
 #[derive(Clone)]
 pub struct DistantPart {
     pub frame: SkyFrame,
     pub radiance: Radiance,
     pub(super) table: Option<Table>,
+    /// A sky lit over one patch (a daylight coefficient's) samples that patch exactly,
+    /// not its table's cells: a Reinhart patch is smaller than a cell near the zenith.
+    pub(super) patch: Option<PatchSampler>,
     /// ∫ f dω, sr.
     pub integral: f64,
     /// ∫ f max(cos Z, 0) dω: the horizontal irradiance per unit of f's radiance, sr.
@@ -298,10 +324,14 @@ impl DistantPart {
                     Radiance::Image { .. } => 2,
                     _ => SKY_SUB,
                 };
+                let lit = LitPatches::of(&self.radiance);
                 let mut sum = 0.0;
                 for i in 0..t.rows {
                     let omega = t.solid_angle(i);
                     for j in 0..t.cols {
+                        if lit.as_ref().is_some_and(|l| !l.may_reach(t, i, j)) {
+                            continue;
+                        }
                         let f_cos = |d: DVec3| self.value(d) * d.dot(n).max(0.0);
                         sum += t.means_sub(&self.frame, i, j, sub, f_cos).0 * omega;
                     }
@@ -314,6 +344,13 @@ impl DistantPart {
     /// The sampling density of direction `d`, 1/sr.
     #[inline]
     pub fn pdf(&self, d: DVec3) -> f64 {
+        if let Some(p) = &self.patch {
+            return if self.value(d) > 0.0 {
+                1.0 / p.solid_angle()
+            } else {
+                0.0
+            };
+        }
         match &self.table {
             Some(t) => {
                 let (i, j) = t.cell(&self.frame, d);
@@ -335,6 +372,13 @@ impl DistantPart {
     /// A direction toward the source and its weight f / (p ∫f) (mean 1).
     #[inline]
     pub fn sample(&self, u: [f64; 3]) -> (DVec3, f64) {
+        if let Some(p) = &self.patch {
+            let d = p.sample(&self.frame, u);
+            // f is the patch's value over its solid angle: weight 1 (0 for a direction that
+            // rounding puts just outside the patch).
+            let w = self.value(d) * p.solid_angle() / self.integral;
+            return (d, w);
+        }
         let d = match (&self.table, &self.radiance) {
             (
                 None,
@@ -669,6 +713,7 @@ impl DistantPart {
             frame,
             radiance,
             table: None,
+            patch: None,
             integral: 0.0,
             horizontal: 0.0,
             per_band: Vec::new(),
@@ -701,6 +746,18 @@ impl DistantPart {
         )?);
         part.integral = integral;
         part.horizontal = horizontal;
+        if let Some(LitPatches(lit)) = &lit {
+            if let [(alt_lo, alt_hi, az, width)] = lit[..] {
+                if alt_lo >= 0.0 {
+                    part.patch = Some(PatchSampler {
+                        sin_lo: alt_lo.sin(),
+                        sin_hi: alt_hi.sin(),
+                        az0: az + rotation,
+                        width,
+                    });
+                }
+            }
+        }
         Ok(part)
     }
 }
@@ -747,9 +804,75 @@ mod tests {
                     assert!(integral > 0.0);
                     assert_eq!(part.integral, integral, "MF:{mf} patch {p}");
                     assert_eq!(part.horizontal, horizontal, "MF:{mf} patch {p}");
+                    if mf == 2 {
+                        // A portal's cosine integral skips the same cells.
+                        let n = DVec3::new(0.2, -0.9, 0.3).normalize();
+                        let t = part.table.as_ref().unwrap();
+                        let mut want = 0.0;
+                        for i in 0..t.rows {
+                            let omega = t.solid_angle(i);
+                            for j in 0..t.cols {
+                                let f_cos = |d: DVec3| part.value(d) * d.dot(n).max(0.0);
+                                want += t.means_sub(&frame, i, j, SKY_SUB, f_cos).0 * omega;
+                            }
+                        }
+                        assert_eq!(part.cos_integral(n), want, "MF:{mf} patch {p}");
+                    }
                 }
             }
         }
         assert!(skipped > 1_000_000, "{skipped} cells skipped");
+    }
+
+    /// A one-patch sky samples its patch exactly: every direction lies in the patch with
+    /// weight 1 and density 1/Ω, and the directions' mean cos Z times Ω is the patch's
+    /// exact cosine integral (MF:1 and MF:4, a cap, rows near the zenith and the
+    /// horizon, the row's first patch that straddles north; rotated).
+    #[test]
+    fn a_patch_sky_samples_its_patch_with_weight_one() {
+        let frame = SkyFrame::new([0.0, 0.0, 1.0], [0.3, 1.0, 0.0]).unwrap();
+        for (mf, p) in [
+            (1u32, 145usize),
+            (1, 1),
+            (1, 131),
+            (4, 2305),
+            (4, 2290),
+            (4, 1),
+            (4, 400),
+        ] {
+            let patches = super::super::SkyPatches::reinhart(mf).unwrap();
+            let mut values = vec![0.0; patches.count()];
+            values[p] = 2.5;
+            let radiance = Radiance::Patches {
+                patches: Arc::new(patches.clone()),
+                values: Arc::new(values),
+                rotation: 0.37,
+            };
+            let mut part = DistantPart::tabulated(frame, radiance, 0.37).unwrap();
+            part.integral = 2.5 * patches.solid_angle(p);
+            let omega = patches.solid_angle(p);
+            let n = 4000;
+            let (mut sum, mut sum2) = (0.0, 0.0);
+            for k in 0..n {
+                let u = [
+                    0.5,
+                    (k as f64 + 0.5) / n as f64,
+                    ((k * 7919) % n) as f64 / n as f64 + 0.1 / n as f64,
+                ];
+                let (d, w) = part.sample(u);
+                assert!((w - 1.0).abs() < 1e-12, "MF:{mf} patch {p}: weight {w}");
+                assert!((part.pdf(d) * omega - 1.0).abs() < 1e-12);
+                let c = d.dot(frame.zenith);
+                sum += c;
+                sum2 += c * c;
+            }
+            let mean = sum / n as f64;
+            let sd = ((sum2 / n as f64 - mean * mean).max(0.0) / n as f64).sqrt();
+            let want = patches.horizontal(p) / omega;
+            assert!(
+                (mean - want).abs() <= 4.0 * sd + 1e-9,
+                "MF:{mf} patch {p}: mean cos Z {mean} ± {sd}, exact {want}"
+            );
+        }
     }
 }

@@ -69,6 +69,7 @@ impl Distant {
                     one_minus_cos,
                 },
                 table: None,
+                patch: None,
                 integral: 2.0 * PI * one_minus_cos,
                 horizontal: normal * axis.dot(frame.zenith),
                 per_band,
