@@ -551,6 +551,168 @@ private:
     uint32_t bands_ = 3;
 };
 
+/* Annual daylight (docs/daylight.md, "Annual daylight"): sky vectors from a weather file,
+ * daylight coefficients, the direct sun on its lines, hourly illuminance and metrics. */
+
+/// Daylight coefficients at points: `value` and `sigma` hold points × patches, point by
+/// point, the ground's first (lx per cd/m², with standard errors).
+struct Coefficients {
+    size_t points = 0, patches = 0;
+    std::vector<double> value, sigma;
+    uint64_t photons = 0;
+};
+
+/// A year (or any run of hours) of sky vectors read from an EPW or .wea file. Not
+/// copyable; movable.
+class AnnualSky {
+public:
+    /// Reads `path` over Reinhart MF:`mf` patches, the ground glowing at `ground_reflectance`.
+    AnnualSky(const std::string& path, uint32_t mf, double ground_reflectance = 0.2) {
+        check(imap_annual_sky_read(path.c_str(), mf, ground_reflectance, &sky_));
+        check(imap_annual_sky_size(sky_, &hours_, &patches_));
+    }
+    ~AnnualSky() { imap_annual_sky_free(sky_); }
+    AnnualSky(const AnnualSky&) = delete;
+    AnnualSky& operator=(const AnnualSky&) = delete;
+    AnnualSky(AnnualSky&& o) noexcept
+        : sky_(std::exchange(o.sky_, nullptr)), hours_(o.hours_), patches_(o.patches_) {}
+    AnnualSky& operator=(AnnualSky&& o) noexcept {
+        if (this != &o) {
+            imap_annual_sky_free(sky_);
+            sky_ = std::exchange(o.sky_, nullptr);
+            hours_ = o.hours_, patches_ = o.patches_;
+        }
+        return *this;
+    }
+    size_t hours() const noexcept { return hours_; }
+    /// Patches per vector, the ground's included.
+    size_t patches() const noexcept { return patches_; }
+    ImapAnnualHour hour(size_t h) const {
+        ImapAnnualHour a;
+        check(imap_annual_sky_hour(sky_, h, &a, sizeof a));
+        return a;
+    }
+    /// Hour `h`'s patch luminances, cd/m².
+    std::vector<double> vector(size_t h) const {
+        std::vector<double> v(patches_);
+        check(imap_annual_sky_vector(sky_, h, v.data(), v.size()));
+        return v;
+    }
+    const ImapAnnualSky* get() const noexcept { return sky_; }
+
+private:
+    ImapAnnualSky* sky_ = nullptr;
+    size_t hours_ = 0, patches_ = 0;
+};
+
+/// Traces the coefficients of MF:`mf` at `vertices` of mesh `mesh` (imap_annual_trace_coefficients:
+/// any subdivision, in batches of light groups; the context is left as it was).
+inline Coefficients trace_coefficients(Context& ctx, uint32_t mf, uint32_t mesh, uint32_t side,
+                                       const std::vector<uint32_t>& vertices, uint64_t photons,
+                                       double time_s = 0, uint32_t estimator = IMAP_ESTIMATOR_DEFAULT,
+                                       const std::array<double, 3>& zenith = {0, 0, 1},
+                                       const std::array<double, 3>& north = {0, 1, 0}) {
+    // The patch count of MF:n: 144 n² + 1 (the ground first).
+    Coefficients c;
+    c.points = vertices.size();
+    c.patches = 144u * mf * mf + 2u;
+    if (mf == 0 || mf > 16) c.patches = 1; /* the library names the bad mf */
+    c.value.resize(c.points * c.patches);
+    c.sigma.resize(c.points * c.patches);
+    check(imap_annual_trace_coefficients(ctx.get(), mf, zenith.data(), north.data(), photons, time_s, estimator,
+                                         mesh, side, vertices.data(), vertices.size(), c.value.data(),
+                                         c.sigma.data(), &c.photons),
+          ctx.get());
+    return c;
+}
+
+/// The sun's direct light on its true line each hour at points (x, y, z each) whose
+/// measuring sides face `normals`. Not copyable; movable.
+class DirectSun {
+public:
+    DirectSun(Context& ctx, const AnnualSky& sky, const std::vector<double>& points, const std::vector<double>& normals,
+              uint64_t seed = 1, const std::array<double, 3>& zenith = {0, 0, 1},
+              const std::array<double, 3>& north = {0, 1, 0})
+        : points_(points.size() / 3) {
+        if (normals.size() != points.size() || points.size() % 3 != 0)
+            throw Error(IMAP_ERR_INVALID_ARGUMENT, "points and normals must hold 3 doubles per point each");
+        check(imap_direct_sun_new(ctx.get(), sky.get(), points.data(), normals.data(), points_, zenith.data(),
+                                  north.data(), seed, &sun_),
+              ctx.get());
+    }
+    ~DirectSun() { imap_direct_sun_free(sun_); }
+    DirectSun(const DirectSun&) = delete;
+    DirectSun& operator=(const DirectSun&) = delete;
+    DirectSun(DirectSun&& o) noexcept : sun_(std::exchange(o.sun_, nullptr)), points_(o.points_) {}
+    DirectSun& operator=(DirectSun&& o) noexcept {
+        if (this != &o) {
+            imap_direct_sun_free(sun_);
+            sun_ = std::exchange(o.sun_, nullptr);
+            points_ = o.points_;
+        }
+        return *this;
+    }
+    /// Hour `h`'s direct illuminance at every point, lx.
+    std::vector<double> hour(size_t h) const {
+        std::vector<double> e(points_);
+        check(imap_direct_sun_hour(sun_, h, e.data(), e.size()));
+        return e;
+    }
+    const ImapDirectSun* get() const noexcept { return sun_; }
+
+private:
+    ImapDirectSun* sun_ = nullptr;
+    size_t points_ = 0;
+};
+
+/// Illuminance and its standard error, hour by hour then point by point.
+struct Hourly {
+    std::vector<double> value, sigma;
+};
+
+/// Hours [`first`, `first` + `hours`) at every point (`sun`: null for sky vectors that hold
+/// the sun).
+inline Hourly annual_hourly(const AnnualSky& sky, const Coefficients& c, const DirectSun* sun, size_t first,
+                            size_t hours) {
+    Hourly h;
+    h.value.resize(hours * c.points);
+    h.sigma.resize(hours * c.points);
+    check(imap_annual_hourly(sky.get(), c.value.data(), c.sigma.data(), c.points, sun ? sun->get() : nullptr, first,
+                             hours, h.value.data(), h.sigma.data()));
+    return h;
+}
+
+inline ImapAnnualOptions annual_options() {
+    ImapAnnualOptions o;
+    check(imap_annual_options_default(&o, sizeof o));
+    return o;
+}
+
+/// The metrics of a grid and of each point.
+struct AnnualMetrics {
+    ImapAnnualMetrics grid{};
+    std::vector<ImapSensorMetrics> points;
+};
+
+inline AnnualMetrics annual_metrics(const AnnualSky& sky, const Coefficients& c, const DirectSun* sun,
+                                    const ImapAnnualOptions& options = annual_options()) {
+    AnnualMetrics m;
+    m.points.resize(c.points);
+    check(imap_annual_metrics(sky.get(), c.value.data(), c.sigma.data(), c.points, sun ? sun->get() : nullptr,
+                              &options, &m.grid, sizeof m.grid, m.points.data(), sizeof(ImapSensorMetrics)));
+    return m;
+}
+
+/// Each point's daylight factor (0–1) under the CIE overcast sky, with its standard error.
+inline Hourly daylight_factor(const Coefficients& c, uint32_t mf, double ground_reflectance = 0.2) {
+    Hourly d;
+    d.value.resize(c.points);
+    d.sigma.resize(c.points);
+    check(imap_daylight_factor(c.value.data(), c.sigma.data(), c.points, mf, ground_reflectance, d.value.data(),
+                               d.sigma.data()));
+    return d;
+}
+
 }  // namespace imap
 
 #endif /* IMAP_HPP */

@@ -1,0 +1,110 @@
+// Annual daylight through the C++ wrapper (imap.hpp): a year of sky vectors from a .wea
+// file, Reinhart MF:2 coefficients at an open point (traced in batches of light groups),
+// the direct sun on its lines, the hourly illuminance, the metrics and the daylight
+// factor. An open horizontal point must read each hour's global horizontal illuminance
+// and a daylight factor of 1; bad input throws imap::Error with its status.
+#include <imap.hpp>
+
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <string>
+#include <vector>
+
+#include <unistd.h>
+
+static int failures = 0;
+static const double kPi = 3.14159265358979323846;
+#define CHECK(cond, ...)                      \
+    do {                                      \
+        if (!(cond)) {                        \
+            std::printf("FAIL " __VA_ARGS__); \
+            std::printf("\n");                \
+            failures++;                       \
+        }                                     \
+    } while (0)
+
+int main() {
+    // Four hours at 48 N: night, two overcast, one sunny.
+    char path[] = "/tmp/imap_annual_hpp_XXXXXX.wea";
+    int fd = mkstemps(path, 4);
+    if (fd < 0) return 1;
+    const std::string wea =
+        "place Cpp\nlatitude 48\nlongitude -11\ntime_zone -15\nsite_elevation 0\n"
+        "weather_data_file_units 1\n6 21 2.5 0 0\n6 21 9.5 0 80\n6 21 11.5 0 150\n6 21 12.5 600 100\n";
+    if (write(fd, wea.data(), wea.size()) != static_cast<ssize_t>(wea.size())) return 1;
+    close(fd);
+    try {
+        imap::AnnualSky sky(path, 2);
+        CHECK(sky.hours() == 4 && sky.patches() == 578, "sky size %zu × %zu", sky.hours(), sky.patches());
+        imap::AnnualSky moved = std::move(sky);
+        CHECK(moved.vector(1).size() == 578, "a moved sky keeps its vectors");
+
+        auto cfg = imap::config();
+        cfg.threads = 2, cfg.seed = 5;
+        imap::Context ctx(cfg);
+        auto mat = imap::material();
+        double black = 0;
+        mat.diffuse_reflectance = &black, mat.diffuse_reflectance_count = 1;
+        uint32_t m = ctx.add_material(mat);
+        std::vector<double> plate = {-50, -50, -20, 50, -50, -20, 50, 50, -20, -50, 50, -20};
+        std::vector<uint32_t> plate_idx = {0, 1, 2, 0, 2, 3};
+        auto mesh = imap::mesh();
+        mesh.positions = plate.data(), mesh.vertex_count = 4, mesh.indices = plate_idx.data(),
+        mesh.triangle_count = 2, mesh.material = m;
+        ctx.add_mesh(mesh);
+        std::vector<double> sensor = {0, 0, 1, -0.1, -0.1, 1, 0.1, -0.1, 1, 0.1, 0.1, 1, -0.1, 0.1, 1};
+        std::vector<uint32_t> sensor_idx = {0, 1, 2, 0, 2, 3, 0, 3, 4, 0, 4, 1};
+        mesh = imap::mesh();
+        mesh.positions = sensor.data(), mesh.vertex_count = 5, mesh.indices = sensor_idx.data(),
+        mesh.triangle_count = 4, mesh.material = m, mesh.flags = IMAP_MESH_SENSOR | IMAP_MESH_RECORD;
+        uint32_t id = ctx.add_mesh(mesh);
+
+        imap::Coefficients c = imap::trace_coefficients(ctx, 2, id, 0, {0}, 300000);
+        CHECK(c.points == 1 && c.patches == 578 && c.photons >= 300000, "coefficients %zu × %zu, %llu photons",
+              c.points, c.patches, static_cast<unsigned long long>(c.photons));
+        imap::Hourly df = imap::daylight_factor(c, 2);
+        CHECK(std::fabs(df.value[0] - 1) < 4 * df.sigma[0] && df.sigma[0] < 0.1, "daylight factor %g ± %g",
+              df.value[0], df.sigma[0]);
+
+        imap::DirectSun sun(ctx, moved, {0, 0, 1}, {0, 0, 1});
+        imap::Hourly e = imap::annual_hourly(moved, c, &sun, 0, 4);
+        CHECK(e.value[0] == 0, "night reads %g", e.value[0]);
+        for (size_t h = 1; h < 4; h++) {
+            ImapAnnualHour a = moved.hour(h);
+            double want = a.diffuse_horizontal_lx + a.direct_normal_lx * std::cos(a.sun_zenith_deg * kPi / 180);
+            CHECK(std::fabs(e.value[h] - want) < 4 * e.sigma[h] + 0.01 * want, "hour %zu: %g ± %g lx, want %g", h,
+                  e.value[h], e.sigma[h], want);
+            std::printf("hour %zu: %.0f ± %.0f lx (E_h %.0f)\n", h, e.value[h], e.sigma[h], want);
+        }
+        auto o = imap::annual_options();
+        o.ase_hours = 0;
+        imap::AnnualMetrics metrics = imap::annual_metrics(moved, c, &sun, o);
+        CHECK(metrics.grid.occupied_hours == 3 && metrics.grid.sda == 1 && metrics.grid.ase == 1,
+              "metrics: %llu occupied hours, sDA %g, ASE %g",
+              static_cast<unsigned long long>(metrics.grid.occupied_hours), metrics.grid.sda, metrics.grid.ase);
+        CHECK(metrics.points.size() == 1 && metrics.points[0].da == 1, "the point's DA");
+
+        bool thrown = false;
+        try {
+            imap::trace_coefficients(ctx, 0, id, 0, {0}, 1000);
+        } catch (const imap::Error& err) {
+            thrown = err.status() == IMAP_ERR_INVALID_ARGUMENT;
+            std::printf("mf 0: %s\n", err.what());
+        }
+        CHECK(thrown, "mf 0 throws IMAP_ERR_INVALID_ARGUMENT");
+        thrown = false;
+        try {
+            imap::AnnualSky none("/nonexistent/site.epw", 1);
+        } catch (const imap::Error& err) {
+            thrown = err.status() == IMAP_ERR_IO;
+        }
+        CHECK(thrown, "a missing weather file throws IMAP_ERR_IO");
+    } catch (const imap::Error& err) {
+        std::printf("FAIL unexpected %s\n", err.what());
+        failures++;
+    }
+    std::remove(path);
+    std::printf("%s\n", failures ? "FAILED" : "all passed");
+    return failures ? 1 : 0;
+}
