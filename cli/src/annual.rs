@@ -61,6 +61,11 @@ pub struct AnnualOptions {
     /// as many again each round until it is, or --time (needed) runs out.
     #[arg(long)]
     pub target_sda: Option<f64>,
+    /// Stop when, on every grid, each EN 17037 level's two shares of daylight hours (at
+    /// its target and at its minimum illuminance) are known to ± this (the half-width of
+    /// their 95 % intervals); with --target-sda, when both are. Rounds as --target-sda's.
+    #[arg(long)]
+    pub target_en17037: Option<f64>,
     /// The model with its blinds closed: TOML settings for the same model (a blind's
     /// material, or grids and materials as the open settings with the glazing a diffuse
     /// transmitter). Its coefficients are traced as the open model's, and IES LM-83's rule
@@ -138,20 +143,29 @@ pub fn annual(model: &Path, settings: Settings, o: &AnnualOptions) -> Result<()>
     if photons == 0 && (time.is_nan() || time <= 0.0) {
         fail!("annual: give --photons or --time for the coefficients' run");
     }
-    if let Some(t) = o.target_sda {
+    for (flag, target, what) in [
+        ("--target-sda", o.target_sda, "sDA's 95 % interval"),
+        (
+            "--target-en17037",
+            o.target_en17037,
+            "EN 17037's time shares' 95 % intervals",
+        ),
+    ] {
+        let Some(t) = target else { continue };
         if !(t > 0.0 && t < 1.0) {
-            fail!("--target-sda {t}: give the half-width of sDA's 95 % interval, between 0 and 1 (0.01: one percentage point)");
+            fail!("{flag} {t}: give the half-width of {what}, between 0 and 1 (0.01: one percentage point)");
         }
         if time.is_nan() || time <= 0.0 {
-            fail!("--target-sda needs --time: the longest the rounds may take");
+            fail!("{flag} needs --time: the longest the rounds may take");
         }
         if o.shaded.is_some() {
-            fail!("--target-sda with --shaded is not supported yet: run with --photons or --time");
+            fail!("{flag} with --shaded is not supported yet: run with --photons or --time");
         }
         if o.draws < 20 {
-            fail!("--target-sda reads sDA's interval from the draws: give --draws 20 or more");
+            fail!("{flag} reads {what} from the draws: give --draws 20 or more");
         }
     }
+    let targeted = o.target_sda.is_some() || o.target_en17037.is_some();
     // The weather first: a bad file costs no run.
     let weather = imap::weather::read(&o.weather).map_err(|e| CliError(printable(&e.message)))?;
     let sky = AnnualSky::from_weather(&weather, o.mf, SunInVectors::Left, o.ground_reflectance)
@@ -209,12 +223,13 @@ pub fn annual(model: &Path, settings: Settings, o: &AnnualOptions) -> Result<()>
     }
     let interrupted = crate::Interrupts::get();
     let clock = std::time::Instant::now();
-    let first = match o.target_sda {
-        Some(_) => AnnualOptions {
+    let first = if targeted {
+        AnnualOptions {
             photons: Some(o.photons.unwrap_or(100_000)),
             ..o.clone()
-        },
-        None => o.clone(),
+        }
+    } else {
+        o.clone()
     };
     let open = coefficients_run(model, &settings, (up, north), &first, "blinds open")?;
     let shaded = match shaded_settings {
@@ -279,29 +294,49 @@ pub fn annual(model: &Path, settings: Settings, o: &AnnualOptions) -> Result<()>
             .map_err(|e| CliError(format!("annual: grid {}: {}", g.name, e.message)))?,
         );
     }
-    // --target-sda: as many photons again each round until every grid's sDA is known.
+    // --target-sda, --target-en17037: as many photons again each round until every
+    // grid's metrics are known.
     let mut rounds = 1;
     let mut reached = None;
-    if let Some(target) = o.target_sda {
+    if targeted {
         loop {
-            let mut worst: f64 = 0.0;
+            // The widest half-interval of each targeted metric over the grids.
+            let (mut sda, mut en): (f64, f64) = (0.0, 0.0);
             for (gi, (g, sun)) in scene.grids.iter().zip(&suns).enumerate() {
                 let c = coefficients(&run, gi, g)?;
                 let m = imap::annual::metrics(&c, &sky, Some(sun), &options)
                     .map_err(|e| CliError(format!("annual: grid {}: {}", g.name, e.message)))?;
-                worst = worst.max(0.5 * (m.sda_interval.1 - m.sda_interval.0));
+                sda = sda.max(0.5 * (m.sda_interval.1 - m.sda_interval.0));
+                for l in m.en17037.iter().flat_map(|e| &e.levels) {
+                    en = en
+                        .max(0.5 * (l.target_interval.1 - l.target_interval.0))
+                        .max(0.5 * (l.minimum_interval.1 - l.minimum_interval.0));
+                }
+            }
+            let mut done = true;
+            let mut said = Vec::new();
+            for (name, worst, target) in [
+                ("sDA", sda, o.target_sda),
+                ("EN 17037's shares", en, o.target_en17037),
+            ] {
+                let Some(target) = target else { continue };
+                done &= worst <= target;
+                said.push(format!(
+                    "{name} known to ± {:.2} % (target ± {:.2} %)",
+                    100.0 * worst,
+                    100.0 * target
+                ));
             }
             if !o.quiet {
                 eprintln!(
-                    "imap: annual: round {rounds}: {} photons, sDA known to ± {:.2} % (target ± {:.2} %)",
+                    "imap: annual: round {rounds}: {} photons, {}",
                     report.photons,
-                    100.0 * worst,
-                    100.0 * target
+                    said.join(", ")
                 );
             }
-            reached = Some(worst <= target);
+            reached = Some(done);
             let left = time - clock.elapsed().as_secs_f64();
-            if worst <= target || interrupted.raised() || left <= 0.0 {
+            if done || interrupted.raised() || left <= 0.0 {
                 break;
             }
             report = trace(&mut ctx, &mut run, report.photons, left, o, "blinds open")?;
@@ -461,6 +496,11 @@ pub fn annual(model: &Path, settings: Settings, o: &AnnualOptions) -> Result<()>
         "draws": o.draws,
         "photons": report.photons,
         "target_sda": o.target_sda.map(|t| serde_json::json!({
+            "half_width_95": t,
+            "reached": reached,
+            "rounds": rounds,
+        })),
+        "target_en17037": o.target_en17037.map(|t| serde_json::json!({
             "half_width_95": t,
             "reached": reached,
             "rounds": rounds,

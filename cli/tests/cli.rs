@@ -1615,6 +1615,74 @@ fn annual_metrics_of_an_open_grid_follow_the_hours_light() {
             assert!(rounds >= 2 && half > 0.01, "{json}");
         }
     }
+    // --target-en17037: one lit hour (the daylight hour: the brightest half of two) whose
+    // open points read 2000 lx meets every level once the points' coefficients are known
+    // to some tens of per cent (a few rounds); at 750 lx, the high level's target, half
+    // the points fall short in each draw and the target share is 0 or 1: the rounds go
+    // on until --time.
+    let lit_hour = |w: f64| {
+        format!(
+            "place Test\nlatitude 48\nlongitude -11\ntime_zone -15\nsite_elevation 0\n\
+             weather_data_file_units 1\n6 21 2.5 0 0\n6 21 11.5 0 {w}\n"
+        )
+    };
+    let e_h = |w: f64| {
+        let weather = imap::weather::parse_wea(&lit_hour(w), "t.wea").unwrap();
+        let sky = imap::annual::AnnualSky::from_weather(
+            &weather,
+            1,
+            imap::annual::SunInVectors::Left,
+            0.2,
+        )
+        .unwrap();
+        sky.hours[1].diffuse_horizontal_lx
+    };
+    for (lx, reached) in [(2000.0, true), (750.0, false)] {
+        // The diffuse irradiance that gives `lx` (the Perez efficacy depends on it).
+        let (mut lo, mut hi) = (0.1, 100.0);
+        for _ in 0..60 {
+            let mid = 0.5 * (lo + hi);
+            if e_h(mid) < lx {
+                lo = mid;
+            } else {
+                hi = mid;
+            }
+        }
+        assert!((e_h(hi) / lx - 1.0).abs() < 1e-6, "{}", e_h(hi));
+        let w = write(d, &format!("en{lx}.wea"), &lit_hour(hi));
+        let out = d.join(format!("en{lx}"));
+        let r = imap(&[
+            "annual",
+            &o,
+            "--config",
+            &s,
+            "--weather",
+            &w,
+            "--photons",
+            "50000",
+            "--time",
+            "3",
+            "--target-en17037",
+            "0.1",
+            "--out",
+            out.to_str().unwrap(),
+            "--quiet",
+        ]);
+        assert!(r.status.success(), "{}", stderr(&r));
+        let json = read(&out);
+        let t = &json["target_en17037"];
+        assert_eq!(t["reached"], reached, "{json}");
+        let rounds = t["rounds"].as_u64().unwrap();
+        let high = &json["grids"][0]["en17037"]["levels"][2];
+        assert_eq!(high["name"], "high", "{json}");
+        let i = &high["target_interval_95"];
+        let half = 0.5 * (i[1].as_f64().unwrap() - i[0].as_f64().unwrap());
+        if reached {
+            assert!(half <= 0.1, "{json}");
+        } else {
+            assert!(rounds >= 2 && half > 0.1, "{json}");
+        }
+    }
     // LM-83's blinds: with a blinds-closed model (here the same settings, so the same
     // coefficients), the sunny hour has every point in the sun: the blinds close in it,
     // and the metrics are those without blinds.
