@@ -387,6 +387,23 @@ pub fn annual(model: &Path, settings: Settings, o: &AnnualOptions) -> Result<()>
         .map_err(|e| CliError(format!("annual: grid {}: {}", g.name, e.message)))?;
         let df = imap::annual::daylight_factor(&c, &sky.patches, o.ground_reflectance)
             .map_err(|e| CliError(format!("annual: grid {}: {}", g.name, e.message)))?;
+        // Points whose light is poorly known: a daylight factor with a relative error over
+        // 10 %, or 0 in a lit grid (no photon reached it: dark, or too few photons; its
+        // stated error is then 0 too).
+        let lit = df.iter().any(|x| x.0 > 0.0);
+        let poor = df.iter().filter(|(v, s)| *v > 0.0 && s / v > 0.1).count();
+        let unreached = if lit {
+            df.iter().filter(|(v, _)| *v == 0.0).count()
+        } else {
+            0
+        };
+        if poor + unreached > 0 {
+            eprintln!(
+                "imap: warning: annual: grid {}: {poor} of {} points have daylight factors known only to worse than 10 %, and {unreached} read 0 (no photon reached them): their metrics are not to be trusted; trace more photons (--photons, --time, --target-sda)",
+                g.name,
+                df.len()
+            );
+        }
         write_csv(&o.out.join(format!("annual_{}.csv", g.name)), g, &m, &df)?;
         write_pictures(&o.out, g, &m, &df)?;
         write_temporal_map(
@@ -466,6 +483,8 @@ pub fn annual(model: &Path, settings: Settings, o: &AnnualOptions) -> Result<()>
                 "mean": df.iter().map(|x| x.0).sum::<f64>() / df.len().max(1) as f64,
                 "min": df.iter().map(|x| x.0).fold(f64::INFINITY, f64::min),
                 "max": df.iter().map(|x| x.0).fold(f64::NEG_INFINITY, f64::max),
+                "points_over_10_percent_error": poor,
+                "points_at_zero": unreached,
             },
             "mean_da": mean(|s| s.da),
             "mean_cda": mean(|s| s.cda),
@@ -512,6 +531,9 @@ pub fn annual(model: &Path, settings: Settings, o: &AnnualOptions) -> Result<()>
     });
     let path = o.out.join("annual.json");
     std::fs::write(&path, serde_json::to_string_pretty(&json).expect("json"))
+        .map_err(|e| CliError(format!("{}: {e}", path.display())))?;
+    let path = o.out.join("annual_report.md");
+    std::fs::write(&path, report_text(&json))
         .map_err(|e| CliError(format!("{}: {e}", path.display())))?;
     if let Some(code) = interrupted.status() {
         eprintln!("imap: interrupted: the metrics are those of the coefficients traced until then");
@@ -698,6 +720,170 @@ fn write_temporal_map(
     }
     crate::raster::draw_legend_in(&mut img, w as u32, h as u32, top, "lx");
     crate::raster::write_png(path, w as u32, h as u32, &img)
+}
+
+/// The run's report for people (annual_report.md): what was computed from what, and per
+/// grid every metric with its confidence and the pictures; read from annual.json's values.
+fn report_text(json: &serde_json::Value) -> String {
+    use std::fmt::Write as _;
+    let f = |v: &serde_json::Value| v.as_f64().unwrap_or(f64::NAN);
+    let pc = |v: &serde_json::Value| format!("{:.1} %", 100.0 * f(v));
+    let interval =
+        |v: &serde_json::Value| format!("{:.1}–{:.1} %", 100.0 * f(&v[0]), 100.0 * f(&v[1]));
+    let w = &json["weather"];
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "# Annual daylight: {}\n",
+        w["site"].as_str().unwrap_or("?")
+    );
+    let _ = writeln!(
+        s,
+        "- Weather: `{}`, {:.2}° N, {:.2}° E, UTC{:+}; {} hours, {} with missing radiation (left out).",
+        w["file"].as_str().unwrap_or("?"),
+        f(&w["latitude_deg"]),
+        f(&w["longitude_deg"]),
+        f(&w["utc_offset_hours"]),
+        w["hours"],
+        w["missing_hours"]
+    );
+    let _ = writeln!(
+        s,
+        "- Sky: {}; ground reflectance {}. Sun: {}.",
+        json["patches"].as_str().unwrap_or("?"),
+        json["ground_reflectance"],
+        json["sun"].as_str().unwrap_or("?")
+    );
+    let _ = writeln!(
+        s,
+        "- Coefficients: {} photons. Confidence: {} draws of the coefficients within their errors (95 % intervals: their 2.5 % and 97.5 % quantiles).",
+        json["photons"], json["draws"]
+    );
+    let _ = writeln!(
+        s,
+        "- Occupied hours {} (local standard time); DA and sDA at {:.0} lx.",
+        json["occupied"].as_str().unwrap_or("?"),
+        f(&json["threshold_lx"])
+    );
+    for key in ["target_sda", "target_en17037"] {
+        let t = &json[key];
+        if t.is_object() {
+            let _ = writeln!(
+                s,
+                "- Stopping on `{key}` ± {}: {} after {} rounds.",
+                pc(&t["half_width_95"]),
+                if t["reached"] == true {
+                    "reached"
+                } else {
+                    "not reached"
+                },
+                t["rounds"]
+            );
+        }
+    }
+    if json["interrupted"] == true {
+        let _ = writeln!(
+            s,
+            "- Interrupted: the metrics of the photons traced until then."
+        );
+    }
+    if let Some(shaded) = json["shaded"].as_str() {
+        let _ = writeln!(s, "- Blinds (IES LM-83's rule): closed model `{shaded}`.");
+    }
+    for g in json["grids"].as_array().into_iter().flatten() {
+        let name = g["name"].as_str().unwrap_or("?");
+        let _ = writeln!(
+            s,
+            "\n## Grid {name}: {} points, {} occupied hours\n",
+            g["points"], g["occupied_hours"]
+        );
+        let _ = writeln!(s, "| metric | value | 95 % interval |\n|---|---|---|");
+        let _ = writeln!(
+            s,
+            "| sDA{:.0}/50 % | {} | {} |",
+            f(&json["threshold_lx"]),
+            pc(&g["sda"]["value"]),
+            interval(&g["sda"]["interval_95"])
+        );
+        let ase = &g["ase"];
+        let _ = writeln!(
+            s,
+            "| ASE{:.0}/{} h | {} | traced lines: no Monte Carlo error |",
+            f(&ase["lx"]),
+            ase["hours"],
+            pc(&ase["value"])
+        );
+        if let Some(h) = g["blinds_closed_hours"].as_u64() {
+            let _ = writeln!(s, "| hours with the blinds closed | {h} | |");
+        }
+        let _ = writeln!(s, "| mean DA | {} | |", pc(&g["mean_da"]));
+        let _ = writeln!(s, "| mean cDA | {} | |", pc(&g["mean_cda"]));
+        let u = &g["mean_udi"];
+        let _ = writeln!(
+            s,
+            "| mean UDI below / useful / above | {} / {} / {} | |",
+            pc(&u[0]),
+            pc(&u[1]),
+            pc(&u[2])
+        );
+        let df = &g["daylight_factor"];
+        let _ = writeln!(
+            s,
+            "| daylight factor, mean (min–max) | {} ({:.2}–{:.2} %) | per point in the CSV |",
+            format!("{:.2} %", 100.0 * f(&df["mean"])),
+            100.0 * f(&df["min"]),
+            100.0 * f(&df["max"])
+        );
+        let (poor, zero) = (
+            df["points_over_10_percent_error"].as_u64().unwrap_or(0),
+            df["points_at_zero"].as_u64().unwrap_or(0),
+        );
+        if poor + zero > 0 {
+            let _ = writeln!(
+                s,
+                "\n**Warning**: {poor} points have daylight factors known only to worse than 10 %, and {zero} read 0 (no photon reached them: dark, or too few photons). Their metrics are not to be trusted: trace more photons."
+            );
+        }
+        let en = &g["en17037"];
+        if en.is_object() {
+            let _ = writeln!(
+                s,
+                "\nEN 17037 over {} daylight hours: level **{}**.\n",
+                en["daylight_hours"],
+                en["level"].as_str().unwrap_or("none")
+            );
+            let _ = writeln!(
+                s,
+                "| level | E_T | share of hours at E_T (95 %) | E_TM | share at E_TM (95 %) | probability met |\n|---|---|---|---|---|---|"
+            );
+            for l in en["levels"].as_array().into_iter().flatten() {
+                let _ = writeln!(
+                    s,
+                    "| {} | {:.0} lx | {} ({}) | {:.0} lx | {} ({}) | {} |",
+                    l["name"].as_str().unwrap_or("?"),
+                    f(&l["target_lx"]),
+                    pc(&l["target_share"]),
+                    interval(&l["target_interval_95"]),
+                    f(&l["minimum_lx"]),
+                    pc(&l["minimum_share"]),
+                    interval(&l["minimum_interval_95"]),
+                    pc(&l["pass_probability"])
+                );
+            }
+        }
+        let _ = writeln!(s, "\nPer point: `annual_{name}.csv`.\n");
+        for (file, what) in [
+            ("da", "DA"),
+            ("sda_probability", "probability of DA ≥ 50 %"),
+            ("udi_useful", "UDI useful"),
+            ("df", "daylight factor"),
+            ("ase_hours", "hours of ASE's direct sun"),
+            ("temporal", "the grid's mean illuminance by day and hour"),
+        ] {
+            let _ = writeln!(s, "![{what}](annual_{name}_{file}.png)");
+        }
+    }
+    s
 }
 
 fn write_csv(

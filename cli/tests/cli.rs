@@ -1458,6 +1458,17 @@ fn annual_metrics_of_an_open_grid_follow_the_hours_light() {
                 "{p:?}"
             );
         }
+        // The report: the grid's metrics with their intervals, EN 17037's table, the
+        // pictures.
+        let report = std::fs::read_to_string(out.join("annual_report.md")).unwrap();
+        for want in [
+            "## Grid open: 4 points, 4 occupied hours",
+            "| sDA",
+            "EN 17037 over 2 daylight hours: level **high**",
+            "![DA](annual_open_da.png)",
+        ] {
+            assert!(report.contains(want), "{want}: {report}");
+        }
         let png = std::fs::read(out.join("annual_open_temporal.png")).unwrap();
         assert_eq!(&png[1..4], b"PNG");
         let (w, h) = (
@@ -1472,6 +1483,30 @@ fn annual_metrics_of_an_open_grid_follow_the_hours_light() {
             assert!(sigma > 0.0 && (df - 1.0).abs() < 4.0 * sigma, "{csv}");
         }
     }
+    // Too few photons: the command and the report say that the points' light is poorly
+    // known (a point no photon reached reads 0 with an error of 0).
+    let out = d.join("few");
+    let r = imap(&[
+        "annual",
+        &o,
+        "--config",
+        &s,
+        "--weather",
+        &wea,
+        "--photons",
+        "2000",
+        "--out",
+        out.to_str().unwrap(),
+        "--quiet",
+    ]);
+    assert!(r.status.success(), "{}", stderr(&r));
+    assert!(
+        stderr(&r).contains("their metrics are not to be trusted"),
+        "{}",
+        stderr(&r)
+    );
+    let report = std::fs::read_to_string(out.join("annual_report.md")).unwrap();
+    assert!(report.contains("**Warning**"), "{report}");
     // Reinhart MF:2's 577 patches and the ground, traced in three runs of light groups:
     // the same hours' light, so the same DA, and an open point's daylight factor 100 %.
     let out = d.join("mf2");
