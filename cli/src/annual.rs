@@ -829,8 +829,8 @@ fn report_text(json: &serde_json::Value) -> String {
         let df = &g["daylight_factor"];
         let _ = writeln!(
             s,
-            "| daylight factor, mean (min–max) | {} ({:.2}–{:.2} %) | per point in the CSV |",
-            format!("{:.2} %", 100.0 * f(&df["mean"])),
+            "| daylight factor, mean (min–max) | {:.2} % ({:.2}–{:.2} %) | per point in the CSV |",
+            100.0 * f(&df["mean"]),
             100.0 * f(&df["min"]),
             100.0 * f(&df["max"])
         );

@@ -1684,7 +1684,7 @@ fn annual_metrics_of_an_open_grid_follow_the_hours_light() {
             }
         }
         assert!((e_h(hi) / lx - 1.0).abs() < 1e-6, "{}", e_h(hi));
-        let w = write(d, &format!("en{lx}.wea"), &lit_hour(hi));
+        let w = write(d, &format!("en{lx}.wea"), lit_hour(hi));
         let out = d.join(format!("en{lx}"));
         let r = imap(&[
             "annual",
