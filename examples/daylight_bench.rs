@@ -15,12 +15,19 @@
 //! opening a window portal (`Context::set_portals`); `--compare` runs each estimator
 //! without and then with it.
 //!
+//! `--patches` (roof opening) times daylight coefficients instead: Reinhart MF:1, MF:2 and
+//! MF:4 patch skies traced in batches (`imap::annual::trace::PatchRun`, gathering), the
+//! floor read as the CIE sky's patch vector times the coefficients, against the exact
+//! floor of that patch sky; beside the CIE sky's own gathering run, whose time it prints
+//! as the ratio.
+//!
 //!     cargo run --release --example daylight_bench -- [--threads 2] [--max-seconds 20]
-//!         [--cie-type 12] [--open | --side] [--portal | --compare]
+//!         [--cie-type 12] [--open | --side] [--portal | --compare] [--patches]
 
 mod common;
 
 use common::arg;
+use imap::annual::trace::{PatchRound, PatchRun, PatchTarget};
 use imap::photometry::Spectrum;
 use imap::{cie_luminance, SkyAmount, SkyDesc, SkyKind};
 use imap::{Config, Context, Estimator, MaterialDesc, MeshDesc, RunParams};
@@ -195,6 +202,198 @@ fn through_opening(x: [f64; 3], kind: u32, sun: [f64; 3], zs: f64) -> f64 {
     s / (n * n) as f64
 }
 
+/// E at floor point x through the opening from a sky of luminance `l(direction)`.
+fn through_opening_l(x: [f64; 3], l: &dyn Fn([f64; 3]) -> f64) -> f64 {
+    let n = 32;
+    let mut s = 0.0;
+    for i in 0..n {
+        for j in 0..n {
+            let y = [
+                -0.5 + (i as f64 + 0.5) / n as f64,
+                -0.5 + (j as f64 + 0.5) / n as f64,
+                HEIGHT,
+            ];
+            let d = [y[0] - x[0], y[1] - x[1], y[2] - x[2]];
+            let r2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+            let r = r2.sqrt();
+            let dir = [d[0] / r, d[1] / r, d[2] / r];
+            s += l(dir) * dir[2] * dir[2] / r2;
+        }
+    }
+    s / (n * n) as f64
+}
+
+/// Times to 5, 2 and 1 % actual error (interpolated log-log between segments), the final
+/// error and actual over estimated error, as a table row's cells, of `step`: traces a
+/// segment of the given photons and returns the elapsed seconds, the actual error
+/// (irradiance-weighted mean |E − exact| / exact) and the estimated one.
+fn time_to_error(max_s: f64, mut step: impl FnMut(u64) -> (f64, f64, f64)) -> [String; 5] {
+    let mut chunk = 20_000u64;
+    let mut prev: Option<(f64, f64)> = None;
+    let mut hit: [Option<f64>; 3] = [None; 3];
+    let targets = [0.05, 0.02, 0.01];
+    let (mut err, mut ratio): (f64, f64);
+    loop {
+        let (t, e, est) = step(chunk);
+        err = e;
+        ratio = e / est;
+        for (k, &target) in targets.iter().enumerate() {
+            if hit[k].is_none() && err <= target {
+                hit[k] = Some(match prev {
+                    Some((t0, e0)) if e0 > target => {
+                        let f = (e0 / target).ln() / (e0 / err).ln();
+                        (t0.ln() + f * (t / t0).ln()).exp()
+                    }
+                    _ => t,
+                });
+            }
+        }
+        prev = Some((t, err));
+        chunk = chunk.saturating_mul(3) / 2;
+        if t >= max_s || hit[2].is_some() {
+            break;
+        }
+    }
+    let show = |h: Option<f64>| h.map_or(format!("> {max_s:.0}"), |t| format!("{t:.2}"));
+    [
+        show(hit[0]),
+        show(hit[1]),
+        show(hit[2]),
+        format!("{:.2}%", 100.0 * err),
+        format!("{ratio:.2}"),
+    ]
+}
+
+/// `--patches`: the CIE sky's gathering run, then its MF:1, 2 and 4 coefficients.
+fn patches_bench(threads: usize, max_s: f64, kind: u32) {
+    let (sa, sz) = (225f64.to_radians(), 35f64.to_radians());
+    let sun = [sz.sin() * sa.sin(), sz.sin() * sa.cos(), sz.cos()];
+    let cie = SkyDesc {
+        kind: SkyKind::Cie {
+            kind,
+            sun_azimuth_deg: 225.0,
+            sun_zenith_deg: 35.0,
+        },
+        amount: SkyAmount::Luminance(5000.0),
+        spectrum: Spectrum::Equal,
+        ..SkyDesc::default()
+    };
+    println!("# daylight bench --patches: CIE sky type {kind} through a 1 m roof opening, {threads} threads, up to {max_s} s each");
+    println!(
+        "{:18} {:>9} {:>9} {:>9} {:>10} {:>8} {:>12}",
+        "run", "t(5%)", "t(2%)", "t(1%)", "final err", "act/est", "t(2%)/sky"
+    );
+    let context = || {
+        Context::new(Config {
+            threads,
+            seed: 7,
+            ..Default::default()
+        })
+        .unwrap()
+    };
+    // The sky itself, gathering: the baseline.
+    let mut ctx = context();
+    let (floor, verts, idx) = room(&mut ctx, false, false);
+    ctx.add_sky(&cie).unwrap();
+    let eff = ctx.photometry().luminous(&[1.0, 1.0, 1.0]);
+    let exact: Vec<f64> = (0..verts.len())
+        .map(|v| hat(&verts, &idx, v, &|x| through_opening(x, kind, sun, sz)) * 5000.0 / eff)
+        .collect();
+    let nv = verts.len();
+    let start = Instant::now();
+    let row = time_to_error(max_s, |n| {
+        ctx.run(&mut RunParams {
+            photons: n,
+            progress_interval_s: 10.0,
+            estimator: Some(Estimator::GATHER),
+            ..Default::default()
+        })
+        .unwrap();
+        let (mut e, mut rel) = (vec![0.0; nv], vec![0.0; nv]);
+        ctx.irradiance(floor, 0, 0, &mut e).unwrap();
+        ctx.rel_error(floor, 0, &mut rel).unwrap();
+        errors(&e, &rel, &exact, start)
+    });
+    let sky_2 = row[1].parse::<f64>().ok();
+    println!(
+        "{:18} {:>9} {:>9} {:>9} {:>10} {:>8} {:>12}",
+        "CIE sky, gather", row[0], row[1], row[2], row[3], row[4], "1"
+    );
+    for mf in [1u32, 2, 4] {
+        let mut ctx = context();
+        let (floor, verts, idx) = room(&mut ctx, false, false);
+        let patches = imap::SkyPatches::reinhart(mf).unwrap();
+        let lum: Vec<f64> = imap::sky_patch_radiance(&cie, &imap::Bands::rgb(), mf)
+            .unwrap()
+            .iter()
+            .map(|v| v[0] * eff)
+            .collect();
+        let l = |d: [f64; 3]| lum[patches.patch(d[2].clamp(-1.0, 1.0).asin(), d[0].atan2(d[1]))];
+        let exact: Vec<f64> = (0..verts.len())
+            .map(|v| hat(&verts, &idx, v, &|x| through_opening_l(x, &l)))
+            .collect();
+        let target = PatchTarget {
+            mesh: floor,
+            side: 0,
+            vertices: (0..nv).collect(),
+        };
+        let frame = ([0.0, 0.0, 1.0], [0.0, 1.0, 0.0]);
+        let start = Instant::now();
+        let mut run = PatchRun::new(&mut ctx, mf, frame, vec![target], 0).unwrap();
+        let row = time_to_error(max_s, |n| {
+            let round = PatchRound {
+                photons: n,
+                estimator: Some(Estimator::GATHER),
+                ..Default::default()
+            };
+            run.trace(&mut ctx, round, &mut |_| true).unwrap();
+            let c = run.coefficients(0).unwrap();
+            let (mut e, mut rel) = (vec![0.0; nv], vec![0.0; nv]);
+            for k in 0..nv {
+                let row = k * c.patches..(k + 1) * c.patches;
+                let x: f64 = lum
+                    .iter()
+                    .zip(&c.value[row.clone()])
+                    .map(|(l, x)| l * x)
+                    .sum();
+                let v: f64 = lum
+                    .iter()
+                    .zip(&c.sigma[row])
+                    .map(|(l, s)| (l * s).powi(2))
+                    .sum();
+                e[k] = x;
+                rel[k] = if x > 0.0 { v.sqrt() / x } else { 0.0 };
+            }
+            errors(&e, &rel, &exact, start)
+        });
+        let ratio = match (row[1].parse::<f64>().ok(), sky_2) {
+            (Some(a), Some(b)) => format!("{:.2}", a / b),
+            _ => "-".into(),
+        };
+        println!(
+            "{:18} {:>9} {:>9} {:>9} {:>10} {:>8} {:>12}",
+            format!("MF:{mf} coefficients"),
+            row[0],
+            row[1],
+            row[2],
+            row[3],
+            row[4],
+            ratio
+        );
+    }
+}
+
+/// (elapsed s, actual error, estimated error) of values `e` with relative errors `rel`.
+fn errors(e: &[f64], rel: &[f64], exact: &[f64], start: Instant) -> (f64, f64, f64) {
+    let (mut num, mut den, mut est) = (0.0, 0.0, 0.0);
+    for v in 0..e.len() {
+        num += (e[v] - exact[v]).abs();
+        den += exact[v];
+        est += rel[v] * e[v];
+    }
+    (start.elapsed().as_secs_f64(), num / den, est / den)
+}
+
 /// E at floor point x from the sky through the side window, per unit zenith luminance.
 fn through_window(x: [f64; 3], kind: u32, sun: [f64; 3], zs: f64) -> f64 {
     let n = 32;
@@ -257,6 +456,10 @@ fn main() {
     let kind: u32 = arg("--cie-type", 12);
     let flag = |f: &str| std::env::args().any(|a| a == f);
     let (open, side, compare) = (flag("--open"), flag("--side"), flag("--compare"));
+    if flag("--patches") {
+        patches_bench(threads, max_s, kind);
+        return;
+    }
     let portals: &[bool] = if compare {
         &[false, true]
     } else if flag("--portal") {
