@@ -19,7 +19,8 @@
 //! MF:4 patch skies traced in batches (`imap::annual::trace::PatchRun`, gathering), the
 //! floor read as the CIE sky's patch vector times the coefficients, against the exact
 //! floor of that patch sky; beside the CIE sky's own gathering run, whose time it prints
-//! as the ratio.
+//! as the ratio. `EST=p` or `EST=ls` in the environment runs both with photons only or
+//! light sampling instead of gathering.
 //!
 //!     cargo run --release --example daylight_bench -- [--threads 2] [--max-seconds 20]
 //!         [--cie-type 12] [--open | --side] [--portal | --compare] [--patches]
@@ -305,7 +306,7 @@ fn patches_bench(threads: usize, max_s: f64, kind: u32) {
         ctx.run(&mut RunParams {
             photons: n,
             progress_interval_s: 10.0,
-            estimator: Some(Estimator::GATHER),
+            estimator: Some(bench_estimator()),
             ..Default::default()
         })
         .unwrap();
@@ -343,7 +344,7 @@ fn patches_bench(threads: usize, max_s: f64, kind: u32) {
         let row = time_to_error(max_s, |n| {
             let round = PatchRound {
                 photons: n,
-                estimator: Some(Estimator::GATHER),
+                estimator: Some(bench_estimator()),
                 ..Default::default()
             };
             run.trace(&mut ctx, round, &mut |_| true).unwrap();
@@ -587,5 +588,13 @@ fn main() {
             100.0 * err,
             ratio
         );
+    }
+}
+
+fn bench_estimator() -> Estimator {
+    match std::env::var("EST").as_deref() {
+        Ok("p") => Estimator::Photons,
+        Ok("ls") => Estimator::DEFAULT,
+        _ => Estimator::GATHER,
     }
 }

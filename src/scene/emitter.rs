@@ -209,7 +209,7 @@ impl Portals {
     /// about the portal's normal.
     #[inline]
     fn q(&self, part: &DistantPart, k: usize, toward: DVec3) -> f64 {
-        if part.is_sky() {
+        if part.mixes_cosine() {
             let cos = toward.dot(self.normals[k]).max(0.0);
             0.5 * part.pdf(toward) + 0.5 * cos / std::f64::consts::PI
         } else {
@@ -259,7 +259,7 @@ impl Portals {
             let x = a + (b - a) * b1 + (c - a) * b2;
             let n = self.normals[k];
             let (u0, u1, u2) = (rng.uniform(), rng.uniform(), rng.uniform());
-            let toward = if part.is_sky() {
+            let toward = if part.mixes_cosine() {
                 if u0 < 0.5 {
                     part.sample([2.0 * u0, u1, u2]).0
                 } else {
@@ -485,7 +485,7 @@ impl Emitter {
             EmitterKind::Distant {
                 part, radius, norm, ..
             } => {
-                let toward = if part.is_sky() {
+                let toward = if part.mixes_cosine() {
                     let n = receiver.n;
                     let favour = if pick_front() { n } else { -n };
                     if u[0] < 0.5 {
@@ -615,7 +615,7 @@ impl Emitter {
 /// probability `p_front`); the sun over its disk.
 #[inline]
 fn distant_density(part: &DistantPart, toward: DVec3, receiver: Receiver) -> f64 {
-    if !part.is_sky() {
+    if !part.mixes_cosine() {
         return part.pdf(toward);
     }
     let cos = toward.dot(receiver.n);

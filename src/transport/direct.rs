@@ -513,7 +513,11 @@ impl DirectSampler<'_> {
         // gathering too: there a sky's secondary light samples weigh GATHER_GAIN /
         // LIGHT_SAMPLE_GAIN = 1/8 against the photons (unbiased either way; measured only
         // as daylight_bench's gathering row).
+        // A one-patch sky's light samples follow its density alone (`mixes_cosine`).
         self.scene.emitters[e].photon_density(dir, r2, cos_x, cos_y, |part, toward| {
+            if !part.mixes_cosine() {
+                return LIGHT_SAMPLE_GAIN;
+            }
             let p = part.pdf(toward);
             LIGHT_SAMPLE_GAIN * p / (0.5 * p + 0.5 * cos_x / PI)
         })

@@ -174,6 +174,14 @@ pub struct DistantPart {
 }
 
 impl DistantPart {
+    /// Whether its light samples (and a portal's photons) draw half their directions by
+    /// its radiance and half cosine-distributed: a sky's do, to follow the receiver's
+    /// cosine too; a one-patch sky's do not (its patch is sampled exactly, and a cosine
+    /// direction would nearly always miss a patch of 0.04 sr or less).
+    pub fn mixes_cosine(&self) -> bool {
+        self.is_sky() && self.patch.is_none()
+    }
+
     /// Whether this part is the sun's disk.
     pub fn is_sun(&self) -> bool {
         matches!(self.radiance, Radiance::Sun { .. })
