@@ -48,6 +48,25 @@ static uint32_t plate_idx[6] = {0, 1, 2, 0, 2, 3};
 static double sensor[15] = {0, 0, 1, -0.1, -0.1, 1, 0.1, -0.1, 1, 0.1, 0.1, 1, -0.1, 0.1, 1};
 static uint32_t sensor_idx[12] = {0, 1, 2, 0, 2, 3, 0, 3, 4, 0, 4, 1};
 
+/* The black plate and the sensor in `ctx`; the sensor's mesh id goes to `sensor_id`. */
+static void model(ImapContext *ctx, uint32_t *sensor_id) {
+    double black = 0;
+    ImapMaterial mat;
+    imap_material_default(&mat, sizeof mat);
+    mat.diffuse_reflectance = &black, mat.diffuse_reflectance_count = 1;
+    uint32_t m_black = 0, id = 0;
+    expect("material", imap_add_material(ctx, &mat, &m_black), IMAP_OK);
+    ImapMesh mesh;
+    imap_mesh_default(&mesh, sizeof mesh);
+    mesh.positions = plate, mesh.vertex_count = 4, mesh.indices = plate_idx, mesh.triangle_count = 2;
+    mesh.material = m_black;
+    expect("plate", imap_add_mesh(ctx, &mesh, &id), IMAP_OK);
+    imap_mesh_default(&mesh, sizeof mesh);
+    mesh.positions = sensor, mesh.vertex_count = 5, mesh.indices = sensor_idx, mesh.triangle_count = 4;
+    mesh.material = m_black, mesh.flags = IMAP_MESH_SENSOR | IMAP_MESH_RECORD;
+    expect("sensor", imap_add_mesh(ctx, &mesh, sensor_id), IMAP_OK);
+}
+
 int main(void) {
     char path[] = "/tmp/imap_annual_XXXXXX.wea";
     int fd = mkstemps(path, 4);
@@ -79,21 +98,8 @@ int main(void) {
     cfg.threads = 2, cfg.seed = 3;
     ImapContext *ctx = NULL;
     expect("imap_create", imap_create(&cfg, &ctx), IMAP_OK);
-    double black = 0;
-    ImapMaterial mat;
-    imap_material_default(&mat, sizeof mat);
-    mat.diffuse_reflectance = &black, mat.diffuse_reflectance_count = 1;
-    uint32_t m_black = 0, id = 0, sensor_id = 0;
-    expect("material", imap_add_material(ctx, &mat, &m_black), IMAP_OK);
-    ImapMesh mesh;
-    imap_mesh_default(&mesh, sizeof mesh);
-    mesh.positions = plate, mesh.vertex_count = 4, mesh.indices = plate_idx, mesh.triangle_count = 2;
-    mesh.material = m_black;
-    expect("plate", imap_add_mesh(ctx, &mesh, &id), IMAP_OK);
-    imap_mesh_default(&mesh, sizeof mesh);
-    mesh.positions = sensor, mesh.vertex_count = 5, mesh.indices = sensor_idx, mesh.triangle_count = 4;
-    mesh.material = m_black, mesh.flags = IMAP_MESH_SENSOR | IMAP_MESH_RECORD;
-    expect("sensor", imap_add_mesh(ctx, &mesh, &sensor_id), IMAP_OK);
+    uint32_t sensor_id = 0;
+    model(ctx, &sensor_id);
     expect("MF:2 is refused (more than 254 groups)", imap_add_sky_patches(ctx, 2, NULL, NULL, NULL),
            IMAP_ERR_INVALID_ARGUMENT);
     uint32_t first = 0;
@@ -190,15 +196,7 @@ int main(void) {
      * traced in the same context, which has no light of its own. */
     ImapContext *c2 = NULL;
     expect("imap_create (MF:2)", imap_create(&cfg, &c2), IMAP_OK);
-    expect("material", imap_add_material(c2, &mat, &m_black), IMAP_OK);
-    imap_mesh_default(&mesh, sizeof mesh);
-    mesh.positions = plate, mesh.vertex_count = 4, mesh.indices = plate_idx, mesh.triangle_count = 2;
-    mesh.material = m_black;
-    expect("plate", imap_add_mesh(c2, &mesh, &id), IMAP_OK);
-    imap_mesh_default(&mesh, sizeof mesh);
-    mesh.positions = sensor, mesh.vertex_count = 5, mesh.indices = sensor_idx, mesh.triangle_count = 4;
-    mesh.material = m_black, mesh.flags = IMAP_MESH_SENSOR | IMAP_MESH_RECORD;
-    expect("sensor", imap_add_mesh(c2, &mesh, &sensor_id), IMAP_OK);
+    model(c2, &sensor_id);
     double *v2 = malloc(578 * sizeof *v2), *s2 = malloc(578 * sizeof *s2);
     uint64_t traced = 0;
     expect("MF:2 with estimator 9",

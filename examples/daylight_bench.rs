@@ -539,54 +539,26 @@ fn main() {
         let nv = verts.len();
         let (mut e, mut rel) = (vec![0.0; nv], vec![0.0; nv]);
         let start = Instant::now();
-        let mut chunk = 20_000u64;
-        let mut prev: Option<(f64, f64)> = None;
-        let mut hit: [Option<f64>; 3] = [None; 3];
-        let targets = [0.05, 0.02, 0.01];
-        let (mut err, mut ratio) = (f64::NAN, f64::NAN);
-        while start.elapsed().as_secs_f64() < max_s && hit[2].is_none() {
+        let row = time_to_error(max_s, |n| {
             ctx.run(&mut RunParams {
-                photons: chunk,
+                photons: n,
                 progress_interval_s: 10.0,
                 estimator: Some(est),
                 ..Default::default()
             })
             .unwrap();
-            let t = start.elapsed().as_secs_f64();
             ctx.irradiance(floor, 0, 0, &mut e).unwrap();
             ctx.rel_error(floor, 0, &mut rel).unwrap();
-            let (mut num, mut den, mut est_num) = (0.0, 0.0, 0.0);
-            for v in 0..nv {
-                num += (e[v] - exact[v]).abs();
-                den += exact[v];
-                est_num += rel[v] * e[v];
-            }
-            err = num / den;
-            ratio = num / est_num;
-            for (k, &target) in targets.iter().enumerate() {
-                if hit[k].is_none() && err <= target {
-                    // Interpolate log-log between the previous segment and this one.
-                    hit[k] = Some(match prev {
-                        Some((t0, e0)) if e0 > target => {
-                            let f = (e0 / target).ln() / (e0 / err).ln();
-                            (t0.ln() + f * (t / t0).ln()).exp()
-                        }
-                        _ => t,
-                    });
-                }
-            }
-            prev = Some((t, err));
-            chunk = chunk.saturating_mul(3) / 2;
-        }
-        let show = |h: Option<f64>| h.map_or(format!("> {max_s:.0}"), |t| format!("{t:.2}"));
+            errors(&e, &rel, &exact, start)
+        });
         println!(
-            "{name:10} {:>7} {:>9} {:>9} {:>9} {:>11.2}% {:>10.2}",
+            "{name:10} {:>7} {:>9} {:>9} {:>9} {:>12} {:>10}",
             if portal { "yes" } else { "no" },
-            show(hit[0]),
-            show(hit[1]),
-            show(hit[2]),
-            100.0 * err,
-            ratio
+            row[0],
+            row[1],
+            row[2],
+            row[3],
+            row[4]
         );
     }
 }

@@ -293,18 +293,8 @@ pub unsafe extern "C" fn imap_annual_coefficients(
 ) -> ImapStatus {
     with_context(ctx, |c| {
         let n = crate::scene::light::SkyPatches::reinhart(mf)?.count();
-        let vertices: Vec<usize> = slice("vertices", vertices, count)?
-            .iter()
-            .map(|&v| v as usize)
-            .collect();
-        let total = count.checked_mul(n).ok_or_else(|| {
-            Error::new(
-                ImapStatus::ImapErrInvalidArgument,
-                "count × patches overflows",
-            )
-        })?;
-        let value = slice_mut("out_value", out_value, total)?;
-        let sigma = slice_mut("out_sigma", out_sigma, total)?;
+        let (vertices, value, sigma) =
+            coefficient_args((vertices, count), n, (out_value, out_sigma))?;
         let got = crate::annual::coefficients(c, mesh, side, &vertices, mf)?;
         value.copy_from_slice(&got.value);
         sigma.copy_from_slice(&got.sigma);
@@ -375,18 +365,8 @@ pub unsafe extern "C" fn imap_annual_trace_coefficients(
             vec3("zenith", zenith, [0.0, 0.0, 1.0])?,
             vec3("north", north, [0.0, 1.0, 0.0])?,
         );
-        let vertices: Vec<usize> = slice("vertices", vertices, count)?
-            .iter()
-            .map(|&v| v as usize)
-            .collect();
-        let total = count.checked_mul(n).ok_or_else(|| {
-            Error::new(
-                ImapStatus::ImapErrInvalidArgument,
-                "count × patches overflows",
-            )
-        })?;
-        let value = slice_mut("out_value", out_value, total)?;
-        let sigma = slice_mut("out_sigma", out_sigma, total)?;
+        let (vertices, value, sigma) =
+            coefficient_args((vertices, count), n, (out_value, out_sigma))?;
         let all = c.vertex_count(mesh)?;
         if let Some(i) = vertices.iter().position(|&v| v >= all) {
             bail!(
@@ -421,6 +401,29 @@ pub unsafe extern "C" fn imap_annual_trace_coefficients(
         sigma.copy_from_slice(&got[0].sigma);
         super::write_optional(out_photons, report.photons)
     })
+}
+
+/// The coefficient calls' point list and output arrays: `count` vertex indices, and
+/// `count` × `patches` doubles for the values and for the errors (read as `slice` and
+/// `slice_mut` read them).
+fn coefficient_args<'a>(
+    (vertices, count): (*const u32, usize),
+    patches: usize,
+    (out_value, out_sigma): (*mut f64, *mut f64),
+) -> Result<(Vec<usize>, &'a mut [f64], &'a mut [f64])> {
+    let vertices: Vec<usize> = slice("vertices", vertices, count)?
+        .iter()
+        .map(|&v| v as usize)
+        .collect();
+    let total = count.checked_mul(patches).ok_or_else(|| {
+        Error::new(
+            ImapStatus::ImapErrInvalidArgument,
+            "count × patches overflows",
+        )
+    })?;
+    let value = slice_mut("out_value", out_value, total)?;
+    let sigma = slice_mut("out_sigma", out_sigma, total)?;
+    Ok((vertices, value, sigma))
 }
 
 /// A 3-vector argument (NULL: `default`).
