@@ -181,26 +181,12 @@ fn room(ctx: &mut Context, open: bool, side: bool) -> (u32, Vec<[f64; 3]>, Vec<u
 
 /// E at floor point x from the sky through the opening, per unit zenith luminance.
 fn through_opening(x: [f64; 3], kind: u32, sun: [f64; 3], zs: f64) -> f64 {
-    let n = 32;
-    let mut s = 0.0;
-    for i in 0..n {
-        for j in 0..n {
-            let y = [
-                -0.5 + (i as f64 + 0.5) / n as f64,
-                -0.5 + (j as f64 + 0.5) / n as f64,
-                HEIGHT,
-            ];
-            let d = [y[0] - x[0], y[1] - x[1], y[2] - x[2]];
-            let r2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
-            let r = r2.sqrt();
-            let dir = [d[0] / r, d[1] / r, d[2] / r];
-            let chi = (dir[0] * sun[0] + dir[1] * sun[1] + dir[2] * sun[2])
-                .clamp(-1.0, 1.0)
-                .acos();
-            s += cie_luminance(kind, dir[2].acos(), chi, zs) * dir[2] * dir[2] / r2;
-        }
-    }
-    s / (n * n) as f64
+    through_opening_l(x, &|dir| {
+        let chi = (dir[0] * sun[0] + dir[1] * sun[1] + dir[2] * sun[2])
+            .clamp(-1.0, 1.0)
+            .acos();
+        cie_luminance(kind, dir[2].acos(), chi, zs)
+    })
 }
 
 /// E at floor point x through the opening from a sky of luminance `l(direction)`.

@@ -332,7 +332,7 @@ impl DistantPart {
                     Radiance::Image { .. } => 2,
                     _ => SKY_SUB,
                 };
-                let lit = LitPatches::of(&self.radiance);
+                let lit = LitPatches::of(&self.radiance, t);
                 let mut sum = 0.0;
                 for i in 0..t.rows {
                     let omega = t.solid_angle(i);
@@ -674,13 +674,18 @@ pub(super) fn channel_bands(spectrum: &Spectrum, bands: &Bands) -> Vec<f64> {
 
 /// The bounds of the few lit patches of a patch sky (a daylight coefficient's sky lights
 /// one patch of up to 2306): the table's cells outside them are 0 and need no means.
-struct LitPatches(Vec<(f64, f64, f64, f64)>);
+struct LitPatches {
+    bounds: Vec<(f64, f64, f64, f64)>,
+    /// The table's rows' altitude ranges, radians.
+    rows: Vec<(f64, f64)>,
+}
 
 impl LitPatches {
     /// Most lit patches worth testing a cell against.
     const MAX: usize = 8;
 
-    fn of(radiance: &Radiance) -> Option<Self> {
+    /// Those of `radiance` over the rows of `table`.
+    fn of(radiance: &Radiance, table: &Table) -> Option<Self> {
         let Radiance::Patches {
             patches, values, ..
         } = radiance
@@ -688,20 +693,28 @@ impl LitPatches {
             return None;
         };
         let lit: Vec<usize> = (0..values.len()).filter(|&p| values[p] != 0.0).collect();
-        (lit.len() <= Self::MAX)
-            .then(|| LitPatches(lit.iter().map(|&p| patches.bounds(p)).collect()))
+        (lit.len() <= Self::MAX).then(|| LitPatches {
+            bounds: lit.iter().map(|&p| patches.bounds(p)).collect(),
+            rows: table
+                .cos_edges
+                .windows(2)
+                .map(|c| {
+                    let lo = c[0].min(c[1]).clamp(-1.0, 1.0).asin();
+                    (lo, c[0].max(c[1]).clamp(-1.0, 1.0).asin())
+                })
+                .collect(),
+        })
     }
 
-    /// Whether cell (`i`, `j`) of `table` (its azimuths counted from the patches' own, as
-    /// `tabulated`'s are) may overlap a lit patch: conservative by a margin.
+    /// Whether cell (`i`, `j`) of `table` (the one they were made for; its azimuths
+    /// counted from the patches' own, as `tabulated`'s are) may overlap a lit patch:
+    /// conservative by a margin.
     fn may_reach(&self, table: &Table, i: usize, j: usize) -> bool {
         const EPS: f64 = 1e-6;
-        let (c0, c1) = (table.cos_edges[i], table.cos_edges[i + 1]);
-        let lo = c0.min(c1).clamp(-1.0, 1.0).asin();
-        let hi = c0.max(c1).clamp(-1.0, 1.0).asin();
+        let (lo, hi) = self.rows[i];
         let cw = 2.0 * PI / table.cols as f64;
         let centre = (j as f64 + 0.5) * cw;
-        self.0.iter().any(|&(alt_lo, alt_hi, az, w)| {
+        self.bounds.iter().any(|&(alt_lo, alt_hi, az, w)| {
             if hi < alt_lo - EPS || lo > alt_hi + EPS {
                 return false;
             }
@@ -727,7 +740,7 @@ impl DistantPart {
             per_band: Vec::new(),
         };
         let probe = Table::new(SKY_ROWS, SKY_COLS, FRAC_PI_2, rotation, |_, _| 1.0)?;
-        let lit = LitPatches::of(&part.radiance);
+        let lit = LitPatches::of(&part.radiance, &probe);
         let mut means = Vec::with_capacity(SKY_ROWS * SKY_COLS);
         let (mut integral, mut horizontal) = (0.0, 0.0);
         for i in 0..SKY_ROWS {
@@ -754,8 +767,8 @@ impl DistantPart {
         )?);
         part.integral = integral;
         part.horizontal = horizontal;
-        if let Some(LitPatches(lit)) = &lit {
-            if let [(alt_lo, alt_hi, az, width)] = lit[..] {
+        if let Some(lit) = &lit {
+            if let [(alt_lo, alt_hi, az, width)] = lit.bounds[..] {
                 if alt_lo >= 0.0 {
                     part.patch = Some(PatchSampler {
                         sin_lo: alt_lo.sin(),
@@ -795,7 +808,7 @@ mod tests {
                     let part = DistantPart::tabulated(frame, radiance.clone(), rotation).unwrap();
                     let probe =
                         Table::new(SKY_ROWS, SKY_COLS, FRAC_PI_2, rotation, |_, _| 1.0).unwrap();
-                    let lit = LitPatches::of(&radiance).unwrap();
+                    let lit = LitPatches::of(&radiance, &probe).unwrap();
                     let (mut integral, mut horizontal) = (0.0, 0.0);
                     for i in 0..SKY_ROWS {
                         let omega = probe.solid_angle(i);
