@@ -95,12 +95,3 @@ pub use render::{
     CameraDesc, Image, RenderMethod, RenderParams, RenderReport, OMITS_CAUSTICS_ON_GLOSSY,
     OMITS_REFRACTED_INTO_MEDIUM,
 };
-
-/// The loom models' view of three lock-free protocols (`RUSTFLAGS="--cfg loom"` only).
-#[cfg(loom)]
-#[doc(hidden)]
-pub mod loom_models {
-    pub use crate::render::gate::Gate;
-    pub use crate::sched::doze::Doze;
-    pub use crate::sched::groups::GroupTable;
-}

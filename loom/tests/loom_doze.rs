@@ -1,13 +1,13 @@
 //! Exhaustive interleavings (loom) of the processing threads' sleep handshake in
 //! `src/sched/doze.rs`. Run with:
 //!
-//!     RUSTFLAGS="--cfg loom" cargo test --release --test loom_doze
+//!     RUSTFLAGS="--cfg loom" cargo test --release -p imap-loom --test loom_doze
 //!
 //! A lost wake-up leaves the sleeper parked for good, which loom reports as a deadlock
 //! (the model parks without the timeout the library keeps as a safety net).
 #![cfg(loom)]
 
-use imap::loom_models::Doze;
+use imap_loom::Doze;
 use loom::sync::atomic::{AtomicUsize, Ordering};
 use loom::sync::Arc;
 use loom::thread;

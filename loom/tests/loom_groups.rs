@@ -1,14 +1,14 @@
 //! Exhaustive interleavings (loom) of the vertex-group split protocol in
 //! `src/sched/groups.rs`. Run with:
 //!
-//!     RUSTFLAGS="--cfg loom" cargo test --release --test loom_groups
+//!     RUSTFLAGS="--cfg loom" cargo test --release -p imap-loom --test loom_groups
 //!
 //! The map values of one slot are a loom `UnsafeCell`: loom fails the model if two threads
 //! write it without a happens-before between them, i.e. if a subgroup's owner could start
 //! writing while the split group's owner still applies a portion.
 #![cfg(loom)]
 
-use imap::loom_models::GroupTable;
+use imap_loom::GroupTable;
 use loom::cell::UnsafeCell;
 use loom::sync::Arc;
 use loom::thread;

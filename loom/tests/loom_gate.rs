@@ -1,13 +1,13 @@
 //! Exhaustive interleavings (loom) of the backward photon maps' active-thread counter in
 //! `src/render/gate.rs`. Run with:
 //!
-//!     RUSTFLAGS="--cfg loom" cargo test --release --test loom_gate
+//!     RUSTFLAGS="--cfg loom" cargo test --release -p imap-loom --test loom_gate
 //!
 //! The maps are a loom `UnsafeCell`: loom fails the model if the owner rebuilds them
 //! (writes) while a joiner reads them without a happens-before between the two.
 #![cfg(loom)]
 
-use imap::loom_models::Gate;
+use imap_loom::Gate;
 use loom::cell::UnsafeCell;
 use loom::sync::Arc;
 use loom::thread;
