@@ -2,7 +2,7 @@
 //! a group opens its maps to the other groups during its forward-ray step and closes them
 //! again without locks and without ever freeing maps another thread still reads.
 //!
-//! Protocol (checked by the loom model in `tests/loom_gate.rs`):
+//! Protocol (checked by the loom model in `loom/tests/loom_gate.rs`):
 //! 1. Counter 0: the maps are closed (being built, finalized or rebuilt); only the owner
 //!    touches them. Only the owner moves the counter away from 0, with an increment
 //!    (`open`, release: the built maps are published with it).

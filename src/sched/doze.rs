@@ -9,7 +9,7 @@
 //! a core the calculating threads leave free), and only after a longer idle spell announces
 //! that it sleeps; a sender wakes it only then.
 //!
-//! Protocol (checked by the loom model in `tests/loom_doze.rs`), a Dekker handshake:
+//! Protocol (checked by the loom model in `loom/tests/loom_doze.rs`), a Dekker handshake:
 //! - the sleeper sets `asleep`, then (SeqCst fence) looks at its queue once more and parks
 //!   only if it is still empty and nothing else asks it to go on;
 //! - a sender queues its portion, then (SeqCst fence) reads `asleep`, and unparks the

@@ -2,7 +2,7 @@
 //! table, the recursive group lookup, splitting into `subd` subgroups, and the protocol that
 //! keeps one writer per vertex while groups split under load.
 //!
-//! Protocol (checked by the loom model in `tests/loom_groups.rs`):
+//! Protocol (checked by the loom model in `loom/tests/loom_groups.rs`):
 //! 1. Publication: `split` writes the children's fields, then sets the parent's
 //!    `subd_state` with release; `lookup` reads `subd_state` with acquire before it reads
 //!    the children's fields.
