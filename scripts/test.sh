@@ -25,7 +25,10 @@ if cargo clippy --version >/dev/null 2>&1; then
 else
   echo "WARNING: clippy is not installed: lints not checked" >&2
 fi
-RUSTDOCFLAGS=-Dwarnings cargo doc --no-deps -p imap -p imap-cli
+# (Two runs: the command's binary and the library share the name imap, and one cargo doc
+# of both would write them to the same place.)
+RUSTDOCFLAGS=-Dwarnings cargo doc --no-deps -p imap
+RUSTDOCFLAGS=-Dwarnings cargo doc --no-deps -p imap-cli
 
 echo "== cargo test (release; with fault injection, which the shipped library leaves out)"
 # The library's, the command's and the integration tests; the benchmark examples are
