@@ -85,6 +85,21 @@ int main() {
               static_cast<unsigned long long>(metrics.grid.occupied_hours), metrics.grid.sda, metrics.grid.ase);
         CHECK(metrics.points.size() == 1 && metrics.points[0].da == 1, "the point's DA");
 
+        // Electric light with daylight: the zone's lights give 500 lx; kept at a target
+        // above every hour's daylight less 100 lx, they dim to the minimum (30 % power).
+        imap::Hourly electric;
+        electric.value = {500.0};
+        electric.sigma = {5.0};
+        ImapDimming d = imap::dimming();
+        d.power_w = 2000;
+        d.target_lx = 100;
+        imap::AnnualLighting light = imap::annual_lighting(moved, c, &sun, electric, d, o);
+        CHECK(std::fabs(light.zone.energy_kwh - 3 * 0.3 * 2) < 1e-9 && light.zone.full_kwh == 6,
+              "lighting: %g kWh of %g", light.zone.energy_kwh, light.zone.full_kwh);
+        CHECK(light.at_target.size() == 1 && light.at_target[0] == 1, "the point meets the target");
+        std::printf("lighting: %.2f kWh of %.2f without daylight control\n", light.zone.energy_kwh,
+                    light.zone.full_kwh);
+
         bool thrown = false;
         try {
             imap::trace_coefficients(ctx, 0, id, 0, {0}, 1000);

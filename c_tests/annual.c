@@ -177,6 +177,45 @@ int main(void) {
     expect("a NaN coefficient", imap_annual_metrics(sky, nan_value, sigma, 1, NULL, NULL, &m, sizeof m, NULL, 0),
            IMAP_ERR_NON_FINITE);
 
+    /* Electric light with daylight: a target 1000 lx above the brightest sunlit hour, the
+       zone's lights at full output bringing the dimmest hour to it at 90 % output. */
+    double emin = e[1], emax = e[1];
+    for (int h = 2; h < 4; h++) emin = e[h] < emin ? e[h] : emin, emax = e[h] > emax ? e[h] : emax;
+    double el = (emax + 1000 - emin) / 0.9, el_sigma = 0.01 * el, at = -1;
+    ImapDimming dim;
+    expect("dimming defaults", imap_dimming_default(&dim, sizeof dim), IMAP_OK);
+    check("EnergyPlus's minimum output", dim.min_output == 0.2 && dim.min_power == 0.3, dim.min_output, 0.2);
+    dim.power_w = 1000;
+    dim.target_lx = emax + 1000;
+    ImapLighting light;
+    expect("lighting", imap_annual_lighting(sky, value, sigma, 1, sun, NULL, &el, &el_sigma, &dim, &light,
+                                            sizeof light, &at), IMAP_OK);
+    double kwh = 0;
+    for (int h = 1; h < 4; h++) {
+        double f = (dim.target_lx - e[h]) / el;
+        f = f < 0.2 ? 0.2 : f;
+        kwh += 0.3 + 0.7 * (f - 0.2) / 0.8;
+    }
+    check("continuous dimming's energy, three sunlit hours", fabs(light.energy_kwh - kwh) < 1e-9, light.energy_kwh, kwh);
+    check("full output's energy", light.full_kwh == 3 && light.occupied_hours == 3, light.full_kwh, 3);
+    check("the photosensor meets its target every hour", at == 1, at, 1);
+    check("the energy's interval holds it", light.energy_low <= light.energy_kwh && light.energy_kwh <= light.energy_high,
+          light.energy_low, light.energy_kwh);
+    dim.control = IMAP_LIGHTING_CONTINUOUS_OFF, dim.target_lx = 1;
+    expect("lighting, off", imap_annual_lighting(sky, value, sigma, 1, sun, NULL, &el, &el_sigma, &dim, &light,
+                                                 sizeof light, NULL), IMAP_OK);
+    check("daylight alone: off every hour", light.energy_kwh == 0 && light.hours_off == 3, light.energy_kwh, 0);
+    dim.sensor = 1;
+    expect("a photosensor past the sensors", imap_annual_lighting(sky, value, sigma, 1, sun, NULL, &el, &el_sigma, &dim,
+                                                                  &light, sizeof light, NULL),
+           IMAP_ERR_INDEX_OUT_OF_RANGE);
+    dim.sensor = 0, dim.control = 9;
+    expect("control 9", imap_annual_lighting(sky, value, sigma, 1, sun, NULL, &el, &el_sigma, &dim, &light,
+                                             sizeof light, NULL), IMAP_ERR_INVALID_ARGUMENT);
+    dim.control = IMAP_LIGHTING_CONTINUOUS, dim.struct_size = 4;
+    expect("a dimming of 4 bytes", imap_annual_lighting(sky, value, sigma, 1, sun, NULL, &el, &el_sigma, &dim, &light,
+                                                       sizeof light, NULL), IMAP_ERR_INVALID_ARGUMENT);
+
     expect("free the direct sun", imap_direct_sun_free(sun), IMAP_OK);
     expect("a freed direct sun", imap_direct_sun_hour(sun, 3, &direct, 1), IMAP_ERR_INVALID_ARGUMENT);
     expect("free it twice", imap_direct_sun_free(sun), IMAP_ERR_INVALID_ARGUMENT);

@@ -61,6 +61,23 @@
 #include <stdint.h>
 
 /**
+ * The lighting controls of `ImapDimming::control` (EnergyPlus's types): dims
+ * continuously to `min_output` and stays on there; the same, and switches off there; in
+ * `steps` equal steps of output and power, and off. (Since 0.2.3.)
+ */
+#define IMAP_LIGHTING_CONTINUOUS 0
+
+/**
+ * See `IMAP_LIGHTING_CONTINUOUS`.
+ */
+#define IMAP_LIGHTING_CONTINUOUS_OFF 1
+
+/**
+ * See `IMAP_LIGHTING_CONTINUOUS`.
+ */
+#define IMAP_LIGHTING_STEPPED 2
+
+/**
  * Library version, major.
  */
 #define IMAP_VERSION_MAJOR 0
@@ -1082,6 +1099,76 @@ typedef struct ImapSensorMetrics {
    */
   double sda_pass_probability;
 } ImapSensorMetrics;
+
+/**
+ * A zone's dimming control and installed power (`imap_annual_lighting`). Initialise
+ * with `imap_dimming_default(&d, sizeof d)`: continuous dimming to 20 % output at 30 %
+ * power (EnergyPlus's defaults), 500 lx at sensor 0, 0 W. (Since 0.2.3.)
+ */
+typedef struct ImapDimming {
+  uint32_t struct_size;
+  /**
+   * IMAP_LIGHTING_*.
+   */
+  uint32_t control;
+  /**
+   * IMAP_LIGHTING_STEPPED's steps (1–1000).
+   */
+  uint32_t steps;
+  uint32_t reserved;
+  /**
+   * The photosensor: the index of the sensor whose daylight the control reads.
+   */
+  uint64_t sensor;
+  /**
+   * The illuminance the control keeps at its photosensor, lx.
+   */
+  double target_lx;
+  /**
+   * The continuous controls' lowest light output fraction (below 1), and the power
+   * fraction drawn there.
+   */
+  double min_output;
+  double min_power;
+  /**
+   * The zone's installed lighting power at full output, W.
+   */
+  double power_w;
+} ImapDimming;
+
+/**
+ * A zone's annual electric lighting (`imap_annual_lighting`). (Since 0.2.3.)
+ */
+typedef struct ImapLighting {
+  uint32_t struct_size;
+  uint32_t reserved;
+  uint64_t occupied_hours;
+  /**
+   * Occupied hours with the lights off, and at full output.
+   */
+  uint64_t hours_off;
+  uint64_t hours_full;
+  /**
+   * The weather's time step, hours.
+   */
+  double step_hours;
+  /**
+   * The energy with the daylight control, kWh, its standard deviation over the draws
+   * and its 95 % interval (NaN without draws).
+   */
+  double energy_kwh;
+  double energy_sigma;
+  double energy_low;
+  double energy_high;
+  /**
+   * The energy at full output every occupied hour, kWh.
+   */
+  double full_kwh;
+  /**
+   * The mean light output fraction over the occupied hours.
+   */
+  double mean_output;
+} ImapLighting;
 
 /**
  * Context settings, fixed at creation (threads and scheduler settings can be changed
@@ -2568,6 +2655,33 @@ enum ImapStatus imap_annual_options_default(struct ImapAnnualOptions *out, size_
  * per_sensor_size` writable bytes.
  */
 enum ImapStatus imap_annual_metrics(const struct ImapAnnualSky *sky, const double *value, const double *sigma, size_t sensors, const struct ImapDirectSun *sun, const struct ImapAnnualOptions *options, struct ImapAnnualMetrics *out, size_t out_size, struct ImapSensorMetrics *per_sensor, size_t per_sensor_size);
+
+/**
+ * Writes the default `ImapDimming` into `out` (`size` = sizeof *out). (Since 0.2.3.)
+ *
+ * # Safety
+ * `out` points to `size` writable bytes.
+ */
+enum ImapStatus imap_dimming_default(struct ImapDimming *out, size_t size);
+
+/**
+ * Electric light with daylight: a zone of `sensors` sensors (their daylight
+ * coefficients, direct sun and options as `imap_annual_metrics` takes them, the blinds
+ * included), its luminaires' illuminance at full output at each sensor (`electric`, lx,
+ * and its standard error `electric_sigma`, `sensors` each: a run of the model's own
+ * lights), dimmed by `dimming` at its photosensor in the occupied hours. The annual
+ * energy with its confidence into `out` (`out_size` = sizeof(ImapLighting)), and per
+ * sensor the share of occupied hours in which daylight and the dimmed light reach the
+ * target into `at_target` (NULL: not wanted; else `sensors` doubles). Returns
+ * IMAP_ERR_INVALID_ARGUMENT, IMAP_ERR_INDEX_OUT_OF_RANGE (the photosensor) or
+ * IMAP_ERR_NON_FINITE naming what is wrong. (Since 0.2.3.)
+ *
+ * # Safety
+ * As `imap_annual_metrics`; `electric` and `electric_sigma` hold `sensors` doubles;
+ * `dimming` is initialised; `out` holds `out_size` bytes; `at_target` NULL or `sensors`
+ * writable doubles.
+ */
+enum ImapStatus imap_annual_lighting(const struct ImapAnnualSky *sky, const double *value, const double *sigma, size_t sensors, const struct ImapDirectSun *sun, const struct ImapAnnualOptions *options, const double *electric, const double *electric_sigma, const struct ImapDimming *dimming, struct ImapLighting *out, size_t out_size, double *at_target);
 
 /**
  * The daylight factor (0–1) at `sensors` sensors and its standard error, from their

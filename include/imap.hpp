@@ -703,6 +703,34 @@ inline AnnualMetrics annual_metrics(const AnnualSky& sky, const Coefficients& c,
     return m;
 }
 
+inline ImapDimming dimming() {
+    ImapDimming d;
+    check(imap_dimming_default(&d, sizeof d));
+    return d;
+}
+
+/// A zone's annual electric lighting, and per point the share of occupied hours in which
+/// daylight and the dimmed light reach the target.
+struct AnnualLighting {
+    ImapLighting zone{};
+    std::vector<double> at_target;
+};
+
+/// Electric light with daylight: the zone's lights give `electric` (lx at full output, and
+/// its standard error, per point) and are dimmed by `dimming` at its photosensor.
+inline AnnualLighting annual_lighting(const AnnualSky& sky, const Coefficients& c, const DirectSun* sun,
+                                      const Hourly& electric, const ImapDimming& dimming,
+                                      const ImapAnnualOptions& options = annual_options()) {
+    if (electric.value.size() != c.points || electric.sigma.size() != c.points)
+        throw Error(IMAP_ERR_INVALID_ARGUMENT, "annual_lighting: electric holds other than one value per point");
+    AnnualLighting l;
+    l.at_target.resize(c.points);
+    check(imap_annual_lighting(sky.get(), c.value.data(), c.sigma.data(), c.points, sun ? sun->get() : nullptr,
+                               &options, electric.value.data(), electric.sigma.data(), &dimming, &l.zone,
+                               sizeof l.zone, l.at_target.data()));
+    return l;
+}
+
 /// Each point's daylight factor (0–1) under the CIE overcast sky, with its standard error.
 inline Hourly daylight_factor(const Coefficients& c, uint32_t mf, double ground_reflectance = 0.2) {
     Hourly d;

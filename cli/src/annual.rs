@@ -7,6 +7,7 @@ use crate::diag::printable;
 use crate::error::{fail, CliError, Result};
 use crate::grids::{self, Grid};
 use crate::settings::Settings;
+use imap::annual::lighting::{Control, Dimming};
 use imap::annual::trace::{PatchReport, PatchRound, PatchRun, PatchTarget};
 use imap::annual::{AnnualSky, Coefficients, DirectSun, MetricOptions, SunInVectors};
 use imap::SkyDesc;
@@ -78,6 +79,31 @@ pub struct AnnualOptions {
     /// cost more photons for the same error per patch.
     #[arg(long, default_value_t = 1)]
     pub mf: u32,
+    /// Electric light with daylight: the illuminance, lx, the zone's dimming control keeps
+    /// at its photosensor. The settings' lights and luminaires (and the model's emitters)
+    /// are the zone's, traced in a run of their own at full output; each grid is a zone,
+    /// and its annual lighting energy is written with its confidence.
+    #[arg(long)]
+    pub lighting_target: Option<f64>,
+    /// The zone's installed lighting power at full output, W (needed with
+    /// --lighting-target).
+    #[arg(long)]
+    pub lighting_power: Option<f64>,
+    /// The photosensor: the index of the grid point whose daylight the control reads
+    /// (default: the point with the lowest daylight factor).
+    #[arg(long)]
+    pub lighting_sensor: Option<usize>,
+    /// The control (EnergyPlus's types): "continuous" (dims to --lighting-min-output and
+    /// stays on), "continuous-off" (and switches off there) or "stepped:N" (N equal steps
+    /// and off).
+    #[arg(long, default_value = "continuous")]
+    pub lighting_control: String,
+    /// The lowest light output fraction the continuous controls dim to (EnergyPlus: 0.2).
+    #[arg(long, default_value_t = 0.2)]
+    pub lighting_min_output: f64,
+    /// The power fraction drawn at the lowest output (EnergyPlus: 0.3).
+    #[arg(long, default_value_t = 0.3)]
+    pub lighting_min_power: f64,
     /// Draws of the coefficients for the metrics' confidence.
     #[arg(long, default_value_t = 100)]
     pub draws: usize,
@@ -86,20 +112,69 @@ pub struct AnnualOptions {
     pub quiet: bool,
 }
 
-/// Settings an annual run takes: grids, no lights.
-fn check_settings(settings: &Settings, what: &str) -> Result<()> {
-    if settings.sky.is_some()
-        || settings.sun.is_some()
-        || settings.environment.is_some()
-        || !settings.lights.is_empty()
-        || !settings.luminaires.is_empty()
-    {
-        fail!("{what}: the settings hold lights, a [sky], [sun] or [environment]: an annual run makes its own skies from the weather file (electric light is not part of it yet); leave them out");
+/// Settings an annual run takes: grids, and lights only for `--lighting-target`.
+fn check_settings(settings: &Settings, what: &str, lighting: bool) -> Result<()> {
+    if settings.sky.is_some() || settings.sun.is_some() || settings.environment.is_some() {
+        fail!("{what}: the settings hold a [sky], [sun] or [environment]: an annual run makes its own skies from the weather file; leave them out");
+    }
+    if !lighting && (!settings.lights.is_empty() || !settings.luminaires.is_empty()) {
+        fail!("{what}: the settings hold lights or luminaires: they are traced only as electric light with daylight (give --lighting-target and --lighting-power); leave them out otherwise");
     }
     if settings.grids.is_empty() {
         fail!("{what}: the metrics are computed at the points of [[grid]]s: give at least one");
     }
     Ok(())
+}
+
+/// `--lighting-*`: the control's kind and fractions (the photosensor is per grid), or
+/// None without `--lighting-target`.
+fn lighting_control(o: &AnnualOptions) -> Result<Option<Dimming>> {
+    let Some(target) = o.lighting_target else {
+        if o.lighting_power.is_some() || o.lighting_sensor.is_some() {
+            fail!("--lighting-power and --lighting-sensor need --lighting-target");
+        }
+        return Ok(None);
+    };
+    if !(target.is_finite() && target > 0.0) {
+        fail!("--lighting-target {target} must be a positive illuminance (lx)");
+    }
+    let Some(power) = o.lighting_power else {
+        fail!("--lighting-target needs --lighting-power: the zone's installed lighting power, W");
+    };
+    if !(power.is_finite() && power >= 0.0) {
+        fail!("--lighting-power {power} must be a power, W, ≥ 0");
+    }
+    let control = match o.lighting_control.as_str() {
+        "continuous" => Control::Continuous,
+        "continuous-off" => Control::ContinuousOff,
+        s => match s.strip_prefix("stepped:").map(str::parse::<u32>) {
+            Some(Ok(n)) if (1..=1000).contains(&n) => Control::Stepped(n),
+            _ => fail!(
+                "--lighting-control \"{}\": use \"continuous\", \"continuous-off\" or \"stepped:N\" (N from 1 to 1000)",
+                printable(s)
+            ),
+        },
+    };
+    if !(0.0..1.0).contains(&o.lighting_min_output) {
+        fail!(
+            "--lighting-min-output {} must be in [0, 1)",
+            o.lighting_min_output
+        );
+    }
+    if !(0.0..=1.0).contains(&o.lighting_min_power) {
+        fail!(
+            "--lighting-min-power {} must be in [0, 1]",
+            o.lighting_min_power
+        );
+    }
+    Ok(Some(Dimming {
+        target_lx: target,
+        sensor: 0,
+        control,
+        min_output: o.lighting_min_output,
+        min_power: o.lighting_min_power,
+        power_w: power,
+    }))
 }
 
 /// "FROM-TO" hours.
@@ -122,7 +197,8 @@ fn occupied_hours(s: &str) -> Result<(f64, f64)> {
 }
 
 pub fn annual(model: &Path, settings: Settings, o: &AnnualOptions) -> Result<()> {
-    check_settings(&settings, "annual")?;
+    let lighting = lighting_control(o)?;
+    check_settings(&settings, "annual", lighting.is_some())?;
     let (from, to) = occupied_hours(&o.occupied)?;
     if !(0.0..=1.0).contains(&o.ground_reflectance) {
         fail!(
@@ -195,7 +271,7 @@ pub fn annual(model: &Path, settings: Settings, o: &AnnualOptions) -> Result<()>
     let shaded_settings = match &o.shaded {
         Some(path) => {
             let mut s = crate::settings_from(Some(path))?;
-            check_settings(&s, &format!("--shaded {}", path.display()))?;
+            check_settings(&s, &format!("--shaded {}", path.display()), false)?;
             s.run.threads = settings.run.threads;
             s.run.seed = settings.run.seed;
             if s.up()? != up {
@@ -231,7 +307,14 @@ pub fn annual(model: &Path, settings: Settings, o: &AnnualOptions) -> Result<()>
     } else {
         o.clone()
     };
-    let open = coefficients_run(model, &settings, (up, north), &first, "blinds open")?;
+    // The coefficients see the model without the settings' lights: the zone's electric
+    // light is traced on its own, at full output.
+    let daylit = Settings {
+        lights: Vec::new(),
+        luminaires: Vec::new(),
+        ..settings.clone()
+    };
+    let open = coefficients_run(model, &daylit, (up, north), &first, "blinds open")?;
     let shaded = match shaded_settings {
         Some(s) if !interrupted.raised() => Some(coefficients_run(
             model,
@@ -240,6 +323,11 @@ pub fn annual(model: &Path, settings: Settings, o: &AnnualOptions) -> Result<()>
             o,
             "blinds closed",
         )?),
+        _ => None,
+    };
+    let electric = match &lighting {
+        // (With --target-sda and friends: the first round's photons.)
+        Some(_) if !interrupted.raised() => Some(electric_run(model, &settings, &first)?),
         _ => None,
     };
     let (mut ctx, scene, mut run) = open;
@@ -404,7 +492,43 @@ pub fn annual(model: &Path, settings: Settings, o: &AnnualOptions) -> Result<()>
                 df.len()
             );
         }
-        write_csv(&o.out.join(format!("annual_{}.csv", g.name)), g, &m, &df)?;
+        // Electric light with daylight: the zone's luminaires dimmed at its photosensor.
+        let zone = match (&lighting, &electric) {
+            (Some(d), Some(el)) => {
+                // (Checked against every grid before the coefficients were traced.)
+                let sensor = match o.lighting_sensor {
+                    Some(k) => k,
+                    // The darkest point: where its target is met, the rest of an evenly
+                    // lit zone meets it too.
+                    None => (0..df.len())
+                        .min_by(|&a, &b| df[a].0.total_cmp(&df[b].0))
+                        .unwrap_or(0),
+                };
+                let d = Dimming { sensor, ..*d };
+                let l = imap::annual::lighting::lighting(
+                    c,
+                    &sky,
+                    Some(&sun),
+                    closed.as_ref().map(|(c, s)| imap::annual::Shaded {
+                        coefficients: c.view(),
+                        sun: Some(s),
+                    }),
+                    &el[gi],
+                    &d,
+                    &options,
+                )
+                .map_err(|e| CliError(format!("annual: grid {}: {}", g.name, e.message)))?;
+                Some((d, l, &el[gi]))
+            }
+            _ => None,
+        };
+        write_csv(
+            &o.out.join(format!("annual_{}.csv", g.name)),
+            g,
+            &m,
+            &df,
+            zone.as_ref().map(|z| (z.2.as_slice(), &z.1)),
+        )?;
         write_pictures(&o.out, g, &m, &df)?;
         write_temporal_map(
             &o.out.join(format!("annual_{}_temporal.png", g.name)),
@@ -447,6 +571,19 @@ pub fn annual(model: &Path, settings: Settings, o: &AnnualOptions) -> Result<()>
                     p.join(", ")
                 );
             }
+            if let Some((d, l, _)) = &zone {
+                println!(
+                    "grid {}: electric light to {:.0} lx at point {}: {:.1} kWh ({:.1}–{:.1}), {:.1} kWh without daylight control ({:.0} % saved)",
+                    g.name,
+                    d.target_lx,
+                    d.sensor,
+                    l.energy_kwh,
+                    l.energy_interval.0,
+                    l.energy_interval.1,
+                    l.full_kwh,
+                    100.0 * (1.0 - l.energy_kwh / l.full_kwh.max(f64::MIN_POSITIVE))
+                );
+            }
             let k = df.len().max(1) as f64;
             println!(
                 "grid {}: daylight factor mean {:.2} ± {:.2} %",
@@ -486,6 +623,23 @@ pub fn annual(model: &Path, settings: Settings, o: &AnnualOptions) -> Result<()>
                 "points_over_10_percent_error": poor,
                 "points_at_zero": unreached,
             },
+            "lighting": zone.as_ref().map(|(d, l, el)| serde_json::json!({
+                "target_lx": d.target_lx,
+                "sensor": d.sensor,
+                "control": o.lighting_control,
+                "min_output": d.min_output,
+                "min_power": d.min_power,
+                "power_w": d.power_w,
+                "electric_lx_at_sensor": el[d.sensor].0,
+                "energy_kwh": {"value": l.energy_kwh, "sigma": l.energy_sigma, "interval_95": [l.energy_interval.0, l.energy_interval.1]},
+                "full_kwh": l.full_kwh,
+                "saved_share": if l.full_kwh > 0.0 { 1.0 - l.energy_kwh / l.full_kwh } else { 0.0 },
+                "mean_output": l.mean_output,
+                "hours_off": l.hours_off,
+                "hours_full": l.hours_full,
+                "step_hours": l.step_hours,
+                "mean_at_target": l.at_target.iter().sum::<f64>() / l.at_target.len().max(1) as f64,
+            })),
             "mean_da": mean(|s| s.da),
             "mean_cda": mean(|s| s.cda),
             "mean_udi": [mean(|s| s.udi_below), mean(|s| s.udi_useful), mean(|s| s.udi_above)],
@@ -554,6 +708,19 @@ fn coefficients_run(
 ) -> Result<(imap::Context, crate::scene::LoadedScene, PatchRun)> {
     let (photons, time) = (o.photons.unwrap_or(0), o.time.unwrap_or(0.0));
     let (mut ctx, scene, _) = crate::output::load_with_camera(model, settings)?;
+    // A photosensor beyond a grid's points is named before anything is traced.
+    if let (Some(k), Some(_)) = (o.lighting_sensor, o.lighting_target) {
+        for g in &scene.grids {
+            let points = g.positions.len() / 3;
+            if k >= points {
+                fail!(
+                    "--lighting-sensor {k}: grid {} has {points} points (0 to {})",
+                    g.name,
+                    points.saturating_sub(1)
+                );
+            }
+        }
+    }
     let targets = scene
         .grids
         .iter()
@@ -580,6 +747,62 @@ fn coefficients_run(
     }
     trace(&mut ctx, &mut run, photons, time, o, what)?;
     Ok((ctx, scene, run))
+}
+
+/// The zone's electric light at full output at every grid's points (lx and its standard
+/// error): the model with the settings' lights and luminaires and no sky, traced with the
+/// coefficients' photons, time and estimator.
+fn electric_run(
+    model: &Path,
+    settings: &Settings,
+    o: &AnnualOptions,
+) -> Result<Vec<Vec<(f64, f64)>>> {
+    let (photons, time) = (o.photons.unwrap_or(0), o.time.unwrap_or(0.0));
+    let (mut ctx, scene, _) = crate::output::load_with_camera(model, settings)?;
+    let bar = if o.quiet {
+        indicatif::ProgressBar::hidden()
+    } else {
+        indicatif::ProgressBar::new(1000)
+    };
+    bar.set_style(
+        indicatif::ProgressStyle::with_template("{spinner} {elapsed:>4} [{bar:30}] {msg}")
+            .expect("template")
+            .progress_chars("=> "),
+    );
+    let interrupted = crate::Interrupts::get();
+    let mut progress = |p: &imap::Progress| -> bool {
+        let mut frac: f64 = 0.0;
+        if time > 0.0 {
+            frac = frac.max(p.elapsed_s / time);
+        }
+        if photons > 0 {
+            frac = frac.max(p.photons as f64 / photons as f64);
+        }
+        bar.set_position((frac.min(1.0) * 1000.0) as u64);
+        bar.set_message(format!("electric light: {} photons", p.photons));
+        !interrupted.raised()
+    };
+    ctx.run(&mut imap::RunParams {
+        photons,
+        time_budget_s: time,
+        progress: Some(&mut progress),
+        estimator: Some(crate::estimator(&o.estimator)?),
+        ..Default::default()
+    })
+    .map_err(|e| CliError(format!("annual: electric light: {}", e.message)))?;
+    bar.finish_and_clear();
+    scene
+        .grids
+        .iter()
+        .map(|g| {
+            let r = grids::read(&ctx, g)?;
+            Ok(r.lux
+                .iter()
+                .zip(&r.rel_error)
+                .map(|(l, e)| (*l, l * e))
+                .collect())
+        })
+        .collect()
 }
 
 /// Traces `photons` more (and at most `time` seconds; either 0: no such limit) into the
@@ -871,6 +1094,29 @@ fn report_text(json: &serde_json::Value) -> String {
                 );
             }
         }
+        let l = &g["lighting"];
+        if l.is_object() {
+            let e = &l["energy_kwh"];
+            let _ = writeln!(
+                s,
+                "\nElectric light with daylight: {:.0} W dimmed ({}, down to {:.0} % output at {:.0} % power) to keep {:.0} lx at point {} ({:.0} lx from the luminaires at full output): **{:.2} kWh** (95 % interval {:.2}–{:.2} kWh) against {:.2} kWh without daylight control, {} saved; off in {} and full in {} occupied hours; daylight and electric light reach the target in {} of the occupied hours on average over the points (per point in the CSV).",
+                f(&l["power_w"]),
+                l["control"].as_str().unwrap_or("?"),
+                100.0 * f(&l["min_output"]),
+                100.0 * f(&l["min_power"]),
+                f(&l["target_lx"]),
+                l["sensor"],
+                f(&l["electric_lx_at_sensor"]),
+                f(&e["value"]),
+                f(&e["interval_95"][0]),
+                f(&e["interval_95"][1]),
+                f(&l["full_kwh"]),
+                pc(&l["saved_share"]),
+                l["hours_off"],
+                l["hours_full"],
+                pc(&l["mean_at_target"])
+            );
+        }
         let _ = writeln!(s, "\nPer point: `annual_{name}.csv`.\n");
         for (file, what) in [
             ("da", "DA"),
@@ -891,19 +1137,28 @@ fn write_csv(
     g: &Grid,
     m: &imap::annual::GridMetrics,
     df: &[(f64, f64)],
+    zone: Option<(&[(f64, f64)], &imap::annual::lighting::Lighting)>,
 ) -> Result<()> {
     let io = |e: std::io::Error| CliError(format!("{}: {e}", path.display()));
     let mut f = std::io::BufWriter::new(std::fs::File::create(path).map_err(io)?);
     writeln!(
         f,
-        "x,y,z,da,cda,udi_below,udi_useful,udi_above,sda_pass_probability,ase_hours,df,df_sigma"
+        "x,y,z,da,cda,udi_below,udi_useful,udi_above,sda_pass_probability,ase_hours,df,df_sigma{}",
+        if zone.is_some() {
+            ",electric_lx,electric_sigma,at_target"
+        } else {
+            ""
+        }
     )
     .map_err(io)?;
     for (k, s) in m.sensors.iter().enumerate() {
         let q = &g.positions[3 * k..3 * k + 3];
+        let lighting = zone.map_or(String::new(), |(el, l)| {
+            format!(",{:.4},{:.4},{:.4}", el[k].0, el[k].1, l.at_target[k])
+        });
         writeln!(
             f,
-            "{},{},{},{:.4},{:.4},{:.4},{:.4},{:.4},{:.3},{},{:.5},{:.5}",
+            "{},{},{},{:.4},{:.4},{:.4},{:.4},{:.4},{:.3},{},{:.5},{:.5}{lighting}",
             q[0],
             q[1],
             q[2],

@@ -1369,6 +1369,198 @@ fn a_hazy_scene_from_the_settings() {
 }
 
 #[test]
+fn annual_electric_light_dims_with_the_daylight_to_the_energy_it_leaves() {
+    // The open grid of the test below under four overcast hours (occupied), and a point
+    // light of 2000 cd 2 m above its middle: E_el = I z / d³ at each point. The target is
+    // the first hour's daylight plus half the electric light, so in that hour the lights
+    // dim to half output and in the three brighter hours to their minimum (or off).
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    // A black triangle beside and below the grid: a small scene, whose sky photons land
+    // densely on the grid.
+    write(d, "near.mtl", "newmtl black\nKd 0 0 0\n");
+    let o = write(
+        d,
+        "near.obj",
+        "mtllib near.mtl\no near\nusemtl black\nv 2 2 -1\nv 2.1 2 -1\nv 2 2.1 -1\nf 1 2 3\n",
+    );
+    let grid = "[[grid]]\nname = \"open\"\norigin = [-1, -1, 0]\nu = [1, 0, 0]\nv = [0, 1, 0]\nsize = [2, 2]\nspacing = 1\n";
+    let s = write(
+        d,
+        "settings.toml",
+        format!("up_axis = \"z\"\n[run]\nseed = 5\n[[light]]\nkind = \"point\"\nposition = [0, 0, 2]\namount = 2000\nunit = \"cd\"\n{grid}"),
+    );
+    let wea = write(
+        d,
+        "w.wea",
+        "place Test\nlatitude 48\nlongitude -11\ntime_zone -15\nsite_elevation 0\n\
+         weather_data_file_units 1\n6 21 9.5 0 10\n6 21 10.5 0 50\n6 21 11.5 0 100\n6 21 12.5 0 200\n",
+    );
+    let weather = imap::weather::read_wea(Path::new(&wea)).unwrap();
+    let sky = imap::annual::AnnualSky::from_weather(
+        &weather,
+        1,
+        imap::annual::SunInVectors::InItsPatch,
+        0.2,
+    )
+    .unwrap();
+    let ps = &sky.patches;
+    let e: Vec<f64> = (0..4)
+        .map(|h| {
+            let v = sky.vector(h);
+            (1..ps.count()).map(|p| v[p] * ps.horizontal(p)).sum()
+        })
+        .collect();
+    // Every point is as far from the light: 2 m up, 0.5 m off in x and y. A grid point
+    // reads its vertex's share of the mesh, I z / d³ weighted by the vertex's hat function
+    // over the neighbouring cells (±1 spacing): integrated here (bilinear hat, 1 %).
+    let el = {
+        let n = 200;
+        let (mut sum, mut weights) = (0.0, 0.0);
+        for i in 0..n {
+            for j in 0..n {
+                let (u, v) = (
+                    (i as f64 + 0.5) / n as f64 * 2.0 - 1.0,
+                    (j as f64 + 0.5) / n as f64 * 2.0 - 1.0,
+                );
+                let w = (1.0 - u.abs()) * (1.0 - v.abs());
+                let (x, y) = (0.5 + u, 0.5 + v);
+                sum += w * 2000.0 * 2.0 / (x * x + y * y + 4.0).powf(1.5);
+                weights += w;
+            }
+        }
+        sum / weights
+    };
+    let target = e[0] + 0.5 * el;
+    assert!(e[1] > target + el, "{e:?}");
+    // EnergyPlus's continuous dimming at its defaults (20 % output at 30 % power): half
+    // output draws 0.3 + 0.7 · 0.3 / 0.8 of 1000 W, the minimum 0.3.
+    let half = 0.3 + 0.7 * 0.3 / 0.8;
+    for (control, want) in [
+        ("continuous", half + 3.0 * 0.3),
+        ("continuous-off", half),
+        ("stepped:4", 0.5),
+    ] {
+        let out = d.join(control.replace(':', "_"));
+        let r = imap(&[
+            "annual",
+            &o,
+            "--config",
+            &s,
+            "--weather",
+            &wea,
+            "--photons",
+            "1000000",
+            "--lighting-target",
+            &target.to_string(),
+            "--lighting-power",
+            "1000",
+            "--lighting-control",
+            control,
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        assert!(r.status.success(), "{}", stderr(&r));
+        assert!(
+            String::from_utf8_lossy(&r.stdout).contains("grid open: electric light to"),
+            "{}",
+            String::from_utf8_lossy(&r.stdout)
+        );
+        let json: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(out.join("annual.json")).unwrap())
+                .unwrap();
+        let l = &json["grids"][0]["lighting"];
+        let f = |v: &serde_json::Value| v.as_f64().unwrap();
+        // The electric light the photosensor reads, within its error of I z / d³, and the
+        // energy within its stated error of the exact year's (4 kWh undimmed).
+        let sensor = l["sensor"].as_u64().unwrap() as usize;
+        assert!(sensor < 4, "{l}");
+        assert!(
+            (f(&l["electric_lx_at_sensor"]) - el).abs() < 0.02 * el,
+            "{el}: {l}"
+        );
+        let energy = &l["energy_kwh"];
+        let (kwh, sigma) = (f(&energy["value"]), f(&energy["sigma"]));
+        assert!(
+            sigma > 0.0 && (kwh - want).abs() < 4.0 * sigma + 1e-3,
+            "{control}: {l}"
+        );
+        assert!(
+            f(&energy["interval_95"][0]) <= kwh && kwh <= f(&energy["interval_95"][1]),
+            "{l}"
+        );
+        assert_eq!(f(&l["full_kwh"]), 4.0, "{l}");
+        // Daylight and the dimmed light reach the target at every point in every hour
+        // (the points are alike), except where the lights switch off.
+        let at = f(&l["mean_at_target"]);
+        if control == "continuous-off" {
+            assert_eq!(l["hours_off"], 3, "{l}");
+        }
+        assert!(at > 0.74, "{control}: {l}");
+        let csv = std::fs::read_to_string(out.join("annual_open.csv")).unwrap();
+        assert!(
+            csv.lines()
+                .next()
+                .unwrap()
+                .ends_with(",electric_lx,electric_sigma,at_target"),
+            "{csv}"
+        );
+        let report = std::fs::read_to_string(out.join("annual_report.md")).unwrap();
+        assert!(report.contains("Electric light with daylight"), "{report}");
+    }
+    // Lights without --lighting-target, and a zone without its power or photosensor, are
+    // named.
+    let common = [
+        "annual",
+        &o,
+        "--config",
+        &s,
+        "--weather",
+        &wea,
+        "--photons",
+        "1000",
+    ];
+    for (extra, text) in [
+        (vec![], "give --lighting-target and --lighting-power"),
+        (vec!["--lighting-target", "500"], "needs --lighting-power"),
+        (
+            vec![
+                "--lighting-target",
+                "500",
+                "--lighting-power",
+                "100",
+                "--lighting-sensor",
+                "4",
+            ],
+            "--lighting-sensor 4: grid open has 4 points",
+        ),
+        (
+            vec![
+                "--lighting-target",
+                "500",
+                "--lighting-power",
+                "100",
+                "--lighting-control",
+                "dim",
+            ],
+            "--lighting-control \"dim\"",
+        ),
+        (
+            vec!["--lighting-target=-5", "--lighting-power", "100"],
+            "--lighting-target -5",
+        ),
+    ] {
+        let mut args: Vec<&str> = common.to_vec();
+        args.extend(extra);
+        let out = d.join("bad");
+        let out = out.to_str().unwrap();
+        args.extend(["--out", out, "--quiet"]);
+        let e = fails(&args);
+        assert!(e.contains(text), "{e}");
+    }
+}
+
+#[test]
 fn annual_metrics_of_an_open_grid_follow_the_hours_light() {
     // An open horizontal grid under four overcast hours of 10–200 W/m² diffuse light:
     // each point's coefficient for patch p is ∫_p cos dω, so each hour reads the sky

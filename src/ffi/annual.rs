@@ -14,6 +14,7 @@ use super::{
     boundary, read_versioned, slice, slice_mut, with_context, write_defaults, write_out,
     write_versioned, Versioned,
 };
+use crate::annual::lighting::{Control, Dimming};
 use crate::annual::{AnnualSky, CoefficientsView, DirectSun, MetricOptions, SunInVectors};
 use crate::error::{bail, Error, ImapStatus, Result};
 use std::any::Any;
@@ -742,6 +743,81 @@ unsafe impl Versioned for ImapSensorMetrics {
     }
 }
 
+/// The arguments every annual metric call reads: the sky, the coefficients, the direct sun
+/// and the options with the blinds-closed model, looked up and checked.
+struct Annual<'a> {
+    sky: Arc<ImapAnnualSky>,
+    coefficients: CoefficientsView<'a>,
+    sun: Option<Arc<ImapDirectSun>>,
+    options: MetricOptions,
+    shaded: Option<(CoefficientsView<'a>, Option<Arc<ImapDirectSun>>)>,
+}
+
+impl Annual<'_> {
+    /// Reads `imap_annual_metrics`'s arguments of the same names.
+    fn read(
+        sky: *const ImapAnnualSky,
+        value: *const f64,
+        sigma: *const f64,
+        sensors: usize,
+        sun: *const ImapDirectSun,
+        options: *const ImapAnnualOptions,
+    ) -> Result<Self> {
+        let s = lookup("sky", sky)?;
+        let patches = s.sky.patches.count();
+        let coefficients = view(value, sigma, sensors, patches)?;
+        let sun = (!sun.is_null()).then(|| lookup("sun", sun)).transpose()?;
+        let o = if options.is_null() {
+            ImapAnnualOptions::defaults()
+        } else {
+            read_versioned("options", options)?
+        };
+        let hours = s.sky.hours.len();
+        let mo = MetricOptions {
+            occupied: flags("occupied", o.occupied, o.occupied_count, hours)?,
+            threshold_lx: o.threshold_lx,
+            sda_share: o.sda_share,
+            udi_low: o.udi_low,
+            udi_high: o.udi_high,
+            draws: o.draws as usize,
+            seed: o.seed,
+            ase_lx: o.ase_lx,
+            ase_hours: usize::try_from(o.ase_hours).unwrap_or(usize::MAX),
+            daylight_hours: flags("daylight_hours", o.daylight_hours, o.daylight_count, hours)?,
+            blinds_share: o.blinds_share,
+        };
+        let shaded_sun = (!o.shaded_sun.is_null())
+            .then(|| lookup("options->shaded_sun", o.shaded_sun))
+            .transpose()?;
+        let shaded = if o.shaded_value.is_null() {
+            None
+        } else {
+            Some((
+                view(o.shaded_value, o.shaded_sigma, sensors, patches)?,
+                shaded_sun,
+            ))
+        };
+        Ok(Annual {
+            sky: s,
+            coefficients,
+            sun,
+            options: mo,
+            shaded,
+        })
+    }
+
+    fn sun(&self) -> Option<&DirectSun> {
+        self.sun.as_ref().map(|d| &d.sun)
+    }
+
+    fn shaded(&self) -> Option<crate::annual::Shaded<'_>> {
+        self.shaded.as_ref().map(|(c, s)| crate::annual::Shaded {
+            coefficients: *c,
+            sun: s.as_ref().map(|x| &x.sun),
+        })
+    }
+}
+
 /// A per-hour flag array of the options (NULL: none).
 fn flags(name: &str, p: *const u8, count: usize, hours: usize) -> Result<Vec<bool>> {
     if p.is_null() {
@@ -783,46 +859,13 @@ pub unsafe extern "C" fn imap_annual_metrics(
 ) -> ImapStatus {
     boundary(None, || {
         super::check_out("out", out)?;
-        let s = lookup("sky", sky)?;
-        let patches = s.sky.patches.count();
-        let c = view(value, sigma, sensors, patches)?;
-        let d = (!sun.is_null()).then(|| lookup("sun", sun)).transpose()?;
-        let o = if options.is_null() {
-            ImapAnnualOptions::defaults()
-        } else {
-            read_versioned("options", options)?
-        };
-        let hours = s.sky.hours.len();
-        let mo = MetricOptions {
-            occupied: flags("occupied", o.occupied, o.occupied_count, hours)?,
-            threshold_lx: o.threshold_lx,
-            sda_share: o.sda_share,
-            udi_low: o.udi_low,
-            udi_high: o.udi_high,
-            draws: o.draws as usize,
-            seed: o.seed,
-            ase_lx: o.ase_lx,
-            ase_hours: usize::try_from(o.ase_hours).unwrap_or(usize::MAX),
-            daylight_hours: flags("daylight_hours", o.daylight_hours, o.daylight_count, hours)?,
-            blinds_share: o.blinds_share,
-        };
-        let shaded_sun = (!o.shaded_sun.is_null())
-            .then(|| lookup("options->shaded_sun", o.shaded_sun))
-            .transpose()?;
-        let shaded = if o.shaded_value.is_null() {
-            None
-        } else {
-            Some(view(o.shaded_value, o.shaded_sigma, sensors, patches)?)
-        };
+        let a = Annual::read(sky, value, sigma, sensors, sun, options)?;
         let m = crate::annual::metrics_with_blinds(
-            c,
-            &s.sky,
-            d.as_ref().map(|d| &d.sun),
-            shaded.map(|sc| crate::annual::Shaded {
-                coefficients: sc,
-                sun: shaded_sun.as_ref().map(|x| &x.sun),
-            }),
-            &mo,
+            a.coefficients,
+            &a.sky.sky,
+            a.sun(),
+            a.shaded(),
+            &a.options,
         )?;
         if !per_sensor.is_null() {
             if per_sensor_size < std::mem::size_of::<u32>() {
@@ -873,6 +916,200 @@ pub unsafe extern "C" fn imap_annual_metrics(
                 r.en17037_pass_probability[i] = l.pass_probability;
             }
         }
+        write_versioned("out", out, out_size, r)
+    })
+}
+
+/// The lighting controls of `ImapDimming::control` (EnergyPlus's types): dims
+/// continuously to `min_output` and stays on there; the same, and switches off there; in
+/// `steps` equal steps of output and power, and off. (Since 0.2.3.)
+pub const IMAP_LIGHTING_CONTINUOUS: u32 = 0;
+/// See `IMAP_LIGHTING_CONTINUOUS`.
+pub const IMAP_LIGHTING_CONTINUOUS_OFF: u32 = 1;
+/// See `IMAP_LIGHTING_CONTINUOUS`.
+pub const IMAP_LIGHTING_STEPPED: u32 = 2;
+
+/// A zone's dimming control and installed power (`imap_annual_lighting`). Initialise
+/// with `imap_dimming_default(&d, sizeof d)`: continuous dimming to 20 % output at 30 %
+/// power (EnergyPlus's defaults), 500 lx at sensor 0, 0 W. (Since 0.2.3.)
+#[repr(C)]
+#[derive(Clone, Copy, Debug)]
+pub struct ImapDimming {
+    pub struct_size: u32,
+    /// IMAP_LIGHTING_*.
+    pub control: u32,
+    /// IMAP_LIGHTING_STEPPED's steps (1–1000).
+    pub steps: u32,
+    pub reserved: u32,
+    /// The photosensor: the index of the sensor whose daylight the control reads.
+    pub sensor: u64,
+    /// The illuminance the control keeps at its photosensor, lx.
+    pub target_lx: f64,
+    /// The continuous controls' lowest light output fraction (below 1), and the power
+    /// fraction drawn there.
+    pub min_output: f64,
+    pub min_power: f64,
+    /// The zone's installed lighting power at full output, W.
+    pub power_w: f64,
+}
+
+// SAFETY: repr(C), u32 struct_size first, numbers only.
+unsafe impl Versioned for ImapDimming {
+    const NAME: &'static str = "ImapDimming";
+    const INIT: &'static str = "imap_dimming_default";
+    fn defaults() -> Self {
+        ImapDimming {
+            struct_size: std::mem::size_of::<Self>() as u32,
+            control: IMAP_LIGHTING_CONTINUOUS,
+            steps: 1,
+            reserved: 0,
+            sensor: 0,
+            target_lx: 500.0,
+            min_output: 0.2,
+            min_power: 0.3,
+            power_w: 0.0,
+        }
+    }
+}
+
+/// Writes the default `ImapDimming` into `out` (`size` = sizeof *out). (Since 0.2.3.)
+///
+/// # Safety
+/// `out` points to `size` writable bytes.
+#[no_mangle]
+pub unsafe extern "C" fn imap_dimming_default(out: *mut ImapDimming, size: usize) -> ImapStatus {
+    boundary(None, || write_defaults(out, size))
+}
+
+/// A zone's annual electric lighting (`imap_annual_lighting`). (Since 0.2.3.)
+#[repr(C)]
+#[derive(Clone, Copy, Debug)]
+pub struct ImapLighting {
+    pub struct_size: u32,
+    pub reserved: u32,
+    pub occupied_hours: u64,
+    /// Occupied hours with the lights off, and at full output.
+    pub hours_off: u64,
+    pub hours_full: u64,
+    /// The weather's time step, hours.
+    pub step_hours: f64,
+    /// The energy with the daylight control, kWh, its standard deviation over the draws
+    /// and its 95 % interval (NaN without draws).
+    pub energy_kwh: f64,
+    pub energy_sigma: f64,
+    pub energy_low: f64,
+    pub energy_high: f64,
+    /// The energy at full output every occupied hour, kWh.
+    pub full_kwh: f64,
+    /// The mean light output fraction over the occupied hours.
+    pub mean_output: f64,
+}
+
+// SAFETY: repr(C), u32 struct_size first, numbers only.
+unsafe impl Versioned for ImapLighting {
+    const NAME: &'static str = "ImapLighting";
+    const INIT: &'static str = "sizeof(ImapLighting)";
+    fn defaults() -> Self {
+        ImapLighting {
+            struct_size: std::mem::size_of::<Self>() as u32,
+            reserved: 0,
+            occupied_hours: 0,
+            hours_off: 0,
+            hours_full: 0,
+            step_hours: 1.0,
+            energy_kwh: 0.0,
+            energy_sigma: f64::NAN,
+            energy_low: f64::NAN,
+            energy_high: f64::NAN,
+            full_kwh: 0.0,
+            mean_output: 0.0,
+        }
+    }
+}
+
+/// Electric light with daylight: a zone of `sensors` sensors (their daylight
+/// coefficients, direct sun and options as `imap_annual_metrics` takes them, the blinds
+/// included), its luminaires' illuminance at full output at each sensor (`electric`, lx,
+/// and its standard error `electric_sigma`, `sensors` each: a run of the model's own
+/// lights), dimmed by `dimming` at its photosensor in the occupied hours. The annual
+/// energy with its confidence into `out` (`out_size` = sizeof(ImapLighting)), and per
+/// sensor the share of occupied hours in which daylight and the dimmed light reach the
+/// target into `at_target` (NULL: not wanted; else `sensors` doubles). Returns
+/// IMAP_ERR_INVALID_ARGUMENT, IMAP_ERR_INDEX_OUT_OF_RANGE (the photosensor) or
+/// IMAP_ERR_NON_FINITE naming what is wrong. (Since 0.2.3.)
+///
+/// # Safety
+/// As `imap_annual_metrics`; `electric` and `electric_sigma` hold `sensors` doubles;
+/// `dimming` is initialised; `out` holds `out_size` bytes; `at_target` NULL or `sensors`
+/// writable doubles.
+#[no_mangle]
+pub unsafe extern "C" fn imap_annual_lighting(
+    sky: *const ImapAnnualSky,
+    value: *const f64,
+    sigma: *const f64,
+    sensors: usize,
+    sun: *const ImapDirectSun,
+    options: *const ImapAnnualOptions,
+    electric: *const f64,
+    electric_sigma: *const f64,
+    dimming: *const ImapDimming,
+    out: *mut ImapLighting,
+    out_size: usize,
+    at_target: *mut f64,
+) -> ImapStatus {
+    boundary(None, || {
+        super::check_out("out", out)?;
+        let a = Annual::read(sky, value, sigma, sensors, sun, options)?;
+        let el: Vec<(f64, f64)> = slice("electric", electric, sensors)?
+            .iter()
+            .zip(slice("electric_sigma", electric_sigma, sensors)?)
+            .map(|(&x, &s)| (x, s))
+            .collect();
+        let d = read_versioned("dimming", dimming)?;
+        let control = match d.control {
+            IMAP_LIGHTING_CONTINUOUS => Control::Continuous,
+            IMAP_LIGHTING_CONTINUOUS_OFF => Control::ContinuousOff,
+            IMAP_LIGHTING_STEPPED => Control::Stepped(d.steps),
+            other => bail!(
+                ImapErrInvalidArgument,
+                "dimming->control = {other}: use IMAP_LIGHTING_CONTINUOUS, IMAP_LIGHTING_CONTINUOUS_OFF or IMAP_LIGHTING_STEPPED"
+            ),
+        };
+        let zone = Dimming {
+            target_lx: d.target_lx,
+            sensor: usize::try_from(d.sensor).unwrap_or(usize::MAX),
+            control,
+            min_output: d.min_output,
+            min_power: d.min_power,
+            power_w: d.power_w,
+        };
+        let at = if at_target.is_null() {
+            None
+        } else {
+            Some(slice_mut("at_target", at_target, sensors)?)
+        };
+        let l = crate::annual::lighting::lighting(
+            a.coefficients,
+            &a.sky.sky,
+            a.sun(),
+            a.shaded(),
+            &el,
+            &zone,
+            &a.options,
+        )?;
+        if let Some(at) = at {
+            at.copy_from_slice(&l.at_target);
+        }
+        let mut r = ImapLighting::defaults();
+        r.occupied_hours = l.occupied_hours as u64;
+        r.hours_off = l.hours_off as u64;
+        r.hours_full = l.hours_full as u64;
+        r.step_hours = l.step_hours;
+        r.energy_kwh = l.energy_kwh;
+        r.energy_sigma = l.energy_sigma;
+        (r.energy_low, r.energy_high) = l.energy_interval;
+        r.full_kwh = l.full_kwh;
+        r.mean_output = l.mean_output;
         write_versioned("out", out, out_size, r)
     })
 }
