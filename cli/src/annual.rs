@@ -759,16 +759,7 @@ fn electric_run(
 ) -> Result<Vec<Vec<(f64, f64)>>> {
     let (photons, time) = (o.photons.unwrap_or(0), o.time.unwrap_or(0.0));
     let (mut ctx, scene, _) = crate::output::load_with_camera(model, settings)?;
-    let bar = if o.quiet {
-        indicatif::ProgressBar::hidden()
-    } else {
-        indicatif::ProgressBar::new(1000)
-    };
-    bar.set_style(
-        indicatif::ProgressStyle::with_template("{spinner} {elapsed:>4} [{bar:30}] {msg}")
-            .expect("template")
-            .progress_chars("=> "),
-    );
+    let bar = crate::progress_bar(o.quiet);
     let interrupted = crate::Interrupts::get();
     let mut progress = |p: &imap::Progress| -> bool {
         let mut frac: f64 = 0.0;
@@ -816,16 +807,7 @@ fn trace(
     what: &str,
 ) -> Result<PatchReport> {
     let first = run.report().photons;
-    let bar = if o.quiet {
-        indicatif::ProgressBar::hidden()
-    } else {
-        indicatif::ProgressBar::new(1000)
-    };
-    bar.set_style(
-        indicatif::ProgressStyle::with_template("{spinner} {elapsed:>4} [{bar:30}] {msg}")
-            .expect("template")
-            .progress_chars("=> "),
-    );
+    let bar = crate::progress_bar(o.quiet);
     let interrupted = crate::Interrupts::get();
     let elapsed_before = run.report().elapsed_s;
     let mut progress = |p: &imap::Progress| -> bool {

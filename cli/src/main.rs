@@ -251,6 +251,21 @@ fn apply_options(settings: &mut Settings, opts: &RunOptions) {
 }
 
 /// The estimator a settings' name stands for.
+/// The command's progress bar of 1000 steps (hidden with --quiet).
+fn progress_bar(quiet: bool) -> ProgressBar {
+    let bar = if quiet {
+        ProgressBar::hidden()
+    } else {
+        ProgressBar::new(1000)
+    };
+    bar.set_style(
+        ProgressStyle::with_template("{spinner} {elapsed:>4} [{bar:30}] {msg}")
+            .expect("a valid template")
+            .progress_chars("=> "),
+    );
+    bar
+}
+
 fn estimator(name: &str) -> Result<imap::Estimator> {
     match name {
         "light-sampling" => Ok(imap::Estimator::DEFAULT),
@@ -426,16 +441,7 @@ fn execute(
     std::fs::create_dir_all(out).map_err(|e| CliError(format!("{}: {e}", out.display())))?;
     let interrupted = Interrupts::get();
 
-    let bar = if quiet {
-        ProgressBar::hidden()
-    } else {
-        ProgressBar::new(1000)
-    };
-    bar.set_style(
-        ProgressStyle::with_template("{spinner} {elapsed:>4} [{bar:30}] {msg}")
-            .unwrap()
-            .progress_chars("=> "),
-    );
+    let bar = progress_bar(quiet);
     let grid_target = r.grid_error;
     let target = if grid_target > 0.0 {
         0.0

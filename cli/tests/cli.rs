@@ -1368,6 +1368,35 @@ fn a_hazy_scene_from_the_settings() {
     }
 }
 
+/// A .wea file (48° N, 11° E) of `rows` ("month day hour DNI DHI" lines) in `d`, and each
+/// row's sky-vector horizontal illuminance (Tregenza patches, the sun in its patch).
+fn overcast_hours(d: &Path, rows: &str) -> (String, Vec<f64>) {
+    let wea = write(
+        d,
+        "w.wea",
+        format!(
+            "place Test\nlatitude 48\nlongitude -11\ntime_zone -15\nsite_elevation 0\n\
+             weather_data_file_units 1\n{rows}"
+        ),
+    );
+    let weather = imap::weather::read_wea(Path::new(&wea)).unwrap();
+    let sky = imap::annual::AnnualSky::from_weather(
+        &weather,
+        1,
+        imap::annual::SunInVectors::InItsPatch,
+        0.2,
+    )
+    .unwrap();
+    let ps = &sky.patches;
+    let e = (0..sky.hours.len())
+        .map(|h| {
+            let v = sky.vector(h);
+            (1..ps.count()).map(|p| v[p] * ps.horizontal(p)).sum()
+        })
+        .collect();
+    (wea, e)
+}
+
 #[test]
 fn annual_electric_light_dims_with_the_daylight_to_the_energy_it_leaves() {
     // The open grid of the test below under four overcast hours (occupied), and a point
@@ -1390,27 +1419,10 @@ fn annual_electric_light_dims_with_the_daylight_to_the_energy_it_leaves() {
         "settings.toml",
         format!("up_axis = \"z\"\n[run]\nseed = 5\n[[light]]\nkind = \"point\"\nposition = [0, 0, 2]\namount = 2000\nunit = \"cd\"\n{grid}"),
     );
-    let wea = write(
+    let (wea, e) = overcast_hours(
         d,
-        "w.wea",
-        "place Test\nlatitude 48\nlongitude -11\ntime_zone -15\nsite_elevation 0\n\
-         weather_data_file_units 1\n6 21 9.5 0 10\n6 21 10.5 0 50\n6 21 11.5 0 100\n6 21 12.5 0 200\n",
+        "6 21 9.5 0 10\n6 21 10.5 0 50\n6 21 11.5 0 100\n6 21 12.5 0 200\n",
     );
-    let weather = imap::weather::read_wea(Path::new(&wea)).unwrap();
-    let sky = imap::annual::AnnualSky::from_weather(
-        &weather,
-        1,
-        imap::annual::SunInVectors::InItsPatch,
-        0.2,
-    )
-    .unwrap();
-    let ps = &sky.patches;
-    let e: Vec<f64> = (0..4)
-        .map(|h| {
-            let v = sky.vector(h);
-            (1..ps.count()).map(|p| v[p] * ps.horizontal(p)).sum()
-        })
-        .collect();
     // Every point is as far from the light: 2 m up, 0.5 m off in x and y. A grid point
     // reads its vertex's share of the mesh, I z / d³ weighted by the vertex's hat function
     // over the neighbouring cells (±1 spacing): integrated here (bilinear hat, 1 %).
@@ -1574,28 +1586,10 @@ fn annual_metrics_of_an_open_grid_follow_the_hours_light() {
         "up_axis = \"z\"\n[run]\nseed = 3\n[[grid]]\nname = \"open\"\norigin = [-1, -1, 0]\n\
          u = [1, 0, 0]\nv = [0, 1, 0]\nsize = [2, 2]\nspacing = 1\n",
     );
-    let wea = write(
+    let (wea, e) = overcast_hours(
         d,
-        "w.wea",
-        "place Test\nlatitude 48\nlongitude -11\ntime_zone -15\nsite_elevation 0\n\
-         weather_data_file_units 1\n6 21 3.5 0 0\n6 21 9.5 0 10\n6 21 10.5 0 50\n\
-         6 21 11.5 0 100\n6 21 12.5 0 200\n",
+        "6 21 3.5 0 0\n6 21 9.5 0 10\n6 21 10.5 0 50\n6 21 11.5 0 100\n6 21 12.5 0 200\n",
     );
-    let weather = imap::weather::read_wea(Path::new(&wea)).unwrap();
-    let sky = imap::annual::AnnualSky::from_weather(
-        &weather,
-        1,
-        imap::annual::SunInVectors::InItsPatch,
-        0.2,
-    )
-    .unwrap();
-    let ps = &sky.patches;
-    let e: Vec<f64> = (0..5)
-        .map(|h| {
-            let v = sky.vector(h);
-            (1..ps.count()).map(|p| v[p] * ps.horizontal(p)).sum()
-        })
-        .collect();
     assert!(e[0] == 0.0 && e[1] > 500.0 && e[4] > 3.0 * e[2], "{e:?}");
     for (threshold, da) in [
         (0.5 * (e[2] + e[3]), 0.5),

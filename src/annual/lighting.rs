@@ -379,18 +379,21 @@ mod tests {
     fn a_year_of_rising_daylight_costs_the_energy_the_dimming_leaves() {
         let (sky, c) = rising_year();
         let electric = [(500.0, 0.0); 3];
+        let run = |d: &Dimming| {
+            lighting(
+                &c,
+                &sky,
+                None,
+                None,
+                &electric,
+                d,
+                &MetricOptions::default(),
+            )
+            .unwrap()
+        };
         // Dimming to nothing at no power: output 1 − h/100, Σ = 50.5 h at 1 kW.
         let d = dimming(Control::Continuous, 0.0, 0.0);
-        let l = lighting(
-            &c,
-            &sky,
-            None,
-            None,
-            &electric,
-            &d,
-            &MetricOptions::default(),
-        )
-        .unwrap();
+        let l = run(&d);
         assert_eq!(l.occupied_hours, 100);
         assert_eq!(l.step_hours, 1.0);
         assert!((l.energy_kwh - 50.5).abs() < 1e-9, "{}", l.energy_kwh);
@@ -404,16 +407,7 @@ mod tests {
         assert!(l.energy_sigma.abs() < 1e-9);
         // Stepped in halves: full while r > ½ (h < 50), half after: 50 + 25 kWh.
         let d = dimming(Control::Stepped(2), 0.0, 0.0);
-        let l = lighting(
-            &c,
-            &sky,
-            None,
-            None,
-            &electric,
-            &d,
-            &MetricOptions::default(),
-        )
-        .unwrap();
+        let l = run(&d);
         assert!((l.energy_kwh - 75.0).abs() < 1e-9, "{}", l.energy_kwh);
         // Only the first 40 hours occupied: Σ_{h<40} (1 − h/100) = 40 − 7.8.
         let o = MetricOptions {
