@@ -59,7 +59,7 @@ RUSTFLAGS="--cfg loom" CARGO_TARGET_DIR=target/loom cargo test --release -p imap
 echo "== CMake build tree: C and C++ examples under ctest"
 cmake -S . -B build -DCMAKE_BUILD_TYPE=Release -DIMAP_EMBREE_DIR="$EMBREE_DIR" >/dev/null
 cmake --build build -j "$JOBS"
-ctest --test-dir build --output-on-failure
+ctest --test-dir build --output-on-failure -j "$JOBS"
 
 echo "== installed package, relocated: find_package(imap) and pkg-config"
 TMP=$(mktemp -d)
@@ -89,4 +89,4 @@ echo "pkg-config build of bad_input: ok"
 # Every example is built against the relocated package; the long physics runs
 # (luminaire_room, the renders) passed above on the same sources, so the installed tree runs
 # the quick ones: linking and running against the package is what is checked here.
-ctest --test-dir "$TMP/examples" --output-on-failure -E 'luminaire_room|render_cornell|edge_lit_panel'
+ctest --test-dir "$TMP/examples" --output-on-failure -j "$JOBS" -E 'luminaire_room|render_cornell|edge_lit_panel'
