@@ -188,7 +188,7 @@ fn a_side_lit_room_reads_the_same_through_rad_and_obj() {
             },
         );
         let out = d.path().join("out");
-        let o = run_photons(model, &toml, &out, 6_000_000);
+        let o = run_photons(model, &toml, &out, 3_000_000);
         assert!(o.status.success(), "{}", stderr(&o));
         let err = stderr(&o);
         if model.ends_with(".rad") {
