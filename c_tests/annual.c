@@ -163,6 +163,14 @@ int main(void) {
     check("sDA", m.sda == 1, m.sda, 1);
     check("EN 17037: high (2 daylight hours of 4)", m.en17037_level == 2 && m.daylight_hours == 2,
           (double)m.en17037_level, 2);
+    check("UDI: above 3000 lx in every sunlit hour", m.udi[2] == 1 && m.udi[1] == 0 && m.udi[0] == 0, m.udi[2], 1);
+    check("UDI's interval", m.udi_interval_low[2] <= 1 && m.udi_interval_high[2] == 1, m.udi_interval_low[2], 1);
+    ImapAnnualMetrics before_udi;
+    expect("metrics into the struct as it was before UDI's fields",
+           imap_annual_metrics(sky, value, sigma, 1, sun, &o, &before_udi, offsetof(ImapAnnualMetrics, udi), NULL, 0),
+           IMAP_OK);
+    check("its struct_size", before_udi.struct_size == offsetof(ImapAnnualMetrics, udi),
+          (double)before_udi.struct_size, (double)offsetof(ImapAnnualMetrics, udi));
     o.threshold_lx = -1;
     expect("metrics with threshold -1", imap_annual_metrics(sky, value, sigma, 1, sun, &o, &m, sizeof m, NULL, 0),
            IMAP_ERR_INVALID_ARGUMENT);

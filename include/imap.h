@@ -1079,6 +1079,16 @@ typedef struct ImapAnnualMetrics {
   double en17037_target_share[3];
   double en17037_minimum_share[3];
   double en17037_pass_probability[3];
+  /**
+   * UDI's three bands (below, useful, above) as the grid's mean share of occupied
+   * hours, their standard deviations over the draws and their 95 % intervals (NaN
+   * without draws). (Appended in 0.2.3: a struct_size up to `en17037_pass_probability`
+   * is read without them.)
+   */
+  double udi[3];
+  double udi_sigma[3];
+  double udi_interval_low[3];
+  double udi_interval_high[3];
 } ImapAnnualMetrics;
 
 /**

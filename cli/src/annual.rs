@@ -67,6 +67,11 @@ pub struct AnnualOptions {
     /// their 95 % intervals); with --target-sda, when both are. Rounds as --target-sda's.
     #[arg(long)]
     pub target_en17037: Option<f64>,
+    /// Stop when, on every grid, UDI's three bands (the grid's mean shares below, within
+    /// and above the useful range) are known to ± this (the half-width of their 95 %
+    /// intervals); with the other targets, when all are. Rounds as --target-sda's.
+    #[arg(long)]
+    pub target_udi: Option<f64>,
     /// The model with its blinds closed: TOML settings for the same model (a blind's
     /// material, or grids and materials as the open settings with the glazing a diffuse
     /// transmitter). Its coefficients are traced as the open model's, and IES LM-83's rule
@@ -226,6 +231,7 @@ pub fn annual(model: &Path, settings: Settings, o: &AnnualOptions) -> Result<()>
             o.target_en17037,
             "EN 17037's time shares' 95 % intervals",
         ),
+        ("--target-udi", o.target_udi, "UDI's 95 % intervals"),
     ] {
         let Some(t) = target else { continue };
         if !(t > 0.0 && t < 1.0) {
@@ -241,7 +247,7 @@ pub fn annual(model: &Path, settings: Settings, o: &AnnualOptions) -> Result<()>
             fail!("{flag} reads {what} from the draws: give --draws 20 or more");
         }
     }
-    let targeted = o.target_sda.is_some() || o.target_en17037.is_some();
+    let targeted = o.target_sda.is_some() || o.target_en17037.is_some() || o.target_udi.is_some();
     // The weather first: a bad file costs no run.
     let weather = imap::weather::read(&o.weather).map_err(|e| CliError(printable(&e.message)))?;
     let sky = AnnualSky::from_weather(&weather, o.mf, SunInVectors::Left, o.ground_reflectance)
@@ -389,12 +395,15 @@ pub fn annual(model: &Path, settings: Settings, o: &AnnualOptions) -> Result<()>
     if targeted {
         loop {
             // The widest half-interval of each targeted metric over the grids.
-            let (mut sda, mut en): (f64, f64) = (0.0, 0.0);
+            let (mut sda, mut en, mut udi): (f64, f64, f64) = (0.0, 0.0, 0.0);
             for (gi, (g, sun)) in scene.grids.iter().zip(&suns).enumerate() {
                 let c = coefficients(&run, gi, g)?;
                 let m = imap::annual::metrics(c, &sky, Some(sun), &options)
                     .map_err(|e| CliError(format!("annual: grid {}: {}", g.name, e.message)))?;
                 sda = sda.max(0.5 * (m.sda_interval.1 - m.sda_interval.0));
+                for (lo, hi) in m.udi_interval {
+                    udi = udi.max(0.5 * (hi - lo));
+                }
                 for l in m.en17037.iter().flat_map(|e| &e.levels) {
                     en = en
                         .max(0.5 * (l.target_interval.1 - l.target_interval.0))
@@ -406,6 +415,7 @@ pub fn annual(model: &Path, settings: Settings, o: &AnnualOptions) -> Result<()>
             for (name, worst, target) in [
                 ("sDA", sda, o.target_sda),
                 ("EN 17037's shares", en, o.target_en17037),
+                ("UDI", udi, o.target_udi),
             ] {
                 let Some(target) = target else { continue };
                 done &= worst <= target;
@@ -642,7 +652,8 @@ pub fn annual(model: &Path, settings: Settings, o: &AnnualOptions) -> Result<()>
             })),
             "mean_da": mean(|s| s.da),
             "mean_cda": mean(|s| s.cda),
-            "mean_udi": [mean(|s| s.udi_below), mean(|s| s.udi_useful), mean(|s| s.udi_above)],
+            "mean_udi": m.udi,
+            "mean_udi_interval_95": m.udi_interval.iter().map(|(lo, hi)| [*lo, *hi]).collect::<Vec<_>>(),
             "occupied_hours": m.occupied_hours,
         }));
     }
@@ -674,6 +685,11 @@ pub fn annual(model: &Path, settings: Settings, o: &AnnualOptions) -> Result<()>
             "rounds": rounds,
         })),
         "target_en17037": o.target_en17037.map(|t| serde_json::json!({
+            "half_width_95": t,
+            "reached": reached,
+            "rounds": rounds,
+        })),
+        "target_udi": o.target_udi.map(|t| serde_json::json!({
             "half_width_95": t,
             "reached": reached,
             "rounds": rounds,
@@ -970,7 +986,7 @@ fn report_text(json: &serde_json::Value) -> String {
         json["occupied"].as_str().unwrap_or("?"),
         f(&json["threshold_lx"])
     );
-    for key in ["target_sda", "target_en17037"] {
+    for key in ["target_sda", "target_en17037", "target_udi"] {
         let t = &json[key];
         if t.is_object() {
             let _ = writeln!(
@@ -1023,13 +1039,16 @@ fn report_text(json: &serde_json::Value) -> String {
         }
         let _ = writeln!(s, "| mean DA | {} | |", pc(&g["mean_da"]));
         let _ = writeln!(s, "| mean cDA | {} | |", pc(&g["mean_cda"]));
-        let u = &g["mean_udi"];
+        let (u, ui) = (&g["mean_udi"], &g["mean_udi_interval_95"]);
         let _ = writeln!(
             s,
-            "| mean UDI below / useful / above | {} / {} / {} | |",
+            "| mean UDI below / useful / above | {} / {} / {} | {} / {} / {} |",
             pc(&u[0]),
             pc(&u[1]),
-            pc(&u[2])
+            pc(&u[2]),
+            interval(&ui[0]),
+            interval(&ui[1]),
+            interval(&ui[2])
         );
         let df = &g["daylight_factor"];
         let _ = writeln!(

@@ -1904,6 +1904,41 @@ fn annual_metrics_of_an_open_grid_follow_the_hours_light() {
             assert!(rounds >= 2 && half > 0.1, "{json}");
         }
     }
+    // --target-udi: the hour at 2000 lx is useful daylight at every point, far enough
+    // from 100 and 3000 lx that the draws rarely cross: the bands' intervals close.
+    let out = d.join("udi");
+    let w = d.join("en2000.wea");
+    let r = imap(&[
+        "annual",
+        &o,
+        "--config",
+        &s,
+        "--weather",
+        w.to_str().unwrap(),
+        "--photons",
+        "50000",
+        "--time",
+        "3",
+        "--target-udi",
+        "0.1",
+        "--out",
+        out.to_str().unwrap(),
+        "--quiet",
+    ]);
+    assert!(r.status.success(), "{}", stderr(&r));
+    let json = read(&out);
+    assert_eq!(json["target_udi"]["reached"], true, "{json}");
+    let g = &json["grids"][0];
+    let (u, i) = (&g["mean_udi"], &g["mean_udi_interval_95"]);
+    for b in 0..3 {
+        let (lo, hi, x) = (
+            i[b][0].as_f64().unwrap(),
+            i[b][1].as_f64().unwrap(),
+            u[b].as_f64().unwrap(),
+        );
+        assert!(lo <= x && x <= hi && hi - lo <= 0.2, "{json}");
+    }
+    assert!(u[1].as_f64().unwrap() > 0.9, "{json}");
     // LM-83's blinds: with a blinds-closed model (here the same settings, so the same
     // coefficients), the sunny hour has every point in the sun: the blinds close in it,
     // and the metrics are those without blinds.

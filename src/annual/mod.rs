@@ -580,6 +580,12 @@ pub struct GridMetrics {
     /// draws' sDA (the 95 % interval); NaN without draws.
     pub sda_sigma: f64,
     pub sda_interval: (f64, f64),
+    /// UDI's three bands (below, useful, above) as the grid's mean share of occupied
+    /// hours, their standard deviations over the draws and their 95 % intervals (NaN
+    /// without draws).
+    pub udi: [f64; 3],
+    pub udi_sigma: [f64; 3],
+    pub udi_interval: [(f64, f64); 3],
     /// Annual sunlight exposure: the share of sensors whose direct sun exceeds `ase_lx`
     /// in more than `ase_hours` occupied hours (None without the direct sun). The direct
     /// sun is traced along its line, not sampled: it carries no Monte Carlo error.
@@ -815,6 +821,18 @@ fn sensor_metrics(e: impl Iterator<Item = f64>, o: &MetricOptions, count: usize)
     m
 }
 
+/// UDI's band of an illuminance: 0 below `udi_low`, 2 above `udi_high`, 1 between (as
+/// `sensor_metrics` counts them).
+fn udi_band(x: f64, o: &MetricOptions) -> usize {
+    if x < o.udi_low {
+        0
+    } else if x > o.udi_high {
+        2
+    } else {
+        1
+    }
+}
+
 /// A standard normal number (Box–Muller).
 fn normal(rng: &mut PhotonRng) -> f64 {
     let u1 = rng.uniform().max(1e-300);
@@ -839,6 +857,8 @@ pub fn metrics<'a>(
 struct Chunk {
     sensors: Vec<SensorMetrics>,
     draws_sda: Vec<f64>,
+    /// Per draw and UDI band, the sensors' hours in the band (whole counts).
+    draws_udi: Vec<u64>,
     en_base: Vec<u32>,
     en_draws: Vec<u32>,
     ase_sensors: usize,
@@ -851,6 +871,7 @@ impl Chunk {
         Chunk {
             sensors: Vec::new(),
             draws_sda: vec![0.0; draws],
+            draws_udi: vec![0; 3 * draws],
             en_base: vec![0; en],
             en_draws: vec![0; draws * en],
             ase_sensors: 0,
@@ -1005,7 +1026,9 @@ fn metrics_on(
             // A draw can move an hour across a threshold only where it lies within a few of
             // its errors of it (beyond 6 σ: less than 10⁻⁹ per hour): the rest are fixed.
             let near = |x: f64, s: f64, t: f64| (x - t).abs() <= 6.0 * s;
+            let udi_near = |x: f64, s: f64| near(x, s, o.udi_low) || near(x, s, o.udi_high);
             let (mut open, mut fixed) = (Vec::new(), 0usize);
+            let mut udi_fixed = [0u64; 3];
             for (i, &(x, s)) in e.iter().enumerate() {
                 let h = hours[i];
                 if let Some(d) = day_index[h] {
@@ -1017,11 +1040,15 @@ fn metrics_on(
                 }
                 let sda_open = occupied[h] && near(x, s, o.threshold_lx);
                 let en_open = day_index[h].is_some() && en.iter().any(|&t| near(x, s, t));
-                if sda_open || en_open {
+                let udi_open = occupied[h] && udi_near(x, s);
+                if sda_open || en_open || udi_open {
                     open.push(i);
                 }
                 if occupied[h] && !sda_open && x >= o.threshold_lx {
                     fixed += 1;
+                }
+                if occupied[h] && !udi_open {
+                    udi_fixed[udi_band(x, o)] += 1;
                 }
             }
             // In a draw, the EN counts of the open hours are redrawn: take the estimate's out.
@@ -1045,11 +1072,15 @@ fn metrics_on(
                 let counts =
                     &mut acc.en_draws[j * en.len() * day_count..(j + 1) * en.len() * day_count];
                 let mut above = fixed;
+                let mut udi = udi_fixed;
                 for &i in &open {
                     let h = hours[i];
                     let x = state(h).hour(sky, h, e[i].0);
                     if occupied[h] && near(e[i].0, e[i].1, o.threshold_lx) && x >= o.threshold_lx {
                         above += 1;
+                    }
+                    if occupied[h] && udi_near(e[i].0, e[i].1) {
+                        udi[udi_band(x, o)] += 1;
                     }
                     if let Some(d) = day_index[h] {
                         for (t, lx) in en.iter().enumerate() {
@@ -1071,6 +1102,9 @@ fn metrics_on(
                 if above as f64 >= o.sda_share * count as f64 {
                     pass += 1;
                     *sum += 1.0;
+                }
+                for (b, n) in udi.iter().enumerate() {
+                    acc.draws_udi[3 * j + b] += n;
                 }
             }
             m.sda_pass_probability = if o.draws > 0 {
@@ -1106,6 +1140,7 @@ fn metrics_on(
     });
     let mut sensors = Vec::with_capacity(c.sensors);
     let mut draws_sda = vec![0.0; o.draws];
+    let mut draws_udi = vec![0u64; 3 * o.draws];
     let mut en_base = vec![0u32; en.len() * day_count];
     let mut en_draws = vec![0u32; o.draws * en.len() * day_count];
     let mut ase_sensors = 0usize;
@@ -1114,6 +1149,10 @@ fn metrics_on(
         draws_sda
             .iter_mut()
             .zip(&ch.draws_sda)
+            .for_each(|(a, b)| *a += b);
+        draws_udi
+            .iter_mut()
+            .zip(&ch.draws_udi)
             .for_each(|(a, b)| *a += b);
         en_base
             .iter_mut()
@@ -1136,6 +1175,27 @@ fn metrics_on(
     let sda = sensors.iter().filter(|m| passes(m)).count() as f64 / total;
     let (sda_sigma, sda_interval) =
         spread(&draws_sda.iter().map(|x| x / total).collect::<Vec<_>>());
+    // UDI's grid means: the sensors' shares, and each draw's from its whole counts. A
+    // grid's mean share is known far better than any sensor's, so the draws' bias (a
+    // threshold's share moves with the errors where the hours crowd on one side of it)
+    // is no longer small against their spread: the interval is the draws' quantiles less
+    // that bias (the draws' mean less the estimate), within [0, 1].
+    let mean = |f: fn(&SensorMetrics) -> f64| sensors.iter().map(f).sum::<f64>() / total;
+    let udi = [
+        mean(|m| m.udi_below),
+        mean(|m| m.udi_useful),
+        mean(|m| m.udi_above),
+    ];
+    let (mut udi_sigma, mut udi_interval) = ([f64::NAN; 3], [(f64::NAN, f64::NAN); 3]);
+    for b in 0..3 {
+        let d: Vec<f64> = (0..o.draws)
+            .map(|j| draws_udi[3 * j + b] as f64 / (count as f64 * total))
+            .collect();
+        let (s, (lo, hi)) = spread(&d);
+        let bias = d.iter().sum::<f64>() / d.len().max(1) as f64 - udi[b];
+        udi_sigma[b] = s;
+        udi_interval[b] = ((lo - bias).clamp(0.0, 1.0), (hi - bias).clamp(0.0, 1.0));
+    }
     let en17037 = (day_count > 0).then(|| {
         let share = |counts: &[u32], t: usize, plane: f64| -> f64 {
             let need = plane * c.sensors as f64;
@@ -1186,6 +1246,9 @@ fn metrics_on(
         sda,
         sda_sigma,
         sda_interval,
+        udi,
+        udi_sigma,
+        udi_interval,
         blinds_closed_hours: hours.iter().filter(|&&h| occupied[h] && closed[h]).count(),
         ase: sun.map(|_| ase_sensors as f64 / total),
         en17037,
@@ -1597,6 +1660,16 @@ mod tests {
         // 350, 450, …, 950 lx: 7 of 10 sensors.
         assert!((m.sda - 0.7).abs() < 1e-12);
         assert_eq!(m.sda_interval, (0.7, 0.7));
+        // UDI over the grid: one sensor of ten below 100 lx, none above 3000 lx; no error.
+        for (b, x) in [0.1, 0.9, 0.0].into_iter().enumerate() {
+            let (lo, hi) = m.udi_interval[b];
+            assert!(
+                (m.udi[b] - x).abs() < 1e-12 && (lo - x).abs() < 1e-12 && (hi - x).abs() < 1e-12,
+                "band {b}: {:?} {:?}",
+                m.udi,
+                m.udi_interval
+            );
+        }
         // Occupancy: only the first 40 hours, and a threshold of 500 lx.
         let o = MetricOptions {
             occupied: (0..100).map(|h| h < 40).collect(),
@@ -1975,8 +2048,11 @@ mod tests {
             value: truth.clone(),
             sigma: vec![0.0; sensors * n],
         };
+        // (UDI's bounds at 150 and 450 lx: each band holds a share of the hours.)
         let o = MetricOptions {
             draws: 200,
+            udi_low: 150.0,
+            udi_high: 450.0,
             ..MetricOptions::default()
         };
         let truth_m = metrics(
@@ -1994,8 +2070,15 @@ mod tests {
         // And EN 17037's share of daylight hours in which 300 lx reach half the plane.
         let long_run_en = truth_m.en17037.unwrap().levels[0].target_share;
         assert!(long_run_en > 0.1 && long_run_en < 0.9, "{long_run_en}");
+        // And UDI's grid means.
+        let long_run_udi = truth_m.udi;
+        assert!(
+            long_run_udi.iter().all(|&x| x > 0.1 && x < 0.9),
+            "{long_run_udi:?}"
+        );
         let runs = 100;
         let (mut covered, mut covered_en) = (0, 0);
+        let mut covered_udi = [0; 3];
         for r in 0..runs {
             let mut rng = PhotonRng::new(99, r);
             let value: Vec<f64> = truth
@@ -2022,12 +2105,20 @@ mod tests {
             if m.sda_interval.0 <= long_run && long_run <= m.sda_interval.1 {
                 covered += 1;
             }
+            for (b, (lo, hi)) in m.udi_interval.iter().enumerate() {
+                // A band no hour reaches: the interval is the point 0.
+                if lo <= &long_run_udi[b] && &long_run_udi[b] <= hi {
+                    covered_udi[b] += 1;
+                }
+            }
             let (lo, hi) = m.en17037.unwrap().levels[0].target_interval;
             if lo <= long_run_en && long_run_en <= hi {
                 covered_en += 1;
             }
         }
-        eprintln!("covered {covered} of {runs}; EN 17037's time share {covered_en}");
+        eprintln!(
+            "covered {covered} of {runs}; EN 17037's time share {covered_en}; UDI's bands {covered_udi:?}"
+        );
         // The metrics are the same on any number of threads (each point's draws are its
         // own, the sums whole counts).
         let est = Coefficients {
@@ -2045,6 +2136,9 @@ mod tests {
             );
         }
         assert!(covered_en >= 90, "EN 17037: {covered_en} of {runs}");
+        for (b, n) in covered_udi.iter().enumerate() {
+            assert!(*n >= 90, "UDI band {b}: {n} of {runs}");
+        }
         assert!(
             covered >= 90,
             "the 95 % interval covered the long-run sDA in {covered} of {runs} runs"

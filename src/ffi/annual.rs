@@ -682,12 +682,21 @@ pub struct ImapAnnualMetrics {
     pub en17037_target_share: [f64; 3],
     pub en17037_minimum_share: [f64; 3],
     pub en17037_pass_probability: [f64; 3],
+    /// UDI's three bands (below, useful, above) as the grid's mean share of occupied
+    /// hours, their standard deviations over the draws and their 95 % intervals (NaN
+    /// without draws). (Appended in 0.2.3: a struct_size up to `en17037_pass_probability`
+    /// is read without them.)
+    pub udi: [f64; 3],
+    pub udi_sigma: [f64; 3],
+    pub udi_interval_low: [f64; 3],
+    pub udi_interval_high: [f64; 3],
 }
 
 // SAFETY: repr(C), u32 struct_size first, numbers only.
 unsafe impl Versioned for ImapAnnualMetrics {
     const NAME: &'static str = "ImapAnnualMetrics";
     const INIT: &'static str = "sizeof(ImapAnnualMetrics)";
+    const BASE_SIZE: usize = std::mem::offset_of!(ImapAnnualMetrics, udi);
     fn defaults() -> Self {
         ImapAnnualMetrics {
             struct_size: std::mem::size_of::<Self>() as u32,
@@ -703,6 +712,10 @@ unsafe impl Versioned for ImapAnnualMetrics {
             en17037_target_share: [0.0; 3],
             en17037_minimum_share: [0.0; 3],
             en17037_pass_probability: [0.0; 3],
+            udi: [0.0; 3],
+            udi_sigma: [f64::NAN; 3],
+            udi_interval_low: [f64::NAN; 3],
+            udi_interval_high: [f64::NAN; 3],
         }
     }
 }
@@ -903,6 +916,11 @@ pub unsafe extern "C" fn imap_annual_metrics(
         r.sda_sigma = m.sda_sigma;
         (r.sda_low, r.sda_high) = m.sda_interval;
         r.ase = m.ase.unwrap_or(f64::NAN);
+        r.udi = m.udi;
+        r.udi_sigma = m.udi_sigma;
+        for (b, (lo, hi)) in m.udi_interval.iter().enumerate() {
+            (r.udi_interval_low[b], r.udi_interval_high[b]) = (*lo, *hi);
+        }
         if let Some(en) = &m.en17037 {
             r.daylight_hours = en.daylight_hours as u64;
             r.en17037_level = en
