@@ -21,14 +21,16 @@ for tool in fmt clippy; do
 done
 if cargo fmt --version >/dev/null 2>&1; then cargo fmt --all --check; else echo "WARNING: rustfmt is not installed: formatting not checked" >&2; fi
 if cargo clippy --version >/dev/null 2>&1; then
-  cargo clippy --workspace --all-targets -- -D warnings
+  # In the release profile, as the tests below: the build scripts (embree4-sys's bindgen)
+  # and proc-macros are then built once for both, not once per profile.
+  cargo clippy --release --workspace --all-targets -- -D warnings
 else
   echo "WARNING: clippy is not installed: lints not checked" >&2
 fi
 # (Two runs: the command's binary and the library share the name imap, and one cargo doc
 # of both would write them to the same place.)
-RUSTDOCFLAGS=-Dwarnings cargo doc --no-deps -p imap
-RUSTDOCFLAGS=-Dwarnings cargo doc --no-deps -p imap-cli
+RUSTDOCFLAGS=-Dwarnings cargo doc --release --no-deps -p imap
+RUSTDOCFLAGS=-Dwarnings cargo doc --release --no-deps -p imap-cli
 
 echo "== cargo test (release; with fault injection, which the shipped library leaves out)"
 # The library's, the command's and the integration tests; the benchmark examples are
