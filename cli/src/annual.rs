@@ -765,6 +765,19 @@ fn coefficients_run(
     Ok((ctx, scene, run))
 }
 
+/// A run's progress in the bar's 1000 steps: the larger of its shares of `photons` and of
+/// `time` (either 0: no such limit) since `start` (photons and seconds when it began).
+fn progress_steps(p: &imap::Progress, start: (u64, f64), photons: u64, time: f64) -> u64 {
+    let mut frac: f64 = 0.0;
+    if time > 0.0 {
+        frac = frac.max((p.elapsed_s - start.1) / time);
+    }
+    if photons > 0 {
+        frac = frac.max(p.photons.saturating_sub(start.0) as f64 / photons as f64);
+    }
+    (frac.min(1.0) * 1000.0) as u64
+}
+
 /// The zone's electric light at full output at every grid's points (lx and its standard
 /// error): the model with the settings' lights and luminaires and no sky, traced with the
 /// coefficients' photons, time and estimator.
@@ -778,14 +791,7 @@ fn electric_run(
     let bar = crate::progress_bar(o.quiet);
     let interrupted = crate::Interrupts::get();
     let mut progress = |p: &imap::Progress| -> bool {
-        let mut frac: f64 = 0.0;
-        if time > 0.0 {
-            frac = frac.max(p.elapsed_s / time);
-        }
-        if photons > 0 {
-            frac = frac.max(p.photons as f64 / photons as f64);
-        }
-        bar.set_position((frac.min(1.0) * 1000.0) as u64);
+        bar.set_position(progress_steps(p, (0, 0.0), photons, time));
         bar.set_message(format!("electric light: {} photons", p.photons));
         !interrupted.raised()
     };
@@ -827,14 +833,7 @@ fn trace(
     let interrupted = crate::Interrupts::get();
     let elapsed_before = run.report().elapsed_s;
     let mut progress = |p: &imap::Progress| -> bool {
-        let mut frac: f64 = 0.0;
-        if time > 0.0 {
-            frac = frac.max((p.elapsed_s - elapsed_before) / time);
-        }
-        if photons > 0 {
-            frac = frac.max(p.photons.saturating_sub(first) as f64 / photons as f64);
-        }
-        bar.set_position((frac.min(1.0) * 1000.0) as u64);
+        bar.set_position(progress_steps(p, (first, elapsed_before), photons, time));
         bar.set_message(format!("coefficients, {what}: {} photons", p.photons));
         !interrupted.raised()
     };

@@ -20,8 +20,8 @@
 //! makes for that sensor) and the electric light at it too.
 
 use super::{
-    blinds_closed, check_states, normal, occupied_hours, spread, AnnualSky, CoefficientsView,
-    DirectSun, Drawn, MetricOptions, Sensor, Shaded,
+    blinds_closed, check_states, in_chunks, normal, occupied_hours, pick, spread, AnnualSky,
+    CoefficientsView, DirectSun, Drawn, MetricOptions, Sensor, Shaded,
 };
 use crate::error::{bail, Result};
 use crate::sampling::PhotonRng;
@@ -221,10 +221,7 @@ pub fn lighting<'a>(
         shaded.map(|s| Drawn::new(Sensor::new(s.coefficients, s.sun, ks, n, &mut direct_shut)));
     let daylight: Vec<f64> = hours
         .iter()
-        .map(|&h| match &shut {
-            Some(s) if closed[h] => s.sensor.hour(sky, h).0,
-            _ => open.sensor.hour(sky, h).0,
-        })
+        .map(|&h| pick(&open, &shut, closed[h]).sensor.hour(sky, h).0)
         .collect();
     let levels: Vec<(f64, f64)> = daylight
         .iter()
@@ -247,10 +244,7 @@ pub fn lighting<'a>(
                 .iter()
                 .zip(&daylight)
                 .map(|(&h, &x)| {
-                    let state = match &shut {
-                        Some(s) if closed[h] => s,
-                        _ => &open,
-                    };
+                    let state = pick(&open, &shut, closed[h]);
                     kwh(dimming.level(state.hour(sky, h, x), e_el).1)
                 })
                 .sum::<f64>()
@@ -260,45 +254,29 @@ pub fn lighting<'a>(
 
     // Every sensor's daylight with the zone's light as the photosensor sets it: on every
     // core, a chunk of sensors each.
-    let threads = std::thread::available_parallelism()
-        .map_or(1, |x| x.get())
-        .clamp(1, c.sensors.max(1));
-    let per = c.sensors.div_ceil(threads).max(1);
-    let at_target: Vec<f64> = std::thread::scope(|s| {
-        let handles: Vec<_> = (0..threads)
-            .map(|t| {
-                let r = (t * per).min(c.sensors)..((t + 1) * per).min(c.sensors);
-                let (hours, levels, closed) = (&hours, &levels, &closed);
-                s.spawn(move || {
-                    let mut direct = vec![0.0; sky.hours.len()];
-                    let mut direct_shut = vec![0.0; sky.hours.len()];
-                    r.map(|k| {
-                        let open = Sensor::new(c, sun, k, n, &mut direct);
-                        let shut = shaded
-                            .map(|s| Sensor::new(s.coefficients, s.sun, k, n, &mut direct_shut));
-                        let reached = hours
-                            .iter()
-                            .zip(levels)
-                            .filter(|(&h, l)| {
-                                let x = match &shut {
-                                    Some(s) if closed[h] => s.hour(sky, h).0,
-                                    _ => open.hour(sky, h).0,
-                                };
-                                // The photosensor's own sum meets the target up to rounding.
-                                x + l.0 * electric[k].0 >= dimming.target_lx * (1.0 - 1e-9)
-                            })
-                            .count();
-                        reached as f64 / count
-                    })
-                    .collect::<Vec<f64>>()
+    let threads = std::thread::available_parallelism().map_or(1, |x| x.get());
+    let at_target: Vec<f64> = in_chunks(c.sensors, threads, |r| {
+        let mut direct = vec![0.0; sky.hours.len()];
+        let mut direct_shut = vec![0.0; sky.hours.len()];
+        r.map(|k| {
+            let open = Sensor::new(c, sun, k, n, &mut direct);
+            let shut = shaded.map(|s| Sensor::new(s.coefficients, s.sun, k, n, &mut direct_shut));
+            let reached = hours
+                .iter()
+                .zip(&levels)
+                .filter(|(&h, l)| {
+                    let x = pick(&open, &shut, closed[h]).hour(sky, h).0;
+                    // The photosensor's own sum meets the target up to rounding.
+                    x + l.0 * electric[k].0 >= dimming.target_lx * (1.0 - 1e-9)
                 })
-            })
-            .collect();
-        handles
-            .into_iter()
-            .flat_map(|h| h.join().unwrap_or_else(|p| std::panic::resume_unwind(p)))
-            .collect()
-    });
+                .count();
+            reached as f64 / count
+        })
+        .collect::<Vec<f64>>()
+    })
+    .into_iter()
+    .flatten()
+    .collect();
     Ok(Lighting {
         occupied_hours: hours.len(),
         step_hours: step,

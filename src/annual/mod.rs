@@ -997,10 +997,7 @@ fn metrics_on(
                     &mut acc.direct_shaded,
                 ))
             });
-            let state = |h: usize| match &shut_state {
-                Some(s) if closed[h] => s,
-                _ => &open_state,
-            };
+            let state = |h: usize| pick(&open_state, &shut_state, closed[h]);
             // Each counted hour's illuminance and standard error.
             let e: Vec<(f64, f64)> = hours
                 .iter()
@@ -1065,10 +1062,7 @@ fn metrics_on(
                 if let Some(s) = &mut shut_state {
                     s.draw(&mut rng);
                 }
-                let state = |h: usize| match &shut_state {
-                    Some(s) if closed[h] => s,
-                    _ => &open_state,
-                };
+                let state = |h: usize| pick(&open_state, &shut_state, closed[h]);
                 let counts =
                     &mut acc.en_draws[j * en.len() * day_count..(j + 1) * en.len() * day_count];
                 let mut above = fixed;
@@ -1121,23 +1115,8 @@ fn metrics_on(
     // Each chunk keeps its own per-draw, per-hour counts: no more chunks than keep them
     // within 256 MiB together.
     let chunk_bytes = 4 * o.draws * en.len() * day_count + 16 * sky.hours.len();
-    let threads = threads
-        .min((256 << 20) / chunk_bytes.max(1))
-        .clamp(1, c.sensors.max(1));
-    let per = c.sensors.div_ceil(threads).max(1);
-    let chunks: Vec<Chunk> = std::thread::scope(|s| {
-        let handles: Vec<_> = (0..threads)
-            .map(|t| {
-                let r = (t * per).min(c.sensors)..((t + 1) * per).min(c.sensors);
-                let one_chunk = &one_chunk;
-                s.spawn(move || one_chunk(r))
-            })
-            .collect();
-        handles
-            .into_iter()
-            .map(|h| h.join().unwrap_or_else(|p| std::panic::resume_unwind(p)))
-            .collect()
-    });
+    let threads = threads.min((256 << 20) / chunk_bytes.max(1));
+    let chunks: Vec<Chunk> = in_chunks(c.sensors, threads, one_chunk);
     let mut sensors = Vec::with_capacity(c.sensors);
     let mut draws_sda = vec![0.0; o.draws];
     let mut draws_udi = vec![0u64; 3 * o.draws];
@@ -1255,6 +1234,38 @@ fn metrics_on(
         occupied_hours: count,
         sensors,
     })
+}
+
+/// `f` over `0..sensors` in up to `threads` contiguous chunks, each on a thread of its
+/// own; the chunks' results in order (a chunk's panic goes on here).
+fn in_chunks<T: Send>(
+    sensors: usize,
+    threads: usize,
+    f: impl Fn(std::ops::Range<usize>) -> T + Sync,
+) -> Vec<T> {
+    let threads = threads.clamp(1, sensors.max(1));
+    let per = sensors.div_ceil(threads).max(1);
+    std::thread::scope(|s| {
+        let handles: Vec<_> = (0..threads)
+            .map(|t| {
+                let r = (t * per).min(sensors)..((t + 1) * per).min(sensors);
+                let f = &f;
+                s.spawn(move || f(r))
+            })
+            .collect();
+        handles
+            .into_iter()
+            .map(|h| h.join().unwrap_or_else(|p| std::panic::resume_unwind(p)))
+            .collect()
+    })
+}
+
+/// The model state an hour reads: the blinds-closed one (`shut`, if any) when `closed`.
+fn pick<'a, T>(open: &'a T, shut: &'a Option<T>, closed: bool) -> &'a T {
+    match shut {
+        Some(s) if closed => s,
+        _ => open,
+    }
 }
 
 /// Checks the open model's coefficients and direct sun, and the shaded model's (if any),
