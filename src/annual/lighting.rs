@@ -19,9 +19,10 @@
 //! photosensor's coefficients drawn within their errors (the same draws as `metrics`
 //! makes for that sensor) and the electric light at it too.
 
+use super::shading::SensorParts;
 use super::{
-    blinds_closed, check_states, in_chunks, normal, occupied_hours, pick, spread, AnnualSky,
-    CoefficientsView, DirectSun, Drawn, MetricOptions, Sensor, Shaded,
+    in_chunks, normal, occupied_hours, spread, AnnualSky, CoefficientsView, DirectSun,
+    MetricOptions, Shaded, Shading,
 };
 use crate::error::{bail, Result};
 use crate::sampling::PhotonRng;
@@ -185,14 +186,26 @@ pub fn lighting<'a>(
     dimming: &Dimming,
     o: &MetricOptions,
 ) -> Result<Lighting> {
-    let c = c.into();
-    let n = check_states(c, sky, sun, shaded, o)?;
-    if electric.len() != c.sensors {
+    let shading = Shading::blinds(c.into(), sun, shaded);
+    lighting_with_shading(&shading, sky, electric, dimming, o)
+}
+
+/// `lighting` of a zone whose daylight is `shading`'s parts, each window group in the
+/// state its rule picks every hour (as `metrics_with_shading` reads them).
+pub fn lighting_with_shading(
+    shading: &Shading,
+    sky: &AnnualSky,
+    electric: &[(f64, f64)],
+    dimming: &Dimming,
+    o: &MetricOptions,
+) -> Result<Lighting> {
+    let (sensors, n) = shading.check(sky, o)?;
+    if electric.len() != sensors {
         bail!(
             ImapErrInvalidArgument,
             "electric holds {} sensors' illuminance; the coefficients are of {}",
             electric.len(),
-            c.sensors
+            sensors
         );
     }
     if let Some(k) = electric
@@ -206,22 +219,21 @@ pub fn lighting<'a>(
             electric[k].1
         );
     }
-    dimming.check(c.sensors)?;
+    dimming.check(sensors)?;
     let occupied = occupied_hours(sky, o)?;
-    let closed = blinds_closed(sky, sun, shaded.is_some(), o);
+    let threads = std::thread::available_parallelism().map_or(1, |x| x.get());
+    let states = shading.states(sky, o, &occupied, threads);
     let hours: Vec<usize> = (0..sky.hours.len()).filter(|&h| occupied[h]).collect();
     let step = step_hours(sky);
     let kwh = |p: f64| p * dimming.power_w * step / 1000.0;
 
     // The photosensor's daylight each occupied hour, the levels it sets.
     let ks = dimming.sensor;
-    let (mut direct, mut direct_shut) = (vec![0.0; sky.hours.len()], vec![0.0; sky.hours.len()]);
-    let mut open = Drawn::new(Sensor::new(c, sun, ks, n, &mut direct));
-    let mut shut =
-        shaded.map(|s| Drawn::new(Sensor::new(s.coefficients, s.sun, ks, n, &mut direct_shut)));
+    let mut scratch = shading.scratch(sky.hours.len());
+    let mut photosensor = SensorParts::new(shading, ks, n, &mut scratch);
     let daylight: Vec<f64> = hours
         .iter()
-        .map(|&h| pick(&open, &shut, closed[h]).sensor.hour(sky, h).0)
+        .map(|&h| photosensor.hour(sky, h, &states).0)
         .collect();
     let levels: Vec<(f64, f64)> = daylight
         .iter()
@@ -235,18 +247,12 @@ pub fn lighting<'a>(
     let draws: Vec<f64> = (0..o.draws)
         .map(|j| {
             let mut rng = PhotonRng::new(o.seed, ((ks as u64) << 20) | j as u64);
-            open.draw(&mut rng);
-            if let Some(s) = &mut shut {
-                s.draw(&mut rng);
-            }
+            photosensor.draw(&mut rng);
             let e_el = (electric[ks].0 + electric[ks].1 * normal(&mut rng)).max(0.0);
             hours
                 .iter()
                 .zip(&daylight)
-                .map(|(&h, &x)| {
-                    let state = pick(&open, &shut, closed[h]);
-                    kwh(dimming.level(state.hour(sky, h, x), e_el).1)
-                })
+                .map(|(&h, &x)| kwh(dimming.level(photosensor.drawn(sky, h, x, &states), e_el).1))
                 .sum::<f64>()
         })
         .collect();
@@ -254,18 +260,15 @@ pub fn lighting<'a>(
 
     // Every sensor's daylight with the zone's light as the photosensor sets it: on every
     // core, a chunk of sensors each.
-    let threads = std::thread::available_parallelism().map_or(1, |x| x.get());
-    let at_target: Vec<f64> = in_chunks(c.sensors, threads, |r| {
-        let mut direct = vec![0.0; sky.hours.len()];
-        let mut direct_shut = vec![0.0; sky.hours.len()];
+    let at_target: Vec<f64> = in_chunks(sensors, threads, |r| {
+        let mut scratch = shading.scratch(sky.hours.len());
         r.map(|k| {
-            let open = Sensor::new(c, sun, k, n, &mut direct);
-            let shut = shaded.map(|s| Sensor::new(s.coefficients, s.sun, k, n, &mut direct_shut));
+            let parts = SensorParts::new(shading, k, n, &mut scratch);
             let reached = hours
                 .iter()
                 .zip(&levels)
                 .filter(|(&h, l)| {
-                    let x = pick(&open, &shut, closed[h]).hour(sky, h).0;
+                    let x = parts.hour(sky, h, &states).0;
                     // The photosensor's own sum meets the target up to rounding.
                     x + l.0 * electric[k].0 >= dimming.target_lx * (1.0 - 1e-9)
                 })

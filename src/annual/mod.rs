@@ -12,7 +12,10 @@
 //! + σ_p N(0, 1) per sensor and patch) and computing the metric for each draw.
 
 pub mod lighting;
+pub mod shading;
 pub mod trace;
+
+pub use shading::{Shading, ShadingRule, WindowGroup};
 
 use crate::error::{bail, Result};
 use crate::sampling::PhotonRng;
@@ -590,8 +593,12 @@ pub struct GridMetrics {
     /// in more than `ase_hours` occupied hours (None without the direct sun). The direct
     /// sun is traced along its line, not sampled: it carries no Monte Carlo error.
     pub ase: Option<f64>,
-    /// Occupied hours in which LM-83's rule closed the blinds (0 without a shaded model).
+    /// Occupied hours in which LM-83's rule closed the blinds (0 without a shaded model);
+    /// with window groups, the occupied hours in which any group was out of its state 0.
     pub blinds_closed_hours: usize,
+    /// Per window group (`metrics_with_shading`; the blinds of `metrics_with_blinds` are
+    /// one group of two states), the occupied hours it spent in each of its states.
+    pub group_state_hours: Vec<Vec<usize>>,
     /// EN 17037's criteria over the daylight hours (None when there are none).
     pub en17037: Option<En17037>,
     /// Occupied hours counted.
@@ -785,10 +792,10 @@ impl<'a> Drawn<'a> {
         }
     }
 
-    /// Hour `h`'s illuminance in the draw, from the estimate's `e`.
-    fn hour(&self, sky: &AnnualSky, h: usize, e: f64) -> f64 {
+    /// How far the draw moves hour `h`'s illuminance from the estimate's.
+    fn offset(&self, sky: &AnnualSky, h: usize) -> f64 {
         let v = sky.vector(h);
-        let mut x = e + self.lit.iter().map(|&p| v[p] * self.delta[p]).sum::<f64>();
+        let mut x = self.lit.iter().map(|&p| v[p] * self.delta[p]).sum::<f64>();
         if let Some((q, l, _)) = self.sensor.sun_of(sky, h) {
             x += l * (self.delta[q] - self.delta_direct[q]);
         }
@@ -862,12 +869,10 @@ struct Chunk {
     en_base: Vec<u32>,
     en_draws: Vec<u32>,
     ase_sensors: usize,
-    direct: Vec<f64>,
-    direct_shaded: Vec<f64>,
 }
 
 impl Chunk {
-    fn new(draws: usize, en: usize, sun: bool, hours: usize) -> Self {
+    fn new(draws: usize, en: usize) -> Self {
         Chunk {
             sensors: Vec::new(),
             draws_sda: vec![0.0; draws],
@@ -875,14 +880,13 @@ impl Chunk {
             en_base: vec![0; en],
             en_draws: vec![0; draws * en],
             ase_sensors: 0,
-            direct: vec![0.0; if sun { hours } else { 0 }],
-            direct_shaded: vec![0.0; hours],
         }
     }
 }
 
-/// The model with its blinds closed (IES LM-83's operable shading): its coefficients at
-/// the same sensors and its direct sun (None: the blinds let no sun through in a line).
+/// A model state's coefficients at the sensors and its direct sun (None: it lets no sun
+/// through in a line): the model with its blinds closed (IES LM-83's operable shading,
+/// `metrics_with_blinds`), or a window group's state or the base of a `Shading`.
 #[derive(Clone, Copy, Debug)]
 pub struct Shaded<'a> {
     pub coefficients: CoefficientsView<'a>,
@@ -901,20 +905,30 @@ pub fn metrics_with_blinds<'a>(
     shaded: Option<Shaded>,
     o: &MetricOptions,
 ) -> Result<GridMetrics> {
-    let threads = std::thread::available_parallelism().map_or(1, |x| x.get());
-    metrics_on(c.into(), sky, sun, shaded, o, threads)
+    metrics_with_shading(&Shading::blinds(c.into(), sun, shaded), sky, o)
 }
 
-/// `metrics_with_blinds` on `threads` threads (the same metrics for any count).
-fn metrics_on(
-    c: CoefficientsView,
+/// The annual metrics of a grid whose light is `shading`'s parts: the light through no
+/// window group and each group in the state its rule picks every hour (`ShadingRule`).
+/// ASE counts every group in its state 0 (open); `GridMetrics::group_state_hours` says
+/// how many occupied hours each group spent in each state.
+pub fn metrics_with_shading(
+    shading: &Shading,
     sky: &AnnualSky,
-    sun: Option<&DirectSun>,
-    shaded: Option<Shaded>,
+    o: &MetricOptions,
+) -> Result<GridMetrics> {
+    let threads = std::thread::available_parallelism().map_or(1, |x| x.get());
+    metrics_on(shading, sky, o, threads)
+}
+
+/// `metrics_with_shading` on `threads` threads (the same metrics for any count).
+fn metrics_on(
+    shading: &Shading,
+    sky: &AnnualSky,
     o: &MetricOptions,
     threads: usize,
 ) -> Result<GridMetrics> {
-    let n = check_states(c, sky, sun, shaded, o)?;
+    let (sensors_count, n) = shading.check(sky, o)?;
     if !(o.threshold_lx > 0.0 && o.threshold_lx.is_finite()) {
         bail!(
             ImapErrInvalidArgument,
@@ -973,36 +987,21 @@ fn metrics_on(
     // each draw's).
     let en = EN17037_LX;
     let passes = |m: &SensorMetrics| m.da >= o.sda_share;
-    let closed = blinds_closed(sky, sun, shaded.is_some(), o);
+    let counted: Vec<bool> = (0..sky.hours.len())
+        .map(|h| occupied[h] || daylight[h])
+        .collect();
+    let states = shading.states(sky, o, &counted, threads);
+    let sun = shading.has_sun();
     // The points are independent of each other (a point's draws are its own): taken in
     // chunks on every core, each with its own sums, added in chunk order (whole counts:
     // the same for any split).
     let one_chunk = |range: std::ops::Range<usize>| -> Chunk {
-        let mut acc = Chunk::new(
-            o.draws,
-            en.len() * day_count,
-            sun.is_some(),
-            sky.hours.len(),
-        );
+        let mut acc = Chunk::new(o.draws, en.len() * day_count);
+        let mut scratch = shading.scratch(sky.hours.len());
         for k in range {
-            let sensor = Sensor::new(c, sun, k, n, &mut acc.direct);
-            let ase_direct = sensor.sun.map(|s| s.2);
-            let mut open_state = Drawn::new(sensor);
-            let mut shut_state = shaded.map(|s| {
-                Drawn::new(Sensor::new(
-                    s.coefficients,
-                    s.sun,
-                    k,
-                    n,
-                    &mut acc.direct_shaded,
-                ))
-            });
-            let state = |h: usize| pick(&open_state, &shut_state, closed[h]);
+            let mut parts = shading::SensorParts::new(shading, k, n, &mut scratch);
             // Each counted hour's illuminance and standard error.
-            let e: Vec<(f64, f64)> = hours
-                .iter()
-                .map(|&h| state(h).sensor.hour(sky, h))
-                .collect();
+            let e: Vec<(f64, f64)> = hours.iter().map(|&h| parts.hour(sky, h, &states)).collect();
             let mut m = sensor_metrics(
                 e.iter()
                     .zip(&hours)
@@ -1011,10 +1010,10 @@ fn metrics_on(
                 o,
                 count,
             );
-            if let Some(d) = ase_direct {
+            if sun {
                 m.ase_hours = hours
                     .iter()
-                    .filter(|&&h| occupied[h] && d[h] > o.ase_lx)
+                    .filter(|&&h| occupied[h] && parts.open_direct(h) > o.ase_lx)
                     .count();
                 if m.ase_hours > o.ase_hours {
                     acc.ase_sensors += 1;
@@ -1058,18 +1057,14 @@ fn metrics_on(
                 // The draw's stream: one per (sensor, draw), so any sensor subset or order
                 // gives the same draws (the shaded model's after the open one's).
                 let mut rng = PhotonRng::new(o.seed, ((k as u64) << 20) | j as u64);
-                open_state.draw(&mut rng);
-                if let Some(s) = &mut shut_state {
-                    s.draw(&mut rng);
-                }
-                let state = |h: usize| pick(&open_state, &shut_state, closed[h]);
+                parts.draw(&mut rng);
                 let counts =
                     &mut acc.en_draws[j * en.len() * day_count..(j + 1) * en.len() * day_count];
                 let mut above = fixed;
                 let mut udi = udi_fixed;
                 for &i in &open {
                     let h = hours[i];
-                    let x = state(h).hour(sky, h, e[i].0);
+                    let x = parts.drawn(sky, h, e[i].0, &states);
                     if occupied[h] && near(e[i].0, e[i].1, o.threshold_lx) && x >= o.threshold_lx {
                         above += 1;
                     }
@@ -1114,10 +1109,11 @@ fn metrics_on(
     };
     // Each chunk keeps its own per-draw, per-hour counts: no more chunks than keep them
     // within 256 MiB together.
-    let chunk_bytes = 4 * o.draws * en.len() * day_count + 16 * sky.hours.len();
+    let chunk_bytes =
+        4 * o.draws * en.len() * day_count + 8 * sky.hours.len() * (1 + shading.parts().len());
     let threads = threads.min((256 << 20) / chunk_bytes.max(1));
-    let chunks: Vec<Chunk> = in_chunks(c.sensors, threads, one_chunk);
-    let mut sensors = Vec::with_capacity(c.sensors);
+    let chunks: Vec<Chunk> = in_chunks(sensors_count, threads, one_chunk);
+    let mut sensors = Vec::with_capacity(sensors_count);
     let mut draws_sda = vec![0.0; o.draws];
     let mut draws_udi = vec![0u64; 3 * o.draws];
     let mut en_base = vec![0u32; en.len() * day_count];
@@ -1150,7 +1146,7 @@ fn metrics_on(
             *c = c.wrapping_add(*b);
         }
     }
-    let total = c.sensors.max(1) as f64;
+    let total = sensors_count.max(1) as f64;
     let sda = sensors.iter().filter(|m| passes(m)).count() as f64 / total;
     let (sda_sigma, sda_interval) =
         spread(&draws_sda.iter().map(|x| x / total).collect::<Vec<_>>());
@@ -1177,7 +1173,7 @@ fn metrics_on(
     }
     let en17037 = (day_count > 0).then(|| {
         let share = |counts: &[u32], t: usize, plane: f64| -> f64 {
-            let need = plane * c.sensors as f64;
+            let need = plane * sensors_count as f64;
             counts[t * day_count..(t + 1) * day_count]
                 .iter()
                 .filter(|&&x| x as f64 >= need)
@@ -1228,8 +1224,25 @@ fn metrics_on(
         udi,
         udi_sigma,
         udi_interval,
-        blinds_closed_hours: hours.iter().filter(|&&h| occupied[h] && closed[h]).count(),
-        ase: sun.map(|_| ase_sensors as f64 / total),
+        blinds_closed_hours: hours
+            .iter()
+            .filter(|&&h| occupied[h] && states.iter().any(|s| s[h] != 0))
+            .count(),
+        group_state_hours: shading
+            .groups
+            .iter()
+            .zip(&states)
+            .map(|(g, s)| {
+                let mut n = vec![0; g.states.len()];
+                for &h in &hours {
+                    if occupied[h] {
+                        n[s[h] as usize] += 1;
+                    }
+                }
+                n
+            })
+            .collect(),
+        ase: sun.then(|| ase_sensors as f64 / total),
         en17037,
         occupied_hours: count,
         sensors,
@@ -1260,57 +1273,6 @@ fn in_chunks<T: Send>(
     })
 }
 
-/// The model state an hour reads: the blinds-closed one (`shut`, if any) when `closed`.
-fn pick<'a, T>(open: &'a T, shut: &'a Option<T>, closed: bool) -> &'a T {
-    match shut {
-        Some(s) if closed => s,
-        _ => open,
-    }
-}
-
-/// Checks the open model's coefficients and direct sun, and the shaded model's (if any),
-/// against `sky` and each other; gives the patches' count.
-fn check_states(
-    c: CoefficientsView,
-    sky: &AnnualSky,
-    sun: Option<&DirectSun>,
-    shaded: Option<Shaded>,
-    o: &MetricOptions,
-) -> Result<usize> {
-    let n = c.check_against(sky)?;
-    check_sun(c, sky, sun)?;
-    if let Some(s) = shaded {
-        s.coefficients.check_against(sky)?;
-        check_sun(s.coefficients, sky, s.sun)?;
-        if s.coefficients.sensors != c.sensors {
-            bail!(
-                ImapErrInvalidArgument,
-                "the shaded model's coefficients are of {} sensors; the open one's of {}",
-                s.coefficients.sensors,
-                c.sensors
-            );
-        }
-        if sun.is_none() {
-            bail!(
-                ImapErrInvalidArgument,
-                "the blinds rule reads the direct sun: give the open model's"
-            );
-        }
-    }
-    if !(0.0..1.0).contains(&o.blinds_share) {
-        bail!(
-            ImapErrInvalidArgument,
-            "blinds_share = {}: must be in [0, 1)",
-            o.blinds_share
-        );
-    }
-    // ASE's and the blinds rule's direct-sun illuminance.
-    if !(o.ase_lx > 0.0 && o.ase_lx.is_finite()) {
-        bail!(ImapErrInvalidArgument, "ase_lx = {}: must be > 0", o.ase_lx);
-    }
-    Ok(n)
-}
-
 /// The hours `o` counts: `o.occupied`, or (empty) every hour whose sun is up; an error
 /// when it counts none.
 fn occupied_hours(sky: &AnnualSky, o: &MetricOptions) -> Result<Vec<bool>> {
@@ -1338,32 +1300,6 @@ fn occupied_hours(sky: &AnnualSky, o: &MetricOptions) -> Result<Vec<bool>> {
         );
     }
     Ok(occupied)
-}
-
-/// LM-83's blinds (with a shaded model, `shaded`): closed in the hours in which more than
-/// `o.blinds_share` of the points get direct sun above `o.ase_lx` with them open.
-fn blinds_closed(
-    sky: &AnnualSky,
-    sun: Option<&DirectSun>,
-    shaded: bool,
-    o: &MetricOptions,
-) -> Vec<bool> {
-    match (shaded, sun) {
-        (true, Some(s)) => {
-            let mut lit = vec![0usize; sky.hours.len()];
-            for k in 0..s.sensors {
-                for (h, x) in s.at(k) {
-                    if x > o.ase_lx {
-                        lit[h] += 1;
-                    }
-                }
-            }
-            lit.iter()
-                .map(|&m| m as f64 > o.blinds_share * s.sensors as f64)
-                .collect()
-        }
-        _ => vec![false; sky.hours.len()],
-    }
 }
 
 /// The daylight factor at each sensor and its standard error: the illuminance under the
@@ -1628,7 +1564,7 @@ mod tests {
     }
 
     /// `toy_sky` at 100 cd/m², with a sun of 50 klx in patch 2 every hour.
-    fn sunny_toy_sky(hours: usize) -> AnnualSky {
+    pub(super) fn sunny_toy_sky(hours: usize) -> AnnualSky {
         let mut sky = toy_sky(hours, |_, _| 100.0);
         for a in &mut sky.hours {
             a.direct_normal_lx = 50_000.0;
@@ -2138,10 +2074,10 @@ mod tests {
             value: truth.clone(),
             sigma: sigma.clone(),
         };
-        let one = metrics_on(est.view(), &sky, None, None, &o, 1).unwrap();
+        let one = metrics_on(&Shading::blinds(est.view(), None, None), &sky, &o, 1).unwrap();
         for t in [2, 3, 7, 64] {
             assert_eq!(
-                metrics_on(est.view(), &sky, None, None, &o, t).unwrap(),
+                metrics_on(&Shading::blinds(est.view(), None, None), &sky, &o, t).unwrap(),
                 one,
                 "{t} threads"
             );
