@@ -85,6 +85,28 @@ int main() {
               static_cast<unsigned long long>(metrics.grid.occupied_hours), metrics.grid.sda, metrics.grid.ase);
         CHECK(metrics.points.size() == 1 && metrics.points[0].da == 1, "the point's DA");
 
+        // Window groups: the point's light as one group whose closed state lets a tenth
+        // through and no direct sun, kept closed by a schedule: the point then reads that
+        // state alone (cDA at 100 klx: its mean illuminance over 100 klx).
+        imap::Coefficients tenth = c;
+        for (auto& x : tenth.value) x *= 0.1;
+        for (auto& x : tenth.sigma) x *= 0.1;
+        std::vector<imap::WindowGroup> groups(1);
+        groups[0].states = {&c, &tenth};
+        groups[0].suns = {&sun, nullptr};
+        groups[0].rule = IMAP_SHADING_SCHEDULE;
+        groups[0].schedule.assign(sky.hours(), 1);
+        auto dim = o;
+        dim.threshold_lx = 1e5;
+        imap::AnnualMetrics shut = imap::annual_metrics(moved, nullptr, nullptr, groups, dim);
+        CHECK(groups[0].state_hours.size() == 2 && groups[0].state_hours[1] == 3 && shut.grid.blinds_closed_hours == 3,
+              "the schedule keeps the group closed in the 3 occupied hours");
+        CHECK(shut.grid.ase == 1, "ASE counts the group open: %g", shut.grid.ase);
+        imap::AnnualMetrics alone = imap::annual_metrics(moved, tenth, nullptr, dim);
+        CHECK(shut.points[0].cda == alone.points[0].cda && alone.points[0].cda > 0.005 && alone.points[0].cda < 0.5,
+              "closed all year, the point reads its closed state: cDA %g against %g", shut.points[0].cda,
+              alone.points[0].cda);
+
         // Electric light with daylight: the zone's lights give 500 lx; kept at a target
         // above every hour's daylight less 100 lx, they dim to the minimum (30 % power).
         imap::Hourly electric;

@@ -185,6 +185,77 @@ int main(void) {
     expect("a NaN coefficient", imap_annual_metrics(sky, nan_value, sigma, 1, NULL, NULL, &m, sizeof m, NULL, 0),
            IMAP_ERR_NON_FINITE);
 
+    /* Window groups: the point's light as one group of two states (open, and a closed
+       state of half its coefficients and no direct sun), no base. */
+    double half[146], hsig[146], zero[146] = {0};
+    for (int p = 0; p < 146; p++) half[p] = 0.5 * value[p], hsig[p] = 0.5 * sigma[p];
+    const double *gv[2] = {value, half}, *gs[2] = {sigma, hsig};
+    const ImapDirectSun *gsun[2] = {sun, NULL};
+    uint64_t state_hours[2] = {9, 9};
+    uint16_t closed_all[4] = {1, 1, 1, 1};
+    ImapWindowGroup g;
+    expect("window group defaults", imap_window_group_default(&g, sizeof g), IMAP_OK);
+    check("LM-83's rule by default", g.rule == IMAP_SHADING_DIRECT_SUN, g.rule, IMAP_SHADING_DIRECT_SUN);
+    g.state_count = 2, g.value = gv, g.sigma = gs, g.sun = gsun, g.state_hours = state_hours;
+    const ImapWindowGroup *groups[1] = {&g};
+    imap_annual_options_default(&o, sizeof o);
+    o.ase_hours = 0, o.window_groups = groups, o.window_group_count = 1;
+    /* LM-83's rule: closed in the occupied hours whose direct sun exceeds 1000 lx (the one
+       point is 100 % of the points). */
+    int sunny = 0;
+    for (int h = 1; h < 4; h++) {
+        double d = 0;
+        imap_direct_sun_hour(sun, (size_t)h, &d, 1);
+        sunny += d > 1000;
+    }
+    ImapAnnualMetrics gm;
+    expect("metrics of a window group", imap_annual_metrics(sky, NULL, NULL, 1, NULL, &o, &gm, sizeof gm, NULL, 0),
+           IMAP_OK);
+    check("the group's closed hours are the sunny ones", state_hours[1] == (uint64_t)sunny && state_hours[0] + state_hours[1] == 3,
+          (double)state_hours[1], sunny);
+    check("blinds_closed_hours counts them", gm.blinds_closed_hours == (uint64_t)sunny, (double)gm.blinds_closed_hours, sunny);
+    check("ASE counts the group open", gm.ase == 1, gm.ase, 1);
+    /* A schedule that keeps the group in a closed state of no light: DA 0. */
+    const double *dark[2] = {value, zero}, *dark_s[2] = {sigma, zero};
+    g.value = dark, g.sigma = dark_s, g.rule = IMAP_SHADING_SCHEDULE, g.schedule = closed_all, g.schedule_count = 4;
+    expect("metrics with a schedule", imap_annual_metrics(sky, NULL, NULL, 1, NULL, &o, &gm, sizeof gm, &per, sizeof per),
+           IMAP_OK);
+    check("closed every hour: DA 0", per.da == 0 && state_hours[1] == 3, per.da, 0);
+    /* The base and one group of one state add up: the point's coefficients halved twice. */
+    const double *halves[1] = {half}, *halves_s[1] = {hsig};
+    g.state_count = 1, g.value = halves, g.sigma = halves_s, g.sun = NULL, g.rule = IMAP_SHADING_SCHEDULE;
+    uint16_t open_all[4] = {0, 0, 0, 0};
+    g.schedule = open_all;
+    ImapSensorMetrics whole;
+    ImapAnnualOptions bright;
+    imap_annual_options_default(&bright, sizeof bright);
+    bright.threshold_lx = 1e6; /* cDA is then the mean illuminance over 1e6 lx */
+    o.threshold_lx = 1e6;
+    expect("the whole point", imap_annual_metrics(sky, value, sigma, 1, NULL, &bright, &gm, sizeof gm, &whole, sizeof whole),
+           IMAP_OK);
+    expect("half as the base, half as a group", imap_annual_metrics(sky, half, hsig, 1, NULL, &o, &gm, sizeof gm, &per, sizeof per),
+           IMAP_OK);
+    check("the parts' cDA is the whole's", fabs(per.cda - whole.cda) < 1e-12 * whole.cda && whole.cda > 0 && whole.cda < 1,
+          per.cda, whole.cda);
+    /* Bad groups, each named; an options struct of the size before window groups still reads. */
+    g.schedule = closed_all;
+    expect("a schedule asking for state 1 of 1", imap_annual_metrics(sky, half, hsig, 1, NULL, &o, &gm, sizeof gm, NULL, 0),
+           IMAP_ERR_INDEX_OUT_OF_RANGE);
+    g.rule = 7;
+    expect("rule 7", imap_annual_metrics(sky, half, hsig, 1, NULL, &o, &gm, sizeof gm, NULL, 0), IMAP_ERR_INVALID_ARGUMENT);
+    check("the message names the group", strstr(imap_last_error(NULL), "window_groups[0]") != NULL, 0, 0);
+    g.rule = IMAP_SHADING_SCHEDULE, g.schedule = open_all, g.state_count = 0;
+    expect("a group of no state", imap_annual_metrics(sky, half, hsig, 1, NULL, &o, &gm, sizeof gm, NULL, 0),
+           IMAP_ERR_INVALID_ARGUMENT);
+    g.state_count = 1;
+    o.shaded_value = half, o.shaded_sigma = hsig;
+    expect("blinds and window groups at once", imap_annual_metrics(sky, value, sigma, 1, sun, &o, &gm, sizeof gm, NULL, 0),
+           IMAP_ERR_INVALID_ARGUMENT);
+    imap_annual_options_default(&o, sizeof o);
+    o.struct_size = offsetof(ImapAnnualOptions, window_groups);
+    expect("options of the size before window groups", imap_annual_metrics(sky, value, sigma, 1, sun, &o, &gm, sizeof gm, NULL, 0),
+           IMAP_OK);
+
     /* Electric light with daylight: a target 1000 lx above the brightest sunlit hour, the
        zone's lights at full output bringing the dimmest hour to it at 90 % output. */
     double emin = e[1], emax = e[1];

@@ -61,6 +61,27 @@
 #include <stdint.h>
 
 /**
+ * `ImapWindowGroup::rule`: IES LM-83's rule for operable blinds, per group: the first
+ * state (from 0, the most open) in which no more than `blinds_share` of the sensors get
+ * direct sun above `ase_lx` through the group, the last when none is (two states: closed
+ * when the open group lets direct sun above 1000 lx onto more than 2 % of them). State
+ * 0 needs its direct sun. (Since 0.2.3.)
+ */
+#define IMAP_SHADING_DIRECT_SUN 0
+
+/**
+ * `ImapWindowGroup::rule`: the first state in which no more than `blinds_share` of the
+ * sensors get more than `rule_lx` from the group (its coefficients under the hour's sky
+ * and its direct sun, as estimated), the last when none is. (Since 0.2.3.)
+ */
+#define IMAP_SHADING_ILLUMINANCE 1
+
+/**
+ * `ImapWindowGroup::rule`: the state of every hour given in `schedule`. (Since 0.2.3.)
+ */
+#define IMAP_SHADING_SCHEDULE 2
+
+/**
  * The lighting controls of `ImapDimming::control` (EnergyPlus's types): dims
  * continuously to `min_output` and stays on there; the same, and switches off there; in
  * `steps` equal steps of output and power, and off. (Since 0.2.3.)
@@ -995,6 +1016,51 @@ typedef struct ImapAnnualHour {
 } ImapAnnualHour;
 
 /**
+ * A window group of `ImapAnnualOptions::window_groups`: its states' coefficients at the
+ * call's sensors (each traced with the group's openings in that state and every other
+ * group's black), their direct sun, and the rule that picks a state every hour. States
+ * are ordered from the most open (state 0: ASE counts it) to the most closed. Initialise
+ * with `imap_window_group_default(&g, sizeof g)`. (Since 0.2.3.)
+ */
+typedef struct ImapWindowGroup {
+  uint32_t struct_size;
+  /**
+   * IMAP_SHADING_*.
+   */
+  uint32_t rule;
+  /**
+   * The states, 1 to 65535.
+   */
+  size_t state_count;
+  /**
+   * `state_count` pointers, each to `sensors × patches` doubles: the state's
+   * coefficients and their standard errors.
+   */
+  const double *const *value;
+  const double *const *sigma;
+  /**
+   * `state_count` direct suns (`imap_direct_sun_new` in the state's model; a NULL
+   * entry: the state lets no sun through in a line); NULL: no state has one.
+   */
+  const struct ImapDirectSun *const *sun;
+  /**
+   * IMAP_SHADING_ILLUMINANCE's illuminance, lx.
+   */
+  double rule_lx;
+  /**
+   * IMAP_SHADING_SCHEDULE's state of every hour of the sky, and its length (the sky's
+   * hours).
+   */
+  const uint16_t *schedule;
+  size_t schedule_count;
+  /**
+   * Written on success when not NULL: `state_count` counts of the occupied hours the
+   * group spent in each state.
+   */
+  uint64_t *state_hours;
+} ImapWindowGroup;
+
+/**
  * What the annual metrics count (`imap_annual_metrics`). Initialise with
  * `imap_annual_options_default(&o, sizeof o)`: LM-83's 300 lx and 50 %, UDI 100–3000 lx,
  * 100 draws, ASE 1000 lx over 250 hours, the blinds rule's 2 %, every hour with the sun up
@@ -1045,6 +1111,17 @@ typedef struct ImapAnnualOptions {
   const double *shaded_value;
   const double *shaded_sigma;
   const struct ImapDirectSun *shaded_sun;
+  /**
+   * Window groups, each with its states and the rule that picks one every hour:
+   * `window_group_count` pointers to initialised `ImapWindowGroup`s (NULL: none). With
+   * them the call's `value`, `sigma` and `sun` are the base, the light that comes in
+   * through no group (the model with every group's openings black; NULL `value`: no
+   * such light), an hour's light is the base's and each group's in its state, and
+   * `shaded_value` must be NULL (a blinds-closed model is one group of two states).
+   * (Appended in 0.2.3: a struct_size up to `shaded_sun` reads none.)
+   */
+  const struct ImapWindowGroup *const *window_groups;
+  size_t window_group_count;
 } ImapAnnualOptions;
 
 /**
@@ -2649,6 +2726,15 @@ enum ImapStatus imap_annual_hourly(const struct ImapAnnualSky *sky, const double
  * `out` points to `size` writable bytes.
  */
 enum ImapStatus imap_annual_options_default(struct ImapAnnualOptions *out, size_t size);
+
+/**
+ * Writes the default `ImapWindowGroup` into `out` (`size` = sizeof *out): LM-83's rule,
+ * no states. (Since 0.2.3.)
+ *
+ * # Safety
+ * `out` points to `size` writable bytes.
+ */
+enum ImapStatus imap_window_group_default(struct ImapWindowGroup *out, size_t size);
 
 /**
  * The annual metrics of `sensors` sensors (DA, cDA, UDI, sDA with its confidence, ASE

@@ -703,6 +703,67 @@ inline AnnualMetrics annual_metrics(const AnnualSky& sky, const Coefficients& c,
     return m;
 }
 
+/// A window group (docs/daylight.md, "Window groups"): its states' coefficients, most open
+/// first, each traced with the group in that state and every other group's openings black;
+/// their direct sun (empty, or one per state: null where a state lets none through); the
+/// rule that picks a state each hour (IMAP_SHADING_*, with `rule_lx` or `schedule`).
+/// `annual_metrics` fills `state_hours`: the occupied hours spent in each state.
+struct WindowGroup {
+    std::vector<const Coefficients*> states;
+    std::vector<const DirectSun*> suns;
+    uint32_t rule = IMAP_SHADING_DIRECT_SUN;
+    double rule_lx = 0;
+    std::vector<uint16_t> schedule;
+    std::vector<uint64_t> state_hours;
+};
+
+/// The metrics of a grid whose light is `base`'s (the light through no window group;
+/// null: none) and each of `groups` in the state its rule picks every hour.
+inline AnnualMetrics annual_metrics(const AnnualSky& sky, const Coefficients* base, const DirectSun* base_sun,
+                                    std::vector<WindowGroup>& groups,
+                                    ImapAnnualOptions options = annual_options()) {
+    const Coefficients* first = base;
+    for (const auto& g : groups)
+        if (!first && !g.states.empty()) first = g.states.front();
+    if (!first) throw Error(IMAP_ERR_INVALID_ARGUMENT, "annual_metrics: no base and no window group state");
+    std::vector<std::vector<const double*>> values(groups.size()), sigmas(groups.size());
+    std::vector<std::vector<const ImapDirectSun*>> suns(groups.size());
+    std::vector<ImapWindowGroup> structs(groups.size());
+    std::vector<const ImapWindowGroup*> pointers(groups.size());
+    for (size_t i = 0; i < groups.size(); i++) {
+        WindowGroup& g = groups[i];
+        if (!g.suns.empty() && g.suns.size() != g.states.size())
+            throw Error(IMAP_ERR_INVALID_ARGUMENT, "annual_metrics: a window group's suns are not one per state");
+        for (const Coefficients* c : g.states) {
+            if (!c || c->points != first->points)
+                throw Error(IMAP_ERR_INVALID_ARGUMENT, "annual_metrics: a window group's state has other points");
+            values[i].push_back(c->value.data());
+            sigmas[i].push_back(c->sigma.data());
+        }
+        for (const DirectSun* d : g.suns) suns[i].push_back(d ? d->get() : nullptr);
+        g.state_hours.assign(g.states.size(), 0);
+        check(imap_window_group_default(&structs[i], sizeof structs[i]));
+        structs[i].rule = g.rule;
+        structs[i].state_count = g.states.size();
+        structs[i].value = values[i].data();
+        structs[i].sigma = sigmas[i].data();
+        structs[i].sun = suns[i].empty() ? nullptr : suns[i].data();
+        structs[i].rule_lx = g.rule_lx;
+        structs[i].schedule = g.schedule.empty() ? nullptr : g.schedule.data();
+        structs[i].schedule_count = g.schedule.size();
+        structs[i].state_hours = g.state_hours.data();
+        pointers[i] = &structs[i];
+    }
+    options.window_groups = pointers.data();
+    options.window_group_count = pointers.size();
+    AnnualMetrics m;
+    m.points.resize(first->points);
+    check(imap_annual_metrics(sky.get(), base ? base->value.data() : nullptr, base ? base->sigma.data() : nullptr,
+                              first->points, base_sun ? base_sun->get() : nullptr, &options, &m.grid, sizeof m.grid,
+                              m.points.data(), sizeof(ImapSensorMetrics)));
+    return m;
+}
+
 inline ImapDimming dimming() {
     ImapDimming d;
     check(imap_dimming_default(&d, sizeof d));

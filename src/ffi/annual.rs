@@ -15,7 +15,10 @@ use super::{
     write_versioned, Versioned,
 };
 use crate::annual::lighting::{Control, Dimming};
-use crate::annual::{AnnualSky, CoefficientsView, DirectSun, MetricOptions, SunInVectors};
+use crate::annual::{
+    AnnualSky, CoefficientsView, DirectSun, MetricOptions, Shaded, Shading, ShadingRule,
+    SunInVectors, WindowGroup,
+};
 use crate::error::{bail, Error, ImapStatus, Result};
 use std::any::Any;
 use std::collections::HashMap;
@@ -616,12 +619,22 @@ pub struct ImapAnnualOptions {
     pub shaded_value: *const f64,
     pub shaded_sigma: *const f64,
     pub shaded_sun: *const ImapDirectSun,
+    /// Window groups, each with its states and the rule that picks one every hour:
+    /// `window_group_count` pointers to initialised `ImapWindowGroup`s (NULL: none). With
+    /// them the call's `value`, `sigma` and `sun` are the base, the light that comes in
+    /// through no group (the model with every group's openings black; NULL `value`: no
+    /// such light), an hour's light is the base's and each group's in its state, and
+    /// `shaded_value` must be NULL (a blinds-closed model is one group of two states).
+    /// (Appended in 0.2.3: a struct_size up to `shaded_sun` reads none.)
+    pub window_groups: *const *const ImapWindowGroup,
+    pub window_group_count: usize,
 }
 
 // SAFETY: repr(C), u32 struct_size first, numbers and pointers (NULL when zeroed).
 unsafe impl Versioned for ImapAnnualOptions {
     const NAME: &'static str = "ImapAnnualOptions";
     const INIT: &'static str = "imap_annual_options_default";
+    const BASE_SIZE: usize = std::mem::offset_of!(ImapAnnualOptions, window_groups);
     fn defaults() -> Self {
         let d = MetricOptions::default();
         ImapAnnualOptions {
@@ -642,6 +655,8 @@ unsafe impl Versioned for ImapAnnualOptions {
             shaded_value: std::ptr::null(),
             shaded_sigma: std::ptr::null(),
             shaded_sun: std::ptr::null(),
+            window_groups: std::ptr::null(),
+            window_group_count: 0,
         }
     }
 }
@@ -653,6 +668,83 @@ unsafe impl Versioned for ImapAnnualOptions {
 #[no_mangle]
 pub unsafe extern "C" fn imap_annual_options_default(
     out: *mut ImapAnnualOptions,
+    size: usize,
+) -> ImapStatus {
+    boundary(None, || write_defaults(out, size))
+}
+
+/// `ImapWindowGroup::rule`: IES LM-83's rule for operable blinds, per group: the first
+/// state (from 0, the most open) in which no more than `blinds_share` of the sensors get
+/// direct sun above `ase_lx` through the group, the last when none is (two states: closed
+/// when the open group lets direct sun above 1000 lx onto more than 2 % of them). State
+/// 0 needs its direct sun. (Since 0.2.3.)
+pub const IMAP_SHADING_DIRECT_SUN: u32 = 0;
+/// `ImapWindowGroup::rule`: the first state in which no more than `blinds_share` of the
+/// sensors get more than `rule_lx` from the group (its coefficients under the hour's sky
+/// and its direct sun, as estimated), the last when none is. (Since 0.2.3.)
+pub const IMAP_SHADING_ILLUMINANCE: u32 = 1;
+/// `ImapWindowGroup::rule`: the state of every hour given in `schedule`. (Since 0.2.3.)
+pub const IMAP_SHADING_SCHEDULE: u32 = 2;
+
+/// A window group of `ImapAnnualOptions::window_groups`: its states' coefficients at the
+/// call's sensors (each traced with the group's openings in that state and every other
+/// group's black), their direct sun, and the rule that picks a state every hour. States
+/// are ordered from the most open (state 0: ASE counts it) to the most closed. Initialise
+/// with `imap_window_group_default(&g, sizeof g)`. (Since 0.2.3.)
+#[repr(C)]
+#[derive(Clone, Copy, Debug)]
+pub struct ImapWindowGroup {
+    pub struct_size: u32,
+    /// IMAP_SHADING_*.
+    pub rule: u32,
+    /// The states, 1 to 65535.
+    pub state_count: usize,
+    /// `state_count` pointers, each to `sensors × patches` doubles: the state's
+    /// coefficients and their standard errors.
+    pub value: *const *const f64,
+    pub sigma: *const *const f64,
+    /// `state_count` direct suns (`imap_direct_sun_new` in the state's model; a NULL
+    /// entry: the state lets no sun through in a line); NULL: no state has one.
+    pub sun: *const *const ImapDirectSun,
+    /// IMAP_SHADING_ILLUMINANCE's illuminance, lx.
+    pub rule_lx: f64,
+    /// IMAP_SHADING_SCHEDULE's state of every hour of the sky, and its length (the sky's
+    /// hours).
+    pub schedule: *const u16,
+    pub schedule_count: usize,
+    /// Written on success when not NULL: `state_count` counts of the occupied hours the
+    /// group spent in each state.
+    pub state_hours: *mut u64,
+}
+
+// SAFETY: repr(C), u32 struct_size first, numbers and pointers (NULL when zeroed).
+unsafe impl Versioned for ImapWindowGroup {
+    const NAME: &'static str = "ImapWindowGroup";
+    const INIT: &'static str = "imap_window_group_default";
+    fn defaults() -> Self {
+        ImapWindowGroup {
+            struct_size: std::mem::size_of::<Self>() as u32,
+            rule: IMAP_SHADING_DIRECT_SUN,
+            state_count: 0,
+            value: std::ptr::null(),
+            sigma: std::ptr::null(),
+            sun: std::ptr::null(),
+            rule_lx: 0.0,
+            schedule: std::ptr::null(),
+            schedule_count: 0,
+            state_hours: std::ptr::null_mut(),
+        }
+    }
+}
+
+/// Writes the default `ImapWindowGroup` into `out` (`size` = sizeof *out): LM-83's rule,
+/// no states. (Since 0.2.3.)
+///
+/// # Safety
+/// `out` points to `size` writable bytes.
+#[no_mangle]
+pub unsafe extern "C" fn imap_window_group_default(
+    out: *mut ImapWindowGroup,
     size: usize,
 ) -> ImapStatus {
     boundary(None, || write_defaults(out, size))
@@ -756,14 +848,24 @@ unsafe impl Versioned for ImapSensorMetrics {
     }
 }
 
+/// A part of a grid's light: coefficients and the direct sun.
+type Part<'a> = (CoefficientsView<'a>, Option<Arc<ImapDirectSun>>);
+
+/// A window group as read: its states, its rule and where its state hours go.
+struct Group<'a> {
+    states: Vec<Part<'a>>,
+    rule: ShadingRule,
+    state_hours: *mut u64,
+}
+
 /// The arguments every annual metric call reads: the sky, the coefficients, the direct sun
-/// and the options with the blinds-closed model, looked up and checked.
+/// and the options with the blinds-closed model or the window groups, looked up and
+/// checked.
 struct Annual<'a> {
     sky: Arc<ImapAnnualSky>,
-    coefficients: CoefficientsView<'a>,
-    sun: Option<Arc<ImapDirectSun>>,
+    base: Option<Part<'a>>,
+    groups: Vec<Group<'a>>,
     options: MetricOptions,
-    shaded: Option<(CoefficientsView<'a>, Option<Arc<ImapDirectSun>>)>,
 }
 
 impl Annual<'_> {
@@ -778,7 +880,6 @@ impl Annual<'_> {
     ) -> Result<Self> {
         let s = lookup("sky", sky)?;
         let patches = s.sky.patches.count();
-        let coefficients = view(value, sigma, sensors, patches)?;
         let sun = (!sun.is_null()).then(|| lookup("sun", sun)).transpose()?;
         let o = if options.is_null() {
             ImapAnnualOptions::defaults()
@@ -802,33 +903,141 @@ impl Annual<'_> {
         let shaded_sun = (!o.shaded_sun.is_null())
             .then(|| lookup("options->shaded_sun", o.shaded_sun))
             .transpose()?;
-        let shaded = if o.shaded_value.is_null() {
-            None
+        let groups = if o.window_groups.is_null() {
+            Vec::new()
         } else {
-            Some((
+            let list = slice(
+                "options->window_groups",
+                o.window_groups,
+                o.window_group_count,
+            )?;
+            let mut groups = Vec::with_capacity(list.len());
+            for (g, &p) in list.iter().enumerate() {
+                let name = format!("options->window_groups[{g}]");
+                groups.push(read_group(&name, p, sensors, patches)?);
+            }
+            groups
+        };
+        if !groups.is_empty() && !o.shaded_value.is_null() {
+            bail!(
+                ImapErrInvalidArgument,
+                "options->shaded_value and options->window_groups: give one (a blinds-closed model is a window group of two states)"
+            );
+        }
+        // With window groups, NULL coefficients are a base of no light.
+        let base = if groups.is_empty() || !value.is_null() {
+            Some((view(value, sigma, sensors, patches)?, sun))
+        } else {
+            None
+        };
+        let (base, groups) = if o.shaded_value.is_null() {
+            (base, groups)
+        } else {
+            let shaded = (
                 view(o.shaded_value, o.shaded_sigma, sensors, patches)?,
                 shaded_sun,
-            ))
+            );
+            let open = base.expect("the base is read without window groups");
+            let blinds = Group {
+                states: vec![open, shaded],
+                rule: ShadingRule::DirectSun,
+                state_hours: std::ptr::null_mut(),
+            };
+            (None, vec![blinds])
         };
         Ok(Annual {
             sky: s,
-            coefficients,
-            sun,
+            base,
+            groups,
             options: mo,
-            shaded,
         })
     }
 
-    fn sun(&self) -> Option<&DirectSun> {
-        self.sun.as_ref().map(|d| &d.sun)
+    /// The parts as the metrics take them.
+    fn shading(&self) -> Shading<'_> {
+        fn part<'b>((c, s): &'b Part) -> Shaded<'b> {
+            Shaded {
+                coefficients: *c,
+                sun: s.as_ref().map(|x| &x.sun),
+            }
+        }
+        Shading {
+            base: self.base.as_ref().map(part),
+            groups: self
+                .groups
+                .iter()
+                .map(|g| WindowGroup {
+                    states: g.states.iter().map(part).collect(),
+                    rule: g.rule.clone(),
+                })
+                .collect(),
+        }
     }
 
-    fn shaded(&self) -> Option<crate::annual::Shaded<'_>> {
-        self.shaded.as_ref().map(|(c, s)| crate::annual::Shaded {
-            coefficients: *c,
-            sun: s.as_ref().map(|x| &x.sun),
-        })
+    /// Writes each group's hours per state where the host asked for them.
+    fn write_state_hours(&self, hours: &[Vec<usize>]) -> Result<()> {
+        for (g, h) in self.groups.iter().zip(hours) {
+            if !g.state_hours.is_null() {
+                let out = slice_mut("state_hours", g.state_hours, h.len())?;
+                for (o, &x) in out.iter_mut().zip(h) {
+                    *o = x as u64;
+                }
+            }
+        }
+        Ok(())
     }
+}
+
+/// Reads window group `name` at `p` of coefficients of `sensors` × `patches`.
+fn read_group<'a>(
+    name: &str,
+    p: *const ImapWindowGroup,
+    sensors: usize,
+    patches: usize,
+) -> Result<Group<'a>> {
+    let w = read_versioned(name, p)?;
+    if w.state_count == 0 || w.state_count > u16::MAX as usize {
+        bail!(
+            ImapErrInvalidArgument,
+            "{name}->state_count = {}: give 1 to {}",
+            w.state_count,
+            u16::MAX
+        );
+    }
+    let values = slice(&format!("{name}->value"), w.value, w.state_count)?;
+    let sigmas = slice(&format!("{name}->sigma"), w.sigma, w.state_count)?;
+    let suns = if w.sun.is_null() {
+        vec![std::ptr::null(); w.state_count]
+    } else {
+        slice(&format!("{name}->sun"), w.sun, w.state_count)?.to_vec()
+    };
+    let mut states = Vec::with_capacity(w.state_count);
+    for s in 0..w.state_count {
+        let c = view(values[s], sigmas[s], sensors, patches).map_err(|mut e| {
+            e.message = format!("{name} state {s}: {}", e.message);
+            e
+        })?;
+        let sun = (!suns[s].is_null())
+            .then(|| lookup(&format!("{name}->sun[{s}]"), suns[s]))
+            .transpose()?;
+        states.push((c, sun));
+    }
+    let rule = match w.rule {
+        IMAP_SHADING_DIRECT_SUN => ShadingRule::DirectSun,
+        IMAP_SHADING_ILLUMINANCE => ShadingRule::Illuminance { lx: w.rule_lx },
+        IMAP_SHADING_SCHEDULE => ShadingRule::Schedule(
+            slice(&format!("{name}->schedule"), w.schedule, w.schedule_count)?.to_vec(),
+        ),
+        r => bail!(
+            ImapErrInvalidArgument,
+            "{name}->rule = {r}: use IMAP_SHADING_DIRECT_SUN, IMAP_SHADING_ILLUMINANCE or IMAP_SHADING_SCHEDULE"
+        ),
+    };
+    Ok(Group {
+        states,
+        rule,
+        state_hours: w.state_hours,
+    })
 }
 
 /// A per-hour flag array of the options (NULL: none).
@@ -873,13 +1082,8 @@ pub unsafe extern "C" fn imap_annual_metrics(
     boundary(None, || {
         super::check_out("out", out)?;
         let a = Annual::read(sky, value, sigma, sensors, sun, options)?;
-        let m = crate::annual::metrics_with_blinds(
-            a.coefficients,
-            &a.sky.sky,
-            a.sun(),
-            a.shaded(),
-            &a.options,
-        )?;
+        let m = crate::annual::metrics_with_shading(&a.shading(), &a.sky.sky, &a.options)?;
+        a.write_state_hours(&m.group_state_hours)?;
         if !per_sensor.is_null() {
             if per_sensor_size < std::mem::size_of::<u32>() {
                 bail!(
@@ -1106,11 +1310,9 @@ pub unsafe extern "C" fn imap_annual_lighting(
         } else {
             Some(slice_mut("at_target", at_target, sensors)?)
         };
-        let l = crate::annual::lighting::lighting(
-            a.coefficients,
+        let l = crate::annual::lighting::lighting_with_shading(
+            &a.shading(),
             &a.sky.sky,
-            a.sun(),
-            a.shaded(),
             &el,
             &zone,
             &a.options,
