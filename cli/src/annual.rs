@@ -9,7 +9,10 @@ use crate::grids::{self, Grid};
 use crate::settings::Settings;
 use imap::annual::lighting::{Control, Dimming};
 use imap::annual::trace::{PatchReport, PatchRound, PatchRun, PatchTarget};
-use imap::annual::{AnnualSky, Coefficients, DirectSun, MetricOptions, SunInVectors};
+use imap::annual::{
+    AnnualSky, Coefficients, DirectSun, MetricOptions, Shaded, Shading, ShadingRule, SunInVectors,
+    WindowGroup,
+};
 use imap::SkyDesc;
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -240,8 +243,8 @@ pub fn annual(model: &Path, settings: Settings, o: &AnnualOptions) -> Result<()>
         if time.is_nan() || time <= 0.0 {
             fail!("{flag} needs --time: the longest the rounds may take");
         }
-        if o.shaded.is_some() {
-            fail!("{flag} with --shaded is not supported yet: run with --photons or --time");
+        if o.shaded.is_some() || !settings.window_groups.is_empty() {
+            fail!("{flag} with --shaded or [[window_group]]s is not supported yet: run with --photons or --time");
         }
         if o.draws < 20 {
             fail!("{flag} reads {what} from the draws: give --draws 20 or more");
@@ -258,6 +261,10 @@ pub fn annual(model: &Path, settings: Settings, o: &AnnualOptions) -> Result<()>
                 printable(&e.message)
             ))
         })?;
+    let groups = window_groups(&settings, weather.hours.len())?;
+    if !groups.is_empty() && o.shaded.is_some() {
+        fail!("--shaded and [[window_group]]s: give one (a blinds-closed model is a window group of two states: states = [\"as-drawn\", \"BLINDS\"])");
+    }
     let missing = weather
         .hours
         .iter()
@@ -320,7 +327,38 @@ pub fn annual(model: &Path, settings: Settings, o: &AnnualOptions) -> Result<()>
         luminaires: Vec::new(),
         ..settings.clone()
     };
-    let open = coefficients_run(model, &daylit, (up, north), &first, "blinds open")?;
+    // With window groups, the first run has every group's openings black: what reaches the
+    // grids then came through openings in no group, which each group's runs would count
+    // again (checked per grid below).
+    let open = if groups.is_empty() {
+        coefficients_run(model, &daylit, (up, north), &first, "blinds open")?
+    } else {
+        // (A check, not a part of the light: photons alone, which die at the black
+        // openings of a model whose every opening is in a group, cost little.)
+        let s = group_settings(&daylit, &groups, None, 0);
+        let check = AnnualOptions {
+            estimator: "photons".into(),
+            ..o.clone()
+        };
+        coefficients_run(model, &s, (up, north), &check, "every window group black")?
+    };
+    let mut group_runs = Vec::with_capacity(groups.len());
+    for (g, w) in groups.iter().enumerate() {
+        let mut states = Vec::with_capacity(w.states.len());
+        for (k, state) in w.states.iter().enumerate() {
+            if interrupted.raised() {
+                break;
+            }
+            let s = group_settings(&daylit, &groups, Some(g), k);
+            let what = format!(
+                "window group {} {}",
+                printable(&w.name),
+                state.as_deref().unwrap_or("as-drawn")
+            );
+            states.push(coefficients_run(model, &s, (up, north), o, &what)?);
+        }
+        group_runs.push(states);
+    }
     let shaded = match shaded_settings {
         Some(s) if !interrupted.raised() => Some(coefficients_run(
             model,
@@ -342,7 +380,10 @@ pub fn annual(model: &Path, settings: Settings, o: &AnnualOptions) -> Result<()>
     let incomplete = run.coefficients(0).is_err()
         || shaded
             .as_ref()
-            .is_some_and(|(_, _, r)| r.coefficients(0).is_err());
+            .is_some_and(|(_, _, r)| r.coefficients(0).is_err())
+        || group_runs.iter().zip(&groups).any(|(r, w)| {
+            r.len() < w.states.len() || r.iter().any(|(_, _, r)| r.coefficients(0).is_err())
+        });
     if let (Some(code), true) = (interrupted.status(), incomplete) {
         eprintln!("imap: interrupted before every batch of patches had photons: no metrics");
         std::process::exit(code);
@@ -472,19 +513,106 @@ pub fn annual(model: &Path, settings: Settings, o: &AnnualOptions) -> Result<()>
             }
             None => None,
         };
-        let m = imap::annual::metrics_with_blinds(
-            c,
-            &sky,
-            Some(&sun),
-            closed.as_ref().map(|(c, s)| imap::annual::Shaded {
-                coefficients: c.view(),
-                sun: Some(s),
-            }),
-            &options,
-        )
-        .map_err(|e| CliError(format!("annual: grid {}: {}", g.name, e.message)))?;
-        let df = imap::annual::daylight_factor(c, &sky.patches, o.ground_reflectance)
-            .map_err(|e| CliError(format!("annual: grid {}: {}", g.name, e.message)))?;
+        let grid_err = |e: imap::Error| CliError(format!("annual: grid {}: {}", g.name, e.message));
+        // The window groups' states at this grid: each state's coefficients and its
+        // direct sun traced in its own model.
+        let mut group_suns = Vec::with_capacity(group_runs.len());
+        for states in &mut group_runs {
+            let mut suns = Vec::with_capacity(states.len());
+            for (sctx, _, _) in states.iter_mut() {
+                suns.push(
+                    DirectSun::new(
+                        sctx,
+                        &sky,
+                        (up, north),
+                        (&points, &normals),
+                        &SkyDesc::default().spectrum,
+                        settings.run.seed,
+                    )
+                    .map_err(grid_err)?,
+                );
+            }
+            group_suns.push(suns);
+        }
+        let mut group_cs = Vec::with_capacity(group_runs.len());
+        for states in &group_runs {
+            let mut cs = Vec::with_capacity(states.len());
+            for (_, _, r) in states {
+                cs.push(coefficients(r, gi, g)?);
+            }
+            group_cs.push(cs);
+        }
+        let shading = if groups.is_empty() {
+            Shading::blinds(
+                c.view(),
+                Some(&sun),
+                closed.as_ref().map(|(c, s)| Shaded {
+                    coefficients: c.view(),
+                    sun: Some(s),
+                }),
+            )
+        } else {
+            Shading {
+                base: None,
+                groups: groups
+                    .iter()
+                    .zip(&group_cs)
+                    .zip(&group_suns)
+                    .map(|((w, cs), suns)| WindowGroup {
+                        states: cs
+                            .iter()
+                            .zip(suns)
+                            .map(|(c, s)| Shaded {
+                                coefficients: c.view(),
+                                sun: Some(s),
+                            })
+                            .collect(),
+                        rule: w.rule.clone(),
+                    })
+                    .collect(),
+            }
+        };
+        // The daylight factor's model: every group as drawn (its state 0).
+        let all_open = if groups.is_empty() {
+            None
+        } else {
+            let open: Vec<_> = group_cs.iter().map(|cs| cs[0].view()).collect();
+            Some(Coefficients::sum(&open).map_err(grid_err)?)
+        };
+        let df_c = all_open.as_ref().unwrap_or(c);
+        let m = imap::annual::metrics_with_shading(&shading, &sky, &options).map_err(grid_err)?;
+        let df = imap::annual::daylight_factor(df_c, &sky.patches, o.ground_reflectance)
+            .map_err(grid_err)?;
+        if !groups.is_empty() {
+            // What came in with every group black (`c`, `sun`: openings in no group, or
+            // leaks) is in every group's runs too: refused unless negligible.
+            let black = imap::annual::daylight_factor(c, &sky.patches, o.ground_reflectance)
+                .map_err(grid_err)?;
+            let mean =
+                |d: &[(f64, f64)]| d.iter().map(|x| x.0).sum::<f64>() / d.len().max(1) as f64;
+            let direct = |s: &DirectSun| s.lux.iter().map(|&x| x as f64).sum::<f64>();
+            let open_direct: f64 = group_suns.iter().map(|s| direct(&s[0])).sum();
+            let (share, direct_share) = (
+                mean(&black) / mean(&df).max(f64::MIN_POSITIVE),
+                direct(&sun) / open_direct.max(f64::MIN_POSITIVE),
+            );
+            if share > 0.01 || direct_share > 0.01 {
+                fail!(
+                    "annual: grid {}: with every window group's openings black it still gets {:.1} % of its daylight factor and {:.1} % of its direct sun: the model has openings in no [[window_group]], whose light each group's runs would count again; put them in a group (a fixed window is a group of one state: states = [\"as-drawn\"])",
+                    g.name,
+                    100.0 * share,
+                    100.0 * direct_share
+                );
+            }
+            if share > 0.0 || direct_share > 0.0 {
+                eprintln!(
+                    "imap: warning: annual: grid {}: with every window group's openings black it still gets {:.2} % of its daylight factor and {:.2} % of its direct sun (openings in no group, or gaps in the model): each group's runs count it again",
+                    g.name,
+                    100.0 * share,
+                    100.0 * direct_share
+                );
+            }
+        }
         // Points whose light is poorly known: a daylight factor with a relative error over
         // 10 %, or 0 in a lit grid (no photon reached it: dark, or too few photons; its
         // stated error is then 0 too).
@@ -515,17 +643,8 @@ pub fn annual(model: &Path, settings: Settings, o: &AnnualOptions) -> Result<()>
                         .unwrap_or(0),
                 };
                 let d = Dimming { sensor, ..*d };
-                let l = imap::annual::lighting::lighting(
-                    c,
-                    &sky,
-                    Some(&sun),
-                    closed.as_ref().map(|(c, s)| imap::annual::Shaded {
-                        coefficients: c.view(),
-                        sun: Some(s),
-                    }),
-                    &el[gi],
-                    &d,
-                    &options,
+                let l = imap::annual::lighting::lighting_with_shading(
+                    &shading, &sky, &el[gi], &d, &options,
                 )
                 .map_err(|e| CliError(format!("annual: grid {}: {}", g.name, e.message)))?;
                 Some((d, l, &el[gi]))
@@ -542,9 +661,10 @@ pub fn annual(model: &Path, settings: Settings, o: &AnnualOptions) -> Result<()>
         write_pictures(&o.out, g, &m, &df)?;
         write_temporal_map(
             &o.out.join(format!("annual_{}_temporal.png", g.name)),
-            c,
+            &shading,
             &sky,
-            &sun,
+            &options,
+            df.len(),
         )?;
         let ase = m.ase.unwrap_or(f64::NAN);
         if !o.quiet {
@@ -565,6 +685,20 @@ pub fn annual(model: &Path, settings: Settings, o: &AnnualOptions) -> Result<()>
                 println!(
                     "grid {}: the blinds closed in {} occupied hours (IES LM-83's rule)",
                     g.name, m.blinds_closed_hours
+                );
+            }
+            for (w, hours) in groups.iter().zip(&m.group_state_hours) {
+                let states: Vec<String> = w
+                    .states
+                    .iter()
+                    .zip(hours)
+                    .map(|(s, h)| format!("{} {h} h", s.as_deref().unwrap_or("as-drawn")))
+                    .collect();
+                println!(
+                    "grid {}: window group {}: {} of the occupied hours",
+                    g.name,
+                    printable(&w.name),
+                    states.join(", ")
                 );
             }
             if let Some(en) = &m.en17037 {
@@ -611,6 +745,18 @@ pub fn annual(model: &Path, settings: Settings, o: &AnnualOptions) -> Result<()>
             "sda": {"value": m.sda, "sigma": m.sda_sigma, "interval_95": [m.sda_interval.0, m.sda_interval.1]},
             "ase": {"value": ase, "lx": options.ase_lx, "hours": options.ase_hours},
             "blinds_closed_hours": closed.as_ref().map(|_| m.blinds_closed_hours),
+            "window_groups": groups.iter().zip(&m.group_state_hours).map(|(w, hours)| serde_json::json!({
+                "name": w.name,
+                "rule": match &w.rule {
+                    ShadingRule::DirectSun => "direct-sun".to_string(),
+                    ShadingRule::Illuminance { lx } => format!("illuminance {lx} lx"),
+                    ShadingRule::Schedule(_) => "schedule".to_string(),
+                },
+                "states": w.states.iter().zip(hours).map(|(s, h)| serde_json::json!({
+                    "state": s.as_deref().unwrap_or("as-drawn"),
+                    "occupied_hours": h,
+                })).collect::<Vec<_>>(),
+            })).collect::<Vec<_>>(),
             "en17037": m.en17037.as_ref().map(|en| serde_json::json!({
                 "daylight_hours": en.daylight_hours,
                 "level": en.level(),
@@ -710,6 +856,157 @@ pub fn annual(model: &Path, settings: Settings, o: &AnnualOptions) -> Result<()>
         std::process::exit(code);
     }
     Ok(())
+}
+
+/// A `[[window_group]]` as read: its objects, states (material names; None: as drawn)
+/// and rule, and where the settings give it.
+struct GroupSpec {
+    name: String,
+    objects: Vec<String>,
+    states: Vec<Option<String>>,
+    rule: ShadingRule,
+    at: (PathBuf, usize),
+}
+
+/// The settings' window groups, checked (a schedule against the weather file's rows).
+fn window_groups(settings: &Settings, rows: usize) -> Result<Vec<GroupSpec>> {
+    let mut out: Vec<GroupSpec> = Vec::new();
+    for (i, w) in settings.window_groups.iter().enumerate() {
+        let at = settings.locate_nth("[[window_group]]", i);
+        let label = settings.label(
+            "[[window_group]]",
+            i,
+            &format!("window group '{}'", printable(&w.name)),
+        );
+        if w.name.is_empty() || out.iter().any(|g| g.name == w.name) {
+            fail!("{label}: give each window group a name of its own");
+        }
+        if w.objects.is_empty() {
+            fail!("{label}: objects = [...] names none of the model's objects");
+        }
+        if let Some(o) = w
+            .objects
+            .iter()
+            .find(|o| out.iter().any(|g| g.objects.contains(o)))
+        {
+            fail!(
+                "{label}: object '{}' is in an earlier window group too",
+                printable(o)
+            );
+        }
+        if w.states.is_empty() || w.states.len() > u16::MAX as usize {
+            fail!("{label}: states = [...] gives {} states: give 1 or more, the most open first (\"as-drawn\" or a material's name)", w.states.len());
+        }
+        let states = w
+            .states
+            .iter()
+            .map(|s| (s != "as-drawn").then(|| s.clone()))
+            .collect();
+        let rule = match w.rule.as_deref().unwrap_or("direct-sun") {
+            "direct-sun" => ShadingRule::DirectSun,
+            "illuminance" => match w.rule_lx {
+                Some(lx) if lx.is_finite() && lx > 0.0 => ShadingRule::Illuminance { lx },
+                x => fail!("{label}: rule = \"illuminance\" needs rule_lx, an illuminance > 0 (lx); it is {x:?}"),
+            },
+            "schedule" => {
+                let Some(file) = &w.schedule else {
+                    fail!("{label}: rule = \"schedule\" needs schedule = \"FILE\" (one state index per weather row)");
+                };
+                let path = settings.base_dir.join(file);
+                ShadingRule::Schedule(read_schedule(&path, rows, w.states.len())?)
+            }
+            r => fail!(
+                "{label}: rule = \"{}\": use \"direct-sun\" (IES LM-83), \"illuminance\" or \"schedule\"",
+                printable(r)
+            ),
+        };
+        if w.rule.as_deref() != Some("illuminance") && w.rule_lx.is_some() {
+            fail!("{label}: rule_lx is read with rule = \"illuminance\" only");
+        }
+        if w.rule.as_deref() != Some("schedule") && w.schedule.is_some() {
+            fail!("{label}: schedule is read with rule = \"schedule\" only");
+        }
+        out.push(GroupSpec {
+            name: w.name.clone(),
+            objects: w.objects.clone(),
+            states,
+            rule,
+            at,
+        });
+    }
+    Ok(out)
+}
+
+/// A window group's schedule file: one state index per weather row (blank lines and `#`
+/// comments left out), each below `states`.
+fn read_schedule(path: &Path, rows: usize, states: usize) -> Result<Vec<u16>> {
+    let text =
+        std::fs::read_to_string(path).map_err(|e| CliError(format!("{}: {e}", path.display())))?;
+    let mut out = Vec::with_capacity(rows);
+    for (i, line) in text.lines().enumerate() {
+        let t = line.split('#').next().unwrap_or("").trim();
+        if t.is_empty() {
+            continue;
+        }
+        match t.parse::<u16>() {
+            Ok(x) if (x as usize) < states => out.push(x),
+            _ => fail!(
+                "{}:{}: \"{}\": give a state index from 0 to {}",
+                path.display(),
+                i + 1,
+                printable(t),
+                states - 1
+            ),
+        }
+    }
+    if out.len() != rows {
+        fail!(
+            "{}: {} states for the weather file's {rows} rows: give one per row",
+            path.display(),
+            out.len()
+        );
+    }
+    Ok(out)
+}
+
+/// The settings of one run of the window groups: group `g` (None: none) in its state `s`,
+/// every other group's openings black. Every state's material is named to the loader so
+/// that none reads as a stray `[materials.NAME]`.
+fn group_settings(
+    settings: &Settings,
+    groups: &[GroupSpec],
+    g: Option<usize>,
+    s: usize,
+) -> Settings {
+    let mut out = Settings {
+        window_groups: Vec::new(),
+        ..settings.clone()
+    };
+    for (i, w) in groups.iter().enumerate() {
+        let what = format!("window group '{}'", printable(&w.name));
+        let material = if Some(i) == g {
+            w.states[s].clone()
+        } else {
+            Some(crate::scene::BLACK.to_string())
+        };
+        if let Some(m) = material {
+            out.assign.push(crate::settings::Assignment {
+                objects: w.objects.clone(),
+                material: m,
+                at: w.at.clone(),
+                what: what.clone(),
+            });
+        }
+        for m in w.states.iter().flatten() {
+            out.assign.push(crate::settings::Assignment {
+                objects: Vec::new(),
+                material: m.clone(),
+                at: w.at.clone(),
+                what: what.clone(),
+            });
+        }
+    }
+    out
 }
 
 /// The coefficients' run of one model state: the model with `settings`, the patch skies
@@ -896,25 +1193,28 @@ fn write_pictures(
 /// weather file does not have stay dark.
 fn write_temporal_map(
     path: &Path,
-    c: &Coefficients,
+    shading: &Shading,
     sky: &AnnualSky,
-    sun: &DirectSun,
+    options: &MetricOptions,
+    sensors: usize,
 ) -> Result<()> {
     const DAY_PX: usize = 2;
     const HOUR_PX: usize = 10;
     let (w, plot_h) = (366 * DAY_PX, 24 * HOUR_PX);
     let h = plot_h + crate::raster::LEGEND_MAX_PX as usize;
     let err = |e: imap::Error| CliError(format!("annual: temporal map: {}", e.message));
-    // The grid's mean per hour, a month of hours at a time.
+    // The grid's mean per hour (the blinds and window groups as their rules set them), a
+    // month of hours at a time.
     let mut mean = vec![f64::NAN; sky.hours.len()];
     let chunk = 24 * 31;
     let mut start = 0;
     while start < sky.hours.len() {
         let end = (start + chunk).min(sky.hours.len());
-        let (e, _) = imap::annual::hourly_range(c, sky, Some(sun), start..end).map_err(err)?;
+        let (e, _) =
+            imap::annual::hourly_with_shading(shading, sky, options, start..end).map_err(err)?;
         for (i, m) in mean[start..end].iter_mut().enumerate() {
-            let row = &e[i * c.sensors..(i + 1) * c.sensors];
-            *m = row.iter().sum::<f64>() / c.sensors.max(1) as f64;
+            let row = &e[i * sensors..(i + 1) * sensors];
+            *m = row.iter().sum::<f64>() / sensors.max(1) as f64;
         }
         start = end;
     }
@@ -1035,6 +1335,27 @@ fn report_text(json: &serde_json::Value) -> String {
         );
         if let Some(h) = g["blinds_closed_hours"].as_u64() {
             let _ = writeln!(s, "| hours with the blinds closed | {h} | |");
+        }
+        for w in g["window_groups"].as_array().into_iter().flatten() {
+            let states: Vec<String> = w["states"]
+                .as_array()
+                .into_iter()
+                .flatten()
+                .map(|x| {
+                    format!(
+                        "{} {} h",
+                        x["state"].as_str().unwrap_or(""),
+                        x["occupied_hours"]
+                    )
+                })
+                .collect();
+            let _ = writeln!(
+                s,
+                "| window group {} ({}): occupied hours per state | {} | |",
+                w["name"].as_str().unwrap_or(""),
+                w["rule"].as_str().unwrap_or(""),
+                states.join(", ")
+            );
         }
         let _ = writeln!(s, "| mean DA | {} | |", pc(&g["mean_da"]));
         let _ = writeln!(s, "| mean cDA | {} | |", pc(&g["mean_cda"]));

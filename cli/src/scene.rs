@@ -233,6 +233,73 @@ pub fn inward_warning(path: &Path, name: &str, volume: f64) -> String {
     )
 }
 
+/// The material `imap annual` gives a window group's openings in the runs of the other
+/// groups' states: black, opaque.
+pub const BLACK: &str = "imap:black";
+
+/// Gives the objects of each of `settings.assign` its material (`imap annual`'s window
+/// groups): one of the model's, a `[materials.NAME]` of the settings (a material of that
+/// name is added for it to override), or `BLACK`.
+fn assign_materials(
+    model: &mut crate::model::Model,
+    settings: &Settings,
+    path: &Path,
+    diag: &mut Diagnostics,
+) {
+    for a in &settings.assign {
+        let (objects, material) = (&a.objects, &a.material);
+        for n in objects {
+            if !model.objects.iter().any(|o| &o.name == n) {
+                diag.error(
+                    &a.at.0,
+                    a.at.1,
+                    format!(
+                        "{}: '{}' is no object or group of {}",
+                        a.what,
+                        printable(n),
+                        path.display()
+                    ),
+                );
+            }
+        }
+        let index = match model.materials.iter().position(|m| &m.name == material) {
+            Some(i) => i,
+            None => {
+                let black = material == BLACK;
+                if !black && !settings.materials.contains_key(material) {
+                    diag.error(
+                        &a.at.0,
+                        a.at.1,
+                        format!(
+                            "{}: material '{}' is neither one of {} nor a [materials.{}] of the settings",
+                            a.what,
+                            printable(material),
+                            path.display(),
+                            printable(material)
+                        ),
+                    );
+                }
+                model.materials.push(crate::model::Mtl {
+                    name: material.clone(),
+                    at: settings.locate(&format!("[materials.{material}]")),
+                    kd: black.then_some([0.0; 3]),
+                    ..Default::default()
+                });
+                model.materials.len() - 1
+            }
+        };
+        for o in model
+            .objects
+            .iter_mut()
+            .filter(|o| objects.contains(&o.name))
+        {
+            for t in &mut o.triangles {
+                t.material = Some(index);
+            }
+        }
+    }
+}
+
 /// Builds the libimap context from a model file (OBJ, glTF, PLY, STL) and settings.
 pub fn load(path: &Path, settings: &Settings) -> Result<(Context, LoadedScene)> {
     let mut diag = Diagnostics::default();
@@ -251,6 +318,16 @@ pub fn load(path: &Path, settings: &Settings) -> Result<(Context, LoadedScene)> 
         }
     }
     model.flip(&settings.flip_normals);
+    assign_materials(&mut model, settings, path, &mut diag);
+    if !settings.window_groups.is_empty() {
+        diag.warn(format!(
+            "{}: [[window_group]] is read by imap annual only: ignored here",
+            settings
+                .source
+                .as_ref()
+                .map_or("settings".into(), |(p, _)| p.display().to_string())
+        ));
+    }
     let unit_m = settings.unit_m.unwrap_or(1.0);
     let records =
         |name: &str| settings.record.is_empty() || settings.record.iter().any(|r| r == name);

@@ -172,6 +172,42 @@ impl Coefficients {
         self.view().check()
     }
 
+    /// The sum of `parts`' coefficients (light that adds: window groups' states), with
+    /// their errors combined as independent.
+    pub fn sum(parts: &[CoefficientsView]) -> Result<Coefficients> {
+        let Some(first) = parts.first() else {
+            bail!(ImapErrInvalidArgument, "no coefficients to add");
+        };
+        let (mut value, mut var) = (vec![0.0; first.value.len()], vec![0.0; first.value.len()]);
+        for (i, p) in parts.iter().enumerate() {
+            p.check()?;
+            if (p.sensors, p.patches) != (first.sensors, first.patches) {
+                bail!(
+                    ImapErrInvalidArgument,
+                    "coefficients {i} are of {} sensors × {} patches; the first of {} × {}",
+                    p.sensors,
+                    p.patches,
+                    first.sensors,
+                    first.patches
+                );
+            }
+            for ((v, w), (x, s)) in value
+                .iter_mut()
+                .zip(&mut var)
+                .zip(p.value.iter().zip(p.sigma))
+            {
+                *v += x;
+                *w += s * s;
+            }
+        }
+        Ok(Coefficients {
+            sensors: first.sensors,
+            patches: first.patches,
+            value,
+            sigma: var.into_iter().map(f64::sqrt).collect(),
+        })
+    }
+
     /// The coefficients borrowed.
     pub fn view(&self) -> CoefficientsView<'_> {
         CoefficientsView {
@@ -649,6 +685,42 @@ pub fn hourly_range<'a>(
             let (x, sx) = sensor.hour(sky, h);
             e[i * c.sensors + k] = x;
             s[i * c.sensors + k] = sx;
+        }
+    }
+    Ok((e, s))
+}
+
+/// `hourly_range` of a grid whose light is `shading`'s parts, each window group in the
+/// state its rule (read with `o`'s `blinds_share` and `ase_lx`) picks for the hour.
+pub fn hourly_with_shading(
+    shading: &Shading,
+    sky: &AnnualSky,
+    o: &MetricOptions,
+    range: std::ops::Range<usize>,
+) -> Result<(Vec<f64>, Vec<f64>)> {
+    let (sensors, n) = shading.check(sky, o)?;
+    if range.start > range.end || range.end > sky.hours.len() {
+        bail!(
+            ImapErrIndexOutOfRange,
+            "hours {}..{} are not within the sky's {}",
+            range.start,
+            range.end,
+            sky.hours.len()
+        );
+    }
+    let counted: Vec<bool> = (0..sky.hours.len()).map(|h| range.contains(&h)).collect();
+    let threads = std::thread::available_parallelism().map_or(1, |x| x.get());
+    let states = shading.states(sky, o, &counted, threads);
+    let hours = range.len();
+    let mut e = vec![0.0; hours * sensors];
+    let mut s = vec![0.0; hours * sensors];
+    let mut scratch = shading.scratch(sky.hours.len());
+    for k in 0..sensors {
+        let parts = shading::SensorParts::new(shading, k, n, &mut scratch);
+        for (i, h) in range.clone().enumerate() {
+            let (x, sx) = parts.hour(sky, h, &states);
+            e[i * sensors + k] = x;
+            s[i * sensors + k] = sx;
         }
     }
     Ok((e, s))

@@ -533,6 +533,19 @@ mod tests {
         assert!((p.da - 0.4).abs() < 1e-12, "{p:?}");
         let cda = (30.0 * 160.0 / 300.0 + 30.0 * 230.0 / 300.0 + 40.0) / 100.0;
         assert!((p.cda - cda).abs() < 1e-12, "{} {cda}", p.cda);
+        // Hour by hour, the same states.
+        let (e, _) = super::super::hourly_with_shading(&shading, &sky, &o, 0..hours).unwrap();
+        for (h, want) in [(10, 160.0), (40, 310.0), (60, 230.0), (90, 310.0)] {
+            assert!(
+                (e[h * k + 20] - want).abs() < 1e-9,
+                "hour {h}: {}",
+                e[h * k + 20]
+            );
+        }
+        // Every group open: the states 0 and the base add up (the daylight factor's model).
+        let open = Coefficients::sum(&[base.view(), a_open.view(), b_open.view()]).unwrap();
+        assert!((open.value[20 * n + 1] - 310.0 / 300.0).abs() < 1e-12);
+        assert!(Coefficients::sum(&[base.view(), flat(3, n, 1.0, 0.0).view()]).is_err());
         // ASE counts every group open: points 0, 1 and 10–12, 30 hours each.
         assert_eq!(m.ase, Some(5.0 / 50.0));
         assert_eq!(m.sensors[2].ase_hours, 10);

@@ -232,6 +232,48 @@ pub struct Settings {
     /// A medium filling the space around the model (haze, fog): `[medium]`.
     #[serde(default)]
     pub medium: Option<MediumSettings>,
+    /// `imap annual`'s window groups: `[[window_group]]`.
+    #[serde(default, rename = "window_group")]
+    pub window_groups: Vec<WindowGroupSettings>,
+    /// Objects given a material before the materials are mapped (`imap annual` sets them
+    /// for a window group's state; never read from a file).
+    #[serde(skip)]
+    pub assign: Vec<Assignment>,
+}
+
+/// Objects given a material (`Settings::assign`).
+#[derive(Clone, Debug, Default)]
+pub struct Assignment {
+    pub objects: Vec<String>,
+    pub material: String,
+    /// Where the settings ask for it, and what asks (for messages).
+    pub at: (std::path::PathBuf, usize),
+    pub what: String,
+}
+
+/// `[[window_group]]` (`imap annual`): a set of the model's openings whose state (blinds,
+/// shades, switchable glazing) changes hour by hour.
+#[derive(Clone, Debug, Default, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct WindowGroupSettings {
+    /// Names the group in the outputs.
+    pub name: String,
+    /// The model's objects (OBJ `o`/`g` names) that make up its openings.
+    pub objects: Vec<String>,
+    /// Its states, most open first: "as-drawn" (the objects' own materials) or the name of
+    /// a material (one of the model's, or a `[materials.NAME]` of these settings).
+    pub states: Vec<String>,
+    /// "direct-sun" (IES LM-83's rule, the default), "illuminance" (with `rule_lx`) or
+    /// "schedule" (with `schedule`).
+    #[serde(default)]
+    pub rule: Option<String>,
+    /// The illuminance rule's threshold, lx.
+    #[serde(default)]
+    pub rule_lx: Option<f64>,
+    /// The schedule rule's file: one state index per row of the weather file, relative to
+    /// the settings file.
+    #[serde(default)]
+    pub schedule: Option<String>,
 }
 
 /// `[medium]`: the scene's medium, outside every object (`Context::set_scene_medium`):
