@@ -2308,7 +2308,12 @@ fn annual_window_groups_add_up_and_follow_their_rules() {
         a.iter().map(|x| x.0).sum::<f64>(),
         b.iter().map(|x| x.0).sum::<f64>(),
     );
-    eprintln!("daylight factor, whole vs groups: sums {sa:.5} {sb:.5}, worst |z| {worst:.2}, mean z² {mean_z2:.2}");
+    let rel = a
+        .iter()
+        .zip(&b)
+        .map(|(x, y)| (x.0 - y.0).abs() / x.0.max(1e-12))
+        .fold(0.0f64, f64::max);
+    eprintln!("daylight factor, whole vs groups: sums {sa:.5} {sb:.5}, worst |z| {worst:.2}, mean z² {mean_z2:.2}, largest relative difference {rel:.1e}");
     assert!(
         worst < 4.5 && mean_z2 < 2.0,
         "worst |z| {worst}, mean z² {mean_z2}"
