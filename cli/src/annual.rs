@@ -486,6 +486,19 @@ pub fn annual(model: &Path, settings: Settings, o: &AnnualOptions) -> Result<()>
     for (gi, (g, sun)) in scene.grids.iter().zip(suns).enumerate() {
         let c = coefficients(&run, gi, g)?;
         let (points, normals) = grids::point_frames(g);
+        let grid_err = |e: imap::Error| CliError(format!("annual: grid {}: {}", g.name, e.message));
+        // The sun's lines to the grid's points through a model state.
+        let direct_sun = |sctx: &mut imap::Context| {
+            DirectSun::new(
+                sctx,
+                &sky,
+                (up, north),
+                (&points, &normals),
+                &SkyDesc::default().spectrum,
+                settings.run.seed,
+            )
+            .map_err(grid_err)
+        };
         // The blinds-closed model's coefficients and direct sun at the same points.
         let closed = match &mut shaded {
             Some((sctx, sscene, srun)) => {
@@ -499,38 +512,17 @@ pub fn annual(model: &Path, settings: Settings, o: &AnnualOptions) -> Result<()>
                         g.name
                     );
                 }
-                let sc = coefficients(srun, si, sg)?;
-                let ss = DirectSun::new(
-                    sctx,
-                    &sky,
-                    (up, north),
-                    (&points, &normals),
-                    &SkyDesc::default().spectrum,
-                    settings.run.seed,
-                )
-                .map_err(|e| CliError(format!("annual: grid {}: {}", g.name, e.message)))?;
-                Some((sc, ss))
+                Some((coefficients(srun, si, sg)?, direct_sun(sctx)?))
             }
             None => None,
         };
-        let grid_err = |e: imap::Error| CliError(format!("annual: grid {}: {}", g.name, e.message));
         // The window groups' states at this grid: each state's coefficients and its
         // direct sun traced in its own model.
         let mut group_suns = Vec::with_capacity(group_runs.len());
         for states in &mut group_runs {
             let mut suns = Vec::with_capacity(states.len());
             for (sctx, _, _) in states.iter_mut() {
-                suns.push(
-                    DirectSun::new(
-                        sctx,
-                        &sky,
-                        (up, north),
-                        (&points, &normals),
-                        &SkyDesc::default().spectrum,
-                        settings.run.seed,
-                    )
-                    .map_err(grid_err)?,
-                );
+                suns.push(direct_sun(sctx)?);
             }
             group_suns.push(suns);
         }
@@ -1009,6 +1001,24 @@ fn group_settings(
     out
 }
 
+/// The model with `settings`, its warnings printed once per command: the runs of the
+/// model's states (blinds, window groups, electric light) load the same model.
+fn load_once(
+    model: &Path,
+    settings: &Settings,
+) -> Result<(imap::Context, crate::scene::LoadedScene)> {
+    static SAID: std::sync::Mutex<Vec<String>> = std::sync::Mutex::new(Vec::new());
+    let (ctx, scene) = crate::scene::load(model, settings)?;
+    let mut said = SAID.lock().unwrap_or_else(|p| p.into_inner());
+    for w in &scene.warnings {
+        if !said.contains(w) {
+            eprintln!("imap: warning: {}", printable(w));
+            said.push(w.clone());
+        }
+    }
+    Ok((ctx, scene))
+}
+
 /// The coefficients' run of one model state: the model with `settings`, the patch skies
 /// (oriented by `frame`, in batches of light groups: `imap::annual::trace::PatchRun`) kept
 /// at every grid's points, traced as `o` says (`what` names the state in the progress bar).
@@ -1020,7 +1030,7 @@ fn coefficients_run(
     what: &str,
 ) -> Result<(imap::Context, crate::scene::LoadedScene, PatchRun)> {
     let (photons, time) = (o.photons.unwrap_or(0), o.time.unwrap_or(0.0));
-    let (mut ctx, scene, _) = crate::output::load_with_camera(model, settings)?;
+    let (mut ctx, scene) = load_once(model, settings)?;
     // A photosensor beyond a grid's points is named before anything is traced.
     if let (Some(k), Some(_)) = (o.lighting_sensor, o.lighting_target) {
         for g in &scene.grids {
@@ -1084,7 +1094,7 @@ fn electric_run(
     o: &AnnualOptions,
 ) -> Result<Vec<Vec<(f64, f64)>>> {
     let (photons, time) = (o.photons.unwrap_or(0), o.time.unwrap_or(0.0));
-    let (mut ctx, scene, _) = crate::output::load_with_camera(model, settings)?;
+    let (mut ctx, scene) = load_once(model, settings)?;
     let bar = crate::progress_bar(o.quiet);
     let interrupted = crate::Interrupts::get();
     let mut progress = |p: &imap::Progress| -> bool {

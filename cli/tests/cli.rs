@@ -2146,56 +2146,28 @@ fn skylit_room(d: &Path) -> String {
     }
     quad("sky_a", "open", ceiling(0.5, 1.5, 1.0, 2.0));
     quad("sky_b", "open", ceiling(2.5, 3.5, 3.0, 3.8));
-    quad(
-        "floor",
-        "floor",
-        [
-            [0.0, 0.0, 0.0],
-            [4.0, 0.0, 0.0],
-            [4.0, 4.0, 0.0],
-            [0.0, 4.0, 0.0],
-        ],
-    );
-    quad(
-        "south",
-        "wall",
-        [
-            [0.0, 0.0, 0.0],
-            [0.0, 0.0, 3.0],
-            [4.0, 0.0, 3.0],
-            [4.0, 0.0, 0.0],
-        ],
-    );
-    quad(
-        "north",
-        "wall",
-        [
-            [0.0, 4.0, 0.0],
-            [4.0, 4.0, 0.0],
-            [4.0, 4.0, 3.0],
-            [0.0, 4.0, 3.0],
-        ],
-    );
-    quad(
-        "west",
-        "wall",
-        [
-            [0.0, 0.0, 0.0],
-            [0.0, 4.0, 0.0],
-            [0.0, 4.0, 3.0],
-            [0.0, 0.0, 3.0],
-        ],
-    );
-    quad(
-        "east",
-        "wall",
-        [
-            [4.0, 0.0, 0.0],
-            [4.0, 0.0, 3.0],
-            [4.0, 4.0, 3.0],
-            [4.0, 4.0, 0.0],
-        ],
-    );
+    let (o, x, t) = (0.0, 4.0, 3.0);
+    for (name, mtl, p) in [
+        (
+            "floor",
+            "floor",
+            [[o, o, o], [x, o, o], [x, x, o], [o, x, o]],
+        ),
+        (
+            "south",
+            "wall",
+            [[o, o, o], [o, o, t], [x, o, t], [x, o, o]],
+        ),
+        (
+            "north",
+            "wall",
+            [[o, x, o], [x, x, o], [x, x, t], [o, x, t]],
+        ),
+        ("west", "wall", [[o, o, o], [o, x, o], [o, x, t], [o, o, t]]),
+        ("east", "wall", [[x, o, o], [x, o, t], [x, x, t], [x, x, o]]),
+    ] {
+        quad(name, mtl, p);
+    }
     let mut obj = String::from("mtllib room.mtl\n");
     for p in &v {
         obj += &format!("v {} {} {}\n", p[0], p[1], p[2]);

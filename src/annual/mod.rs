@@ -663,31 +663,12 @@ pub fn hourly_range<'a>(
     sun: Option<&DirectSun>,
     range: std::ops::Range<usize>,
 ) -> Result<(Vec<f64>, Vec<f64>)> {
-    let c = c.into();
-    let n = c.check_against(sky)?;
-    check_sun(c, sky, sun)?;
-    if range.start > range.end || range.end > sky.hours.len() {
-        bail!(
-            ImapErrIndexOutOfRange,
-            "hours {}..{} are not within the sky's {}",
-            range.start,
-            range.end,
-            sky.hours.len()
-        );
-    }
-    let hours = range.len();
-    let mut e = vec![0.0; hours * c.sensors];
-    let mut s = vec![0.0; hours * c.sensors];
-    let mut direct = vec![0.0; if sun.is_some() { sky.hours.len() } else { 0 }];
-    for k in 0..c.sensors {
-        let sensor = Sensor::new(c, sun, k, n, &mut direct);
-        for (i, h) in range.clone().enumerate() {
-            let (x, sx) = sensor.hour(sky, h);
-            e[i * c.sensors + k] = x;
-            s[i * c.sensors + k] = sx;
-        }
-    }
-    Ok((e, s))
+    hourly_with_shading(
+        &Shading::blinds(c.into(), sun, None),
+        sky,
+        &MetricOptions::default(),
+        range,
+    )
 }
 
 /// `hourly_range` of a grid whose light is `shading`'s parts, each window group in the

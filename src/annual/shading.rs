@@ -355,6 +355,9 @@ impl<'a> SensorParts<'a> {
 
     /// Hour `h`'s illuminance and standard error with the groups in `states`.
     pub(super) fn hour(&self, sky: &AnnualSky, h: usize, states: &[Vec<u16>]) -> (f64, f64) {
+        if self.parts.len() == 1 {
+            return self.parts[0].sensor.hour(sky, h);
+        }
         let (mut x, mut var) = (0.0, 0.0);
         for p in self.active(h, states) {
             let (a, s) = p.sensor.hour(sky, h);
