@@ -192,7 +192,7 @@ int main(void) {
     const double *gv[2] = {value, half}, *gs[2] = {sigma, hsig};
     const ImapDirectSun *gsun[2] = {sun, NULL};
     uint64_t state_hours[2] = {9, 9};
-    uint16_t closed_all[4] = {1, 1, 1, 1};
+    uint16_t closed_all[4] = {1, 1, 1, 1}, open_all_hours[4] = {0, 0, 0, 0};
     ImapWindowGroup g;
     expect("window group defaults", imap_window_group_default(&g, sizeof g), IMAP_OK);
     check("LM-83's rule by default", g.rule == IMAP_SHADING_DIRECT_SUN, g.rule, IMAP_SHADING_DIRECT_SUN);
@@ -221,6 +221,17 @@ int main(void) {
     expect("metrics with a schedule", imap_annual_metrics(sky, NULL, NULL, 1, NULL, &o, &gm, sizeof gm, &per, sizeof per),
            IMAP_OK);
     check("closed every hour: DA 0", per.da == 0 && state_hours[1] == 3, per.da, 0);
+    double ge[4], gs_[4];
+    expect("hourly with the group", imap_annual_hourly_shaded(sky, NULL, NULL, 1, NULL, &o, 0, 4, ge, gs_), IMAP_OK);
+    check("closed every hour: 0 lx each hour", ge[1] == 0 && ge[2] == 0 && ge[3] == 0, ge[3], 0);
+    g.schedule = open_all_hours;
+    expect("hourly with the group open", imap_annual_hourly_shaded(sky, NULL, NULL, 1, NULL, &o, 0, 4, ge, gs_), IMAP_OK);
+    check("open every hour: the point's own hours", ge[3] == e[3] && gs_[3] == s[3], ge[3], e[3]);
+    expect("a base's sun without its coefficients", imap_annual_hourly_shaded(sky, NULL, NULL, 1, sun, &o, 0, 4, ge, gs_),
+           IMAP_ERR_INVALID_ARGUMENT);
+    expect("hourly past the end with the group", imap_annual_hourly_shaded(sky, NULL, NULL, 1, NULL, &o, 2, 3, ge, gs_),
+           IMAP_ERR_INDEX_OUT_OF_RANGE);
+    g.schedule = closed_all;
     /* The base and one group of one state add up: the point's coefficients halved twice. */
     const double *halves[1] = {half}, *halves_s[1] = {hsig};
     g.state_count = 1, g.value = halves, g.sigma = halves_s, g.sun = NULL, g.rule = IMAP_SHADING_SCHEDULE;

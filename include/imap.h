@@ -2753,6 +2753,18 @@ enum ImapStatus imap_window_group_default(struct ImapWindowGroup *out, size_t si
 enum ImapStatus imap_annual_metrics(const struct ImapAnnualSky *sky, const double *value, const double *sigma, size_t sensors, const struct ImapDirectSun *sun, const struct ImapAnnualOptions *options, struct ImapAnnualMetrics *out, size_t out_size, struct ImapSensorMetrics *per_sensor, size_t per_sensor_size);
 
 /**
+ * `imap_annual_hourly` with the blinds or the window groups of `options` (NULL:
+ * defaults, no shading), each in the state its rule picks every hour, as
+ * `imap_annual_metrics` reads them: with `options->window_groups`, `value`, `sigma` and
+ * `sun` are the base (NULL `value`: none). Returns IMAP_ERR_INVALID_ARGUMENT,
+ * IMAP_ERR_INDEX_OUT_OF_RANGE or IMAP_ERR_NON_FINITE naming what is wrong. (Since 0.2.3.)
+ *
+ * # Safety
+ * As `imap_annual_metrics`; the outputs hold `hours × sensors` doubles.
+ */
+enum ImapStatus imap_annual_hourly_shaded(const struct ImapAnnualSky *sky, const double *value, const double *sigma, size_t sensors, const struct ImapDirectSun *sun, const struct ImapAnnualOptions *options, size_t first_hour, size_t hours, double *out_value, double *out_sigma);
+
+/**
  * Writes the default `ImapDimming` into `out` (`size` = sizeof *out). (Since 0.2.3.)
  *
  * # Safety

@@ -243,9 +243,6 @@ pub fn annual(model: &Path, settings: Settings, o: &AnnualOptions) -> Result<()>
         if time.is_nan() || time <= 0.0 {
             fail!("{flag} needs --time: the longest the rounds may take");
         }
-        if o.shaded.is_some() || !settings.window_groups.is_empty() {
-            fail!("{flag} with --shaded or [[window_group]]s is not supported yet: run with --photons or --time");
-        }
         if o.draws < 20 {
             fail!("{flag} reads {what} from the draws: give --draws 20 or more");
         }
@@ -355,7 +352,7 @@ pub fn annual(model: &Path, settings: Settings, o: &AnnualOptions) -> Result<()>
                 printable(&w.name),
                 state.as_deref().unwrap_or("as-drawn")
             );
-            states.push(coefficients_run(model, &s, (up, north), o, &what)?);
+            states.push(coefficients_run(model, &s, (up, north), &first, &what)?);
         }
         group_runs.push(states);
     }
@@ -364,7 +361,7 @@ pub fn annual(model: &Path, settings: Settings, o: &AnnualOptions) -> Result<()>
             model,
             &s,
             (up, north),
-            o,
+            &first,
             "blinds closed",
         )?),
         _ => None,
@@ -375,7 +372,6 @@ pub fn annual(model: &Path, settings: Settings, o: &AnnualOptions) -> Result<()>
         _ => None,
     };
     let (mut ctx, scene, mut run) = open;
-    let mut report = run.report();
     // An interrupt before every batch of patches had photons leaves patches unknown.
     let incomplete = run.coefficients(0).is_err()
         || shaded
@@ -389,6 +385,12 @@ pub fn annual(model: &Path, settings: Settings, o: &AnnualOptions) -> Result<()>
         std::process::exit(code);
     }
     let mut shaded = shaded;
+    // The photons of the runs that make the light (with window groups, the first state's;
+    // the black check is not one of them).
+    let mut report = match group_runs.first().and_then(|r| r.first()) {
+        Some((_, _, r)) => r.report(),
+        None => run.report(),
+    };
 
     std::fs::create_dir_all(&o.out).map_err(|e| CliError(format!("{}: {e}", o.out.display())))?;
     // LM-83's occupied hours are every day's 8:00–18:00, dark or not; an hour whose
@@ -413,21 +415,47 @@ pub fn annual(model: &Path, settings: Settings, o: &AnnualOptions) -> Result<()>
         seed: settings.run.seed,
         ..MetricOptions::default()
     };
-    // Each grid's direct sun: the lines do not change with the photons.
+    // Each grid's direct sun through every model state: the lines do not change with the
+    // photons.
     let mut suns = Vec::with_capacity(scene.grids.len());
+    let mut shaded_suns = Vec::with_capacity(scene.grids.len());
+    let mut group_suns = Vec::with_capacity(scene.grids.len());
     for g in &scene.grids {
         let (points, normals) = grids::point_frames(g);
-        suns.push(
+        let direct_sun = |sctx: &mut imap::Context| {
             DirectSun::new(
-                &mut ctx,
+                sctx,
                 &sky,
                 (up, north),
                 (&points, &normals),
                 &SkyDesc::default().spectrum,
                 settings.run.seed,
             )
-            .map_err(|e| CliError(format!("annual: grid {}: {}", g.name, e.message)))?,
-        );
+            .map_err(|e| CliError(format!("annual: grid {}: {}", g.name, e.message)))
+        };
+        suns.push(direct_sun(&mut ctx)?);
+        // The blinds-closed model's grid of the same name and points.
+        if let Some((sctx, sscene, _)) = &mut shaded {
+            let Some(si) = sscene.grids.iter().position(|x| x.name == g.name) else {
+                fail!("--shaded: its settings have no grid '{}'", g.name);
+            };
+            if sscene.grids[si].positions != g.positions {
+                fail!(
+                    "--shaded: grid '{}' has other points than the open model's",
+                    g.name
+                );
+            }
+            shaded_suns.push((si, direct_sun(sctx)?));
+        }
+        let mut per_group = Vec::with_capacity(group_runs.len());
+        for states in &mut group_runs {
+            let mut per_state = Vec::with_capacity(states.len());
+            for (sctx, _, _) in states.iter_mut() {
+                per_state.push(direct_sun(sctx)?);
+            }
+            per_group.push(per_state);
+        }
+        group_suns.push(per_group);
     }
     // --target-sda, --target-en17037: as many photons again each round until every
     // grid's metrics are known.
@@ -437,9 +465,17 @@ pub fn annual(model: &Path, settings: Settings, o: &AnnualOptions) -> Result<()>
         loop {
             // The widest half-interval of each targeted metric over the grids.
             let (mut sda, mut en, mut udi): (f64, f64, f64) = (0.0, 0.0, 0.0);
-            for (gi, (g, sun)) in scene.grids.iter().zip(&suns).enumerate() {
-                let c = coefficients(&run, gi, g)?;
-                let m = imap::annual::metrics(c, &sky, Some(sun), &options)
+            for (gi, g) in scene.grids.iter().enumerate() {
+                let closed = shaded
+                    .as_ref()
+                    .map(|(_, _, r)| (r, shaded_suns[gi].0, &shaded_suns[gi].1));
+                let (shading, _) = grid_light(
+                    (gi, g),
+                    (&run, &suns[gi]),
+                    closed,
+                    (&groups, &group_runs, &group_suns[gi]),
+                )?;
+                let m = imap::annual::metrics_with_shading(&shading, &sky, &options)
                     .map_err(|e| CliError(format!("annual: grid {}: {}", g.name, e.message)))?;
                 sda = sda.max(0.5 * (m.sda_interval.1 - m.sda_interval.0));
                 for (lo, hi) in m.udi_interval {
@@ -478,99 +514,48 @@ pub fn annual(model: &Path, settings: Settings, o: &AnnualOptions) -> Result<()>
             if done || interrupted.raised() || left <= 0.0 {
                 break;
             }
-            report = trace(&mut ctx, &mut run, report.photons, left, o, "blinds open")?;
+            // As many photons again in every run that makes the light, the time shared.
+            let runs = usize::from(groups.is_empty())
+                + usize::from(shaded.is_some())
+                + group_runs.iter().map(Vec::len).sum::<usize>();
+            let share = left / runs.max(1) as f64;
+            if groups.is_empty() {
+                report = trace(&mut ctx, &mut run, report.photons, share, o, "blinds open")?;
+            }
+            if let Some((sctx, _, srun)) = &mut shaded {
+                let more = srun.report().photons;
+                trace(sctx, srun, more, share, o, "blinds closed")?;
+            }
+            for (g, (w, states)) in groups.iter().zip(&mut group_runs).enumerate() {
+                for (k, (sctx, _, srun)) in states.iter_mut().enumerate() {
+                    let what = format!(
+                        "window group {} {}",
+                        printable(&w.name),
+                        w.states[k].as_deref().unwrap_or("as-drawn")
+                    );
+                    let more = srun.report().photons;
+                    let r = trace(sctx, srun, more, share, o, &what)?;
+                    if (g, k) == (0, 0) {
+                        report = r;
+                    }
+                }
+            }
             rounds += 1;
         }
     }
     let mut grids_json = Vec::new();
-    for (gi, (g, sun)) in scene.grids.iter().zip(suns).enumerate() {
-        let c = coefficients(&run, gi, g)?;
-        let (points, normals) = grids::point_frames(g);
+    for (gi, g) in scene.grids.iter().enumerate() {
+        let (c, sun) = (coefficients(&run, gi, g)?, &suns[gi]);
         let grid_err = |e: imap::Error| CliError(format!("annual: grid {}: {}", g.name, e.message));
-        // The sun's lines to the grid's points through a model state.
-        let direct_sun = |sctx: &mut imap::Context| {
-            DirectSun::new(
-                sctx,
-                &sky,
-                (up, north),
-                (&points, &normals),
-                &SkyDesc::default().spectrum,
-                settings.run.seed,
-            )
-            .map_err(grid_err)
-        };
-        // The blinds-closed model's coefficients and direct sun at the same points.
-        let closed = match &mut shaded {
-            Some((sctx, sscene, srun)) => {
-                let Some(si) = sscene.grids.iter().position(|x| x.name == g.name) else {
-                    fail!("--shaded: its settings have no grid '{}'", g.name);
-                };
-                let sg = &sscene.grids[si];
-                if sg.positions != g.positions {
-                    fail!(
-                        "--shaded: grid '{}' has other points than the open model's",
-                        g.name
-                    );
-                }
-                Some((coefficients(srun, si, sg)?, direct_sun(sctx)?))
-            }
-            None => None,
-        };
-        // The window groups' states at this grid: each state's coefficients and its
-        // direct sun traced in its own model.
-        let mut group_suns = Vec::with_capacity(group_runs.len());
-        for states in &mut group_runs {
-            let mut suns = Vec::with_capacity(states.len());
-            for (sctx, _, _) in states.iter_mut() {
-                suns.push(direct_sun(sctx)?);
-            }
-            group_suns.push(suns);
-        }
-        let mut group_cs = Vec::with_capacity(group_runs.len());
-        for states in &group_runs {
-            let mut cs = Vec::with_capacity(states.len());
-            for (_, _, r) in states {
-                cs.push(coefficients(r, gi, g)?);
-            }
-            group_cs.push(cs);
-        }
-        let shading = if groups.is_empty() {
-            Shading::blinds(
-                c.view(),
-                Some(&sun),
-                closed.as_ref().map(|(c, s)| Shaded {
-                    coefficients: c.view(),
-                    sun: Some(s),
-                }),
-            )
-        } else {
-            Shading {
-                base: None,
-                groups: groups
-                    .iter()
-                    .zip(&group_cs)
-                    .zip(&group_suns)
-                    .map(|((w, cs), suns)| WindowGroup {
-                        states: cs
-                            .iter()
-                            .zip(suns)
-                            .map(|(c, s)| Shaded {
-                                coefficients: c.view(),
-                                sun: Some(s),
-                            })
-                            .collect(),
-                        rule: w.rule.clone(),
-                    })
-                    .collect(),
-            }
-        };
-        // The daylight factor's model: every group as drawn (its state 0).
-        let all_open = if groups.is_empty() {
-            None
-        } else {
-            let open: Vec<_> = group_cs.iter().map(|cs| cs[0].view()).collect();
-            Some(Coefficients::sum(&open).map_err(grid_err)?)
-        };
+        let closed = shaded
+            .as_ref()
+            .map(|(_, _, r)| (r, shaded_suns[gi].0, &shaded_suns[gi].1));
+        let (shading, all_open) = grid_light(
+            (gi, g),
+            (&run, sun),
+            closed,
+            (&groups, &group_runs, &group_suns[gi]),
+        )?;
         let df_c = all_open.as_ref().unwrap_or(c);
         let m = imap::annual::metrics_with_shading(&shading, &sky, &options).map_err(grid_err)?;
         let df = imap::annual::daylight_factor(df_c, &sky.patches, o.ground_reflectance)
@@ -583,10 +568,10 @@ pub fn annual(model: &Path, settings: Settings, o: &AnnualOptions) -> Result<()>
             let mean =
                 |d: &[(f64, f64)]| d.iter().map(|x| x.0).sum::<f64>() / d.len().max(1) as f64;
             let direct = |s: &DirectSun| s.lux.iter().map(|&x| x as f64).sum::<f64>();
-            let open_direct: f64 = group_suns.iter().map(|s| direct(&s[0])).sum();
+            let open_direct: f64 = group_suns[gi].iter().map(|s| direct(&s[0])).sum();
             let (share, direct_share) = (
                 mean(&black) / mean(&df).max(f64::MIN_POSITIVE),
-                direct(&sun) / open_direct.max(f64::MIN_POSITIVE),
+                direct(sun) / open_direct.max(f64::MIN_POSITIVE),
             );
             if share > 0.01 || direct_share > 0.01 {
                 fail!(
@@ -673,7 +658,7 @@ pub fn annual(model: &Path, settings: Settings, o: &AnnualOptions) -> Result<()>
                 100.0 * ase,
                 m.occupied_hours
             );
-            if closed.is_some() {
+            if shaded.is_some() {
                 println!(
                     "grid {}: the blinds closed in {} occupied hours (IES LM-83's rule)",
                     g.name, m.blinds_closed_hours
@@ -736,7 +721,7 @@ pub fn annual(model: &Path, settings: Settings, o: &AnnualOptions) -> Result<()>
             "points": m.sensors.len(),
             "sda": {"value": m.sda, "sigma": m.sda_sigma, "interval_95": [m.sda_interval.0, m.sda_interval.1]},
             "ase": {"value": ase, "lx": options.ase_lx, "hours": options.ase_hours},
-            "blinds_closed_hours": closed.as_ref().map(|_| m.blinds_closed_hours),
+            "blinds_closed_hours": shaded.as_ref().map(|_| m.blinds_closed_hours),
             "window_groups": groups.iter().zip(&m.group_state_hours).map(|(w, hours)| serde_json::json!({
                 "name": w.name,
                 "rule": match &w.rule {
@@ -848,6 +833,57 @@ pub fn annual(model: &Path, settings: Settings, o: &AnnualOptions) -> Result<()>
         std::process::exit(code);
     }
     Ok(())
+}
+
+/// One model state's run: its context, its scene and its coefficients.
+type StateRun = (imap::Context, crate::scene::LoadedScene, PatchRun);
+
+/// Grid `gi`'s light as the metrics read it: the model's coefficients and direct sun
+/// (`run`, `sun`), with the blinds-closed model (`closed`: its run, the grid's index there
+/// and its direct sun) as one group of two states under LM-83's rule; or, with window
+/// groups, each group's states (`runs`, `suns`: per group, per state), and then also every
+/// group's state 0 added (the daylight factor's model).
+fn grid_light<'a>(
+    (gi, g): (usize, &Grid),
+    (run, sun): (&'a PatchRun, &'a DirectSun),
+    closed: Option<(&'a PatchRun, usize, &'a DirectSun)>,
+    (groups, runs, suns): (&[GroupSpec], &'a [Vec<StateRun>], &'a [Vec<DirectSun>]),
+) -> Result<(Shading<'a>, Option<Coefficients>)> {
+    if groups.is_empty() {
+        let c = coefficients(run, gi, g)?;
+        let shaded = match closed {
+            Some((r, si, s)) => Some(Shaded {
+                coefficients: coefficients(r, si, g)?.view(),
+                sun: Some(s),
+            }),
+            None => None,
+        };
+        return Ok((Shading::blinds(c.view(), Some(sun), shaded), None));
+    }
+    let mut parts = Vec::with_capacity(groups.len());
+    for ((w, states), suns) in groups.iter().zip(runs).zip(suns) {
+        let mut each = Vec::with_capacity(states.len());
+        for ((_, _, r), s) in states.iter().zip(suns) {
+            each.push(Shaded {
+                coefficients: coefficients(r, gi, g)?.view(),
+                sun: Some(s),
+            });
+        }
+        parts.push(WindowGroup {
+            states: each,
+            rule: w.rule.clone(),
+        });
+    }
+    let open: Vec<_> = parts.iter().map(|w| w.states[0].coefficients).collect();
+    let all_open = Coefficients::sum(&open)
+        .map_err(|e| CliError(format!("annual: grid {}: {}", g.name, e.message)))?;
+    Ok((
+        Shading {
+            base: None,
+            groups: parts,
+        },
+        Some(all_open),
+    ))
 }
 
 /// A `[[window_group]]` as read: its objects, states (material names; None: as drawn)

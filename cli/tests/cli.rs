@@ -2316,6 +2316,40 @@ fn annual_window_groups_add_up_and_follow_their_rules() {
         cda(&s) < 0.97 * cda(&grouped) && cda(&grouped) < 0.99,
         "B's diffuser lets less light through"
     );
+    // --target-udi with window groups: every state's run traces as many photons again
+    // each round (a target too fine to reach in the time).
+    let out = d.join("target");
+    let r = imap(&[
+        "annual",
+        &o,
+        "--config",
+        &both,
+        "--weather",
+        &wea,
+        "--photons",
+        "20000",
+        "--threshold",
+        "3000",
+        "--target-udi",
+        "0.001",
+        "--time",
+        "6",
+        "--out",
+        out.to_str().unwrap(),
+        "--quiet",
+    ]);
+    assert!(r.status.success(), "{}", stderr(&r));
+    let t: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("annual.json")).unwrap()).unwrap();
+    let rounds = t["target_udi"]["rounds"].as_u64().unwrap();
+    assert!(
+        rounds >= 2 && t["photons"].as_u64().unwrap() >= 40000,
+        "{t}"
+    );
+    assert_eq!(
+        t["grids"][0]["window_groups"][0]["states"][1]["occupied_hours"], 1,
+        "{t}"
+    );
     let only_a = write(d, "only_a.toml", format!("{grid}{}", group("a", "")));
     let e = run(&only_a, "only_a").unwrap_err();
     assert!(e.contains("openings in no [[window_group]]"), "{e}");

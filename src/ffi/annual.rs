@@ -927,6 +927,11 @@ impl Annual<'_> {
         // With window groups, NULL coefficients are a base of no light.
         let base = if groups.is_empty() || !value.is_null() {
             Some((view(value, sigma, sensors, patches)?, sun))
+        } else if sun.is_some() {
+            bail!(
+                ImapErrInvalidArgument,
+                "sun is the base's direct sun, and value is NULL (no base): pass NULL for both, or the base's coefficients"
+            );
         } else {
             None
         };
@@ -1139,6 +1144,50 @@ pub unsafe extern "C" fn imap_annual_metrics(
             }
         }
         write_versioned("out", out, out_size, r)
+    })
+}
+
+/// `imap_annual_hourly` with the blinds or the window groups of `options` (NULL:
+/// defaults, no shading), each in the state its rule picks every hour, as
+/// `imap_annual_metrics` reads them: with `options->window_groups`, `value`, `sigma` and
+/// `sun` are the base (NULL `value`: none). Returns IMAP_ERR_INVALID_ARGUMENT,
+/// IMAP_ERR_INDEX_OUT_OF_RANGE or IMAP_ERR_NON_FINITE naming what is wrong. (Since 0.2.3.)
+///
+/// # Safety
+/// As `imap_annual_metrics`; the outputs hold `hours × sensors` doubles.
+#[no_mangle]
+pub unsafe extern "C" fn imap_annual_hourly_shaded(
+    sky: *const ImapAnnualSky,
+    value: *const f64,
+    sigma: *const f64,
+    sensors: usize,
+    sun: *const ImapDirectSun,
+    options: *const ImapAnnualOptions,
+    first_hour: usize,
+    hours: usize,
+    out_value: *mut f64,
+    out_sigma: *mut f64,
+) -> ImapStatus {
+    boundary(None, || {
+        let a = Annual::read(sky, value, sigma, sensors, sun, options)?;
+        let end = first_hour.checked_add(hours).ok_or_else(|| {
+            Error::new(
+                ImapStatus::ImapErrInvalidArgument,
+                "first_hour + hours overflows",
+            )
+        })?;
+        let total = hours.saturating_mul(sensors);
+        let ov = slice_mut("out_value", out_value, total)?;
+        let os = slice_mut("out_sigma", out_sigma, total)?;
+        let (e, sd) = crate::annual::hourly_with_shading(
+            &a.shading(),
+            &a.sky.sky,
+            &a.options,
+            first_hour..end,
+        )?;
+        ov.copy_from_slice(&e);
+        os.copy_from_slice(&sd);
+        Ok(())
     })
 }
 
