@@ -1981,6 +1981,31 @@ fn annual_metrics_of_an_open_grid_follow_the_hours_light() {
         runs[0]["grids"][0]["mean_da"],
         runs[1]["grids"][0]["mean_da"]
     );
+    // With a target, both models' runs trace their rounds.
+    let out = d.join("blinds-target");
+    let r = imap(&[
+        "annual",
+        &o,
+        "--config",
+        &s,
+        "--weather",
+        &sunny,
+        "--shaded",
+        &s,
+        "--photons",
+        "20000",
+        "--target-udi",
+        "0.001",
+        "--time",
+        "3",
+        "--out",
+        out.to_str().unwrap(),
+        "--quiet",
+    ]);
+    assert!(r.status.success(), "{}", stderr(&r));
+    let t = read(&out);
+    assert!(t["target_udi"]["rounds"].as_u64().unwrap() >= 2, "{t}");
+    assert_eq!(t["grids"][0]["blinds_closed_hours"], 1, "{t}");
     // Bad inputs, one line each.
     let with_light = write(d, "light.toml", "[[light]]\nkind = \"point\"\nposition = [0, 0, 1]\npower = 1\n[[grid]]\norigin = [0, 0, 0]\nu = [1, 0, 0]\nv = [0, 1, 0]\nsize = [1, 1]\n");
     let no_grid = write(d, "nogrid.toml", "up_axis = \"z\"\n");
