@@ -567,21 +567,40 @@ pub unsafe extern "C" fn imap_annual_hourly(
         let s = lookup("sky", sky)?;
         let c = view(value, sigma, sensors, s.sky.patches.count())?;
         let d = (!sun.is_null()).then(|| lookup("sun", sun)).transpose()?;
-        let end = first_hour.checked_add(hours).ok_or_else(|| {
-            Error::new(
-                ImapStatus::ImapErrInvalidArgument,
-                "first_hour + hours overflows",
-            )
-        })?;
-        let total = hours.saturating_mul(sensors);
-        let ov = slice_mut("out_value", out_value, total)?;
-        let os = slice_mut("out_sigma", out_sigma, total)?;
-        let (e, sd) =
-            crate::annual::hourly_range(c, &s.sky, d.as_ref().map(|d| &d.sun), first_hour..end)?;
-        ov.copy_from_slice(&e);
-        os.copy_from_slice(&sd);
-        Ok(())
+        let shading = crate::annual::Shading::blinds(c, d.as_ref().map(|d| &d.sun), None);
+        let o = MetricOptions::default();
+        write_hours(
+            &s.sky,
+            &shading,
+            &o,
+            (first_hour, hours, sensors),
+            (out_value, out_sigma),
+        )
     })
+}
+
+/// Hours `first_hour .. first_hour + hours` of `sensors` sensors lit as `shading`, into
+/// `out_value` and `out_sigma` (`hours × sensors` each).
+fn write_hours(
+    sky: &AnnualSky,
+    shading: &Shading,
+    o: &MetricOptions,
+    (first_hour, hours, sensors): (usize, usize, usize),
+    (out_value, out_sigma): (*mut f64, *mut f64),
+) -> Result<()> {
+    let end = first_hour.checked_add(hours).ok_or_else(|| {
+        Error::new(
+            ImapStatus::ImapErrInvalidArgument,
+            "first_hour + hours overflows",
+        )
+    })?;
+    let total = hours.saturating_mul(sensors);
+    let ov = slice_mut("out_value", out_value, total)?;
+    let os = slice_mut("out_sigma", out_sigma, total)?;
+    let (e, sd) = crate::annual::hourly_with_shading(shading, sky, o, first_hour..end)?;
+    ov.copy_from_slice(&e);
+    os.copy_from_slice(&sd);
+    Ok(())
 }
 
 /// What the annual metrics count (`imap_annual_metrics`). Initialise with
@@ -1170,24 +1189,13 @@ pub unsafe extern "C" fn imap_annual_hourly_shaded(
 ) -> ImapStatus {
     boundary(None, || {
         let a = Annual::read(sky, value, sigma, sensors, sun, options)?;
-        let end = first_hour.checked_add(hours).ok_or_else(|| {
-            Error::new(
-                ImapStatus::ImapErrInvalidArgument,
-                "first_hour + hours overflows",
-            )
-        })?;
-        let total = hours.saturating_mul(sensors);
-        let ov = slice_mut("out_value", out_value, total)?;
-        let os = slice_mut("out_sigma", out_sigma, total)?;
-        let (e, sd) = crate::annual::hourly_with_shading(
-            &a.shading(),
+        write_hours(
             &a.sky.sky,
+            &a.shading(),
             &a.options,
-            first_hour..end,
-        )?;
-        ov.copy_from_slice(&e);
-        os.copy_from_slice(&sd);
-        Ok(())
+            (first_hour, hours, sensors),
+            (out_value, out_sigma),
+        )
     })
 }
 
