@@ -223,7 +223,7 @@ pub fn coarse_warnings(
     )]
 }
 
-/// The warning for a closed object whose normals point inward./// The warning for a closed object whose normals point inward./// The warning for a closed object whose normals point inward.
+/// The warning for a closed object whose normals point inward.
 pub fn inward_warning(path: &Path, name: &str, volume: f64) -> String {
     format!(
         "{}: object '{}' is closed and its normals point inward (its signed volume is {volume:.4e} scene units³): the side libimap records faces its inside; flip_normals = [\"{}\"] records its outside (or two_sided = true both)",
