@@ -457,6 +457,25 @@ pub fn annual(model: &Path, settings: Settings, o: &AnnualOptions) -> Result<()>
         }
         group_suns.push(per_group);
     }
+    // With window groups, an opening in no group is refused before any round.
+    if !groups.is_empty() {
+        for (gi, g) in scene.grids.iter().enumerate() {
+            let (_, all_open) = grid_light(
+                (gi, g),
+                (&run, &suns[gi]),
+                None,
+                (&groups, &group_runs, &group_suns[gi]),
+            )?;
+            if let Some(all_open) = &all_open {
+                check_black(
+                    g,
+                    (coefficients(&run, gi, g)?, &suns[gi]),
+                    (all_open, &group_suns[gi]),
+                    (&sky.patches, o.ground_reflectance),
+                )?;
+            }
+        }
+    }
     // --target-sda, --target-en17037: as many photons again each round until every
     // grid's metrics are known.
     let mut rounds = 1;
@@ -560,36 +579,6 @@ pub fn annual(model: &Path, settings: Settings, o: &AnnualOptions) -> Result<()>
         let m = imap::annual::metrics_with_shading(&shading, &sky, &options).map_err(grid_err)?;
         let df = imap::annual::daylight_factor(df_c, &sky.patches, o.ground_reflectance)
             .map_err(grid_err)?;
-        if !groups.is_empty() {
-            // What came in with every group black (`c`, `sun`: openings in no group, or
-            // leaks) is in every group's runs too: refused unless negligible.
-            let black = imap::annual::daylight_factor(c, &sky.patches, o.ground_reflectance)
-                .map_err(grid_err)?;
-            let mean =
-                |d: &[(f64, f64)]| d.iter().map(|x| x.0).sum::<f64>() / d.len().max(1) as f64;
-            let direct = |s: &DirectSun| s.lux.iter().map(|&x| x as f64).sum::<f64>();
-            let open_direct: f64 = group_suns[gi].iter().map(|s| direct(&s[0])).sum();
-            let (share, direct_share) = (
-                mean(&black) / mean(&df).max(f64::MIN_POSITIVE),
-                direct(sun) / open_direct.max(f64::MIN_POSITIVE),
-            );
-            if share > 0.01 || direct_share > 0.01 {
-                fail!(
-                    "annual: grid {}: with every window group's openings black it still gets {:.1} % of its daylight factor and {:.1} % of its direct sun: the model has openings in no [[window_group]], whose light each group's runs would count again; put them in a group (a fixed window is a group of one state: states = [\"as-drawn\"])",
-                    g.name,
-                    100.0 * share,
-                    100.0 * direct_share
-                );
-            }
-            if share > 0.0 || direct_share > 0.0 {
-                eprintln!(
-                    "imap: warning: annual: grid {}: with every window group's openings black it still gets {:.2} % of its daylight factor and {:.2} % of its direct sun (openings in no group, or gaps in the model): each group's runs count it again",
-                    g.name,
-                    100.0 * share,
-                    100.0 * direct_share
-                );
-            }
-        }
         // Points whose light is poorly known: a daylight factor with a relative error over
         // 10 %, or 0 in a lit grid (no photon reached it: dark, or too few photons; its
         // stated error is then 0 too).
@@ -831,6 +820,46 @@ pub fn annual(model: &Path, settings: Settings, o: &AnnualOptions) -> Result<()>
     if let Some(code) = interrupted.status() {
         eprintln!("imap: interrupted: the metrics are those of the coefficients traced until then");
         std::process::exit(code);
+    }
+    Ok(())
+}
+
+/// With window groups, what grid `g` gets with every group's openings black (`black`:
+/// the check run's coefficients, `sun` its direct sun) is in every group's runs too:
+/// refused unless negligible against every group as drawn (`all_open`, the states 0's
+/// direct sun `open_suns`).
+fn check_black(
+    g: &Grid,
+    (black, sun): (&Coefficients, &DirectSun),
+    (all_open, open_suns): (&Coefficients, &[Vec<DirectSun>]),
+    (patches, ground_reflectance): (&imap::SkyPatches, f64),
+) -> Result<()> {
+    let grid_err = |e: imap::Error| CliError(format!("annual: grid {}: {}", g.name, e.message));
+    let df = |c: &Coefficients| {
+        imap::annual::daylight_factor(c, patches, ground_reflectance).map_err(grid_err)
+    };
+    let mean = |d: &[(f64, f64)]| d.iter().map(|x| x.0).sum::<f64>() / d.len().max(1) as f64;
+    let direct = |s: &DirectSun| s.lux.iter().map(|&x| x as f64).sum::<f64>();
+    let open_direct: f64 = open_suns.iter().map(|s| direct(&s[0])).sum();
+    let (share, direct_share) = (
+        mean(&df(black)?) / mean(&df(all_open)?).max(f64::MIN_POSITIVE),
+        direct(sun) / open_direct.max(f64::MIN_POSITIVE),
+    );
+    if share > 0.01 || direct_share > 0.01 {
+        fail!(
+            "annual: grid {}: with every window group's openings black it still gets {:.1} % of its daylight factor and {:.1} % of its direct sun: the model has openings in no [[window_group]], whose light each group's runs would count again; put them in a group (a fixed window is a group of one state: states = [\"as-drawn\"])",
+            g.name,
+            100.0 * share,
+            100.0 * direct_share
+        );
+    }
+    if share > 0.0 || direct_share > 0.0 {
+        eprintln!(
+            "imap: warning: annual: grid {}: with every window group's openings black it still gets {:.2} % of its daylight factor and {:.2} % of its direct sun (openings in no group, or gaps in the model): each group's runs count it again",
+            g.name,
+            100.0 * share,
+            100.0 * direct_share
+        );
     }
     Ok(())
 }
