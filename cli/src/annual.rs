@@ -460,13 +460,13 @@ pub fn annual(model: &Path, settings: Settings, o: &AnnualOptions) -> Result<()>
     // With window groups, an opening in no group is refused before any round.
     if !groups.is_empty() {
         for (gi, g) in scene.grids.iter().enumerate() {
-            let (_, all_open) = grid_light(
+            let shading = grid_light(
                 (gi, g),
                 (&run, &suns[gi]),
                 None,
                 (&groups, &group_runs, &group_suns[gi]),
             )?;
-            if let Some(all_open) = &all_open {
+            if let Some(all_open) = &all_open(&shading, g)? {
                 check_black(
                     g,
                     (coefficients(&run, gi, g)?, &suns[gi]),
@@ -488,7 +488,7 @@ pub fn annual(model: &Path, settings: Settings, o: &AnnualOptions) -> Result<()>
                 let closed = shaded
                     .as_ref()
                     .map(|(_, _, r)| (r, shaded_suns[gi].0, &shaded_suns[gi].1));
-                let (shading, _) = grid_light(
+                let shading = grid_light(
                     (gi, g),
                     (&run, &suns[gi]),
                     closed,
@@ -569,12 +569,13 @@ pub fn annual(model: &Path, settings: Settings, o: &AnnualOptions) -> Result<()>
         let closed = shaded
             .as_ref()
             .map(|(_, _, r)| (r, shaded_suns[gi].0, &shaded_suns[gi].1));
-        let (shading, all_open) = grid_light(
+        let shading = grid_light(
             (gi, g),
             (&run, sun),
             closed,
             (&groups, &group_runs, &group_suns[gi]),
         )?;
+        let all_open = all_open(&shading, g)?;
         let df_c = all_open.as_ref().unwrap_or(c);
         let m = imap::annual::metrics_with_shading(&shading, &sky, &options).map_err(grid_err)?;
         let df = imap::annual::daylight_factor(df_c, &sky.patches, o.ground_reflectance)
@@ -870,14 +871,13 @@ type StateRun = (imap::Context, crate::scene::LoadedScene, PatchRun);
 /// Grid `gi`'s light as the metrics read it: the model's coefficients and direct sun
 /// (`run`, `sun`), with the blinds-closed model (`closed`: its run, the grid's index there
 /// and its direct sun) as one group of two states under LM-83's rule; or, with window
-/// groups, each group's states (`runs`, `suns`: per group, per state), and then also every
-/// group's state 0 added (the daylight factor's model).
+/// groups, each group's states (`runs`, `suns`: per group, per state).
 fn grid_light<'a>(
     (gi, g): (usize, &Grid),
     (run, sun): (&'a PatchRun, &'a DirectSun),
     closed: Option<(&'a PatchRun, usize, &'a DirectSun)>,
     (groups, runs, suns): (&[GroupSpec], &'a [Vec<StateRun>], &'a [Vec<DirectSun>]),
-) -> Result<(Shading<'a>, Option<Coefficients>)> {
+) -> Result<Shading<'a>> {
     if groups.is_empty() {
         let c = coefficients(run, gi, g)?;
         let shaded = match closed {
@@ -887,7 +887,7 @@ fn grid_light<'a>(
             }),
             None => None,
         };
-        return Ok((Shading::blinds(c.view(), Some(sun), shaded), None));
+        return Ok(Shading::blinds(c.view(), Some(sun), shaded));
     }
     let mut parts = Vec::with_capacity(groups.len());
     for ((w, states), suns) in groups.iter().zip(runs).zip(suns) {
@@ -903,16 +903,26 @@ fn grid_light<'a>(
             rule: w.rule.clone(),
         });
     }
-    let open: Vec<_> = parts.iter().map(|w| w.states[0].coefficients).collect();
-    let all_open = Coefficients::sum(&open)
-        .map_err(|e| CliError(format!("annual: grid {}: {}", g.name, e.message)))?;
-    Ok((
-        Shading {
-            base: None,
-            groups: parts,
-        },
-        Some(all_open),
-    ))
+    Ok(Shading {
+        base: None,
+        groups: parts,
+    })
+}
+
+/// With window groups, every group's state 0 added: the daylight factor's model (None
+/// without groups: the model is its own). Points × patches: made only where it is read.
+fn all_open(shading: &Shading, g: &Grid) -> Result<Option<Coefficients>> {
+    if shading.groups.is_empty() {
+        return Ok(None);
+    }
+    let open: Vec<_> = shading
+        .groups
+        .iter()
+        .map(|w| w.states[0].coefficients)
+        .collect();
+    Coefficients::sum(&open)
+        .map(Some)
+        .map_err(|e| CliError(format!("annual: grid {}: {}", g.name, e.message)))
 }
 
 /// A `[[window_group]]` as read: its objects, states (material names; None: as drawn)
