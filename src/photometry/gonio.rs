@@ -75,8 +75,14 @@ pub enum Opening {
         length: f64,
     },
     /// A three-dimensional luminous shape (box, cylinder, sphere): the file describes it,
-    /// libimap cannot emit from it.
-    Solid(&'static str),
+    /// libimap cannot emit from it; glare (`crate::glare`) sees its projected area. The
+    /// file's signed width, length and height, m (LM-63's codes of shapes).
+    Solid {
+        what: &'static str,
+        width: f64,
+        length: f64,
+        height: f64,
+    },
 }
 
 impl Symmetry {

@@ -481,6 +481,12 @@ pub fn parse_within(
     // The luminous opening (LM-63-2019 table of shapes; width along C90–C270, length
     // along C0–C180).
     let (w, l, h) = (width * metres, length * metres, height * metres);
+    let solid = |what| Opening::Solid {
+        what,
+        width: w,
+        length: l,
+        height: h,
+    };
     let opening = match (w, l, h) {
         (w, l, h) if w == 0.0 && l == 0.0 && h == 0.0 => Opening::Point,
         (w, l, h) if w > 0.0 && l > 0.0 && h == 0.0 => Opening::Rectangle {
@@ -495,10 +501,10 @@ pub fn parse_within(
             width: -w,
             length: -l,
         },
-        (w, l, h) if w > 0.0 && l > 0.0 && h > 0.0 => Opening::Solid("box with luminous sides"),
-        (w, l, h) if w < 0.0 && l < 0.0 && h < 0.0 => Opening::Solid("sphere or ellipsoid"),
-        (_, _, h) if h != 0.0 => Opening::Solid("cylinder"),
-        _ => Opening::Solid("shape LM-63 does not define"),
+        (w, l, h) if w > 0.0 && l > 0.0 && h > 0.0 => solid("box with luminous sides"),
+        (w, l, h) if w < 0.0 && l < 0.0 && h < 0.0 => solid("sphere or ellipsoid"),
+        (_, _, h) if h != 0.0 => solid("cylinder"),
+        _ => solid("shape LM-63 does not define"),
     };
     let data = PhotometricData {
         kind,

@@ -27,7 +27,7 @@ pub use cie::{cie_luminance, CIE_SKY_PARAMETERS};
 pub use direction::unit_vector;
 use direction::{direction, perpendicular};
 pub use distant::{Distant, DistantPart, Radiance, SkyAmount, SkyFrame};
-pub use luminaire::Luminaire;
+pub use luminaire::{Luminaire, LuminousShape};
 pub use patches::{SkyPatches, MAX_REINHART_MF};
 pub use perez::{
     air_mass, eccentricity, perez_bin, perez_parameters, perez_relative, perez_sky,
@@ -386,7 +386,7 @@ impl Light {
             let k = 0.5 / unit_m;
             match data.opening {
                 Opening::Point => None,
-                Opening::Solid(what) => bail!(
+                Opening::Solid { what, .. } => bail!(
                     ImapErrUnsupported,
                     "the file's luminous opening is a {what}: emission from a three-dimensional opening is not supported (place the luminaire as a point: use_opening = 0)"
                 ),
@@ -404,6 +404,7 @@ impl Light {
         } else {
             None
         };
+        let luminous = luminous_parts(&data.opening, data.kind, frame);
         let power = scale_spectrum(spectrum, bands, lumens, true)?;
         let inv_flux = 1.0 / dist.flux();
         Ok(Light {
@@ -413,6 +414,7 @@ impl Light {
                 frame,
                 opening,
                 inv_flux,
+                luminous,
             })),
             power,
             group: 0,
@@ -504,6 +506,48 @@ fn flux_of(shape: &LightShape, amount: &Amount, x: f64, unit_m: f64) -> Result<f
         );
     }
     Ok(flux)
+}
+
+/// The luminous parts of a file's opening in a placed luminaire's `frame` (as
+/// `Light::placed` lays out its emitting aperture).
+fn luminous_parts(
+    opening: &Opening,
+    kind: PhotometricType,
+    frame: [DVec3; 3],
+) -> luminaire::Luminous {
+    use luminaire::{Luminous, LuminousShape as S};
+    let (along, across, normal) = match kind {
+        PhotometricType::C => (frame[0], frame[1], frame[2]),
+        PhotometricType::B => (frame[1], frame[2], frame[0]),
+    };
+    let (shape, length, width, height) = match *opening {
+        Opening::Point => (S::Point, 0.0, 0.0, 0.0),
+        Opening::Rectangle { width, length } => (S::Rectangle, length, width, 0.0),
+        Opening::Ellipse { width, length } => (S::Ellipse, length, width, 0.0),
+        Opening::Solid {
+            width,
+            length,
+            height,
+            ..
+        } => {
+            if width < 0.0 && length < 0.0 && height < 0.0 {
+                (S::Sphere, -width, -width, 0.0)
+            } else if width < 0.0 && length == 0.0 && height > 0.0 {
+                (S::Cylinder, -width, -width, height)
+            } else {
+                (S::Box, length.abs(), width.abs(), height.abs())
+            }
+        }
+    };
+    Luminous {
+        shape,
+        along,
+        across,
+        normal,
+        length,
+        width,
+        height,
+    }
 }
 
 #[cfg(test)]
