@@ -166,6 +166,17 @@
 #define IMAP_CONFIG_NO_LIGHT_AIMING 1
 
 /**
+ * `ImapGlareSource::kind`: a light (`id` as `imap_add_light` and the luminaire calls
+ * gave it).
+ */
+#define IMAP_GLARE_SOURCE_LIGHT 0
+
+/**
+ * `ImapGlareSource::kind`: an emitting mesh (`id` its mesh id), its triangles summed.
+ */
+#define IMAP_GLARE_SOURCE_MESH 1
+
+/**
  * `imap_set_layers` flag: keep one layer per light group. (Since 0.2.1.)
  */
 #define IMAP_KEEP_LIGHT_GROUPS 1
@@ -1343,6 +1354,122 @@ typedef struct ImapConfig {
    */
   uint32_t flags;
 } ImapConfig;
+
+/**
+ * An observer: an eye (scene units), the direction it looks in and its up (any vector
+ * not parallel to the view; only its part across the view counts). Initialise with
+ * `imap_observer_default(&o, sizeof o)`: eye at the origin, looking along +x, up +z.
+ * (Since 0.2.3.)
+ */
+typedef struct ImapObserver {
+  uint32_t struct_size;
+  uint32_t reserved;
+  double eye[3];
+  double view[3];
+  double up[3];
+} ImapObserver;
+
+/**
+ * An observer's light and glare (`imap_observer_glare`). (Since 0.2.3.)
+ */
+typedef struct ImapGlare {
+  uint32_t struct_size;
+  /**
+   * The light sources in front of the eye that it sees (luminaires, point, spot and
+   * cosine lights, emitting meshes).
+   */
+  uint32_t sources;
+  /**
+   * The vertical illuminance at the eye and its standard error, lx, as given.
+   */
+  double ev_lx;
+  double ev_sigma_lx;
+  /**
+   * What those sources give the eye directly, lx.
+   */
+  double direct_lx;
+  /**
+   * The background luminance (Ev − direct) / π and its standard error, cd/m²
+   * (CIE 117: the indirect illuminance at the eye over π; 0 if noise makes it negative).
+   */
+  double background_cd_m2;
+  double background_sigma_cd_m2;
+  /**
+   * UGR = 8 log10(0.25 / Lb · Σ L² ω / p²) (CIE 117:1995; a source of projected area
+   * below 0.005 m², a point light among them, with CIE 147:2002's term 200 I² / (r² p²)),
+   * and its standard error (from the background's). 0 when no source is in view; +∞
+   * when the background is black.
+   */
+  double ugr;
+  double ugr_sigma;
+  /**
+   * 1 when UGR is below 10, where CIE 117's scale starts (no source in view included):
+   * no discomfort glare to rate.
+   */
+  uint32_t ugr_below_10;
+  uint32_t reserved;
+  /**
+   * The simplified daylight glare probability DGPs = 6.22·10⁻⁵ Ev + 0.184 (Wienold
+   * 2009; it holds with no sun, nor a specular image of it, in view) and its standard
+   * error.
+   */
+  double dgps;
+  double dgps_sigma;
+} ImapGlare;
+
+/**
+ * A light source as an observer sees it (`imap_observer_glare`). (Since 0.2.3.)
+ */
+typedef struct ImapGlareSource {
+  uint32_t struct_size;
+  /**
+   * `IMAP_GLARE_SOURCE_*`.
+   */
+  uint32_t kind;
+  uint32_t id;
+  /**
+   * 1: a small source (projected area below 0.005 m²: CIE 147's term).
+   */
+  uint32_t small;
+  /**
+   * From the eye toward the source (unit; for a mesh its solid-angle-weighted mean).
+   */
+  double direction[3];
+  /**
+   * From the eye, m.
+   */
+  double distance_m;
+  /**
+   * Intensity toward the eye, cd.
+   */
+  double intensity_cd;
+  /**
+   * The luminous area it shows the eye, m² (0 for a point light), and its luminance
+   * toward the eye, cd/m² (0 for a point light).
+   */
+  double projected_area_m2;
+  double luminance_cd_m2;
+  /**
+   * The solid angle of its visible part at the eye, sr.
+   */
+  double solid_angle_sr;
+  /**
+   * Guth's position index.
+   */
+  double position_index;
+  /**
+   * The share of its luminous area the eye sees (0–1).
+   */
+  double visible;
+  /**
+   * Its direct vertical illuminance at the eye, lx.
+   */
+  double ev_lx;
+  /**
+   * Its UGR term: L² ω / p² (or 200 I² / (r² p²) for a small source).
+   */
+  double term;
+} ImapGlareSource;
 
 /**
  * A region's figures (`imap_get_region_stats`), each with its standard error (`*_sigma`,
@@ -2922,6 +3049,60 @@ enum ImapStatus imap_embree_version(const struct ImapContext *ctx, int64_t *out)
  * `ctx` is a live handle.
  */
 enum ImapStatus imap_reset(struct ImapContext *ctx);
+
+/**
+ * Fills `*out` (`size` = sizeof(ImapObserver)) with the defaults: eye at the origin,
+ * looking along +x, up +z. (Since 0.2.3.)
+ *
+ * # Safety
+ * `out` points to `size` writable bytes.
+ */
+enum ImapStatus imap_observer_default(struct ImapObserver *out, size_t size);
+
+/**
+ * Adds the sensor that measures `observer`'s vertical illuminance Ev: a disk of
+ * `radius` (scene units; 0.05 m is a fair size: it averages the light arriving from the
+ * scene over that disk) at the eye, facing the view, of five vertices with the eye
+ * vertex 0. It changes no light path and no other result. After a run, its front
+ * (side 0) vertex 0 holds Ev (`imap_get_vertex_illuminance`) and its relative error
+ * (`imap_get_vertex_error`): give them to `imap_observer_glare`. `*out_mesh` receives its
+ * mesh id. Returns IMAP_ERR_NULL_POINTER, IMAP_ERR_NON_FINITE,
+ * IMAP_ERR_INVALID_ARGUMENT (a zero view, an up along it, a radius not positive),
+ * IMAP_ERR_PRECISION, and `imap_add_mesh`'s statuses (IMAP_ERR_OUT_OF_ORDER once the
+ * map holds photons). (Since 0.2.3.)
+ *
+ * # Safety
+ * `ctx` is a live handle; `observer` an initialised ImapObserver; `out_mesh` writable.
+ */
+enum ImapStatus imap_add_observer_sensor(struct ImapContext *ctx, const struct ImapObserver *observer, double radius, uint32_t *out_mesh);
+
+/**
+ * The glare `observer` gets from the context's light sources, given the vertical
+ * illuminance at its eye `ev_lx` and its standard error `ev_sigma_lx` (lx; from its
+ * sensor, `imap_add_observer_sensor`: the value at vertex 0 and that value times its
+ * relative error). For every luminaire, point, spot and cosine light and emitting mesh in
+ * front of the eye, the call computes its intensity toward the eye (the candela table
+ * and the flux it was placed with), the luminous area it shows (the file's opening:
+ * rectangle, disk, box, cylinder or sphere; an emitting mesh's triangles, each seen at
+ * its centre after splitting to 0.002 sr), the share of that area the eye sees (lines
+ * of sight through the scene: anything that is not a sensor blocks them, glass
+ * included), Guth's position index and its direct illuminance at the eye. Skies, the sun
+ * and beams are not sources here (their light is in Ev and so in the background).
+ * Writes the observer's figures to `*out` (`out_size` = sizeof(ImapGlare)) and up to
+ * `capacity` sources, largest UGR term first, to `sources` (elements of `element_size`
+ * = sizeof(ImapGlareSource); NULL when `capacity` is 0), and their count to
+ * `*out_count` (NULL: not wanted). Builds the scene's BVH if no run has.
+ *
+ * Returns IMAP_ERR_NULL_POINTER, IMAP_ERR_NON_FINITE, IMAP_ERR_INVALID_ARGUMENT (a zero
+ * view, an up along it, a negative Ev or σ, an eye inside a closed one-sided mesh, sizes),
+ * IMAP_ERR_NO_GEOMETRY (no mesh), IMAP_ERR_BUSY. (Since 0.2.3.)
+ *
+ * # Safety
+ * `ctx` is a live handle; `observer` an initialised ImapObserver; `out` points to
+ * `out_size` writable bytes; `sources` to `capacity × element_size` writable bytes;
+ * `out_count` NULL or writable.
+ */
+enum ImapStatus imap_observer_glare(struct ImapContext *ctx, const struct ImapObserver *observer, double ev_lx, double ev_sigma_lx, struct ImapGlare *out, size_t out_size, struct ImapGlareSource *sources, size_t capacity, size_t element_size, size_t *out_count);
 
 /**
  * Chooses the layers the map keeps, from the flags `IMAP_KEEP_LIGHT_GROUPS` (one layer

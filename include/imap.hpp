@@ -65,6 +65,18 @@ inline ImapMesh mesh() {
     check(imap_mesh_default(&m, sizeof m));
     return m;
 }
+/// An observer: an eye, the direction it looks in and its up (scene units).
+inline ImapObserver observer(const std::array<double, 3>& eye, const std::array<double, 3>& view,
+                             const std::array<double, 3>& up = {0.0, 0.0, 1.0}) {
+    ImapObserver o;
+    check(imap_observer_default(&o, sizeof o));
+    for (int k = 0; k < 3; ++k) {
+        o.eye[k] = eye[k];
+        o.view[k] = view[k];
+        o.up[k] = up[k];
+    }
+    return o;
+}
 inline ImapRunParams run_params() {
     ImapRunParams p;
     check(imap_run_params_default(&p, sizeof p));
@@ -202,6 +214,12 @@ struct Image {
     ImapRenderReport report{};
 };
 
+/// An observer's light and glare, and every light source it sees (largest UGR term first).
+struct Glare {
+    ImapGlare figures{};
+    std::vector<ImapGlareSource> sources;
+};
+
 /// An illumination-map context. Not copyable; movable. Like the C handle, one call at a
 /// time (a second thread gets imap::Error with IMAP_ERR_BUSY).
 class Context {
@@ -300,6 +318,38 @@ public:
         std::vector<double> w(bands_);
         check(imap_get_light_flux(ctx_, id, w.data(), w.size(), nullptr), ctx_);
         return w;
+    }
+
+    /// The sensor that measures an observer's vertical illuminance (imap_add_observer_sensor):
+    /// its mesh id. Add it before the run.
+    uint32_t add_observer_sensor(const ImapObserver& o, double radius) {
+        uint32_t id = 0;
+        check(imap_add_observer_sensor(ctx_, &o, radius, &id), ctx_);
+        return id;
+    }
+    /// The observer's glare after a run, its Ev and σ read from its sensor `mesh`
+    /// (vertex 0, front side).
+    Glare observer_glare(const ImapObserver& o, uint32_t mesh) {
+        size_t n = 0;
+        check(imap_get_vertex_count(ctx_, mesh, &n), ctx_);
+        std::vector<double> e(n), r(n);
+        check(imap_get_vertex_illuminance(ctx_, mesh, 0, e.data(), e.size()), ctx_);
+        check(imap_get_vertex_error(ctx_, mesh, 0, r.data(), r.size()), ctx_);
+        return observer_glare(o, e.at(0), e.at(0) * r.at(0));
+    }
+    /// The observer's glare for a vertical illuminance `ev_lx` ± `ev_sigma_lx` at its eye.
+    Glare observer_glare(const ImapObserver& o, double ev_lx, double ev_sigma_lx) {
+        Glare g;
+        size_t count = 0;
+        check(imap_observer_glare(ctx_, &o, ev_lx, ev_sigma_lx, &g.figures, sizeof g.figures, nullptr, 0,
+                                  sizeof(ImapGlareSource), &count),
+              ctx_);
+        g.sources.resize(count);
+        if (count > 0)
+            check(imap_observer_glare(ctx_, &o, ev_lx, ev_sigma_lx, &g.figures, sizeof g.figures,
+                                      g.sources.data(), count, sizeof(ImapGlareSource), &count),
+                  ctx_);
+        return g;
     }
 
     /// A sky or environment (imap_add_sky; an IMAP_SKY_IMAGE's pixels in sky.image_rgb).

@@ -8,7 +8,8 @@
 //!
 //! The engine's floors, top to bottom (`tests/floors.rs` holds every import to them):
 //! `ffi` (the C ABI only) → `annual` (annual daylight from sky-patch coefficients, the
-//! direct sun traced through a context's scene) → `context` (the safe API) → `render` (the
+//! direct sun traced through a context's scene), `glare` (observers: what the eye sees of
+//! the lights through a context's scene) → `context` (the safe API) → `render` (the
 //! camera renderers) → `sched` (the schedulers) → `imap` (the map, its layout and
 //! readout) → `transport` (the photon path and light
 //! sampling) → `accel` (every Embree call), `weather` (weather files) → `scene` (plain
@@ -33,6 +34,8 @@ mod fault;
 pub mod ffi;
 /// cbindgen:ignore
 mod files;
+/// cbindgen:ignore
+pub mod glare;
 /// cbindgen:ignore
 mod images;
 /// cbindgen:ignore

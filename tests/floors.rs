@@ -12,8 +12,9 @@ use std::path::Path;
 /// Floors from the top: a module may name only modules further down this list.
 const FLOORS: &[&[&str]] = &[
     &["ffi"],
-    // Annual daylight traces the direct sun through a context's scene.
-    &["annual"],
+    // Annual daylight traces the direct sun through a context's scene; glare looks at its
+    // lights through it.
+    &["annual", "glare"],
     &["context"],
     &["render"],
     &["sched"],

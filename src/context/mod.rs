@@ -7,6 +7,8 @@ mod readout;
 pub use layers::Layer;
 pub use readout::{MeshInfo, RegionStats};
 mod render;
+mod sight;
+pub use sight::Sight;
 pub mod state;
 mod straight;
 

@@ -15,6 +15,7 @@ mod annual;
 mod colour;
 mod context;
 mod errors;
+mod glare;
 mod layers;
 mod light;
 mod readout;

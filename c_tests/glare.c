@@ -1,0 +1,170 @@
+/*
+ * Observers and glare through the C API: a luminaire of known luminance (a 0.5 m square
+ * Lambertian panel from a photometric table) over a black ground under a uniform sky, an
+ * observer's sensor, its vertical illuminance and UGR against CIE 117's formula worked by
+ * hand; then every refusal with its status and message, the context still usable.
+ */
+#include <imap.h>
+
+#include <math.h>
+#include <stdio.h>
+#include <string.h>
+
+static int failures = 0;
+static const double PI = 3.14159265358979323846;
+
+static void check(const char *what, int ok, double got, double want) {
+    if (!ok) {
+        printf("FAIL %-52s got %.6g, want %.6g\n", what, got, want);
+        failures++;
+    } else {
+        printf("ok   %-52s %.6g (%.6g)\n", what, got, want);
+    }
+}
+
+static void expect(const char *what, ImapStatus status, ImapStatus want, const ImapContext *ctx,
+                   const char *names) {
+    const char *msg = want == IMAP_OK ? "" : imap_last_error(ctx);
+    int named = names == NULL || (msg != NULL && strstr(msg, names) != NULL);
+    if (status != want || !named) {
+        printf("FAIL %-52s got %s, want %s (%s)\n", what, imap_status_name(status), imap_status_name(want),
+               msg ? msg : "(null)");
+        failures++;
+    } else {
+        printf("ok   %-52s %s%s%s\n", what, imap_status_name(status), want != IMAP_OK ? ": " : "",
+               want != IMAP_OK ? msg : "");
+    }
+}
+
+static double ground[12] = {-50, -50, 0, 50, -50, 0, 50, 50, 0, -50, 50, 0};
+static uint32_t ground_idx[6] = {0, 1, 2, 0, 2, 3};
+
+int main(void) {
+    ImapConfig cfg;
+    imap_config_default(&cfg, sizeof cfg);
+    cfg.seed = 7;
+    ImapContext *ctx = NULL;
+    if (imap_create(&cfg, &ctx) != IMAP_OK) return 1;
+
+    ImapMaterial black;
+    imap_material_default(&black, sizeof black);
+    double zero = 0.0;
+    black.diffuse_reflectance = &zero;
+    black.diffuse_reflectance_count = 1;
+    uint32_t mat = 0, id = 0;
+    expect("black material", imap_add_material(ctx, &black, &mat), IMAP_OK, ctx, NULL);
+    ImapMesh m;
+    imap_mesh_default(&m, sizeof m);
+    m.positions = ground, m.vertex_count = 4, m.indices = ground_idx, m.triangle_count = 2;
+    m.material = mat;
+    expect("ground", imap_add_mesh(ctx, &m, &id), IMAP_OK, ctx, NULL);
+
+    ImapSky sky;
+    imap_sky_default(&sky, sizeof sky);
+    sky.kind = IMAP_SKY_UNIFORM, sky.unit = IMAP_SKY_UNIT_HORIZONTAL_LX, sky.amount = 2000.0;
+    expect("uniform sky of 2000 lx", imap_add_sky(ctx, &sky, NULL, &id), IMAP_OK, ctx, NULL);
+
+    /* I(γ) = 1000 cos γ cd below the panel, a 0.5 m square opening: L = 4000 cd/m². */
+    double vertical[19], candela[19], horizontal[1] = {0.0};
+    for (int k = 0; k < 19; k++) {
+        vertical[k] = 10.0 * k;
+        candela[k] = vertical[k] <= 90.0 ? 1000.0 * cos(vertical[k] * PI / 180.0) : 0.0;
+    }
+    ImapPhotometry t;
+    imap_photometry_default(&t, sizeof t);
+    t.photometric_type = IMAP_PHOTOMETRY_C;
+    t.vertical = vertical, t.vertical_count = 19, t.horizontal = horizontal, t.horizontal_count = 1;
+    t.candela = candela;
+    t.opening = IMAP_OPENING_RECTANGLE, t.opening_width = 0.5, t.opening_length = 0.5;
+    ImapLuminaire place;
+    imap_luminaire_default(&place, sizeof place);
+    place.position[0] = sqrt(3.0), place.position[1] = 0.0, place.position[2] = 2.2;
+    uint32_t panel = 0;
+    expect("the panel", imap_add_luminaire_table(ctx, &t, &place, NULL, &panel), IMAP_OK, ctx, NULL);
+
+    ImapObserver o;
+    expect("observer defaults", imap_observer_default(&o, sizeof o), IMAP_OK, ctx, NULL);
+    o.eye[2] = 1.2; /* looking along +x, up +z */
+    uint32_t eye = 0;
+    expect("observer sensor", imap_add_observer_sensor(ctx, &o, 0.05, &eye), IMAP_OK, ctx, NULL);
+
+    ImapRunParams p;
+    imap_run_params_default(&p, sizeof p);
+    p.photons = 300000;
+    ImapReport r;
+    expect("run", imap_run(ctx, &p, &r, sizeof r), IMAP_OK, ctx, NULL);
+
+    double ev[5], rel[5];
+    expect("Ev", imap_get_vertex_illuminance(ctx, eye, 0, ev, 5), IMAP_OK, ctx, NULL);
+    expect("Ev error", imap_get_vertex_error(ctx, eye, 0, rel, 5), IMAP_OK, ctx, NULL);
+    double s = ev[0] * rel[0];
+    /* The panel is seen 30° above the line of sight, 60° off its axis, 2 m away. */
+    double direct = 500.0 * cos(PI / 6) / 4.0;
+    check("Ev = half the sky's 2000 lx + the panel's (4 sigma)", fabs(ev[0] - (1000.0 + direct)) < 4 * s, ev[0],
+          1000.0 + direct);
+
+    ImapGlare g;
+    ImapGlareSource src[4];
+    size_t count = 0;
+    expect("glare", imap_observer_glare(ctx, &o, ev[0], s, &g, sizeof g, src, 4, sizeof src[0], &count), IMAP_OK,
+           ctx, NULL);
+    check("one source, the panel", count == 1 && g.sources == 1 && src[0].kind == IMAP_GLARE_SOURCE_LIGHT &&
+                                       src[0].id == panel,
+          (double)count, 1);
+    check("its luminance 4000 cd/m²", fabs(src[0].luminance_cd_m2 - 4000.0) < 1e-6 * 4000.0, src[0].luminance_cd_m2,
+          4000.0);
+    check("its solid angle 0.125/4 sr", fabs(src[0].solid_angle_sr - 0.03125) < 1e-9, src[0].solid_angle_sr,
+          0.03125);
+    double pidx = exp((35.2 - 1.22) * 1e-3 * 30.0 + 21e-5 * 900.0);
+    check("its position index (Guth, straight above)", fabs(src[0].position_index - pidx) < 1e-9,
+          src[0].position_index, pidx);
+    double exact = 8.0 * log10(0.25 / (1000.0 / PI) * 4000.0 * 4000.0 * 0.03125 / (pidx * pidx));
+    check("UGR by hand (4 sigma)", g.ugr_sigma > 0 && fabs(g.ugr - exact) < 4 * g.ugr_sigma + 1e-9, g.ugr, exact);
+    check("DGPs = 6.22e-5 Ev + 0.184", fabs(g.dgps - (6.22e-5 * ev[0] + 0.184)) < 1e-12, g.dgps,
+          6.22e-5 * ev[0] + 0.184);
+    /* Sources can be counted first, with no array. */
+    count = 0;
+    expect("count only", imap_observer_glare(ctx, &o, ev[0], s, &g, sizeof g, NULL, 0, 0, &count), IMAP_OK, ctx,
+           NULL);
+    check("count only: 1", count == 1, (double)count, 1);
+
+    /* Refusals, each with its status and a message naming what is wrong. */
+    ImapObserver bad = o;
+    bad.view[0] = 0.0;
+    expect("zero view", imap_observer_glare(ctx, &bad, 100, 1, &g, sizeof g, NULL, 0, 0, NULL),
+           IMAP_ERR_INVALID_ARGUMENT, ctx, "observer.view");
+    bad = o;
+    bad.up[0] = 1.0, bad.up[2] = 0.0;
+    expect("up along the view", imap_observer_glare(ctx, &bad, 100, 1, &g, sizeof g, NULL, 0, 0, NULL),
+           IMAP_ERR_INVALID_ARGUMENT, ctx, "observer.up");
+    bad = o;
+    bad.eye[1] = NAN;
+    expect("NaN eye", imap_observer_glare(ctx, &bad, 100, 1, &g, sizeof g, NULL, 0, 0, NULL), IMAP_ERR_NON_FINITE,
+           ctx, "observer.eye");
+    expect("negative Ev", imap_observer_glare(ctx, &o, -1, 1, &g, sizeof g, NULL, 0, 0, NULL),
+           IMAP_ERR_INVALID_ARGUMENT, ctx, "ev_lx");
+    expect("sources NULL with a capacity", imap_observer_glare(ctx, &o, 100, 1, &g, sizeof g, NULL, 2, sizeof src[0], NULL),
+           IMAP_ERR_NULL_POINTER, ctx, "sources");
+    expect("element size 3", imap_observer_glare(ctx, &o, 100, 1, &g, sizeof g, src, 4, 3, NULL),
+           IMAP_ERR_INVALID_ARGUMENT, ctx, "element_size");
+    expect("out NULL", imap_observer_glare(ctx, &o, 100, 1, NULL, sizeof g, NULL, 0, 0, NULL),
+           IMAP_ERR_NULL_POINTER, ctx, "out");
+    expect("observer NULL", imap_observer_glare(ctx, NULL, 100, 1, &g, sizeof g, NULL, 0, 0, NULL),
+           IMAP_ERR_NULL_POINTER, ctx, "observer");
+    ImapObserver unsized = o;
+    unsized.struct_size = 0;
+    expect("uninitialised observer", imap_observer_glare(ctx, &unsized, 100, 1, &g, sizeof g, NULL, 0, 0, NULL),
+           IMAP_ERR_INVALID_ARGUMENT, ctx, "imap_observer_default");
+    expect("sensor radius 0", imap_add_observer_sensor(ctx, &o, 0.0, &id), IMAP_ERR_INVALID_ARGUMENT, ctx, "radius");
+    expect("glare ctx NULL", imap_observer_glare(NULL, &o, 100, 1, &g, sizeof g, NULL, 0, 0, NULL),
+           IMAP_ERR_NULL_POINTER, NULL, "ctx");
+    /* Still usable, and nothing accumulated was lost. */
+    double again[5];
+    expect("Ev again", imap_get_vertex_illuminance(ctx, eye, 0, again, 5), IMAP_OK, ctx, NULL);
+    check("Ev unchanged", again[0] == ev[0], again[0], ev[0]);
+    expect("glare again", imap_observer_glare(ctx, &o, ev[0], s, &g, sizeof g, NULL, 0, 0, NULL), IMAP_OK, ctx, NULL);
+
+    imap_destroy(ctx);
+    printf("%s\n", failures ? "FAILED" : "all glare checks passed");
+    return failures ? 1 : 0;
+}

@@ -1,0 +1,317 @@
+//! Observers and glare through the C ABI (Since 0.2.3).
+
+use super::scene::add_with;
+use super::{
+    boundary, check_out, read_versioned, with_context, write_defaults, write_out, write_versioned,
+    ImapContext, Versioned,
+};
+use crate::error::{bail, ImapStatus, Result};
+use crate::glare::{Glare, GlareSource, Observer, SourceKind};
+
+/// An observer: an eye (scene units), the direction it looks in and its up (any vector
+/// not parallel to the view; only its part across the view counts). Initialise with
+/// `imap_observer_default(&o, sizeof o)`: eye at the origin, looking along +x, up +z.
+/// (Since 0.2.3.)
+#[repr(C)]
+#[derive(Clone, Copy, Debug)]
+pub struct ImapObserver {
+    pub struct_size: u32,
+    pub reserved: u32,
+    pub eye: [f64; 3],
+    pub view: [f64; 3],
+    pub up: [f64; 3],
+}
+
+// SAFETY: repr(C), u32 struct_size first, numbers only.
+unsafe impl Versioned for ImapObserver {
+    const NAME: &'static str = "ImapObserver";
+    const INIT: &'static str = "imap_observer_default";
+    fn defaults() -> Self {
+        ImapObserver {
+            struct_size: std::mem::size_of::<Self>() as u32,
+            reserved: 0,
+            eye: [0.0; 3],
+            view: [1.0, 0.0, 0.0],
+            up: [0.0, 0.0, 1.0],
+        }
+    }
+}
+
+/// An observer's light and glare (`imap_observer_glare`). (Since 0.2.3.)
+#[repr(C)]
+#[derive(Clone, Copy, Debug)]
+pub struct ImapGlare {
+    pub struct_size: u32,
+    /// The light sources in front of the eye that it sees (luminaires, point, spot and
+    /// cosine lights, emitting meshes).
+    pub sources: u32,
+    /// The vertical illuminance at the eye and its standard error, lx, as given.
+    pub ev_lx: f64,
+    pub ev_sigma_lx: f64,
+    /// What those sources give the eye directly, lx.
+    pub direct_lx: f64,
+    /// The background luminance (Ev − direct) / π and its standard error, cd/m²
+    /// (CIE 117: the indirect illuminance at the eye over π; 0 if noise makes it negative).
+    pub background_cd_m2: f64,
+    pub background_sigma_cd_m2: f64,
+    /// UGR = 8 log10(0.25 / Lb · Σ L² ω / p²) (CIE 117:1995; a source of projected area
+    /// below 0.005 m², a point light among them, with CIE 147:2002's term 200 I² / (r² p²)),
+    /// and its standard error (from the background's). 0 when no source is in view; +∞
+    /// when the background is black.
+    pub ugr: f64,
+    pub ugr_sigma: f64,
+    /// 1 when UGR is below 10, where CIE 117's scale starts (no source in view included):
+    /// no discomfort glare to rate.
+    pub ugr_below_10: u32,
+    pub reserved: u32,
+    /// The simplified daylight glare probability DGPs = 6.22·10⁻⁵ Ev + 0.184 (Wienold
+    /// 2009; it holds with no sun, nor a specular image of it, in view) and its standard
+    /// error.
+    pub dgps: f64,
+    pub dgps_sigma: f64,
+}
+
+// SAFETY: repr(C), u32 struct_size first, numbers only.
+unsafe impl Versioned for ImapGlare {
+    const NAME: &'static str = "ImapGlare";
+    const INIT: &'static str = "sizeof(ImapGlare)";
+    fn defaults() -> Self {
+        ImapGlare {
+            struct_size: std::mem::size_of::<Self>() as u32,
+            sources: 0,
+            ev_lx: 0.0,
+            ev_sigma_lx: 0.0,
+            direct_lx: 0.0,
+            background_cd_m2: 0.0,
+            background_sigma_cd_m2: 0.0,
+            ugr: 0.0,
+            ugr_sigma: 0.0,
+            ugr_below_10: 0,
+            reserved: 0,
+            dgps: 0.0,
+            dgps_sigma: 0.0,
+        }
+    }
+}
+
+/// `ImapGlareSource::kind`: a light (`id` as `imap_add_light` and the luminaire calls
+/// gave it).
+pub const IMAP_GLARE_SOURCE_LIGHT: u32 = 0;
+/// `ImapGlareSource::kind`: an emitting mesh (`id` its mesh id), its triangles summed.
+pub const IMAP_GLARE_SOURCE_MESH: u32 = 1;
+
+/// A light source as an observer sees it (`imap_observer_glare`). (Since 0.2.3.)
+#[repr(C)]
+#[derive(Clone, Copy, Debug)]
+pub struct ImapGlareSource {
+    pub struct_size: u32,
+    /// `IMAP_GLARE_SOURCE_*`.
+    pub kind: u32,
+    pub id: u32,
+    /// 1: a small source (projected area below 0.005 m²: CIE 147's term).
+    pub small: u32,
+    /// From the eye toward the source (unit; for a mesh its solid-angle-weighted mean).
+    pub direction: [f64; 3],
+    /// From the eye, m.
+    pub distance_m: f64,
+    /// Intensity toward the eye, cd.
+    pub intensity_cd: f64,
+    /// The luminous area it shows the eye, m² (0 for a point light), and its luminance
+    /// toward the eye, cd/m² (0 for a point light).
+    pub projected_area_m2: f64,
+    pub luminance_cd_m2: f64,
+    /// The solid angle of its visible part at the eye, sr.
+    pub solid_angle_sr: f64,
+    /// Guth's position index.
+    pub position_index: f64,
+    /// The share of its luminous area the eye sees (0–1).
+    pub visible: f64,
+    /// Its direct vertical illuminance at the eye, lx.
+    pub ev_lx: f64,
+    /// Its UGR term: L² ω / p² (or 200 I² / (r² p²) for a small source).
+    pub term: f64,
+}
+
+// SAFETY: repr(C), u32 struct_size first, numbers only.
+unsafe impl Versioned for ImapGlareSource {
+    const NAME: &'static str = "ImapGlareSource";
+    const INIT: &'static str = "sizeof(ImapGlareSource)";
+    fn defaults() -> Self {
+        source_to_c(&GlareSource {
+            kind: SourceKind::Light(0),
+            direction: [0.0; 3],
+            distance_m: 0.0,
+            intensity_cd: 0.0,
+            projected_area_m2: 0.0,
+            luminance_cd_m2: 0.0,
+            solid_angle_sr: 0.0,
+            position_index: 0.0,
+            visible: 0.0,
+            ev_lx: 0.0,
+            term: 0.0,
+            small: false,
+        })
+    }
+}
+
+fn source_to_c(s: &GlareSource) -> ImapGlareSource {
+    let (kind, id) = match s.kind {
+        SourceKind::Light(i) => (IMAP_GLARE_SOURCE_LIGHT, i),
+        SourceKind::Mesh(i) => (IMAP_GLARE_SOURCE_MESH, i),
+    };
+    ImapGlareSource {
+        struct_size: std::mem::size_of::<ImapGlareSource>() as u32,
+        kind,
+        id,
+        small: s.small as u32,
+        direction: s.direction,
+        distance_m: s.distance_m,
+        intensity_cd: s.intensity_cd,
+        projected_area_m2: s.projected_area_m2,
+        luminance_cd_m2: s.luminance_cd_m2,
+        solid_angle_sr: s.solid_angle_sr,
+        position_index: s.position_index,
+        visible: s.visible,
+        ev_lx: s.ev_lx,
+        term: s.term,
+    }
+}
+
+fn glare_to_c(g: &Glare) -> ImapGlare {
+    ImapGlare {
+        struct_size: 0,
+        sources: g.sources.len() as u32,
+        ev_lx: g.ev_lx,
+        ev_sigma_lx: g.ev_sigma_lx,
+        direct_lx: g.direct_lx,
+        background_cd_m2: g.background_cd_m2,
+        background_sigma_cd_m2: g.background_sigma_cd_m2,
+        ugr: g.ugr,
+        ugr_sigma: g.ugr_sigma,
+        ugr_below_10: g.ugr_below_10 as u32,
+        reserved: 0,
+        dgps: g.dgps,
+        dgps_sigma: g.dgps_sigma,
+    }
+}
+
+fn observer_from_c(o: *const ImapObserver) -> Result<Observer> {
+    let o = read_versioned("observer", o)?;
+    Ok(Observer {
+        eye: o.eye,
+        view: o.view,
+        up: o.up,
+    })
+}
+
+/// Fills `*out` (`size` = sizeof(ImapObserver)) with the defaults: eye at the origin,
+/// looking along +x, up +z. (Since 0.2.3.)
+///
+/// # Safety
+/// `out` points to `size` writable bytes.
+#[no_mangle]
+pub unsafe extern "C" fn imap_observer_default(out: *mut ImapObserver, size: usize) -> ImapStatus {
+    boundary(None, || write_defaults(out, size))
+}
+
+/// Adds the sensor that measures `observer`'s vertical illuminance Ev: a disk of
+/// `radius` (scene units; 0.05 m is a fair size: it averages the light arriving from the
+/// scene over that disk) at the eye, facing the view, of five vertices with the eye
+/// vertex 0. It changes no light path and no other result. After a run, its front
+/// (side 0) vertex 0 holds Ev (`imap_get_vertex_illuminance`) and its relative error
+/// (`imap_get_vertex_error`): give them to `imap_observer_glare`. `*out_mesh` receives its
+/// mesh id. Returns IMAP_ERR_NULL_POINTER, IMAP_ERR_NON_FINITE,
+/// IMAP_ERR_INVALID_ARGUMENT (a zero view, an up along it, a radius not positive),
+/// IMAP_ERR_PRECISION, and `imap_add_mesh`'s statuses (IMAP_ERR_OUT_OF_ORDER once the
+/// map holds photons). (Since 0.2.3.)
+///
+/// # Safety
+/// `ctx` is a live handle; `observer` an initialised ImapObserver; `out_mesh` writable.
+#[no_mangle]
+pub unsafe extern "C" fn imap_add_observer_sensor(
+    ctx: *mut ImapContext,
+    observer: *const ImapObserver,
+    radius: f64,
+    out_mesh: *mut u32,
+) -> ImapStatus {
+    add_with(ctx, out_mesh, |c| {
+        let o = observer_from_c(observer)?;
+        c.add_observer_sensor(&o, radius)
+    })
+}
+
+/// The glare `observer` gets from the context's light sources, given the vertical
+/// illuminance at its eye `ev_lx` and its standard error `ev_sigma_lx` (lx; from its
+/// sensor, `imap_add_observer_sensor`: the value at vertex 0 and that value times its
+/// relative error). For every luminaire, point, spot and cosine light and emitting mesh in
+/// front of the eye, the call computes its intensity toward the eye (the candela table
+/// and the flux it was placed with), the luminous area it shows (the file's opening:
+/// rectangle, disk, box, cylinder or sphere; an emitting mesh's triangles, each seen at
+/// its centre after splitting to 0.002 sr), the share of that area the eye sees (lines
+/// of sight through the scene: anything that is not a sensor blocks them, glass
+/// included), Guth's position index and its direct illuminance at the eye. Skies, the sun
+/// and beams are not sources here (their light is in Ev and so in the background).
+/// Writes the observer's figures to `*out` (`out_size` = sizeof(ImapGlare)) and up to
+/// `capacity` sources, largest UGR term first, to `sources` (elements of `element_size`
+/// = sizeof(ImapGlareSource); NULL when `capacity` is 0), and their count to
+/// `*out_count` (NULL: not wanted). Builds the scene's BVH if no run has.
+///
+/// Returns IMAP_ERR_NULL_POINTER, IMAP_ERR_NON_FINITE, IMAP_ERR_INVALID_ARGUMENT (a zero
+/// view, an up along it, a negative Ev or σ, an eye inside a closed one-sided mesh, sizes),
+/// IMAP_ERR_NO_GEOMETRY (no mesh), IMAP_ERR_BUSY. (Since 0.2.3.)
+///
+/// # Safety
+/// `ctx` is a live handle; `observer` an initialised ImapObserver; `out` points to
+/// `out_size` writable bytes; `sources` to `capacity × element_size` writable bytes;
+/// `out_count` NULL or writable.
+#[no_mangle]
+#[allow(clippy::too_many_arguments)]
+pub unsafe extern "C" fn imap_observer_glare(
+    ctx: *mut ImapContext,
+    observer: *const ImapObserver,
+    ev_lx: f64,
+    ev_sigma_lx: f64,
+    out: *mut ImapGlare,
+    out_size: usize,
+    sources: *mut ImapGlareSource,
+    capacity: usize,
+    element_size: usize,
+    out_count: *mut usize,
+) -> ImapStatus {
+    with_context(ctx, |c| {
+        let o = observer_from_c(observer)?;
+        check_out("out", out)?;
+        if capacity > 0 {
+            if sources.is_null() {
+                bail!(
+                    ImapErrNullPointer,
+                    "sources is NULL but capacity is {capacity}"
+                );
+            }
+            if !(ImapGlareSource::BASE_SIZE..=1 << 16).contains(&element_size) {
+                bail!(
+                    ImapErrInvalidArgument,
+                    "element_size = {element_size} is not a size of ImapGlareSource (at least {}): pass sizeof(ImapGlareSource)",
+                    ImapGlareSource::BASE_SIZE
+                );
+            }
+            if capacity
+                .checked_mul(element_size)
+                .is_none_or(|b| b > isize::MAX as usize)
+            {
+                bail!(ImapErrInvalidArgument, "capacity {capacity} is too large");
+            }
+        }
+        let g = c.observer_glare(&o, ev_lx, ev_sigma_lx)?;
+        write_versioned("out", out, out_size, glare_to_c(&g))?;
+        for (i, s) in g.sources.iter().take(capacity).enumerate() {
+            // SAFETY: the caller provides capacity × element_size writable bytes.
+            let dst = unsafe { (sources as *mut u8).add(i * element_size) } as *mut ImapGlareSource;
+            write_versioned("sources", dst, element_size, source_to_c(s))?;
+        }
+        if !out_count.is_null() {
+            write_out("out_count", out_count, g.sources.len())?;
+        }
+        Ok(())
+    })
+}
