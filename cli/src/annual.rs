@@ -204,7 +204,8 @@ fn occupied_hours(s: &str) -> Result<(f64, f64)> {
     Ok((a, b))
 }
 
-pub fn annual(model: &Path, settings: Settings, o: &AnnualOptions) -> Result<()> {
+pub fn annual(model: &Path, mut settings: Settings, o: &AnnualOptions) -> Result<()> {
+    crate::observers::not_here(&mut settings, "annual");
     let lighting = lighting_control(o)?;
     check_settings(&settings, "annual", lighting.is_some())?;
     let (from, to) = occupied_hours(&o.occupied)?;

@@ -11,6 +11,7 @@ mod jobs;
 mod lights;
 mod materials;
 mod model;
+mod observers;
 mod output;
 mod raster;
 mod readers;
@@ -378,7 +379,7 @@ fn merge(paths: &[PathBuf], out: Option<PathBuf>) -> Result<()> {
     let report = ctx.report();
     let wall = t0.elapsed().as_secs_f64();
     write_outputs(
-        &ctx,
+        &mut ctx,
         &scene,
         &cam,
         &settings,
@@ -573,7 +574,7 @@ fn execute(
         format!("{:?}", report.stop.unwrap_or(imap::StopReason::PhotonCount))
     };
     let json = write_outputs(
-        &ctx, &scene, &cam, &settings, obj, out, &report, &stop, wall,
+        &mut ctx, &scene, &cam, &settings, obj, out, &report, &stop, wall,
     )?;
     if let Some(code) = interrupted.status() {
         eprintln!(
@@ -589,7 +590,7 @@ fn execute(
 /// the summary, and returns the report's JSON.
 #[allow(clippy::too_many_arguments)]
 fn write_outputs(
-    ctx: &imap::Context,
+    ctx: &mut imap::Context,
     scene: &scene::LoadedScene,
     cam: &CameraSettings,
     settings: &Settings,
@@ -653,6 +654,13 @@ fn write_outputs(
             j
         })
         .collect();
+    let observer_results = observers::read(ctx, &scene.observers)?;
+    let observer_json: Vec<serde_json::Value> = scene
+        .observers
+        .iter()
+        .zip(&observer_results)
+        .map(|(e, r)| observers::json(scene, e, r))
+        .collect();
     let mut outputs: Vec<String> = [
         "irradiance.csv",
         "irradiance.ply",
@@ -665,6 +673,9 @@ fn write_outputs(
     for g in &scene.grids {
         outputs.push(format!("grid_{}.csv", g.name));
         outputs.push(format!("grid_{}.png", g.name));
+    }
+    if !scene.observers.is_empty() {
+        outputs.push("observers.csv".into());
     }
     let json = serde_json::json!({
         "scene": obj.display().to_string(),
@@ -741,6 +752,7 @@ fn write_outputs(
         "map_bytes": report.map_bytes,
         "history": history,
         "grids": grid_json,
+        "observers": observer_json,
         "view_camera": cam,
         "outputs": outputs,
     });
@@ -755,6 +767,13 @@ fn write_outputs(
     for (g, r) in scene.grids.iter().zip(&grid_results) {
         grids::write_csv(&files.temp(&format!("grid_{}.csv", g.name))?, g, r)?;
         grids::write_picture(&files.temp(&format!("grid_{}.png", g.name))?, g, r)?;
+    }
+    if !scene.observers.is_empty() {
+        observers::write_csv(
+            &files.temp("observers.csv")?,
+            &scene.observers,
+            &observer_results,
+        )?;
     }
     let path = files.temp("report.json")?;
     std::fs::write(&path, serde_json::to_string_pretty(&json).unwrap())
@@ -773,6 +792,9 @@ fn write_outputs(
         if let Some(n) = note {
             println!("  {n}");
         }
+    }
+    for (e, r) in scene.observers.iter().zip(&observer_results) {
+        println!("{}", observers::summary(e, r));
     }
     Ok(json)
 }

@@ -94,6 +94,7 @@ pub fn render(
     opts: &RenderOptions,
 ) -> Result<serde_json::Value> {
     let out = opts.out.as_path();
+    crate::observers::not_here(&mut settings, "render");
     if let Some(t) = opts.threads {
         settings.run.threads = t;
     }

@@ -91,6 +91,8 @@ pub struct LoadedScene {
     pub lights: Vec<PlacedLight>,
     /// The calculation grids.
     pub grids: Vec<crate::grids::Grid>,
+    /// The observers (`[[observer]]`), each a sensor at its eye.
+    pub observers: Vec<crate::observers::ObserverEntry>,
     /// The model's file format, and its triangles (those repeating a vertex left out).
     pub format: &'static str,
     pub triangles_read: usize,
@@ -570,6 +572,14 @@ pub fn load(path: &Path, settings: &Settings) -> Result<(Context, LoadedScene)> 
             format!("settings: grid '{}'", g.name),
         );
     }
+    let observers = crate::observers::add(&mut ctx, settings)?;
+    for o in &observers {
+        name_item(
+            |n| &mut n.meshes,
+            o.mesh,
+            format!("settings: observer '{}'", o.name),
+        );
+    }
     Ok((
         ctx,
         LoadedScene {
@@ -579,6 +589,7 @@ pub fn load(path: &Path, settings: &Settings) -> Result<(Context, LoadedScene)> 
             warnings: diag.warnings,
             lights: placed,
             grids,
+            observers,
             format: model.format,
             triangles_read: model.triangles(),
             material_variants: variants,

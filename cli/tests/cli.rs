@@ -2415,3 +2415,140 @@ fn annual_window_groups_add_up_and_follow_their_rules() {
     let e = run(&s, "short").unwrap_err();
     assert!(e.contains("2 states for the weather file's 4 rows"), "{e}");
 }
+
+/// `[[observer]]`: a 0.5 m square Lambertian panel of 4000 cd/m² seen 30° above an eye's
+/// line of sight, 2 m away, under a uniform sky of 2000 lx over a black ground: the
+/// observer's Ev is half the sky's light and the panel's, and its UGR is CIE 117's formula
+/// by hand; observers.csv, report.json and the terminal say so. Bad observers are refused
+/// naming their line.
+#[test]
+fn observers_report_ev_and_ugr_by_cie_117() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let model = far_triangle(d);
+    // I(γ) = 1000 cos γ cd, a 0.5 m square opening (LM-63: width, length in metres).
+    let cd: Vec<String> = (0..=18)
+        .map(|k| {
+            let g = 10.0 * k as f64;
+            format!(
+                "{}",
+                if g <= 90.0 {
+                    (1000.0 * g.to_radians().cos()).max(0.0)
+                } else {
+                    0.0
+                }
+            )
+        })
+        .collect();
+    let angles: Vec<String> = (0..=18).map(|k| format!("{}", 10 * k)).collect();
+    write(
+        d,
+        "panel.ies",
+        format!(
+            "IESNA:LM-63-2002\n[TEST] panel\nTILT=NONE\n1 -1 1 19 1 1 2 0.5 0.5 0\n1 1 100\n{}\n0\n{}\n",
+            angles.join(" "),
+            cd.join(" ")
+        ),
+    );
+    let s = write(
+        d,
+        "settings.toml",
+        r#"
+up_axis = "z"
+[run]
+seed = 3
+estimator = "gather"
+[sky]
+kind = "uniform"
+horizontal_illuminance = 2000
+[[luminaire]]
+file = "panel.ies"
+position = [1.7320508075688772, 0, 2.2]
+[[observer]]
+name = "desk"
+eye = [0, 0, 1.2]
+view = [1, 0, 0]
+[[observer]]
+name = "away"
+eye = [0, 0, 1.2]
+view = [-1, 0, 0]
+"#,
+    );
+    let out = d.join("out");
+    let r = run_photons(&model, &s, &out, 200_000);
+    assert!(r.status.success(), "{}", stderr(&r));
+    let stdout = String::from_utf8_lossy(&r.stdout);
+    assert!(stdout.contains("observer desk: Ev "), "{stdout}");
+    assert!(
+        stdout.contains("observer away: Ev ") && stdout.contains("UGR < 10 (0 sources"),
+        "{stdout}"
+    );
+    let report = read_report(&out);
+    let o = &report["observers"][0];
+    assert_eq!(o["name"], "desk");
+    let (ev, ev_sigma) = (
+        o["ev_lx"].as_f64().unwrap(),
+        o["ev_sigma_lx"].as_f64().unwrap(),
+    );
+    let direct = 500.0 * 30f64.to_radians().cos() / 4.0;
+    assert!(
+        (ev - (1000.0 + direct)).abs() < 4.0 * ev_sigma + 1e-3 * ev,
+        "Ev {ev} ± {ev_sigma}"
+    );
+    let p = ((35.2 - 1.22) * 1e-3 * 30.0 + 21e-5 * 900.0f64).exp();
+    let exact = 8.0
+        * (0.25 / (1000.0 / std::f64::consts::PI) * 4000.0 * 4000.0 * 0.03125 / (p * p)).log10();
+    let (ugr, ugr_sigma) = (o["ugr"].as_f64().unwrap(), o["ugr_sigma"].as_f64().unwrap());
+    assert!(
+        (ugr - exact).abs() < 4.0 * ugr_sigma + 0.01,
+        "UGR {ugr} ± {ugr_sigma} vs {exact}"
+    );
+    let src = &o["sources"][0];
+    assert!(src["name"].as_str().unwrap().contains("panel.ies"), "{src}");
+    assert!((src["luminance_cd_m2"].as_f64().unwrap() - 4000.0).abs() < 1e-3);
+    assert_eq!(
+        report["observers"][1]["sources"].as_array().unwrap().len(),
+        0
+    );
+    let csv = std::fs::read_to_string(out.join("observers.csv")).unwrap();
+    let rows: Vec<&str> = csv.lines().collect();
+    assert_eq!(rows.len(), 3, "{csv}");
+    assert!(rows[0].starts_with("name,eye_x") && rows[1].starts_with("desk,0,0,1.2,1,0,0,"));
+    let cols: Vec<&str> = rows[1].split(',').collect();
+    assert!((cols[12].parse::<f64>().unwrap() - ugr).abs() < 1e-9);
+
+    // A zero view, and an eye inside nothing but an unknown key, are refused naming the line.
+    let bad = write(
+        d,
+        "bad.toml",
+        "up_axis = \"z\"\n[run]\nphotons = 1000\n[[observer]]\neye = [0, 0, 1]\nview = [0, 0, 0]\n",
+    );
+    let e = fails(&[
+        "run",
+        &model,
+        "--config",
+        &bad,
+        "--out",
+        out.to_str().unwrap(),
+        "--quiet",
+    ]);
+    assert!(
+        e.contains("bad.toml:4: [[observer]]") && e.contains("observer.view"),
+        "{e}"
+    );
+    let bad = write(
+        d,
+        "bad2.toml",
+        "[[observer]]\neye = [0, 0, 1]\nview = [1, 0, 0]\nfov = 3\n",
+    );
+    let e = fails(&[
+        "run",
+        &model,
+        "--config",
+        &bad,
+        "--out",
+        out.to_str().unwrap(),
+        "--quiet",
+    ]);
+    assert!(e.contains("fov"), "{e}");
+}

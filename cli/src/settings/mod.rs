@@ -7,12 +7,14 @@ pub mod daylight;
 pub mod grids;
 pub mod lights;
 pub mod materials;
+pub mod observers;
 pub mod render;
 
 pub use daylight::{EnvironmentSettings, SkySettings, SunSettings};
 pub use grids::GridSettings;
 pub use lights::{LightSettings, LuminaireSettings, SpectrumSettings};
 pub use materials::{MaterialSettings, RoughnessSetting};
+pub use observers::ObserverSettings;
 pub use render::RenderSettings;
 
 use crate::diag::printable;
@@ -229,6 +231,9 @@ pub struct Settings {
     /// Calculation grids, recorded as sensors.
     #[serde(default, rename = "grid")]
     pub grids: Vec<GridSettings>,
+    /// Observers: `imap run` reports their vertical illuminance, UGR and DGPs.
+    #[serde(default, rename = "observer", skip_serializing_if = "Vec::is_empty")]
+    pub observers: Vec<ObserverSettings>,
     /// A medium filling the space around the model (haze, fog): `[medium]`.
     #[serde(default)]
     pub medium: Option<MediumSettings>,

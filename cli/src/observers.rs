@@ -1,0 +1,202 @@
+//! Observers (`[[observer]]`): a sensor at each eye facing its view (it changes no light
+//! path), read after the run for the vertical illuminance Ev with its error, and the
+//! glare the library computes from it (`imap::glare`): UGR with the luminaires in view,
+//! the background luminance and DGPs. Written to `observers.csv`, report.json and the
+//! terminal.
+
+use crate::error::{fail, CliError, Result};
+use crate::scene::LoadedScene;
+use crate::settings::Settings;
+use imap::glare::{Glare, Observer, SourceKind};
+use imap::Context;
+use std::io::Write;
+use std::path::Path;
+
+/// An observer as added: its name, frame and sensor.
+#[derive(Clone, Debug)]
+pub struct ObserverEntry {
+    pub name: String,
+    pub observer: Observer,
+    pub mesh: u32,
+}
+
+/// Adds every `[[observer]]`'s sensor to `ctx`; errors name the settings' line.
+pub fn add(ctx: &mut Context, settings: &Settings) -> Result<Vec<ObserverEntry>> {
+    let unit_m = settings.unit_m.unwrap_or(1.0);
+    let up = settings.up()?;
+    let mut out: Vec<ObserverEntry> = Vec::new();
+    for (k, o) in settings.observers.iter().enumerate() {
+        let (file, line) = settings.locate_nth("[[observer]]", k);
+        let what = format!("{}:{line}: [[observer]]", file.display());
+        let name = o
+            .name
+            .clone()
+            .unwrap_or_else(|| format!("observer{}", k + 1));
+        if name.is_empty()
+            || !name
+                .chars()
+                .all(|c| c.is_ascii_alphanumeric() || "-_. ".contains(c))
+        {
+            fail!("{what}: a name may hold letters, digits, space and - _ . only");
+        }
+        if out.iter().any(|e| e.name == name) {
+            fail!("{what}: two observers are named '{name}'");
+        }
+        let observer = Observer {
+            eye: o.eye,
+            view: o.view,
+            up: o.up.unwrap_or(up),
+        };
+        let radius = o.radius.unwrap_or(0.05 / unit_m);
+        let mesh = ctx
+            .add_observer_sensor(&observer, radius)
+            .map_err(|e| CliError(format!("{what} '{name}': {}", e.message)))?;
+        out.push(ObserverEntry {
+            name,
+            observer,
+            mesh,
+        });
+    }
+    Ok(out)
+}
+
+/// A command that reports no observers drops them (their sensors would cost it work for
+/// nothing), saying so once.
+pub fn not_here(settings: &mut Settings, command: &str) {
+    if !settings.observers.is_empty() {
+        eprintln!(
+            "imap: warning: [[observer]] is reported by imap run only: ignored by imap {command}"
+        );
+        settings.observers.clear();
+    }
+}
+
+/// An observer's figures after the run.
+pub struct ObserverResult {
+    pub glare: Glare,
+}
+
+/// Reads every observer's Ev and rates its glare.
+pub fn read(ctx: &mut Context, entries: &[ObserverEntry]) -> Result<Vec<ObserverResult>> {
+    entries
+        .iter()
+        .map(|e| {
+            let (mut lux, mut rel) = (vec![0.0; 5], vec![0.0; 5]);
+            ctx.illuminance(e.mesh, 0, &mut lux)?;
+            ctx.rel_error(e.mesh, 0, &mut rel)?;
+            let glare = ctx
+                .observer_glare(&e.observer, lux[0], lux[0] * rel[0])
+                .map_err(|x| CliError(format!("observer '{}': {}", e.name, x.message)))?;
+            Ok(ObserverResult { glare })
+        })
+        .collect()
+}
+
+/// A source's name: the light's or the mesh's as the scene names them.
+fn source_name(scene: &LoadedScene, kind: SourceKind) -> String {
+    match kind {
+        SourceKind::Light(i) => scene
+            .lights
+            .get(i as usize)
+            .map_or_else(|| format!("light {i}"), |l| l.name.clone()),
+        SourceKind::Mesh(i) => scene
+            .meshes
+            .iter()
+            .find(|m| m.mesh == i)
+            .map_or_else(|| format!("mesh {i}"), |m| m.name.clone()),
+    }
+}
+
+/// A number for JSON: null where it is not finite (UGR on a black background).
+fn num(x: f64) -> serde_json::Value {
+    if x.is_finite() {
+        serde_json::json!(x)
+    } else {
+        serde_json::Value::Null
+    }
+}
+
+/// UGR as people read it: "< 10" below CIE 117's scale, "∞" on a black background.
+pub fn ugr_text(g: &Glare) -> String {
+    if g.ugr_below_10 {
+        "< 10".into()
+    } else if !g.ugr.is_finite() {
+        "∞ (no background light)".into()
+    } else {
+        format!("{:.2} ± {:.2}", g.ugr, g.ugr_sigma)
+    }
+}
+
+/// report.json's entry of an observer.
+pub fn json(scene: &LoadedScene, e: &ObserverEntry, r: &ObserverResult) -> serde_json::Value {
+    let g = &r.glare;
+    serde_json::json!({
+        "name": e.name,
+        "eye": e.observer.eye, "view": e.observer.view, "up": e.observer.up,
+        "ev_lx": g.ev_lx, "ev_sigma_lx": g.ev_sigma_lx, "direct_lx": g.direct_lx,
+        "background_cd_m2": g.background_cd_m2,
+        "background_sigma_cd_m2": g.background_sigma_cd_m2,
+        "ugr": num(g.ugr), "ugr_sigma": num(g.ugr_sigma), "ugr_below_10": g.ugr_below_10,
+        "dgps": g.dgps, "dgps_sigma": g.dgps_sigma,
+        "sources": g.sources.iter().map(|s| serde_json::json!({
+            "name": source_name(scene, s.kind),
+            "direction": s.direction, "distance_m": s.distance_m,
+            "intensity_cd": s.intensity_cd, "projected_area_m2": s.projected_area_m2,
+            "luminance_cd_m2": s.luminance_cd_m2, "solid_angle_sr": s.solid_angle_sr,
+            "position_index": s.position_index, "visible": s.visible,
+            "ev_lx": s.ev_lx, "ugr_term": s.term, "small": s.small
+        })).collect::<Vec<_>>()
+    })
+}
+
+/// `observers.csv`: one row per observer.
+pub fn write_csv(path: &Path, entries: &[ObserverEntry], results: &[ObserverResult]) -> Result<()> {
+    let mut f = std::io::BufWriter::new(
+        std::fs::File::create(path).map_err(|e| CliError(format!("{}: {e}", path.display())))?,
+    );
+    let io = |e: std::io::Error| CliError(format!("{}: {e}", path.display()));
+    writeln!(
+        f,
+        "name,eye_x,eye_y,eye_z,view_x,view_y,view_z,ev_lx,ev_sigma_lx,direct_lx,background_cd_m2,background_sigma_cd_m2,ugr,ugr_sigma,ugr_below_10,dgps,dgps_sigma,sources"
+    )
+    .map_err(io)?;
+    for (e, r) in entries.iter().zip(results) {
+        let g = &r.glare;
+        let [ex, ey, ez] = e.observer.eye;
+        let [vx, vy, vz] = e.observer.view;
+        writeln!(
+            f,
+            "{},{ex},{ey},{ez},{vx},{vy},{vz},{},{},{},{},{},{},{},{},{},{},{}",
+            e.name,
+            g.ev_lx,
+            g.ev_sigma_lx,
+            g.direct_lx,
+            g.background_cd_m2,
+            g.background_sigma_cd_m2,
+            g.ugr,
+            g.ugr_sigma,
+            g.ugr_below_10 as u8,
+            g.dgps,
+            g.dgps_sigma,
+            g.sources.len()
+        )
+        .map_err(io)?;
+    }
+    f.flush().map_err(io)
+}
+
+/// The terminal's line of an observer.
+pub fn summary(e: &ObserverEntry, r: &ObserverResult) -> String {
+    let g = &r.glare;
+    format!(
+        "observer {}: Ev {:.1} ± {:.1} lx, UGR {} ({} source{} in view, background {:.1} cd/m²), DGPs {:.3}",
+        e.name,
+        g.ev_lx,
+        g.ev_sigma_lx,
+        ugr_text(g),
+        g.sources.len(),
+        if g.sources.len() == 1 { "" } else { "s" },
+        g.background_cd_m2,
+        g.dgps
+    )
+}
