@@ -158,12 +158,48 @@ int main(void) {
     expect("sensor radius 0", imap_add_observer_sensor(ctx, &o, 0.0, &id), IMAP_ERR_INVALID_ARGUMENT, ctx, "radius");
     expect("glare ctx NULL", imap_observer_glare(NULL, &o, 100, 1, &g, sizeof g, NULL, 0, 0, NULL),
            IMAP_ERR_NULL_POINTER, NULL, "ctx");
+    /* The eye's figures in one call; α-opic light needs wavelengths (spectral bands). */
+    double ev0 = 0, s0 = 0;
+    expect("observer Ev", imap_get_observer_ev(ctx, eye, &ev0, &s0), IMAP_OK, ctx, NULL);
+    check("observer Ev = vertex 0", ev0 == ev[0] && s0 == s, ev0, ev[0]);
+    ImapAlphaOpic ao;
+    expect("alpha-opic in RGB", imap_get_observer_alpha_opic(ctx, eye, &ao, sizeof ao), IMAP_ERR_UNSUPPORTED, ctx,
+           "RGB");
+    expect("observer Ev of mesh 99", imap_get_observer_ev(ctx, 99, &ev0, NULL), IMAP_ERR_INDEX_OUT_OF_RANGE, ctx,
+           NULL);
     /* Still usable, and nothing accumulated was lost. */
     double again[5];
     expect("Ev again", imap_get_vertex_illuminance(ctx, eye, 0, again, 5), IMAP_OK, ctx, NULL);
     check("Ev unchanged", again[0] == ev[0], again[0], ev[0]);
     expect("glare again", imap_observer_glare(ctx, &o, ev[0], s, &g, sizeof g, NULL, 0, 0, NULL), IMAP_OK, ctx, NULL);
 
+    imap_destroy(ctx);
+
+    /* A spectral context: D65 skylight's α-opic EDIs are its illuminance (CIE S 026's
+     * definition), the melanopic one included. */
+    imap_config_default(&cfg, sizeof cfg);
+    cfg.band_mode = IMAP_BANDS_SPECTRAL, cfg.band_count = 81, cfg.wavelength_min_nm = 380, cfg.wavelength_max_nm = 780;
+    if (imap_create(&cfg, &ctx) != IMAP_OK) return 1;
+    expect("black material (spectral)", imap_add_material(ctx, &black, &mat), IMAP_OK, ctx, NULL);
+    m.material = mat;
+    expect("ground (spectral)", imap_add_mesh(ctx, &m, &id), IMAP_OK, ctx, NULL);
+    ImapSpectrum d65;
+    imap_spectrum_default(&d65, sizeof d65);
+    d65.kind = IMAP_SPECTRUM_CIE_D65;
+    sky.amount = 1000.0;
+    expect("D65 sky of 1000 lx", imap_add_sky(ctx, &sky, &d65, &id), IMAP_OK, ctx, NULL);
+    ImapObserver up;
+    imap_observer_default(&up, sizeof up);
+    up.eye[2] = 1.2, up.view[0] = 0, up.view[2] = 1, up.up[0] = 1, up.up[2] = 0;
+    expect("upward sensor", imap_add_observer_sensor(ctx, &up, 0.05, &eye), IMAP_OK, ctx, NULL);
+    p.photons = 50000;
+    expect("spectral run", imap_run(ctx, &p, &r, sizeof r), IMAP_OK, ctx, NULL);
+    expect("observer Ev", imap_get_observer_ev(ctx, eye, &ev0, &s0), IMAP_OK, ctx, NULL);
+    check("Ev = 1000 lx (4 sigma)", fabs(ev0 - 1000.0) < 4 * s0, ev0, 1000.0);
+    expect("alpha-opic", imap_get_observer_alpha_opic(ctx, eye, &ao, sizeof ao), IMAP_OK, ctx, NULL);
+    check("melanopic EDI / Ev of D65 = 1", fabs(ao.edi_lx[4] / ev0 - 1.0) < 1e-3, ao.edi_lx[4] / ev0, 1.0);
+    check("melanopic DER = 1", fabs(ao.melanopic_der - 1.0) < 1e-3, ao.melanopic_der, 1.0);
+    check("S-cone EDI / Ev of D65 = 1", fabs(ao.edi_lx[0] / ev0 - 1.0) < 1e-3, ao.edi_lx[0] / ev0, 1.0);
     imap_destroy(ctx);
     printf("%s\n", failures ? "FAILED" : "all glare checks passed");
     return failures ? 1 : 0;

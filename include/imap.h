@@ -1472,6 +1472,34 @@ typedef struct ImapGlareSource {
 } ImapGlareSource;
 
 /**
+ * The α-opic light at an observer's eye (CIE S 026/E:2018; `imap_get_observer_alpha_opic`),
+ * each array in the standard's order: S-cone, M-cone, L-cone, rhodopic, melanopic.
+ * (Since 0.2.3.)
+ */
+typedef struct ImapAlphaOpic {
+  uint32_t struct_size;
+  uint32_t reserved;
+  /**
+   * α-opic irradiance, W/m².
+   */
+  double irradiance_w_m2[5];
+  /**
+   * α-opic equivalent daylight (D65) illuminance, lx: the irradiance over the
+   * standard's K_α,v^D65 (0.8173, 1.4558, 1.6289, 1.4497, 1.3262 mW/lm). Melanopic EDI
+   * is `edi_lx[4]`.
+   */
+  double edi_lx[5];
+  /**
+   * Their standard errors, lx.
+   */
+  double edi_sigma_lx[5];
+  /**
+   * The melanopic daylight (D65) efficacy ratio: melanopic EDI over the illuminance.
+   */
+  double melanopic_der;
+} ImapAlphaOpic;
+
+/**
  * A region's figures (`imap_get_region_stats`), each with its standard error (`*_sigma`,
  * the same unit). Filled by the library; `struct_size` says how many bytes are valid.
  * (Since 0.2.1.)
@@ -3103,6 +3131,33 @@ enum ImapStatus imap_add_observer_sensor(struct ImapContext *ctx, const struct I
  * `out_count` NULL or writable.
  */
 enum ImapStatus imap_observer_glare(struct ImapContext *ctx, const struct ImapObserver *observer, double ev_lx, double ev_sigma_lx, struct ImapGlare *out, size_t out_size, struct ImapGlareSource *sources, size_t capacity, size_t element_size, size_t *out_count);
+
+/**
+ * The vertical illuminance an observer's sensor read at the eye and its standard error,
+ * lx (vertex 0 of mesh `mesh`, front side: `imap_add_observer_sensor`), into `*out_ev_lx`
+ * and `*out_sigma_lx` (NULL: not wanted). Returns IMAP_ERR_INDEX_OUT_OF_RANGE (no such
+ * mesh), IMAP_ERR_INVALID_ARGUMENT (a mesh that records nothing), IMAP_ERR_NULL_POINTER.
+ * (Since 0.2.3.)
+ *
+ * # Safety
+ * `ctx` is a live handle; `out_ev_lx` writable; `out_sigma_lx` NULL or writable.
+ */
+enum ImapStatus imap_get_observer_ev(const struct ImapContext *ctx, uint32_t mesh, double *out_ev_lx, double *out_sigma_lx);
+
+/**
+ * The α-opic irradiances and equivalent daylight illuminances (melanopic EDI among them)
+ * at an observer's eye, with errors, from its sensor's bands (vertex 0 of mesh `mesh`,
+ * front side; each band's power spread evenly over its interval, against the CIE S 026
+ * action spectra at 1 nm), into `*out` (`size` = sizeof(ImapAlphaOpic)). The errors are
+ * the band-mean irradiance's relative error times each value (exact when one spectrum
+ * reaches the eye). Returns IMAP_ERR_UNSUPPORTED in an RGB context (its bands carry no
+ * wavelengths: create the context with spectral bands), IMAP_ERR_INDEX_OUT_OF_RANGE,
+ * IMAP_ERR_INVALID_ARGUMENT, IMAP_ERR_NULL_POINTER. (Since 0.2.3.)
+ *
+ * # Safety
+ * `ctx` is a live handle; `out` points to `size` writable bytes.
+ */
+enum ImapStatus imap_get_observer_alpha_opic(const struct ImapContext *ctx, uint32_t mesh, struct ImapAlphaOpic *out, size_t size);
 
 /**
  * Chooses the layers the map keeps, from the flags `IMAP_KEEP_LIGHT_GROUPS` (one layer

@@ -14,6 +14,7 @@
 
 use crate::context::{Context, Sight};
 use crate::error::{bail, check_coordinates, Result};
+use crate::photometry::alpha_opic::{alpha_opic_per_band, D65_EFFICACY_MW_PER_LM};
 use crate::scene::light::{Light, LightShape, LuminousShape};
 use crate::scene::MeshDesc;
 use glam::DVec3;
@@ -179,6 +180,20 @@ pub struct Glare {
     pub sources: Vec<GlareSource>,
 }
 
+/// The α-opic light at an eye (CIE S 026/E:2018), in the order of
+/// `photometry::alpha_opic::ALPHA_OPIC_NAMES`: S-cone, M-cone, L-cone, rhodopic, melanopic.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct AlphaOpic {
+    /// α-opic irradiance, W/m².
+    pub irradiance_w_m2: [f64; 5],
+    /// α-opic equivalent daylight (D65) illuminance, lx (melanopic EDI last), and its
+    /// standard error.
+    pub edi_lx: [f64; 5],
+    pub edi_sigma_lx: [f64; 5],
+    /// Melanopic daylight (D65) efficacy ratio: melanopic EDI over the illuminance.
+    pub melanopic_der: f64,
+}
+
 /// Emitting triangles are split until each piece subtends at most this solid angle, sr.
 const PIECE_SR: f64 = 2e-3;
 /// At most this many halvings of a triangle's edges (4⁶ pieces).
@@ -211,6 +226,53 @@ impl Context {
             sensor: true,
             ..MeshDesc::new(&positions, &indices, 0)
         })
+    }
+
+    /// The vertical illuminance an observer's sensor (`add_observer_sensor`) read at its
+    /// eye, and its standard error, lx: vertex 0 of mesh `sensor`, front side.
+    pub fn observer_ev(&self, sensor: u32) -> Result<(f64, f64)> {
+        let n = self.vertex_count(sensor)?;
+        let (mut lux, mut rel) = (vec![0.0; n], vec![0.0; n]);
+        self.illuminance(sensor, 0, &mut lux)?;
+        self.rel_error(sensor, 0, &mut rel)?;
+        Ok((lux[0], lux[0] * rel[0]))
+    }
+
+    /// The α-opic light at an observer's eye from its sensor's bands (vertex 0 of mesh
+    /// `sensor`, front side), each band's power spread evenly over its interval. The
+    /// standard errors are the band-mean irradiance's relative error times each value
+    /// (exact when every photon has the same spectrum at the eye). Refused
+    /// (IMAP_ERR_UNSUPPORTED) in an RGB context: its bands carry no wavelengths.
+    pub fn observer_alpha_opic(&self, sensor: u32) -> Result<AlphaOpic> {
+        let Some(weights) = alpha_opic_per_band(&self.config().bands) else {
+            bail!(
+                ImapErrUnsupported,
+                "α-opic quantities (melanopic EDI) need a spectral context: an RGB context's bands carry no wavelengths (create the context with spectral bands)"
+            );
+        };
+        let n = self.vertex_count(sensor)?;
+        let mut out = AlphaOpic {
+            irradiance_w_m2: [0.0; 5],
+            edi_lx: [0.0; 5],
+            edi_sigma_lx: [0.0; 5],
+            melanopic_der: 0.0,
+        };
+        let mut e = vec![0.0; n];
+        for (b, w) in weights.iter().enumerate() {
+            self.irradiance(sensor, 0, b as u32, &mut e)?;
+            for (o, wk) in out.irradiance_w_m2.iter_mut().zip(w) {
+                *o += e[0] * wk;
+            }
+        }
+        let mut rel = vec![0.0; n];
+        self.rel_error(sensor, 0, &mut rel)?;
+        for (k, kv) in D65_EFFICACY_MW_PER_LM.iter().enumerate() {
+            out.edi_lx[k] = out.irradiance_w_m2[k] / (kv * 1e-3);
+            out.edi_sigma_lx[k] = out.edi_lx[k] * rel[0];
+        }
+        let (ev, _) = self.observer_ev(sensor)?;
+        out.melanopic_der = if ev > 0.0 { out.edi_lx[4] / ev } else { 0.0 };
+        Ok(out)
     }
 
     /// The glare `observer` gets from the scene's light sources, given the vertical

@@ -466,3 +466,80 @@ fn ugr_errors_are_calibrated_per_observer_at_low_and_high_counts() {
         assert!((0.3..2.6).contains(&chi2), "{n} photons: mean z² {chi2}");
     }
 }
+
+/// Each spectrum's α-opic daylight efficacy ratios (S, M, L, rhodopic, melanopic).
+type Ratios = Vec<(String, [f64; 5])>;
+
+/// luxpy's ratios of tests/data/luxpy_alpha_opic.txt, and LED-B2's spectrum.
+fn luxpy_reference() -> (Ratios, Vec<(f64, f64)>) {
+    let text = include_str!("data/luxpy_alpha_opic.txt");
+    let (mut der, mut led) = (Vec::new(), Vec::new());
+    for l in text.lines().filter(|l| !l.starts_with('#')) {
+        let w: Vec<&str> = l.split_whitespace().collect();
+        match w[0] {
+            "der" => {
+                let v: Vec<f64> = w[2..7].iter().map(|x| x.parse().unwrap()).collect();
+                der.push((w[1].to_string(), [v[0], v[1], v[2], v[3], v[4]]));
+            }
+            "led_b2" => led.push((w[1].parse().unwrap(), w[2].parse().unwrap())),
+            _ => panic!("{l}"),
+        }
+    }
+    (der, led)
+}
+
+#[test]
+fn melanopic_edi_of_d65_is_its_illuminance_and_of_a_and_an_led_luxpys() {
+    let (der, led) = luxpy_reference();
+    let cases = [
+        ("D65", Spectrum::CieD65, [1.0; 5]),
+        ("A", Spectrum::CieA, der[0].1),
+        ("LED_B2", Spectrum::Table(led), der[1].1),
+    ];
+    for (name, spectrum, want) in cases {
+        // 81 bands 5 nm apart over 380–780 nm; a uniform sky of 1000 lx of the spectrum over
+        // a black ground, an eye looking up: Ev = 1000 lx.
+        let mut ctx = context(imap::Config {
+            bands: imap::Bands::spectral(81, 380.0, 780.0).unwrap(),
+            ..seeded(21)
+        });
+        black_floor(&mut ctx);
+        ctx.add_sky(&SkyDesc {
+            kind: SkyKind::Uniform { sphere: false },
+            amount: SkyAmount::HorizontalIlluminance(1000.0),
+            spectrum,
+            ..SkyDesc::default()
+        })
+        .unwrap();
+        let eye = Observer {
+            view: [0.0, 0.0, 1.0],
+            up: [1.0, 0.0, 0.0],
+            ..LOOK_X
+        };
+        let mesh = ctx.add_observer_sensor(&eye, 0.05).unwrap();
+        run_with(&mut ctx, photons(50_000), Estimator::DEFAULT);
+        let (ev, s) = ctx.observer_ev(mesh).unwrap();
+        assert!((ev - 1000.0).abs() < 4.0 * s, "{name}: Ev {ev} ± {s}");
+        let a = ctx.observer_alpha_opic(mesh).unwrap();
+        // The ratios do not depend on the noise: one spectrum reaches the eye.
+        for (k, w) in want.iter().enumerate() {
+            let ratio = a.edi_lx[k] / ev;
+            assert!(
+                (ratio - w).abs() < 3e-3 * w,
+                "{name} {}: EDI/Ev {ratio}, luxpy {w}",
+                imap::photometry::alpha_opic::ALPHA_OPIC_NAMES[k],
+            );
+            assert!((a.edi_sigma_lx[k] / a.edi_lx[k] - s / ev).abs() < 1e-12);
+        }
+        assert!((a.melanopic_der - a.edi_lx[4] / ev).abs() < 1e-12);
+    }
+    // An RGB context has no wavelengths: refused, by its own status.
+    let mut ctx = context(seeded(2));
+    black_floor(&mut ctx);
+    uniform_sky_lx(&mut ctx, 1000.0);
+    let mesh = ctx.add_observer_sensor(&LOOK_X, 0.05).unwrap();
+    run_with(&mut ctx, photons(5_000), Estimator::DEFAULT);
+    let e = ctx.observer_alpha_opic(mesh).unwrap_err();
+    assert_eq!(e.status, ImapStatus::ImapErrUnsupported);
+    assert!(e.message.contains("RGB"), "{}", e.message);
+}

@@ -315,3 +315,99 @@ pub unsafe extern "C" fn imap_observer_glare(
         Ok(())
     })
 }
+
+/// The vertical illuminance an observer's sensor read at the eye and its standard error,
+/// lx (vertex 0 of mesh `mesh`, front side: `imap_add_observer_sensor`), into `*out_ev_lx`
+/// and `*out_sigma_lx` (NULL: not wanted). Returns IMAP_ERR_INDEX_OUT_OF_RANGE (no such
+/// mesh), IMAP_ERR_INVALID_ARGUMENT (a mesh that records nothing), IMAP_ERR_NULL_POINTER.
+/// (Since 0.2.3.)
+///
+/// # Safety
+/// `ctx` is a live handle; `out_ev_lx` writable; `out_sigma_lx` NULL or writable.
+#[no_mangle]
+pub unsafe extern "C" fn imap_get_observer_ev(
+    ctx: *const ImapContext,
+    mesh: u32,
+    out_ev_lx: *mut f64,
+    out_sigma_lx: *mut f64,
+) -> ImapStatus {
+    with_context(ctx, |c| {
+        check_out("out_ev_lx", out_ev_lx)?;
+        let (ev, sigma) = c.observer_ev(mesh)?;
+        write_out("out_ev_lx", out_ev_lx, ev)?;
+        super::write_optional(out_sigma_lx, sigma)
+    })
+}
+
+/// The α-opic light at an observer's eye (CIE S 026/E:2018; `imap_get_observer_alpha_opic`),
+/// each array in the standard's order: S-cone, M-cone, L-cone, rhodopic, melanopic.
+/// (Since 0.2.3.)
+#[repr(C)]
+#[derive(Clone, Copy, Debug)]
+pub struct ImapAlphaOpic {
+    pub struct_size: u32,
+    pub reserved: u32,
+    /// α-opic irradiance, W/m².
+    pub irradiance_w_m2: [f64; 5],
+    /// α-opic equivalent daylight (D65) illuminance, lx: the irradiance over the
+    /// standard's K_α,v^D65 (0.8173, 1.4558, 1.6289, 1.4497, 1.3262 mW/lm). Melanopic EDI
+    /// is `edi_lx[4]`.
+    pub edi_lx: [f64; 5],
+    /// Their standard errors, lx.
+    pub edi_sigma_lx: [f64; 5],
+    /// The melanopic daylight (D65) efficacy ratio: melanopic EDI over the illuminance.
+    pub melanopic_der: f64,
+}
+
+// SAFETY: repr(C), u32 struct_size first, numbers only.
+unsafe impl Versioned for ImapAlphaOpic {
+    const NAME: &'static str = "ImapAlphaOpic";
+    const INIT: &'static str = "sizeof(ImapAlphaOpic)";
+    fn defaults() -> Self {
+        ImapAlphaOpic {
+            struct_size: std::mem::size_of::<Self>() as u32,
+            reserved: 0,
+            irradiance_w_m2: [0.0; 5],
+            edi_lx: [0.0; 5],
+            edi_sigma_lx: [0.0; 5],
+            melanopic_der: 0.0,
+        }
+    }
+}
+
+/// The α-opic irradiances and equivalent daylight illuminances (melanopic EDI among them)
+/// at an observer's eye, with errors, from its sensor's bands (vertex 0 of mesh `mesh`,
+/// front side; each band's power spread evenly over its interval, against the CIE S 026
+/// action spectra at 1 nm), into `*out` (`size` = sizeof(ImapAlphaOpic)). The errors are
+/// the band-mean irradiance's relative error times each value (exact when one spectrum
+/// reaches the eye). Returns IMAP_ERR_UNSUPPORTED in an RGB context (its bands carry no
+/// wavelengths: create the context with spectral bands), IMAP_ERR_INDEX_OUT_OF_RANGE,
+/// IMAP_ERR_INVALID_ARGUMENT, IMAP_ERR_NULL_POINTER. (Since 0.2.3.)
+///
+/// # Safety
+/// `ctx` is a live handle; `out` points to `size` writable bytes.
+#[no_mangle]
+pub unsafe extern "C" fn imap_get_observer_alpha_opic(
+    ctx: *const ImapContext,
+    mesh: u32,
+    out: *mut ImapAlphaOpic,
+    size: usize,
+) -> ImapStatus {
+    with_context(ctx, |c| {
+        check_out("out", out)?;
+        let a = c.observer_alpha_opic(mesh)?;
+        write_versioned(
+            "out",
+            out,
+            size,
+            ImapAlphaOpic {
+                struct_size: 0,
+                reserved: 0,
+                irradiance_w_m2: a.irradiance_w_m2,
+                edi_lx: a.edi_lx,
+                edi_sigma_lx: a.edi_sigma_lx,
+                melanopic_der: a.melanopic_der,
+            },
+        )
+    })
+}

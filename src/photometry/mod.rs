@@ -5,6 +5,7 @@
 //!
 //! docs/photometry.md states every rule.
 
+pub mod alpha_opic;
 pub mod colour;
 pub mod gonio;
 pub mod ies;
