@@ -7,7 +7,8 @@
 use crate::error::{fail, CliError, Result};
 use crate::scene::LoadedScene;
 use crate::settings::Settings;
-use imap::glare::{Glare, Observer, SourceKind};
+use imap::glare::{AlphaOpic, Glare, Observer, SourceKind};
+use imap::photometry::alpha_opic::ALPHA_OPIC_NAMES;
 use imap::Context;
 use std::io::Write;
 use std::path::Path;
@@ -74,20 +75,25 @@ pub fn not_here(settings: &mut Settings, command: &str) {
 /// An observer's figures after the run.
 pub struct ObserverResult {
     pub glare: Glare,
+    /// The α-opic light at the eye (spectral runs; None in RGB).
+    pub alpha_opic: Option<AlphaOpic>,
 }
 
-/// Reads every observer's Ev and rates its glare.
+/// Reads every observer's Ev, rates its glare and, in spectral runs, its α-opic light.
 pub fn read(ctx: &mut Context, entries: &[ObserverEntry]) -> Result<Vec<ObserverResult>> {
+    let spectral = !ctx.config().bands.rgb;
     entries
         .iter()
         .map(|e| {
-            let (mut lux, mut rel) = (vec![0.0; 5], vec![0.0; 5]);
-            ctx.illuminance(e.mesh, 0, &mut lux)?;
-            ctx.rel_error(e.mesh, 0, &mut rel)?;
-            let glare = ctx
-                .observer_glare(&e.observer, lux[0], lux[0] * rel[0])
-                .map_err(|x| CliError(format!("observer '{}': {}", e.name, x.message)))?;
-            Ok(ObserverResult { glare })
+            let what = |x: imap::Error| CliError(format!("observer '{}': {}", e.name, x.message));
+            let (ev, sigma) = ctx.observer_ev(e.mesh).map_err(what)?;
+            let glare = ctx.observer_glare(&e.observer, ev, sigma).map_err(what)?;
+            let alpha_opic = if spectral {
+                Some(ctx.observer_alpha_opic(e.mesh).map_err(what)?)
+            } else {
+                None
+            };
+            Ok(ObserverResult { glare, alpha_opic })
         })
         .collect()
 }
@@ -138,6 +144,14 @@ pub fn json(scene: &LoadedScene, e: &ObserverEntry, r: &ObserverResult) -> serde
         "background_sigma_cd_m2": g.background_sigma_cd_m2,
         "ugr": num(g.ugr), "ugr_sigma": num(g.ugr_sigma), "ugr_below_10": g.ugr_below_10,
         "dgps": g.dgps, "dgps_sigma": g.dgps_sigma,
+        // α-opic light at the eye (CIE S 026), spectral runs only.
+        "alpha_opic": r.alpha_opic.map(|a| serde_json::json!({
+            "names": ALPHA_OPIC_NAMES,
+            "irradiance_w_m2": a.irradiance_w_m2,
+            "edi_lx": a.edi_lx, "edi_sigma_lx": a.edi_sigma_lx,
+            "melanopic_edi_lx": a.edi_lx[4], "melanopic_edi_sigma_lx": a.edi_sigma_lx[4],
+            "melanopic_der": a.melanopic_der
+        })),
         "sources": g.sources.iter().map(|s| serde_json::json!({
             "name": source_name(scene, s.kind),
             "direction": s.direction, "distance_m": s.distance_m,
@@ -157,16 +171,20 @@ pub fn write_csv(path: &Path, entries: &[ObserverEntry], results: &[ObserverResu
     let io = |e: std::io::Error| CliError(format!("{}: {e}", path.display()));
     writeln!(
         f,
-        "name,eye_x,eye_y,eye_z,view_x,view_y,view_z,ev_lx,ev_sigma_lx,direct_lx,background_cd_m2,background_sigma_cd_m2,ugr,ugr_sigma,ugr_below_10,dgps,dgps_sigma,sources"
+        "name,eye_x,eye_y,eye_z,view_x,view_y,view_z,ev_lx,ev_sigma_lx,direct_lx,background_cd_m2,background_sigma_cd_m2,ugr,ugr_sigma,ugr_below_10,dgps,dgps_sigma,sources,melanopic_edi_lx,melanopic_edi_sigma_lx,melanopic_der"
     )
     .map_err(io)?;
     for (e, r) in entries.iter().zip(results) {
         let g = &r.glare;
         let [ex, ey, ez] = e.observer.eye;
         let [vx, vy, vz] = e.observer.view;
+        // Empty in RGB runs, which have no wavelengths.
+        let mel = r.alpha_opic.map_or(",,".to_string(), |a| {
+            format!("{},{},{}", a.edi_lx[4], a.edi_sigma_lx[4], a.melanopic_der)
+        });
         writeln!(
             f,
-            "{},{ex},{ey},{ez},{vx},{vy},{vz},{},{},{},{},{},{},{},{},{},{},{}",
+            "{},{ex},{ey},{ez},{vx},{vy},{vz},{},{},{},{},{},{},{},{},{},{},{},{mel}",
             e.name,
             g.ev_lx,
             g.ev_sigma_lx,
@@ -188,8 +206,14 @@ pub fn write_csv(path: &Path, entries: &[ObserverEntry], results: &[ObserverResu
 /// The terminal's line of an observer.
 pub fn summary(e: &ObserverEntry, r: &ObserverResult) -> String {
     let g = &r.glare;
+    let mel = r.alpha_opic.map_or(String::new(), |a| {
+        format!(
+            ", melanopic EDI {:.1} ± {:.1} lx (DER {:.3})",
+            a.edi_lx[4], a.edi_sigma_lx[4], a.melanopic_der
+        )
+    });
     format!(
-        "observer {}: Ev {:.1} ± {:.1} lx, UGR {} ({} source{} in view, background {:.1} cd/m²), DGPs {:.3}",
+        "observer {}: Ev {:.1} ± {:.1} lx, UGR {} ({} source{} in view, background {:.1} cd/m²), DGPs {:.3}{mel}",
         e.name,
         g.ev_lx,
         g.ev_sigma_lx,

@@ -2517,7 +2517,28 @@ view = [-1, 0, 0]
     let cols: Vec<&str> = rows[1].split(',').collect();
     assert!((cols[12].parse::<f64>().unwrap() - ugr).abs() < 1e-9);
 
-    // A zero view, and an eye inside nothing but an unknown key, are refused naming the line.
+    // In RGB there is no melanopic light to give: its columns are empty.
+    assert!(rows[1].ends_with(",,"), "{}", rows[1]);
+    assert!(o["alpha_opic"].is_null());
+    // A spectral run under a D65 sky (the default colour): its melanopic EDI is Ev.
+    let spectral = write(
+        d,
+        "spectral.toml",
+        "up_axis = \"z\"\n[spectral]\nbands = 81\nmin_nm = 380\nmax_nm = 780\n[run]\nseed = 4\n\
+         [sky]\nkind = \"uniform\"\nhorizontal_illuminance = 1000\n\
+         [[observer]]\nname = \"up\"\neye = [0, 0, 1]\nview = [0, 0, 1]\nup = [1, 0, 0]\n",
+    );
+    let out2 = d.join("out2");
+    let r = run_photons(&model, &spectral, &out2, 50_000);
+    assert!(r.status.success(), "{}", stderr(&r));
+    let stdout = String::from_utf8_lossy(&r.stdout);
+    assert!(stdout.contains("melanopic EDI"), "{stdout}");
+    let o = &read_report(&out2)["observers"][0];
+    let ev = o["ev_lx"].as_f64().unwrap();
+    let mel = o["alpha_opic"]["melanopic_edi_lx"].as_f64().unwrap();
+    assert!((mel / ev - 1.0).abs() < 1e-3, "m-EDI {mel}, Ev {ev}");
+
+    // A zero view, and an unknown key, are refused naming the line.
     let bad = write(
         d,
         "bad.toml",
