@@ -15,7 +15,7 @@
 use crate::context::{Context, Sight};
 use crate::error::{bail, check_coordinates, Result};
 use crate::photometry::alpha_opic::{alpha_opic_per_band, D65_EFFICACY_MW_PER_LM};
-use crate::scene::light::{Light, LightShape, LuminousShape};
+use crate::scene::light::{Light, LightShape};
 use crate::scene::MeshDesc;
 use glam::DVec3;
 use std::f64::consts::PI;
@@ -404,10 +404,11 @@ fn light_source(
     if let LightShape::Luminaire(l) = &light.shape {
         let lum = &l.luminous;
         area = lum.projected_area_m2(d);
-        if lum.shape != LuminousShape::Point {
+        let (length, width) = lum.opening.extent_m();
+        if length > 0.0 || width > 0.0 {
             let (a, b) = (
-                lum.along * (0.4 * lum.length / unit_m),
-                lum.across * (0.4 * lum.width / unit_m),
+                lum.along * (0.4 * length / unit_m),
+                lum.across * (0.4 * width / unit_m),
             );
             points.extend([a, -a, b, -b].map(|o| light.position + o));
         }

@@ -85,6 +85,64 @@ pub enum Opening {
     },
 }
 
+impl Opening {
+    /// The luminous area the opening shows toward a direction of components `along` (the
+    /// length's direction: C0–C180 for type C), `across` (the width's) and `axis` (the
+    /// photometric axis, the flat opening's normal), m² (0 for a point).
+    ///
+    /// A rectangle or ellipse shows its area times |cos| to the axis. A box (LM-63: width,
+    /// length and height positive) shows its bottom and the two sides the direction sees.
+    /// A vertical cylinder (width < 0 its diameter, length 0, height > 0) its disk and its
+    /// side; a sphere (all three negative) its disk. Every other three-dimensional shape
+    /// LM-63 codes is taken as the box of its dimensions' magnitudes.
+    pub fn projected_area_m2(&self, along: f64, across: f64, axis: f64) -> f64 {
+        let cz = axis.abs();
+        match *self {
+            Opening::Point => 0.0,
+            Opening::Rectangle { width, length } => width * length * cz,
+            Opening::Ellipse { width, length } => PI / 4.0 * width * length * cz,
+            Opening::Solid {
+                width,
+                length,
+                height,
+                ..
+            } => {
+                if width < 0.0 && length < 0.0 && height < 0.0 {
+                    PI / 4.0 * width * width
+                } else if width < 0.0 && length == 0.0 && height > 0.0 {
+                    PI / 4.0 * width * width * cz - width * height * (1.0 - cz * cz).max(0.0).sqrt()
+                } else {
+                    let (w, l, h) = (width.abs(), length.abs(), height.abs());
+                    l * w * cz + l * h * across.abs() + w * h * along.abs()
+                }
+            }
+        }
+    }
+
+    /// The length and width of its footprint, m (0 for a point; a cylinder's or sphere's
+    /// diameter).
+    pub fn extent_m(&self) -> (f64, f64) {
+        match *self {
+            Opening::Point => (0.0, 0.0),
+            Opening::Rectangle { width, length } | Opening::Ellipse { width, length } => {
+                (length, width)
+            }
+            Opening::Solid {
+                width,
+                length,
+                height,
+                ..
+            } => {
+                if width < 0.0 && ((length < 0.0 && height < 0.0) || length == 0.0) {
+                    (-width, -width)
+                } else {
+                    (length.abs(), width.abs())
+                }
+            }
+        }
+    }
+}
+
 impl Symmetry {
     /// The symmetry LM-63 reads from the horizontal angles (increasing): type C one angle
     /// (rotational), 0–90° (quadrants), 0–180°, 90–270°, 0° to more than 180° (none); type

@@ -1,7 +1,7 @@
 //! A goniometric luminaire placed in the scene: its distribution in the world's frame.
 
 use super::shape::Aperture;
-use crate::photometry::Goniometric;
+use crate::photometry::{Goniometric, Opening};
 use glam::DVec3;
 use std::sync::Arc;
 
@@ -23,52 +23,23 @@ pub struct Luminaire {
     pub luminous: Luminous,
 }
 
-/// A luminaire's luminous parts in the world, metres: a flat opening, a box, a vertical
-/// cylinder or a sphere (LM-63's shapes; EULUMDAT gives a flat one), or none (a point).
+/// A luminaire's luminous parts in the world: the file's opening (a point, a flat
+/// rectangle or disk, an LM-63 box, cylinder or sphere) and its frame.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Luminous {
-    pub shape: LuminousShape,
+    pub opening: Opening,
     /// The opening's length direction (C0–C180 for type C), its width direction and its
     /// normal (the photometric axis), unit.
     pub along: DVec3,
     pub across: DVec3,
     pub normal: DVec3,
-    /// Length, width and height, m (0 where the shape has none).
-    pub length: f64,
-    pub width: f64,
-    pub height: f64,
-}
-
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum LuminousShape {
-    Point,
-    Rectangle,
-    Ellipse,
-    /// A box with luminous sides (LM-63 width, length, height all positive), and every
-    /// three-dimensional shape LM-63 codes other than the two below (taken as its box).
-    Box,
-    /// A cylinder along the normal (LM-63: width < 0 its diameter, length 0, height > 0).
-    Cylinder,
-    Sphere,
 }
 
 impl Luminous {
     /// The area the luminous parts show toward unit direction `d`, m² (0 for a point).
     pub fn projected_area_m2(&self, d: DVec3) -> f64 {
-        let (l, w, h) = (self.length, self.width, self.height);
-        let cz = d.dot(self.normal).abs();
-        match self.shape {
-            LuminousShape::Point => 0.0,
-            LuminousShape::Rectangle => l * w * cz,
-            LuminousShape::Ellipse => std::f64::consts::FRAC_PI_4 * l * w * cz,
-            LuminousShape::Box => {
-                l * w * cz + l * h * d.dot(self.across).abs() + w * h * d.dot(self.along).abs()
-            }
-            LuminousShape::Cylinder => {
-                std::f64::consts::FRAC_PI_4 * w * w * cz + w * h * (1.0 - cz * cz).max(0.0).sqrt()
-            }
-            LuminousShape::Sphere => std::f64::consts::FRAC_PI_4 * w * w,
-        }
+        self.opening
+            .projected_area_m2(d.dot(self.along), d.dot(self.across), d.dot(self.normal))
     }
 }
 
@@ -102,15 +73,12 @@ mod tests {
     use super::*;
     use std::f64::consts::PI;
 
-    fn shape(shape: LuminousShape, length: f64, width: f64, height: f64) -> Luminous {
+    fn shape(opening: Opening) -> Luminous {
         Luminous {
-            shape,
+            opening,
             along: DVec3::X,
             across: DVec3::Y,
             normal: DVec3::NEG_Z,
-            length,
-            width,
-            height,
         }
     }
 
@@ -118,27 +86,38 @@ mod tests {
     fn luminous_parts_show_their_projected_area() {
         let d = DVec3::new(1.0, 1.0, -1.0).normalize();
         let c = 1.0 / 3f64.sqrt();
-        let rect = shape(LuminousShape::Rectangle, 0.6, 0.3, 0.0);
+        let rect = shape(Opening::Rectangle {
+            width: 0.3,
+            length: 0.6,
+        });
         assert!((rect.projected_area_m2(DVec3::NEG_Z) - 0.18).abs() < 1e-12);
         assert!((rect.projected_area_m2(d) - 0.18 * c).abs() < 1e-12);
         assert_eq!(rect.projected_area_m2(DVec3::X), 0.0);
-        let disk = shape(LuminousShape::Ellipse, 0.4, 0.4, 0.0);
+        let disk = shape(Opening::Ellipse {
+            width: 0.4,
+            length: 0.4,
+        });
         assert!((disk.projected_area_m2(DVec3::Z) - PI * 0.04).abs() < 1e-12);
+        let solid = |width, length, height| {
+            shape(Opening::Solid {
+                what: "test",
+                width,
+                length,
+                height,
+            })
+        };
         // A box shows its bottom (l w), its long side (l h) and its end (w h).
-        let b = shape(LuminousShape::Box, 0.6, 0.3, 0.1);
+        let b = solid(0.3, 0.6, 0.1);
         assert!((b.projected_area_m2(DVec3::NEG_Z) - 0.18).abs() < 1e-12);
         assert!((b.projected_area_m2(DVec3::Y) - 0.06).abs() < 1e-12);
         assert!((b.projected_area_m2(DVec3::X) - 0.03).abs() < 1e-12);
         assert!((b.projected_area_m2(d) - (0.18 + 0.06 + 0.03) * c).abs() < 1e-12);
         // A vertical cylinder: its disk from below, its side (D h) from the side.
-        let cyl = shape(LuminousShape::Cylinder, 0.2, 0.2, 0.5);
+        let cyl = solid(-0.2, 0.0, 0.5);
         assert!((cyl.projected_area_m2(DVec3::NEG_Z) - PI * 0.01).abs() < 1e-12);
         assert!((cyl.projected_area_m2(DVec3::X) - 0.1).abs() < 1e-12);
-        let s = shape(LuminousShape::Sphere, 0.3, 0.3, 0.0);
+        let s = solid(-0.3, -0.3, -0.3);
         assert!((s.projected_area_m2(d) - PI * 0.0225).abs() < 1e-12);
-        assert_eq!(
-            shape(LuminousShape::Point, 0.0, 0.0, 0.0).projected_area_m2(d),
-            0.0
-        );
+        assert_eq!(shape(Opening::Point).projected_area_m2(d), 0.0);
     }
 }

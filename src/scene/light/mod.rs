@@ -27,7 +27,7 @@ pub use cie::{cie_luminance, CIE_SKY_PARAMETERS};
 pub use direction::unit_vector;
 use direction::{direction, perpendicular};
 pub use distant::{Distant, DistantPart, Radiance, SkyAmount, SkyFrame};
-pub use luminaire::{Luminaire, LuminousShape};
+pub use luminaire::Luminaire;
 pub use patches::{SkyPatches, MAX_REINHART_MF};
 pub use perez::{
     air_mass, eccentricity, perez_bin, perez_parameters, perez_relative, perez_sky,
@@ -515,38 +515,15 @@ fn luminous_parts(
     kind: PhotometricType,
     frame: [DVec3; 3],
 ) -> luminaire::Luminous {
-    use luminaire::{Luminous, LuminousShape as S};
     let (along, across, normal) = match kind {
         PhotometricType::C => (frame[0], frame[1], frame[2]),
         PhotometricType::B => (frame[1], frame[2], frame[0]),
     };
-    let (shape, length, width, height) = match *opening {
-        Opening::Point => (S::Point, 0.0, 0.0, 0.0),
-        Opening::Rectangle { width, length } => (S::Rectangle, length, width, 0.0),
-        Opening::Ellipse { width, length } => (S::Ellipse, length, width, 0.0),
-        Opening::Solid {
-            width,
-            length,
-            height,
-            ..
-        } => {
-            if width < 0.0 && length < 0.0 && height < 0.0 {
-                (S::Sphere, -width, -width, 0.0)
-            } else if width < 0.0 && length == 0.0 && height > 0.0 {
-                (S::Cylinder, -width, -width, height)
-            } else {
-                (S::Box, length.abs(), width.abs(), height.abs())
-            }
-        }
-    };
-    Luminous {
-        shape,
+    luminaire::Luminous {
+        opening: *opening,
         along,
         across,
         normal,
-        length,
-        width,
-        height,
     }
 }
 
