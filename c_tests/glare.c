@@ -201,6 +201,41 @@ int main(void) {
     check("melanopic DER = 1", fabs(ao.melanopic_der - 1.0) < 1e-3, ao.melanopic_der, 1.0);
     check("S-cone EDI / Ev of D65 = 1", fabs(ao.edi_lx[0] / ev0 - 1.0) < 1e-3, ao.edi_lx[0] / ev0, 1.0);
     imap_destroy(ctx);
+
+    /* The CIE 190 UGR table of a luminaire file, without a context: the 600 mm panel
+     * with I = 1000 cos γ cd (a Lambertian opening), as an IES file. */
+    char ies[2048];
+    int n = snprintf(ies, sizeof ies, "IESNA:LM-63-2002\nTILT=NONE\n1 -1 1 19 1 1 2 0.6 0.6 0\n1 1 40\n");
+    for (int k = 0; k < 19; k++) n += snprintf(ies + n, sizeof ies - (size_t)n, "%d ", 5 * k);
+    n += snprintf(ies + n, sizeof ies - (size_t)n, "\n0\n");
+    for (int k = 0; k < 19; k++) n += snprintf(ies + n, sizeof ies - (size_t)n, "%.4f ", 1000.0 * cos(5.0 * k * PI / 180));
+    double table[190];
+    expect("UGR table of an IES file", imap_ugr_table(ies, (size_t)n, IMAP_PHOTOMETRY_FILE_IES, table, 190), IMAP_OK,
+           NULL, NULL);
+    /* A rotationally symmetric luminaire looks the same crosswise and endwise, and a room
+     * with darker walls (the second column) has a darker background: more glare. */
+    int same = 1, darker = 1, finite = 1;
+    for (int r = 0; r < 19; r++) {
+        for (int k = 0; k < 5; k++) {
+            same &= fabs(table[10 * r + k] - table[10 * r + 5 + k]) < 1e-9;
+            finite &= isfinite(table[10 * r + k]);
+        }
+        darker &= table[10 * r + 1] > table[10 * r];
+    }
+    check("UGR table: every cell rated", finite, table[0], table[0]);
+    check("UGR table: crosswise = endwise for a round distribution", same, table[5], table[0]);
+    check("UGR table: darker walls, more glare", darker, table[1], table[0]);
+    expect("UGR table out too small", imap_ugr_table(ies, (size_t)n, IMAP_PHOTOMETRY_FILE_IES, table, 100),
+           IMAP_ERR_BUFFER_TOO_SMALL, NULL, "190");
+    expect("UGR table of an unknown format", imap_ugr_table(ies, (size_t)n, 7, table, 190), IMAP_ERR_INVALID_ARGUMENT,
+           NULL, "format");
+    char point[2048];
+    memcpy(point, ies, (size_t)n + 1);
+    memcpy(strstr(point, "2 0.6 0.6 0"), "2 0.0 0.0 0", 11);
+    expect("UGR table of a point source", imap_ugr_table(point, (size_t)n, IMAP_PHOTOMETRY_FILE_IES, table, 190),
+           IMAP_ERR_INVALID_ARGUMENT, NULL, "luminous area");
+    expect("UGR table of a truncated file", imap_ugr_table(ies, 60, IMAP_PHOTOMETRY_FILE_IES, table, 190),
+           IMAP_ERR_PARSE, NULL, NULL);
     printf("%s\n", failures ? "FAILED" : "all glare checks passed");
     return failures ? 1 : 0;
 }

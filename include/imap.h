@@ -177,6 +177,16 @@
 #define IMAP_GLARE_SOURCE_MESH 1
 
 /**
+ * `imap_ugr_table`'s file formats.
+ */
+#define IMAP_PHOTOMETRY_FILE_IES 0
+
+/**
+ * EULUMDAT (.ldt).
+ */
+#define IMAP_PHOTOMETRY_FILE_LDT 1
+
+/**
  * `imap_set_layers` flag: keep one layer per light group. (Since 0.2.1.)
  */
 #define IMAP_KEEP_LIGHT_GROUPS 1
@@ -3158,6 +3168,25 @@ enum ImapStatus imap_get_observer_ev(const struct ImapContext *ctx, uint32_t mes
  * `ctx` is a live handle; `out` points to `size` writable bytes.
  */
 enum ImapStatus imap_get_observer_alpha_opic(const struct ImapContext *ctx, uint32_t mesh, struct ImapAlphaOpic *out, size_t size);
+
+/**
+ * The CIE 190:2010 UGR table of a luminaire file (`text`, `len` bytes; `format` an
+ * `IMAP_PHOTOMETRY_FILE_*`): the UGR of an array of the luminaire at a spacing of 0.25 H
+ * (H = 2 m above the eye) in the 19 standard rooms (2H × 2H … 12H × 8H, X across the line
+ * of sight first), for the five reflectance combinations (ceiling/walls/floor 0.7/0.5/0.2,
+ * 0.7/0.3/0.2, 0.5/0.5/0.2, 0.5/0.3/0.2, 0.3/0.3/0.2), crosswise then endwise. Into
+ * `out`, 190 doubles, room by room: the room's 5 crosswise values, then its 5 endwise
+ * ones; NaN where no luminaire counts. The background is CIE 190's, from the luminaire's
+ * flux (EULUMDAT: its light output ratio times its first lamp set's flux; IES: the
+ * table's own). docs/glare.md gives the method. Thread-safe; no context. Returns
+ * IMAP_ERR_PARSE (with the line), IMAP_ERR_INVALID_ARGUMENT (no luminous area: the
+ * luminance needs one; an unknown format), IMAP_ERR_UNSUPPORTED (type B), IMAP_ERR_NO_LIGHT,
+ * IMAP_ERR_NULL_POINTER, IMAP_ERR_BUFFER_TOO_SMALL (`count` < 190). (Since 0.2.3.)
+ *
+ * # Safety
+ * `text` points to `len` readable bytes; `out` to `count` writable doubles.
+ */
+enum ImapStatus imap_ugr_table(const char *text, size_t len, uint32_t format, double *out, size_t count);
 
 /**
  * Chooses the layers the map keeps, from the flags `IMAP_KEEP_LIGHT_GROUPS` (one layer

@@ -411,3 +411,65 @@ pub unsafe extern "C" fn imap_get_observer_alpha_opic(
         )
     })
 }
+
+/// `imap_ugr_table`'s file formats.
+pub const IMAP_PHOTOMETRY_FILE_IES: u32 = 0;
+/// EULUMDAT (.ldt).
+pub const IMAP_PHOTOMETRY_FILE_LDT: u32 = 1;
+
+/// The CIE 190:2010 UGR table of a luminaire file (`text`, `len` bytes; `format` an
+/// `IMAP_PHOTOMETRY_FILE_*`): the UGR of an array of the luminaire at a spacing of 0.25 H
+/// (H = 2 m above the eye) in the 19 standard rooms (2H × 2H … 12H × 8H, X across the line
+/// of sight first), for the five reflectance combinations (ceiling/walls/floor 0.7/0.5/0.2,
+/// 0.7/0.3/0.2, 0.5/0.5/0.2, 0.5/0.3/0.2, 0.3/0.3/0.2), crosswise then endwise. Into
+/// `out`, 190 doubles, room by room: the room's 5 crosswise values, then its 5 endwise
+/// ones; NaN where no luminaire counts. The background is CIE 190's, from the luminaire's
+/// flux (EULUMDAT: its light output ratio times its first lamp set's flux; IES: the
+/// table's own). docs/glare.md gives the method. Thread-safe; no context. Returns
+/// IMAP_ERR_PARSE (with the line), IMAP_ERR_INVALID_ARGUMENT (no luminous area: the
+/// luminance needs one; an unknown format), IMAP_ERR_UNSUPPORTED (type B), IMAP_ERR_NO_LIGHT,
+/// IMAP_ERR_NULL_POINTER, IMAP_ERR_BUFFER_TOO_SMALL (`count` < 190). (Since 0.2.3.)
+///
+/// # Safety
+/// `text` points to `len` readable bytes; `out` to `count` writable doubles.
+#[no_mangle]
+pub unsafe extern "C" fn imap_ugr_table(
+    text: *const std::ffi::c_char,
+    len: usize,
+    format: u32,
+    out: *mut f64,
+    count: usize,
+) -> ImapStatus {
+    boundary(None, || {
+        let text = super::light::text_from_c("text", text, len)?;
+        let out = super::slice_mut("out", out, count)?;
+        if out.len() < 190 {
+            bail!(
+                ImapErrBufferTooSmall,
+                "out holds {count} doubles; a UGR table is 190 (19 rooms × 10)"
+            );
+        }
+        let (data, flux) = match format {
+            IMAP_PHOTOMETRY_FILE_IES => {
+                let f = crate::photometry::ies::parse(&text, None)?;
+                let flux = crate::photometry::Goniometric::new(&f.data, 1.0)?.flux();
+                (f.data, flux)
+            }
+            IMAP_PHOTOMETRY_FILE_LDT => {
+                let f = crate::photometry::ldt::parse(&text)?;
+                let flux = f.lor_percent / 100.0 * f.lamp_flux;
+                (f.data, flux)
+            }
+            _ => bail!(
+                ImapErrInvalidArgument,
+                "format = {format} is not an IMAP_PHOTOMETRY_FILE_* value (0 IES, 1 EULUMDAT)"
+            ),
+        };
+        let t = crate::photometry::ugr_table::ugr_table(&data, flux)?;
+        for room in 0..19 {
+            out[10 * room..10 * room + 5].copy_from_slice(&t.crosswise[room]);
+            out[10 * room + 5..10 * room + 10].copy_from_slice(&t.endwise[room]);
+        }
+        Ok(())
+    })
+}

@@ -361,7 +361,7 @@ fn placement_from_c(p: *const ImapLuminaire) -> Result<Placement> {
 
 /// The text of a file passed as a buffer: any bytes (Latin-1 and UTF-8 alike: the
 /// formats' numbers are ASCII).
-fn text_from_c<'a>(
+pub(super) fn text_from_c<'a>(
     name: &str,
     ptr: *const std::ffi::c_char,
     len: usize,

@@ -12,6 +12,7 @@ pub mod ies;
 pub mod ldt;
 pub mod spectrum;
 mod tables;
+pub mod ugr_table;
 
 pub use colour::{cct, chromaticity, BandPhotometry, KM};
 pub use gonio::{Goniometric, Opening, PhotometricData, PhotometricType, Symmetry};
