@@ -155,6 +155,15 @@ enum Command {
         /// The model (.obj with its MTL libraries, .gltf, .glb, .ply, .stl).
         scene: PathBuf,
     },
+    /// The CIE 190 UGR table of a luminaire file (.ies or .ldt): 19 standard rooms, 5
+    /// reflectance combinations, crosswise and endwise (docs/glare.md).
+    UgrTable {
+        /// The luminaire file.
+        file: PathBuf,
+        /// Write CSV (room X/H, Y/H, then the ten values) instead of the table.
+        #[arg(long)]
+        csv: bool,
+    },
     /// The Cornell box, built in memory, run to a target error; writes every output.
     Demo {
         #[command(flatten)]
@@ -203,6 +212,7 @@ fn main() {
         } => settings_from(config.as_deref())
             .and_then(|settings| annual::annual(&scene, settings, &opts)),
         Command::Info { scene } => info(&scene),
+        Command::UgrTable { file, csv } => observers::ugr_table_cmd(&file, csv),
         Command::Demo { opts } => demo(&opts),
         Command::Validate { photons } => validate_cmd(photons),
     };

@@ -224,3 +224,87 @@ pub fn summary(e: &ObserverEntry, r: &ObserverResult) -> String {
         g.dgps
     )
 }
+
+/// `imap ugr-table FILE`: the luminaire file's CIE 190 table on stdout, as a catalogue
+/// prints it (or CSV).
+pub fn ugr_table_cmd(file: &Path, csv: bool) -> Result<()> {
+    use imap::photometry::ugr_table::{ugr_table, REFLECTANCES, ROOMS};
+    let bytes = crate::diag::read_input(file).map_err(CliError)?;
+    let text = crate::diag::decode(&bytes);
+    let at = |e: imap::Error| CliError(format!("{}: {}", file.display(), e.message));
+    let ldt = file
+        .extension()
+        .and_then(|e| e.to_str())
+        .is_some_and(|e| e.eq_ignore_ascii_case("ldt"));
+    let (data, flux) = if ldt {
+        let f = imap::photometry::ldt::parse(&text).map_err(at)?;
+        let flux = f.lor_percent / 100.0 * f.lamp_flux;
+        (f.data, flux)
+    } else {
+        let f = imap::photometry::ies::parse(&text, None).map_err(at)?;
+        let flux = imap::photometry::Goniometric::new(&f.data, 1.0)
+            .map_err(at)?
+            .flux();
+        (f.data, flux)
+    };
+    let t = ugr_table(&data, flux).map_err(at)?;
+    let cell = |v: f64| {
+        if v.is_finite() {
+            format!("{v:.1}")
+        } else {
+            "-".into()
+        }
+    };
+    let mut out = String::new();
+    if csv {
+        out.push_str("x_h,y_h");
+        for view in ["crosswise", "endwise"] {
+            for (c, w, f) in REFLECTANCES {
+                out.push_str(&format!(",{view}_{c}_{w}_{f}"));
+            }
+        }
+        out.push('\n');
+        for (r, (x, y)) in ROOMS.iter().enumerate() {
+            let v: Vec<String> = t.crosswise[r]
+                .iter()
+                .chain(&t.endwise[r])
+                .map(|v| {
+                    if v.is_finite() {
+                        format!("{v:.2}")
+                    } else {
+                        String::new()
+                    }
+                })
+                .collect();
+            out.push_str(&format!("{x},{y},{}\n", v.join(",")));
+        }
+    } else {
+        out.push_str(&format!(
+            "UGR table (CIE 117 / CIE 190) of {}: {flux:.0} lm per luminaire, spacing 0.25 H, H = 2 m\n",
+            file.display()
+        ));
+        out.push_str("ceiling      0.7  0.7  0.5  0.5  0.3 |  0.7  0.7  0.5  0.5  0.3\n");
+        out.push_str("walls        0.5  0.3  0.5  0.3  0.3 |  0.5  0.3  0.5  0.3  0.3\n");
+        out.push_str("floor        0.2  0.2  0.2  0.2  0.2 |  0.2  0.2  0.2  0.2  0.2\n");
+        out.push_str("room X × Y       crosswise           |        endwise\n");
+        for (r, (x, y)) in ROOMS.iter().enumerate() {
+            let c: Vec<String> = t.crosswise[r]
+                .iter()
+                .map(|v| format!("{:>4}", cell(*v)))
+                .collect();
+            let e: Vec<String> = t.endwise[r]
+                .iter()
+                .map(|v| format!("{:>4}", cell(*v)))
+                .collect();
+            out.push_str(&format!(
+                "{:>4}H × {:<4} {} | {}\n",
+                x,
+                format!("{y}H"),
+                c.join(" "),
+                e.join(" ")
+            ));
+        }
+    }
+    print!("{out}");
+    Ok(())
+}

@@ -2573,3 +2573,50 @@ view = [-1, 0, 0]
     ]);
     assert!(e.contains("fov"), "{e}");
 }
+
+/// `imap ugr-table FILE`: the CIE 190 table as a catalogue prints it, and as CSV with the
+/// values eulumdat-ugr gives (tests/data/eulumdat_ugr.txt) to 0.1.
+#[test]
+fn ugr_table_prints_the_cie_190_table() {
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+    let file = root.join("tests/data/ugr_panel.ldt");
+    let o = imap(&["ugr-table", file.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        text.contains("3200 lm per luminaire") && text.contains("2H × 2H   23.6 25.1"),
+        "{text}"
+    );
+    let o = imap(&["ugr-table", file.to_str().unwrap(), "--csv"]);
+    let csv = String::from_utf8_lossy(&o.stdout).into_owned();
+    let rows: Vec<&str> = csv.lines().collect();
+    assert_eq!(rows.len(), 20, "{csv}");
+    let reference = std::fs::read_to_string(root.join("tests/data/eulumdat_ugr.txt")).unwrap();
+    for (row, want) in rows[1..]
+        .iter()
+        .zip(reference.lines().filter(|l| l.starts_with("ugr_panel.ldt")))
+    {
+        let ours: Vec<f64> = row.split(',').skip(2).map(|x| x.parse().unwrap()).collect();
+        let theirs: Vec<f64> = want
+            .split_whitespace()
+            .skip(2)
+            .map(|x| x.parse().unwrap())
+            .collect();
+        assert!(
+            ours.iter().zip(&theirs).all(|(a, b)| (a - b).abs() < 0.1),
+            "{row} vs {want}"
+        );
+    }
+    // A file without a luminous area has no luminance to rate.
+    let dir = tempfile::tempdir().unwrap();
+    let point =
+        std::fs::read_to_string(&file)
+            .unwrap()
+            .replacen("\r\n600\r\n600\r\n", "\r\n0\r\n0\r\n", 1);
+    let p = write(dir.path(), "point.ldt", point);
+    let e = fails(&["ugr-table", &p]);
+    assert!(
+        e.contains("point.ldt") && e.contains("luminous area"),
+        "{e}"
+    );
+}
