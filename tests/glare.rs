@@ -58,6 +58,21 @@ fn lambertian_panel(i0: f64, side: f64) -> String {
     text.replacen(" 2 0 0 0\n", &format!(" 2 {side} {side} 0\n"), 1)
 }
 
+/// Adds `lambertian_panel(1000, 0.5)` facing down at `at`; its light id.
+fn add_panel(ctx: &mut Context, at: [f64; 3]) -> u32 {
+    let place = Placement {
+        position: at,
+        ..Default::default()
+    };
+    ctx.add_luminaire_ies(
+        &lambertian_panel(1000.0, 0.5),
+        None,
+        &place,
+        &Spectrum::Equal,
+    )
+    .unwrap()
+}
+
 const LOOK_X: Observer = Observer {
     eye: [0.0, 0.0, 1.2],
     view: [1.0, 0.0, 0.0],
@@ -168,14 +183,7 @@ fn ugr_of_a_luminaire_of_known_luminance_is_cie_117s_formula() {
     // A 0.5 m square Lambertian panel facing down, 1 m above the eye and √3 m ahead: the
     // eye sees it 30° above its line of sight, at 60° from the panel's axis, 2 m away.
     let i0 = 1000.0;
-    let text = lambertian_panel(i0, 0.5);
-    let place = Placement {
-        position: [3f64.sqrt(), 0.0, 2.2],
-        ..Default::default()
-    };
-    let id = ctx
-        .add_luminaire_ies(&text, None, &place, &Spectrum::Equal)
-        .unwrap();
+    let id = add_panel(&mut ctx, [3f64.sqrt(), 0.0, 2.2]);
     let mesh = ctx.add_observer_sensor(&LOOK_X, 0.05).unwrap();
     run_with(&mut ctx, photons(300_000), Estimator::DEFAULT);
     let (e, s) = ev(&ctx, mesh);
@@ -241,17 +249,7 @@ fn a_wall_hides_a_luminaire_and_a_half_wall_half_of_it() {
     let mut ctx = context(seeded(8));
     black_floor(&mut ctx);
     let grey = lambert(&mut ctx, 0.0);
-    let text = lambertian_panel(1000.0, 0.5);
-    ctx.add_luminaire_ies(
-        &text,
-        None,
-        &Placement {
-            position: [3.0, 0.0, 2.2],
-            ..Default::default()
-        },
-        &Spectrum::Equal,
-    )
-    .unwrap();
+    add_panel(&mut ctx, [3.0, 0.0, 2.2]);
     // A two-sided screen at x = 1.5, halfway to the panel, covering y < −0.05. Of the five
     // points of the panel the eye's lines are tested to (its centre, and 0.2 m from it
     // along ±x and ±y), only the one at y = −0.2 crosses the screen's plane behind it
@@ -286,16 +284,7 @@ fn a_wall_hides_a_luminaire_and_a_half_wall_half_of_it() {
     let mut ctx2 = context(seeded(8));
     black_floor(&mut ctx2);
     let grey2 = lambert(&mut ctx2, 0.0);
-    ctx2.add_luminaire_ies(
-        &text,
-        None,
-        &Placement {
-            position: [3.0, 0.0, 2.2],
-            ..Default::default()
-        },
-        &Spectrum::Equal,
-    )
-    .unwrap();
+    add_panel(&mut ctx2, [3.0, 0.0, 2.2]);
     ctx2.add_mesh(&imap::MeshDesc {
         two_sided: true,
         ..wall.desc(grey2)
@@ -435,9 +424,7 @@ fn ugr_errors_are_calibrated_per_observer_at_low_and_high_counts() {
     // its spread about the exact value, at 20 000 photons and at ten times more. (Below
     // that, the eye's σ comes from a handful of the estimator's passes and is low: mean z²
     // 5.6 at 5000 photons, 2.1 at 10 000, the map's own per-vertex figure.)
-    let i0 = 1000.0;
-    let text = lambertian_panel(i0, 0.5);
-    let (l, omega) = (4.0 * i0, 0.125 / 4.0);
+    let (l, omega) = (4000.0, 0.125 / 4.0);
     let p = ((35.2 - 1.22) * 1e-3 * 30.0 + 21e-5 * 900.0f64).exp();
     let exact = 8.0 * (0.25 / (1000.0 / PI) * l * l * omega / (p * p)).log10();
     for n in [20_000, 200_000] {
@@ -446,16 +433,7 @@ fn ugr_errors_are_calibrated_per_observer_at_low_and_high_counts() {
             let mut ctx = context(seeded(100 + seed));
             black_floor(&mut ctx);
             uniform_sky_lx(&mut ctx, 2000.0);
-            ctx.add_luminaire_ies(
-                &text,
-                None,
-                &Placement {
-                    position: [3f64.sqrt(), 0.0, 2.2],
-                    ..Default::default()
-                },
-                &Spectrum::Equal,
-            )
-            .unwrap();
+            add_panel(&mut ctx, [3f64.sqrt(), 0.0, 2.2]);
             let mesh = ctx.add_observer_sensor(&LOOK_X, 0.05).unwrap();
             run_with(&mut ctx, photons(n), Estimator::DEFAULT);
             let (e, s) = ev(&ctx, mesh);

@@ -88,6 +88,19 @@ impl GridSettings {
     }
 }
 
+/// Refuses an output name (a grid's, an observer's) that is empty or holds other than
+/// letters, digits, space and - _ . (it names files and CSV rows).
+pub fn check_name(what: &str, name: &str) -> Result<()> {
+    if name.is_empty()
+        || !name
+            .chars()
+            .all(|c| c.is_ascii_alphanumeric() || "-_. ".contains(c))
+    {
+        fail!("{what}: a name may hold letters, digits, space and - _ . only (it names files)");
+    }
+    Ok(())
+}
+
 /// The grids' meshes: checked, laid out and added to `ctx` as one-sided sensors.
 pub fn add_grids(
     ctx: &mut Context,
@@ -102,13 +115,7 @@ pub fn add_grids(
     for (k, g) in grids.iter().enumerate() {
         let name = g.name.clone().unwrap_or_else(|| format!("grid{}", k + 1));
         let what = label(k, &format!("grid '{name}'"));
-        if name.is_empty()
-            || !name
-                .chars()
-                .all(|c| c.is_ascii_alphanumeric() || "-_. ".contains(c))
-        {
-            fail!("{what}: a name may hold letters, digits, space and - _ . only (it names files)");
-        }
+        check_name(&what, &name)?;
         if out.iter().any(|o| o.name == name) {
             fail!("{what}: two grids have this name");
         }

@@ -33,13 +33,7 @@ pub fn add(ctx: &mut Context, settings: &Settings) -> Result<Vec<ObserverEntry>>
             .name
             .clone()
             .unwrap_or_else(|| format!("observer{}", k + 1));
-        if name.is_empty()
-            || !name
-                .chars()
-                .all(|c| c.is_ascii_alphanumeric() || "-_. ".contains(c))
-        {
-            fail!("{what}: a name may hold letters, digits, space and - _ . only");
-        }
+        crate::grids::check_name(&what, &name)?;
         if out.iter().any(|e| e.name == name) {
             fail!("{what}: two observers are named '{name}'");
         }

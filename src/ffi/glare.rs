@@ -281,27 +281,7 @@ pub unsafe extern "C" fn imap_observer_glare(
     with_context(ctx, |c| {
         let o = observer_from_c(observer)?;
         check_out("out", out)?;
-        if capacity > 0 {
-            if sources.is_null() {
-                bail!(
-                    ImapErrNullPointer,
-                    "sources is NULL but capacity is {capacity}"
-                );
-            }
-            if !(ImapGlareSource::BASE_SIZE..=1 << 16).contains(&element_size) {
-                bail!(
-                    ImapErrInvalidArgument,
-                    "element_size = {element_size} is not a size of ImapGlareSource (at least {}): pass sizeof(ImapGlareSource)",
-                    ImapGlareSource::BASE_SIZE
-                );
-            }
-            if capacity
-                .checked_mul(element_size)
-                .is_none_or(|b| b > isize::MAX as usize)
-            {
-                bail!(ImapErrInvalidArgument, "capacity {capacity} is too large");
-            }
-        }
+        super::check_elements("sources", sources, capacity, element_size)?;
         let g = c.observer_glare(&o, ev_lx, ev_sigma_lx)?;
         write_versioned("out", out, out_size, glare_to_c(&g))?;
         for (i, s) in g.sources.iter().take(capacity).enumerate() {

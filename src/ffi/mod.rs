@@ -369,6 +369,41 @@ pub(crate) fn write_versioned<T: Versioned>(
     Ok(())
 }
 
+/// Checks an output array of `capacity` versioned elements of `element_size` bytes each
+/// (`name` NULL only with capacity 0) before the work that fills it.
+pub(crate) fn check_elements<T: Versioned>(
+    name: &str,
+    out: *mut T,
+    capacity: usize,
+    element_size: usize,
+) -> Result<()> {
+    if capacity == 0 {
+        return Ok(());
+    }
+    if out.is_null() {
+        bail!(
+            ImapErrNullPointer,
+            "{name} is NULL but capacity is {capacity}"
+        );
+    }
+    if !(T::BASE_SIZE..=MAX_STRUCT_SIZE).contains(&element_size) {
+        bail!(
+            ImapErrInvalidArgument,
+            "element_size = {element_size} is not a size of {} (at least {}): pass sizeof({})",
+            T::NAME,
+            T::BASE_SIZE,
+            T::NAME
+        );
+    }
+    if capacity
+        .checked_mul(element_size)
+        .is_none_or(|b| b > isize::MAX as usize)
+    {
+        bail!(ImapErrInvalidArgument, "capacity {capacity} is too large");
+    }
+    Ok(())
+}
+
 /// Copies per-band values into the caller's `out[0 .. count)`.
 pub(crate) fn copy_bands(out: *mut f64, count: usize, values: &[f64]) -> Result<()> {
     let out = slice_mut("out", out, count)?;

@@ -558,23 +558,8 @@ pub(crate) fn copy_history(
     out_count: *mut usize,
 ) -> Result<()> {
     check_out("out_count", out_count)?;
+    super::check_elements("out", out, capacity, element_size)?;
     if capacity > 0 {
-        if out.is_null() {
-            bail!(ImapErrNullPointer, "out is NULL but capacity is {capacity}");
-        }
-        if !(ImapProgress::BASE_SIZE..=1 << 16).contains(&element_size) {
-            bail!(
-                ImapErrInvalidArgument,
-                "element_size = {element_size} is not a size of ImapProgress (at least {}): pass sizeof(ImapProgress)",
-                ImapProgress::BASE_SIZE
-            );
-        }
-        if capacity
-            .checked_mul(element_size)
-            .is_none_or(|b| b > isize::MAX as usize)
-        {
-            bail!(ImapErrInvalidArgument, "capacity {capacity} is too large");
-        }
         for (i, p) in h.iter().take(capacity).enumerate() {
             // SAFETY: the caller provides capacity × element_size writable bytes at out.
             let dst = unsafe { (out as *mut u8).add(i * element_size) } as *mut ImapProgress;
