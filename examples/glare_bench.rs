@@ -19,7 +19,15 @@ const Y: f64 = 4.0;
 const Z: f64 = 3.0;
 
 /// A quad from `o` along `u` and `v`, `n` × `m` cells, its normal u × v.
-fn quad(o: [f64; 3], u: [f64; 3], v: [f64; 3], n: usize, m: usize, p: &mut Vec<f64>, t: &mut Vec<u32>) {
+fn quad(
+    o: [f64; 3],
+    u: [f64; 3],
+    v: [f64; 3],
+    n: usize,
+    m: usize,
+    p: &mut Vec<f64>,
+    t: &mut Vec<u32>,
+) {
     let base = (p.len() / 3) as u32;
     for j in 0..=m {
         for i in 0..=n {
@@ -45,7 +53,10 @@ fn panel_ies() -> String {
     }
     s.push_str("\n0\n");
     for k in 0..19 {
-        s.push_str(&format!("{:.4} ", 1500.0 * (5.0 * k as f64).to_radians().cos()));
+        s.push_str(&format!(
+            "{:.4} ",
+            1500.0 * (5.0 * k as f64).to_radians().cos()
+        ));
     }
     s.push('\n');
     s
@@ -75,16 +86,72 @@ fn office(bands: &Bands, threads: usize, with_observers: bool) -> Office {
     let (mut p, mut t) = (Vec::new(), Vec::new());
     let c = 10;
     // Every face's normal points into the room.
-    quad([0.0, 0.0, 0.0], [X, 0.0, 0.0], [0.0, Y, 0.0], 6 * c, 4 * c, &mut p, &mut t);
-    quad([0.0, 0.0, Z], [0.0, Y, 0.0], [X, 0.0, 0.0], 4 * c, 6 * c, &mut p, &mut t);
-    quad([0.0, 0.0, 0.0], [0.0, 0.0, Z], [X, 0.0, 0.0], 3 * c, 6 * c, &mut p, &mut t);
-    quad([0.0, Y, 0.0], [X, 0.0, 0.0], [0.0, 0.0, Z], 6 * c, 3 * c, &mut p, &mut t);
-    quad([0.0, 0.0, 0.0], [0.0, Y, 0.0], [0.0, 0.0, Z], 4 * c, 3 * c, &mut p, &mut t);
-    quad([X, 0.0, 0.0], [0.0, 0.0, Z], [0.0, Y, 0.0], 3 * c, 4 * c, &mut p, &mut t);
+    quad(
+        [0.0, 0.0, 0.0],
+        [X, 0.0, 0.0],
+        [0.0, Y, 0.0],
+        6 * c,
+        4 * c,
+        &mut p,
+        &mut t,
+    );
+    quad(
+        [0.0, 0.0, Z],
+        [0.0, Y, 0.0],
+        [X, 0.0, 0.0],
+        4 * c,
+        6 * c,
+        &mut p,
+        &mut t,
+    );
+    quad(
+        [0.0, 0.0, 0.0],
+        [0.0, 0.0, Z],
+        [X, 0.0, 0.0],
+        3 * c,
+        6 * c,
+        &mut p,
+        &mut t,
+    );
+    quad(
+        [0.0, Y, 0.0],
+        [X, 0.0, 0.0],
+        [0.0, 0.0, Z],
+        6 * c,
+        3 * c,
+        &mut p,
+        &mut t,
+    );
+    quad(
+        [0.0, 0.0, 0.0],
+        [0.0, Y, 0.0],
+        [0.0, 0.0, Z],
+        4 * c,
+        3 * c,
+        &mut p,
+        &mut t,
+    );
+    quad(
+        [X, 0.0, 0.0],
+        [0.0, 0.0, Z],
+        [0.0, Y, 0.0],
+        3 * c,
+        4 * c,
+        &mut p,
+        &mut t,
+    );
     ctx.add_mesh(&MeshDesc::new(&p, &t, grey)).unwrap();
     // The desk-height grid: a sensor mesh of 0.2 m cells.
     let (mut gp, mut gt) = (Vec::new(), Vec::new());
-    quad([0.2, 0.2, 0.8], [X - 0.4, 0.0, 0.0], [0.0, Y - 0.4, 0.0], 28, 18, &mut gp, &mut gt);
+    quad(
+        [0.2, 0.2, 0.8],
+        [X - 0.4, 0.0, 0.0],
+        [0.0, Y - 0.4, 0.0],
+        28,
+        18,
+        &mut gp,
+        &mut gt,
+    );
     let grid = ctx
         .add_mesh(&MeshDesc {
             sensor: true,
@@ -111,7 +178,11 @@ fn office(bands: &Bands, threads: usize, with_observers: bool) -> Office {
         for k in 0..10 {
             let a = k as f64 / 10.0 * std::f64::consts::TAU;
             let o = Observer {
-                eye: [0.8 + 0.45 * k as f64, if k % 2 == 0 { 1.0 } else { 3.0 }, 1.2],
+                eye: [
+                    0.8 + 0.45 * k as f64,
+                    if k % 2 == 0 { 1.0 } else { 3.0 },
+                    1.2,
+                ],
                 view: [a.cos(), a.sin(), 0.0],
                 up: [0.0, 0.0, 1.0],
             };
