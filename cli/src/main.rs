@@ -665,11 +665,23 @@ fn write_outputs(
         })
         .collect();
     let observer_results = observers::read(ctx, &scene.observers)?;
+    // A glare source's name: the light's or the mesh's as the scene names them.
+    let source_name = |kind: imap::glare::SourceKind| match kind {
+        imap::glare::SourceKind::Light(i) => scene
+            .lights
+            .get(i as usize)
+            .map_or_else(|| format!("light {i}"), |l| l.name.clone()),
+        imap::glare::SourceKind::Mesh(i) => scene
+            .meshes
+            .iter()
+            .find(|m| m.mesh == i)
+            .map_or_else(|| format!("mesh {i}"), |m| m.name.clone()),
+    };
     let observer_json: Vec<serde_json::Value> = scene
         .observers
         .iter()
         .zip(&observer_results)
-        .map(|(e, r)| observers::json(scene, e, r))
+        .map(|(e, r)| observers::json(&source_name, e, r))
         .collect();
     let mut outputs: Vec<String> = [
         "irradiance.csv",

@@ -5,7 +5,6 @@
 //! terminal.
 
 use crate::error::{fail, CliError, Result};
-use crate::scene::LoadedScene;
 use crate::settings::Settings;
 use imap::glare::{AlphaOpic, Glare, Observer, SourceKind};
 use imap::photometry::alpha_opic::ALPHA_OPIC_NAMES;
@@ -92,21 +91,6 @@ pub fn read(ctx: &mut Context, entries: &[ObserverEntry]) -> Result<Vec<Observer
         .collect()
 }
 
-/// A source's name: the light's or the mesh's as the scene names them.
-fn source_name(scene: &LoadedScene, kind: SourceKind) -> String {
-    match kind {
-        SourceKind::Light(i) => scene
-            .lights
-            .get(i as usize)
-            .map_or_else(|| format!("light {i}"), |l| l.name.clone()),
-        SourceKind::Mesh(i) => scene
-            .meshes
-            .iter()
-            .find(|m| m.mesh == i)
-            .map_or_else(|| format!("mesh {i}"), |m| m.name.clone()),
-    }
-}
-
 /// A number for JSON: null where it is not finite (UGR on a black background).
 fn num(x: f64) -> serde_json::Value {
     if x.is_finite() {
@@ -127,8 +111,13 @@ pub fn ugr_text(g: &Glare) -> String {
     }
 }
 
-/// report.json's entry of an observer.
-pub fn json(scene: &LoadedScene, e: &ObserverEntry, r: &ObserverResult) -> serde_json::Value {
+/// report.json's entry of an observer; `source_name` names a light or an emitting mesh
+/// as the scene does.
+pub fn json(
+    source_name: &dyn Fn(SourceKind) -> String,
+    e: &ObserverEntry,
+    r: &ObserverResult,
+) -> serde_json::Value {
     let g = &r.glare;
     serde_json::json!({
         "name": e.name,
@@ -147,7 +136,7 @@ pub fn json(scene: &LoadedScene, e: &ObserverEntry, r: &ObserverResult) -> serde
             "melanopic_der": a.melanopic_der
         })),
         "sources": g.sources.iter().map(|s| serde_json::json!({
-            "name": source_name(scene, s.kind),
+            "name": source_name(s.kind),
             "direction": s.direction, "distance_m": s.distance_m,
             "intensity_cd": s.intensity_cd, "projected_area_m2": s.projected_area_m2,
             "luminance_cd_m2": s.luminance_cd_m2, "solid_angle_sr": s.solid_angle_sr,
