@@ -120,6 +120,8 @@ int main(void) {
           src[0].position_index, pidx);
     double exact = 8.0 * log10(0.25 / (1000.0 / PI) * 4000.0 * 4000.0 * 0.03125 / (pidx * pidx));
     check("UGR by hand (4 sigma)", g.ugr_sigma > 0 && fabs(g.ugr - exact) < 4 * g.ugr_sigma + 1e-9, g.ugr, exact);
+    check("an open eye is enclosed by no mesh", g.enclosed_by == IMAP_GLARE_NOT_ENCLOSED, g.enclosed_by,
+          IMAP_GLARE_NOT_ENCLOSED);
     check("DGPs = 6.22e-5 Ev + 0.184", fabs(g.dgps - (6.22e-5 * ev[0] + 0.184)) < 1e-12, g.dgps,
           6.22e-5 * ev[0] + 0.184);
     /* Sources can be counted first, with no array. */

@@ -166,6 +166,11 @@
 #define IMAP_CONFIG_NO_LIGHT_AIMING 1
 
 /**
+ * `ImapGlare::enclosed_by`: no mesh encloses the eye.
+ */
+#define IMAP_GLARE_NOT_ENCLOSED UINT32_MAX
+
+/**
  * `ImapGlareSource::kind`: a light (`id` as `imap_add_light` and the luminaire calls
  * gave it).
  */
@@ -1417,7 +1422,14 @@ typedef struct ImapGlare {
    * no discomfort glare to rate.
    */
   uint32_t ugr_below_10;
-  uint32_t reserved;
+  /**
+   * The one-sided mesh whose back faces every line of sight along the eye's six axes
+   * meets first, or IMAP_GLARE_NOT_ENCLOSED: the eye is inside a solid object (no light
+   * arrives there) or in a room drawn with its normals out (its light arrives, but no
+   * map records the room's inside). Worth a warning to the user; the figures are what
+   * the eye gets either way.
+   */
+  uint32_t enclosed_by;
   /**
    * The simplified daylight glare probability DGPs = 6.22·10⁻⁵ Ev + 0.184 (Wienold
    * 2009; it holds with no sun, nor a specular image of it, in view) and its standard
@@ -3131,8 +3143,11 @@ enum ImapStatus imap_add_observer_sensor(struct ImapContext *ctx, const struct I
  * = sizeof(ImapGlareSource); NULL when `capacity` is 0), and their count to
  * `*out_count` (NULL: not wanted). Builds the scene's BVH if no run has.
  *
+ * `out->enclosed_by` names a one-sided mesh whose back faces surround the eye (inside a
+ * solid, or in a room drawn with its normals out): tell the user.
+ *
  * Returns IMAP_ERR_NULL_POINTER, IMAP_ERR_NON_FINITE, IMAP_ERR_INVALID_ARGUMENT (a zero
- * view, an up along it, a negative Ev or σ, an eye inside a closed one-sided mesh, sizes),
+ * view, an up along it, a negative Ev or σ, sizes),
  * IMAP_ERR_NO_GEOMETRY (no mesh), IMAP_ERR_BUSY. (Since 0.2.3.)
  *
  * # Safety

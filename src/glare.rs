@@ -178,6 +178,11 @@ pub struct Glare {
     pub dgps_sigma: f64,
     /// Every source in front of the eye that it sees, largest term first.
     pub sources: Vec<GlareSource>,
+    /// The one-sided mesh whose back faces every line of sight along the eye's six axes
+    /// meets first, if one: the eye is inside a solid object (no light arrives there), or
+    /// in a room drawn with its normals out (its light arrives, but no map records the
+    /// room's inside). Worth a warning; the figures are what the eye gets either way.
+    pub enclosed_by: Option<u32>,
 }
 
 /// The α-opic light at an eye (CIE S 026/E:2018), in the order of
@@ -277,7 +282,8 @@ impl Context {
 
     /// The glare `observer` gets from the scene's light sources, given the vertical
     /// illuminance at its eye `ev_lx` and that value's standard error `ev_sigma_lx` (from
-    /// its sensor: `add_observer_sensor`). Refuses an eye inside a closed one-sided mesh.
+    /// its sensor: `add_observer_sensor`). `Glare::enclosed_by` names a one-sided mesh
+    /// whose back faces surround the eye.
     pub fn observer_glare(
         &mut self,
         observer: &Observer,
@@ -296,7 +302,7 @@ impl Context {
         }
         let unit_m = self.config().unit_m;
         let sight = self.sight()?;
-        check_outside(&sight, &f)?;
+        let enclosed_by = enclosing_mesh(&sight, &f);
         let mut sources = Vec::new();
         for (id, light) in sight.scene.lights.iter().enumerate() {
             if let Some(s) = light_source(&sight, &f, light, id as u32, unit_m) {
@@ -335,34 +341,29 @@ impl Context {
             dgps: dgps(ev_lx),
             dgps_sigma: 6.22e-5 * ev_sigma_lx,
             sources,
+            enclosed_by,
         })
     }
 }
 
-/// Refuses an eye that every line of sight along its six axes leaves through the back of
-/// one and the same one-sided mesh: it is inside that mesh, where no light arrives.
-fn check_outside(sight: &Sight, f: &Frame) -> Result<()> {
+/// The one-sided mesh through whose back faces every line of sight along the eye's six
+/// axes leaves, if one does: the eye is inside a solid object (where no light arrives), or
+/// in a room drawn with its normals out (whose light then reaches the eye, but whose
+/// inside no map records). Which of the two cannot be told from the geometry alone.
+fn enclosing_mesh(sight: &Sight, f: &Frame) -> Option<u32> {
     let right = f.view.cross(f.up);
     let mut inside: Option<u32> = None;
     for d in [f.view, -f.view, f.up, -f.up, right, -right] {
-        match sight.first_hit(f.eye, d) {
-            Some(h) if !h.front && !sight.scene.meshes[h.mesh as usize].two_sided => {
-                if inside.is_some_and(|m| m != h.mesh) {
-                    return Ok(());
-                }
-                inside = Some(h.mesh);
-            }
-            _ => return Ok(()),
+        let h = sight.first_hit(f.eye, d)?;
+        if h.front
+            || sight.scene.meshes[h.mesh as usize].two_sided
+            || inside.is_some_and(|m| m != h.mesh)
+        {
+            return None;
         }
+        inside = Some(h.mesh);
     }
-    match inside {
-        Some(m) => bail!(
-            ImapErrInvalidArgument,
-            "observer.eye = {:?} is inside mesh {m}: every line of sight from it meets that mesh's back faces (move the eye out, or turn the mesh's normals)",
-            f.eye.to_array()
-        ),
-        None => Ok(()),
-    }
+    inside
 }
 
 /// Luminous flux of per-band radiant values, lm (or lm/m² of W/m²).

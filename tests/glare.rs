@@ -365,23 +365,35 @@ fn bad_observers_are_refused_by_name() {
     assert!(e.message.contains("ev_lx"), "{}", e.message);
     let e = ctx.observer_glare(&LOOK_X, 1.0, f64::NAN).unwrap_err();
     assert_eq!(e.status, ImapStatus::ImapErrNonFinite);
-    // An eye inside a closed box whose normals face out.
+    // An eye inside a closed box whose normals face out is named (inside a solid, or in a
+    // room drawn inside out: the geometry cannot tell), not refused; with the normals in,
+    // or from outside, nothing encloses it.
     let grey = lambert(&mut ctx, 0.5);
     let b = cuboid([-1.0, -1.0, 0.5], [1.0, 1.0, 2.0], 1, false);
     let boxed = ctx.add_mesh(&b.desc(grey)).unwrap();
-    let e = ctx.observer_glare(&LOOK_X, 100.0, 1.0).unwrap_err();
-    assert_eq!(e.status, ImapStatus::ImapErrInvalidArgument);
-    assert!(
-        e.message.contains(&format!("inside mesh {boxed}")),
-        "{}",
-        e.message
-    );
-    // The context stays usable: an observer outside the box is rated.
+    let g = ctx.observer_glare(&LOOK_X, 100.0, 1.0).unwrap();
+    assert_eq!(g.enclosed_by, Some(boxed));
     let out = Observer {
         eye: [5.0, 0.0, 1.2],
         ..LOOK_X
     };
-    assert!(ctx.observer_glare(&out, 100.0, 1.0).is_ok());
+    assert_eq!(
+        ctx.observer_glare(&out, 100.0, 1.0).unwrap().enclosed_by,
+        None
+    );
+    let mut inward = context(seeded(3));
+    black_floor(&mut inward);
+    let grey = lambert(&mut inward, 0.5);
+    inward
+        .add_mesh(&cuboid([-1.0, -1.0, 0.5], [1.0, 1.0, 2.0], 1, true).desc(grey))
+        .unwrap();
+    assert_eq!(
+        inward
+            .observer_glare(&LOOK_X, 100.0, 1.0)
+            .unwrap()
+            .enclosed_by,
+        None
+    );
 }
 
 #[test]

@@ -81,6 +81,12 @@ pub fn read(ctx: &mut Context, entries: &[ObserverEntry]) -> Result<Vec<Observer
             let what = |x: imap::Error| CliError(format!("observer '{}': {}", e.name, x.message));
             let (ev, sigma) = ctx.observer_ev(e.mesh).map_err(what)?;
             let glare = ctx.observer_glare(&e.observer, ev, sigma).map_err(what)?;
+            if let Some(m) = glare.enclosed_by {
+                eprintln!(
+                    "imap: warning: observer '{}': every line of sight from its eye leaves through the back faces of mesh {m}: the eye is inside a solid object (no light arrives there), or in a room drawn with its normals out (flip_normals mends its recording)",
+                    e.name
+                );
+            }
             let alpha_opic = if spectral {
                 Some(ctx.observer_alpha_opic(e.mesh).map_err(what)?)
             } else {
@@ -127,6 +133,8 @@ pub fn json(
         "background_sigma_cd_m2": g.background_sigma_cd_m2,
         "ugr": num(g.ugr), "ugr_sigma": num(g.ugr_sigma), "ugr_below_10": g.ugr_below_10,
         "dgps": g.dgps, "dgps_sigma": g.dgps_sigma,
+        // A one-sided mesh whose back faces surround the eye (a warning's subject).
+        "enclosed_by_mesh": g.enclosed_by,
         // α-opic light at the eye (CIE S 026), spectral runs only.
         "alpha_opic": r.alpha_opic.map(|a| serde_json::json!({
             "names": ALPHA_OPIC_NAMES,

@@ -2538,6 +2538,28 @@ view = [-1, 0, 0]
     let mel = o["alpha_opic"]["melanopic_edi_lx"].as_f64().unwrap();
     assert!((mel / ev - 1.0).abs() < 1e-3, "m-EDI {mel}, Ev {ev}");
 
+    // An eye in a box drawn with its normals out is rated, with a warning naming the box.
+    let cube = write(
+        d,
+        "cube.obj",
+        "o cube\nv -2 -2 0\nv 2 -2 0\nv 2 2 0\nv -2 2 0\nv -2 -2 3\nv 2 -2 3\nv 2 2 3\nv -2 2 3\n\
+         f 1 4 3 2\nf 5 6 7 8\nf 1 2 6 5\nf 2 3 7 6\nf 3 4 8 7\nf 4 1 5 8\n",
+    );
+    let inside = write(
+        d,
+        "inside.toml",
+        "up_axis = \"z\"\n[[light]]\nkind = \"point\"\nposition = [0, 0, 2.5]\namount = 1000\nunit = \"lm\"\n\
+         [[observer]]\nname = \"boxed\"\neye = [0, 0, 1.2]\nview = [1, 0, 0]\n",
+    );
+    let r = run_photons(&cube, &inside, &d.join("out3"), 20_000);
+    assert!(r.status.success(), "{}", stderr(&r));
+    let e = stderr(&r);
+    assert!(
+        e.contains("observer 'boxed'") && e.contains("back faces of mesh"),
+        "{e}"
+    );
+    assert!(read_report(&d.join("out3"))["observers"][0]["enclosed_by_mesh"].is_u64());
+
     // A zero view, and an unknown key, are refused naming the line.
     let bad = write(
         d,

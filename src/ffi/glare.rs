@@ -63,7 +63,12 @@ pub struct ImapGlare {
     /// 1 when UGR is below 10, where CIE 117's scale starts (no source in view included):
     /// no discomfort glare to rate.
     pub ugr_below_10: u32,
-    pub reserved: u32,
+    /// The one-sided mesh whose back faces every line of sight along the eye's six axes
+    /// meets first, or IMAP_GLARE_NOT_ENCLOSED: the eye is inside a solid object (no light
+    /// arrives there) or in a room drawn with its normals out (its light arrives, but no
+    /// map records the room's inside). Worth a warning to the user; the figures are what
+    /// the eye gets either way.
+    pub enclosed_by: u32,
     /// The simplified daylight glare probability DGPs = 6.22·10⁻⁵ Ev + 0.184 (Wienold
     /// 2009; it holds with no sun, nor a specular image of it, in view) and its standard
     /// error.
@@ -87,12 +92,15 @@ unsafe impl Versioned for ImapGlare {
             ugr: 0.0,
             ugr_sigma: 0.0,
             ugr_below_10: 0,
-            reserved: 0,
+            enclosed_by: IMAP_GLARE_NOT_ENCLOSED,
             dgps: 0.0,
             dgps_sigma: 0.0,
         }
     }
 }
+
+/// `ImapGlare::enclosed_by`: no mesh encloses the eye.
+pub const IMAP_GLARE_NOT_ENCLOSED: u32 = u32::MAX;
 
 /// `ImapGlareSource::kind`: a light (`id` as `imap_add_light` and the luminaire calls
 /// gave it).
@@ -189,7 +197,7 @@ fn glare_to_c(g: &Glare) -> ImapGlare {
         ugr: g.ugr,
         ugr_sigma: g.ugr_sigma,
         ugr_below_10: g.ugr_below_10 as u32,
-        reserved: 0,
+        enclosed_by: g.enclosed_by.unwrap_or(IMAP_GLARE_NOT_ENCLOSED),
         dgps: g.dgps,
         dgps_sigma: g.dgps_sigma,
     }
@@ -256,8 +264,11 @@ pub unsafe extern "C" fn imap_add_observer_sensor(
 /// = sizeof(ImapGlareSource); NULL when `capacity` is 0), and their count to
 /// `*out_count` (NULL: not wanted). Builds the scene's BVH if no run has.
 ///
+/// `out->enclosed_by` names a one-sided mesh whose back faces surround the eye (inside a
+/// solid, or in a room drawn with its normals out): tell the user.
+///
 /// Returns IMAP_ERR_NULL_POINTER, IMAP_ERR_NON_FINITE, IMAP_ERR_INVALID_ARGUMENT (a zero
-/// view, an up along it, a negative Ev or σ, an eye inside a closed one-sided mesh, sizes),
+/// view, an up along it, a negative Ev or σ, sizes),
 /// IMAP_ERR_NO_GEOMETRY (no mesh), IMAP_ERR_BUSY. (Since 0.2.3.)
 ///
 /// # Safety
