@@ -338,17 +338,21 @@ public:
         return observer_glare(o, e.at(0), e.at(0) * r.at(0));
     }
     /// The observer's glare for a vertical illuminance `ev_lx` ± `ev_sigma_lx` at its eye.
+    /// (One call for up to 64 sources in view; a second only for more.)
     Glare observer_glare(const ImapObserver& o, double ev_lx, double ev_sigma_lx) {
         Glare g;
+        g.sources.resize(64);
         size_t count = 0;
-        check(imap_observer_glare(ctx_, &o, ev_lx, ev_sigma_lx, &g.figures, sizeof g.figures, nullptr, 0,
-                                  sizeof(ImapGlareSource), &count),
+        check(imap_observer_glare(ctx_, &o, ev_lx, ev_sigma_lx, &g.figures, sizeof g.figures, g.sources.data(),
+                                  g.sources.size(), sizeof(ImapGlareSource), &count),
               ctx_);
-        g.sources.resize(count);
-        if (count > 0)
+        if (count > g.sources.size()) {
+            g.sources.resize(count);
             check(imap_observer_glare(ctx_, &o, ev_lx, ev_sigma_lx, &g.figures, sizeof g.figures,
                                       g.sources.data(), count, sizeof(ImapGlareSource), &count),
                   ctx_);
+        }
+        g.sources.resize(count);
         return g;
     }
 

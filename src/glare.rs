@@ -116,8 +116,11 @@ pub fn ugr(terms: f64, background: f64) -> f64 {
 /// (Wienold 2009): 6.22·10⁻⁵ Ev + 0.184. It ignores the contrast of the sources: it holds
 /// when no sun (nor a specular reflection of it) is in view.
 pub fn dgps(ev_lx: f64) -> f64 {
-    6.22e-5 * ev_lx + 0.184
+    DGPS_PER_LX * ev_lx + 0.184
 }
+
+/// DGPs' slope, per lx of vertical illuminance (`dgps`).
+pub const DGPS_PER_LX: f64 = 6.22e-5;
 
 /// What a glare source is.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -269,13 +272,13 @@ impl Context {
                 *o += e[0] * wk;
             }
         }
-        let mut rel = vec![0.0; n];
-        self.rel_error(sensor, 0, &mut rel)?;
+        // Ev and its σ give the band-mean relative error (1 where nothing arrived).
+        let (ev, sigma) = self.observer_ev(sensor)?;
+        let rel = if ev > 0.0 { sigma / ev } else { 1.0 };
         for (k, kv) in D65_EFFICACY_MW_PER_LM.iter().enumerate() {
             out.edi_lx[k] = out.irradiance_w_m2[k] / (kv * 1e-3);
-            out.edi_sigma_lx[k] = out.edi_lx[k] * rel[0];
+            out.edi_sigma_lx[k] = out.edi_lx[k] * rel;
         }
-        let (ev, _) = self.observer_ev(sensor)?;
         out.melanopic_der = if ev > 0.0 { out.edi_lx[4] / ev } else { 0.0 };
         Ok(out)
     }
@@ -337,9 +340,10 @@ impl Context {
             background_sigma_cd_m2: background_sigma,
             ugr: ugr_value,
             ugr_sigma,
-            ugr_below_10: sources.is_empty() || terms <= 0.0 || ugr_value < 10.0,
+            // 0 with no source in view.
+            ugr_below_10: ugr_value < 10.0,
             dgps: dgps(ev_lx),
-            dgps_sigma: 6.22e-5 * ev_sigma_lx,
+            dgps_sigma: DGPS_PER_LX * ev_sigma_lx,
             sources,
             enclosed_by,
         })
@@ -366,15 +370,6 @@ fn enclosing_mesh(sight: &Sight, f: &Frame) -> Option<u32> {
     inside
 }
 
-/// Luminous flux of per-band radiant values, lm (or lm/m² of W/m²).
-fn luminous(sight: &Sight, per_band: &[f64]) -> f64 {
-    per_band
-        .iter()
-        .zip(sight.efficacy)
-        .map(|(p, e)| p * e)
-        .sum()
-}
-
 /// A light as the observer sees it (None behind the eye, unseen, or not a source of
 /// luminance: a beam, a sky, the sun).
 fn light_source(
@@ -394,7 +389,7 @@ fn light_source(
     let r = to.length();
     let d = to.try_normalize()?;
     let p = position_index(f.view, f.up, d)?;
-    let intensity = light.shape.intensity_per_watt(-d) * luminous(sight, &light.power);
+    let intensity = light.shape.intensity_per_watt(-d) * sight.photometry.luminous(&light.power);
     if intensity <= 0.0 {
         return None;
     }
@@ -448,7 +443,7 @@ fn light_source(
 fn mesh_source(sight: &Sight, f: &Frame, id: usize, unit_m: f64) -> Option<GlareSource> {
     let mesh = &sight.scene.meshes[id];
     let exitance = mesh.exitance.as_ref()?;
-    let luminance = luminous(sight, exitance) / PI;
+    let luminance = sight.photometry.luminous(exitance) / PI;
     if luminance <= 0.0 {
         return None;
     }

@@ -836,7 +836,7 @@ fn a_luminous_opening_gives_the_near_field_of_an_area_source() {
 /// steep cut-off makes it the worst case, 0.24 in its long rooms endwise.
 #[test]
 fn ugr_tables_agree_with_eulumdat_ugr() {
-    use imap::photometry::ugr_table::{ugr_table, ROOMS};
+    use imap::photometry::ugr_table::{ugr_table_ldt, ROOMS};
     let reference = include_str!("data/eulumdat_ugr.txt");
     let files = [
         ("ugr_panel.ldt", include_str!("data/ugr_panel.ldt")),
@@ -848,8 +848,7 @@ fn ugr_tables_agree_with_eulumdat_ugr() {
     let mut worst: f64 = 0.0;
     for (name, text) in files {
         let mut file_worst: f64 = 0.0;
-        let f = imap::photometry::ldt::parse(text).unwrap();
-        let t = ugr_table(&f.data, f.lor_percent / 100.0 * f.lamp_flux).unwrap();
+        let t = ugr_table_ldt(text).unwrap();
         let rows: Vec<Vec<f64>> = reference
             .lines()
             .filter(|l| l.starts_with(name))

@@ -219,26 +219,20 @@ pub fn summary(e: &ObserverEntry, r: &ObserverResult) -> String {
 /// `imap ugr-table FILE`: the luminaire file's CIE 190 table on stdout, as a catalogue
 /// prints it (or CSV).
 pub fn ugr_table_cmd(file: &Path, csv: bool) -> Result<()> {
-    use imap::photometry::ugr_table::{ugr_table, REFLECTANCES, ROOMS};
+    use imap::photometry::ugr_table::{ugr_table_ies, ugr_table_ldt, REFLECTANCES, ROOMS};
     let bytes = crate::diag::read_input(file).map_err(CliError)?;
     let text = crate::diag::decode(&bytes);
-    let at = |e: imap::Error| CliError(format!("{}: {}", file.display(), e.message));
     let ldt = file
         .extension()
         .and_then(|e| e.to_str())
         .is_some_and(|e| e.eq_ignore_ascii_case("ldt"));
-    let (data, flux) = if ldt {
-        let f = imap::photometry::ldt::parse(&text).map_err(at)?;
-        let flux = f.lor_percent / 100.0 * f.lamp_flux;
-        (f.data, flux)
+    let t = if ldt {
+        ugr_table_ldt(&text)
     } else {
-        let f = imap::photometry::ies::parse(&text, None).map_err(at)?;
-        let flux = imap::photometry::Goniometric::new(&f.data, 1.0)
-            .map_err(at)?
-            .flux();
-        (f.data, flux)
-    };
-    let t = ugr_table(&data, flux).map_err(at)?;
+        ugr_table_ies(&text)
+    }
+    .map_err(|e| CliError(format!("{}: {}", file.display(), e.message)))?;
+    let flux = t.flux_lm;
     let cell = |v: f64| {
         if v.is_finite() {
             format!("{v:.1}")

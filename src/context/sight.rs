@@ -4,6 +4,7 @@
 use super::Context;
 use crate::accel::Accel;
 use crate::error::Result;
+use crate::photometry::BandPhotometry;
 use crate::scene::{PreparedScene, Scene};
 use glam::DVec3;
 
@@ -13,8 +14,8 @@ pub struct Sight<'a> {
     pub scene: &'a Scene,
     prepared: &'a PreparedScene,
     accel: &'a Accel,
-    /// lm per W of each band.
-    pub efficacy: &'a [f64],
+    /// The bands' photometric weights (`BandPhotometry::luminous`: lm of W per band).
+    pub photometry: &'a BandPhotometry,
 }
 
 /// The first surface a line of sight meets.
@@ -67,7 +68,7 @@ impl Context {
             scene: &self.scene,
             prepared: &p.scene,
             accel: &p.accel,
-            efficacy: &self.photometry.efficacy,
+            photometry: &self.photometry,
         })
     }
 }

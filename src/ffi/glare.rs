@@ -440,23 +440,14 @@ pub unsafe extern "C" fn imap_ugr_table(
                 "out holds {count} doubles; a UGR table is 190 (19 rooms × 10)"
             );
         }
-        let (data, flux) = match format {
-            IMAP_PHOTOMETRY_FILE_IES => {
-                let f = crate::photometry::ies::parse(&text, None)?;
-                let flux = crate::photometry::Goniometric::new(&f.data, 1.0)?.flux();
-                (f.data, flux)
-            }
-            IMAP_PHOTOMETRY_FILE_LDT => {
-                let f = crate::photometry::ldt::parse(&text)?;
-                let flux = f.lor_percent / 100.0 * f.lamp_flux;
-                (f.data, flux)
-            }
+        let t = match format {
+            IMAP_PHOTOMETRY_FILE_IES => crate::photometry::ugr_table::ugr_table_ies(&text)?,
+            IMAP_PHOTOMETRY_FILE_LDT => crate::photometry::ugr_table::ugr_table_ldt(&text)?,
             _ => bail!(
                 ImapErrInvalidArgument,
                 "format = {format} is not an IMAP_PHOTOMETRY_FILE_* value (0 IES, 1 EULUMDAT)"
             ),
         };
-        let t = crate::photometry::ugr_table::ugr_table(&data, flux)?;
         for room in 0..19 {
             out[10 * room..10 * room + 5].copy_from_slice(&t.crosswise[room]);
             out[10 * room + 5..10 * room + 10].copy_from_slice(&t.endwise[room]);

@@ -31,7 +31,7 @@
 //! (7.00 above, 7.08 below). It is taken here as 7.05, a presumed transcription error;
 //! tests/data/eulumdat_ugr.txt shows where that matters.
 
-use super::gonio::{Opening, PhotometricData, PhotometricType};
+use super::gonio::{Goniometric, Opening, PhotometricData, PhotometricType};
 use crate::error::{bail, Result};
 use std::f64::consts::PI;
 
@@ -252,6 +252,8 @@ const ROOM_K: [f64; 19] = [
 pub struct UgrTable {
     pub crosswise: [[f64; 5]; 19],
     pub endwise: [[f64; 5]; 19],
+    /// The luminaire's flux the table is for, lm.
+    pub flux_lm: f64,
 }
 
 /// Guth's index of CIE 117's table at H/R and T/R (bilinear), or None outside it or next
@@ -277,45 +279,6 @@ fn plane_at(data: &PhotometricData, h: usize, deg: f64) -> f64 {
     let k = g.partition_point(|&a| a <= deg).clamp(1, g.len() - 1) - 1;
     let t = (deg - g[k]) / (g[k + 1] - g[k]).max(1e-300);
     v[k] * (1.0 - t) + v[k + 1] * t
-}
-
-/// The intensity at (C, γ) in degrees, bilinear between the stored planes (C folded
-/// into them by the file's symmetry).
-fn intensity(data: &PhotometricData, c: f64, g: f64) -> f64 {
-    use super::gonio::Symmetry as S;
-    let hs = &data.horizontal;
-    let c = c.rem_euclid(360.0);
-    let c = match data.symmetry {
-        S::Rotational => return plane_at(data, 0, g),
-        S::Quadrant => {
-            let a = c % 180.0;
-            if a > 90.0 {
-                180.0 - a
-            } else {
-                a
-            }
-        }
-        S::C0C180 => {
-            if c > 180.0 {
-                360.0 - c
-            } else {
-                c
-            }
-        }
-        S::C90C270 => {
-            let a = (c + 90.0).rem_euclid(360.0);
-            (if a > 180.0 { 360.0 - a } else { a }) + 90.0
-        }
-        S::None | S::LateralB => c,
-    };
-    let n = hs.len();
-    if n == 1 {
-        return plane_at(data, 0, g);
-    }
-    let k = hs.partition_point(|&a| a <= c).clamp(1, n - 1) - 1;
-    let (c0, c1) = (hs[k], hs[k + 1]);
-    let t = ((c - c0) / (c1 - c0).max(1e-300)).clamp(0.0, 1.0);
-    plane_at(data, k, g) * (1.0 - t) + plane_at(data, k + 1, g) * t
 }
 
 /// The UGR table of a type C distribution `data` (candela, absolute) emitting `flux_lm`
@@ -366,9 +329,13 @@ pub fn ugr_table(data: &PhotometricData, flux_lm: f64) -> Result<UgrTable> {
         zone[..7].iter().sum::<f64>() + 0.547 * zone[7],
         down,
     ];
+    // The distribution on the whole sphere (the file's symmetry applied), bilinear in C
+    // and γ: for type C its azimuth is C and its polar angle γ.
+    let dist = Goniometric::new(data, 1.0)?;
     let mut table = UgrTable {
         crosswise: [[N; 5]; 19],
         endwise: [[N; 5]; 19],
+        flux_lm,
     };
     let s = SPACING_TO_HEIGHT * H_M;
     for (room, &(xh, yh)) in ROOMS.iter().enumerate() {
@@ -409,7 +376,7 @@ pub fn ugr_table(data: &PhotometricData, flux_lm: f64) -> Result<UgrTable> {
                         gr.sin() * cr.sin(),
                         gr.cos(),
                     );
-                    let i_cd = intensity(data, c, gamma);
+                    let i_cd = dist.intensity(cr, gr);
                     let Some(p) = guth_table(H_M / r, t / r) else {
                         continue;
                     };
@@ -430,6 +397,20 @@ pub fn ugr_table(data: &PhotometricData, flux_lm: f64) -> Result<UgrTable> {
         }
     }
     Ok(table)
+}
+
+/// The UGR table of an EULUMDAT file, for its light output ratio times its first lamp
+/// set's flux.
+pub fn ugr_table_ldt(text: &str) -> Result<UgrTable> {
+    let f = super::ldt::parse(text)?;
+    ugr_table(&f.data, f.lor_percent / 100.0 * f.lamp_flux)
+}
+
+/// The UGR table of an IES LM-63 file, for its table's own flux.
+pub fn ugr_table_ies(text: &str) -> Result<UgrTable> {
+    let f = super::ies::parse(text, None)?;
+    let flux = Goniometric::new(&f.data, 1.0)?.flux();
+    ugr_table(&f.data, flux)
 }
 
 #[cfg(test)]
