@@ -174,6 +174,7 @@ fn main() {
         fov_y_deg: 90.0,
         width: size,
         height: size,
+        projection: imap::Projection::Perspective,
     };
     let region = regions(&cam, emitter_z);
     let counts = [0, 1, 2].map(|r| region.iter().filter(|&&x| x == r).count());

@@ -393,6 +393,23 @@
 #define IMAP_RENDER_FINAL_GATHER 3
 
 /**
+ * `ImapCamera::projection`: a pinhole camera.
+ */
+#define IMAP_PROJECTION_PERSPECTIVE 0
+
+/**
+ * `ImapCamera::projection`: an angular (equidistant) fisheye, Radiance's `-vta`; the
+ * distance from the image centre is proportional to the angle off the viewing direction.
+ */
+#define IMAP_PROJECTION_ANGULAR_FISHEYE 1
+
+/**
+ * `ImapCamera::projection`: a hemispherical (orthographic) fisheye, Radiance's `-vth`;
+ * the distance from the centre is proportional to the sine of the angle off the view.
+ */
+#define IMAP_PROJECTION_HEMISPHERICAL 2
+
+/**
  * `ImapRenderReport::omitted`: the scene has point-like lights (or the sun) outside a
  * scattering medium whose light can enter it only through a refracting surface (an opal
  * cover or a light guide lit by LEDs, a sunbeam in haze through a window). What the medium
@@ -1522,6 +1539,149 @@ typedef struct ImapAlphaOpic {
 } ImapAlphaOpic;
 
 /**
+ * How `imap_picture_glare` finds glare sources, evalglare's rules. Initialise with
+ * `imap_glare_rules_default(&r, sizeof r)`: evalglare's defaults. (Since 0.2.3.)
+ */
+typedef struct ImapGlareRules {
+  uint32_t struct_size;
+  /**
+   * 1: Wienold's (2009) low-light correction below Ev = 1000 lx (evalglare's `-C l+`;
+   * default 0, as evalglare since 2.14).
+   */
+  uint32_t low_light;
+  /**
+   * Above 100: the luminance (cd/m²) above which a pixel belongs to a glare source
+   * (evalglare's `-b`; default 2000). 100 or less: that multiple of the picture's mean
+   * luminance over the front hemisphere.
+   */
+  double threshold;
+  /**
+   * Glare pixels closer than half this angle (radians) join one source (evalglare's
+   * `-r`; default 0.2; at most 1).
+   */
+  double search_angle_rad;
+  /**
+   * Pixels at or above this luminance (cd/m²) become sources of their own (evalglare's
+   * peak extraction; default 50 000; 0: none).
+   */
+  double peak_cd_m2;
+} ImapGlareRules;
+
+/**
+ * A camera, pinhole or fisheye (`projection`), in scene units. Pixel rows run from the
+ * top of the image down.
+ * Initialise with `imap_camera_default(&c, sizeof c)`.
+ */
+typedef struct ImapCamera {
+  /**
+   * `sizeof(ImapCamera)` as the program was compiled; set by `imap_camera_default`.
+   */
+  uint32_t struct_size;
+  /**
+   * Image size in pixels, each side in 1..=16384.
+   */
+  uint32_t width;
+  uint32_t height;
+  /**
+   * Eye point.
+   */
+  double position[3];
+  /**
+   * Viewing direction (any non-zero finite length).
+   */
+  double direction[3];
+  /**
+   * Up vector; only its part across `direction` counts, and it must not be parallel.
+   */
+  double up[3];
+  /**
+   * Full vertical field of view, degrees: in (0, 180) for `IMAP_PROJECTION_PERSPECTIVE`,
+   * (0, 360] for `IMAP_PROJECTION_ANGULAR_FISHEYE`, (0, 180] for
+   * `IMAP_PROJECTION_HEMISPHERICAL`.
+   */
+  double fov_y_deg;
+  /**
+   * `IMAP_PROJECTION_*` (0: perspective, what programs built before it get). A fisheye
+   * image's pixels that see nothing (outside a hemispherical image's circle, beyond 180°
+   * of an angular one's axis) are black with no error.
+   */
+  uint32_t projection;
+} ImapCamera;
+
+/**
+ * A fisheye picture's daylight glare probability (`imap_picture_glare`). (Since 0.2.3.)
+ */
+typedef struct ImapPictureGlare {
+  uint32_t struct_size;
+  /**
+   * The glare sources found.
+   */
+  uint32_t sources;
+  /**
+   * The vertical illuminance at the eye from the picture (Σ L ω cos θ over its front
+   * hemisphere) and its standard error, lx.
+   */
+  double ev_lx;
+  double ev_sigma_lx;
+  /**
+   * DGP = 5.87·10⁻⁵ Ev + 9.18·10⁻² log10(1 + Σ L² ω / (Ev^1.87 P²)) + 0.16 (Wienold &
+   * Christoffersen 2006), at most 1, and its standard error (first order, from the
+   * pixels' errors taken as independent, the sources as found).
+   */
+  double dgp;
+  double dgp_sigma;
+  /**
+   * The luminance a glare pixel exceeds, cd/m².
+   */
+  double threshold_cd_m2;
+  /**
+   * The picture's mean luminance over the front hemisphere, cd/m².
+   */
+  double mean_luminance_cd_m2;
+  /**
+   * (Ev − what the sources give) / π, cd/m².
+   */
+  double background_cd_m2;
+} ImapPictureGlare;
+
+/**
+ * A glare source found in a picture (`imap_picture_glare`). (Since 0.2.3.)
+ */
+typedef struct ImapPictureSource {
+  uint32_t struct_size;
+  /**
+   * Its pixels.
+   */
+  uint32_t pixels;
+  /**
+   * From the eye toward its centre (unit, scene axes).
+   */
+  double direction[3];
+  /**
+   * Its centre on the picture, pixels from the top left (x right, y down): the L·ω
+   * weighted mean of its pixels' centres.
+   */
+  double centre_px[2];
+  double solid_angle_sr;
+  /**
+   * Its mean luminance, cd/m².
+   */
+  double luminance_cd_m2;
+  /**
+   * Guth's position index at its centre.
+   */
+  double position_index;
+  /**
+   * What it gives the eye, lx.
+   */
+  double ev_lx;
+  /**
+   * Its DGP term L² ω / P².
+   */
+  double term;
+} ImapPictureSource;
+
+/**
  * A region's figures (`imap_get_region_stats`), each with its standard error (`*_sigma`,
  * the same unit). Filled by the library; `struct_size` says how many bytes are valid.
  * (Since 0.2.1.)
@@ -1754,38 +1914,6 @@ typedef struct ImapPhotometry {
   double opening_width;
   double opening_length;
 } ImapPhotometry;
-
-/**
- * A pinhole camera, in scene units. Pixel rows run from the top of the image down.
- * Initialise with `imap_camera_default(&c, sizeof c)`.
- */
-typedef struct ImapCamera {
-  /**
-   * `sizeof(ImapCamera)` as the program was compiled; set by `imap_camera_default`.
-   */
-  uint32_t struct_size;
-  /**
-   * Image size in pixels, each side in 1..=16384.
-   */
-  uint32_t width;
-  uint32_t height;
-  /**
-   * Eye point.
-   */
-  double position[3];
-  /**
-   * Viewing direction (any non-zero finite length).
-   */
-  double direction[3];
-  /**
-   * Up vector; only its part across `direction` counts, and it must not be parallel.
-   */
-  double up[3];
-  /**
-   * Full vertical field of view, degrees, in (0, 180).
-   */
-  double fov_y_deg;
-} ImapCamera;
 
 /**
  * One point of the error-against-time history. Filled by the library (`struct_size` says
@@ -3202,6 +3330,41 @@ enum ImapStatus imap_get_observer_alpha_opic(const struct ImapContext *ctx, uint
  * `text` points to `len` readable bytes; `out` to `count` writable doubles.
  */
 enum ImapStatus imap_ugr_table(const char *text, size_t len, uint32_t format, double *out, size_t count);
+
+/**
+ * Fills `*out` (`size` = sizeof(ImapGlareRules)) with evalglare's default rules.
+ * (Since 0.2.3.)
+ *
+ * # Safety
+ * `out` points to `size` writable bytes.
+ */
+enum ImapStatus imap_glare_rules_default(struct ImapGlareRules *out, size_t size);
+
+/**
+ * The daylight glare probability of a fisheye picture that `camera` saw (an
+ * `IMAP_PROJECTION_ANGULAR_FISHEYE` or `_HEMISPHERICAL` camera of at least 180° across
+ * and up), with its glare sources found by `rules` (NULL: evalglare's defaults).
+ * `radiance` holds `radiance_count` = width × height × bands doubles as `imap_render`
+ * writes them (each pixel's luminance from its bands by this context's photometry);
+ * `rel_error` (NULL: no errors) its `width × height` relative errors. Writes the result
+ * to `*out` (`out_size` = sizeof(ImapPictureGlare)), up to `capacity` sources, largest
+ * term first, to `sources` (elements of `element_size` = sizeof(ImapPictureSource);
+ * NULL when `capacity` is 0), and, when `labels` is not NULL, `width × height` source
+ * labels (0: none; k: `sources[k − 1]`; `labels_count` at least that).
+ *
+ * Returns IMAP_ERR_NULL_POINTER, IMAP_ERR_NON_FINITE, IMAP_ERR_INVALID_ARGUMENT (a
+ * picture that is not a fisheye of the whole front hemisphere; pixels coarser than half
+ * the search angle, with the size that would do; a negative luminance or error; rules out
+ * of range; the message names the argument), IMAP_ERR_BUFFER_TOO_SMALL. (Since 0.2.3.)
+ *
+ * # Safety
+ * `ctx` is a live handle; `camera` an initialised ImapCamera; `rules` NULL or an
+ * initialised ImapGlareRules; `radiance` holds `radiance_count` doubles; `rel_error` is
+ * NULL or holds width × height doubles; `out` points to `out_size` writable bytes;
+ * `sources` to `capacity × element_size` writable bytes; `labels` is NULL or holds
+ * `labels_count` writable uint32_t.
+ */
+enum ImapStatus imap_picture_glare(const struct ImapContext *ctx, const struct ImapCamera *camera, const double *radiance, size_t radiance_count, const double *rel_error, const struct ImapGlareRules *rules, struct ImapPictureGlare *out, size_t out_size, struct ImapPictureSource *sources, size_t capacity, size_t element_size, uint32_t *labels, size_t labels_count);
 
 /**
  * Chooses the layers the map keeps, from the flags `IMAP_KEEP_LIGHT_GROUPS` (one layer

@@ -95,6 +95,6 @@ pub use solar::{sun_position, sun_position_with, SunTime, STANDARD_ATMOSPHERE};
 pub use spectral::Bands;
 // Camera renders.
 pub use render::{
-    CameraDesc, Image, RenderMethod, RenderParams, RenderReport, OMITS_CAUSTICS_ON_GLOSSY,
-    OMITS_REFRACTED_INTO_MEDIUM,
+    CameraDesc, Image, Projection, RenderMethod, RenderParams, RenderReport,
+    OMITS_CAUSTICS_ON_GLOSSY, OMITS_REFRACTED_INTO_MEDIUM,
 };

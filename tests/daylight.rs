@@ -861,6 +861,7 @@ fn the_renderer_sees_the_sky_and_a_floor_lit_by_it_and_the_sun() {
         fov_y_deg: 60.0,
         width: 32,
         height: 32,
+        projection: imap::Projection::Perspective,
     };
     let want = rho * (PI + 3.0 * 40f64.to_radians().cos()) / PI;
     let (img, _) = ctx.render(&cam(3.0, -1.0), &mut params).unwrap();
@@ -1069,6 +1070,7 @@ fn the_ground_glows_with_rho_e_h_over_pi_below_the_horizon() {
         fov_y_deg: 60.0,
         width: 16,
         height: 16,
+        projection: imap::Projection::Perspective,
     };
     let (img, _) = ctx.render(&cam, &mut params).unwrap();
     for (i, v) in img.radiance.iter().enumerate() {
@@ -1216,6 +1218,7 @@ fn portals_bring_the_sky_and_the_sun_through_the_opening_unbiased() {
                 fov_y_deg: 60.0,
                 width: 32,
                 height: 32,
+                projection: imap::Projection::Perspective,
             };
             let (img, _) = ctx.render(&cam, &mut params).unwrap();
             let nb = img.bands;

@@ -149,6 +149,7 @@ fn camera(size: u32) -> CameraDesc {
         fov_y_deg: 60.0,
         width: size,
         height: size,
+        projection: imap::Projection::Perspective,
     }
 }
 

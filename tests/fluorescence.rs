@@ -229,6 +229,7 @@ fn every_renderer_shows_a_fluorescent_plate_as_the_closed_form() {
         fov_y_deg: 30.0,
         width: 8,
         height: 8,
+        projection: imap::Projection::Perspective,
     };
     let pixels = (cam.width * cam.height) as usize;
     // Each band's mean over the pixels against the closed form, within `tol` of it (or of
@@ -565,6 +566,7 @@ fn every_renderer_shows_a_fluorescent_slab_in_a_furnace_as_the_closed_form() {
         fov_y_deg: 10.0,
         width: 4,
         height: 4,
+        projection: imap::Projection::Perspective,
     };
     // The image's mean of f(cos θ) over its plane, which the pixels sample uniformly.
     let mean_over_image = |f: &dyn Fn(f64) -> f64| {
@@ -697,6 +699,7 @@ fn renderers_see_a_scattering_fluorescent_medium_as_the_photons_map_it() {
         fov_y_deg: 2.0 * 0.6f64.atan().to_degrees(),
         width: 4,
         height: 4,
+        projection: imap::Projection::Perspective,
     };
     let pixels = (cam.width * cam.height) as usize;
     let mean = |img: &imap::Image, j: usize| {

@@ -68,6 +68,7 @@ fn room_camera() -> CameraDesc {
         fov_y_deg: 75.0,
         width: 24,
         height: 18,
+        projection: imap::Projection::Perspective,
     }
 }
 
@@ -263,6 +264,7 @@ fn cases() -> Vec<(String, Vec<f64>)> {
                 fov_y_deg: 80.0,
                 width: 20,
                 height: 16,
+                projection: imap::Projection::Perspective,
             };
             for (m_name, m) in [
                 ("synchronous", RenderMethod::Synchronous),

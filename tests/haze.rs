@@ -424,6 +424,7 @@ fn line_of_sight(from: [f64; 3], dir: [f64; 3]) -> imap::CameraDesc {
         fov_y_deg: 0.02,
         width: 1,
         height: 1,
+        projection: imap::Projection::Perspective,
     }
 }
 
@@ -578,6 +579,7 @@ fn lossless_haze_leaves_a_furnace_uniform_in_every_renderer() {
         fov_y_deg: 40.0,
         width: 8,
         height: 8,
+        projection: imap::Projection::Perspective,
     };
     let (mut ctx, _) = build(62);
     let pixels = 64.0;
@@ -634,6 +636,7 @@ fn a_hazy_room_renders_as_mitsuba_renders_it() {
         fov_y_deg: 60.0,
         width: 8,
         height: 8,
+        projection: imap::Projection::Perspective,
     };
     let total: f64 = reference.iter().map(|r| r.0).sum();
     for (name, l, rel) in render_all(&mut ctx, &cam, 8192, 256, 200_000) {

@@ -396,6 +396,7 @@ fn a_lossless_scattering_sphere_leaves_a_furnace_uniform() {
         fov_y_deg: 40.0,
         width: 16,
         height: 16,
+        projection: imap::Projection::Perspective,
     };
     for n in [1.0, 1.5] {
         // The path tracer: eye paths scatter in the sphere.
@@ -1168,6 +1169,7 @@ fn every_renderer_shows_a_floor_lit_inside_a_medium_as_the_closed_form() {
         fov_y_deg: 20.0,
         width: 6,
         height: 6,
+        projection: imap::Projection::Perspective,
     };
     check_floor_pictures(&mut ctx, &cam, 2048);
 }
@@ -1185,6 +1187,7 @@ fn a_camera_inside_a_medium_sees_through_it() {
         fov_y_deg: 60.0,
         width: 6,
         height: 6,
+        projection: imap::Projection::Perspective,
     };
     check_floor_pictures(&mut ctx, &cam, 2048);
 }
@@ -1197,6 +1200,7 @@ const BALL_CAMERA: imap::CameraDesc = imap::CameraDesc {
     fov_y_deg: 24.0,
     width: 24,
     height: 24,
+    projection: imap::Projection::Perspective,
 };
 
 /// The irradiance at the pinhole of the square camera `cam` from what its picture shows,
@@ -1499,6 +1503,7 @@ fn nested_media_take_their_own_absorption_and_give_the_path_back_to_the_outer_on
         fov_y_deg: 0.05,
         width: 2,
         height: 2,
+        projection: imap::Projection::Perspective,
     };
     // (Rays within 0.02° of the axis: their paths are longer by a factor 1 + 6e-8; each
     // crossing starts its ray an offset beyond the surface.)
@@ -1729,6 +1734,7 @@ fn stack_transmits(slabs: &[(f64, f64, f64, f64, f64)], seed: u64) -> (f64, f64,
         fov_y_deg: 2.0,
         width: 2,
         height: 2,
+        projection: imap::Projection::Perspective,
     };
     let img = ctx.path_trace(&cam, 20_000, 1000).unwrap();
     let seen = img.radiance.iter().sum::<f64>() / img.radiance.len() as f64;
@@ -1871,6 +1877,7 @@ fn a_render_says_which_light_its_method_cannot_show() {
             fov_y_deg: 40.0,
             width: 4,
             height: 4,
+            projection: imap::Projection::Perspective,
         };
         render_passes(&mut ctx, &cam, method, 2);
         ctx.render_report().unwrap().omitted
@@ -1927,6 +1934,7 @@ fn a_render_says_which_light_its_method_cannot_show() {
             fov_y_deg: 40.0,
             width: 4,
             height: 4,
+            projection: imap::Projection::Perspective,
         };
         render_passes(&mut ctx, &cam, method, 2);
         ctx.render_report().unwrap().omitted

@@ -122,6 +122,7 @@ fn a_scene_admitted_under_a_budget_stays_within_it() {
         fov_y_deg: 50.0,
         width: 256,
         height: 256,
+        projection: imap::Projection::Perspective,
     };
     // The scene fills the budget: a 256² render does not fit and is refused before
     // allocating; a 48² one fits.

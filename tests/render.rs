@@ -67,6 +67,7 @@ fn sphere_camera(size: u32) -> CameraDesc {
         fov_y_deg: 60.0,
         width: size,
         height: size,
+        projection: imap::Projection::Perspective,
     }
 }
 
@@ -206,6 +207,7 @@ fn floor_under_an_area_light_with_mis() {
         fov_y_deg: 50.0,
         width: 48,
         height: 40,
+        projection: imap::Projection::Perspective,
     };
     let (img, rep) = render(
         &mut ctx,
@@ -302,6 +304,7 @@ fn looking_down(z: f64) -> CameraDesc {
         fov_y_deg: 60.0,
         width: 48,
         height: 48,
+        projection: imap::Projection::Perspective,
     }
 }
 
@@ -313,6 +316,7 @@ fn room_camera() -> CameraDesc {
         fov_y_deg: 70.0,
         width: 64,
         height: 64,
+        projection: imap::Projection::Perspective,
     }
 }
 
@@ -422,6 +426,7 @@ fn the_counter_protocol_holds_under_many_groups_and_tiny_phases() {
             fov_y_deg: 90.0,
             width: 128,
             height: 128,
+            projection: imap::Projection::Perspective,
         };
         let mut p = params(RenderMethod::SemiSynchronous, 24);
         p.group_threads = group_threads;
@@ -660,6 +665,7 @@ fn furnace_camera() -> CameraDesc {
         fov_y_deg: 70.0,
         width: 32,
         height: 32,
+        projection: imap::Projection::Perspective,
     }
 }
 
@@ -884,6 +890,7 @@ fn final_gathering_shows_the_caustic_of_a_point_light() {
         fov_y_deg: 30.0,
         width: 24,
         height: 24,
+        projection: imap::Projection::Perspective,
     };
     let mut p = params(RenderMethod::FinalGather, 128);
     p.max_path_events = 10_000;
@@ -967,6 +974,7 @@ fn final_gathering_agrees_with_the_path_tracer_in_the_mixed_room() {
         fov_y_deg: 75.0,
         width: 24,
         height: 24,
+        projection: imap::Projection::Perspective,
     };
     let config = |seed| Config {
         threads: 2,
@@ -1040,6 +1048,7 @@ fn the_sky_is_seen_all_round_the_model() {
         fov_y_deg: 20.0,
         width: 16,
         height: 16,
+        projection: imap::Projection::Perspective,
     };
     // Radiance 1 W/(m² sr) over the bands, shared as the colour says.
     let per_band: Vec<f64> = {
@@ -1113,6 +1122,7 @@ fn the_sun_through_glass_is_rendered_with_a_usable_error() {
         fov_y_deg: 30.0,
         width: 24,
         height: 16,
+        projection: imap::Projection::Perspective,
     };
     let mut fg = params(RenderMethod::FinalGather, 0);
     fg.time_budget_s = 6.0;
@@ -1211,6 +1221,7 @@ fn an_emitter_seen_directly_is_its_exact_pixel_coverage() {
         fov_y_deg: 40.0,
         width: 24,
         height: 18,
+        projection: imap::Projection::Perspective,
     };
     // Its front (the side that emits) toward the camera.
     let normal = cross(sub(corners[1], corners[0]), sub(corners[2], corners[0]));
@@ -1297,6 +1308,7 @@ fn an_emitter_partly_hidden_stays_unbiased() {
         fov_y_deg: 40.0,
         width: 32,
         height: 24,
+        projection: imap::Projection::Perspective,
     };
     // The lamp in the plane y = 0 facing the camera (normal −y), the panel in y = −1 over
     // its corner.

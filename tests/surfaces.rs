@@ -245,6 +245,7 @@ fn small_camera(position: [f64; 3], direction: [f64; 3]) -> CameraDesc {
         fov_y_deg: 70.0,
         width: 16,
         height: 16,
+        projection: imap::Projection::Perspective,
     }
 }
 
@@ -470,6 +471,7 @@ fn the_renderers_agree_on_rough_surfaces() {
         fov_y_deg: 75.0,
         width: 24,
         height: 24,
+        projection: imap::Projection::Perspective,
     };
     let (mut pt, _) = glossy_room(seeded(21), false);
     let reference = pt.path_trace(&cam, 1024, 10_000).unwrap();
@@ -856,6 +858,7 @@ fn a_failing_host_bsdf_is_a_status_not_a_crash() {
         fov_y_deg: 70.0,
         width: 8,
         height: 8,
+        projection: imap::Projection::Perspective,
     };
     let e = ctx.path_trace(&cam, 4, 100).unwrap_err();
     assert_eq!(e.status, ImapStatus::ImapErrHostBsdf, "{e}");
@@ -1082,6 +1085,7 @@ fn a_point_light_through_glass_onto_a_glossy_floor_is_rendered() {
         fov_y_deg: 60.0,
         width: 20,
         height: 16,
+        projection: imap::Projection::Perspective,
     };
     let image = |pane: bool, seed: u64| {
         let mut ctx = context(seeded(seed));

@@ -360,6 +360,7 @@ fn final_gathering_with_tiny_budgets_always_succeeds() {
         fov_y_deg: 40.0,
         width: 16,
         height: 16,
+        projection: imap::Projection::Perspective,
     };
     for k in 0..60 {
         let mut ctx = context(seeded(k));

@@ -137,6 +137,7 @@ pub fn render(
         fov_y_deg: cam.fov_deg,
         width: cam.width,
         height: cam.height,
+        projection: imap::Projection::Perspective,
     };
     let interrupted = crate::Interrupts::get();
     let quiet = opts.quiet;

@@ -876,5 +876,6 @@ pub fn cornell_camera(width: u32, height: u32) -> imap::CameraDesc {
         fov_y_deg: 39.3,
         width,
         height,
+        projection: imap::Projection::Perspective,
     }
 }

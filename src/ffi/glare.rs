@@ -6,7 +6,9 @@ use super::{
     ImapContext, Versioned,
 };
 use crate::error::{bail, ImapStatus, Result};
-use crate::glare::{Glare, GlareSource, Observer, SourceKind};
+use crate::glare::{
+    picture_glare, Glare, GlareSource, Observer, PictureSource, SourceKind, SourceRules,
+};
 
 /// An observer: an eye (scene units), the direction it looks in and its up (any vector
 /// not parallel to the view; only its part across the view counts). Initialise with
@@ -451,6 +453,283 @@ pub unsafe extern "C" fn imap_ugr_table(
         for room in 0..19 {
             out[10 * room..10 * room + 5].copy_from_slice(&t.crosswise[room]);
             out[10 * room + 5..10 * room + 10].copy_from_slice(&t.endwise[room]);
+        }
+        Ok(())
+    })
+}
+
+/// How `imap_picture_glare` finds glare sources, evalglare's rules. Initialise with
+/// `imap_glare_rules_default(&r, sizeof r)`: evalglare's defaults. (Since 0.2.3.)
+#[repr(C)]
+#[derive(Clone, Copy, Debug)]
+pub struct ImapGlareRules {
+    pub struct_size: u32,
+    /// 1: Wienold's (2009) low-light correction below Ev = 1000 lx (evalglare's `-C l+`;
+    /// default 0, as evalglare since 2.14).
+    pub low_light: u32,
+    /// Above 100: the luminance (cd/m²) above which a pixel belongs to a glare source
+    /// (evalglare's `-b`; default 2000). 100 or less: that multiple of the picture's mean
+    /// luminance over the front hemisphere.
+    pub threshold: f64,
+    /// Glare pixels closer than half this angle (radians) join one source (evalglare's
+    /// `-r`; default 0.2; at most 1).
+    pub search_angle_rad: f64,
+    /// Pixels at or above this luminance (cd/m²) become sources of their own (evalglare's
+    /// peak extraction; default 50 000; 0: none).
+    pub peak_cd_m2: f64,
+}
+
+fn rules_to_c(r: &SourceRules) -> ImapGlareRules {
+    ImapGlareRules {
+        struct_size: std::mem::size_of::<ImapGlareRules>() as u32,
+        low_light: r.low_light as u32,
+        threshold: r.threshold,
+        search_angle_rad: r.search_angle_rad,
+        peak_cd_m2: r.peak_cd_m2,
+    }
+}
+
+// SAFETY: repr(C), u32 struct_size first, numbers only.
+unsafe impl Versioned for ImapGlareRules {
+    const NAME: &'static str = "ImapGlareRules";
+    const INIT: &'static str = "imap_glare_rules_default";
+    fn defaults() -> Self {
+        rules_to_c(&SourceRules::default())
+    }
+}
+
+/// Fills `*out` (`size` = sizeof(ImapGlareRules)) with evalglare's default rules.
+/// (Since 0.2.3.)
+///
+/// # Safety
+/// `out` points to `size` writable bytes.
+#[no_mangle]
+pub unsafe extern "C" fn imap_glare_rules_default(
+    out: *mut ImapGlareRules,
+    size: usize,
+) -> ImapStatus {
+    boundary(None, || write_defaults(out, size))
+}
+
+/// A fisheye picture's daylight glare probability (`imap_picture_glare`). (Since 0.2.3.)
+#[repr(C)]
+#[derive(Clone, Copy, Debug)]
+pub struct ImapPictureGlare {
+    pub struct_size: u32,
+    /// The glare sources found.
+    pub sources: u32,
+    /// The vertical illuminance at the eye from the picture (Σ L ω cos θ over its front
+    /// hemisphere) and its standard error, lx.
+    pub ev_lx: f64,
+    pub ev_sigma_lx: f64,
+    /// DGP = 5.87·10⁻⁵ Ev + 9.18·10⁻² log10(1 + Σ L² ω / (Ev^1.87 P²)) + 0.16 (Wienold &
+    /// Christoffersen 2006), at most 1, and its standard error (first order, from the
+    /// pixels' errors taken as independent, the sources as found).
+    pub dgp: f64,
+    pub dgp_sigma: f64,
+    /// The luminance a glare pixel exceeds, cd/m².
+    pub threshold_cd_m2: f64,
+    /// The picture's mean luminance over the front hemisphere, cd/m².
+    pub mean_luminance_cd_m2: f64,
+    /// (Ev − what the sources give) / π, cd/m².
+    pub background_cd_m2: f64,
+}
+
+// SAFETY: repr(C), u32 struct_size first, numbers only.
+unsafe impl Versioned for ImapPictureGlare {
+    const NAME: &'static str = "ImapPictureGlare";
+    const INIT: &'static str = "sizeof(ImapPictureGlare)";
+    fn defaults() -> Self {
+        ImapPictureGlare {
+            struct_size: std::mem::size_of::<Self>() as u32,
+            sources: 0,
+            ev_lx: 0.0,
+            ev_sigma_lx: 0.0,
+            dgp: 0.0,
+            dgp_sigma: 0.0,
+            threshold_cd_m2: 0.0,
+            mean_luminance_cd_m2: 0.0,
+            background_cd_m2: 0.0,
+        }
+    }
+}
+
+/// A glare source found in a picture (`imap_picture_glare`). (Since 0.2.3.)
+#[repr(C)]
+#[derive(Clone, Copy, Debug)]
+pub struct ImapPictureSource {
+    pub struct_size: u32,
+    /// Its pixels.
+    pub pixels: u32,
+    /// From the eye toward its centre (unit, scene axes).
+    pub direction: [f64; 3],
+    /// Its centre on the picture, pixels from the top left (x right, y down): the L·ω
+    /// weighted mean of its pixels' centres.
+    pub centre_px: [f64; 2],
+    pub solid_angle_sr: f64,
+    /// Its mean luminance, cd/m².
+    pub luminance_cd_m2: f64,
+    /// Guth's position index at its centre.
+    pub position_index: f64,
+    /// What it gives the eye, lx.
+    pub ev_lx: f64,
+    /// Its DGP term L² ω / P².
+    pub term: f64,
+}
+
+fn picture_source_to_c(s: &PictureSource) -> ImapPictureSource {
+    ImapPictureSource {
+        struct_size: std::mem::size_of::<ImapPictureSource>() as u32,
+        pixels: s.pixels,
+        direction: s.direction,
+        centre_px: s.centre_px,
+        solid_angle_sr: s.solid_angle_sr,
+        luminance_cd_m2: s.luminance_cd_m2,
+        position_index: s.position_index,
+        ev_lx: s.ev_lx,
+        term: s.term,
+    }
+}
+
+// SAFETY: repr(C), u32 struct_size first, numbers only.
+unsafe impl Versioned for ImapPictureSource {
+    const NAME: &'static str = "ImapPictureSource";
+    const INIT: &'static str = "sizeof(ImapPictureSource)";
+    fn defaults() -> Self {
+        let mut s = picture_source_to_c(&PictureSource {
+            direction: [0.0; 3],
+            centre_px: [0.0; 2],
+            solid_angle_sr: 0.0,
+            luminance_cd_m2: 0.0,
+            position_index: 0.0,
+            ev_lx: 0.0,
+            pixels: 0,
+            term: 0.0,
+        });
+        s.struct_size = std::mem::size_of::<Self>() as u32;
+        s
+    }
+}
+
+/// The daylight glare probability of a fisheye picture that `camera` saw (an
+/// `IMAP_PROJECTION_ANGULAR_FISHEYE` or `_HEMISPHERICAL` camera of at least 180° across
+/// and up), with its glare sources found by `rules` (NULL: evalglare's defaults).
+/// `radiance` holds `radiance_count` = width × height × bands doubles as `imap_render`
+/// writes them (each pixel's luminance from its bands by this context's photometry);
+/// `rel_error` (NULL: no errors) its `width × height` relative errors. Writes the result
+/// to `*out` (`out_size` = sizeof(ImapPictureGlare)), up to `capacity` sources, largest
+/// term first, to `sources` (elements of `element_size` = sizeof(ImapPictureSource);
+/// NULL when `capacity` is 0), and, when `labels` is not NULL, `width × height` source
+/// labels (0: none; k: `sources[k − 1]`; `labels_count` at least that).
+///
+/// Returns IMAP_ERR_NULL_POINTER, IMAP_ERR_NON_FINITE, IMAP_ERR_INVALID_ARGUMENT (a
+/// picture that is not a fisheye of the whole front hemisphere; pixels coarser than half
+/// the search angle, with the size that would do; a negative luminance or error; rules out
+/// of range; the message names the argument), IMAP_ERR_BUFFER_TOO_SMALL. (Since 0.2.3.)
+///
+/// # Safety
+/// `ctx` is a live handle; `camera` an initialised ImapCamera; `rules` NULL or an
+/// initialised ImapGlareRules; `radiance` holds `radiance_count` doubles; `rel_error` is
+/// NULL or holds width × height doubles; `out` points to `out_size` writable bytes;
+/// `sources` to `capacity × element_size` writable bytes; `labels` is NULL or holds
+/// `labels_count` writable uint32_t.
+#[no_mangle]
+#[allow(clippy::too_many_arguments)]
+pub unsafe extern "C" fn imap_picture_glare(
+    ctx: *const ImapContext,
+    camera: *const super::render::ImapCamera,
+    radiance: *const f64,
+    radiance_count: usize,
+    rel_error: *const f64,
+    rules: *const ImapGlareRules,
+    out: *mut ImapPictureGlare,
+    out_size: usize,
+    sources: *mut ImapPictureSource,
+    capacity: usize,
+    element_size: usize,
+    labels: *mut u32,
+    labels_count: usize,
+) -> ImapStatus {
+    with_context(ctx, |c| {
+        let cam = super::render::camera_from_c(&read_versioned("camera", camera)?)?;
+        let r = if rules.is_null() {
+            SourceRules::default()
+        } else {
+            let r = read_versioned("rules", rules)?;
+            if r.low_light > 1 {
+                bail!(
+                    ImapErrInvalidArgument,
+                    "rules.low_light = {} is not 0 or 1",
+                    r.low_light
+                );
+            }
+            SourceRules {
+                threshold: r.threshold,
+                search_angle_rad: r.search_angle_rad,
+                peak_cd_m2: r.peak_cd_m2,
+                low_light: r.low_light == 1,
+            }
+        };
+        check_out("out", out)?;
+        super::check_elements("sources", sources, capacity, element_size)?;
+        let pixels = cam.width as usize * cam.height as usize;
+        let bands = c.scene().bands.count();
+        let want = pixels * bands;
+        if radiance_count != want {
+            bail!(
+                ImapErrInvalidArgument,
+                "radiance_count {radiance_count} is not width {} × height {} × {bands} bands = {want}",
+                cam.width,
+                cam.height
+            );
+        }
+        if !labels.is_null() && labels_count < pixels {
+            bail!(
+                ImapErrBufferTooSmall,
+                "labels_count {labels_count} < {pixels} (width {} × height {})",
+                cam.width,
+                cam.height
+            );
+        }
+        let rad = super::slice("radiance", radiance, radiance_count)?;
+        if let Some(i) = rad.iter().position(|v| !v.is_finite()) {
+            bail!(ImapErrNonFinite, "radiance[{i}] = {} is not finite", rad[i]);
+        }
+        let photometry = c.photometry();
+        let lum: Vec<f64> = rad
+            .chunks_exact(bands)
+            .map(|b| photometry.luminous(b))
+            .collect();
+        let rel = if rel_error.is_null() {
+            None
+        } else {
+            Some(super::slice("rel_error", rel_error, pixels)?)
+        };
+        let g = picture_glare(&cam, &lum, rel, &r)?;
+        write_versioned(
+            "out",
+            out,
+            out_size,
+            ImapPictureGlare {
+                struct_size: std::mem::size_of::<ImapPictureGlare>() as u32,
+                sources: g.sources.len() as u32,
+                ev_lx: g.ev_lx,
+                ev_sigma_lx: g.ev_sigma_lx,
+                dgp: g.dgp,
+                dgp_sigma: g.dgp_sigma,
+                threshold_cd_m2: g.threshold_cd_m2,
+                mean_luminance_cd_m2: g.mean_luminance_cd_m2,
+                background_cd_m2: g.background_cd_m2,
+            },
+        )?;
+        for (i, s) in g.sources.iter().take(capacity).enumerate() {
+            // SAFETY: the caller provides capacity × element_size writable bytes.
+            let dst =
+                unsafe { (sources as *mut u8).add(i * element_size) } as *mut ImapPictureSource;
+            write_versioned("sources", dst, element_size, picture_source_to_c(s))?;
+        }
+        if !labels.is_null() {
+            super::slice_mut("labels", labels, pixels)?.copy_from_slice(&g.labels);
         }
         Ok(())
     })

@@ -44,7 +44,8 @@ pub const IMAP_RENDER_SEMI_SYNC: u32 = 2;
 /// both diffuse and specular, they are missing.
 pub const IMAP_RENDER_FINAL_GATHER: u32 = 3;
 
-/// A pinhole camera, in scene units. Pixel rows run from the top of the image down.
+/// A camera, pinhole or fisheye (`projection`), in scene units. Pixel rows run from the
+/// top of the image down.
 /// Initialise with `imap_camera_default(&c, sizeof c)`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default)]
@@ -60,14 +61,57 @@ pub struct ImapCamera {
     pub direction: [f64; 3],
     /// Up vector; only its part across `direction` counts, and it must not be parallel.
     pub up: [f64; 3],
-    /// Full vertical field of view, degrees, in (0, 180).
+    /// Full vertical field of view, degrees: in (0, 180) for `IMAP_PROJECTION_PERSPECTIVE`,
+    /// (0, 360] for `IMAP_PROJECTION_ANGULAR_FISHEYE`, (0, 180] for
+    /// `IMAP_PROJECTION_HEMISPHERICAL`.
     pub fov_y_deg: f64,
+    /// `IMAP_PROJECTION_*` (0: perspective, what programs built before it get). A fisheye
+    /// image's pixels that see nothing (outside a hemispherical image's circle, beyond 180°
+    /// of an angular one's axis) are black with no error.
+    pub projection: u32,
+}
+
+/// `ImapCamera::projection`: a pinhole camera.
+pub const IMAP_PROJECTION_PERSPECTIVE: u32 = 0;
+/// `ImapCamera::projection`: an angular (equidistant) fisheye, Radiance's `-vta`; the
+/// distance from the image centre is proportional to the angle off the viewing direction.
+pub const IMAP_PROJECTION_ANGULAR_FISHEYE: u32 = 1;
+/// `ImapCamera::projection`: a hemispherical (orthographic) fisheye, Radiance's `-vth`;
+/// the distance from the centre is proportional to the sine of the angle off the view.
+pub const IMAP_PROJECTION_HEMISPHERICAL: u32 = 2;
+
+/// The camera an ImapCamera describes (validated when it is used).
+pub(crate) fn camera_from_c(cam: &ImapCamera) -> crate::error::Result<CameraDesc> {
+    Ok(CameraDesc {
+        position: cam.position,
+        direction: cam.direction,
+        up: cam.up,
+        fov_y_deg: cam.fov_y_deg,
+        width: cam.width,
+        height: cam.height,
+        projection: projection_of(cam.projection)?,
+    })
+}
+
+/// The projection of `ImapCamera::projection`, or IMAP_ERR_INVALID_ARGUMENT naming it.
+pub(crate) fn projection_of(code: u32) -> crate::error::Result<crate::render::Projection> {
+    use crate::render::Projection;
+    Ok(match code {
+        IMAP_PROJECTION_PERSPECTIVE => Projection::Perspective,
+        IMAP_PROJECTION_ANGULAR_FISHEYE => Projection::AngularFisheye,
+        IMAP_PROJECTION_HEMISPHERICAL => Projection::Hemispherical,
+        other => bail!(
+            ImapErrInvalidArgument,
+            "camera.projection = {other} is not an IMAP_PROJECTION_* value (0 perspective, 1 angular fisheye, 2 hemispherical)"
+        ),
+    })
 }
 
 // SAFETY: repr(C), u32 struct_size first, plain numbers only.
 unsafe impl Versioned for ImapCamera {
     const NAME: &'static str = "ImapCamera";
     const INIT: &'static str = "imap_camera_default";
+    const BASE_SIZE: usize = std::mem::offset_of!(ImapCamera, projection);
     fn defaults() -> Self {
         ImapCamera {
             struct_size: std::mem::size_of::<Self>() as u32,
@@ -77,6 +121,7 @@ unsafe impl Versioned for ImapCamera {
             direction: [0.0, 0.0, -1.0],
             up: [0.0, 1.0, 0.0],
             fov_y_deg: 60.0,
+            projection: IMAP_PROJECTION_PERSPECTIVE,
         }
     }
 }
@@ -401,14 +446,7 @@ pub unsafe extern "C" fn imap_render(
                 None
             },
         };
-        let desc = CameraDesc {
-            position: cam.position,
-            direction: cam.direction,
-            up: cam.up,
-            fov_y_deg: cam.fov_y_deg,
-            width: cam.width,
-            height: cam.height,
-        };
+        let desc = camera_from_c(&cam)?;
         let (image, r, lost) = c.render_partial(&desc, &mut rp)?;
         radiance[..want].copy_from_slice(&image.radiance);
         if let Some(dst) = rel_error {

@@ -270,6 +270,7 @@ impl<'a> EyeTracer<'a> {
     /// would not be the pixel's direct part.
     pub fn build_coverage(&self) -> Coverage {
         if !self.has_mesh_emitters
+            || !self.camera.is_perspective()
             || self.camera_media.current().is_some()
             || self.scene.haze.is_some()
         {
@@ -289,7 +290,9 @@ impl<'a> EyeTracer<'a> {
             })
             .collect();
         let sees = |x: u32, y: u32, jx: f64, jy: f64, mesh: usize, prim: usize| {
-            let dir = self.camera.ray(x, y, jx, jy);
+            let Some(dir) = self.camera.ray(x, y, jx, jy) else {
+                return false;
+            };
             self.scene
                 .enter(self.camera.origin, dir)
                 .and_then(|o| self.accel.intersect(o, dir))
@@ -349,7 +352,8 @@ impl<'a> EyeTracer<'a> {
             match self.start_path(pixel, rng, beta, stats, &mut buf.direct[d0..d0 + nb]) {
                 Ok(ray) => ray,
                 // A ray that passes the whole scene by sees the sky.
-                Err(dir) => return self.add_sky(dir, beta, &mut buf.direct[d0..]),
+                Err(Some(dir)) => return self.add_sky(dir, beta, &mut buf.direct[d0..]),
+                Err(None) => return,
             };
         // The pixel's bands, until a fluorescent medium or surface picks one for the path.
         let mut out = PathOut {
@@ -523,7 +527,8 @@ impl<'a> EyeTracer<'a> {
         let nb = self.bands;
         let (mut dir, mut org) = match self.start_path(pixel, rng, beta, stats, out) {
             Ok(ray) => ray,
-            Err(dir) => return self.add_sky(dir, beta, out),
+            Err(Some(dir)) => return self.add_sky(dir, beta, out),
+            Err(None) => return,
         };
         // Where the path's light goes: each band into its own pixel band, until a
         // fluorescent surface picks one pixel band for all the arriving light's bands.
@@ -824,8 +829,8 @@ impl<'a> EyeTracer<'a> {
             return None;
         };
         let (pixel, den) = self.splat_at(z, n, dir, dist)?;
-        // Radiance over the pixel: (k/π) Φ cos θz / (d² cos³ θc · pixel area at unit
-        // distance), d in metres.
+        // Radiance over the pixel: (k/π) Φ cos θz / (d² · the pixel's solid angle toward
+        // z; a pinhole's pixel: cos³ θc times its area at unit distance), d in metres.
         let g = c.abs() / den / PI * flux;
         if let Some(fl) = bsdf.fluorescence() {
             // What a fluorescent surface sends on: reflected and re-emitted light.
@@ -841,16 +846,16 @@ impl<'a> EyeTracer<'a> {
 
     /// The pixel that sees `z` (leaving on the side of normal `n` toward the camera along
     /// `dir`, `dist` away) with nothing in between, and a splat's denominator there:
-    /// d² cos³ θc · the pixel's area at unit distance, d in metres.
+    /// d² · the pixel's solid angle toward `z` (`Camera::project`), d in metres.
     #[inline]
     fn splat_at(&self, z: DVec3, n: DVec3, dir: DVec3, dist: f64) -> Option<(u32, f64)> {
-        let (pixel, cos_c) = self.camera.project(z)?;
+        let (pixel, omega) = self.camera.project(z)?;
         let eps = self.scene.offset_at(z);
         if dist <= eps || self.accel.occluded(z + n * eps, dir, dist - eps) {
             return None;
         }
         let d_m = dist * self.unit_m;
-        Some((pixel, d_m * d_m * cos_c.powi(3) * self.camera.pixel_area()))
+        Some((pixel, d_m * d_m * omega))
     }
 
     /// Whether the map holds light for side `side` of mesh `mesh` (and the other side too
@@ -1169,7 +1174,8 @@ impl<'a> EyeTracer<'a> {
     }
 
     /// A new eye path through `pixel`: unit weight in every band, counted, and its first
-    /// ray (its direction alone when it passes the scene's bounding sphere by). The
+    /// ray (its direction alone when it passes the scene's bounding sphere by; none where
+    /// a fisheye's pixel sees nothing). The
     /// emitters' coverage control for this ray goes into `out` (`coverage.rs`).
     #[inline]
     fn start_path(
@@ -1179,13 +1185,12 @@ impl<'a> EyeTracer<'a> {
         beta: &mut Vec<f64>,
         stats: &mut EyeStats,
         out: &mut [f64],
-    ) -> Result<(DVec3, DVec3), DVec3> {
+    ) -> Result<(DVec3, DVec3), Option<DVec3>> {
         beta.clear();
         beta.resize(self.bands, 1.0);
         stats.paths += 1;
         let ray = self.camera_ray(pixel, rng);
-        if !self.coverage.is_empty() {
-            let (Ok((dir, _)) | Err(dir)) = ray;
+        if let (false, Ok((dir, _)) | Err(Some(dir))) = (self.coverage.is_empty(), ray) {
             self.coverage.terms(pixel, self.camera.origin, dir, |e, w| {
                 if let LightValue::Radiance { radiance, .. } = &self.lights[e as usize] {
                     for (o, l) in out.iter_mut().zip(radiance) {
@@ -1199,17 +1204,19 @@ impl<'a> EyeTracer<'a> {
 
     /// A camera ray through `pixel` (jittered) and where it starts: at the camera, or where
     /// it enters the bounding sphere of a scene far away (Err with its direction: it misses
-    /// the sphere, and sees only what is infinitely far).
+    /// the sphere, and sees only what is infinitely far; Err(None) where a fisheye's pixel
+    /// sees nothing).
     #[inline]
-    fn camera_ray(&self, pixel: u32, rng: &mut PhotonRng) -> Result<(DVec3, DVec3), DVec3> {
+    fn camera_ray(&self, pixel: u32, rng: &mut PhotonRng) -> Result<(DVec3, DVec3), Option<DVec3>> {
         let w = self.camera.desc.width;
         let dir = self
             .camera
-            .ray(pixel % w, pixel / w, rng.uniform(), rng.uniform());
+            .ray(pixel % w, pixel / w, rng.uniform(), rng.uniform())
+            .ok_or(None)?;
         self.scene
             .enter(self.camera.origin, dir)
             .map(|o| (dir, o))
-            .ok_or(dir)
+            .ok_or(Some(dir))
     }
 
     /// The radiance of the distant sources along `dir`, times `beta`, added to `out`.

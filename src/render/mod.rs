@@ -35,7 +35,7 @@ mod monitor;
 mod types;
 
 pub use backward::EyeTracer;
-pub use camera::{Camera, CameraDesc};
+pub use camera::{Camera, CameraDesc, Projection};
 pub use engine::{bytes_needed, render};
 pub use monitor::RenderMonitor;
 pub use types::{

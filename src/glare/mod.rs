@@ -12,6 +12,10 @@
 //! illuminance at the eye as CIE 117 defines it, and UGR follows with its error. The
 //! luminaires' terms are computed, not sampled: UGR's only noise is the background's.
 
+mod picture;
+
+pub use picture::{dgp, picture_glare, PictureGlare, PictureSource, SourceRules};
+
 use crate::context::{Context, Sight};
 use crate::error::{bail, check_coordinates, Result};
 use crate::photometry::alpha_opic::{alpha_opic_per_band, D65_EFFICACY_MW_PER_LM};
@@ -529,6 +533,36 @@ fn mesh_source(sight: &Sight, f: &Frame, id: usize, unit_m: f64) -> Option<Glare
         term,
         small,
     })
+}
+
+impl Context {
+    /// `picture_glare` of a rendered fisheye picture: each pixel's luminance from its
+    /// bands (this context's photometry), its error from `image.rel_error`.
+    pub fn picture_glare(
+        &self,
+        camera: &crate::render::CameraDesc,
+        image: &crate::render::Image,
+        rules: &SourceRules,
+    ) -> Result<PictureGlare> {
+        let nb = image.bands;
+        if image.width != camera.width || image.height != camera.height || nb == 0 {
+            bail!(
+                ImapErrInvalidArgument,
+                "image is {}×{} with {nb} bands; the camera's picture is {}×{}",
+                image.width,
+                image.height,
+                camera.width,
+                camera.height
+            );
+        }
+        let photometry = self.photometry();
+        let lum: Vec<f64> = image
+            .radiance
+            .chunks_exact(nb)
+            .map(|c| photometry.luminous(c))
+            .collect();
+        picture_glare(camera, &lum, Some(&image.rel_error), rules)
+    }
 }
 
 #[cfg(test)]
