@@ -2,7 +2,8 @@
  * Observers and glare through the C API: a luminaire of known luminance (a 0.5 m square
  * Lambertian panel from a photometric table) over a black ground under a uniform sky, an
  * observer's sensor, its vertical illuminance and UGR against CIE 117's formula worked by
- * hand; then every refusal with its status and message, the context still usable.
+ * hand; then every refusal with its status and message, the context still usable; DGP
+ * of an upward fisheye picture of the sky and its refusals.
  */
 #include <imap.h>
 
@@ -174,6 +175,74 @@ int main(void) {
     expect("Ev again", imap_get_vertex_illuminance(ctx, eye, 0, again, 5), IMAP_OK, ctx, NULL);
     check("Ev unchanged", again[0] == ev[0], again[0], ev[0]);
     expect("glare again", imap_observer_glare(ctx, &o, ev[0], s, &g, sizeof g, NULL, 0, 0, NULL), IMAP_OK, ctx, NULL);
+
+    /* DGP from an upward angular fisheye: the whole sky (its luminance 2000/π cd/m², no
+     * pixel above 2000 cd/m²: no glare source), so Ev = 2000 lx and DGP = 5.87e-5 Ev + 0.16.
+     * (The panel, a luminaire, has no surface a camera sees: pictures show its light only
+     * as reflected.) */
+    enum { SIDE = 64 };
+    ImapCamera cam;
+    imap_camera_default(&cam, sizeof cam);
+    cam.width = SIDE, cam.height = SIDE, cam.projection = IMAP_PROJECTION_ANGULAR_FISHEYE, cam.fov_y_deg = 180;
+    cam.position[2] = 1.2, cam.direction[2] = 1, cam.up[0] = 1, cam.direction[0] = cam.direction[1] = 0;
+    cam.up[1] = cam.up[2] = 0;
+    ImapRenderParams rp;
+    imap_render_params_default(&rp, sizeof rp);
+    rp.passes = 2;
+    static double picture[SIDE * SIDE * 3], picture_rel[SIDE * SIDE];
+    static uint32_t labels[SIDE * SIDE];
+    expect("fisheye render", imap_render(ctx, &cam, &rp, picture, SIDE * SIDE * 3, picture_rel, SIDE * SIDE, NULL, 0),
+           IMAP_OK, ctx, NULL);
+    ImapPictureGlare pg;
+    ImapPictureSource ps[4];
+    labels[0] = 99;
+    expect("picture glare",
+           imap_picture_glare(ctx, &cam, picture, SIDE * SIDE * 3, picture_rel, NULL, &pg, sizeof pg, ps, 4, sizeof ps[0],
+                              labels, SIDE * SIDE),
+           IMAP_OK, ctx, NULL);
+    check("picture Ev = the sky's 2000 lx (1 %)", fabs(pg.ev_lx / 2000.0 - 1.0) < 0.01, pg.ev_lx, 2000.0);
+    check("no glare source, no label", pg.sources == 0 && labels[0] == 0, pg.sources, 0);
+    check("DGP = 5.87e-5 Ev + 0.16", fabs(pg.dgp - (5.87e-5 * pg.ev_lx + 0.16)) < 1e-12, pg.dgp,
+          5.87e-5 * pg.ev_lx + 0.16);
+    ImapGlareRules rules;
+    expect("glare rules defaults", imap_glare_rules_default(&rules, sizeof rules), IMAP_OK, ctx, NULL);
+    check("evalglare's threshold 2000 cd/m²", rules.threshold == 2000.0, rules.threshold, 2000.0);
+    /* With a threshold of half the mean luminance, the whole sky is one source. */
+    rules.threshold = 0.5;
+    expect("picture glare, threshold 0.5 x mean",
+           imap_picture_glare(ctx, &cam, picture, SIDE * SIDE * 3, picture_rel, &rules, &pg, sizeof pg, ps, 4,
+                              sizeof ps[0], labels, SIDE * SIDE),
+           IMAP_OK, ctx, NULL);
+    check("the sky is one source of 2π sr", pg.sources == 1 && fabs(ps[0].solid_angle_sr / (2 * PI) - 1) < 0.02,
+          ps[0].solid_angle_sr, 2 * PI);
+    /* Refusals. */
+    ImapCamera flat = cam;
+    flat.projection = IMAP_PROJECTION_PERSPECTIVE, flat.fov_y_deg = 90;
+    expect("DGP of a perspective picture",
+           imap_picture_glare(ctx, &flat, picture, SIDE * SIDE * 3, NULL, NULL, &pg, sizeof pg, NULL, 0, 0, NULL, 0),
+           IMAP_ERR_INVALID_ARGUMENT, ctx, "whole front hemisphere");
+    flat = cam;
+    flat.projection = 7;
+    expect("unknown projection",
+           imap_picture_glare(ctx, &flat, picture, SIDE * SIDE * 3, NULL, NULL, &pg, sizeof pg, NULL, 0, 0, NULL, 0),
+           IMAP_ERR_INVALID_ARGUMENT, ctx, "camera.projection");
+    expect("unknown projection (render)", imap_render(ctx, &flat, &rp, picture, SIDE * SIDE * 3, NULL, 0, NULL, 0),
+           IMAP_ERR_INVALID_ARGUMENT, ctx, "camera.projection");
+    flat = cam;
+    flat.width = flat.height = 24;
+    expect("too few pixels",
+           imap_picture_glare(ctx, &flat, picture, 24 * 24 * 3, NULL, NULL, &pg, sizeof pg, NULL, 0, 0, NULL, 0),
+           IMAP_ERR_INVALID_ARGUMENT, ctx, "at least 32 pixels");
+    expect("radiance_count wrong",
+           imap_picture_glare(ctx, &cam, picture, SIDE * SIDE, NULL, NULL, &pg, sizeof pg, NULL, 0, 0, NULL, 0),
+           IMAP_ERR_INVALID_ARGUMENT, ctx, "radiance_count");
+    expect("labels too small",
+           imap_picture_glare(ctx, &cam, picture, SIDE * SIDE * 3, NULL, NULL, &pg, sizeof pg, NULL, 0, 0, labels, 10),
+           IMAP_ERR_BUFFER_TOO_SMALL, ctx, "labels_count");
+    rules.low_light = 2;
+    expect("low_light 2",
+           imap_picture_glare(ctx, &cam, picture, SIDE * SIDE * 3, NULL, &rules, &pg, sizeof pg, NULL, 0, 0, NULL, 0),
+           IMAP_ERR_INVALID_ARGUMENT, ctx, "rules.low_light");
 
     imap_destroy(ctx);
 
