@@ -912,6 +912,7 @@ fn demo(opts: &RunOptions) -> Result<()> {
             fov_deg: 39.3,
             width: 512,
             height: 512,
+            projection: None,
         }),
         ..Default::default()
     };

@@ -137,7 +137,7 @@ pub fn render(
         fov_y_deg: cam.fov_deg,
         width: cam.width,
         height: cam.height,
-        projection: imap::Projection::Perspective,
+        projection: cam.projection().unwrap_or_default(),
     };
     let interrupted = crate::Interrupts::get();
     let quiet = opts.quiet;
@@ -215,13 +215,28 @@ pub fn render(
     for o in &omitted {
         eprintln!("imap: warning: {o}");
     }
-    let outputs = [
+    // A fisheye's daylight glare probability, with its sources outlined on glare.png.
+    let glare = if desc.projection == imap::Projection::Perspective {
+        None
+    } else {
+        match ctx.picture_glare(&desc, &image, &imap::glare::SourceRules::default()) {
+            Ok(g) => Some(g),
+            Err(e) => {
+                eprintln!("imap: warning: no DGP of this picture: {}", e.message);
+                None
+            }
+        }
+    };
+    let mut outputs = vec![
         "render.png",
         "radiance.pfm",
         "rel_error.pfm",
         "convergence.png",
         "render.json",
     ];
+    if glare.is_some() {
+        outputs.push("glare.png");
+    }
     let json = serde_json::json!({
         "scene": model.display().to_string(),
         "model": {
@@ -248,9 +263,18 @@ pub fn render(
         "backward_paths": report.backward_paths,
         "history": history,
         "outputs": outputs,
+        "glare": glare.as_ref().map(glare_json),
     });
     let mut files = output::Outputs::new(out, "render.json")?;
     output::write_png(&files.temp("render.png")?, w, h, &png)?;
+    if let Some(g) = &glare {
+        output::write_png(
+            &files.temp("glare.png")?,
+            w,
+            h,
+            &outlined(&png, w, h, &g.labels),
+        )?;
+    }
     write_pfm(&files.temp("radiance.pfm")?, w, h, 3, &flat)?;
     write_pfm(&files.temp("rel_error.pfm")?, w, h, 1, &errors)?;
     output::plot_convergence(&files.temp("convergence.png")?, &report.history)?;
@@ -266,9 +290,124 @@ pub fn render(
         out.display(),
         outputs.join(", ")
     );
+    if let Some(g) = &glare {
+        println!(
+            "DGP {:.3} ± {:.3} (Ev {:.0} ± {:.0} lx, {} glare sources above {:.0} cd/m²; wrote glare.png)",
+            g.dgp,
+            g.dgp_sigma,
+            g.ev_lx,
+            g.ev_sigma_lx,
+            g.sources.len(),
+            g.threshold_cd_m2
+        );
+    }
     if let Some(code) = interrupted.status() {
         eprintln!("imap: interrupted: the outputs hold the image rendered until then");
         std::process::exit(code);
     }
     Ok(json)
+}
+
+/// render.json's "glare": DGP with its error and the sources evalglare's rules found.
+fn glare_json(g: &imap::glare::PictureGlare) -> serde_json::Value {
+    serde_json::json!({
+        "dgp": g.dgp,
+        "dgp_sigma": g.dgp_sigma,
+        "ev_lx": g.ev_lx,
+        "ev_sigma_lx": g.ev_sigma_lx,
+        "threshold_cd_m2": g.threshold_cd_m2,
+        "mean_luminance_cd_m2": g.mean_luminance_cd_m2,
+        "background_cd_m2": g.background_cd_m2,
+        "rules": "evalglare's defaults: 2000 cd/m², search 0.2 rad, peaks above 50 000 cd/m² split off, no low-light correction",
+        "sources": g.sources.iter().enumerate().map(|(i, s)| serde_json::json!({
+            "label": i + 1,
+            "direction": s.direction,
+            "centre_px": s.centre_px,
+            "pixels": s.pixels,
+            "solid_angle_sr": s.solid_angle_sr,
+            "luminance_cd_m2": s.luminance_cd_m2,
+            "position_index": s.position_index,
+            "ev_lx": s.ev_lx,
+        })).collect::<Vec<_>>(),
+    })
+}
+
+/// Colours of the glare sources on glare.png, by label.
+const SOURCE_COLOURS: [[u8; 3]; 6] = [
+    [255, 40, 40],
+    [40, 220, 40],
+    [60, 110, 255],
+    [255, 200, 0],
+    [230, 60, 230],
+    [0, 220, 220],
+];
+
+/// 3 × 5 pixel digits, a row per byte's low three bits.
+const DIGITS: [[u8; 5]; 10] = [
+    [7, 5, 5, 5, 7],
+    [2, 6, 2, 2, 7],
+    [7, 1, 7, 4, 7],
+    [7, 1, 7, 1, 7],
+    [5, 5, 7, 1, 1],
+    [7, 4, 7, 1, 7],
+    [7, 4, 7, 5, 7],
+    [7, 1, 1, 1, 1],
+    [7, 5, 7, 5, 7],
+    [7, 5, 7, 1, 7],
+];
+
+/// The tone-mapped picture with every glare source tinted in its colour, outlined, and
+/// labelled with its number (render.json's "label") beside its centre.
+fn outlined(png: &[u8], w: u32, h: u32, labels: &[u32]) -> Vec<u8> {
+    let mut out = png.to_vec();
+    let (wi, hi) = (w as i64, h as i64);
+    let at = |x: i64, y: i64| -> u32 {
+        if x < 0 || y < 0 || x >= wi || y >= hi {
+            0
+        } else {
+            labels[(y * wi + x) as usize]
+        }
+    };
+    let mut centre: std::collections::BTreeMap<u32, (f64, f64, f64)> = Default::default();
+    for y in 0..hi {
+        for x in 0..wi {
+            let l = at(x, y);
+            if l == 0 {
+                continue;
+            }
+            let c = SOURCE_COLOURS[(l as usize - 1) % SOURCE_COLOURS.len()];
+            let edge = [(-1, 0), (1, 0), (0, -1), (0, 1)]
+                .iter()
+                .any(|&(dx, dy)| at(x + dx, y + dy) != l);
+            let p = &mut out[(y * wi + x) as usize * 3..][..3];
+            for k in 0..3 {
+                p[k] = if edge {
+                    c[k]
+                } else {
+                    ((p[k] as u16 + c[k] as u16) / 2) as u8
+                };
+            }
+            let e = centre.entry(l).or_default();
+            *e = (e.0 + x as f64, e.1 + y as f64, e.2 + 1.0);
+        }
+    }
+    for (l, (sx, sy, n)) in centre {
+        let text = l.to_string();
+        let (x0, y0) = ((sx / n) as i64 + 3, (sy / n) as i64 - 2);
+        for (i, ch) in text.bytes().enumerate() {
+            let glyph = DIGITS[(ch - b'0') as usize];
+            for (row, bits) in glyph.iter().enumerate() {
+                for col in 0..3 {
+                    let (x, y) = (x0 + i as i64 * 4 + col, y0 + row as i64);
+                    if x < 0 || y < 0 || x >= wi || y >= hi {
+                        continue;
+                    }
+                    let on = bits >> (2 - col) & 1 == 1;
+                    let p = &mut out[(y * wi + x) as usize * 3..][..3];
+                    p.copy_from_slice(if on { &[255, 255, 255] } else { &[0, 0, 0] });
+                }
+            }
+        }
+    }
+    out
 }

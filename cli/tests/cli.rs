@@ -2642,3 +2642,118 @@ fn ugr_table_prints_the_cie_190_table() {
         "{e}"
     );
 }
+
+#[test]
+fn a_fisheye_render_rates_its_dgp_and_outlines_its_sources() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let model = far_triangle(d);
+    // Looking up at a uniform sky of 2000 lx: luminance 637 cd/m², no glare source at
+    // evalglare's 2000 cd/m²; Ev = 2000 lx.
+    let s = write(
+        d,
+        "settings.toml",
+        r#"
+up_axis = "z"
+[sky]
+kind = "uniform"
+horizontal_illuminance = 2000
+[camera]
+position = [0, 0, 1.2]
+look_at = [0, 0, 2]
+up = [1, 0, 0]
+projection = "angular"
+fov_deg = 180
+width = 48
+height = 48
+"#,
+    );
+    let out = d.join("out");
+    let o = imap(&[
+        "render",
+        &model,
+        "--config",
+        &s,
+        "--passes",
+        "2",
+        "--quiet",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(stdout.contains("DGP 0.27"), "{stdout}");
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("render.json")).unwrap()).unwrap();
+    let g = &json["glare"];
+    let ev = g["ev_lx"].as_f64().unwrap();
+    assert!((ev / 2000.0 - 1.0).abs() < 0.01, "{g}");
+    assert!((g["dgp"].as_f64().unwrap() - (5.87e-5 * ev + 0.16)).abs() < 1e-9);
+    assert_eq!(g["sources"].as_array().unwrap().len(), 0);
+    assert!(out.join("glare.png").exists());
+    // A bright patch overhead: one labelled source, outlined on glare.png.
+    let s2 = write(
+        d,
+        "bright.toml",
+        std::fs::read_to_string(&s).unwrap().replace(
+            "horizontal_illuminance = 2000",
+            "horizontal_illuminance = 20000",
+        ),
+    );
+    let out2 = d.join("out2");
+    let o = imap(&[
+        "render",
+        &model,
+        "--config",
+        &s2,
+        "--passes",
+        "2",
+        "--quiet",
+        "--out",
+        out2.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out2.join("render.json")).unwrap()).unwrap();
+    let src = json["glare"]["sources"].as_array().unwrap();
+    assert_eq!(src.len(), 1, "{}", json["glare"]);
+    assert_eq!(src[0]["label"], 1);
+    // A fisheye narrower than the hemisphere renders, with a warning and no DGP.
+    let s3 = write(
+        d,
+        "narrow.toml",
+        std::fs::read_to_string(&s)
+            .unwrap()
+            .replace("fov_deg = 180", "fov_deg = 120"),
+    );
+    let out3 = d.join("out3");
+    let o = imap(&[
+        "render",
+        &model,
+        "--config",
+        &s3,
+        "--passes",
+        "1",
+        "--quiet",
+        "--out",
+        out3.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("no DGP of this picture")
+            && stderr(&o).contains("whole front hemisphere")
+    );
+    assert!(!out3.join("glare.png").exists());
+    // An unknown projection is refused by name.
+    let s4 = write(
+        d,
+        "bad.toml",
+        std::fs::read_to_string(&s)
+            .unwrap()
+            .replace("\"angular\"", "\"fisheye\""),
+    );
+    let e = fails(&[
+        "render", &model, "--config", &s4, "--passes", "1", "--quiet",
+    ]);
+    assert!(e.contains("projection = \"fisheye\""), "{e}");
+}

@@ -17,14 +17,33 @@ impl CameraSettings {
         self.up.unwrap_or([0.0, 1.0, 0.0])
     }
 
+    /// The camera's projection (None: a name that is none).
+    pub fn projection(&self) -> Option<imap::Projection> {
+        match self.projection.as_deref() {
+            None | Some("perspective") => Some(imap::Projection::Perspective),
+            Some("angular") => Some(imap::Projection::AngularFisheye),
+            Some("hemispherical") => Some(imap::Projection::Hemispherical),
+            Some(_) => None,
+        }
+    }
+
     /// Checks the camera before any work is done.
     pub fn validate(&self) -> Result<()> {
         let (w, h) = (self.width as usize, self.height as usize);
         if w == 0 || h == 0 || w > 8192 || h > 8192 {
             fail!("camera: image size {w}×{h} is not in 1..=8192");
         }
-        if !(self.fov_deg > 0.0 && self.fov_deg < 180.0) {
-            fail!("camera: fov_deg = {} is not in (0, 180)", self.fov_deg);
+        let (ok, range) = match self.projection() {
+            Some(imap::Projection::Perspective) => (self.fov_deg < 180.0, "(0, 180)"),
+            Some(imap::Projection::AngularFisheye) => (self.fov_deg <= 360.0, "(0, 360] for an angular fisheye"),
+            Some(imap::Projection::Hemispherical) => (self.fov_deg <= 180.0, "(0, 180] for a hemispherical fisheye"),
+            None => fail!(
+                "camera: projection = {:?} is not \"perspective\", \"angular\" or \"hemispherical\"",
+                self.projection.as_deref().unwrap_or_default()
+            ),
+        };
+        if !(self.fov_deg > 0.0 && ok) {
+            fail!("camera: fov_deg = {} is not in {range}", self.fov_deg);
         }
         let eye = DVec3::from(self.position);
         let Some(fwd) = (DVec3::from(self.look_at) - eye).try_normalize() else {
@@ -99,6 +118,7 @@ pub fn default_camera(scene: &LoadedScene, up: [f64; 3]) -> CameraSettings {
         fov_deg: fov,
         width: 640,
         height: 640,
+        projection: None,
     }
 }
 
@@ -674,6 +694,7 @@ mod tests {
             fov_deg: 40.0,
             width: 640,
             height: 640,
+            projection: None,
         };
         let attrs = view_attributes(&scene, &maps);
         let mut px = Vec::new();
@@ -743,6 +764,7 @@ mod tests {
                 fov_deg: 40.0,
                 width: 32,
                 height: 32,
+                projection: None,
             };
             let mut px = Vec::new();
             rasterize_rows(&scene, &attrs, &cam, &mut |_, row| {

@@ -152,6 +152,11 @@ pub struct CameraSettings {
     pub width: u32,
     #[serde(default = "default_size")]
     pub height: u32,
+    /// "perspective" (the default), "angular" (an angular fisheye, Radiance's -vta) or
+    /// "hemispherical" (-vth). A fisheye of 180° or more gets its daylight glare
+    /// probability rated (render.json "glare", glare.png).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub projection: Option<String>,
 }
 
 fn default_fov() -> f64 {
