@@ -849,13 +849,13 @@ impl<'a> EyeTracer<'a> {
     /// d² · the pixel's solid angle toward `z` (`Camera::project`), d in metres.
     #[inline]
     fn splat_at(&self, z: DVec3, n: DVec3, dir: DVec3, dist: f64) -> Option<(u32, f64)> {
-        let (pixel, omega) = self.camera.project(z)?;
+        let (pixel, density, area) = self.camera.project(z)?;
         let eps = self.scene.offset_at(z);
         if dist <= eps || self.accel.occluded(z + n * eps, dir, dist - eps) {
             return None;
         }
         let d_m = dist * self.unit_m;
-        Some((pixel, d_m * d_m * omega))
+        Some((pixel, d_m * d_m * density * area))
     }
 
     /// Whether the map holds light for side `side` of mesh `mesh` (and the other side too

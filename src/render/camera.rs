@@ -150,6 +150,13 @@ impl Camera {
     /// top left, jx and jy in [0, 1); None where a fisheye's image sees nothing.
     #[inline]
     pub fn ray(&self, x: u32, y: u32, jx: f64, jy: f64) -> Option<DVec3> {
+        if self.is_perspective() {
+            // As the pinhole camera always computed it, to the bit.
+            let k = self.scale;
+            let sx = (2.0 * (x as f64 + jx) / self.desc.width as f64 - 1.0) * k * self.aspect;
+            let sy = (1.0 - 2.0 * (y as f64 + jy) / self.desc.height as f64) * k;
+            return Some((self.forward + self.right * sx + self.up * sy).normalize());
+        }
         let sx = (2.0 * (x as f64 + jx) / self.desc.width as f64 - 1.0) * self.aspect;
         let sy = 1.0 - 2.0 * (y as f64 + jy) / self.desc.height as f64;
         self.direction_at(sx, sy)
@@ -235,10 +242,27 @@ impl Camera {
     }
 
     /// The pixel that sees point `p` (local scene units) and that pixel's solid angle in
-    /// the direction of `p` (sr), or None when `p` is outside the image (or behind a
-    /// perspective camera).
+    /// the direction of `p` as two factors whose product it is (sr: the projection's
+    /// density there, and the pixel's plane area; a pinhole's: cos³ θ and its area at unit
+    /// distance), or None when `p` is outside the image (or behind a perspective camera).
     #[inline]
-    pub fn project(&self, p: DVec3) -> Option<(u32, f64)> {
+    pub fn project(&self, p: DVec3) -> Option<(u32, f64, f64)> {
+        if self.is_perspective() {
+            // As the pinhole camera always computed it, to the bit.
+            let z = self.depth(p);
+            if z <= 0.0 {
+                return None;
+            }
+            let (x, y) = self.image_point(p);
+            if !(x >= 0.0 && y >= 0.0 && x < self.desc.width as f64 && y < self.desc.height as f64)
+            {
+                return None;
+            }
+            let pixel = y as u32 * self.desc.width + x as u32;
+            let cos = z / (p - self.origin).length();
+            let a = 2.0 * self.scale / self.desc.height as f64;
+            return Some((pixel, cos.powi(3), a * a));
+        }
         let d = (p - self.origin).try_normalize()?;
         let (sx, sy) = self.plane_point(d)?;
         let (w, h) = (self.desc.width as f64, self.desc.height as f64);
@@ -253,7 +277,7 @@ impl Camera {
             return None;
         }
         let pixel = y as u32 * self.desc.width + x as u32;
-        Some((pixel, self.plane_pixel_area() * self.solid_angle_density(d)))
+        Some((pixel, self.solid_angle_density(d), self.plane_pixel_area()))
     }
 
     /// The direction through pixel (x, y)'s centre and the pixel's solid angle there, or
@@ -329,7 +353,8 @@ mod tests {
             .unwrap();
             for (x, y) in [(0, 0), (39, 29), (17, 5), (3, 28)] {
                 let d = cam.ray(x, y, 0.25, 0.75).unwrap();
-                let (p, omega) = cam.project(cam.origin + 7.0 * d).unwrap();
+                let (p, f, a) = cam.project(cam.origin + 7.0 * d).unwrap();
+                let omega = f * a;
                 assert_eq!(p, y * 40 + x, "{projection:?}");
                 if projection == Projection::Perspective {
                     let want = (2.0 * cam.scale / 30.0).powi(2) * d.dot(cam.forward).powi(3);
@@ -425,7 +450,7 @@ mod tests {
         assert!(h.project(DVec3::new(0.0, -1.0, 0.1)).is_none());
         // Behind the eye an angular fisheye of 360° still sees.
         let full = fisheye(Projection::AngularFisheye, 360.0, 100);
-        let (p, _) = full.project(DVec3::new(0.0, -1.0, 0.5)).unwrap();
+        let (p, _, _) = full.project(DVec3::new(0.0, -1.0, 0.5)).unwrap();
         let (px, py) = (p % 100, p / 100);
         let back = full.ray(px, py, 0.5, 0.5).unwrap();
         assert!(back.dot(DVec3::new(0.0, -1.0, 0.5).normalize()) > 0.999);
