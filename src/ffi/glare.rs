@@ -6,9 +6,7 @@ use super::{
     ImapContext, Versioned,
 };
 use crate::error::{bail, ImapStatus, Result};
-use crate::glare::{
-    picture_glare, Glare, GlareSource, Observer, PictureSource, SourceKind, SourceRules,
-};
+use crate::glare::{Glare, GlareSource, Observer, PictureSource, SourceKind, SourceRules};
 
 /// An observer: an eye (scene units), the direction it looks in and its up (any vector
 /// not parallel to the view; only its part across the view counts). Initialise with
@@ -695,17 +693,12 @@ pub unsafe extern "C" fn imap_picture_glare(
         if let Some(i) = rad.iter().position(|v| !v.is_finite()) {
             bail!(ImapErrNonFinite, "radiance[{i}] = {} is not finite", rad[i]);
         }
-        let photometry = c.photometry();
-        let lum: Vec<f64> = rad
-            .chunks_exact(bands)
-            .map(|b| photometry.luminous(b))
-            .collect();
         let rel = if rel_error.is_null() {
             None
         } else {
             Some(super::slice("rel_error", rel_error, pixels)?)
         };
-        let g = picture_glare(&cam, &lum, rel, &r)?;
+        let g = c.picture_glare_of_bands(&cam, rad, bands, rel, &r)?;
         write_versioned(
             "out",
             out,

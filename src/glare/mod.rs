@@ -555,13 +555,25 @@ impl Context {
                 camera.height
             );
         }
+        self.picture_glare_of_bands(camera, &image.radiance, nb, Some(&image.rel_error), rules)
+    }
+
+    /// `picture_glare` of a picture's band values (`bands` per pixel, as a render writes
+    /// them): each pixel's luminance by this context's photometry.
+    pub fn picture_glare_of_bands(
+        &self,
+        camera: &crate::render::CameraDesc,
+        radiance: &[f64],
+        bands: usize,
+        rel_error: Option<&[f64]>,
+        rules: &SourceRules,
+    ) -> Result<PictureGlare> {
         let photometry = self.photometry();
-        let lum: Vec<f64> = image
-            .radiance
-            .chunks_exact(nb)
+        let lum: Vec<f64> = radiance
+            .chunks_exact(bands.max(1))
             .map(|c| photometry.luminous(c))
             .collect();
-        picture_glare(camera, &lum, Some(&image.rel_error), rules)
+        picture_glare(camera, &lum, rel_error, rules)
     }
 }
 
