@@ -11,7 +11,13 @@
 //! bits (irradiance per band and side, then the relative errors; an image's radiance and
 //! errors) and the sum of the values. Embree's kernels differ between CPU generations; a
 //! probe case (a photons-only run on a sphere) tells when this machine rounds differently
-//! from the one that took the checksums, and then the sums are compared to 1e-6 instead.
+//! from the one that took the checksums, and then the sums are compared instead: a map's,
+//! a final-gathering image's and a path-traced image's to 1e-6, and the images of the three
+//! photon-map renders (synchronous, asynchronous, semi-synchronous) to 1e-3. Their density
+//! estimates are not continuous in the photons' positions: a photon that another rounding
+//! moves by 1e-7 m across a pixel's gather radius adds or removes 1/k of that pixel's
+//! estimate. CI's machine of stop 58 rounded differently from the blessing machine and
+//! moved those five image sums by 1.4e-5 to 1.9e-4, the maps by under 1e-6.
 //! The dynamic scheduler's ten cases were taken again on 2026-11-28 (issue 37): a portion
 //! now adds its whole hits before its other contributions, which changes the order of
 //! additions to a cell; every sum was the same to its last printed digit, and the classic
@@ -280,6 +286,19 @@ fn cases() -> Vec<(String, Vec<f64>)> {
     out
 }
 
+/// The relative tolerance of a case's sum on a machine that rounds differently (see the
+/// module's comment).
+fn sum_tolerance(name: &str) -> f64 {
+    let photon_map_render = ["synchronous", "asynchronous", "semi-synchronous"]
+        .iter()
+        .any(|m| name.ends_with(&format!(" render {m}")));
+    if photon_map_render {
+        1e-3
+    } else {
+        1e-6
+    }
+}
+
 #[test]
 fn fixed_seeds_give_the_maps_and_images_they_gave_before_the_move() {
     let got: Vec<(String, u64, f64)> = cases()
@@ -316,14 +335,14 @@ fn fixed_seeds_give_the_maps_and_images_they_gave_before_the_move() {
     );
     let same_rounding = got[0].1 == want[0].1;
     if !same_rounding {
-        eprintln!("the probe differs: this machine rounds differently; comparing sums to 1e-6");
+        eprintln!("the probe differs: this machine rounds differently; comparing sums");
     }
     let mut wrong = Vec::new();
     for ((name, h, s), (_, wh, ws)) in got.iter().zip(&want) {
         let ok = if same_rounding {
             h == wh
         } else {
-            (s - ws).abs() <= 1e-6 * ws.abs().max(1e-300)
+            (s - ws).abs() <= sum_tolerance(name) * ws.abs().max(1e-300)
         };
         if !ok {
             wrong.push(format!(

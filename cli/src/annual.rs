@@ -481,6 +481,8 @@ pub fn annual(model: &Path, mut settings: Settings, o: &AnnualOptions) -> Result
     // grid's metrics are known.
     let mut rounds = 1;
     let mut reached = None;
+    // The seconds from the first trace to the last round's check.
+    let mut seconds = 0.0;
     if targeted {
         loop {
             // The widest half-interval of each targeted metric over the grids.
@@ -530,7 +532,8 @@ pub fn annual(model: &Path, mut settings: Settings, o: &AnnualOptions) -> Result
                 );
             }
             reached = Some(done);
-            let left = time - clock.elapsed().as_secs_f64();
+            seconds = clock.elapsed().as_secs_f64();
+            let left = time - seconds;
             if done || interrupted.raised() || left <= 0.0 {
                 break;
             }
@@ -797,16 +800,19 @@ pub fn annual(model: &Path, mut settings: Settings, o: &AnnualOptions) -> Result
             "half_width_95": t,
             "reached": reached,
             "rounds": rounds,
+            "seconds": seconds,
         })),
         "target_en17037": o.target_en17037.map(|t| serde_json::json!({
             "half_width_95": t,
             "reached": reached,
             "rounds": rounds,
+            "seconds": seconds,
         })),
         "target_udi": o.target_udi.map(|t| serde_json::json!({
             "half_width_95": t,
             "reached": reached,
             "rounds": rounds,
+            "seconds": seconds,
         })),
         // Interrupted: the coefficients of the photons traced until then, unbiased, and
         // the intervals say how much less is known.

@@ -2366,9 +2366,12 @@ fn annual_window_groups_add_up_and_follow_their_rules() {
     assert!(r.status.success(), "{}", stderr(&r));
     let t: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("annual.json")).unwrap()).unwrap();
+    // A second round whenever the first left time (a loaded machine may spend the 6 s on
+    // the first).
     let rounds = t["target_udi"]["rounds"].as_u64().unwrap();
+    let seconds = t["target_udi"]["seconds"].as_f64().unwrap();
     assert!(
-        rounds >= 2 && t["photons"].as_u64().unwrap() >= 40000,
+        (rounds >= 2 && t["photons"].as_u64().unwrap() >= 40000) || (rounds == 1 && seconds >= 6.0),
         "{t}"
     );
     assert_eq!(
