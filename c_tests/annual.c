@@ -306,6 +306,58 @@ int main(void) {
     expect("a dimming of 4 bytes", imap_annual_lighting(sky, value, sigma, 1, sun, NULL, &el, &el_sigma, &dim, &light,
                                                        sizeof light, NULL), IMAP_ERR_INVALID_ARGUMENT);
 
+    /* Annual glare, imageless: the point as an observer looking up. Each occupied hour's
+       DGPs is 6.22e-5 Ev + 0.184 of its hourly Ev (e[], the sun included); the classes
+       count the hours at or above 0.35, 0.40 and 0.45. */
+    ImapObserverYear year;
+    expect("annual glare", imap_annual_glare(sky, value, sigma, 1, sun, NULL, &year, sizeof year), IMAP_OK);
+    const double classes[3] = {0.35, 0.40, 0.45};
+    for (int c = 0; c < 3; c++) {
+        uint64_t n = 0;
+        for (int h = 1; h < 4; h++) n += 6.22e-5 * e[h] + 0.184 >= classes[c];
+        check("the hours at or above a DGP class", year.hours_above[c] == n && year.occupied_hours == 3,
+              (double)year.hours_above[c], (double)n);
+        check("its share's interval holds it",
+              year.share_low[c] <= year.share_above[c] && year.share_above[c] <= year.share_high[c],
+              year.share_above[c], year.share_low[c]);
+    }
+    check("the mean Ev", fabs(year.mean_ev_lx - (e[1] + e[2] + e[3]) / 3) < 1e-9 * year.mean_ev_lx,
+          year.mean_ev_lx, (e[1] + e[2] + e[3]) / 3);
+    expect("annual glare into a 2-byte element", imap_annual_glare(sky, value, sigma, 1, sun, NULL, &year, 2),
+           IMAP_ERR_INVALID_ARGUMENT);
+    /* The glare rule: the point's light as one group (open; a dark state), closed exactly
+       in the hours whose DGPs with it open exceeds 0.40, read back by imap_annual_states. */
+    {
+        const double *gv2[2] = {value, zero}, *gs2[2] = {sigma, zero};
+        const ImapDirectSun *gsun2[2] = {sun, NULL};
+        ImapWindowGroup gg;
+        expect("window group defaults", imap_window_group_default(&gg, sizeof gg), IMAP_OK);
+        check("the glare rule's default DGPs", gg.rule_dgp == 0.40, gg.rule_dgp, 0.40);
+        gg.rule = IMAP_SHADING_GLARE, gg.state_count = 2, gg.value = gv2, gg.sigma = gs2, gg.sun = gsun2;
+        const ImapWindowGroup *gl[1] = {&gg};
+        ImapAnnualOptions go;
+        imap_annual_options_default(&go, sizeof go);
+        go.window_groups = gl, go.window_group_count = 1;
+        uint16_t st[4] = {9, 9, 9, 9};
+        expect("the glare rule's states", imap_annual_states(sky, NULL, NULL, 1, NULL, &go, st, 4), IMAP_OK);
+        for (int h = 0; h < 4; h++) {
+            uint16_t want_state = 6.22e-5 * e[h] + 0.184 > 0.40;
+            check("closed in the dazzling hours", st[h] == want_state, st[h], want_state);
+        }
+        expect("states into 3 of 4", imap_annual_states(sky, NULL, NULL, 1, NULL, &go, st, 3),
+               IMAP_ERR_BUFFER_TOO_SMALL);
+        ImapObserverYear shaded;
+        expect("annual glare with the rule", imap_annual_glare(sky, NULL, NULL, 1, NULL, &go, &shaded, sizeof shaded),
+               IMAP_OK);
+        check("no hour above 0.40 once the rule closes them", shaded.hours_above[1] == 0, (double)shaded.hours_above[1], 0);
+        gg.rule_dgp = 0.1;
+        expect("rule_dgp 0.1", imap_annual_states(sky, NULL, NULL, 1, NULL, &go, st, 4), IMAP_ERR_INVALID_ARGUMENT);
+        check("the message names it", strstr(imap_last_error(NULL), "dgp = 0.1") != NULL, 0, 0);
+        gg.struct_size = offsetof(ImapWindowGroup, rule_dgp), gg.rule_dgp = 0.1;
+        expect("a group of the size before rule_dgp reads 0.40", imap_annual_states(sky, NULL, NULL, 1, NULL, &go, st, 4),
+               IMAP_OK);
+    }
+
     expect("free the direct sun", imap_direct_sun_free(sun), IMAP_OK);
     expect("a freed direct sun", imap_direct_sun_hour(sun, 3, &direct, 1), IMAP_ERR_INVALID_ARGUMENT);
     expect("free it twice", imap_direct_sun_free(sun), IMAP_ERR_INVALID_ARGUMENT);

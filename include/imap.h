@@ -82,6 +82,14 @@
 #define IMAP_SHADING_SCHEDULE 2
 
 /**
+ * `ImapWindowGroup::rule`: the first state in which no more than `blinds_share` of the
+ * sensors (observers' sensors, each facing its view) have a simplified DGP above
+ * `rule_dgp`, with the group in the state, the base and every other group in its state 0;
+ * the last when none is (`imap_annual_glare`). (Since 0.2.3.)
+ */
+#define IMAP_SHADING_GLARE 3
+
+/**
  * The lighting controls of `ImapDimming::control` (EnergyPlus's types): dims
  * continuously to `min_output` and stays on there; the same, and switches off there; in
  * `steps` equal steps of output and power, and off. (Since 0.2.3.)
@@ -1101,6 +1109,12 @@ typedef struct ImapWindowGroup {
    * group spent in each state.
    */
   uint64_t *state_hours;
+  /**
+   * IMAP_SHADING_GLARE's simplified DGP, above 0.184 and at most 1 (default 0.40).
+   * (Appended in 0.2.3's glare round: a caller built before it passes the shorter
+   * struct_size and gets the default.)
+   */
+  double rule_dgp;
 } ImapWindowGroup;
 
 /**
@@ -1229,6 +1243,26 @@ typedef struct ImapSensorMetrics {
    */
   double sda_pass_probability;
 } ImapSensorMetrics;
+
+/**
+ * One observer's year of glare (`imap_annual_glare`), per DGP class (0.35, 0.40, 0.45:
+ * perceptible, disturbing, intolerable): the occupied hours with the simplified DGP at
+ * or above it, their share of the occupied hours, its standard deviation over the draws
+ * and its 95 % interval (NaN without draws); the mean vertical illuminance at the eye over
+ * the occupied hours and the largest hour's DGPs. (Since 0.2.3.)
+ */
+typedef struct ImapObserverYear {
+  uint32_t struct_size;
+  uint32_t reserved;
+  uint64_t occupied_hours;
+  uint64_t hours_above[3];
+  double share_above[3];
+  double share_sigma[3];
+  double share_low[3];
+  double share_high[3];
+  double mean_ev_lx;
+  double max_dgps;
+} ImapObserverYear;
 
 /**
  * A zone's dimming control and installed power (`imap_annual_lighting`). Initialise
@@ -3068,6 +3102,35 @@ enum ImapStatus imap_annual_metrics(const struct ImapAnnualSky *sky, const doubl
  * As `imap_annual_metrics`; the outputs hold `hours × sensors` doubles.
  */
 enum ImapStatus imap_annual_hourly_shaded(const struct ImapAnnualSky *sky, const double *value, const double *sigma, size_t sensors, const struct ImapDirectSun *sun, const struct ImapAnnualOptions *options, size_t first_hour, size_t hours, double *out_value, double *out_sigma);
+
+/**
+ * Annual glare, imageless, at `sensors` observers' sensors (`imap_add_observer_sensor`:
+ * each faces its view, so its coefficients are the vertical illuminance at the eye per
+ * patch luminance; passed, with their direct sun and options, as `imap_annual_metrics`
+ * takes a grid's): each occupied hour's Ev with the window groups in the states their
+ * rules pick, its simplified DGP (6.22·10⁻⁵ Ev + 0.184; it does not rate the sun's disc
+ * in view), and per observer the shares of the occupied hours at or above 0.35, 0.40 and
+ * 0.45 with their confidence into `out`: `sensors` elements of `element_size` =
+ * sizeof(ImapObserverYear) bytes each. Returns IMAP_ERR_INVALID_ARGUMENT or
+ * IMAP_ERR_NON_FINITE naming what is wrong. (Since 0.2.3.)
+ *
+ * # Safety
+ * As `imap_annual_metrics`; `out` holds `sensors × element_size` writable bytes.
+ */
+enum ImapStatus imap_annual_glare(const struct ImapAnnualSky *sky, const double *value, const double *sigma, size_t sensors, const struct ImapDirectSun *sun, const struct ImapAnnualOptions *options, struct ImapObserverYear *out, size_t element_size);
+
+/**
+ * Every window group's state in every hour of the sky, as the rules of `options` pick
+ * them on these `sensors` (arguments as `imap_annual_metrics`), into `out`: window
+ * groups × the sky's hours states, group by group (`out_count` at least that). A host decides a
+ * glare rule at its observers this way and gives the grids the verdicts as
+ * IMAP_SHADING_SCHEDULE. Returns IMAP_ERR_INVALID_ARGUMENT naming what is wrong, or
+ * IMAP_ERR_BUFFER_TOO_SMALL. (Since 0.2.3.)
+ *
+ * # Safety
+ * As `imap_annual_metrics`; `out` holds `out_count` writable `uint16_t`.
+ */
+enum ImapStatus imap_annual_states(const struct ImapAnnualSky *sky, const double *value, const double *sigma, size_t sensors, const struct ImapDirectSun *sun, const struct ImapAnnualOptions *options, uint16_t *out, size_t out_count);
 
 /**
  * Writes the default `ImapDimming` into `out` (`size` = sizeof *out). (Since 0.2.3.)

@@ -204,8 +204,7 @@ fn occupied_hours(s: &str) -> Result<(f64, f64)> {
     Ok((a, b))
 }
 
-pub fn annual(model: &Path, mut settings: Settings, o: &AnnualOptions) -> Result<()> {
-    crate::observers::not_here(&mut settings, "annual");
+pub fn annual(model: &Path, settings: Settings, o: &AnnualOptions) -> Result<()> {
     let lighting = lighting_control(o)?;
     check_settings(&settings, "annual", lighting.is_some())?;
     let (from, to) = occupied_hours(&o.occupied)?;
@@ -291,6 +290,13 @@ pub fn annual(model: &Path, mut settings: Settings, o: &AnnualOptions) -> Result
                     path.display()
                 );
             }
+            if !s.observers.is_empty() {
+                fail!(
+                    "--shaded {}: it holds [[observer]]s: the observers are the open model's (give them in its settings)",
+                    path.display()
+                );
+            }
+            s.observers = settings.observers.clone();
             Some(s)
         }
         None => None,
@@ -458,11 +464,54 @@ pub fn annual(model: &Path, mut settings: Settings, o: &AnnualOptions) -> Result
         }
         group_suns.push(per_group);
     }
+    // Each observer's direct sun at the eye through every model state, as a grid's.
+    let mut observers = Vec::with_capacity(settings.observers.len());
+    for (i, (name, ob)) in observer_names(&settings)
+        .into_iter()
+        .zip(&settings.observers)
+        .enumerate()
+    {
+        let (eye, view) = ([ob.eye], [ob.view]);
+        let direct_sun = |sctx: &mut imap::Context| {
+            DirectSun::new(
+                sctx,
+                &sky,
+                (up, north),
+                (&eye[..], &view[..]),
+                &SkyDesc::default().spectrum,
+                settings.run.seed,
+            )
+            .map_err(|e| CliError(format!("annual: observer {name}: {}", e.message)))
+        };
+        let sun = direct_sun(&mut ctx)?;
+        let shaded_sun = match &mut shaded {
+            Some((sctx, sscene, _)) => Some((sscene.grids.len() + i, direct_sun(sctx)?)),
+            None => None,
+        };
+        let mut group_sun = Vec::with_capacity(group_runs.len());
+        for states in &mut group_runs {
+            let mut per_state = Vec::with_capacity(states.len());
+            for (sctx, _, _) in states.iter_mut() {
+                per_state.push(direct_sun(sctx)?);
+            }
+            group_sun.push(per_state);
+        }
+        observers.push(ObserverAt {
+            what: format!("observer {name}"),
+            name,
+            eye: ob.eye,
+            view: ob.view,
+            target: scene.grids.len() + i,
+            sun,
+            shaded_sun,
+            group_suns: group_sun,
+        });
+    }
     // With window groups, an opening in no group is refused before any round.
     if !groups.is_empty() {
         for (gi, g) in scene.grids.iter().enumerate() {
             let shading = grid_light(
-                (gi, g),
+                (gi, &grid_name(g)),
                 (&run, &suns[gi]),
                 None,
                 (&groups, &group_runs, &group_suns[gi]),
@@ -470,7 +519,7 @@ pub fn annual(model: &Path, mut settings: Settings, o: &AnnualOptions) -> Result
             if let Some(all_open) = &all_open(&shading, g)? {
                 check_black(
                     g,
-                    (coefficients(&run, gi, g)?, &suns[gi]),
+                    (coefficients(&run, gi, &grid_name(g))?, &suns[gi]),
                     (all_open, &group_suns[gi]),
                     (&sky.patches, o.ground_reflectance),
                 )?;
@@ -487,15 +536,16 @@ pub fn annual(model: &Path, mut settings: Settings, o: &AnnualOptions) -> Result
         loop {
             // The widest half-interval of each targeted metric over the grids.
             let (mut sda, mut en, mut udi): (f64, f64, f64) = (0.0, 0.0, 0.0);
+            let ruled = decide_glare(&groups, &observers, (&run, &group_runs), &sky, &options)?;
             for (gi, g) in scene.grids.iter().enumerate() {
                 let closed = shaded
                     .as_ref()
                     .map(|(_, _, r)| (r, shaded_suns[gi].0, &shaded_suns[gi].1));
                 let shading = grid_light(
-                    (gi, g),
+                    (gi, &grid_name(g)),
                     (&run, &suns[gi]),
                     closed,
-                    (&groups, &group_runs, &group_suns[gi]),
+                    (&ruled, &group_runs, &group_suns[gi]),
                 )?;
                 let m = imap::annual::metrics_with_shading(&shading, &sky, &options)
                     .map_err(|e| CliError(format!("annual: grid {}: {}", g.name, e.message)))?;
@@ -566,19 +616,27 @@ pub fn annual(model: &Path, mut settings: Settings, o: &AnnualOptions) -> Result
             rounds += 1;
         }
     }
+    let ruled = decide_glare(&groups, &observers, (&run, &group_runs), &sky, &options)?;
+    // The observers read every group in the states the first grid's rules pick (a glare
+    // rule's: its observers' verdict).
+    let mut first_states = None;
     let mut grids_json = Vec::new();
     for (gi, g) in scene.grids.iter().enumerate() {
-        let (c, sun) = (coefficients(&run, gi, g)?, &suns[gi]);
+        let (c, sun) = (coefficients(&run, gi, &grid_name(g))?, &suns[gi]);
         let grid_err = |e: imap::Error| CliError(format!("annual: grid {}: {}", g.name, e.message));
         let closed = shaded
             .as_ref()
             .map(|(_, _, r)| (r, shaded_suns[gi].0, &shaded_suns[gi].1));
         let shading = grid_light(
-            (gi, g),
+            (gi, &grid_name(g)),
             (&run, sun),
             closed,
-            (&groups, &group_runs, &group_suns[gi]),
+            (&ruled, &group_runs, &group_suns[gi]),
         )?;
+        if gi == 0 && !shading.groups.is_empty() {
+            first_states =
+                Some(imap::annual::shading_states(&shading, &sky, &options).map_err(grid_err)?);
+        }
         let all_open = all_open(&shading, g)?;
         let df_c = all_open.as_ref().unwrap_or(c);
         let m = imap::annual::metrics_with_shading(&shading, &sky, &options).map_err(grid_err)?;
@@ -718,11 +776,7 @@ pub fn annual(model: &Path, mut settings: Settings, o: &AnnualOptions) -> Result
             "blinds_closed_hours": shaded.as_ref().map(|_| m.blinds_closed_hours),
             "window_groups": groups.iter().zip(&m.group_state_hours).map(|(w, hours)| serde_json::json!({
                 "name": w.name,
-                "rule": match &w.rule {
-                    ShadingRule::DirectSun => "direct-sun".to_string(),
-                    ShadingRule::Illuminance { lx } => format!("illuminance {lx} lx"),
-                    ShadingRule::Schedule(_) => "schedule".to_string(),
-                },
+                "rule": rule_name(w, &observers),
                 "states": w.states.iter().zip(hours).map(|(s, h)| serde_json::json!({
                     "state": s.as_deref().unwrap_or("as-drawn"),
                     "occupied_hours": h,
@@ -774,6 +828,14 @@ pub fn annual(model: &Path, mut settings: Settings, o: &AnnualOptions) -> Result
             "occupied_hours": m.occupied_hours,
         }));
     }
+    let observers_json = observer_years(
+        &observers,
+        (&run, shaded.as_ref().map(|x| &x.2)),
+        (&ruled, &group_runs),
+        first_states.as_deref(),
+        (&sky, &options),
+        o,
+    )?;
     let json = serde_json::json!({
         "weather": {
             "file": o.weather.display().to_string(),
@@ -818,6 +880,7 @@ pub fn annual(model: &Path, mut settings: Settings, o: &AnnualOptions) -> Result
         // the intervals say how much less is known.
         "interrupted": interrupted.raised(),
         "grids": grids_json,
+        "observers": observers_json,
     });
     let path = o.out.join("annual.json");
     std::fs::write(&path, serde_json::to_string_pretty(&json).expect("json"))
@@ -872,6 +935,203 @@ fn check_black(
     Ok(())
 }
 
+/// An observer of an annual run: its name, eye and view, its target in the runs (the
+/// shaded run's own index with it), and its direct sun through every model state.
+struct ObserverAt {
+    name: String,
+    what: String,
+    eye: [f64; 3],
+    view: [f64; 3],
+    target: usize,
+    sun: DirectSun,
+    shaded_sun: Option<(usize, DirectSun)>,
+    group_suns: Vec<Vec<DirectSun>>,
+}
+
+/// The window groups with every glare rule decided: each glare-ruled group's state every
+/// hour, the most closed any of its observers' rules picks (at each observer its DGPs with
+/// the group in the state and every other group open: `ShadingRule::Glare`), as a
+/// schedule that the grids and the observers then read.
+fn decide_glare(
+    groups: &[GroupSpec],
+    observers: &[ObserverAt],
+    (run, runs): (&PatchRun, &[Vec<StateRun>]),
+    sky: &AnnualSky,
+    options: &MetricOptions,
+) -> Result<Vec<GroupSpec>> {
+    let mut out = groups.to_vec();
+    for (g, w) in groups.iter().enumerate() {
+        let Some((dgp, at)) = &w.glare else { continue };
+        let mut schedule = vec![0u16; sky.hours.len()];
+        for &i in at {
+            let ob = &observers[i];
+            // Only this group's rule is read here: the others as drawn in their state 0.
+            let mut one = groups.to_vec();
+            for (k, x) in one.iter_mut().enumerate() {
+                x.rule = if k == g {
+                    ShadingRule::Glare { dgp: *dgp }
+                } else {
+                    ShadingRule::Schedule(vec![0; sky.hours.len()])
+                };
+            }
+            let shading = grid_light(
+                (ob.target, &ob.what),
+                (run, &ob.sun),
+                None,
+                (&one, runs, &ob.group_suns),
+            )?;
+            let states = imap::annual::shading_states(&shading, sky, options)
+                .map_err(|e| CliError(format!("annual: {}: {}", ob.what, e.message)))?;
+            for (s, x) in schedule.iter_mut().zip(&states[g]) {
+                *s = (*s).max(*x);
+            }
+        }
+        out[g].rule = ShadingRule::Schedule(schedule);
+    }
+    Ok(out)
+}
+
+/// How annual.json names a group's rule.
+fn rule_name(w: &GroupSpec, observers: &[ObserverAt]) -> String {
+    if let Some((dgp, at)) = &w.glare {
+        let names: Vec<&str> = at.iter().map(|&i| observers[i].name.as_str()).collect();
+        return format!("glare: DGPs above {dgp} at {}", names.join(", "));
+    }
+    match &w.rule {
+        ShadingRule::DirectSun => "direct-sun".to_string(),
+        ShadingRule::Illuminance { lx } => format!("illuminance {lx} lx"),
+        ShadingRule::Schedule(_) => "schedule".to_string(),
+        ShadingRule::Glare { dgp } => format!("glare: DGPs above {dgp}"),
+    }
+}
+
+/// Every observer's year of glare (imageless: its Ev each hour, DGPs, the shares of the
+/// occupied hours in Wienold's classes), each window group in the states of the first
+/// grid (`first_states`; the blinds-closed model as a group of two), written to
+/// `annual_observers.csv` hour by hour and printed; the JSON of annual.json's
+/// "observers".
+fn observer_years(
+    observers: &[ObserverAt],
+    (run, shaded): (&PatchRun, Option<&PatchRun>),
+    (groups, runs): (&[GroupSpec], &[Vec<StateRun>]),
+    first_states: Option<&[Vec<u16>]>,
+    (sky, options): (&AnnualSky, &MetricOptions),
+    o: &AnnualOptions,
+) -> Result<Vec<serde_json::Value>> {
+    if observers.is_empty() {
+        return Ok(Vec::new());
+    }
+    let hours = sky.hours.len();
+    let mut json = Vec::with_capacity(observers.len());
+    let mut columns: Vec<(Vec<f64>, Vec<f64>)> = Vec::with_capacity(observers.len());
+    for ob in observers {
+        let err = |e: imap::Error| CliError(format!("annual: {}: {}", ob.what, e.message));
+        let mut ruled = groups.to_vec();
+        if let Some(states) = first_states {
+            for (w, s) in ruled.iter_mut().zip(states) {
+                w.rule = ShadingRule::Schedule(s.clone());
+            }
+        }
+        let closed = match (shaded, &ob.shaded_sun) {
+            (Some(r), Some((si, sun))) => Some((r, *si, sun)),
+            _ => None,
+        };
+        let mut shading = grid_light(
+            (ob.target, &ob.what),
+            (run, &ob.sun),
+            closed,
+            (&ruled, runs, &ob.group_suns),
+        )?;
+        // The blinds-closed model: closed in the first grid's hours.
+        if let (Some(_), Some(states)) = (closed, first_states) {
+            shading.groups[0].rule = ShadingRule::Schedule(states[0].clone());
+        }
+        let year = imap::annual::annual_glare(&shading, sky, options).map_err(err)?;
+        let y = &year[0];
+        let hourly =
+            imap::annual::hourly_with_shading(&shading, sky, options, 0..hours).map_err(err)?;
+        // An eye's sensor is small: say when its light is poorly known.
+        let (mut sum, mut var) = (0.0, 0.0);
+        for h in (0..hours).filter(|&h| options.occupied.get(h).copied().unwrap_or(false)) {
+            sum += hourly.0[h];
+            var += hourly.1[h];
+        }
+        if sum > 0.0 && var / sum > 0.1 {
+            eprintln!(
+                "imap: warning: annual: {}: its hours' Ev are known only to ± {:.0} % on average (its sensor at the eye is small): its DGPs shares are not to be trusted; trace more photons (--photons, --time)",
+                ob.what,
+                100.0 * var / sum
+            );
+        }
+        if !o.quiet {
+            let class: Vec<String> = imap::annual::DGP_CLASSES
+                .iter()
+                .enumerate()
+                .map(|(c, d)| {
+                    format!(
+                        "≥ {d:.2} in {:.1} % ({:.1}–{:.1} %)",
+                        100.0 * y.share_above[c],
+                        100.0 * y.share_interval[c].0,
+                        100.0 * y.share_interval[c].1
+                    )
+                })
+                .collect();
+            println!(
+                "observer {}: DGPs {} of {} occupied hours; mean Ev {:.0} lx",
+                ob.name,
+                class.join(", "),
+                y.occupied_hours,
+                y.mean_ev_lx
+            );
+        }
+        json.push(serde_json::json!({
+            "name": ob.name,
+            "eye": ob.eye,
+            "view": ob.view,
+            "occupied_hours": y.occupied_hours,
+            "mean_ev_lx": y.mean_ev_lx,
+            "max_dgps": y.max_dgps,
+            "dgps_classes": imap::annual::DGP_CLASSES.iter().enumerate().map(|(c, d)| serde_json::json!({
+                "at_or_above": d,
+                "hours": y.hours_above[c],
+                "share": y.share_above[c],
+                "sigma": y.share_sigma[c],
+                "interval_95": [y.share_interval[c].0, y.share_interval[c].1],
+            })).collect::<Vec<_>>(),
+        }));
+        columns.push(hourly);
+    }
+    // Hour by hour: each observer's Ev, its standard error and DGPs.
+    let path = o.out.join("annual_observers.csv");
+    let mut text = String::from("month,day,hour,occupied");
+    for ob in observers {
+        let n = &ob.name;
+        text.push_str(&format!(",{n}_ev_lx,{n}_ev_sigma,{n}_dgps"));
+    }
+    text.push('\n');
+    for (h, a) in sky.hours.iter().enumerate() {
+        let occupied = options.occupied.get(h).copied().unwrap_or(false);
+        text.push_str(&format!(
+            "{},{},{},{}",
+            a.month,
+            a.day,
+            a.hour,
+            u8::from(occupied)
+        ));
+        for (e, s) in &columns {
+            text.push_str(&format!(
+                ",{},{},{:.4}",
+                e[h],
+                s[h],
+                imap::glare::dgps(e[h]).min(1.0)
+            ));
+        }
+        text.push('\n');
+    }
+    std::fs::write(&path, text).map_err(|e| CliError(format!("{}: {e}", path.display())))?;
+    Ok(json)
+}
+
 /// One model state's run: its context, its scene and its coefficients.
 type StateRun = (imap::Context, crate::scene::LoadedScene, PatchRun);
 
@@ -880,16 +1140,16 @@ type StateRun = (imap::Context, crate::scene::LoadedScene, PatchRun);
 /// and its direct sun) as one group of two states under LM-83's rule; or, with window
 /// groups, each group's states (`runs`, `suns`: per group, per state).
 fn grid_light<'a>(
-    (gi, g): (usize, &Grid),
+    (gi, name): (usize, &str),
     (run, sun): (&'a PatchRun, &'a DirectSun),
     closed: Option<(&'a PatchRun, usize, &'a DirectSun)>,
     (groups, runs, suns): (&[GroupSpec], &'a [Vec<StateRun>], &'a [Vec<DirectSun>]),
 ) -> Result<Shading<'a>> {
     if groups.is_empty() {
-        let c = coefficients(run, gi, g)?;
+        let c = coefficients(run, gi, name)?;
         let shaded = match closed {
             Some((r, si, s)) => Some(Shaded {
-                coefficients: coefficients(r, si, g)?.view(),
+                coefficients: coefficients(r, si, name)?.view(),
                 sun: Some(s),
             }),
             None => None,
@@ -901,7 +1161,7 @@ fn grid_light<'a>(
         let mut each = Vec::with_capacity(states.len());
         for ((_, _, r), s) in states.iter().zip(suns) {
             each.push(Shaded {
-                coefficients: coefficients(r, gi, g)?.view(),
+                coefficients: coefficients(r, gi, name)?.view(),
                 sun: Some(s),
             });
         }
@@ -934,11 +1194,15 @@ fn all_open(shading: &Shading, g: &Grid) -> Result<Option<Coefficients>> {
 
 /// A `[[window_group]]` as read: its objects, states (material names; None: as drawn)
 /// and rule, and where the settings give it.
+#[derive(Clone)]
 struct GroupSpec {
     name: String,
     objects: Vec<String>,
     states: Vec<Option<String>>,
     rule: ShadingRule,
+    /// The glare rule's DGPs and its observers (indices among the settings' observers);
+    /// `rule` is then `ShadingRule::Glare`, or the schedule decided at them.
+    glare: Option<(f64, Vec<usize>)>,
     at: (PathBuf, usize),
 }
 
@@ -976,6 +1240,7 @@ fn window_groups(settings: &Settings, rows: usize) -> Result<Vec<GroupSpec>> {
             .iter()
             .map(|s| (s != "as-drawn").then(|| s.clone()))
             .collect();
+        let mut glare = None;
         let rule = match w.rule.as_deref().unwrap_or("direct-sun") {
             "direct-sun" => ShadingRule::DirectSun,
             "illuminance" => match w.rule_lx {
@@ -989,11 +1254,46 @@ fn window_groups(settings: &Settings, rows: usize) -> Result<Vec<GroupSpec>> {
                 let path = settings.base_dir.join(file);
                 ShadingRule::Schedule(read_schedule(&path, rows, w.states.len())?)
             }
+            "glare" => {
+                let dgp = w.rule_dgp.unwrap_or(0.40);
+                if !(dgp > 0.184 && dgp <= 1.0) {
+                    fail!("{label}: rule_dgp = {dgp}: give a simplified DGP above 0.184 (its value at Ev = 0) and at most 1 (0.40: disturbing glare)");
+                }
+                let names = observer_names(settings);
+                if names.is_empty() {
+                    fail!("{label}: rule = \"glare\" reads the DGPs at [[observer]]s: give at least one");
+                }
+                let at: Vec<usize> = match &w.observers {
+                    None => (0..names.len()).collect(),
+                    Some(list) if list.is_empty() => {
+                        fail!("{label}: observers = [] names none: leave it out for every observer")
+                    }
+                    Some(list) => {
+                        let mut at = Vec::with_capacity(list.len());
+                        for n in list {
+                            match names.iter().position(|x| x == n) {
+                                Some(i) => at.push(i),
+                                None => fail!(
+                                    "{label}: observers = [...]: '{}' is no [[observer]] (they are {})",
+                                    printable(n),
+                                    names.join(", ")
+                                ),
+                            }
+                        }
+                        at
+                    }
+                };
+                glare = Some((dgp, at));
+                ShadingRule::Glare { dgp }
+            }
             r => fail!(
-                "{label}: rule = \"{}\": use \"direct-sun\" (IES LM-83), \"illuminance\" or \"schedule\"",
+                "{label}: rule = \"{}\": use \"direct-sun\" (IES LM-83), \"illuminance\", \"schedule\" or \"glare\"",
                 printable(r)
             ),
         };
+        if w.rule.as_deref() != Some("glare") && (w.rule_dgp.is_some() || w.observers.is_some()) {
+            fail!("{label}: rule_dgp and observers are read with rule = \"glare\" only");
+        }
         if w.rule.as_deref() != Some("illuminance") && w.rule_lx.is_some() {
             fail!("{label}: rule_lx is read with rule = \"illuminance\" only");
         }
@@ -1005,10 +1305,25 @@ fn window_groups(settings: &Settings, rows: usize) -> Result<Vec<GroupSpec>> {
             objects: w.objects.clone(),
             states,
             rule,
+            glare,
             at,
         });
     }
     Ok(out)
+}
+
+/// The settings' observers' names, as `imap run` gives them.
+fn observer_names(settings: &Settings) -> Vec<String> {
+    settings
+        .observers
+        .iter()
+        .enumerate()
+        .map(|(k, o)| {
+            o.name
+                .clone()
+                .unwrap_or_else(|| format!("observer{}", k + 1))
+        })
+        .collect()
 }
 
 /// A window group's schedule file: one state index per weather row (blank lines and `#`
@@ -1126,6 +1441,9 @@ fn coefficients_run(
             }
         }
     }
+    // The observers' sensors (the loader adds them) after the grids: target grids.len() +
+    // i is observer i, its vertex 0 the eye.
+    let observers = &scene.observers;
     let targets = scene
         .grids
         .iter()
@@ -1134,6 +1452,11 @@ fn coefficients_run(
             side: 0,
             vertices: grids::point_vertices(g),
         })
+        .chain(observers.iter().map(|e| PatchTarget {
+            mesh: e.mesh,
+            side: 0,
+            vertices: vec![0],
+        }))
         .collect();
     let mut run = PatchRun::new(&mut ctx, o.mf, (up, north), targets, 0)
         .map_err(|e| CliError(format!("annual: {}", e.message)))?;
@@ -1238,11 +1561,16 @@ fn trace(
     Ok(report)
 }
 
+/// How messages name a grid.
+fn grid_name(g: &Grid) -> String {
+    format!("grid {}", g.name)
+}
+
 /// Grid `gi`'s points' coefficients (borrowed: at MF:4 they are points × 2306 × 16
 /// bytes).
-fn coefficients<'a>(run: &'a PatchRun, gi: usize, g: &Grid) -> Result<&'a Coefficients> {
+fn coefficients<'a>(run: &'a PatchRun, gi: usize, name: &str) -> Result<&'a Coefficients> {
     run.coefficients(gi)
-        .map_err(|e| CliError(format!("annual: grid {}: {}", g.name, e.message)))
+        .map_err(|e| CliError(format!("annual: {name}: {}", e.message)))
 }
 
 /// A false-colour picture of each metric on the grid: DA, the probability of passing
@@ -1541,6 +1869,39 @@ fn report_text(json: &serde_json::Value) -> String {
         ] {
             let _ = writeln!(s, "![{what}](annual_{name}_{file}.png)");
         }
+    }
+    let observers = json["observers"].as_array().into_iter().flatten();
+    for (i, ob) in observers.enumerate() {
+        if i == 0 {
+            let _ = writeln!(
+                s,
+                "\n## Observers: glare from the vertical illuminance at the eye (DGPs, imageless)\n"
+            );
+            let _ = writeln!(
+                s,
+                "| observer | mean Ev | largest DGPs | DGPs ≥ 0.35 | ≥ 0.40 | ≥ 0.45 |\n|---|---|---|---|---|---|"
+            );
+        }
+        let class = |c: usize| {
+            let k = &ob["dgps_classes"][c];
+            format!("{} ({})", pc(&k["share"]), interval(&k["interval_95"]))
+        };
+        let _ = writeln!(
+            s,
+            "| {} | {:.0} lx | {:.2} | {} | {} | {} |",
+            ob["name"].as_str().unwrap_or("?"),
+            f(&ob["mean_ev_lx"]),
+            f(&ob["max_dgps"]),
+            class(0),
+            class(1),
+            class(2)
+        );
+    }
+    if json["observers"].as_array().is_some_and(|a| !a.is_empty()) {
+        let _ = writeln!(
+            s,
+            "\nShares of the occupied hours (95 % intervals). DGPs = 6.22·10⁻⁵ Ev + 0.184 does not rate the sun's disc in view. Hour by hour: `annual_observers.csv`."
+        );
     }
     s
 }

@@ -11,10 +11,12 @@
 //! comes from drawing the coefficients within their errors (a parametric bootstrap: C_p
 //! + σ_p N(0, 1) per sensor and patch) and computing the metric for each draw.
 
+pub mod glare;
 pub mod lighting;
 pub mod shading;
 pub mod trace;
 
+pub use glare::{annual_glare, ObserverYear, DGP_CLASSES};
 pub use shading::{Shading, ShadingRule, WindowGroup};
 
 use crate::error::{bail, Result};
@@ -705,6 +707,20 @@ pub fn hourly_with_shading(
         }
     }
     Ok((e, s))
+}
+
+/// Each window group's state in every hour of the sky, by its rule (read with `o`'s
+/// `blinds_share` and `ase_lx`) on `shading`'s sensors: what the metrics and the hourly
+/// illuminance use, for a host to apply to other sensors (a glare rule decided at the
+/// observers, given to the grids as `ShadingRule::Schedule`).
+pub fn shading_states(
+    shading: &Shading,
+    sky: &AnnualSky,
+    o: &MetricOptions,
+) -> Result<Vec<Vec<u16>>> {
+    shading.check(sky, o)?;
+    let threads = std::thread::available_parallelism().map_or(1, |x| x.get());
+    Ok(shading.states(sky, o, &vec![true; sky.hours.len()], threads))
 }
 
 /// Checks that `sun` (if any) belongs to `c` and `sky`.

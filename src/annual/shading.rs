@@ -32,6 +32,13 @@ pub enum ShadingRule {
     /// The host's own choice: the state of every hour of the sky (a schedule, or a glare
     /// analysis' verdicts).
     Schedule(Vec<u16>),
+    /// The first state in which no more than `MetricOptions::blinds_share` of the sensors
+    /// (observers' sensors, each facing its view: `annual::glare`) have a simplified DGP
+    /// above `dgp` (DGPs = 6.22·10⁻⁵ Ev + 0.184), the last when none is. Ev is the whole
+    /// light at the eye: the base's, the group's in the state, and every other group's in
+    /// its state 0 (open), so that no group's choice waits on another's. A glare-avoiding
+    /// occupant's rule: 0.40 keeps disturbing glare out (EN 17037's medium level).
+    Glare { dgp: f64 },
 }
 
 /// A window group: its states' coefficients (and direct sun) at the same sensors, and the
@@ -185,6 +192,14 @@ impl<'a> Shading<'a> {
                         );
                     }
                 }
+                ShadingRule::Glare { dgp } => {
+                    if !(*dgp > 0.184 && *dgp <= 1.0) {
+                        bail!(
+                            ImapErrInvalidArgument,
+                            "window group {g}: the glare rule's dgp = {dgp}: must be above 0.184 (DGPs at Ev = 0) and at most 1"
+                        );
+                    }
+                }
                 ShadingRule::Schedule(s) => {
                     if s.len() != sky.hours.len() {
                         bail!(
@@ -232,7 +247,8 @@ impl<'a> Shading<'a> {
         let n = sky.patches.count();
         self.groups
             .iter()
-            .map(|w| {
+            .enumerate()
+            .map(|(gi, w)| {
                 let sensors = w.states[0].coefficients.sensors;
                 let most = o.blinds_share * sensors as f64;
                 // Per state and hour, the points above the rule's illuminance.
@@ -281,6 +297,7 @@ impl<'a> Shading<'a> {
                             lit
                         })
                         .collect(),
+                    ShadingRule::Glare { dgp } => self.above_glare(gi, *dgp, sky, counted, threads),
                 };
                 (0..hours)
                     .map(|h| {
@@ -295,6 +312,67 @@ impl<'a> Shading<'a> {
                     .collect()
             })
             .collect()
+    }
+
+    /// Group `gi`'s glare rule: per state and hour, the sensors whose DGPs exceeds `dgp`
+    /// with the group in the state, the base, and every other group open.
+    fn above_glare(
+        &self,
+        gi: usize,
+        dgp: f64,
+        sky: &AnnualSky,
+        counted: &[bool],
+        threads: usize,
+    ) -> Vec<Vec<u32>> {
+        let hours = sky.hours.len();
+        let n = sky.patches.count();
+        let w = &self.groups[gi];
+        let sensors = w.states[0].coefficients.sensors;
+        let ev = (dgp - 0.184) / crate::glare::DGPS_PER_LX;
+        let others: Vec<super::Shaded> = self
+            .base
+            .iter()
+            .copied()
+            .chain(
+                self.groups
+                    .iter()
+                    .enumerate()
+                    .filter(|(g, _)| *g != gi)
+                    .map(|(_, g)| g.states[0]),
+            )
+            .collect();
+        let counts = super::in_chunks(sensors, threads, |r: std::ops::Range<usize>| {
+            let mut lit = vec![vec![0u32; hours]; w.states.len()];
+            let mut direct = vec![0.0; hours];
+            let mut rest = vec![0.0; hours];
+            for k in r {
+                rest.iter_mut().for_each(|x| *x = 0.0);
+                for p in &others {
+                    let s = Sensor::new(p.coefficients, p.sun, k, n, &mut direct);
+                    for (h, x) in rest.iter_mut().enumerate() {
+                        if counted[h] {
+                            *x += s.hour(sky, h).0;
+                        }
+                    }
+                }
+                for (p, l) in w.states.iter().zip(&mut lit) {
+                    let s = Sensor::new(p.coefficients, p.sun, k, n, &mut direct);
+                    for (h, l) in l.iter_mut().enumerate() {
+                        if counted[h] && rest[h] + s.hour(sky, h).0 > ev {
+                            *l += 1;
+                        }
+                    }
+                }
+            }
+            lit
+        });
+        let mut lit = vec![vec![0u32; hours]; w.states.len()];
+        for c in counts {
+            for (a, b) in lit.iter_mut().zip(c) {
+                a.iter_mut().zip(b).for_each(|(x, y)| *x += y);
+            }
+        }
+        lit
     }
 
     /// The scratch `SensorParts::new` borrows: an hour's direct sun per part.

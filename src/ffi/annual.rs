@@ -704,6 +704,11 @@ pub const IMAP_SHADING_DIRECT_SUN: u32 = 0;
 pub const IMAP_SHADING_ILLUMINANCE: u32 = 1;
 /// `ImapWindowGroup::rule`: the state of every hour given in `schedule`. (Since 0.2.3.)
 pub const IMAP_SHADING_SCHEDULE: u32 = 2;
+/// `ImapWindowGroup::rule`: the first state in which no more than `blinds_share` of the
+/// sensors (observers' sensors, each facing its view) have a simplified DGP above
+/// `rule_dgp`, with the group in the state, the base and every other group in its state 0;
+/// the last when none is (`imap_annual_glare`). (Since 0.2.3.)
+pub const IMAP_SHADING_GLARE: u32 = 3;
 
 /// A window group of `ImapAnnualOptions::window_groups`: its states' coefficients at the
 /// call's sensors (each traced with the group's openings in that state and every other
@@ -734,12 +739,17 @@ pub struct ImapWindowGroup {
     /// Written on success when not NULL: `state_count` counts of the occupied hours the
     /// group spent in each state.
     pub state_hours: *mut u64,
+    /// IMAP_SHADING_GLARE's simplified DGP, above 0.184 and at most 1 (default 0.40).
+    /// (Appended in 0.2.3's glare round: a caller built before it passes the shorter
+    /// struct_size and gets the default.)
+    pub rule_dgp: f64,
 }
 
 // SAFETY: repr(C), u32 struct_size first, numbers and pointers (NULL when zeroed).
 unsafe impl Versioned for ImapWindowGroup {
     const NAME: &'static str = "ImapWindowGroup";
     const INIT: &'static str = "imap_window_group_default";
+    const BASE_SIZE: usize = std::mem::offset_of!(ImapWindowGroup, rule_dgp);
     fn defaults() -> Self {
         ImapWindowGroup {
             struct_size: std::mem::size_of::<Self>() as u32,
@@ -752,6 +762,7 @@ unsafe impl Versioned for ImapWindowGroup {
             schedule: std::ptr::null(),
             schedule_count: 0,
             state_hours: std::ptr::null_mut(),
+            rule_dgp: 0.40,
         }
     }
 }
@@ -1052,9 +1063,10 @@ fn read_group<'a>(
         IMAP_SHADING_SCHEDULE => ShadingRule::Schedule(
             slice(&format!("{name}->schedule"), w.schedule, w.schedule_count)?.to_vec(),
         ),
+        IMAP_SHADING_GLARE => ShadingRule::Glare { dgp: w.rule_dgp },
         r => bail!(
             ImapErrInvalidArgument,
-            "{name}->rule = {r}: use IMAP_SHADING_DIRECT_SUN, IMAP_SHADING_ILLUMINANCE or IMAP_SHADING_SCHEDULE"
+            "{name}->rule = {r}: use IMAP_SHADING_DIRECT_SUN, IMAP_SHADING_ILLUMINANCE, IMAP_SHADING_SCHEDULE or IMAP_SHADING_GLARE"
         ),
     };
     Ok(Group {
@@ -1196,6 +1208,144 @@ pub unsafe extern "C" fn imap_annual_hourly_shaded(
             (first_hour, hours, sensors),
             (out_value, out_sigma),
         )
+    })
+}
+
+/// One observer's year of glare (`imap_annual_glare`), per DGP class (0.35, 0.40, 0.45:
+/// perceptible, disturbing, intolerable): the occupied hours with the simplified DGP at
+/// or above it, their share of the occupied hours, its standard deviation over the draws
+/// and its 95 % interval (NaN without draws); the mean vertical illuminance at the eye over
+/// the occupied hours and the largest hour's DGPs. (Since 0.2.3.)
+#[repr(C)]
+#[derive(Clone, Copy, Debug)]
+pub struct ImapObserverYear {
+    pub struct_size: u32,
+    pub reserved: u32,
+    pub occupied_hours: u64,
+    pub hours_above: [u64; 3],
+    pub share_above: [f64; 3],
+    pub share_sigma: [f64; 3],
+    pub share_low: [f64; 3],
+    pub share_high: [f64; 3],
+    pub mean_ev_lx: f64,
+    pub max_dgps: f64,
+}
+
+// SAFETY: repr(C), u32 struct_size first, numbers only.
+unsafe impl Versioned for ImapObserverYear {
+    const NAME: &'static str = "ImapObserverYear";
+    const INIT: &'static str = "sizeof(ImapObserverYear)";
+    fn defaults() -> Self {
+        ImapObserverYear {
+            struct_size: std::mem::size_of::<Self>() as u32,
+            reserved: 0,
+            occupied_hours: 0,
+            hours_above: [0; 3],
+            share_above: [0.0; 3],
+            share_sigma: [f64::NAN; 3],
+            share_low: [f64::NAN; 3],
+            share_high: [f64::NAN; 3],
+            mean_ev_lx: 0.0,
+            max_dgps: 0.0,
+        }
+    }
+}
+
+/// Annual glare, imageless, at `sensors` observers' sensors (`imap_add_observer_sensor`:
+/// each faces its view, so its coefficients are the vertical illuminance at the eye per
+/// patch luminance; passed, with their direct sun and options, as `imap_annual_metrics`
+/// takes a grid's): each occupied hour's Ev with the window groups in the states their
+/// rules pick, its simplified DGP (6.22·10⁻⁵ Ev + 0.184; it does not rate the sun's disc
+/// in view), and per observer the shares of the occupied hours at or above 0.35, 0.40 and
+/// 0.45 with their confidence into `out`: `sensors` elements of `element_size` =
+/// sizeof(ImapObserverYear) bytes each. Returns IMAP_ERR_INVALID_ARGUMENT or
+/// IMAP_ERR_NON_FINITE naming what is wrong. (Since 0.2.3.)
+///
+/// # Safety
+/// As `imap_annual_metrics`; `out` holds `sensors × element_size` writable bytes.
+#[no_mangle]
+pub unsafe extern "C" fn imap_annual_glare(
+    sky: *const ImapAnnualSky,
+    value: *const f64,
+    sigma: *const f64,
+    sensors: usize,
+    sun: *const ImapDirectSun,
+    options: *const ImapAnnualOptions,
+    out: *mut ImapObserverYear,
+    element_size: usize,
+) -> ImapStatus {
+    boundary(None, || {
+        super::check_out("out", out)?;
+        if element_size < std::mem::size_of::<u32>() {
+            bail!(
+                ImapErrInvalidArgument,
+                "element_size = {element_size}: pass sizeof(ImapObserverYear)"
+            );
+        }
+        let a = Annual::read(sky, value, sigma, sensors, sun, options)?;
+        let years = crate::annual::annual_glare(&a.shading(), &a.sky.sky, &a.options)?;
+        for (k, y) in years.iter().enumerate() {
+            // SAFETY: the caller provides `sensors × element_size` bytes.
+            let at = unsafe { (out as *mut u8).add(k * element_size) } as *mut ImapObserverYear;
+            write_versioned(
+                "out",
+                at,
+                element_size,
+                ImapObserverYear {
+                    struct_size: 0,
+                    reserved: 0,
+                    occupied_hours: y.occupied_hours as u64,
+                    hours_above: y.hours_above.map(|x| x as u64),
+                    share_above: y.share_above,
+                    share_sigma: y.share_sigma,
+                    share_low: y.share_interval.map(|x| x.0),
+                    share_high: y.share_interval.map(|x| x.1),
+                    mean_ev_lx: y.mean_ev_lx,
+                    max_dgps: y.max_dgps,
+                },
+            )?;
+        }
+        Ok(())
+    })
+}
+
+/// Every window group's state in every hour of the sky, as the rules of `options` pick
+/// them on these `sensors` (arguments as `imap_annual_metrics`), into `out`: window
+/// groups × the sky's hours states, group by group (`out_count` at least that). A host decides a
+/// glare rule at its observers this way and gives the grids the verdicts as
+/// IMAP_SHADING_SCHEDULE. Returns IMAP_ERR_INVALID_ARGUMENT naming what is wrong, or
+/// IMAP_ERR_BUFFER_TOO_SMALL. (Since 0.2.3.)
+///
+/// # Safety
+/// As `imap_annual_metrics`; `out` holds `out_count` writable `uint16_t`.
+#[no_mangle]
+pub unsafe extern "C" fn imap_annual_states(
+    sky: *const ImapAnnualSky,
+    value: *const f64,
+    sigma: *const f64,
+    sensors: usize,
+    sun: *const ImapDirectSun,
+    options: *const ImapAnnualOptions,
+    out: *mut u16,
+    out_count: usize,
+) -> ImapStatus {
+    boundary(None, || {
+        let a = Annual::read(sky, value, sigma, sensors, sun, options)?;
+        let states = crate::annual::shading_states(&a.shading(), &a.sky.sky, &a.options)?;
+        let need = states.len() * a.sky.sky.hours.len();
+        if out_count < need {
+            bail!(
+                ImapErrBufferTooSmall,
+                "out_count = {out_count}: {} window groups × {} hours need {need}",
+                states.len(),
+                a.sky.sky.hours.len()
+            );
+        }
+        let dst = slice_mut("out", out, out_count)?;
+        for (d, x) in dst.iter_mut().zip(states.iter().flatten()) {
+            *d = *x;
+        }
+        Ok(())
     })
 }
 

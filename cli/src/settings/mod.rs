@@ -273,10 +273,17 @@ pub struct WindowGroupSettings {
     /// Its states, most open first: "as-drawn" (the objects' own materials) or the name of
     /// a material (one of the model's, or a `[materials.NAME]` of these settings).
     pub states: Vec<String>,
-    /// "direct-sun" (IES LM-83's rule, the default), "illuminance" (with `rule_lx`) or
-    /// "schedule" (with `schedule`).
+    /// "direct-sun" (IES LM-83's rule, the default), "illuminance" (with `rule_lx`),
+    /// "schedule" (with `schedule`) or "glare" (with `rule_dgp`, at `observers`).
     #[serde(default)]
     pub rule: Option<String>,
+    /// The glare rule's simplified DGP (default 0.40): the group closes by a state in the
+    /// hours in which an observer's DGPs would be above it.
+    #[serde(default)]
+    pub rule_dgp: Option<f64>,
+    /// The glare rule's `[[observer]]`s by name (default: every observer).
+    #[serde(default)]
+    pub observers: Option<Vec<String>>,
     /// The illuminance rule's threshold, lx.
     #[serde(default)]
     pub rule_lx: Option<f64>,
