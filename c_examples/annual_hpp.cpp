@@ -107,6 +107,23 @@ int main() {
               "closed all year, the point reads its closed state: cDA %g against %g", shut.points[0].cda,
               alone.points[0].cda);
 
+        // Annual glare with the point as an observer looking up: the glare rule closes the
+        // group exactly in the hours whose DGPs with it open (6.22e-5 Ev + 0.184) is above
+        // 0.40, and then no hour is above 0.40.
+        groups[0].rule = IMAP_SHADING_GLARE;
+        groups[0].rule_dgp = 0.40;
+        groups[0].schedule.clear();
+        std::vector<std::vector<uint16_t>> states = imap::annual_states(moved, nullptr, nullptr, groups);
+        for (size_t h = 0; h < 4; h++)
+            CHECK(states[0][h] == (6.22e-5 * e.value[h] + 0.184 > 0.40 ? 1 : 0), "hour %zu: state %u at %g lx", h,
+                  unsigned(states[0][h]), e.value[h]);
+        std::vector<ImapObserverYear> open = imap::annual_glare(moved, c, &sun);
+        std::vector<ImapObserverYear> ruled = imap::annual_glare(moved, nullptr, nullptr, groups);
+        CHECK(open.size() == 1 && open[0].occupied_hours == 3 && ruled[0].hours_above[1] == 0,
+              "DGPs at or above 0.40 in %llu hours open, %llu under the rule",
+              static_cast<unsigned long long>(open[0].hours_above[1]),
+              static_cast<unsigned long long>(ruled[0].hours_above[1]));
+
         // Electric light with daylight: the zone's lights give 500 lx; kept at a target
         // above every hour's daylight less 100 lx, they dim to the minimum (30 % power).
         imap::Hourly electric;

@@ -760,8 +760,8 @@ inline AnnualMetrics annual_metrics(const AnnualSky& sky, const Coefficients& c,
 /// A window group (docs/daylight.md, "Window groups"): its states' coefficients, most open
 /// first, each traced with the group in that state and every other group's openings black;
 /// their direct sun (empty, or one per state: null where a state lets none through); the
-/// rule that picks a state each hour (IMAP_SHADING_*, with `rule_lx` or `schedule`).
-/// `annual_metrics` fills `state_hours`: the occupied hours spent in each state.
+/// rule that picks a state each hour (IMAP_SHADING_*, with `rule_lx`, `schedule` or
+/// `rule_dgp`). `annual_metrics` fills `state_hours`: the occupied hours spent in each state.
 struct WindowGroup {
     std::vector<const Coefficients*> states;
     std::vector<const DirectSun*> suns;
@@ -769,53 +769,114 @@ struct WindowGroup {
     double rule_lx = 0;
     std::vector<uint16_t> schedule;
     std::vector<uint64_t> state_hours;
+    double rule_dgp = 0.40;
 };
+
+namespace detail {
+/// The C structs of `groups` (kept alive with it) and the points they hold.
+struct GroupStructs {
+    std::vector<std::vector<const double*>> values, sigmas;
+    std::vector<std::vector<const ImapDirectSun*>> suns;
+    std::vector<ImapWindowGroup> structs;
+    std::vector<const ImapWindowGroup*> pointers;
+    const Coefficients* first = nullptr;
+
+    GroupStructs(const Coefficients* base, std::vector<WindowGroup>& groups, const char* what)
+        : values(groups.size()), sigmas(groups.size()), suns(groups.size()), structs(groups.size()),
+          pointers(groups.size()), first(base) {
+        for (const auto& g : groups)
+            if (!first && !g.states.empty()) first = g.states.front();
+        if (!first) throw Error(IMAP_ERR_INVALID_ARGUMENT, std::string(what) + ": no base and no window group state");
+        for (size_t i = 0; i < groups.size(); i++) {
+            WindowGroup& g = groups[i];
+            if (!g.suns.empty() && g.suns.size() != g.states.size())
+                throw Error(IMAP_ERR_INVALID_ARGUMENT, std::string(what) + ": a window group's suns are not one per state");
+            for (const Coefficients* c : g.states) {
+                if (!c || c->points != first->points)
+                    throw Error(IMAP_ERR_INVALID_ARGUMENT, std::string(what) + ": a window group's state has other points");
+                values[i].push_back(c->value.data());
+                sigmas[i].push_back(c->sigma.data());
+            }
+            for (const DirectSun* d : g.suns) suns[i].push_back(d ? d->get() : nullptr);
+            g.state_hours.assign(g.states.size(), 0);
+            check(imap_window_group_default(&structs[i], sizeof structs[i]));
+            structs[i].rule = g.rule;
+            structs[i].state_count = g.states.size();
+            structs[i].value = values[i].data();
+            structs[i].sigma = sigmas[i].data();
+            structs[i].sun = suns[i].empty() ? nullptr : suns[i].data();
+            structs[i].rule_lx = g.rule_lx;
+            structs[i].schedule = g.schedule.empty() ? nullptr : g.schedule.data();
+            structs[i].schedule_count = g.schedule.size();
+            structs[i].state_hours = g.state_hours.data();
+            structs[i].rule_dgp = g.rule_dgp;
+            pointers[i] = &structs[i];
+        }
+    }
+
+    ImapAnnualOptions attach(ImapAnnualOptions options) const {
+        options.window_groups = pointers.data();
+        options.window_group_count = pointers.size();
+        return options;
+    }
+};
+}  // namespace detail
 
 /// The metrics of a grid whose light is `base`'s (the light through no window group;
 /// null: none) and each of `groups` in the state its rule picks every hour.
 inline AnnualMetrics annual_metrics(const AnnualSky& sky, const Coefficients* base, const DirectSun* base_sun,
                                     std::vector<WindowGroup>& groups,
                                     ImapAnnualOptions options = annual_options()) {
-    const Coefficients* first = base;
-    for (const auto& g : groups)
-        if (!first && !g.states.empty()) first = g.states.front();
-    if (!first) throw Error(IMAP_ERR_INVALID_ARGUMENT, "annual_metrics: no base and no window group state");
-    std::vector<std::vector<const double*>> values(groups.size()), sigmas(groups.size());
-    std::vector<std::vector<const ImapDirectSun*>> suns(groups.size());
-    std::vector<ImapWindowGroup> structs(groups.size());
-    std::vector<const ImapWindowGroup*> pointers(groups.size());
-    for (size_t i = 0; i < groups.size(); i++) {
-        WindowGroup& g = groups[i];
-        if (!g.suns.empty() && g.suns.size() != g.states.size())
-            throw Error(IMAP_ERR_INVALID_ARGUMENT, "annual_metrics: a window group's suns are not one per state");
-        for (const Coefficients* c : g.states) {
-            if (!c || c->points != first->points)
-                throw Error(IMAP_ERR_INVALID_ARGUMENT, "annual_metrics: a window group's state has other points");
-            values[i].push_back(c->value.data());
-            sigmas[i].push_back(c->sigma.data());
-        }
-        for (const DirectSun* d : g.suns) suns[i].push_back(d ? d->get() : nullptr);
-        g.state_hours.assign(g.states.size(), 0);
-        check(imap_window_group_default(&structs[i], sizeof structs[i]));
-        structs[i].rule = g.rule;
-        structs[i].state_count = g.states.size();
-        structs[i].value = values[i].data();
-        structs[i].sigma = sigmas[i].data();
-        structs[i].sun = suns[i].empty() ? nullptr : suns[i].data();
-        structs[i].rule_lx = g.rule_lx;
-        structs[i].schedule = g.schedule.empty() ? nullptr : g.schedule.data();
-        structs[i].schedule_count = g.schedule.size();
-        structs[i].state_hours = g.state_hours.data();
-        pointers[i] = &structs[i];
-    }
-    options.window_groups = pointers.data();
-    options.window_group_count = pointers.size();
+    detail::GroupStructs g(base, groups, "annual_metrics");
+    options = g.attach(options);
     AnnualMetrics m;
-    m.points.resize(first->points);
+    m.points.resize(g.first->points);
     check(imap_annual_metrics(sky.get(), base ? base->value.data() : nullptr, base ? base->sigma.data() : nullptr,
-                              first->points, base_sun ? base_sun->get() : nullptr, &options, &m.grid, sizeof m.grid,
+                              g.first->points, base_sun ? base_sun->get() : nullptr, &options, &m.grid, sizeof m.grid,
                               m.points.data(), sizeof(ImapSensorMetrics)));
     return m;
+}
+
+/// Annual glare, imageless (docs/daylight.md, "Observers and annual glare"): per observer
+/// whose coefficients `c` are (its sensor faces its view), the shares of the occupied hours
+/// with DGPs at or above 0.35, 0.40 and 0.45 with their confidence.
+inline std::vector<ImapObserverYear> annual_glare(const AnnualSky& sky, const Coefficients& c, const DirectSun* sun,
+                                                  const ImapAnnualOptions& options = annual_options()) {
+    std::vector<ImapObserverYear> out(c.points);
+    check(imap_annual_glare(sky.get(), c.value.data(), c.sigma.data(), c.points, sun ? sun->get() : nullptr, &options,
+                            out.data(), sizeof(ImapObserverYear)));
+    return out;
+}
+
+/// `annual_glare` of observers whose light is `base`'s and each of `groups` in the state
+/// its rule picks every hour.
+inline std::vector<ImapObserverYear> annual_glare(const AnnualSky& sky, const Coefficients* base,
+                                                  const DirectSun* base_sun, std::vector<WindowGroup>& groups,
+                                                  ImapAnnualOptions options = annual_options()) {
+    detail::GroupStructs g(base, groups, "annual_glare");
+    options = g.attach(options);
+    std::vector<ImapObserverYear> out(g.first->points);
+    check(imap_annual_glare(sky.get(), base ? base->value.data() : nullptr, base ? base->sigma.data() : nullptr,
+                            g.first->points, base_sun ? base_sun->get() : nullptr, &options, out.data(),
+                            sizeof(ImapObserverYear)));
+    return out;
+}
+
+/// Each window group's state every hour as the rules pick them on these sensors (a glare
+/// rule at observers), group by group: to give other sensors as IMAP_SHADING_SCHEDULE.
+inline std::vector<std::vector<uint16_t>> annual_states(const AnnualSky& sky, const Coefficients* base,
+                                                        const DirectSun* base_sun, std::vector<WindowGroup>& groups,
+                                                        ImapAnnualOptions options = annual_options()) {
+    detail::GroupStructs g(base, groups, "annual_states");
+    options = g.attach(options);
+    size_t hours = 0, patches = 0;
+    check(imap_annual_sky_size(sky.get(), &hours, &patches));
+    std::vector<uint16_t> flat(groups.size() * hours);
+    check(imap_annual_states(sky.get(), base ? base->value.data() : nullptr, base ? base->sigma.data() : nullptr,
+                             g.first->points, base_sun ? base_sun->get() : nullptr, &options, flat.data(), flat.size()));
+    std::vector<std::vector<uint16_t>> out(groups.size());
+    for (size_t i = 0; i < groups.size(); i++) out[i].assign(flat.begin() + i * hours, flat.begin() + (i + 1) * hours);
+    return out;
 }
 
 inline ImapDimming dimming() {
