@@ -188,7 +188,7 @@ fn check_picture(camera: &Camera, rules: &SourceRules) -> Result<()> {
 
 /// Single-linkage clusters of `members` (indices into `px`): pixels closer than
 /// `half_angle` join. `window` is how many pixels away a partner may lie. Returns the
-/// cluster root of each member.
+/// clusters, each its members in `members`' order, ordered by their first member.
 fn clusters(
     px: &[Px],
     members: &[usize],
@@ -196,7 +196,7 @@ fn clusters(
     h: u32,
     half_angle: f64,
     window: i64,
-) -> Vec<u32> {
+) -> Vec<Vec<usize>> {
     let n = members.len();
     let mut parent: Vec<u32> = (0..n as u32).collect();
     // Slot of each member in a full-picture index, for the window scan.
@@ -223,7 +223,13 @@ fn clusters(
             }
         }
     }
-    (0..n as u32).map(|k| find(&mut parent, k)).collect()
+    // (A root is its cluster's smallest index: clusters come by their first member.)
+    let mut groups: std::collections::BTreeMap<u32, Vec<usize>> = Default::default();
+    for (k, &m) in members.iter().enumerate() {
+        let root = find(&mut parent, k as u32);
+        groups.entry(root).or_default().push(m);
+    }
+    groups.into_values().collect()
 }
 
 /// The DGP of a fisheye picture of luminance `luminance` (cd/m², one per pixel, row-major
@@ -308,16 +314,12 @@ pub fn picture_glare(
     let half = 0.5 * rules.search_angle_rad;
     let window = (half / (cam.pixel_angle() * 2.0 / std::f64::consts::PI)).ceil() as i64 + 1;
     let glare: Vec<usize> = (0..px.len()).filter(|&i| px[i].lum > threshold).collect();
-    let roots = clusters(&px, &glare, w, h, half, window);
-    // Group members by cluster, then split off each cluster's peaks.
-    let mut groups: std::collections::BTreeMap<u32, Vec<usize>> = Default::default();
-    for (k, &r) in roots.iter().enumerate() {
-        groups.entry(r).or_default().push(glare[k]);
-    }
+    // The clusters, then each cluster's peaks split off.
+    let groups = clusters(&px, &glare, w, h, half, window);
     let mut sources_px: Vec<Vec<usize>> = Vec::new();
     let peak = rules.peak_cd_m2;
     let any_peak = peak > 0.0 && glare.iter().any(|&i| px[i].lum >= peak);
-    for (_, members) in groups {
+    for members in groups {
         if !any_peak {
             sources_px.push(members);
             continue;
@@ -328,12 +330,7 @@ pub fn picture_glare(
             sources_px.push(rest);
         }
         if !peaks.is_empty() {
-            let r = clusters(&px, &peaks, w, h, half, window);
-            let mut g: std::collections::BTreeMap<u32, Vec<usize>> = Default::default();
-            for (k, &root) in r.iter().enumerate() {
-                g.entry(root).or_default().push(peaks[k]);
-            }
-            sources_px.extend(g.into_values());
+            sources_px.extend(clusters(&px, &peaks, w, h, half, window));
         }
     }
     // Each source's figures.
