@@ -454,15 +454,7 @@ pub fn annual(model: &Path, settings: Settings, o: &AnnualOptions) -> Result<()>
             }
             shaded_suns.push((si, direct_sun(sctx)?));
         }
-        let mut per_group = Vec::with_capacity(group_runs.len());
-        for states in &mut group_runs {
-            let mut per_state = Vec::with_capacity(states.len());
-            for (sctx, _, _) in states.iter_mut() {
-                per_state.push(direct_sun(sctx)?);
-            }
-            per_group.push(per_state);
-        }
-        group_suns.push(per_group);
+        group_suns.push(each_state(&mut group_runs, direct_sun)?);
     }
     // Each observer's direct sun at the eye through every model state, as a grid's.
     let mut observers = Vec::with_capacity(settings.observers.len());
@@ -488,14 +480,7 @@ pub fn annual(model: &Path, settings: Settings, o: &AnnualOptions) -> Result<()>
             Some((sctx, sscene, _)) => Some((sscene.grids.len() + i, direct_sun(sctx)?)),
             None => None,
         };
-        let mut group_sun = Vec::with_capacity(group_runs.len());
-        for states in &mut group_runs {
-            let mut per_state = Vec::with_capacity(states.len());
-            for (sctx, _, _) in states.iter_mut() {
-                per_state.push(direct_sun(sctx)?);
-            }
-            group_sun.push(per_state);
-        }
+        let group_sun = each_state(&mut group_runs, direct_sun)?;
         observers.push(ObserverAt {
             what: format!("observer {name}"),
             name,
@@ -1130,6 +1115,16 @@ fn observer_years(
     }
     std::fs::write(&path, text).map_err(|e| CliError(format!("{}: {e}", path.display())))?;
     Ok(json)
+}
+
+/// `f` of every window group state's context, group by group.
+fn each_state<T>(
+    runs: &mut [Vec<StateRun>],
+    mut f: impl FnMut(&mut imap::Context) -> Result<T>,
+) -> Result<Vec<Vec<T>>> {
+    runs.iter_mut()
+        .map(|states| states.iter_mut().map(|(sctx, _, _)| f(sctx)).collect())
+        .collect()
 }
 
 /// One model state's run: its context, its scene and its coefficients.
