@@ -21,11 +21,20 @@ fn main() {
     let dir = env::var_os("EMBREE_DIR")
         .map(PathBuf::from)
         .or_else(|| local.join("libembree4.so").exists().then_some(local));
+    // Windows (scripts/build-windows.sh): the linker takes embree4.dll itself; a DLL has no
+    // rpath or SONAME (Windows finds DLLs beside the executable), and the file version
+    // is the crate's (the package's resource script).
+    let windows = env::var("CARGO_CFG_TARGET_OS").as_deref() == Ok("windows");
     if let Some(dir) = dir {
         println!("cargo:rustc-link-search=native={}", dir.display());
-        println!("cargo:rustc-link-arg=-Wl,-rpath,{}", dir.display());
+        if !windows {
+            println!("cargo:rustc-link-arg=-Wl,-rpath,{}", dir.display());
+        }
         // For dependents' build scripts (the `imap` command): DEP_IMAP_EMBREE_DIR.
         println!("cargo:embree_dir={}", dir.display());
+    }
+    if windows {
+        return;
     }
     println!("cargo:rustc-link-arg=-Wl,-rpath,$ORIGIN/imap:$ORIGIN");
     let major = env::var("CARGO_PKG_VERSION_MAJOR").unwrap();

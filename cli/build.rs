@@ -2,7 +2,8 @@
 //! (libimap's build script hands the directory over as DEP_IMAP_EMBREE_DIR).
 fn main() {
     println!("cargo:rerun-if-env-changed=DEP_IMAP_EMBREE_DIR");
-    if let Ok(dir) = std::env::var("DEP_IMAP_EMBREE_DIR") {
+    let windows = std::env::var("CARGO_CFG_TARGET_OS").as_deref() == Ok("windows");
+    if let (Ok(dir), false) = (std::env::var("DEP_IMAP_EMBREE_DIR"), windows) {
         println!("cargo:rustc-link-arg=-Wl,-rpath,{dir}");
     }
 }

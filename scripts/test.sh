@@ -92,3 +92,6 @@ echo "pkg-config build of bad_input: ok"
 # (luminaire_room, the renders) passed above on the same sources, so the installed tree runs
 # the quick ones: linking and running against the package is what is checked here.
 ctest --test-dir "$TMP/examples" --output-on-failure -j "$JOBS" -E 'luminaire_room|render_cornell|edge_lit_panel'
+
+echo "== Windows: the DLL, the command and the package cross-built with MinGW, run under Wine"
+scripts/test-windows.sh

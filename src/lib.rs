@@ -43,6 +43,8 @@ mod imap;
 /// cbindgen:ignore
 pub mod photometry;
 /// cbindgen:ignore
+mod platform;
+/// cbindgen:ignore
 mod progress;
 /// cbindgen:ignore
 mod render;

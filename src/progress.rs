@@ -45,26 +45,7 @@ fn next_tick(interval: Duration, cost: Duration) -> Option<Instant> {
     Instant::now().checked_add(interval.max(cost.mul_f64(1.0 / MAX_PROGRESS_SHARE)))
 }
 
-/// The CPU time the calling thread has used, where the system tells it.
-fn thread_cpu_time() -> Option<Duration> {
-    #[cfg(unix)]
-    {
-        let mut ts = libc::timespec {
-            tv_sec: 0,
-            tv_nsec: 0,
-        };
-        // SAFETY: `ts` is a valid, writable timespec; the call only writes it.
-        let rc = unsafe { libc::clock_gettime(libc::CLOCK_THREAD_CPUTIME_ID, &mut ts) };
-        if rc == 0 && ts.tv_sec >= 0 && (0..1_000_000_000).contains(&ts.tv_nsec) {
-            return Some(Duration::new(ts.tv_sec as u64, ts.tv_nsec as u32));
-        }
-        None
-    }
-    #[cfg(not(unix))]
-    {
-        None
-    }
-}
+use crate::platform::thread_cpu_time;
 
 /// A duration of `s` seconds (any non-negative number; huge values saturate).
 pub fn duration_s(s: f64) -> Duration {

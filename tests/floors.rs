@@ -12,9 +12,10 @@ use std::path::Path;
 /// Floors from the top: a module may name only modules further down this list.
 const FLOORS: &[&[&str]] = &[
     &["ffi"],
-    // Annual daylight traces the direct sun through a context's scene; glare looks at its
-    // lights through it.
-    &["annual", "glare"],
+    // Annual daylight traces the direct sun through a context's scene, and rates an
+    // observer's hours by glare's DGPs; glare looks at the lights through a context.
+    &["annual"],
+    &["glare"],
     &["context"],
     &["render"],
     &["sched"],
@@ -24,7 +25,7 @@ const FLOORS: &[&[&str]] = &[
     &["scene"],
     &["photometry", "images"],
     &["spectral", "sampling", "solar", "progress"],
-    &["error", "files", "fault"],
+    &["error", "files", "fault", "platform"],
 ];
 
 fn floor(module: &str) -> Option<usize> {

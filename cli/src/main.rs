@@ -181,7 +181,10 @@ fn main() {
     // A closed pipe (`imap info MODEL | head`) ends the command quietly, as it does other
     // Unix tools, instead of failing a print.
     // SAFETY: restoring the default disposition of SIGPIPE before any thread starts.
-    unsafe { libc::signal(libc::SIGPIPE, libc::SIG_DFL) };
+    #[cfg(unix)]
+    unsafe {
+        libc::signal(libc::SIGPIPE, libc::SIG_DFL)
+    };
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Run {

@@ -1416,17 +1416,7 @@ pub fn default_memory_budget() -> u64 {
     physical_memory().map_or(u64::MAX, |m| m / 4 * 3)
 }
 
-/// Physical memory in bytes, if the system says.
-fn physical_memory() -> Option<u64> {
-    // SAFETY: sysconf only reads system configuration.
-    let (pages, size) = unsafe {
-        (
-            libc::sysconf(libc::_SC_PHYS_PAGES),
-            libc::sysconf(libc::_SC_PAGESIZE),
-        )
-    };
-    (pages > 0 && size > 0).then(|| (pages as u64).saturating_mul(size as u64))
-}
+use crate::platform::physical_memory;
 
 impl Context {
     /// Checks a region target against the scene; the weights of each target mesh's vertices

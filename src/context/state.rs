@@ -856,7 +856,8 @@ impl Context {
             f.sync_all()
                 .map_err(|e| io_error(&tmp, "cannot flush", e))?;
             drop(f);
-            std::fs::rename(&tmp, path).map_err(|e| io_error(path, "cannot rename into", e))?;
+            crate::platform::replace_file(&tmp, path)
+                .map_err(|e| io_error(path, "cannot rename into", e))?;
             // The rename itself reaches the disk with the folder.
             if let Ok(d) = std::fs::File::open(&dir) {
                 let _ = d.sync_all();
@@ -1104,15 +1105,11 @@ fn remove_dead_temporaries(dir: &Path, name: &std::ffi::OsStr) {
             .as_encoded_bytes()
             .strip_prefix(prefix)
             .and_then(|p| std::str::from_utf8(p).ok())
-            .and_then(|p| p.split('-').next()?.parse::<libc::pid_t>().ok())
+            .and_then(|p| p.split('-').next()?.parse::<u32>().ok())
         else {
             continue;
         };
-        // SAFETY: signal 0 only asks whether the process exists.
-        let gone = pid > 0
-            && unsafe { libc::kill(pid, 0) } == -1
-            && std::io::Error::last_os_error().raw_os_error() == Some(libc::ESRCH);
-        if gone {
+        if crate::platform::process_gone(pid) {
             let _ = std::fs::remove_file(e.path());
         }
     }

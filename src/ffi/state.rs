@@ -25,8 +25,13 @@ pub(super) fn path_arg<'a>(name: &str, p: *const c_char) -> Result<&'a Path> {
     if bytes.is_empty() {
         bail!(ImapErrInvalidArgument, "{name} is empty");
     }
-    use std::os::unix::ffi::OsStrExt;
-    Ok(Path::new(std::ffi::OsStr::from_bytes(bytes)))
+    match crate::platform::path_from_c(bytes) {
+        Some(p) => Ok(p),
+        None => bail!(
+            ImapErrInvalidArgument,
+            "{name} is not UTF-8: on Windows pass a path as its UTF-8 bytes"
+        ),
+    }
 }
 
 /// A writer into a caller's buffer that counts every byte, keeping those that fit.
