@@ -1036,16 +1036,16 @@ fn observer_years(
         let hourly =
             imap::annual::hourly_with_shading(&shading, sky, options, 0..hours).map_err(err)?;
         // An eye's sensor is small: say when its light is poorly known.
-        let (mut sum, mut var) = (0.0, 0.0);
+        let (mut sum, mut sigma) = (0.0, 0.0);
         for h in (0..hours).filter(|&h| options.occupied.get(h).copied().unwrap_or(false)) {
             sum += hourly.0[h];
-            var += hourly.1[h];
+            sigma += hourly.1[h];
         }
-        if sum > 0.0 && var / sum > 0.1 {
+        if sum > 0.0 && sigma / sum > 0.1 {
             eprintln!(
                 "imap: warning: annual: {}: its hours' Ev are known only to ± {:.0} % on average (its sensor at the eye is small): its DGPs shares are not to be trusted; trace more photons (--photons, --time)",
                 ob.what,
-                100.0 * var / sum
+                100.0 * sigma / sum
             );
         }
         if !o.quiet {
@@ -1108,7 +1108,7 @@ fn observer_years(
                 ",{},{},{:.4}",
                 e[h],
                 s[h],
-                imap::glare::dgps(e[h]).min(1.0)
+                imap::annual::glare::hour_dgps(e[h])
             ));
         }
         text.push('\n');

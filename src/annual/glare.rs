@@ -11,7 +11,7 @@
 //! (`glare::picture_glare`) rates both.
 
 use super::shading::{SensorParts, Shading};
-use super::{in_chunks, occupied_hours, spread, AnnualSky, MetricOptions};
+use super::{debiased_spread, in_chunks, occupied_hours, AnnualSky, MetricOptions};
 use crate::error::Result;
 use crate::glare::dgps;
 use crate::sampling::PhotonRng;
@@ -38,8 +38,9 @@ pub struct ObserverYear {
     pub max_dgps: f64,
 }
 
-/// DGPs of an hour's Ev, capped at 1 (a probability).
-fn capped(ev: f64) -> f64 {
+/// DGPs of an hour's Ev, capped at 1 (a probability): what the shares and the hourly
+/// outputs rate.
+pub fn hour_dgps(ev: f64) -> f64 {
     dgps(ev).min(1.0)
 }
 
@@ -69,7 +70,7 @@ pub(super) fn annual_glare_on(
     let count = hours.len();
     let states = shading.states(sky, o, &occupied, threads);
     // The Ev at which DGPs reaches each class.
-    let ev_at = DGP_CLASSES.map(|d| (d - 0.184) / crate::glare::DGPS_PER_LX);
+    let ev_at = DGP_CLASSES.map(crate::glare::dgps_ev);
     let one = |range: std::ops::Range<usize>| -> Vec<ObserverYear> {
         let mut scratch = shading.scratch(sky.hours.len());
         let mut out = Vec::with_capacity(range.len());
@@ -113,10 +114,7 @@ pub(super) fn annual_glare_on(
                     continue;
                 }
                 let d: Vec<f64> = draws.iter().map(|x| x[c]).collect();
-                let (s, (lo, hi)) = spread(&d);
-                let bias = d.iter().sum::<f64>() / d.len() as f64 - share_above[c];
-                share_sigma[c] = s;
-                share_interval[c] = ((lo - bias).clamp(0.0, 1.0), (hi - bias).clamp(0.0, 1.0));
+                (share_sigma[c], share_interval[c]) = debiased_spread(&d, share_above[c]);
             }
             out.push(ObserverYear {
                 occupied_hours: count,
@@ -125,7 +123,7 @@ pub(super) fn annual_glare_on(
                 share_sigma,
                 share_interval,
                 mean_ev_lx: e.iter().map(|x| x.0).sum::<f64>() / count as f64,
-                max_dgps: e.iter().map(|x| capped(x.0)).fold(0.0, f64::max),
+                max_dgps: e.iter().map(|x| hour_dgps(x.0)).fold(0.0, f64::max),
             });
         }
         out

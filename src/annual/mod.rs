@@ -1235,10 +1235,7 @@ fn metrics_on(
         let d: Vec<f64> = (0..o.draws)
             .map(|j| draws_udi[3 * j + b] as f64 / (count as f64 * total))
             .collect();
-        let (s, (lo, hi)) = spread(&d);
-        let bias = d.iter().sum::<f64>() / d.len().max(1) as f64 - udi[b];
-        udi_sigma[b] = s;
-        udi_interval[b] = ((lo - bias).clamp(0.0, 1.0), (hi - bias).clamp(0.0, 1.0));
+        (udi_sigma[b], udi_interval[b]) = debiased_spread(&d, udi[b]);
     }
     let en17037 = (day_count > 0).then(|| {
         let share = |counts: &[u32], t: usize, plane: f64| -> f64 {
@@ -1417,6 +1414,18 @@ pub fn daylight_factor<'a>(
 }
 
 /// The standard deviation and the 2.5 % and 97.5 % quantiles of draws `d` (NaN without).
+/// `spread` of draws of a share whose estimate is `estimate`, the interval less the draws'
+/// bias (their mean less the estimate) and kept within [0, 1]: for shares of threshold
+/// crossings, whose draws move with the errors where the hours crowd on one side.
+fn debiased_spread(d: &[f64], estimate: f64) -> (f64, (f64, f64)) {
+    let (s, (lo, hi)) = spread(d);
+    let bias = d.iter().sum::<f64>() / d.len().max(1) as f64 - estimate;
+    (
+        s,
+        ((lo - bias).clamp(0.0, 1.0), (hi - bias).clamp(0.0, 1.0)),
+    )
+}
+
 fn spread(d: &[f64]) -> (f64, (f64, f64)) {
     if d.is_empty() {
         return (f64::NAN, (f64::NAN, f64::NAN));

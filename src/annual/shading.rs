@@ -193,7 +193,7 @@ impl<'a> Shading<'a> {
                     }
                 }
                 ShadingRule::Glare { dgp } => {
-                    if !(*dgp > 0.184 && *dgp <= 1.0) {
+                    if !(*dgp > crate::glare::DGPS_AT_DARK && *dgp <= 1.0) {
                         bail!(
                             ImapErrInvalidArgument,
                             "window group {g}: the glare rule's dgp = {dgp}: must be above 0.184 (DGPs at Ev = 0) and at most 1"
@@ -328,7 +328,7 @@ impl<'a> Shading<'a> {
         let n = sky.patches.count();
         let w = &self.groups[gi];
         let sensors = w.states[0].coefficients.sensors;
-        let ev = (dgp - 0.184) / crate::glare::DGPS_PER_LX;
+        let ev = crate::glare::dgps_ev(dgp);
         let others: Vec<super::Shaded> = self
             .base
             .iter()

@@ -120,11 +120,19 @@ pub fn ugr(terms: f64, background: f64) -> f64 {
 /// (Wienold 2009): 6.22·10⁻⁵ Ev + 0.184. It ignores the contrast of the sources: it holds
 /// when no sun (nor a specular reflection of it) is in view.
 pub fn dgps(ev_lx: f64) -> f64 {
-    DGPS_PER_LX * ev_lx + 0.184
+    DGPS_PER_LX * ev_lx + DGPS_AT_DARK
+}
+
+/// The vertical illuminance at which `dgps` reaches `dgp`, lx (negative below
+/// `DGPS_AT_DARK`).
+pub fn dgps_ev(dgp: f64) -> f64 {
+    (dgp - DGPS_AT_DARK) / DGPS_PER_LX
 }
 
 /// DGPs' slope, per lx of vertical illuminance (`dgps`).
 pub const DGPS_PER_LX: f64 = 6.22e-5;
+/// DGPs at Ev = 0 (`dgps`).
+pub const DGPS_AT_DARK: f64 = 0.184;
 
 /// What a glare source is.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
