@@ -1276,12 +1276,7 @@ pub unsafe extern "C" fn imap_annual_glare(
 ) -> ImapStatus {
     boundary(None, || {
         super::check_out("out", out)?;
-        if element_size < std::mem::size_of::<u32>() {
-            bail!(
-                ImapErrInvalidArgument,
-                "element_size = {element_size}: pass sizeof(ImapObserverYear)"
-            );
-        }
+        super::check_elements("out", out, sensors, element_size)?;
         let a = Annual::read(sky, value, sigma, sensors, sun, options)?;
         let years = crate::annual::annual_glare(&a.shading(), &a.sky.sky, &a.options)?;
         for (k, y) in years.iter().enumerate() {
