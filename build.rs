@@ -12,6 +12,9 @@
 use std::env;
 use std::path::PathBuf;
 
+#[path = "build-support/version_resource.rs"]
+mod version_resource;
+
 fn main() {
     println!("cargo:rerun-if-env-changed=EMBREE_DIR");
     let manifest = PathBuf::from(env::var("CARGO_MANIFEST_DIR").unwrap());
@@ -22,8 +25,8 @@ fn main() {
         .map(PathBuf::from)
         .or_else(|| local.join("libembree4.so").exists().then_some(local));
     // Windows (scripts/build-windows.sh): the linker takes embree4.dll itself; a DLL has no
-    // rpath or SONAME (Windows finds DLLs beside the executable), and the file version
-    // is the crate's (the package's resource script).
+    // rpath or SONAME (Windows finds DLLs beside the executable); it carries a version
+    // resource of the crate's version instead (build-support/version_resource.rs).
     let windows = env::var("CARGO_CFG_TARGET_OS").as_deref() == Ok("windows");
     if let Some(dir) = dir {
         println!("cargo:rustc-link-search=native={}", dir.display());
@@ -34,6 +37,11 @@ fn main() {
         println!("cargo:embree_dir={}", dir.display());
     }
     if windows {
+        version_resource::embed(
+            version_resource::Kind::Dll,
+            "imap.dll",
+            "libimap: illumination maps by forward Monte Carlo light tracing",
+        );
         return;
     }
     println!("cargo:rustc-link-arg=-Wl,-rpath,$ORIGIN/imap:$ORIGIN");
