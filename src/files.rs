@@ -1,6 +1,7 @@
 //! Reading input files safely: only regular files, and never more than a bound. A path
-//! that names a device (`/dev/zero`), a FIFO or a folder, or a file that grows while it
-//! is read, is refused before its bytes can exhaust memory.
+//! that names a device (`/dev/zero`, or on Windows a reserved name such as `CON.obj`), a
+//! FIFO or a folder, or a file that grows while it is read, is refused before its bytes
+//! can exhaust memory.
 
 use std::io::Read;
 use std::path::Path;
@@ -35,6 +36,10 @@ impl std::fmt::Display for ReadError {
 /// The whole of the regular file at `path` (symbolic links followed), at most `limit`
 /// bytes: the size is checked before reading, and the read stops past the bound.
 pub fn read_regular(path: &Path, limit: u64) -> Result<Vec<u8>, ReadError> {
+    // Windows opens `CON`, `NUL`, `COM1` ... (with any extension) as devices.
+    if crate::platform::is_device_name_here(path) {
+        return Err(ReadError::NotRegular);
+    }
     let file = std::fs::File::open(path).map_err(ReadError::Io)?;
     let meta = file.metadata().map_err(ReadError::Io)?;
     if !meta.is_file() {

@@ -72,6 +72,7 @@ pub use context::{
 pub use error::{Error, ImapStatus, Result, Subject};
 pub use files::{read_regular, ReadError};
 pub use imap::stats::{extremes, lit_weights, Estimate, Extremes};
+pub use platform::is_device_name_here;
 pub use progress::{Progress, StopReason, MAX_HISTORY};
 pub use sched::dynamic::DynamicParams;
 pub use sched::target::{RegionMeasure, RegionTarget};

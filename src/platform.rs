@@ -175,9 +175,75 @@ pub fn path_from_c(bytes: &[u8]) -> Option<&Path> {
     }
 }
 
+/// Whether the last component of `path` is one of Windows' reserved device names (CON,
+/// PRN, AUX, NUL, COM1-9, LPT1-9, also with an extension or trailing spaces, in any case:
+/// `con.obj`, `NUL `, `Lpt3.ies`): on Windows such a path opens a device, not a file.
+/// Pure name logic, for any system; the readers ask it on Windows only.
+pub fn windows_device_name(path: &Path) -> bool {
+    let Some(name) = path.file_name().and_then(|n| n.to_str()) else {
+        return false;
+    };
+    let stem = name
+        .split('.')
+        .next()
+        .unwrap_or("")
+        .trim_end_matches([' ', '\t']);
+    let upper = stem.to_ascii_uppercase();
+    match upper.as_str() {
+        "CON" | "PRN" | "AUX" | "NUL" | "CONIN$" | "CONOUT$" => true,
+        _ => {
+            let b = upper.as_bytes();
+            b.len() == 4
+                && (upper.starts_with("COM") || upper.starts_with("LPT"))
+                && (b'1'..=b'9').contains(&b[3])
+        }
+    }
+}
+
+/// Whether reading `path` would open a Windows device by its reserved name (always false
+/// elsewhere, where `CON` is a file name like any other).
+pub fn is_device_name_here(path: &Path) -> bool {
+    cfg!(windows) && windows_device_name(path)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn windows_reserved_device_names_are_known_with_extensions_and_in_any_case() {
+        for name in [
+            "CON",
+            "con.obj",
+            "NUL",
+            "nul.txt",
+            "NUL ",
+            "Aux.ies",
+            "prn",
+            "COM1",
+            "com9.ldt",
+            "LPT3.hdr",
+            "CONIN$",
+            "dir/CON.obj",
+        ] {
+            assert!(windows_device_name(Path::new(name)), "{name}");
+        }
+        for name in [
+            "CONSOLE.obj",
+            "con_room.obj",
+            "COM0",
+            "COM10",
+            "LPT",
+            "NULL",
+            "icon.png",
+            "model.con",
+            "",
+            "dir/",
+        ] {
+            assert!(!windows_device_name(Path::new(name)), "{name}");
+        }
+        assert_eq!(is_device_name_here(Path::new("CON")), cfg!(windows));
+    }
 
     #[test]
     fn this_process_runs_and_an_ended_child_is_gone() {

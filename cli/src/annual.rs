@@ -399,7 +399,7 @@ pub fn annual(model: &Path, settings: Settings, o: &AnnualOptions) -> Result<()>
         None => run.report(),
     };
 
-    std::fs::create_dir_all(&o.out).map_err(|e| CliError(format!("{}: {e}", o.out.display())))?;
+    crate::output::create_out_dir(&o.out)?;
     // LM-83's occupied hours are every day's 8:00–18:00, dark or not; an hour whose
     // radiation the file marks missing is left out (and counted in annual.json).
     let occupied: Vec<bool> = sky

@@ -30,6 +30,12 @@ pub fn read_input(path: &Path) -> Result<Vec<u8>, String> {
 /// Whether `path` is a regular file `read_input` would read, or why not.
 pub fn check_input(path: &Path) -> Result<(), String> {
     let shown = || printable(&path.display().to_string());
+    if imap::is_device_name_here(path) {
+        return Err(format!(
+            "{}: not a regular file (a Windows device name: CON, NUL, AUX, PRN, COM1-9, LPT1-9)",
+            shown()
+        ));
+    }
     let meta = std::fs::metadata(path).map_err(|e| format!("{}: {e}", shown()))?;
     if !meta.is_file() {
         return Err(format!(

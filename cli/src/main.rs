@@ -388,7 +388,7 @@ fn merge(paths: &[PathBuf], out: Option<PathBuf>) -> Result<()> {
     for p in &paths[1..] {
         ctx.merge_state_file(p).map_err(|e| CliError(e.message))?;
     }
-    std::fs::create_dir_all(&out).map_err(|e| CliError(format!("{}: {e}", out.display())))?;
+    output::create_out_dir(&out)?;
     let report = ctx.report();
     let wall = t0.elapsed().as_secs_f64();
     write_outputs(
@@ -452,7 +452,7 @@ fn execute(
         ctx.load_state(&bytes)
             .map_err(|e| CliError(format!("{}: {}", path.display(), e.message)))?;
     }
-    std::fs::create_dir_all(out).map_err(|e| CliError(format!("{}: {e}", out.display())))?;
+    output::create_out_dir(out)?;
     let interrupted = Interrupts::get();
 
     let bar = progress_bar(quiet);
@@ -894,8 +894,7 @@ fn info(path: &Path) -> Result<()> {
 }
 
 fn demo(opts: &RunOptions) -> Result<()> {
-    std::fs::create_dir_all(&opts.out)
-        .map_err(|e| CliError(format!("{}: {e}", opts.out.display())))?;
+    output::create_out_dir(&opts.out)?;
     let (obj, mtl) = cornell::cornell_box("cornell_box.mtl");
     let obj_path = opts.out.join("cornell_box.obj");
     for (p, text) in [(&obj_path, &obj), (&opts.out.join("cornell_box.mtl"), &mtl)] {

@@ -129,7 +129,7 @@ pub fn render(
         cam.height = h;
     }
     cam.validate()?;
-    std::fs::create_dir_all(out).map_err(|e| CliError(format!("{}: {e}", out.display())))?;
+    crate::output::create_out_dir(out)?;
     let desc = imap::CameraDesc {
         position: cam.position,
         direction: [0, 1, 2].map(|k| cam.look_at[k] - cam.position[k]),

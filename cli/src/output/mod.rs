@@ -49,6 +49,18 @@ fn pid_in(name: &str, prefix: &str) -> Option<i32> {
     rest[..end].parse().ok()
 }
 
+/// Creates the output folder `out` (and its parents), or says why not; on Windows a device
+/// name (`NUL`, `CON`, ...) is refused as one before anything is created.
+pub fn create_out_dir(out: &Path) -> Result<()> {
+    if imap::is_device_name_here(out) {
+        return Err(CliError(format!(
+            "{}: a Windows device name (CON, NUL, AUX, PRN, COM1-9, LPT1-9), not a folder for the outputs",
+            crate::diag::printable(&out.display().to_string())
+        )));
+    }
+    std::fs::create_dir_all(out).map_err(|e| CliError(format!("{}: {e}", out.display())))
+}
+
 impl Outputs {
     /// Outputs into `dir`; `manifest` is the file written last (it lists the others under
     /// "outputs").
