@@ -8,10 +8,11 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <random>
 #include <string>
 #include <vector>
-
-#include <unistd.h>
 
 static int failures = 0;
 static const double kPi = 3.14159265358979323846;
@@ -26,14 +27,16 @@ static const double kPi = 3.14159265358979323846;
 
 int main() {
     // Four hours at 48 N: night, two overcast, one sunny.
-    char path[] = "/tmp/imap_annual_hpp_XXXXXX.wea";
-    int fd = mkstemps(path, 4);
-    if (fd < 0) return 1;
-    const std::string wea =
-        "place Cpp\nlatitude 48\nlongitude -11\ntime_zone -15\nsite_elevation 0\n"
-        "weather_data_file_units 1\n6 21 2.5 0 0\n6 21 9.5 0 80\n6 21 11.5 0 150\n6 21 12.5 600 100\n";
-    if (write(fd, wea.data(), wea.size()) != static_cast<ssize_t>(wea.size())) return 1;
-    close(fd);
+    // A temporary file of a random name (on Linux and Windows alike).
+    const std::filesystem::path file = std::filesystem::temp_directory_path() /
+        ("imap_annual_hpp_" + std::to_string(std::random_device{}()) + ".wea");
+    const std::string path = file.string();
+    {
+        std::ofstream out(file, std::ios::binary);
+        out << "place Cpp\nlatitude 48\nlongitude -11\ntime_zone -15\nsite_elevation 0\n"
+               "weather_data_file_units 1\n6 21 2.5 0 0\n6 21 9.5 0 80\n6 21 11.5 0 150\n6 21 12.5 600 100\n";
+        if (!out) return 1;
+    }
     try {
         imap::AnnualSky sky(path, 2);
         CHECK(sky.hours() == 4 && sky.patches() == 578, "sky size %zu × %zu", sky.hours(), sky.patches());
@@ -158,7 +161,7 @@ int main() {
         std::printf("FAIL unexpected %s\n", err.what());
         failures++;
     }
-    std::remove(path);
+    std::filesystem::remove(file);
     std::printf("%s\n", failures ? "FAILED" : "all passed");
     return failures ? 1 : 0;
 }

@@ -12,6 +12,9 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#ifdef _WIN32
+#include <windows.h>
+#endif
 
 static int failures = 0;
 static const double PI = 3.14159265358979323846;
@@ -80,14 +83,33 @@ static void model(ImapContext *ctx, uint32_t *sensor_id) {
     expect("sensor", imap_add_mesh(ctx, &mesh, sensor_id), IMAP_OK);
 }
 
-int main(void) {
-    char path[] = "/tmp/imap_annual_XXXXXX.wea";
+/* A new file PATH ending in .wea, in the system's temporary folder, open for writing. */
+static FILE *temp_wea(char *path, size_t size) {
+#ifdef _WIN32
+    /* Windows has no mkstemps: GetTempFileNameA creates a unique file, which is then renamed
+       to the .wea name the reader asks for (MoveFileA refuses an existing name). */
+    char dir[MAX_PATH], tmp[MAX_PATH];
+    if (!GetTempPathA(sizeof dir, dir) || !GetTempFileNameA(dir, "ima", 0, tmp)) return NULL;
+    snprintf(path, size, "%s.wea", tmp);
+    if (!MoveFileA(tmp, path)) {
+        DeleteFileA(tmp);
+        return NULL;
+    }
+    return fopen(path, "w");
+#else
+    snprintf(path, size, "/tmp/imap_annual_XXXXXX.wea");
     int fd = mkstemps(path, 4);
-    if (fd < 0) {
-        perror("mkstemps");
+    return fd < 0 ? NULL : fdopen(fd, "w");
+#endif
+}
+
+int main(void) {
+    char path[512];
+    FILE *f = temp_wea(path, sizeof path);
+    if (f == NULL) {
+        perror("a temporary .wea file");
         return 1;
     }
-    FILE *f = fdopen(fd, "w");
     fputs(WEA, f);
     fclose(f);
 

@@ -18,7 +18,7 @@ static atomic_int done;
 static uint32_t mesh;
 
 static void *poll_context(void *arg) {
-    long busy = 0;
+    intptr_t busy = 0;
     double out[64];
     char copy[512];
     (void)arg;
@@ -28,10 +28,10 @@ static void *poll_context(void *arg) {
         const char *msg = imap_last_error(ctx);
         /* Read the string slowly, twice, while the other poller fails over and over. */
         size_t n = strlen(msg);
-        if (n == 0 || n >= sizeof copy) return (void *)-1L;
+        if (n == 0 || n >= sizeof copy) return (void *)(intptr_t)-1;
         memcpy(copy, msg, n + 1);
         for (int spin = 0; spin < 100; spin++) atomic_thread_fence(memory_order_seq_cst);
-        if (strcmp(copy, msg) != 0 || strstr(msg, "in use by another call") == NULL) return (void *)-1L;
+        if (strcmp(copy, msg) != 0 || strstr(msg, "in use by another call") == NULL) return (void *)(intptr_t)-1;
     }
     return (void *)busy;
 }
@@ -67,13 +67,13 @@ int main(void) {
     while ((s = imap_run(ctx, &run, NULL, 0)) == IMAP_ERR_BUSY) {
     }
     atomic_store(&done, 1);
-    long busy[2];
+    intptr_t busy[2];
     for (int i = 0; i < 2; i++) {
         void *r;
         pthread_join(t[i], &r);
-        busy[i] = (long)r;
+        busy[i] = (intptr_t)r;
     }
-    printf("run: %s; BUSY answers read by the pollers: %ld and %ld\n", imap_status_name(s), busy[0], busy[1]);
+    printf("run: %s; BUSY answers read by the pollers: %ld and %ld\n", imap_status_name(s), (long)busy[0], (long)busy[1]);
     if (s != IMAP_OK || busy[0] <= 0 || busy[1] <= 0) return 1;
     /* This thread's last failure is still its own (or its own BUSY, had its run been the
      * one refused above). */

@@ -4,14 +4,16 @@
 #   bin/      imap.dll, imap.exe, and Embree's embree4.dll, tbb12.dll and their C++ runtime
 #             (the pinned embreex==4.4.0.post1 win_amd64 wheel, hash-checked) beside them,
 #             where Windows finds DLLs;
-#   lib/      libimap.dll.a (MinGW) and imap.lib (MSVC, from imap.def by dlltool), imap.def;
+#   lib/      libimap.dll.a (MinGW) and imap.lib (MSVC, from imap.def by llvm-dlltool, else
+#             binutils' dlltool), imap.def;
 #   include/  imap.h, imap.hpp;
 #   lib/cmake/imap/imapConfig.cmake (imported target imap::imap for MSVC and MinGW
 #             consumers: IMPORTED_LOCATION the DLL, IMPORTED_IMPLIB the import library);
 #   lib/pkgconfig/imap.pc.
 # Needs: the Rust target x86_64-pc-windows-gnu (rustup target add), Debian's
-# gcc-mingw-w64-x86-64 (its binutils' dlltool), clang's headers for bindgen (libclang-dev),
-# pip3, unzip. `scripts/setup-system.sh --windows` installs them.
+# gcc-mingw-w64-x86-64 (its binutils: dlltool, windres for the version resources), clang's
+# headers for bindgen (libclang-dev, whose LLVM brings llvm-dlltool), pip3, unzip.
+# `scripts/setup-system.sh` installs them.
 # Prints the package's directory on its last line.
 set -euo pipefail
 
@@ -27,7 +29,7 @@ log() { echo "build-windows: $*" >&2; }
 
 for tool in x86_64-w64-mingw32-gcc x86_64-w64-mingw32-dlltool x86_64-w64-mingw32-objdump \
             x86_64-w64-mingw32-strip pip3 unzip sha256sum; do
-  command -v "$tool" >/dev/null || { log "missing tool '$tool' (run scripts/setup-system.sh --windows as root)"; exit 1; }
+  command -v "$tool" >/dev/null || { log "missing tool '$tool' (run scripts/setup-system.sh as root)"; exit 1; }
 done
 rustup target list --installed 2>/dev/null | grep -qx "$TARGET" \
   || { log "the Rust target $TARGET is missing: rustup target add $TARGET"; exit 1; }
@@ -56,9 +58,11 @@ export EMBREE_DIR="$DLLS"
 # No debug info in the shipped DLL and EXE (the Linux profile keeps it for backtraces):
 # a quicker build, and smaller files.
 export CARGO_PROFILE_RELEASE_DEBUG=0
+# One cargo build of both packages (their default targets: the library's cdylib and rlib,
+# the command's binary): the dependencies' features are unified once and the library is
+# compiled once (two builds compiled it twice, the command's deps asking more of `image`).
 log "cargo build --target $TARGET (library and command)"
-(cd "$ROOT" && cargo build --release --locked --target "$TARGET" -p imap --lib >&2)
-(cd "$ROOT" && cargo build --release --locked --target "$TARGET" -p imap-cli --bin imap >&2)
+(cd "$ROOT" && cargo build --release --locked --target "$TARGET" -p imap -p imap-cli >&2)
 OUT="$ROOT/target/$TARGET/release"
 
 # 3. The package.
@@ -77,7 +81,14 @@ cp "$ROOT/include/imap.h" "$ROOT/include/imap.hpp" "$PKG/include/"
 } > "$PKG/lib/imap.def"
 EXPORTS=$(grep -c '^    imap_' "$PKG/lib/imap.def" || true)
 [ "$EXPORTS" -gt 100 ] || { log "imap.def lists $EXPORTS imap_ functions: the export table was not read"; exit 1; }
-x86_64-w64-mingw32-dlltool -d "$PKG/lib/imap.def" -D imap.dll -m i386:x86-64 -l "$PKG/lib/imap.lib"
+# LLVM's dlltool writes the short import format of Microsoft's lib.exe (what link.exe
+# expects of an import library); binutils' dlltool, the fallback, writes long-form objects.
+LLVM_DLLTOOL=$(ls /usr/lib/llvm-*/bin/llvm-dlltool 2>/dev/null | sort -V | tail -1 || true)
+if [ -n "$LLVM_DLLTOOL" ]; then
+  "$LLVM_DLLTOOL" -m i386:x86-64 -d "$PKG/lib/imap.def" -D imap.dll -l "$PKG/lib/imap.lib"
+else
+  x86_64-w64-mingw32-dlltool -d "$PKG/lib/imap.def" -D imap.dll -m i386:x86-64 -l "$PKG/lib/imap.lib"
+fi
 cat > "$PKG/lib/cmake/imap/imapConfig.cmake" <<CMAKE
 # CMake package config of libimap $VERSION for Windows x64 (scripts/build-windows.sh).
 #   find_package(imap CONFIG REQUIRED)
