@@ -50,6 +50,10 @@
  * - Units: positions in scene units (ImapConfig::unit_m metres each); power in W per band;
  *   exitance and irradiance in W/m² per band; angles in radians; times in seconds;
  *   wavelengths in nm; absorption in 1/m.
+ * - Calling convention: the platform's C convention (System V on Linux; on Windows x64
+ *   the one convention, __cdecl, which needs no annotation). Paths are char *: on Linux
+ *   the bytes the system takes, on Windows UTF-8 (a non-ASCII name as its UTF-8 bytes,
+ *   not in the ANSI code page).
  */
 
 #ifndef IMAP_H
